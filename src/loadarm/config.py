@@ -1,0 +1,394 @@
+"""Installation configuration: one TOML file describes one arm at one berth.
+
+Every physical parameter is declared exactly once, here, with its unit, its
+valid range, a default (or, for customer data that must be given, the paper's
+example value) and the source of that value. :func:`parameter_table` turns the
+declarations into the table printed in ``docs/configuration.md``.
+
+Lengths are metres, speeds m/s, accelerations m/s^2, voltages V. Angles are
+degrees in the file only, in keys ending ``_deg``; the rest of loadarm works in
+radians (see :attr:`Alarms.first`).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from .errors import ConfigError
+
+__all__ = [
+    "Datasheet",
+    "ArmSection",
+    "ActuatorSection",
+    "Alarms",
+    "Approach",
+    "SizingBounds",
+    "Installation",
+    "load_config",
+    "parse_config",
+    "paper_installation",
+    "parameter_table",
+]
+
+_REQUIRED = object()
+
+
+def _param(default: Any, *, unit: str, description: str, source: str, gt: float | None = None,
+           ge: float | None = None, lt: float | None = None, le: float | None = None,
+           paper: Any = None) -> Any:
+    """Declare one parameter: unit, range, default and where the default comes from."""
+    extra = {"unit": unit, "source": source}
+    if paper is not None:
+        extra["paper"] = paper
+    kwargs: dict[str, Any] = dict(description=description, json_schema_extra=extra)
+    for key, val in (("gt", gt), ("ge", ge), ("lt", lt), ("le", le)):
+        if val is not None:
+            kwargs[key] = val
+    if default is _REQUIRED:
+        return Field(**kwargs)
+    return Field(default, **kwargs)
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+_DS = "customer datasheet; example value from paper Table 1"
+
+
+class Datasheet(_Section):
+    """Customer datasheet distances (paper Table 1), metres, all >= 0."""
+
+    A: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=2.5, source=_DS,
+                      description="centre line of riser to jetty face")
+    B: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=1.7, source=_DS,
+                      description="jetty face to berthing line")
+    C: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=1.0, source=_DS,
+                      description="shortest distance berthing line to ship flange")
+    D: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=4.6, source=_DS,
+                      description="widest distance berthing line to ship flange")
+    E: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=4.7, source=_DS,
+                      description="drift range")
+    F: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=3.8, source=_DS,
+                      description="jetty level to high tide level (HTL)")
+    G: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=2.4, source=_DS,
+                      description="high tide level to low tide level (LTL)")
+    H: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=1.5, source=_DS,
+                      description="LTL to flange centre line, smallest ship loaded")
+    I: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=15.0, source=_DS,  # noqa: E741
+                      description="LTL to flange centre line, largest ship unloaded")
+    K: float = _param(0.0, unit="m", ge=0, le=100, paper=3.5, source=_DS + " (multi-arm only; 0 = single arm)",
+                      description="riser centre line to riser centre line")
+    L: float = _param(0.0, unit="m", ge=0, le=100, paper=0.5, source=_DS + " (not used by the planar model)",
+                      description="jetty level to connecting flange (land side)")
+    M: float = _param(0.0, unit="m", ge=0, le=100, paper=1.9, source=_DS + " (multi-arm only)",
+                      description="smallest flange-to-flange distance")
+    N: float = _param(0.0, unit="m", ge=0, le=100, paper=5.0, source=_DS + " (multi-arm only)",
+                      description="widest flange-to-flange distance")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Datasheet":
+        if self.D < self.C:
+            raise ValueError(f"datasheet.D ({self.D} m) must be >= datasheet.C ({self.C} m): the widest "
+                             "berthing-line-to-flange distance cannot be below the shortest")
+        return self
+
+
+class ArmSection(_Section):
+    """Arm lengths: riser a, inboard b, outboard c (paper Fig. 3)."""
+
+    riser: float = _param(_REQUIRED, unit="m", gt=0, le=100, paper=7.0,
+                          source="paper Section 2 (a = 7 m)", description="riser length a, jetty level to inboard hinge")
+    inboard: float = _param(_REQUIRED, unit="m", gt=0, le=100, paper=12.0,
+                            source="paper Section 2 (b = 12 m, from Eq. 3)", description="inboard arm length b")
+    outboard: float = _param(_REQUIRED, unit="m", gt=0, le=100, paper=8.2,
+                             source="paper Section 2 (c = 8.2 m, from Eq. 3)", description="outboard arm length c")
+
+
+class ActuatorSection(_Section):
+    """Cylinder mounting distances (paper Fig. 5) and the valve command scale."""
+
+    a1: float = _param(_REQUIRED, unit="m", gt=0, le=20, paper=1.0, source="paper Section 5",
+                       description="cylinder 1 riser pin, distance below the inboard hinge")
+    b1: float = _param(_REQUIRED, unit="m", gt=0, le=20, paper=1.0, source="paper Section 5",
+                       description="cylinder 1 inboard pin, distance from the inboard hinge")
+    b2: float = _param(_REQUIRED, unit="m", gt=0, le=20, paper=1.5, source="paper Section 5",
+                       description="cylinder 2 inboard pin, distance from the elbow")
+    c2: float = _param(_REQUIRED, unit="m", gt=0, le=20, paper=0.5, source="paper Section 5",
+                       description="cylinder 2 outboard pin, distance from the elbow")
+    volts_per_metre: float = _param(1.0, unit="V/m", gt=0, le=1000,
+                                    source="paper Section 5 ('a number equal to one')",
+                                    description="displacement-to-voltage scale of the valve command")
+    valve_range_V: float = _param(10.0, unit="V", gt=0, le=24,
+                                  source="common +/-10 V proportional-valve command input (ISO 10770-1 style)",
+                                  description="symmetric valve command range; a plan needing more is refused")
+
+
+class Alarms(_Section):
+    """Inboard-outboard angle (beta) thresholds of the alarm zones, degrees in the file."""
+
+    first_deg: float = _param(123.0, unit="deg", gt=0, lt=180, source="paper Section 2 example (customer-specified)",
+                              description="first-stage alarm (ESD-1) above this beta")
+    second_deg: float = _param(143.0, unit="deg", gt=0, lt=180, source="paper Section 2 example (customer-specified)",
+                               description="second-stage alarm above this beta")
+    release_deg: float = _param(150.0, unit="deg", gt=0, lt=180, source="paper Section 2 example (customer-specified)",
+                                description="emergency release (ERS-2) at or above this beta")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Alarms":
+        if not (self.first_deg < self.second_deg < self.release_deg):
+            raise ValueError(
+                f"alarm angles must increase: first_deg ({self.first_deg}) < second_deg ({self.second_deg}) "
+                f"< release_deg ({self.release_deg}), each in (0, 180) deg")
+        return self
+
+    @property
+    def first(self) -> float:
+        """First-alarm angle in radians."""
+        return math.radians(self.first_deg)
+
+    @property
+    def second(self) -> float:
+        """Second-alarm angle in radians."""
+        return math.radians(self.second_deg)
+
+    @property
+    def release(self) -> float:
+        """Release angle in radians."""
+        return math.radians(self.release_deg)
+
+
+class Approach(_Section):
+    """Straight-line approach from the stored position to the ship flange (paper Fig. 5)."""
+
+    stored: tuple[float, float] = _param(_REQUIRED, unit="m", paper=(3.82, 10.40), source="paper Section 3",
+                                         description="coupler stored position (X0, Y0), from the riser base")
+    flange: tuple[float, float] = _param(_REQUIRED, unit="m", paper=(14.0, 1.0), source="paper Section 3",
+                                         description="ship flange position (Xf, Yf), from the riser base")
+    max_speed: float = _param(0.15, unit="m/s", gt=0, le=2.0,
+                              source="paper Eq. 14 (0.15 m/s, attributed to OCIMF)",
+                              description="coupler speed limit (horizontal for the paper law, along the path "
+                                          "for the smooth law)")
+    max_accel: float = _param(0.05, unit="m/s^2", gt=0, le=5.0,
+                              source="engineering choice: reaches 0.15 m/s in 3 s, well below what the "
+                                     "cylinders of a 20 m arm deliver",
+                              description="coupler acceleration limit of the smooth timing law")
+
+
+class SizingBounds(_Section):
+    """Search bounds for paper Eq. 3, metres."""
+
+    inboard: tuple[float, float] = _param((8.0, 12.0), unit="m",
+                                          source="chosen to reproduce the paper's b = 12 m (see docs/sizing.md)",
+                                          description="lower and upper bound of the inboard length b")
+    outboard: tuple[float, float] = _param((4.0, 10.0), unit="m",
+                                           source="chosen to reproduce the paper's c = 8.2 m (see docs/sizing.md)",
+                                           description="lower and upper bound of the outboard length c")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "SizingBounds":
+        for name in ("inboard", "outboard"):
+            lo, hi = getattr(self, name)
+            if not (0 < lo <= hi <= 100):
+                raise ValueError(f"sizing.{name} must be [low, high] with 0 < low <= high <= 100 m, "
+                                 f"got [{lo}, {hi}]")
+        return self
+
+
+class Installation(_Section):
+    """One marine loading arm at one berth: everything loadarm needs to plan."""
+
+    datasheet: Datasheet
+    arm: ArmSection
+    actuators: ActuatorSection
+    alarms: Alarms = Field(default_factory=Alarms)
+    approach: Approach
+    sizing: SizingBounds = Field(default_factory=SizingBounds)
+
+
+def _range_text(model: type[BaseModel], field: str) -> str:
+    info = model.model_fields[field]
+    unit = (info.json_schema_extra or {}).get("unit", "") if isinstance(info.json_schema_extra, dict) else ""
+    lo = hi = None
+    lo_incl = hi_incl = True
+    for meta in info.metadata:
+        for attr, incl, is_lo in (("gt", False, True), ("ge", True, True), ("lt", False, False), ("le", True, False)):
+            v = getattr(meta, attr, None)
+            if v is not None:
+                if is_lo:
+                    lo, lo_incl = v, incl
+                else:
+                    hi, hi_incl = v, incl
+    if lo is None and hi is None:
+        return ""
+    left = ("[" if lo_incl else "(") + ("-inf" if lo is None else f"{lo:g}")
+    right = ("inf" if hi is None else f"{hi:g}") + ("]" if hi_incl else ")")
+    return f"valid range {left}, {right} {unit}".rstrip()
+
+
+def _model_at(loc: tuple[Any, ...]) -> tuple[type[BaseModel] | None, str | None]:
+    model: type[BaseModel] = Installation
+    for i, part in enumerate(loc):
+        if not isinstance(part, str) or part not in model.model_fields:
+            return None, None
+        ann = model.model_fields[part].annotation
+        if i == len(loc) - 1:
+            return model, part
+        if isinstance(ann, type) and issubclass(ann, BaseModel):
+            model = ann
+        else:
+            return model, part
+    return None, None
+
+
+def _format_validation_error(err: ValidationError, source: str) -> str:
+    e = err.errors()[0]
+    loc = tuple(e.get("loc", ()))
+    key = ".".join(str(p) for p in loc) or "(top level)"
+    etype = e.get("type", "")
+    model, field = _model_at(loc)
+    rng = _range_text(model, field) if model is not None and field is not None else ""
+    if etype == "missing":
+        what = f"missing required key '{key}'"
+        if model is not None and field is not None:
+            info = model.model_fields[field]
+            extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+            unit = extra.get("unit", "")
+            what += f" ({info.description}, {unit})" if info.description else ""
+            if rng:
+                what += f"; {rng}"
+    elif etype == "extra_forbidden":
+        what = f"unknown key '{key}'"
+        if model is not None:
+            parent = model if field is None else model
+            what += f"; allowed keys: {', '.join(parent.model_fields)}"
+    elif etype == "value_error":
+        msg = str(e.get("ctx", {}).get("error", e.get("msg", "")))
+        what = msg if not loc else f"{key}: {msg}"
+    else:
+        what = f"{key} = {e.get('input')!r}: {e.get('msg', 'invalid')}"
+        if rng:
+            what += f"; {rng}"
+    extra_count = len(err.errors()) - 1
+    more = f" (and {extra_count} more problem{'s' if extra_count > 1 else ''})" if extra_count else ""
+    return f"{source}: {what}{more}"
+
+
+def parse_config(data: dict[str, Any], *, source: str = "<config>") -> Installation:
+    """Validate a configuration mapping (as read from TOML).
+
+    Parameters
+    ----------
+    data : dict
+        Nested mapping with the sections ``datasheet``, ``arm``, ``actuators``,
+        ``approach`` and optionally ``alarms`` and ``sizing``.
+    source : str, optional
+        Name used in error messages (usually the file name).
+
+    Returns
+    -------
+    Installation
+        The validated, immutable installation.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the key, the value given and the valid range.
+    """
+    try:
+        return Installation.model_validate(data)
+    except ValidationError as err:
+        raise ConfigError(_format_validation_error(err, source)) from None
+
+
+def load_config(path: str | Path) -> Installation:
+    """Read and validate a TOML installation file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Returns
+    -------
+    Installation
+        The validated installation.
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing, is not valid TOML, or fails validation.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: config file not found") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{p}: cannot read config file ({exc.__class__.__name__})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
+    return parse_config(data, source=str(p))
+
+
+def _paper_values(model: type[BaseModel]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for name, info in model.model_fields.items():
+        extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+        if "paper" in extra:
+            out[name] = extra["paper"]
+    return out
+
+
+def paper_installation() -> Installation:
+    """The paper's case (Table 1, Sections 2-5) built from the parameter declarations.
+
+    Returns
+    -------
+    Installation
+        Identical to ``examples/paper.toml``.
+    """
+    data = {
+        "datasheet": _paper_values(Datasheet),
+        "arm": _paper_values(ArmSection),
+        "actuators": _paper_values(ActuatorSection),
+        "approach": _paper_values(Approach),
+    }
+    return parse_config(data, source="paper case")
+
+
+def parameter_table() -> list[dict[str, str]]:
+    """Every declared parameter, for the configuration docs.
+
+    Returns
+    -------
+    list of dict
+        One row per parameter with keys ``key``, ``unit``, ``default``,
+        ``range``, ``description`` and ``source``.
+    """
+    rows = []
+    for section, info in Installation.model_fields.items():
+        model = info.annotation
+        assert isinstance(model, type) and issubclass(model, BaseModel)
+        for name, f in model.model_fields.items():
+            extra = f.json_schema_extra if isinstance(f.json_schema_extra, dict) else {}
+            if f.is_required():
+                default = f"required (paper: {extra.get('paper')})"
+            else:
+                default = repr(f.default)
+            rows.append({
+                "key": f"{section}.{name}",
+                "unit": str(extra.get("unit", "")),
+                "default": default,
+                "range": _range_text(model, name).removeprefix("valid range ") or "see validator",
+                "description": f.description or "",
+                "source": str(extra.get("source", "")),
+            })
+    return rows

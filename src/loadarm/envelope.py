@@ -1,0 +1,215 @@
+"""Operating envelope and alarm zones (paper Section 2, Fig. 4).
+
+The zones are bands of the elbow angle ``beta``: zone 1 (normal) up to the
+first-alarm angle, zone 2 (first-stage alarm, ESD-1: stop transfer pumps,
+close the ERS valves) up to the second-alarm angle, zone 3 (second-stage
+alarm) up to the release angle, and release (ERS-2: the coupler lets go) at or
+beyond it. Because ``r = sqrt(b^2 + c^2 - 2bc cos(beta))`` (Eq. 6) grows with
+``beta``, each band is an annulus around the riser top.
+
+The datasheet (paper Table 1) fixes where the ship's flange can be: between
+the nearest reach ``A + B + C`` and the farthest ``A + B + D + E`` (with
+drift), and between the lowest flange ``-(F + G) + H`` (smallest ship loaded
+at low tide) and the highest ``-F + I`` (largest ship unloaded at high tide),
+heights measured up from the jetty deck.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import Datasheet, Installation
+from .geometry import Arm
+from .kinematics import inverse, reach_mask
+
+__all__ = [
+    "Zone",
+    "AlarmAngles",
+    "alarms_from_installation",
+    "classify_beta",
+    "classify_point",
+    "zone_radii",
+    "BerthBox",
+    "berth_box",
+    "BETA_TOL_RAD",
+]
+
+#: Angular tolerance (rad) when comparing beta with a threshold: 1e-9 rad is
+#: 2e-8 m at the tip of a 20 m arm, so a point computed exactly on a boundary
+#: (like the sized arm's first-alarm corner) stays in the lower zone.
+BETA_TOL_RAD = 1e-9
+
+
+class Zone(enum.IntEnum):
+    """Alarm zone of a coupler position; ``UNREACHABLE`` lies outside the annulus."""
+
+    UNREACHABLE = 0
+    NORMAL = 1
+    FIRST_ALARM = 2
+    SECOND_ALARM = 3
+    RELEASE = 4
+
+    @property
+    def label(self) -> str:
+        """Short human label, as used in tables and the report."""
+        return {
+            Zone.UNREACHABLE: "unreachable",
+            Zone.NORMAL: "zone 1 (normal)",
+            Zone.FIRST_ALARM: "zone 2 (first alarm, ESD-1)",
+            Zone.SECOND_ALARM: "zone 3 (second alarm)",
+            Zone.RELEASE: "release (ERS-2)",
+        }[self]
+
+
+@dataclass(frozen=True, slots=True)
+class AlarmAngles:
+    """Alarm thresholds on ``beta``, rad, strictly increasing in (0, pi)."""
+
+    first: float
+    second: float
+    release: float
+
+    def __post_init__(self) -> None:
+        vals = (self.first, self.second, self.release)
+        if not all(math.isfinite(v) for v in vals) or not (0 < self.first < self.second < self.release < math.pi):
+            raise ValueError(
+                "alarm angles must satisfy 0 < first < second < release < 180 deg, got "
+                + ", ".join(f"{math.degrees(v):.3f}" for v in vals) + " deg")
+
+
+def alarms_from_installation(inst: Installation) -> AlarmAngles:
+    """The :class:`AlarmAngles` of a validated installation."""
+    al = inst.alarms
+    return AlarmAngles(al.first, al.second, al.release)
+
+
+def classify_beta(beta: np.ndarray | float, alarms: AlarmAngles) -> np.ndarray:
+    """Zone of each elbow angle.
+
+    Parameters
+    ----------
+    beta : float or ndarray
+        Inboard-outboard angle, rad; NaN means unreachable.
+    alarms : AlarmAngles
+        Thresholds.
+
+    Returns
+    -------
+    ndarray of int
+        :class:`Zone` values, shape of ``beta``.
+    """
+    beta = np.asarray(beta, dtype=float)
+    edges = np.array([alarms.first + BETA_TOL_RAD, alarms.second + BETA_TOL_RAD, alarms.release - BETA_TOL_RAD])
+    # side='left': beta == first -> zone 1; beta >= release -> release
+    z = np.searchsorted(edges, beta, side="left") + 1
+    z = np.where(beta >= alarms.release - BETA_TOL_RAD, int(Zone.RELEASE), z)
+    return np.where(np.isnan(beta), int(Zone.UNREACHABLE), z).astype(int)
+
+
+def classify_point(arm: Arm, alarms: AlarmAngles, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
+    """Zone of each coupler position (``UNREACHABLE`` outside the annulus).
+
+    Parameters
+    ----------
+    arm : Arm
+        Arm lengths.
+    alarms : AlarmAngles
+        Thresholds.
+    x, y : float or ndarray
+        Coupler positions, m.
+
+    Returns
+    -------
+    ndarray of int
+        :class:`Zone` values, broadcast shape of ``x`` and ``y``.
+    """
+    x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    ok = reach_mask(arm, x, y)
+    beta = np.full(x.shape, np.nan)
+    if ok.any():
+        beta[ok] = inverse(arm, x[ok], y[ok], check=False).beta
+    return classify_beta(beta, alarms)
+
+
+def zone_radii(arm: Arm, alarms: AlarmAngles) -> dict[str, float]:
+    """Distances from the riser top at which each zone begins (Eq. 6), m.
+
+    Returns
+    -------
+    dict
+        ``r_min`` (folded, ``|b-c|``), ``first``, ``second``, ``release`` and
+        ``r_max`` (stretched, ``b+c``).
+    """
+    return {
+        "r_min": arm.r_min,
+        "first": float(arm.radius_at_beta(alarms.first)),
+        "second": float(arm.radius_at_beta(alarms.second)),
+        "release": float(arm.radius_at_beta(alarms.release)),
+        "r_max": arm.r_max,
+    }
+
+
+@dataclass(frozen=True, slots=True)
+class BerthBox:
+    """Where the ship's flange can be, from the datasheet (riser-base frame, m).
+
+    Attributes
+    ----------
+    x_near, x_far : float
+        Nearest (``A+B+C``) and farthest (``A+B+D+E``, with drift) horizontal
+        flange distance from the riser centre line, m.
+    y_low, y_high : float
+        Lowest (``-(F+G)+H``) and highest (``-F+I``) flange height above the
+        jetty deck, m.
+    jetty_face, berthing_line : float
+        ``A`` and ``A+B``, m.
+    htl, ltl : float
+        High and low tide levels ``-F`` and ``-(F+G)``, m.
+    """
+
+    x_near: float
+    x_far: float
+    y_low: float
+    y_high: float
+    jetty_face: float
+    berthing_line: float
+    htl: float
+    ltl: float
+
+    def corners(self) -> list[tuple[str, float, float]]:
+        """The four corners of the flange box as ``(name, x, y)``."""
+        return [
+            ("nearest reach, highest flange", self.x_near, self.y_high),
+            ("nearest reach, lowest flange", self.x_near, self.y_low),
+            ("farthest reach, highest flange", self.x_far, self.y_high),
+            ("farthest reach, lowest flange (first-alarm corner)", self.x_far, self.y_low),
+        ]
+
+
+def berth_box(ds: Datasheet) -> BerthBox:
+    """Flange box implied by a datasheet (paper Table 1).
+
+    Parameters
+    ----------
+    ds : Datasheet
+        Customer datasheet.
+
+    Returns
+    -------
+    BerthBox
+        Its extreme flange positions.
+    """
+    return BerthBox(
+        x_near=ds.A + ds.B + ds.C,
+        x_far=ds.A + ds.B + ds.C + ds.D - ds.C + ds.E,   # the paper's Eq. 1 term, = A+B+D+E
+        y_low=-(ds.F + ds.G - ds.H),                     # the paper's |Y| = F+G-H, below the deck
+        y_high=-ds.F + ds.I,
+        jetty_face=ds.A,
+        berthing_line=ds.A + ds.B,
+        htl=-ds.F,
+        ltl=-(ds.F + ds.G),
+    )

@@ -1,0 +1,58 @@
+"""Exceptions raised by loadarm.
+
+Every error a user can provoke with bad input derives from :class:`LoadarmError`;
+the ones caused by an out-of-range value also derive from :class:`ValueError`.
+Messages are one line and name the offending value and the valid range, so the
+command line can print them verbatim (exit status 2) without a traceback.
+"""
+
+from __future__ import annotations
+
+
+class LoadarmError(Exception):
+    """Base class of every error loadarm raises on purpose."""
+
+
+class ConfigError(LoadarmError, ValueError):
+    """A configuration file is missing, malformed, or holds an invalid value."""
+
+
+class UnreachableError(LoadarmError, ValueError):
+    """A coupler position lies outside the annulus the arm can reach.
+
+    Attributes
+    ----------
+    point : tuple of float
+        The first offending coupler position ``(x, y)`` in metres.
+    r : float
+        Its distance from the riser top in metres.
+    r_min, r_max : float
+        Reachable radii ``|b - c|`` and ``b + c`` in metres.
+    """
+
+    def __init__(self, message: str, *, point: tuple[float, float], r: float, r_min: float, r_max: float):
+        super().__init__(message)
+        self.point = point
+        self.r = r
+        self.r_min = r_min
+        self.r_max = r_max
+
+
+class PathError(LoadarmError, ValueError):
+    """A straight-line path cannot be executed (degenerate, or leaves the workspace)."""
+
+
+class TimingError(LoadarmError, ValueError):
+    """A timing law cannot be applied to the requested path or limits."""
+
+
+class SizingError(LoadarmError, ValueError):
+    """The arm-sizing problem (paper Eq. 3) has no solution inside the bounds."""
+
+
+class ActuatorError(LoadarmError, ValueError):
+    """Cylinder lengths or joint angles outside what the mounting geometry allows."""
+
+
+class ValveRangeError(LoadarmError, ValueError):
+    """A plan would need a valve voltage beyond the configured valve range."""

@@ -1,0 +1,183 @@
+"""Timing laws: how fast the coupler runs along the path (paper Eq. 14 and better).
+
+A timing law maps time ``t`` (s) to arc length ``s`` (m) and its first two
+derivatives. It knows nothing about the arm; :mod:`loadarm.trajectory` joins
+path, timing and kinematics.
+
+``paper``
+    Paper Eq. 14: the horizontal coordinate runs at constant speed,
+    ``x = X0 + v_max t``. The speed *along* the path is then
+    ``v_max / |cos(phi)|``, larger than ``v_max`` on any sloping path, and the
+    speed jumps from 0 to that value at the start (unbounded acceleration).
+    Undefined for a vertical path.
+``smooth``
+    Trapezoidal speed profile along the path: accelerate at ``a_max`` to
+    ``v_max``, cruise, decelerate at ``a_max`` to rest. On a path too short to
+    reach ``v_max`` the profile is a triangle with peak ``sqrt(L a_max)``. The
+    path speed never exceeds ``v_max`` and the acceleration never exceeds
+    ``a_max``; speed is continuous, acceleration is piecewise constant.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from .errors import TimingError
+from .path import StraightPath
+
+__all__ = ["TimingLaw", "PaperTiming", "TrapezoidTiming", "make_timing", "TIMING_LAWS"]
+
+TIMING_LAWS = ("paper", "smooth")
+
+
+class TimingLaw(Protocol):
+    """What every timing law offers."""
+
+    @property
+    def duration(self) -> float: ...  # pragma: no cover
+
+    def __call__(self, t: np.ndarray, order: int = 0) -> np.ndarray: ...  # pragma: no cover
+
+
+def _times(t: np.ndarray | float, duration: float) -> np.ndarray:
+    t = np.asarray(t, dtype=float)
+    if t.size and (not np.all(np.isfinite(t)) or t.min() < 0 or t.max() > duration * (1 + 1e-12)):
+        raise TimingError(f"time must lie in [0, {duration:.6g}] s, got values in [{np.nanmin(t):.6g}, "
+                          f"{np.nanmax(t):.6g}] s")
+    return np.minimum(t, duration)
+
+
+@dataclass(frozen=True, slots=True)
+class PaperTiming:
+    """Paper Eq. 14: constant horizontal speed ``v_x``.
+
+    Parameters
+    ----------
+    length : float
+        Path length, m.
+    dx : float
+        Horizontal extent ``Xf - X0``, m (nonzero).
+    v_x : float
+        Horizontal speed, m/s.
+    """
+
+    length: float
+    dx: float
+    v_x: float
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.v_x) and self.v_x > 0):
+            raise TimingError(f"max_speed must be > 0 m/s, got {self.v_x!r}")
+        if abs(self.dx) < 1e-9 * max(self.length, 1.0):
+            raise TimingError("the paper's timing law (Eq. 14, x = X0 + v t) is undefined for a vertical path "
+                              "(Xf == X0); use --timing smooth")
+
+    @property
+    def duration(self) -> float:
+        """``|Xf - X0| / v_max``, s."""
+        return abs(self.dx) / self.v_x
+
+    @property
+    def path_speed(self) -> float:
+        """Constant speed along the path, ``v_x L / |dx|``, m/s."""
+        return self.length / self.duration
+
+    def __call__(self, t: np.ndarray | float, order: int = 0) -> np.ndarray:
+        """Arc length (order 0), path speed (1) or path acceleration (2) at times ``t`` (s)."""
+        t = _times(t, self.duration)
+        if order == 0:
+            return self.path_speed * t
+        if order == 1:
+            return np.full(t.shape, self.path_speed)
+        if order == 2:
+            return np.zeros(t.shape)
+        raise TimingError(f"order must be 0, 1 or 2, got {order!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class TrapezoidTiming:
+    """Trapezoidal (or triangular) speed profile along the path.
+
+    Parameters
+    ----------
+    length : float
+        Path length ``L``, m.
+    v_max : float
+        Speed limit, m/s.
+    a_max : float
+        Acceleration limit, m/s^2.
+    """
+
+    length: float
+    v_max: float
+    a_max: float
+
+    def __post_init__(self) -> None:
+        for name, val in (("length", self.length), ("max_speed", self.v_max), ("max_accel", self.a_max)):
+            if not (math.isfinite(val) and val > 0):
+                raise TimingError(f"{name} must be a finite number > 0, got {val!r}")
+
+    @property
+    def v_peak(self) -> float:
+        """Highest speed reached, m/s (``v_max`` unless the path is short)."""
+        return min(self.v_max, math.sqrt(self.length * self.a_max))
+
+    @property
+    def t_ramp(self) -> float:
+        """Duration of each acceleration ramp, s."""
+        return self.v_peak / self.a_max
+
+    @property
+    def duration(self) -> float:
+        """Total time ``L / v_peak + v_peak / a_max``, s."""
+        return self.length / self.v_peak + self.t_ramp
+
+    def __call__(self, t: np.ndarray | float, order: int = 0) -> np.ndarray:
+        """Arc length (order 0), speed (1) or acceleration (2) at times ``t`` (s)."""
+        t = _times(t, self.duration)
+        T, tr, v, a = self.duration, self.t_ramp, self.v_peak, self.a_max
+        ramp_up = t < tr
+        ramp_down = t > T - tr
+        td = T - t
+        if order == 0:
+            return np.where(ramp_up, 0.5 * a * t * t,
+                            np.where(ramp_down, self.length - 0.5 * a * td * td, 0.5 * a * tr * tr + v * (t - tr)))
+        if order == 1:
+            return np.where(ramp_up, a * t, np.where(ramp_down, a * td, v))
+        if order == 2:
+            return np.where(ramp_up, a, np.where(ramp_down, -a, 0.0))
+        raise TimingError(f"order must be 0, 1 or 2, got {order!r}")
+
+
+def make_timing(name: str, path: StraightPath, *, max_speed: float, max_accel: float) -> PaperTiming | TrapezoidTiming:
+    """Build a timing law by name.
+
+    Parameters
+    ----------
+    name : {'paper', 'smooth'}
+        Which law.
+    path : StraightPath
+        The path to time.
+    max_speed : float
+        Speed limit, m/s (horizontal for ``paper``, along the path for ``smooth``).
+    max_accel : float
+        Acceleration limit along the path, m/s^2 (``smooth`` only).
+
+    Returns
+    -------
+    PaperTiming or TrapezoidTiming
+
+    Raises
+    ------
+    TimingError
+        For an unknown name, bad limits, or the paper law on a vertical path.
+    """
+    if name == "paper":
+        return PaperTiming(path.length, path.end[0] - path.start[0], max_speed)
+    if name == "smooth":
+        return TrapezoidTiming(path.length, max_speed, max_accel)
+    raise TimingError(f"timing must be one of {', '.join(TIMING_LAWS)}, got {name!r}")

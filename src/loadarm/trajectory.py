@@ -1,0 +1,222 @@
+"""Joint trajectory of the straight-line approach: path + timing + kinematics + actuators.
+
+:func:`plan_approach` is the one call that turns an installation into
+everything the valves need: for each sample time the coupler position and
+velocity, the joint angles and rates (Eqs 5-11), the cylinder lengths and
+speeds (Eqs 12-13), the valve voltages (Section 5) and the alarm zone.
+Everything is checked *before* a sample is produced: the whole segment must
+lie in the reachable annulus (exact test, not sampled) and the valve
+voltages must fit the valve range on a dense check grid as well as at the
+requested samples.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .actuators import cylinder_lengths, cylinder_rates, valve_voltages
+from .config import Installation
+from .envelope import Zone, alarms_from_installation, classify_beta
+from .errors import PathError
+from .geometry import arm_from_installation, mounting_from_installation
+from .kinematics import check_reachable, inverse, joint_rates
+from .path import StraightPath
+from .timing import make_timing
+
+__all__ = ["Plan", "plan_approach", "CHECK_SAMPLES", "MAX_SAMPLES"]
+
+#: Samples of the dense grid on which voltage limits are re-checked.
+CHECK_SAMPLES = 4001
+#: Largest sample count accepted from a user.
+MAX_SAMPLES = 1_000_000
+
+_FIELDS = ("t_s", "x_m", "y_m", "alpha_deg", "beta_deg", "r_ac1_m", "r_ac2_m", "u1_V", "u2_V", "zone")
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A timed straight-line approach, sampled. Arrays have shape ``(n,)``.
+
+    Attributes
+    ----------
+    timing : str
+        Timing-law name.
+    start, target : tuple of float
+        Path end points, m.
+    duration : float
+        Traversal time, s.
+    t : ndarray
+        Sample times, s.
+    x, y, vx, vy : ndarray
+        Coupler position (m) and velocity (m/s).
+    alpha, beta, alpha_dot, beta_dot : ndarray
+        Joint angles (rad) and rates (rad/s).
+    r_ac1, r_ac2, v_ac1, v_ac2 : ndarray
+        Cylinder lengths (m) and extension speeds (m/s).
+    u1, u2 : ndarray
+        Valve voltages, V.
+    zone : ndarray of int
+        Alarm zone per sample (:class:`loadarm.envelope.Zone`).
+    stored_lengths : tuple of float
+        Cylinder lengths in the stored pose, m (voltage reference).
+    """
+
+    timing: str
+    start: tuple[float, float]
+    target: tuple[float, float]
+    duration: float
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    vx: np.ndarray
+    vy: np.ndarray
+    alpha: np.ndarray
+    beta: np.ndarray
+    alpha_dot: np.ndarray
+    beta_dot: np.ndarray
+    r_ac1: np.ndarray
+    r_ac2: np.ndarray
+    v_ac1: np.ndarray
+    v_ac2: np.ndarray
+    u1: np.ndarray
+    u2: np.ndarray
+    zone: np.ndarray
+    stored_lengths: tuple[float, float]
+
+    @property
+    def path_length(self) -> float:
+        """Straight-line length, m."""
+        return math.hypot(self.target[0] - self.start[0], self.target[1] - self.start[1])
+
+    def summary(self) -> dict:
+        """Headline numbers, JSON-friendly (degrees at the edge)."""
+        speed = np.hypot(self.vx, self.vy)
+        return {
+            "timing": self.timing,
+            "start_m": list(self.start),
+            "target_m": list(self.target),
+            "path_length_m": self.path_length,
+            "duration_s": self.duration,
+            "peak_path_speed_m_s": float(speed.max()),
+            "alpha_range_deg": [float(np.degrees(self.alpha.min())), float(np.degrees(self.alpha.max()))],
+            "beta_range_deg": [float(np.degrees(self.beta.min())), float(np.degrees(self.beta.max()))],
+            "stroke_ac1_m": float(self.r_ac1.max() - self.r_ac1.min()),
+            "stroke_ac2_m": float(self.r_ac2.max() - self.r_ac2.min()),
+            "peak_cylinder_speed_m_s": [float(np.abs(self.v_ac1).max()), float(np.abs(self.v_ac2).max())],
+            "u1_range_V": [float(self.u1.min()), float(self.u1.max())],
+            "u2_range_V": [float(self.u2.min()), float(self.u2.max())],
+            "worst_zone": Zone(int(self.zone.max())).label,
+        }
+
+    def records(self) -> list[dict]:
+        """One dict per sample with the keys ``t_s, x_m, y_m, alpha_deg, beta_deg,
+        r_ac1_m, r_ac2_m, u1_V, u2_V, zone``."""
+        cols = (self.t, self.x, self.y, np.degrees(self.alpha), np.degrees(self.beta), self.r_ac1, self.r_ac2,
+                self.u1, self.u2)
+        rows = np.column_stack(cols).tolist()
+        zones = self.zone.tolist()
+        return [dict(zip(_FIELDS, row + [z])) for row, z in zip(rows, zones)]
+
+    def write_csv(self, path: str | Path) -> Path:
+        """Write :meth:`records` as CSV (header = the record keys).
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file; parent directories are created.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
+        p = Path(path)
+        p.parent.mkdir(parents=True, exist_ok=True)
+        with p.open("w", newline="", encoding="utf-8") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(_FIELDS))
+            w.writeheader()
+            w.writerows(self.records())
+        return p
+
+
+def plan_approach(inst: Installation, *, start: tuple[float, float] | None = None,
+                  target: tuple[float, float] | None = None, timing: str = "smooth",
+                  samples: int = 201) -> Plan:
+    """Plan the coupler's straight-line approach (paper Sections 3 and 5).
+
+    Parameters
+    ----------
+    inst : Installation
+        Validated installation.
+    start, target : tuple of float, optional
+        Path end points ``(x, y)``, m; default the configured stored position
+        and flange.
+    timing : {'paper', 'smooth'}
+        Timing law (see :mod:`loadarm.timing`).
+    samples : int
+        Number of samples, evenly spaced in time, end points included
+        (2 to 1,000,000).
+
+    Returns
+    -------
+    Plan
+        The sampled, checked plan.
+
+    Raises
+    ------
+    PathError
+        Degenerate path or bad sample count.
+    UnreachableError
+        The stored position or any point of the segment is out of reach
+        (checked exactly, before anything is sampled).
+    TimingError
+        Timing law not applicable.
+    ValveRangeError
+        A voltage beyond the valve range anywhere along the path.
+    """
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not (2 <= samples <= MAX_SAMPLES):
+        raise PathError(f"samples must be an integer in [2, {MAX_SAMPLES}], got {samples!r}")
+    arm = arm_from_installation(inst)
+    mount = mounting_from_installation(inst)
+    alarms = alarms_from_installation(inst)
+    start = tuple(inst.approach.stored) if start is None else start
+    target = tuple(inst.approach.flange) if target is None else target
+    path = StraightPath(start, target)
+    path.check_reachable(arm)
+    stored = inst.approach.stored
+    check_reachable(arm, *stored)
+    law = make_timing(timing, path, max_speed=inst.approach.max_speed, max_accel=inst.approach.max_accel)
+    T = law.duration
+
+    q_stored = inverse(arm, *stored)
+    stored_len = tuple(float(v) for v in cylinder_lengths(mount, q_stored.alpha, q_stored.beta))
+
+    # Dense check of the valve range along the whole path (not only at the requested samples).
+    s_chk = np.linspace(0.0, path.length, CHECK_SAMPLES)
+    p_chk = path(s_chk)
+    q_chk = inverse(arm, p_chk[:, 0], p_chk[:, 1])
+    r_chk = cylinder_lengths(mount, q_chk.alpha, q_chk.beta)
+    valve_voltages(*r_chk, stored_len, volts_per_metre=inst.actuators.volts_per_metre,
+                   valve_range=inst.actuators.valve_range_V)
+
+    t = np.linspace(0.0, T, int(samples))
+    s = law(t, 0)
+    sd = law(t, 1)
+    p = path(s)
+    tangent = path(s, 1)
+    vx, vy = tangent[:, 0] * sd, tangent[:, 1] * sd
+    q = inverse(arm, p[:, 0], p[:, 1])
+    ad, bd = joint_rates(arm, q.alpha, q.beta, vx, vy)
+    r1, r2 = cylinder_lengths(mount, q.alpha, q.beta)
+    v1, v2 = cylinder_rates(mount, q.alpha, q.beta, ad, bd)
+    u = valve_voltages(r1, r2, stored_len, volts_per_metre=inst.actuators.volts_per_metre,
+                       valve_range=inst.actuators.valve_range_V, times=t)
+    zone = classify_beta(q.beta, alarms)
+    return Plan(timing=timing, start=path.start, target=path.end, duration=T, t=t, x=p[:, 0], y=p[:, 1],
+                vx=vx, vy=vy, alpha=q.alpha, beta=q.beta, alpha_dot=ad, beta_dot=bd, r_ac1=r1, r_ac2=r2,
+                v_ac1=v1, v_ac2=v2, u1=u.u1, u2=u.u2, zone=zone, stored_lengths=stored_len)

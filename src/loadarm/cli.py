@@ -1,0 +1,221 @@
+"""Command line: ``loadarm size | plan | envelope | demo``.
+
+Bad input of any kind (missing file, invalid config, unreachable target,
+malformed option) prints one line on stderr and exits with status 2; there is
+never a Python traceback for a user error.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from .config import Installation, load_config, paper_installation
+from .envelope import alarms_from_installation
+from .errors import LoadarmError
+from .geometry import Arm, arm_from_installation
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Automatic guidance of marine loading arms (sizing, envelope, straight-line approach).")
+out = Console()
+err = Console(stderr=True)
+
+ConfigOpt = Annotated[Path, typer.Option("--config", "-c", help="Installation TOML file (see examples/paper.toml).")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
+
+
+class UserError(Exception):
+    """A CLI-level bad input (exit status 2)."""
+
+
+def _point(text: Optional[str], name: str) -> Optional[tuple[float, float]]:
+    if text is None:
+        return None
+    parts = text.split(",")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        x, y = float(parts[0]), float(parts[1])
+    except ValueError:
+        raise UserError(f"{name} must be X,Y in metres (two numbers separated by a comma), got {text!r}") from None
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise UserError(f"{name} must be two finite numbers, got {text!r}")
+    return (x, y)
+
+
+def _json(obj) -> None:
+    sys.stdout.write(json.dumps(obj, indent=2, allow_nan=False) + "\n")
+
+
+@app.command()
+def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
+    """Size the inboard and outboard arms from the datasheet (paper Eqs 1-3) and check every corner."""
+    from .sizing import check_corners, size_installation
+
+    inst = load_config(config)
+    res = size_installation(inst)
+    alarms = alarms_from_installation(inst)
+    sized = Arm(inst.arm.riser, res.inboard, res.outboard)
+    corners = [c.as_dict() for c in check_corners(sized, alarms, inst)]
+    corners_conf = [c.as_dict() for c in check_corners(arm_from_installation(inst), alarms, inst)]
+    data = {
+        "inboard_m": res.inboard, "outboard_m": res.outboard, "total_m": res.total, "r_alarm_m": res.r_alarm,
+        "first_alarm_corner_m": list(res.corner), "beta_alarm_deg": math.degrees(res.beta_alarm),
+        "active_bound": res.active_bound, "local_minima_m": [list(m) for m in res.local_minima],
+        "constraint_residual_m2": float(res.constraint_residual),
+        "corners": corners, "corners_configured_arm": corners_conf,
+    }
+    if as_json:
+        _json(data)
+        return
+    out.print(f"[bold]Sized arm[/]: b = {res.inboard:.4f} m, c = {res.outboard:.4f} m (b + c = {res.total:.4f} m)")
+    out.print(f"first-alarm corner ({res.corner[0]:.3f}, {res.corner[1]:.3f}) m, r_al = {res.r_alarm:.4f} m; "
+              f"active bound: {res.active_bound}")
+    for title, rows in (("corners, sized arm", corners), ("corners, configured arm", corners_conf)):
+        t = Table(title=title)
+        for col in ("corner", "x [m]", "y [m]", "beta [deg]", "zone"):
+            t.add_column(col)
+        for r in rows:
+            beta = "n/a" if r["beta_deg"] is None else f"{r['beta_deg']:.2f}"
+            t.add_row(r["corner"], f"{r['x_m']:.2f}", f"{r['y_m']:.2f}", beta, r["zone_label"])
+        out.print(t)
+
+
+@app.command()
+def plan(
+    config: ConfigOpt,
+    start: Annotated[Optional[str], typer.Option(help="Start X,Y in metres (default: the stored position).")] = None,
+    target: Annotated[Optional[str], typer.Option(help="Target X,Y in metres (default: the flange).")] = None,
+    timing: Annotated[str, typer.Option(help="Timing law: paper (Eq. 14) or smooth (trapezoid).")] = "smooth",
+    samples: Annotated[int, typer.Option(help="Number of samples, evenly spaced in time.")] = 201,
+    as_json: JsonOpt = False,
+    csv: Annotated[Optional[Path], typer.Option("--csv", help="Also write every sample to this CSV file.")] = None,
+) -> None:
+    """Plan the straight-line approach: joint angles, cylinder lengths, valve voltages and zones."""
+    from .trajectory import plan_approach
+
+    inst = load_config(config)
+    p = plan_approach(inst, start=_point(start, "--start"), target=_point(target, "--target"), timing=timing,
+                      samples=samples)
+    if csv is not None:
+        p.write_csv(csv)
+    if as_json:
+        _json({**p.summary(), "samples": p.records()})
+        return
+    s = p.summary()
+    t = Table(title=f"approach {tuple(round(v, 3) for v in p.start)} -> {tuple(round(v, 3) for v in p.target)}, "
+                    f"{timing} timing")
+    t.add_column("quantity")
+    t.add_column("value")
+    t.add_row("duration", f"{s['duration_s']:.2f} s")
+    t.add_row("path length", f"{s['path_length_m']:.3f} m")
+    t.add_row("peak path speed", f"{s['peak_path_speed_m_s']:.4f} m/s")
+    t.add_row("alpha", "{:.2f} .. {:.2f} deg".format(*s["alpha_range_deg"]))
+    t.add_row("beta", "{:.2f} .. {:.2f} deg".format(*s["beta_range_deg"]))
+    t.add_row("stroke r_ac1 / r_ac2", f"{s['stroke_ac1_m']:.4f} / {s['stroke_ac2_m']:.4f} m")
+    t.add_row("u1", "{:+.3f} .. {:+.3f} V".format(*s["u1_range_V"]))
+    t.add_row("u2", "{:+.3f} .. {:+.3f} V".format(*s["u2_range_V"]))
+    t.add_row("worst zone", s["worst_zone"])
+    out.print(t)
+    if csv is not None:
+        out.print(f"samples written to {csv}")
+
+
+@app.command()
+def envelope(
+    config: ConfigOpt,
+    png: Annotated[Path, typer.Option("--png", help="Output PNG file.")],
+) -> None:
+    """Draw the operating envelope with alarm zones (paper Fig. 4)."""
+    from .plotting import envelope_figure, save
+
+    inst = load_config(config)
+    if png.suffix.lower() != ".png":
+        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    save(envelope_figure(inst), png)
+    out.print(f"envelope written to {png}")
+
+
+@app.command()
+def demo(
+    out_dir: Annotated[Path, typer.Option("--out", help="Output directory for report.html, CSV and figures.")] = Path("out"),
+    config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the paper's case).")] = None,
+) -> None:
+    """Run the paper's case end to end and write a self-contained HTML report."""
+    from .report import build_report
+
+    inst: Installation = load_config(config) if config is not None else paper_installation()
+    steps = 6
+    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
+                  transient=False) as prog:
+        task = prog.add_task("starting", total=steps)
+
+        def step(msg: str) -> None:
+            prog.update(task, description=msg, advance=1)
+
+        files = build_report(inst, out_dir, title="loadarm: the paper's case end to end" if config is None
+                             else f"loadarm report: {config}", progress=step)
+        prog.update(task, description="done", completed=steps)
+    out.print(f"report: {files.html}")
+    out.print(f"summary: {files.summary}")
+    for name, p in files.csv.items():
+        out.print(f"samples ({name} timing): {p}")
+
+
+def _fail(message: str) -> None:
+    err.print(f"loadarm: error: {' '.join(message.split())}", highlight=False, markup=False, soft_wrap=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns (and exits with) the process status.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Arguments (default ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        0 on success, 2 on bad input.
+    """
+    args = sys.argv[1:] if argv is None else argv
+    try:
+        rv = app(args=args, prog_name="loadarm", standalone_mode=False)
+        code = rv if isinstance(rv, int) else 0
+    except (LoadarmError, UserError, ValueError) as exc:
+        _fail(str(exc))
+        code = 2
+    except OSError as exc:
+        _fail(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
+        code = 2
+    except Exception as exc:
+        # click-style exceptions (typer vendors click in recent releases, so match by shape, not by class)
+        name = type(exc).__name__
+        if name == "Exit" and hasattr(exc, "exit_code"):
+            code = int(exc.exit_code)
+        elif name == "NoArgsIsHelpError":  # the help text has already been printed
+            code = 2
+        elif hasattr(exc, "format_message") and hasattr(exc, "exit_code"):
+            _fail(exc.format_message())
+            code = 2
+        elif name == "Abort":
+            _fail("aborted")
+            code = 130
+        else:
+            raise
+    if argv is None:
+        sys.exit(code)
+    return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()

@@ -1,0 +1,240 @@
+"""Figures equivalent to the paper's Figs 4, 6, 8, 9 and 10, plus arm snapshots.
+
+Every function returns a :class:`matplotlib.figure.Figure` and never shows it;
+the Agg backend is used so this works on a machine with no screen. Degrees
+appear only here, on axis labels.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.patches import Rectangle, Wedge  # noqa: E402
+
+from .config import Installation  # noqa: E402
+from .envelope import alarms_from_installation, berth_box, zone_radii  # noqa: E402
+from .geometry import Arm, arm_from_installation  # noqa: E402
+from .kinematics import elbow_position, forward, inverse_paper  # noqa: E402
+from .trajectory import Plan  # noqa: E402
+
+__all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
+           "timing_figure", "save"]
+
+_ZONE_COLOURS = {"zone 1": "#cfe8cf", "zone 2": "#ffe08a", "zone 3": "#ffb366", "release": "#ff7f7f"}
+
+
+def _draw_arm(ax, arm: Arm, alpha: float, beta: float, **kw) -> None:
+    ex, ey = elbow_position(arm, alpha)
+    px, py = forward(arm, alpha, beta)
+    ax.plot([0, 0, float(ex), float(px)], [0, arm.a, float(ey), float(py)], "-o", ms=3, **kw)
+
+
+def envelope_figure(inst: Installation, plan: Plan | None = None, arm: Arm | None = None) -> Figure:
+    """Operating envelope with alarm zones (paper Fig. 4).
+
+    Draws the zones as annular bands around the riser top, the datasheet's
+    flange box, the stored position and flange, riser, jetty and tide levels,
+    and (if given) the approach path with arm snapshots.
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation.
+    plan : Plan, optional
+        An approach to overlay.
+    arm : Arm, optional
+        Arm to draw (default: the configured one).
+
+    Returns
+    -------
+    Figure
+    """
+    arm = arm or arm_from_installation(inst)
+    alarms = alarms_from_installation(inst)
+    radii = zone_radii(arm, alarms)
+    box = berth_box(inst.datasheet)
+    fig, ax = plt.subplots(figsize=(11.5, 7.5))
+    top = (0.0, arm.a)
+    bands = [
+        (radii["r_min"], radii["first"], _ZONE_COLOURS["zone 1"], f"Z1 normal (beta <= {inst.alarms.first_deg:g} deg)"),
+        (radii["first"], radii["second"], _ZONE_COLOURS["zone 2"], f"Z2 first alarm / ESD-1 (> {inst.alarms.first_deg:g} deg)"),
+        (radii["second"], radii["release"], _ZONE_COLOURS["zone 3"], f"Z3 second alarm (> {inst.alarms.second_deg:g} deg)"),
+        (radii["release"], radii["r_max"], _ZONE_COLOURS["release"], f"release / ERS-2 (>= {inst.alarms.release_deg:g} deg)"),
+    ]
+    for r0, r1, colour, label in bands:
+        ax.add_patch(Wedge(top, r1, -120, 90, width=r1 - r0, facecolor=colour, edgecolor="grey", lw=0.5,
+                           label=label, alpha=0.9))
+    # jetty deck, face, berthing line, tides
+    xmax = max(radii["r_max"] + 1.0, box.x_far + 2.0)
+    ymin = min(box.y_low, box.ltl) - 3.0
+    ax.fill_between([-2.0, box.jetty_face], [0, 0], [ymin, ymin], color="#b0a89a", zorder=1, label="jetty")
+    ax.axvline(box.berthing_line, color="k", ls=":", lw=1)
+    ax.text(box.berthing_line, ymin + 0.3, " berthing line", fontsize=8)
+    for yv, name in ((box.htl, "HTL"), (box.ltl, "LTL")):
+        ax.plot([box.jetty_face, xmax], [yv, yv], color="tab:blue", ls="--", lw=1)
+        ax.text(xmax, yv, f" {name}", va="center", fontsize=8, color="tab:blue")
+    ax.add_patch(Rectangle((box.x_near, box.y_low), box.x_far - box.x_near, box.y_high - box.y_low, fill=False,
+                           ec="tab:blue", lw=1.5, ls="-", label="datasheet flange box", zorder=5))
+    ax.plot([0, 0], [0, arm.a], color="k", lw=4, zorder=6, label="riser")
+    sx, sy = inst.approach.stored
+    fx, fy = inst.approach.flange
+    ax.plot(sx, sy, "s", color="tab:green", ms=8, zorder=7, label=f"stored ({sx:g}, {sy:g})")
+    ax.plot(fx, fy, "*", color="tab:red", ms=12, zorder=7, label=f"flange ({fx:g}, {fy:g})")
+    if plan is not None:
+        ax.plot(plan.x, plan.y, color="tab:red", lw=1.5, zorder=7, label="straight approach (Eq. 4)")
+        for i in np.linspace(0, plan.t.size - 1, 5).astype(int):
+            _draw_arm(ax, arm, float(plan.alpha[i]), float(plan.beta[i]), color="0.25", lw=1.2, zorder=8)
+    ax.set_aspect("equal")
+    ax.set_xlim(-3, xmax + 2)
+    ax.set_ylim(ymin, arm.a + arm.b + 1.0)
+    ax.set_xlabel("x from riser centre line [m]")
+    ax.set_ylabel("y above jetty deck [m]")
+    ax.set_title(f"Operating envelope (paper Fig. 4): a = {arm.a:g} m, b = {arm.b:.3g} m, c = {arm.c:.3g} m")
+    ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=8, framealpha=0.9)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def alpha_beta_figure(plans: dict[str, Plan]) -> Figure:
+    """Alpha against beta along the straight line (paper Fig. 6).
+
+    Parameters
+    ----------
+    plans : dict of str to Plan
+        Labelled plans (the curve is the same for every timing law).
+
+    Returns
+    -------
+    Figure
+    """
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for label, plan in plans.items():
+        ax.plot(np.degrees(plan.beta), np.degrees(plan.alpha), label=label)
+    ax.set_xlabel("beta [deg]")
+    ax.set_ylabel("alpha [deg]")
+    ax.set_title("alpha versus beta on the straight path (paper Fig. 6)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    return fig
+
+
+def angles_time_figure(inst: Installation, plan: Plan) -> Figure:
+    """Alpha and beta against time, closed form (atan2) and paper Eqs 7-11 literally (paper Fig. 8).
+
+    The paper's Fig. 8 overlays ADAMS on its equations; here the literal
+    piecewise equations are the second route (multibody verification is a
+    separate capability).
+
+    Returns
+    -------
+    Figure
+    """
+    arm = arm_from_installation(inst)
+    qp = inverse_paper(arm, plan.x, plan.y)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    ax.plot(plan.t, np.degrees(plan.alpha), label="alpha, closed form")
+    ax.plot(plan.t, np.degrees(plan.beta), label="beta, closed form")
+    step = max(1, plan.t.size // 25)
+    ax.plot(plan.t[::step], np.degrees(qp.alpha[::step]), "o", mfc="none", label="alpha, paper Eqs 7-11")
+    ax.plot(plan.t[::step], np.degrees(qp.beta[::step]), "s", mfc="none", label="beta, paper Eqs 7-11")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("angle [deg]")
+    ax.set_title(f"Joint angles, {plan.timing} timing (paper Fig. 8)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def cylinders_figure(plans: dict[str, Plan]) -> Figure:
+    """Cylinder pin-to-pin lengths against time (paper Fig. 9).
+
+    Returns
+    -------
+    Figure
+    """
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for label, plan in plans.items():
+        ax.plot(plan.t, plan.r_ac1, label=f"r_ac1, {label}")
+        ax.plot(plan.t, plan.r_ac2, "--", label=f"r_ac2, {label}")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("cylinder length [m]")
+    ax.set_title("Cylinder lengths (paper Fig. 9, Eqs 12-13)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def voltages_figure(plans: dict[str, Plan]) -> Figure:
+    """Proportional-valve voltages against time (paper Fig. 10).
+
+    Returns
+    -------
+    Figure
+    """
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for label, plan in plans.items():
+        ax.plot(plan.t, plan.u1, label=f"u1, {label}")
+        ax.plot(plan.t, plan.u2, "--", label=f"u2, {label}")
+    ax.axhline(0, color="k", lw=0.8)
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("valve command [V] (+ = extension)")
+    ax.set_title("Valve voltages relative to the stored pose (paper Fig. 10)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def timing_figure(plans: dict[str, Plan], max_speed: float) -> Figure:
+    """Coupler speed along the path for each timing law, against the limit.
+
+    Returns
+    -------
+    Figure
+    """
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for label, plan in plans.items():
+        ax.plot(plan.t, np.hypot(plan.vx, plan.vy), label=f"path speed, {label}")
+        ax.plot(plan.t, np.abs(plan.vx), ":", label=f"horizontal speed, {label}")
+    ax.axhline(max_speed, color="r", lw=1, ls="--", label=f"max_speed {max_speed:g} m/s")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("speed [m/s]")
+    ax.set_title("Timing laws: paper Eq. 14 against the smooth trapezoid")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
+    """Save a figure as PNG and close it.
+
+    Parameters
+    ----------
+    fig : Figure
+        The figure.
+    path : str or Path
+        Output file; parent directories are created.
+    dpi : int
+        Resolution.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(p, dpi=dpi)
+    plt.close(fig)
+    return p

@@ -1,0 +1,234 @@
+"""Self-contained HTML report of an installation: sizing, envelope, approach, cylinders, valves.
+
+:func:`build_report` runs the whole pipeline on an installation (the demo uses
+the paper's case) and writes ``report.html`` (figures embedded as base64 PNG,
+so the one file can be mailed), the figures as PNG, one CSV per timing law and
+``summary.json``.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import __version__
+from .config import Installation, parameter_table
+from .envelope import alarms_from_installation, berth_box, zone_radii
+from .geometry import Arm, arm_from_installation
+from .plotting import (alpha_beta_figure, angles_time_figure, cylinders_figure, envelope_figure, save,
+                       timing_figure, voltages_figure)
+from .sizing import check_corners, size_installation
+from .timing import TIMING_LAWS
+from .trajectory import Plan, plan_approach
+
+__all__ = ["ReportFiles", "build_report", "summary_dict"]
+
+
+@dataclass(frozen=True)
+class ReportFiles:
+    """Paths written by :func:`build_report`."""
+
+    html: Path
+    summary: Path
+    csv: dict[str, Path]
+    figures: dict[str, Path]
+
+
+def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str] | None = None) -> str:
+    fmt = fmt or {}
+    head = "".join(f"<th>{html.escape(title)}</th>" for _, title in columns)
+    body = []
+    for row in rows:
+        cells = []
+        for key, _ in columns:
+            v = row.get(key)
+            if isinstance(v, float):
+                s = "n/a" if math.isnan(v) else format(v, fmt.get(key, ".3f"))
+            elif v is None:
+                s = "n/a"
+            else:
+                s = str(v)
+            cells.append(f"<td>{html.escape(s)}</td>")
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
+
+def summary_dict(inst: Installation, plans: dict[str, Plan]) -> dict:
+    """Every headline number of the report, JSON-friendly."""
+    sizing = size_installation(inst)
+    arm = arm_from_installation(inst)
+    alarms = alarms_from_installation(inst)
+    sized = Arm(arm.a, sizing.inboard, sizing.outboard)
+    return {
+        "loadarm_version": __version__,
+        "sizing": {
+            "inboard_m": sizing.inboard, "outboard_m": sizing.outboard, "r_alarm_m": sizing.r_alarm,
+            "first_alarm_corner_m": list(sizing.corner), "active_bound": sizing.active_bound,
+            "local_minima_m": [list(m) for m in sizing.local_minima],
+            "corners_sized_arm": [c.as_dict() for c in check_corners(sized, alarms, inst)],
+            "corners_configured_arm": [c.as_dict() for c in check_corners(arm, alarms, inst)],
+        },
+        "zone_radii_m": zone_radii(arm, alarms),
+        "plans": {name: p.summary() for name, p in plans.items()},
+    }
+
+
+_CSS = """
+body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;color:#222;padding:0 1em}
+h1{font-size:1.6em} h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
+table{border-collapse:collapse;margin:.8em 0;font-size:.9em} th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}
+th{background:#f3f3f3} td:first-child,th:first-child{text-align:left}
+figure{margin:1em 0} figure img{max-width:100%;border:1px solid #eee} figcaption{font-size:.85em;color:#555}
+.note{background:#fff8e1;border-left:4px solid #f0c000;padding:.5em 1em;font-size:.9em}
+code{background:#f4f4f4;padding:0 .2em}
+"""
+
+
+def _img(path: Path, caption: str) -> str:
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
+def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loadarm report",
+                 progress: Callable[[str], None] | None = None) -> ReportFiles:
+    """Run sizing, envelope and both timing laws and write the report.
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation (the demo passes the paper's case).
+    out_dir : str or Path
+        Output directory, created if needed.
+    title : str
+        Report title.
+    progress : callable, optional
+        Called with a short description before each step (for a progress bar).
+
+    Returns
+    -------
+    ReportFiles
+        The files written.
+    """
+    step = progress or (lambda _msg: None)
+    out = Path(out_dir)
+    figdir = out / "figures"
+    figdir.mkdir(parents=True, exist_ok=True)
+
+    step("sizing the arm (Eqs 1-3)")
+    sizing = size_installation(inst)
+    arm = arm_from_installation(inst)
+    alarms = alarms_from_installation(inst)
+    sized = Arm(arm.a, sizing.inboard, sizing.outboard)
+    corners_sized = [c.as_dict() for c in check_corners(sized, alarms, inst)]
+    corners_conf = [c.as_dict() for c in check_corners(arm, alarms, inst)]
+
+    plans: dict[str, Plan] = {}
+    csvs: dict[str, Path] = {}
+    for law in TIMING_LAWS:
+        step(f"planning the approach, {law} timing")
+        plans[law] = plan_approach(inst, timing=law, samples=401)
+        csvs[law] = plans[law].write_csv(out / f"plan_{law}.csv")
+
+    step("drawing figures")
+    figs = {
+        "envelope": save(envelope_figure(inst, plans["smooth"]), figdir / "envelope.png"),
+        "alpha_beta": save(alpha_beta_figure({"straight line": plans["paper"]}), figdir / "alpha_beta.png"),
+        "angles_paper": save(angles_time_figure(inst, plans["paper"]), figdir / "angles_paper.png"),
+        "angles_smooth": save(angles_time_figure(inst, plans["smooth"]), figdir / "angles_smooth.png"),
+        "cylinders": save(cylinders_figure(plans), figdir / "cylinders.png"),
+        "voltages": save(voltages_figure(plans), figdir / "voltages.png"),
+        "timing": save(timing_figure(plans, inst.approach.max_speed), figdir / "timing.png"),
+    }
+
+    step("writing report")
+    summary = summary_dict(inst, plans)
+    summary_path = out / "summary.json"
+    summary_path.write_text(json.dumps(summary, indent=2), encoding="utf-8")
+
+    box = berth_box(inst.datasheet)
+    fx, fy = inst.approach.flange
+    notes = []
+    if not (box.x_near <= fx <= box.x_far and box.y_low <= fy <= box.y_high):
+        notes.append(f"The configured flange ({fx:g}, {fy:g}) m lies outside the datasheet's flange box "
+                     f"x in [{box.x_near:g}, {box.x_far:g}] m, y in [{box.y_low:g}, {box.y_high:g}] m "
+                     "(the paper's example does this too).")
+    bad_conf = [c for c in corners_conf if c["zone"] != 1]
+    if bad_conf:
+        notes.append("With the configured arm (b = {:.3g} m, c = {:.3g} m) these corners are not in zone 1: ".format(
+            arm.b, arm.c) + "; ".join(f"{c['corner']}: {c['zone_label']}" for c in bad_conf) + ".")
+
+    plan_rows = []
+    for name, p in plans.items():
+        s = p.summary()
+        plan_rows.append({
+            "law": name, "duration": s["duration_s"], "vmax": s["peak_path_speed_m_s"],
+            "s1": s["stroke_ac1_m"], "s2": s["stroke_ac2_m"],
+            "u1": f"{s['u1_range_V'][0]:+.3f} .. {s['u1_range_V'][1]:+.3f}",
+            "u2": f"{s['u2_range_V'][0]:+.3f} .. {s['u2_range_V'][1]:+.3f}",
+            "zone": s["worst_zone"],
+        })
+    p0 = plans["paper"]
+    endpoint_rows = [
+        {"pt": "start (stored)", "x": float(p0.x[0]), "y": float(p0.y[0]), "a": math.degrees(p0.alpha[0]),
+         "b": math.degrees(p0.beta[0]), "r1": float(p0.r_ac1[0]), "r2": float(p0.r_ac2[0])},
+        {"pt": "end (flange)", "x": float(p0.x[-1]), "y": float(p0.y[-1]), "a": math.degrees(p0.alpha[-1]),
+         "b": math.degrees(p0.beta[-1]), "r1": float(p0.r_ac1[-1]), "r2": float(p0.r_ac2[-1])},
+    ]
+    params = parameter_table()
+    corner_cols = [("corner", "corner"), ("x_m", "x [m]"), ("y_m", "y [m]"), ("r_m", "r [m]"),
+                   ("alpha_deg", "alpha [deg]"), ("beta_deg", "beta [deg]"), ("zone_label", "zone")]
+    parts = [
+        f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
+        f"<style>{_CSS}</style></head><body>",
+        f"<h1>{html.escape(title)}</h1>",
+        f"<p>Generated by loadarm {__version__}. Source: O. Kavianipour, <i>A geometric approach for automatic "
+        "guidance of marine loading arms</i>. All numbers below are recomputed from the configuration.</p>",
+        "".join(f"<p class='note'>{html.escape(n)}</p>" for n in notes),
+        "<h2>1. Arm sizing (paper Eqs 1-3, Table 1)</h2>",
+        f"<p>First-alarm corner |X| = A+B+C+D-C+E = <b>{sizing.corner[0]:.3f} m</b>, |Y| = F+G-H = "
+        f"<b>{-sizing.corner[1]:.3f} m</b>; r<sub>al</sub> (Eq. 1) = <b>{sizing.r_alarm:.4f} m</b>. Minimising "
+        f"b + c on the cosine-law constraint (Eq. 3) at beta<sub>al</sub> = {inst.alarms.first_deg:g} deg within "
+        f"b in {list(inst.sizing.inboard)} m, c in {list(inst.sizing.outboard)} m gives <b>b = {sizing.inboard:.4f} m, "
+        f"c = {sizing.outboard:.4f} m</b> (paper: 12 m and 8.2 m). Active bound: {html.escape(sizing.active_bound)}. "
+        f"Local minima found: {', '.join(f'({b:.3f}, {c:.3f})' for b, c in sizing.local_minima)}.</p>",
+        "<h3>Flange-box corners, sized arm</h3>", _table(corners_sized, corner_cols),
+        f"<h3>Flange-box corners, configured arm (b = {arm.b:g} m, c = {arm.c:g} m)</h3>",
+        _table(corners_conf, corner_cols),
+        "<h2>2. Operating envelope and alarm zones (paper Fig. 4)</h2>",
+        _img(figs["envelope"], "Zones as bands of beta around the riser top, datasheet flange box, stored "
+                               "position, flange and the straight approach with arm snapshots."),
+        "<h2>3. Straight-line approach (paper Eqs 4-11, 14)</h2>",
+        _table(endpoint_rows, [("pt", "point"), ("x", "x [m]"), ("y", "y [m]"), ("a", "alpha [deg]"),
+                               ("b", "beta [deg]"), ("r1", "r_ac1 [m]"), ("r2", "r_ac2 [m]")]),
+        _table(plan_rows, [("law", "timing law"), ("duration", "duration [s]"), ("vmax", "peak path speed [m/s]"),
+                           ("s1", "stroke 1 [m]"), ("s2", "stroke 2 [m]"), ("u1", "u1 [V]"), ("u2", "u2 [V]"),
+                           ("zone", "worst zone")], {"duration": ".2f", "vmax": ".4f"}),
+        f"<p>The paper's law (Eq. 14) runs x at {inst.approach.max_speed:g} m/s, so on this sloping path the "
+        f"coupler actually moves at {plans['paper'].summary()['peak_path_speed_m_s']:.3f} m/s and starts and stops "
+        "with a speed step. The smooth law keeps the path speed at or below the limit and ramps it at "
+        f"{inst.approach.max_accel:g} m/s<sup>2</sup>.</p>",
+        _img(figs["alpha_beta"], "Fig. 6 equivalent: alpha versus beta along the straight line."),
+        _img(figs["angles_paper"], "Fig. 8 equivalent, paper timing: closed form (lines) against the paper's "
+                                   "literal Eqs 7-11 (markers)."),
+        _img(figs["angles_smooth"], "Fig. 8 equivalent, smooth timing."),
+        _img(figs["timing"], "Coupler speed for both timing laws."),
+        "<h2>4. Cylinders and valve commands (paper Eqs 12-13, Section 5)</h2>",
+        _img(figs["cylinders"], "Fig. 9 equivalent: cylinder pin-to-pin lengths."),
+        _img(figs["voltages"], f"Fig. 10 equivalent: valve voltages at {inst.actuators.volts_per_metre:g} V/m, "
+                               f"range +/-{inst.actuators.valve_range_V:g} V."),
+        "<p>CSV of every sample: " + ", ".join(f"<a href='{p.name}'>{p.name}</a>" for p in csvs.values())
+        + ", and <a href='summary.json'>summary.json</a>.</p>",
+        "<h2>5. Parameters</h2>",
+        _table(params, [("key", "key"), ("unit", "unit"), ("default", "default"), ("range", "range"),
+                        ("description", "description"), ("source", "source")]),
+        "</body></html>",
+    ]
+    html_path = out / "report.html"
+    html_path.write_text("\n".join(parts), encoding="utf-8")
+    return ReportFiles(html=html_path, summary=summary_path, csv=csvs, figures=figs)

@@ -50,8 +50,10 @@ def cylinder_lengths(mount: Mounting, alpha: np.ndarray | float, beta: np.ndarra
     alpha = np.asarray(alpha, dtype=float)
     beta = np.asarray(beta, dtype=float)
     a1, b1, b2, c2 = mount.a1, mount.b1, mount.b2, mount.c2
-    r1 = np.sqrt(a1 * a1 + b1 * b1 - 2.0 * a1 * b1 * np.cos(np.pi - alpha))
-    r2 = np.sqrt(c2 * c2 + b2 * b2 - 2.0 * c2 * b2 * np.cos(beta))
+    # Eqs 12-13 in the cancellation-free form b^2 + c^2 - 2bc cos(g) = (b - c)^2 + 4bc sin^2(g/2),
+    # exact to round-off even for a nearly closed triangle (g -> 0); 1 - cos(pi - alpha) = 2 cos^2(alpha/2).
+    r1 = np.sqrt((a1 - b1) ** 2 + 4.0 * a1 * b1 * np.cos(0.5 * alpha) ** 2)
+    r2 = np.sqrt((c2 - b2) ** 2 + 4.0 * c2 * b2 * np.sin(0.5 * beta) ** 2)
     return r1, r2
 
 

@@ -235,7 +235,7 @@ def _model_at(loc: tuple[Any, ...]) -> tuple[type[BaseModel] | None, str | None]
     model: type[BaseModel] = Installation
     for i, part in enumerate(loc):
         if not isinstance(part, str) or part not in model.model_fields:
-            return None, None
+            return (model, None) if i == len(loc) - 1 else (None, None)
         ann = model.model_fields[part].annotation
         if i == len(loc) - 1:
             return model, part
@@ -253,6 +253,8 @@ def _format_validation_error(err: ValidationError, source: str) -> str:
     etype = e.get("type", "")
     model, field = _model_at(loc)
     rng = _range_text(model, field) if model is not None and field is not None else ""
+    if etype != "extra_forbidden" and field is None:
+        model = None
     if etype == "missing":
         what = f"missing required key '{key}'"
         if model is not None and field is not None:
@@ -265,8 +267,7 @@ def _format_validation_error(err: ValidationError, source: str) -> str:
     elif etype == "extra_forbidden":
         what = f"unknown key '{key}'"
         if model is not None:
-            parent = model if field is None else model
-            what += f"; allowed keys: {', '.join(parent.model_fields)}"
+            what += f"; allowed keys: {', '.join(model.model_fields)}"
     elif etype == "value_error":
         msg = str(e.get("ctx", {}).get("error", e.get("msg", "")))
         what = msg if not loc else f"{key}: {msg}"

@@ -1,0 +1,39 @@
+"""Shared fixtures. Hypothesis runs derandomised so CI is reproducible; the
+number of examples is raised with HYPOTHESIS_PROFILE=thorough."""
+
+import os
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, settings
+
+from loadarm.config import load_config, paper_installation
+from loadarm.geometry import arm_from_installation, mounting_from_installation
+
+settings.register_profile("ci", derandomize=True, deadline=None, max_examples=300,
+                          suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile("thorough", deadline=None, max_examples=5000)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER_TOML = ROOT / "examples" / "paper.toml"
+
+
+@pytest.fixture(scope="session")
+def inst():
+    return load_config(PAPER_TOML)
+
+
+@pytest.fixture(scope="session")
+def arm(inst):
+    return arm_from_installation(inst)
+
+
+@pytest.fixture(scope="session")
+def mount(inst):
+    return mounting_from_installation(inst)
+
+
+@pytest.fixture(scope="session")
+def paper():
+    return paper_installation()

@@ -1,0 +1,139 @@
+"""Configuration loading and validation: every bad-input path gives one clear line."""
+
+import tomllib
+
+import pytest
+
+from loadarm.config import Installation, load_config, parameter_table, parse_config
+from loadarm.errors import ConfigError
+
+from .conftest import PAPER_TOML
+
+
+def _data():
+    return tomllib.loads(PAPER_TOML.read_text())
+
+
+def test_example_file_is_the_paper_case(inst, paper):
+    assert inst == paper
+
+
+def test_values_are_si_and_angles_convert(inst):
+    assert inst.arm.inboard == 12.0
+    assert inst.alarms.first == pytest.approx(123.0 * 3.141592653589793 / 180, rel=1e-15)
+    assert inst.approach.stored == (3.82, 10.40)
+
+
+@pytest.mark.parametrize("section,key,fragment", [
+    ("arm", "inboard", "missing required key 'arm.inboard'"),
+    ("datasheet", "A", "missing required key 'datasheet.A'"),
+    ("approach", "flange", "missing required key 'approach.flange'"),
+])
+def test_missing_key(section, key, fragment):
+    d = _data()
+    del d[section][key]
+    with pytest.raises(ConfigError) as e:
+        parse_config(d, source="x.toml")
+    msg = str(e.value)
+    assert fragment in msg and "\n" not in msg
+
+
+def test_missing_section():
+    d = _data()
+    del d["actuators"]
+    with pytest.raises(ConfigError, match="missing required key 'actuators'"):
+        parse_config(d)
+
+
+@pytest.mark.parametrize("section,key,value,rng", [
+    ("arm", "inboard", -3.0, "valid range (0, 100] m"),
+    ("arm", "riser", 0.0, "valid range (0, 100] m"),
+    ("datasheet", "B", -1.0, "valid range [0, 100] m"),
+    ("actuators", "a1", 50.0, "valid range (0, 20] m"),
+    ("actuators", "valve_range_V", 0.0, "valid range (0, 24] V"),
+    ("approach", "max_speed", -0.1, "valid range (0, 2] m/s"),
+    ("alarms", "first_deg", 200.0, "valid range (0, 180) deg"),
+])
+def test_out_of_range_names_key_value_and_range(section, key, value, rng):
+    d = _data()
+    d[section][key] = value
+    with pytest.raises(ConfigError) as e:
+        parse_config(d, source="f.toml")
+    msg = str(e.value)
+    assert msg.startswith("f.toml: ") and f"{section}.{key}" in msg and repr(value) in msg and rng in msg
+    assert "\n" not in msg
+
+
+def test_alarm_angles_out_of_order():
+    d = _data()
+    d["alarms"]["second_deg"] = 120.0
+    with pytest.raises(ConfigError, match=r"alarm angles must increase: first_deg \(123.0\) < second_deg \(120.0\)"):
+        parse_config(d)
+
+
+def test_wrong_type_and_shape():
+    d = _data()
+    d["arm"]["inboard"] = "long"
+    with pytest.raises(ConfigError, match="arm.inboard = 'long'"):
+        parse_config(d)
+    d = _data()
+    d["approach"]["stored"] = [1.0]
+    with pytest.raises(ConfigError, match="approach.stored"):
+        parse_config(d)
+
+
+def test_unknown_key_is_rejected_with_allowed_list():
+    d = _data()
+    d["arm"]["inbord"] = 12.0
+    with pytest.raises(ConfigError, match=r"unknown key 'arm.inbord'; allowed keys: riser, inboard, outboard"):
+        parse_config(d)
+
+
+def test_datasheet_d_below_c():
+    d = _data()
+    d["datasheet"]["D"] = 0.5
+    with pytest.raises(ConfigError, match="datasheet.D"):
+        parse_config(d)
+
+
+def test_sizing_bounds_order():
+    d = _data()
+    d["sizing"]["inboard"] = [12.0, 8.0]
+    with pytest.raises(ConfigError, match=r"sizing.inboard must be \[low, high\]"):
+        parse_config(d)
+
+
+def test_file_errors(tmp_path):
+    with pytest.raises(ConfigError, match="config file not found"):
+        load_config(tmp_path / "none.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[arm\nriser = 7")
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        load_config(bad)
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_config(tmp_path)
+
+
+def test_optional_sections_default():
+    d = _data()
+    del d["alarms"], d["sizing"]
+    inst = parse_config(d)
+    assert (inst.alarms.first_deg, inst.alarms.second_deg, inst.alarms.release_deg) == (123.0, 143.0, 150.0)
+    assert inst.sizing.inboard == (8.0, 12.0)
+
+
+def test_models_are_frozen(inst):
+    with pytest.raises(Exception):
+        inst.arm.inboard = 3.0
+
+
+def test_every_parameter_declares_unit_range_and_source():
+    rows = parameter_table()
+    assert len(rows) >= 30
+    for r in rows:
+        assert r["unit"], r
+        assert r["source"], r
+        assert r["description"], r
+    keys = {r["key"] for r in rows}
+    assert {"arm.riser", "alarms.first_deg", "actuators.volts_per_metre", "approach.max_accel"} <= keys
+    assert set(Installation.model_fields) == {k.split(".")[0] for k in keys}

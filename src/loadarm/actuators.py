@@ -87,6 +87,11 @@ def cylinder_rates(mount: Mounting, alpha: np.ndarray, beta: np.ndarray, alpha_d
 def length_limits(mount: Mounting) -> dict[str, tuple[float, float]]:
     """Geometrically possible length range of each cylinder, m.
 
+    Parameters
+    ----------
+    mount : Mounting
+        Pin distances, m.
+
     Returns
     -------
     dict

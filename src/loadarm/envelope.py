@@ -82,7 +82,18 @@ class AlarmAngles:
 
 
 def alarms_from_installation(inst: Installation) -> AlarmAngles:
-    """The :class:`AlarmAngles` of a validated installation."""
+    """The :class:`AlarmAngles` of a validated installation.
+
+    Parameters
+    ----------
+    inst : Installation
+        Validated installation.
+
+    Returns
+    -------
+    AlarmAngles
+        Thresholds in radians.
+    """
     al = inst.alarms
     return AlarmAngles(al.first, al.second, al.release)
 
@@ -137,6 +148,13 @@ def classify_point(arm: Arm, alarms: AlarmAngles, x: np.ndarray | float, y: np.n
 
 def zone_radii(arm: Arm, alarms: AlarmAngles) -> dict[str, float]:
     """Distances from the riser top at which each zone begins (Eq. 6), m.
+
+    Parameters
+    ----------
+    arm : Arm
+        Arm lengths.
+    alarms : AlarmAngles
+        Thresholds.
 
     Returns
     -------

@@ -98,11 +98,33 @@ class Mounting:
 
 
 def arm_from_installation(inst: Installation) -> Arm:
-    """The :class:`Arm` of a validated installation."""
+    """The :class:`Arm` of a validated installation.
+
+    Parameters
+    ----------
+    inst : Installation
+        Validated installation.
+
+    Returns
+    -------
+    Arm
+        Riser, inboard and outboard lengths, m.
+    """
     return Arm(inst.arm.riser, inst.arm.inboard, inst.arm.outboard)
 
 
 def mounting_from_installation(inst: Installation) -> Mounting:
-    """The :class:`Mounting` of a validated installation."""
+    """The :class:`Mounting` of a validated installation.
+
+    Parameters
+    ----------
+    inst : Installation
+        Validated installation.
+
+    Returns
+    -------
+    Mounting
+        Cylinder pin distances, m.
+    """
     act = inst.actuators
     return Mounting(act.a1, act.b1, act.b2, act.c2)

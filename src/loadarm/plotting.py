@@ -133,6 +133,13 @@ def angles_time_figure(inst: Installation, plan: Plan) -> Figure:
     piecewise equations are the second route (multibody verification is a
     separate capability).
 
+    Parameters
+    ----------
+    inst : Installation
+        The installation (for the arm lengths).
+    plan : Plan
+        The approach.
+
     Returns
     -------
     Figure
@@ -157,6 +164,11 @@ def angles_time_figure(inst: Installation, plan: Plan) -> Figure:
 def cylinders_figure(plans: dict[str, Plan]) -> Figure:
     """Cylinder pin-to-pin lengths against time (paper Fig. 9).
 
+    Parameters
+    ----------
+    plans : dict of str to Plan
+        Labelled plans.
+
     Returns
     -------
     Figure
@@ -176,6 +188,11 @@ def cylinders_figure(plans: dict[str, Plan]) -> Figure:
 
 def voltages_figure(plans: dict[str, Plan]) -> Figure:
     """Proportional-valve voltages against time (paper Fig. 10).
+
+    Parameters
+    ----------
+    plans : dict of str to Plan
+        Labelled plans.
 
     Returns
     -------
@@ -197,6 +214,13 @@ def voltages_figure(plans: dict[str, Plan]) -> Figure:
 
 def timing_figure(plans: dict[str, Plan], max_speed: float) -> Figure:
     """Coupler speed along the path for each timing law, against the limit.
+
+    Parameters
+    ----------
+    plans : dict of str to Plan
+        Labelled plans.
+    max_speed : float
+        Speed limit drawn as a line, m/s.
 
     Returns
     -------

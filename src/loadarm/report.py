@@ -59,7 +59,20 @@ def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str]
 
 
 def summary_dict(inst: Installation, plans: dict[str, Plan]) -> dict:
-    """Every headline number of the report, JSON-friendly."""
+    """Every headline number of the report, JSON-friendly.
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation.
+    plans : dict of str to Plan
+        Plans by timing-law name.
+
+    Returns
+    -------
+    dict
+        Sizing, corner tables, zone radii and plan summaries.
+    """
     sizing = size_installation(inst)
     arm = arm_from_installation(inst)
     alarms = alarms_from_installation(inst)

@@ -107,14 +107,38 @@ class SizingResult:
 
 
 def first_alarm_corner(inst_or_ds) -> tuple[float, float]:
-    """The paper's ``(|X|, |Y|)`` of Eq. 1, m (``|Y|`` is depth below the deck)."""
+    """The paper's ``(|X|, |Y|)`` of Eq. 1.
+
+    Parameters
+    ----------
+    inst_or_ds : Installation or Datasheet
+        Where to read the datasheet.
+
+    Returns
+    -------
+    X, Y : float
+        ``A+B+C+D-C+E`` and ``F+G-H``, m (``Y`` is a depth below the deck).
+    """
     ds = inst_or_ds.datasheet if isinstance(inst_or_ds, Installation) else inst_or_ds
     box = berth_box(ds)
     return box.x_far, -box.y_low
 
 
 def alarm_radius(riser: float, X: float, Y: float) -> float:
-    """Paper Eq. 1: ``r_al = sqrt((a + |Y|)^2 + |X|^2)``, m."""
+    """Paper Eq. 1: ``r_al = sqrt((a + |Y|)^2 + |X|^2)``.
+
+    Parameters
+    ----------
+    riser : float
+        Riser length ``a``, m.
+    X, Y : float
+        First-alarm corner, m (signs ignored).
+
+    Returns
+    -------
+    float
+        First-alarm radius from the riser top, m.
+    """
     return math.hypot(riser + abs(Y), abs(X))
 
 
@@ -264,6 +288,17 @@ def check_corners(arm: Arm, alarms: AlarmAngles, inst: Installation) -> list[Cor
 
 
 def size_installation(inst: Installation) -> SizingResult:
-    """Run :func:`size_arm` with an installation's datasheet, riser, alarm and bounds."""
+    """Run :func:`size_arm` with an installation's datasheet, riser, alarm and bounds.
+
+    Parameters
+    ----------
+    inst : Installation
+        Validated installation.
+
+    Returns
+    -------
+    SizingResult
+        The global optimum of Eq. 3.
+    """
     X, Y = first_alarm_corner(inst)
     return size_arm(inst.arm.riser, X, Y, inst.alarms.first, inst.sizing.inboard, inst.sizing.outboard)

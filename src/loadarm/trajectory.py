@@ -197,12 +197,12 @@ def plan_approach(inst: Installation, *, start: tuple[float, float] | None = Non
     stored_len = tuple(float(v) for v in cylinder_lengths(mount, q_stored.alpha, q_stored.beta))
 
     # Dense check of the valve range along the whole path (not only at the requested samples).
-    s_chk = np.linspace(0.0, path.length, CHECK_SAMPLES)
-    p_chk = path(s_chk)
+    t_chk = np.linspace(0.0, T, CHECK_SAMPLES)
+    p_chk = path(law(t_chk, 0))
     q_chk = inverse(arm, p_chk[:, 0], p_chk[:, 1])
     r_chk = cylinder_lengths(mount, q_chk.alpha, q_chk.beta)
     valve_voltages(*r_chk, stored_len, volts_per_metre=inst.actuators.volts_per_metre,
-                   valve_range=inst.actuators.valve_range_V)
+                   valve_range=inst.actuators.valve_range_V, times=t_chk)
 
     t = np.linspace(0.0, T, int(samples))
     s = law(t, 0)

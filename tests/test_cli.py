@@ -1,0 +1,113 @@
+"""Command line: outputs, files, and every bad-input path exits 2 with one line."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from loadarm.cli import main
+
+from .conftest import PAPER_TOML
+
+CFG = str(PAPER_TOML)
+
+
+def run(capsys, *args):
+    code = main(list(args))
+    cap = capsys.readouterr()
+    return code, cap.out, cap.err
+
+
+def test_size_json(capsys):
+    code, out, _ = run(capsys, "size", "--config", CFG, "--json")
+    assert code == 0
+    d = json.loads(out)
+    assert d["inboard_m"] == pytest.approx(12.0) and round(d["outboard_m"], 1) == 8.2
+    assert d["r_alarm_m"] == pytest.approx(17.8645, abs=1e-4)
+    assert len(d["corners"]) == 4 and {"corner", "x_m", "y_m", "beta_deg", "zone"} <= set(d["corners"][0])
+
+
+def test_size_table(capsys):
+    code, out, _ = run(capsys, "size", "-c", CFG)
+    assert code == 0 and "b = 12.0000 m" in out and "zone 1" in out
+
+
+def test_plan_json_and_csv(capsys, tmp_path):
+    csv = tmp_path / "p.csv"
+    code, out, _ = run(capsys, "plan", "--config", CFG, "--timing", "paper", "--samples", "11", "--json",
+                       "--csv", str(csv))
+    assert code == 0
+    d = json.loads(out)
+    assert round(d["duration_s"], 2) == 67.87
+    assert len(d["samples"]) == 11
+    assert set(d["samples"][0]) == {"t_s", "x_m", "y_m", "alpha_deg", "beta_deg", "r_ac1_m", "r_ac2_m", "u1_V",
+                                    "u2_V", "zone"}
+    assert csv.read_text().count("\n") == 12
+
+
+def test_plan_start_target_and_table(capsys):
+    code, out, _ = run(capsys, "plan", "-c", CFG, "--start", "6,9", "--target", "12,-2")
+    assert code == 0 and "duration" in out and "smooth" in out and "(12.0, -2.0)" in out
+
+
+def test_envelope_png(capsys, tmp_path):
+    png = tmp_path / "env.png"
+    code, _, _ = run(capsys, "envelope", "-c", CFG, "--png", str(png))
+    assert code == 0 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_demo_writes_report(capsys, tmp_path):
+    code, out, _ = run(capsys, "demo", "--out", str(tmp_path))
+    assert code == 0
+    html = (tmp_path / "report.html").read_text()
+    assert "data:image/png;base64," in html and "67.87" in html and "b = 12.0000 m" in html
+    assert html.count("<img") >= 7
+    s = json.loads((tmp_path / "summary.json").read_text())
+    assert round(s["plans"]["paper"]["duration_s"], 2) == 67.87
+    assert (tmp_path / "plan_paper.csv").exists() and (tmp_path / "plan_smooth.csv").exists()
+
+
+BAD = [
+    (["plan", "-c", "missing.toml"], "config file not found"),
+    (["plan", "-c", CFG, "--target", "30,0"], "leaves the reachable workspace"),
+    (["plan", "-c", CFG, "--target", "abc"], "--target must be X,Y in metres"),
+    (["plan", "-c", CFG, "--start", "1,2,3"], "--start must be X,Y"),
+    (["plan", "-c", CFG, "--start", "nan,1"], "--start must be two finite numbers"),
+    (["plan", "-c", CFG, "--timing", "fast"], "timing must be one of paper, smooth"),
+    (["plan", "-c", CFG, "--samples", "1"], "samples must be an integer in [2, 1000000]"),
+    (["plan", "-c", CFG, "--samples", "many"], "--samples"),
+    (["plan", "-c", CFG, "--start", "5,10", "--target", "5,2", "--timing", "paper"], "vertical path"),
+    (["plan", "-c", CFG, "--start", "5,5", "--target", "5,5"], "coincide"),
+    (["plan"], "--config"),
+    (["plan", "-c", CFG, "--bogus"], "--bogus"),
+    (["envelope", "-c", CFG, "--png", "x.jpg"], "--png must name a .png file"),
+    (["nosuchcommand"], "nosuchcommand"),
+]
+
+
+@pytest.mark.parametrize("args,fragment", BAD)
+def test_bad_input_exits_2_with_one_line(capsys, args, fragment):
+    code, out, err = run(capsys, *args)
+    assert code == 2
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1, err
+    assert lines[0].startswith("loadarm: error: ") and fragment in lines[0]
+    assert "Traceback" not in err + out
+
+
+def test_bad_config_values_exit_2(capsys, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(PAPER_TOML.read_text().replace("inboard = 12.0", "inboard = -12.0"))
+    code, _, err = run(capsys, "size", "-c", str(bad))
+    assert code == 2 and "arm.inboard = -12.0" in err and "valid range (0, 100] m" in err
+    bad.write_text("this is [ not toml")
+    code, _, err = run(capsys, "size", "-c", str(bad))
+    assert code == 2 and "not valid TOML" in err
+
+
+def test_real_process_no_traceback(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "loadarm.cli", "plan", "-c", CFG, "--target", "40,0"],
+                       capture_output=True, text=True)
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1

@@ -1,0 +1,93 @@
+"""The whole approach plan: paper numbers and consistency checks between columns."""
+
+import math
+
+import numpy as np
+import pytest
+
+from loadarm.config import parse_config
+from loadarm.errors import PathError, UnreachableError, ValveRangeError
+from loadarm.kinematics import forward
+from loadarm.trajectory import plan_approach
+
+
+def test_paper_timing_reproduces_the_paper(inst):
+    p = plan_approach(inst, timing="paper", samples=1001)
+    assert round(p.duration, 2) == 67.87
+    assert p.x[0] == 3.82 and p.y[0] == 10.40 and p.x[-1] == pytest.approx(14.0) and p.y[-1] == pytest.approx(1.0)
+    assert np.allclose(p.vx, 0.15)                                     # Eq. 14: constant horizontal speed
+    assert math.degrees(p.alpha[0]) == pytest.approx(15.3108, abs=1e-4)
+    assert math.degrees(p.beta[-1]) == pytest.approx(96.0553, abs=1e-4)
+    assert p.u1[0] == 0 and p.u2[0] == 0                              # voltages relative to the stored pose
+    assert p.u1[-1] == pytest.approx(-0.459446, abs=1e-6)              # cylinder 1 contracts
+    assert p.u2[-1] == pytest.approx(0.586727, abs=1e-6)               # cylinder 2 extends
+    assert set(p.zone.tolist()) == {1}
+
+
+@pytest.mark.parametrize("law", ["paper", "smooth"])
+def test_columns_are_mutually_consistent(inst, arm, law):
+    p = plan_approach(inst, timing=law, samples=4001)
+    xf, yf = forward(arm, p.alpha, p.beta)
+    assert np.max(np.hypot(xf - p.x, yf - p.y)) < 1e-9
+    dt = p.t[1] - p.t[0]
+    # finite-difference checks of every velocity column (central differences, interior points;
+    # tolerance = truncation ~ dt^2 * max|third derivative| plus a margin for the trapezoid's corners)
+    for pos, vel, tol in ((p.x, p.vx, 2e-4), (p.y, p.vy, 2e-4), (p.alpha, p.alpha_dot, 2e-4),
+                          (p.beta, p.beta_dot, 2e-4), (p.r_ac1, p.v_ac1, 2e-5), (p.r_ac2, p.v_ac2, 2e-5)):
+        fd = np.gradient(pos, dt)
+        assert np.allclose(fd[2:-2], vel[2:-2], atol=tol)
+    # Eq. 4: every sample on the straight line
+    slope = (p.target[1] - p.start[1]) / (p.target[0] - p.start[0])
+    assert np.allclose(p.y, slope * (p.x - p.start[0]) + p.start[1], atol=1e-12)
+
+
+def test_smooth_law_limits_hold_on_samples(inst):
+    p = plan_approach(inst, timing="smooth", samples=20001)
+    speed = np.hypot(p.vx, p.vy)
+    assert speed.max() <= inst.approach.max_speed * (1 + 1e-12)
+    acc = np.abs(np.diff(speed)) / np.diff(p.t)
+    assert acc.max() <= inst.approach.max_accel * (1 + 1e-9)
+    assert speed[0] == 0 and speed[-1] == pytest.approx(0, abs=1e-12)
+    assert p.duration == pytest.approx(p.path_length / 0.15 + 0.15 / 0.05)
+
+
+def test_custom_start_and_target(inst):
+    p = plan_approach(inst, start=(6.0, 9.0), target=(12.0, -2.0), samples=11)
+    assert p.x[0] == 6.0 and p.y[-1] == pytest.approx(-2.0)
+    assert p.u1[0] != 0            # voltages stay relative to the configured stored pose
+
+
+def test_unreachable_target_is_refused_before_motion(inst):
+    with pytest.raises(UnreachableError, match="leaves the reachable workspace"):
+        plan_approach(inst, target=(25.0, 0.0))
+
+
+def test_stored_position_unreachable(inst):
+    d = inst.model_dump()
+    d["approach"]["stored"] = (0.5, 7.5)
+    bad = parse_config(d)
+    with pytest.raises(UnreachableError):
+        plan_approach(bad, start=(6.0, 9.0))
+
+
+@pytest.mark.parametrize("samples", [1, 0, -5, 2.5, True, 10**7])
+def test_bad_sample_counts(inst, samples):
+    with pytest.raises(PathError, match=r"samples must be an integer in \[2, 1000000\]"):
+        plan_approach(inst, samples=samples)
+
+
+def test_valve_range_exceeded_is_an_error_not_a_clip(inst):
+    d = inst.model_dump()
+    d["actuators"]["volts_per_metre"] = 30.0     # 0.46 m retraction * 30 V/m = -13.8 V beyond -10 V
+    with pytest.raises(ValveRangeError, match=r"u1 \(cylinder 1\) would reach -13.783 V at t = 95.37 s"):
+        plan_approach(parse_config(d))
+
+
+def test_records_and_csv(inst, tmp_path):
+    p = plan_approach(inst, timing="paper", samples=5)
+    rec = p.records()
+    assert len(rec) == 5
+    assert list(rec[0]) == ["t_s", "x_m", "y_m", "alpha_deg", "beta_deg", "r_ac1_m", "r_ac2_m", "u1_V", "u2_V", "zone"]
+    f = p.write_csv(tmp_path / "sub" / "plan.csv")
+    lines = f.read_text().splitlines()
+    assert lines[0].startswith("t_s,x_m,y_m") and len(lines) == 6

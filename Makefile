@@ -29,7 +29,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 bench: $(BSTAMP)
-	$(BIN)/python -m pytest benchmarks -q -p no:randomly --benchmark-columns=min,median,mean,ops --benchmark-sort=name
+	$(BIN)/python -m pytest benchmarks -q --benchmark-columns=min,median,mean,ops --benchmark-sort=name
 
 clean:
 	rm -rf $(VENV) out .pytest_cache

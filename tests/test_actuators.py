@@ -106,3 +106,34 @@ def test_paper_strokes(arm, mount):
     assert np.allclose(r1, 2 * np.cos(q.alpha / 2), atol=1e-15)
     assert r1[0] - r1[1] == pytest.approx(0.459446, abs=1e-6)   # cylinder 1 retracts
     assert r2[1] - r2[0] == pytest.approx(0.586727, abs=1e-6)   # cylinder 2 extends
+
+
+@given(st.floats(0.5, 40), st.floats(0.5, 40), st.floats(0.5, 40), st.integers(1, 40000))
+def test_fused_solver_equals_separate_routes(a, b, c, n):
+    from loadarm.actuators import solve_ik_cylinders
+    arm = Arm(a, b, c)
+    m = Mounting(1.0, 1.2, 1.5, 0.5)
+    rng = np.random.default_rng(n)
+    r = rng.uniform(max(arm.r_min, 1e-3), arm.r_max, n)
+    ang = rng.uniform(-math.pi, math.pi, n)
+    x, y = r * np.sin(ang), a - r * np.cos(ang)
+    alpha, beta, r1, r2 = solve_ik_cylinders(arm, m, x, y, chunk=4096)
+    q = inverse(arm, x, y)
+    c1, c2 = cylinder_lengths(m, q.alpha, q.beta)
+    assert np.allclose(beta, q.beta, atol=1e-9)
+    assert np.allclose(np.remainder(alpha - q.alpha + math.pi, 2 * math.pi) - math.pi, 0, atol=1e-9)
+    # 1 + cos(alpha) from products loses ~sqrt(eps) relative near alpha = pi (cylinder 1 fully closed)
+    assert np.allclose(r1, c1, atol=1e-7) and np.allclose(r2, c2, atol=1e-9)
+    xf, yf = forward(arm, alpha, beta)
+    assert np.max(np.hypot(xf - x, yf - y)) < 1e-9
+
+
+def test_fused_solver_refuses_unreachable_and_bad_shapes(arm, mount):
+    from loadarm.actuators import solve_ik_cylinders
+    from loadarm.errors import UnreachableError
+    with pytest.raises(UnreachableError, match="beyond the arm's reach"):
+        solve_ik_cylinders(arm, mount, np.array([5.0, 40.0]), np.array([5.0, 0.0]))
+    with pytest.raises(UnreachableError, match="not a finite number"):
+        solve_ik_cylinders(arm, mount, np.array([5.0, np.nan]), np.array([5.0, 0.0]))
+    with pytest.raises(ValueError, match="same length"):
+        solve_ik_cylinders(arm, mount, np.array([5.0]), np.array([5.0, 0.0]))

@@ -137,3 +137,21 @@ def test_every_parameter_declares_unit_range_and_source():
     keys = {r["key"] for r in rows}
     assert {"arm.riser", "alarms.first_deg", "actuators.volts_per_metre", "approach.max_accel"} <= keys
     assert set(Installation.model_fields) == {k.split(".")[0] for k in keys}
+
+
+def test_non_finite_points_rejected():
+    d = _data()
+    d["approach"]["flange"] = [float("nan"), 1.0]
+    with pytest.raises(ConfigError, match=r"approach.flange must be two finite coordinates"):
+        parse_config(d)
+    d = _data()
+    d["approach"]["stored"] = [float("inf"), 1.0]
+    with pytest.raises(ConfigError, match=r"approach.stored must be two finite"):
+        parse_config(d)
+
+
+def test_configuration_doc_is_up_to_date():
+    from loadarm.config import parameter_markdown
+    from .conftest import ROOT
+    doc = (ROOT / "docs" / "configuration.md").read_text()
+    assert parameter_markdown() in doc, "regenerate the table with: python -m loadarm.config"

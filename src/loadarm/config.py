@@ -33,6 +33,7 @@ __all__ = [
     "parse_config",
     "paper_installation",
     "parameter_table",
+    "parameter_markdown",
 ]
 
 _REQUIRED = object()
@@ -178,6 +179,15 @@ class Approach(_Section):
                               source="engineering choice: reaches 0.15 m/s in 3 s, well below what the "
                                      "cylinders of a 20 m arm deliver",
                               description="coupler acceleration limit of the smooth timing law")
+
+    @model_validator(mode="after")
+    def _finite_points(self) -> "Approach":
+        for name in ("stored", "flange"):
+            x, y = getattr(self, name)
+            if not (math.isfinite(x) and math.isfinite(y) and abs(x) <= 1000 and abs(y) <= 1000):
+                raise ValueError(f"approach.{name} must be two finite coordinates within [-1000, 1000] m, "
+                                 f"got [{x}, {y}]")
+        return self
 
 
 class SizingBounds(_Section):
@@ -365,6 +375,14 @@ def paper_installation() -> Installation:
     return parse_config(data, source="paper case")
 
 
+_VALIDATOR_RANGES = {
+    "approach.stored": "finite, each in [-1000, 1000] m; must be reachable",
+    "approach.flange": "finite, each in [-1000, 1000] m; must be reachable",
+    "sizing.inboard": "0 < low <= high <= 100 m",
+    "sizing.outboard": "0 < low <= high <= 100 m",
+}
+
+
 def parameter_table() -> list[dict[str, str]]:
     """Every declared parameter, for the configuration docs.
 
@@ -388,8 +406,31 @@ def parameter_table() -> list[dict[str, str]]:
                 "key": f"{section}.{name}",
                 "unit": str(extra.get("unit", "")),
                 "default": default,
-                "range": _range_text(model, name).removeprefix("valid range ") or "see validator",
+                "range": _range_text(model, name).removeprefix("valid range ") or _VALIDATOR_RANGES.get(
+                    f"{section}.{name}", "see validator"),
                 "description": f.description or "",
                 "source": str(extra.get("source", "")),
             })
     return rows
+
+
+def parameter_markdown() -> str:
+    """The parameter table as Markdown (the body of ``docs/configuration.md``).
+
+    Returns
+    -------
+    str
+        A Markdown table, one row per parameter.
+    """
+    def esc(text: str) -> str:
+        return text.replace("|", "\\|")
+
+    lines = ["| key | unit | default | valid range | description | source |", "|---|---|---|---|---|---|"]
+    for r in parameter_table():
+        lines.append("| `{}` | {} | {} | {} | {} | {} |".format(
+            r["key"], esc(r["unit"]), esc(r["default"]), esc(r["range"]), esc(r["description"]), esc(r["source"])))
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":  # pragma: no cover - regenerates the table in docs/configuration.md
+    print(parameter_markdown(), end="")

@@ -161,6 +161,21 @@ def angles_time_figure(inst: Installation, plan: Plan) -> Figure:
     return fig
 
 
+def _pair_figure(plans: dict[str, Plan], first: str, second: str, ylabel: str, title: str) -> Figure:
+    """Two time series of every plan on one axis (solid: ``first``, dashed: ``second``)."""
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for label, plan in plans.items():
+        ax.plot(plan.t, getattr(plan, first), label=f"{first}, {label}")
+        ax.plot(plan.t, getattr(plan, second), "--", label=f"{second}, {label}")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
 def cylinders_figure(plans: dict[str, Plan]) -> Figure:
     """Cylinder pin-to-pin lengths against time (paper Fig. 9).
 
@@ -173,17 +188,7 @@ def cylinders_figure(plans: dict[str, Plan]) -> Figure:
     -------
     Figure
     """
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for label, plan in plans.items():
-        ax.plot(plan.t, plan.r_ac1, label=f"r_ac1, {label}")
-        ax.plot(plan.t, plan.r_ac2, "--", label=f"r_ac2, {label}")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("cylinder length [m]")
-    ax.set_title("Cylinder lengths (paper Fig. 9, Eqs 12-13)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    return fig
+    return _pair_figure(plans, "r_ac1", "r_ac2", "cylinder length [m]", "Cylinder lengths (paper Fig. 9, Eqs 12-13)")
 
 
 def voltages_figure(plans: dict[str, Plan]) -> Figure:
@@ -198,17 +203,9 @@ def voltages_figure(plans: dict[str, Plan]) -> Figure:
     -------
     Figure
     """
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for label, plan in plans.items():
-        ax.plot(plan.t, plan.u1, label=f"u1, {label}")
-        ax.plot(plan.t, plan.u2, "--", label=f"u2, {label}")
-    ax.axhline(0, color="k", lw=0.8)
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("valve command [V] (+ = extension)")
-    ax.set_title("Valve voltages relative to the stored pose (paper Fig. 10)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
+    fig = _pair_figure(plans, "u1", "u2", "valve command [V] (+ = extension)",
+                       "Valve voltages relative to the stored pose (paper Fig. 10)")
+    fig.axes[0].axhline(0, color="k", lw=0.8)
     return fig
 
 

@@ -163,3 +163,15 @@ def test_joint_rates_reproduce_velocity(arm):
 def test_joint_rates_refuse_singular_pose(arm):
     with pytest.raises(UnreachableError, match="singular"):
         joint_rates(arm, np.array([0.5]), np.array([math.pi]), np.array([0.1]), np.array([0.0]))
+
+
+def test_solve_ik_reports_instead_of_raising(arm):
+    from loadarm.kinematics import solve_ik
+    sol = solve_ik(arm, [10.0, 30.0, 1.0, np.nan], [2.0, 0.0, 7.0, 1.0])
+    alpha, beta, ok = sol
+    assert ok.tolist() == [True, False, False, False] and not sol.all_ok
+    assert sol.reason.tolist() == ["ok", "beyond reach: r > b + c", "too close: r < |b - c|", "not finite"]
+    assert np.isfinite(alpha[0]) and np.all(np.isnan(beta[1:]))
+    q = inverse(arm, 10.0, 2.0)
+    assert alpha[0] == q.alpha and beta[0] == q.beta
+    assert solve_ik(arm, 10.0, 2.0).all_ok

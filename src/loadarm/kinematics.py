@@ -36,6 +36,8 @@ __all__ = [
     "jacobian",
     "joint_rates",
     "ROUNDOFF_M",
+    "IKSolution",
+    "solve_ik",
 ]
 
 Elbow = Literal["up", "down"]
@@ -341,3 +343,70 @@ def joint_rates(arm: Arm, alpha: np.ndarray, beta: np.ndarray, vx: np.ndarray, v
     ad = np.where((vx == 0) & (vy == 0), 0.0, ad)
     bd = np.where((vx == 0) & (vy == 0), 0.0, bd)
     return ad, bd
+
+
+@dataclass(frozen=True, slots=True)
+class IKSolution:
+    """Inverse kinematics that reports instead of raising (for monitoring loops and grids).
+
+    Unpacks as ``alpha, beta, success``. Failed points have NaN angles.
+
+    Attributes
+    ----------
+    alpha, beta : ndarray
+        Joint angles, rad (NaN where ``success`` is False).
+    success : ndarray of bool
+        Whether each point is reachable.
+    reason : ndarray of str
+        ``'ok'``, ``'beyond reach: r > b + c'``, ``'too close: r < |b - c|'``
+        or ``'not finite'`` per point.
+    elbow : str
+        Assembly mode used.
+    """
+
+    alpha: np.ndarray
+    beta: np.ndarray
+    success: np.ndarray
+    reason: np.ndarray
+    elbow: str
+
+    def __iter__(self):
+        return iter((self.alpha, self.beta, self.success))
+
+    @property
+    def all_ok(self) -> bool:
+        """True if every point was solved."""
+        return bool(np.all(self.success))
+
+
+def solve_ik(arm: Arm, x: np.ndarray | float, y: np.ndarray | float, *, elbow: Elbow = "up") -> IKSolution:
+    """Inverse kinematics for every point, with success and a reason per point.
+
+    Same mathematics as :func:`inverse`; unreachable points are reported, not
+    raised, which suits code that must keep running (monitoring, envelope
+    maps).
+
+    Parameters
+    ----------
+    arm : Arm
+        Arm lengths.
+    x, y : float or ndarray
+        Coupler positions, m.
+    elbow : {'up', 'down'}
+        Assembly mode.
+
+    Returns
+    -------
+    IKSolution
+        Angles, success mask and reasons, broadcast shape of ``x`` and ``y``.
+    """
+    _check_elbow(elbow)
+    xb, yb = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+    ok = reach_mask(arm, xb, yb)
+    q = inverse(arm, xb, yb, elbow=elbow, check=False)
+    r = np.hypot(xb, yb - arm.a)
+    reason = np.select([~np.isfinite(r), r > arm.r_max + ROUNDOFF_M, ~ok],
+                       ["not finite", "beyond reach: r > b + c", "too close: r < |b - c|"], "ok")
+    alpha = np.where(ok, q.alpha, np.nan)
+    beta = np.where(ok, np.clip(q.beta, 0.0, np.pi), np.nan)
+    return IKSolution(alpha, beta, ok, reason, elbow)

@@ -28,6 +28,8 @@ __all__ = [
     "Alarms",
     "Approach",
     "SizingBounds",
+    "Masses",
+    "Cylinders",
     "Installation",
     "load_config",
     "parse_config",
@@ -210,6 +212,89 @@ class SizingBounds(_Section):
         return self
 
 
+_PIPE = ("16 in (DN400) standard-wall pipe, ASME B36.10M: OD 406.4 mm, wall 9.53 mm, 93.3 kg/m of steel; "
+         "about 1.6x that with ribs, product-line supports and swivel flanges (engineering estimate)")
+
+
+class Masses(_Section):
+    """Mass model of the arm (multibody verification, dynamics, balancing).
+
+    The arm is lumped into rigid bodies: each pipe as a uniform slender rod
+    (pipe steel plus the product it holds), point-like lumps for the apex
+    (elbow) swivel, the coupler assembly and the two counterweights. The
+    primary counterweight sits on the inboard arm's rear extension; the
+    secondary one on a pantograph lever at the riser top that a parallelogram
+    linkage keeps parallel to the outboard arm, pointing away from it (the
+    double-counterweighted arm of paper Fig. 1).
+    """
+
+    inboard_kg_per_m: float = _param(150.0, unit="kg/m", gt=0, le=5000, source=_PIPE,
+                                     description="inboard arm mass per metre, empty")
+    outboard_kg_per_m: float = _param(120.0, unit="kg/m", gt=0, le=5000,
+                                      source="as the inboard pipe, lighter structure (engineering estimate)",
+                                      description="outboard arm mass per metre, empty")
+    pipe_inner_diameter: float = _param(0.3874, unit="m", gt=0, le=2.0, source="16 in standard wall: 406.4 - 2 x 9.53 mm",
+                                        description="product bore of both arms")
+    product_density: float = _param(850.0, unit="kg/m^3", ge=0, le=2000,
+                                    source="medium crude oil (LNG would be about 450 kg/m^3)",
+                                    description="density of the product in the arm")
+    fill: float = _param(0.0, unit="1", ge=0, le=1,
+                         source="the approach is made with the arm drained (OCIMF practice)",
+                         description="fraction of the bore filled with product during the approach")
+    elbow_kg: float = _param(800.0, unit="kg", ge=0, le=1e5,
+                             source="16 in apex swivel joint with its elbow (engineering estimate)",
+                             description="lumped mass at the elbow (inboard arm's end)")
+    coupler_kg: float = _param(1500.0, unit="kg", ge=0, le=1e5,
+                               source="16 in hydraulic QCDC + ERS + triple swivel (engineering estimate)",
+                               description="lumped mass at the outboard tip")
+    counterweight_inboard_kg: float = _param(17000.0, unit="kg", ge=0, le=1e6,
+                                             source="minimax balance of the default arm, drained and full "
+                                                    "(loadarm balance, rounded)",
+                                             description="primary counterweight on the inboard rear extension")
+    counterweight_inboard_distance: float = _param(3.0, unit="m", gt=0, le=50,
+                                                   source="about a quarter of the inboard length (engineering choice)",
+                                                   description="primary counterweight distance behind the inboard hinge")
+    counterweight_outboard_kg: float = _param(7000.0, unit="kg", ge=0, le=1e6,
+                                              source="minimax balance of the default arm, drained and full "
+                                                     "(loadarm balance, rounded)",
+                                              description="secondary counterweight on the pantograph lever")
+    counterweight_outboard_distance: float = _param(2.5, unit="m", gt=0, le=50,
+                                                    source="pantograph lever length (engineering choice)",
+                                                    description="secondary counterweight distance from the riser top")
+    lump_radius: float = _param(0.3, unit="m", gt=0, le=5,
+                                source="order of size of a swivel or counterweight block",
+                                description="radius of the solid spheres used for the lumps' own inertia")
+    balance_fills: tuple[float, ...] = _param((0.0, 1.0), unit="1",
+                                              source="an arm must stay near balance drained and full",
+                                              description="fill fractions the counterweight balance is computed over")
+
+    @model_validator(mode="after")
+    def _fills(self) -> "Masses":
+        if not self.balance_fills or not all(0.0 <= f <= 1.0 and math.isfinite(f) for f in self.balance_fills):
+            raise ValueError(f"masses.balance_fills must be a non-empty list of fractions in [0, 1], "
+                             f"got {list(self.balance_fills)}")
+        return self
+
+
+class Cylinders(_Section):
+    """Hydraulic cylinder sizes, for forces to pressures and speeds to flows."""
+
+    bore: float = _param(0.160, unit="m", gt=0, le=1.0, source="ISO 3320 preferred bore; sized by the actuator report",
+                         description="piston (bore) diameter of both cylinders")
+    rod: float = _param(0.090, unit="m", gt=0, le=1.0, source="ISO 3320 preferred rod for a 160 mm bore",
+                        description="rod diameter of both cylinders")
+    return_pressure: float = _param(2.0e5, unit="Pa", ge=0, le=5e6, source="typical tank-line back pressure (2 bar)",
+                                    description="pressure in the chamber connected to tank")
+    max_pressure: float = _param(210e5, unit="Pa", gt=0, le=7e7, source="common industrial rating (210 bar)",
+                                 description="pressure above which the report flags a cylinder as undersized")
+
+    @model_validator(mode="after")
+    def _rod_in_bore(self) -> "Cylinders":
+        if not self.rod < self.bore:
+            raise ValueError(f"cylinders.rod ({self.rod} m) must be smaller than cylinders.bore ({self.bore} m)")
+        return self
+
+
 class Installation(_Section):
     """One marine loading arm at one berth: everything loadarm needs to plan."""
 
@@ -219,6 +304,8 @@ class Installation(_Section):
     alarms: Alarms = Field(default_factory=Alarms)
     approach: Approach
     sizing: SizingBounds = Field(default_factory=SizingBounds)
+    masses: Masses = Field(default_factory=Masses)
+    cylinders: Cylinders = Field(default_factory=Cylinders)
 
 
 def _range_text(model: type[BaseModel], field: str) -> str:
@@ -380,6 +467,7 @@ _VALIDATOR_RANGES = {
     "approach.flange": "finite, each in [-1000, 1000] m; must be reachable",
     "sizing.inboard": "0 < low <= high <= 100 m",
     "sizing.outboard": "0 < low <= high <= 100 m",
+    "masses.balance_fills": "each in [0, 1]",
 }
 
 

@@ -91,3 +91,14 @@ def test_records_and_csv(inst, tmp_path):
     f = p.write_csv(tmp_path / "sub" / "plan.csv")
     lines = f.read_text().splitlines()
     assert lines[0].startswith("t_s,x_m,y_m") and len(lines) == 6
+
+
+def test_joint_accelerations_match_finite_differences(inst):
+    p = plan_approach(inst, timing="smooth", samples=8001)
+    dt = p.t[1] - p.t[0]
+    for vel, acc in ((p.alpha_dot, p.alpha_ddot), (p.beta_dot, p.beta_ddot)):
+        fd = np.gradient(vel, dt)
+        # exclude the samples next to the trapezoid's acceleration steps (t_r = 3 s and T - 3 s)
+        smooth = (np.abs(p.t - 3.0) > 2 * dt) & (np.abs(p.t - (p.duration - 3.0)) > 2 * dt)
+        smooth[[0, -1]] = False
+        assert np.allclose(fd[smooth], acc[smooth], atol=1e-6)

@@ -35,6 +35,7 @@ __all__ = [
     "check_reachable",
     "jacobian",
     "joint_rates",
+    "joint_accelerations",
     "ROUNDOFF_M",
     "IKSolution",
     "solve_ik",
@@ -343,6 +344,47 @@ def joint_rates(arm: Arm, alpha: np.ndarray, beta: np.ndarray, vx: np.ndarray, v
     ad = np.where((vx == 0) & (vy == 0), 0.0, ad)
     bd = np.where((vx == 0) & (vy == 0), 0.0, bd)
     return ad, bd
+
+
+def joint_accelerations(arm: Arm, alpha: np.ndarray, beta: np.ndarray, alpha_dot: np.ndarray, beta_dot: np.ndarray,
+                        ax: np.ndarray, ay: np.ndarray, *, elbow: Elbow = "up") -> tuple[np.ndarray, np.ndarray]:
+    """Joint accelerations that give a coupler acceleration (``J qddot = a - Jdot qdot``).
+
+    Differentiating :func:`forward` twice (``u(psi) = (sin psi, cos psi)``,
+    ``u'' = -u``) gives the velocity-product term
+    ``Jdot qdot = -b u(alpha) alpha_dot^2 + c u(phi) phi_dot^2`` with
+    ``phi = alpha - s beta``.
+
+    Parameters
+    ----------
+    arm : Arm
+        Arm lengths.
+    alpha, beta : ndarray
+        Joint angles, rad.
+    alpha_dot, beta_dot : ndarray
+        Joint rates, rad/s.
+    ax, ay : ndarray
+        Coupler acceleration, m/s^2.
+    elbow : {'up', 'down'}
+        Assembly mode.
+
+    Returns
+    -------
+    alpha_ddot, beta_ddot : ndarray
+        Joint accelerations, rad/s^2.
+
+    Raises
+    ------
+    UnreachableError
+        At a singular pose (see :func:`joint_rates`).
+    """
+    s = _check_elbow(elbow)
+    alpha, beta, ad, bd = (np.asarray(v, dtype=float) for v in (alpha, beta, alpha_dot, beta_dot))
+    phi = alpha - s * beta
+    phid = ad - s * bd
+    cx = -arm.b * np.sin(alpha) * ad ** 2 + arm.c * np.sin(phi) * phid ** 2
+    cy = -arm.b * np.cos(alpha) * ad ** 2 + arm.c * np.cos(phi) * phid ** 2
+    return joint_rates(arm, alpha, beta, np.asarray(ax) - cx, np.asarray(ay) - cy, elbow=elbow)
 
 
 @dataclass(frozen=True, slots=True)

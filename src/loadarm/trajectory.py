@@ -24,7 +24,7 @@ from .config import Installation
 from .envelope import Zone, alarms_from_installation, classify_beta
 from .errors import PathError
 from .geometry import arm_from_installation, mounting_from_installation
-from .kinematics import check_reachable, inverse, joint_rates
+from .kinematics import check_reachable, inverse, joint_accelerations, joint_rates
 from .path import StraightPath
 from .timing import make_timing
 
@@ -54,8 +54,9 @@ class Plan:
         Sample times, s.
     x, y, vx, vy : ndarray
         Coupler position (m) and velocity (m/s).
-    alpha, beta, alpha_dot, beta_dot : ndarray
-        Joint angles (rad) and rates (rad/s).
+    alpha, beta, alpha_dot, beta_dot, alpha_ddot, beta_ddot : ndarray
+        Joint angles (rad), rates (rad/s) and accelerations (rad/s^2). The
+        paper law's speed steps at the ends are impulses, not represented.
     r_ac1, r_ac2, v_ac1, v_ac2 : ndarray
         Cylinder lengths (m) and extension speeds (m/s).
     u1, u2 : ndarray
@@ -79,6 +80,8 @@ class Plan:
     beta: np.ndarray
     alpha_dot: np.ndarray
     beta_dot: np.ndarray
+    alpha_ddot: np.ndarray
+    beta_ddot: np.ndarray
     r_ac1: np.ndarray
     r_ac2: np.ndarray
     v_ac1: np.ndarray
@@ -207,16 +210,20 @@ def plan_approach(inst: Installation, *, start: tuple[float, float] | None = Non
     t = np.linspace(0.0, T, int(samples))
     s = law(t, 0)
     sd = law(t, 1)
+    sdd = law(t, 2)
     p = path(s)
     tangent = path(s, 1)
     vx, vy = tangent[:, 0] * sd, tangent[:, 1] * sd
     q = inverse(arm, p[:, 0], p[:, 1])
     ad, bd = joint_rates(arm, q.alpha, q.beta, vx, vy)
+    # straight line: no curvature, the coupler acceleration is along the tangent
+    add, bdd = joint_accelerations(arm, q.alpha, q.beta, ad, bd, tangent[:, 0] * sdd, tangent[:, 1] * sdd)
     r1, r2 = cylinder_lengths(mount, q.alpha, q.beta)
     v1, v2 = cylinder_rates(mount, q.alpha, q.beta, ad, bd)
     u = valve_voltages(r1, r2, stored_len, volts_per_metre=inst.actuators.volts_per_metre,
                        valve_range=inst.actuators.valve_range_V, times=t)
     zone = classify_beta(q.beta, alarms)
     return Plan(timing=timing, start=path.start, target=path.end, duration=T, t=t, x=p[:, 0], y=p[:, 1],
-                vx=vx, vy=vy, alpha=q.alpha, beta=q.beta, alpha_dot=ad, beta_dot=bd, r_ac1=r1, r_ac2=r2,
+                vx=vx, vy=vy, alpha=q.alpha, beta=q.beta, alpha_dot=ad, beta_dot=bd,
+                alpha_ddot=add, beta_ddot=bdd, r_ac1=r1, r_ac2=r2,
                 v_ac1=v1, v_ac2=v2, u1=u.u1, u2=u.u2, zone=zone, stored_lengths=stored_len)

@@ -209,11 +209,27 @@ def balance_counterweights(inst: Installation, *, fills: tuple[float, ...] | Non
             rhs.append(t0)
     A = np.vstack(rows)
     bvec = np.concatenate(rhs)
-    res = linprog(c=[0.0, 0.0, 1.0], A_ub=A, b_ub=bvec,
-                  bounds=[(0.0, max_counterweight_kg), (0.0, max_counterweight_kg), (0.0, None)], method="highs")
+    bounds_m = [(0.0, max_counterweight_kg), (0.0, max_counterweight_kg)]
+    # stage 1: the smallest achievable largest torque t* (over poses, fills and both joints)
+    res = linprog(c=[0.0, 0.0, 1.0], A_ub=A, b_ub=bvec, bounds=bounds_m + [(0.0, None)], method="highs")
     if not res.success:  # pragma: no cover
         raise RuntimeError(f"balancing linear programme failed: {res.message}")
-    m1, m2, t = (float(v) for v in res.x)
+    t_star = float(res.x[2])
+    # stage 2: the minimax optimum is not unique (the joint with the smaller maximum leaves slack), so among
+    # the optimal designs take the one with the smallest sum of the two joints' maxima
+    A2 = np.zeros((A.shape[0], 4))
+    A2[:, :2] = A[:, :2]
+    # the row blocks go (alpha +, alpha -, beta +, beta -) per fill: mark which joint each row bounds
+    joint_of_row = np.concatenate([np.full(rows[k].shape[0], (k // 2) % 2) for k in range(len(rows))])
+    A2[joint_of_row == 0, 2] = -1.0
+    A2[joint_of_row == 1, 3] = -1.0
+    cap = t_star * (1 + 1e-9) + 1e-9
+    res2 = linprog(c=[0.0, 0.0, 1.0, 1.0], A_ub=A2, b_ub=bvec, bounds=bounds_m + [(0.0, cap), (0.0, cap)],
+                   method="highs")
+    if not res2.success:  # pragma: no cover
+        raise RuntimeError(f"balancing linear programme (stage 2) failed: {res2.message}")
+    m1, m2 = float(res2.x[0]), float(res2.x[1])
+    t = t_star
     ra = np.array([t0a + m1 * k1a + m2 * k2a for t0a, _ in tau0])
     rb = np.array([t0b + m1 * k1b + m2 * k2b for _, t0b in tau0])
     conf = [max_static_torque(m, grid) for m in base_models]

@@ -145,6 +145,104 @@ def envelope(
 
 
 @app.command()
+def verify(
+    config: ConfigOpt,
+    timing: Annotated[str, typer.Option(help="Timing law of the approach to verify: paper or smooth.")] = "paper",
+    samples: Annotated[int, typer.Option(help="Number of samples along the approach.")] = 201,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Draw closed form and MuJoCo over each other.")] = None,
+) -> None:
+    """Verify the closed-form kinematics in MuJoCo (paper Section 4, Fig. 8)."""
+    from .multibody import verify_kinematics
+    from .trajectory import plan_approach
+
+    inst = load_config(config)
+    if png is not None and png.suffix.lower() != ".png":
+        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    p = plan_approach(inst, timing=timing, samples=samples)
+    with err.status("stepping the MuJoCo arm along the line"):
+        res = verify_kinematics(inst, p)
+    if png is not None:
+        from .plotting import save, verification_figure
+
+        save(verification_figure(res), png)
+    s = res.summary()
+    if as_json:
+        _json(s)
+        return
+    out.print(f"MuJoCo against the closed form, {s['samples']} samples ({timing} timing):")
+    out.print(f"  max |alpha| difference {s['max_alpha_diff_deg']:.3e} deg, max |beta| difference "
+              f"{s['max_beta_diff_deg']:.3e} deg")
+    out.print(f"  max |r_ac1| difference {s['max_r_ac1_diff_mm']:.3e} mm, max |r_ac2| difference "
+              f"{s['max_r_ac2_diff_mm']:.3e} mm")
+    if png is not None:
+        out.print(f"figure written to {png}")
+
+
+@app.command()
+def balance(
+    config: ConfigOpt,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Residual torque map.")] = None,
+    spacing: Annotated[float, typer.Option(help="Envelope grid step, m.")] = 0.25,
+) -> None:
+    """Counterweights that minimise the largest static joint torque over the envelope."""
+    from .balancing import balance_counterweights
+
+    inst = load_config(config)
+    if png is not None and png.suffix.lower() != ".png":
+        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    if not (0.01 <= spacing <= 5.0):
+        raise UserError(f"--spacing must be in [0.01, 5] m, got {spacing!r}")
+    res = balance_counterweights(inst, spacing=spacing)
+    if png is not None:
+        from .plotting import residual_torque_figure, save
+
+        save(residual_torque_figure(res), png)
+    s = res.summary()
+    if as_json:
+        _json(s)
+        return
+    out.print(f"counterweights: inboard {s['counterweight_inboard_kg']:.0f} kg at "
+              f"{inst.masses.counterweight_inboard_distance:g} m, outboard {s['counterweight_outboard_kg']:.0f} kg at "
+              f"{inst.masses.counterweight_outboard_distance:g} m (fills {s['fills']}, {s['poses']} poses)")
+    out.print(f"largest residual static torque {s['max_residual_torque_Nm'] / 1e3:.2f} kN m "
+              f"(alpha {s['max_residual_torque_alpha_Nm'] / 1e3:.2f}, beta {s['max_residual_torque_beta_Nm'] / 1e3:.2f}); "
+              f"configured counterweights: alpha {s['configured_max_torque_alpha_Nm'] / 1e3:.2f}, "
+              f"beta {s['configured_max_torque_beta_Nm'] / 1e3:.2f} kN m")
+
+
+@app.command()
+def loads(
+    config: ConfigOpt,
+    timing: Annotated[str, typer.Option(help="Timing law: paper or smooth.")] = "smooth",
+    fill: Annotated[Optional[float], typer.Option(help="Product fill fraction 0..1 (default masses.fill).")] = None,
+    as_json: JsonOpt = False,
+) -> None:
+    """Cylinder forces, pressures, speeds and flows along the approach."""
+    from .loads import actuator_loads
+    from .trajectory import plan_approach
+
+    inst = load_config(config)
+    if fill is not None and not (0.0 <= fill <= 1.0):
+        raise UserError(f"--fill must be in [0, 1], got {fill!r}")
+    s = actuator_loads(inst, plan_approach(inst, timing=timing, samples=801), fill=fill).summary()
+    if as_json:
+        _json(s)
+        return
+    t = Table(title=f"actuator loads, {timing} timing")
+    for col in ("cylinder", "peak force [kN]", "RMS force [kN]", "peak pressure [bar]", "peak speed [mm/s]",
+                "peak flow [L/min]"):
+        t.add_column(col)
+    for i in (1, 2):
+        c = s[f"cylinder{i}"]
+        t.add_row(str(i), f"{c['peak_force_N'] / 1e3:.1f}", f"{c['rms_force_N'] / 1e3:.1f}",
+                  f"{c['peak_pressure_bar']:.1f}" + ("" if c["pressure_ok"] else " (over rating)"),
+                  f"{c['peak_speed_m_s'] * 1e3:.2f}", f"{c['peak_flow_L_min']:.2f}")
+    out.print(t)
+
+
+@app.command()
 def demo(
     out_dir: Annotated[Path, typer.Option("--out", help="Output directory for report.html, CSV and figures.")] = Path("out"),
     config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the paper's case).")] = None,
@@ -153,7 +251,7 @@ def demo(
     from .report import build_report
 
     inst: Installation = load_config(config) if config is not None else paper_installation()
-    steps = 6
+    steps = 8
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
                   transient=False) as prog:
         task = prog.add_task("starting", total=steps)

@@ -247,16 +247,16 @@ class Masses(_Section):
     coupler_kg: float = _param(1500.0, unit="kg", ge=0, le=1e5,
                                source="16 in hydraulic QCDC + ERS + triple swivel (engineering estimate)",
                                description="lumped mass at the outboard tip")
-    counterweight_inboard_kg: float = _param(19400.0, unit="kg", ge=0, le=1e6,
+    counterweight_inboard_kg: float = _param(19600.0, unit="kg", ge=0, le=1e6,
                                              source="minimax balance of the default arm, drained and full "
-                                                    "(loadarm balance, rounded)",
+                                                    "(loadarm balance, rounded; = exact balance half full)",
                                              description="primary counterweight on the inboard rear extension")
     counterweight_inboard_distance: float = _param(3.0, unit="m", gt=0, le=50,
                                                    source="about a quarter of the inboard length (engineering choice)",
                                                    description="primary counterweight distance behind the inboard hinge")
-    counterweight_outboard_kg: float = _param(7900.0, unit="kg", ge=0, le=1e6,
+    counterweight_outboard_kg: float = _param(7200.0, unit="kg", ge=0, le=1e6,
                                               source="minimax balance of the default arm, drained and full "
-                                                     "(loadarm balance, rounded)",
+                                                     "(loadarm balance, rounded; = exact balance half full)",
                                               description="secondary counterweight on the pantograph lever")
     counterweight_outboard_distance: float = _param(2.5, unit="m", gt=0, le=50,
                                                     source="pantograph lever length (engineering choice)",

@@ -337,9 +337,11 @@ def cylinder_areas(bore: float, rod: float) -> tuple[float, float]:
 def chamber_pressures(force, bore: float, rod: float, return_pressure: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Chamber pressures that produce a cylinder force with one chamber at return pressure.
 
-    Force balance ``F = p_A A_piston - p_B A_annulus``: pushing (``F >= 0``)
-    pressurises the piston side with the annulus at ``return_pressure``;
-    pulling pressurises the annulus side with the piston side at return.
+    Force balance ``F = p_A A_piston - p_B A_annulus``. With both chambers at
+    return pressure ``p_r`` the cylinder already pushes with ``p_r (A_piston -
+    A_annulus)``; above that force the piston side is pressurised (annulus at
+    ``p_r``), below it the annulus side (piston side at ``p_r``). The working
+    chamber is therefore never below return pressure.
 
     Parameters
     ----------
@@ -358,7 +360,7 @@ def chamber_pressures(force, bore: float, rod: float, return_pressure: float = 0
     Ap, Aa = cylinder_areas(bore, rod)
     F = np.asarray(force, dtype=float)
     pr = float(return_pressure)
-    push = F >= 0
+    push = F >= pr * (Ap - Aa)
     pA = np.where(push, (F + pr * Aa) / Ap, pr)
     pB = np.where(push, pr, (-F + pr * Ap) / Aa)
     return pA, pB

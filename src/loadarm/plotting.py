@@ -24,7 +24,7 @@ from .kinematics import elbow_position, forward, inverse_paper  # noqa: E402
 from .trajectory import Plan  # noqa: E402
 
 __all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
-           "timing_figure", "save"]
+           "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure", "save"]
 
 _ZONE_COLOURS = {"zone 1": "#cfe8cf", "zone 2": "#ffe08a", "zone 3": "#ffb366", "release": "#ff7f7f"}
 
@@ -259,3 +259,106 @@ def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
     fig.savefig(p, dpi=dpi)
     plt.close(fig)
     return p
+
+
+def verification_figure(result) -> Figure:
+    """Closed form against MuJoCo along the approach (paper Fig. 8 with a real multibody engine).
+
+    Parameters
+    ----------
+    result : loadarm.multibody.VerificationResult
+        Output of :func:`loadarm.multibody.verify_kinematics`.
+
+    Returns
+    -------
+    Figure
+    """
+    r = result
+    fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(14, 4.3))
+    step = max(1, r.t.size // 30)
+    for name, cf, mj in (("alpha", r.alpha_cf, r.alpha_mj), ("beta", r.beta_cf, r.beta_mj)):
+        ax1.plot(r.t, np.degrees(cf), label=f"{name}, closed form")
+        ax1.plot(r.t[::step], np.degrees(mj[::step]), "o", mfc="none", ms=5, label=f"{name}, MuJoCo")
+    ax1.set_xlabel("t [s]")
+    ax1.set_ylabel("angle [deg]")
+    ax1.set_title("Joint angles")
+    for name, cf, mj in (("r_ac1", r.r1_cf, r.r1_mj), ("r_ac2", r.r2_cf, r.r2_mj)):
+        ax2.plot(r.t, cf, label=f"{name}, Eqs 12-13")
+        ax2.plot(r.t[::step], mj[::step], "s", mfc="none", ms=5, label=f"{name}, MuJoCo tendon")
+    ax2.set_xlabel("t [s]")
+    ax2.set_ylabel("cylinder length [m]")
+    ax2.set_title("Cylinder lengths")
+    tiny = 1e-16
+    ax3.semilogy(r.t, np.degrees(np.abs(r.alpha_mj - r.alpha_cf)) + tiny, label="|d alpha| [deg]")
+    ax3.semilogy(r.t, np.degrees(np.abs(r.beta_mj - r.beta_cf)) + tiny, label="|d beta| [deg]")
+    ax3.semilogy(r.t, 1e3 * np.abs(r.r1_mj - r.r1_cf) + tiny, label="|d r_ac1| [mm]")
+    ax3.semilogy(r.t, 1e3 * np.abs(r.r2_mj - r.r2_cf) + tiny, label="|d r_ac2| [mm]")
+    ax3.axhline(0.01, color="r", ls="--", lw=1, label="0.01 deg tolerance")
+    ax3.axhline(0.1, color="m", ls=":", lw=1, label="0.1 mm tolerance")
+    ax3.set_xlabel("t [s]")
+    ax3.set_title("Differences")
+    for ax in (ax1, ax2, ax3):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle("Kinematic verification in MuJoCo (paper Fig. 8, ADAMS replaced by MuJoCo)")
+    fig.tight_layout()
+    return fig
+
+
+def residual_torque_figure(result) -> Figure:
+    """Residual static torque over the envelope with the balancing counterweights.
+
+    Parameters
+    ----------
+    result : loadarm.balancing.BalanceResult
+        Output of :func:`loadarm.balancing.balance_counterweights`.
+
+    Returns
+    -------
+    Figure
+    """
+    g = result.grid
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    for ax, name, res in ((axes[0], "inboard joint (alpha)", result.residual_alpha),
+                          (axes[1], "elbow joint (beta)", result.residual_beta)):
+        worst = np.max(np.abs(res), axis=0) / 1e3
+        sc = ax.scatter(g.x, g.y, c=worst, s=6, cmap="viridis", marker="s")
+        fig.colorbar(sc, ax=ax, label="max |tau| over fill cases [kN m]")
+        ax.set_aspect("equal")
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_title(f"{name}: max {worst.max():.1f} kN m")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"Residual static torque, counterweights {result.counterweight_inboard_kg:.0f} kg / "
+                 f"{result.counterweight_outboard_kg:.0f} kg, fills {list(result.fills)}")
+    fig.tight_layout()
+    return fig
+
+
+def loads_figure(loads: dict) -> Figure:
+    """Cylinder forces and working pressures along the approach for each timing law.
+
+    Parameters
+    ----------
+    loads : dict of str to loadarm.loads.ActuatorLoads
+        Labelled loads.
+
+    Returns
+    -------
+    Figure
+    """
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 4.3))
+    for label, ld in loads.items():
+        ax1.plot(ld.t, ld.force1 / 1e3, label=f"F1, {label}")
+        ax1.plot(ld.t, ld.force2 / 1e3, "--", label=f"F2, {label}")
+        ax2.plot(ld.t, ld.pressure1 / 1e5, label=f"p1, {label}")
+        ax2.plot(ld.t, ld.pressure2 / 1e5, "--", label=f"p2, {label}")
+    ax1.set_ylabel("cylinder force [kN] (+ = push)")
+    ax2.set_ylabel("working-chamber pressure [bar]")
+    for ax in (ax1, ax2):
+        ax.set_xlabel("t [s]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle("Actuator loads along the approach (gravity, counterweights, inertia)")
+    fig.tight_layout()
+    return fig

@@ -111,3 +111,39 @@ def test_real_process_no_traceback(tmp_path):
                        capture_output=True, text=True)
     assert r.returncode == 2
     assert "Traceback" not in r.stderr and r.stderr.count("\n") == 1
+
+
+def test_verify_json_and_png(capsys, tmp_path):
+    png = tmp_path / "v.png"
+    code, out, _ = run(capsys, "verify", "-c", CFG, "--samples", "21", "--json", "--png", str(png))
+    assert code == 0
+    d = json.loads(out)
+    assert d["max_angle_diff_deg"] < 0.01 and d["max_length_diff_mm"] < 0.1 and d["samples"] == 21
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_balance_and_loads_json(capsys, tmp_path):
+    code, out, _ = run(capsys, "balance", "-c", CFG, "--json", "--spacing", "0.5", "--png", str(tmp_path / "b.png"))
+    assert code == 0
+    d = json.loads(out)
+    assert d["counterweight_inboard_kg"] == pytest.approx(19581.4, abs=1.0)
+    code, out, _ = run(capsys, "loads", "-c", CFG, "--timing", "paper", "--fill", "1", "--json")
+    assert code == 0
+    d = json.loads(out)
+    assert d["cylinder1"]["peak_force_N"] > 0 and "peak_flow_L_min" in d["cylinder2"]
+
+
+def test_mjcf_prints_a_model(capsys):
+    code, out, _ = run(capsys, "mjcf", "-c", CFG)
+    assert code == 0 and out.startswith("<mujoco") and 'name="cylinder1"' in out
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["loads", "-c", CFG, "--fill", "2"], "--fill must be in [0, 1]"),
+    (["balance", "-c", CFG, "--spacing", "0"], "--spacing must be in [0.01, 5] m"),
+    (["verify", "-c", CFG, "--png", "v.svg"], "--png must name a .png file"),
+    (["verify", "-c", CFG, "--samples", "1"], "samples must be an integer"),
+])
+def test_issue3_bad_inputs(capsys, args, fragment):
+    code, out, err = run(capsys, *args)
+    assert code == 2 and err.count("\n") == 1 and fragment in err

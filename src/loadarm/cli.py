@@ -243,6 +243,23 @@ def loads(
 
 
 @app.command()
+def mjcf(
+    config: ConfigOpt,
+    kinematic: Annotated[bool, typer.Option(help="Add the mocap target and constraints of the forced motion.")] = False,
+) -> None:
+    """Print the MuJoCo (MJCF) model of the arm, e.g. to open it in MuJoCo's viewer."""
+    from .dynamics import mass_model
+    from .geometry import mounting_from_installation
+    from .multibody import build_mjcf, load_model
+
+    inst = load_config(config)
+    xml = build_mjcf(arm_from_installation(inst), mounting_from_installation(inst), mass_model(inst),
+                     kinematic=kinematic)
+    load_model(xml)  # refuse to print a model MuJoCo would not compile
+    sys.stdout.write(xml)
+
+
+@app.command()
 def demo(
     out_dir: Annotated[Path, typer.Option("--out", help="Output directory for report.html, CSV and figures.")] = Path("out"),
     config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the paper's case).")] = None,

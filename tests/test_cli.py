@@ -74,7 +74,7 @@ BAD = [
     (["plan", "-c", CFG, "--target", "abc"], "--target must be X,Y in metres"),
     (["plan", "-c", CFG, "--start", "1,2,3"], "--start must be X,Y"),
     (["plan", "-c", CFG, "--start", "nan,1"], "--start must be two finite numbers"),
-    (["plan", "-c", CFG, "--timing", "fast"], "timing must be one of paper, smooth"),
+    (["plan", "-c", CFG, "--timing", "fast"], "timing must be one of paper, smooth, optimal"),
     (["plan", "-c", CFG, "--samples", "1"], "samples must be an integer in [2, 1000000]"),
     (["plan", "-c", CFG, "--samples", "many"], "--samples"),
     (["plan", "-c", CFG, "--start", "5,10", "--target", "5,2", "--timing", "paper"], "vertical path"),

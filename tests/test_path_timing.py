@@ -102,7 +102,7 @@ def test_paper_timing_refuses_vertical_path_smooth_handles_it():
 
 def test_unknown_timing_and_bad_limits():
     p = StraightPath((5.0, 10.0), (6.0, 2.0))
-    with pytest.raises(TimingError, match="timing must be one of paper, smooth, got 'fast'"):
+    with pytest.raises(TimingError, match="timing must be one of paper, smooth, optimal, got 'fast'"):
         make_timing("fast", p, max_speed=0.15, max_accel=0.05)
     with pytest.raises(TimingError, match="max_accel must be a finite number > 0"):
         TrapezoidTiming(1.0, 0.1, -1.0)

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import tomllib
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
@@ -30,6 +30,10 @@ __all__ = [
     "SizingBounds",
     "Masses",
     "Cylinders",
+    "Pump",
+    "Valve",
+    "Encoder",
+    "Controller",
     "Installation",
     "load_config",
     "parse_config",
@@ -180,7 +184,11 @@ class Approach(_Section):
     max_accel: float = _param(0.05, unit="m/s^2", gt=0, le=5.0,
                               source="engineering choice: reaches 0.15 m/s in 3 s, well below what the "
                                      "cylinders of a 20 m arm deliver",
-                              description="coupler acceleration limit of the smooth timing law")
+                              description="coupler acceleration limit of the smooth and optimal timing laws")
+    max_cylinder_accel: float = _param(0.01, unit="m/s^2", gt=0, le=5.0,
+                                       source="engineering choice: a cylinder reaches its peak approach speed "
+                                              "(about 10 mm/s) in 1 s",
+                                       description="cylinder acceleration limit of the optimal timing law")
 
     @model_validator(mode="after")
     def _finite_points(self) -> "Approach":
@@ -288,11 +296,134 @@ class Cylinders(_Section):
     max_pressure: float = _param(210e5, unit="Pa", gt=0, le=7e7, source="common industrial rating (210 bar)",
                                  description="pressure above which the report flags a cylinder as undersized")
 
+    bulk_modulus: float = _param(1.0e9, unit="Pa", gt=1e7, le=2.5e9,
+                                 source="mineral oil 1.5-1.8 GPa, reduced by hose compliance and air (common design value)",
+                                 description="effective bulk modulus of oil, hoses and cylinder")
+    dead_volume: float = _param(1.0e-3, unit="m^3", gt=0, le=0.5,
+                                source="hoses and ports between valve and cylinder, about 6 m of 1/2 in hose",
+                                description="oil volume of each chamber's line at zero chamber stroke")
+    viscous_friction: float = _param(2.0e4, unit="N s/m", ge=0, le=1e8,
+                                     source="seal friction of a 160 mm cylinder (engineering estimate)",
+                                     description="viscous friction coefficient of each cylinder")
+    coulomb_friction: float = _param(2000.0, unit="N", ge=0, le=1e6,
+                                     source="about 0.5 % of the cylinder's force at rated pressure",
+                                     description="Coulomb (breakaway) friction force of each cylinder")
+    stribeck_velocity: float = _param(1e-3, unit="m/s", gt=0, le=1.0,
+                                      source="smoothing of the Coulomb friction, tanh(v / v_s)",
+                                      description="velocity scale of the Coulomb friction smoothing")
+    leakage: float = _param(1e-13, unit="m^3/(s Pa)", ge=0, le=1e-9,
+                            source="worn-in piston seal, about 0.06 L/min at 100 bar",
+                            description="internal leakage coefficient, chamber A to chamber B")
+    length_range_1: tuple[float, float] = _param((0.95, 1.99), unit="m",
+                                                 source="covers the paper arm's envelope (r_ac1 0.96-2.0 m)",
+                                                 description="pin-to-pin length of cylinder 1 fully retracted and "
+                                                             "fully extended (end stops)")
+    length_range_2: tuple[float, float] = _param((0.98, 1.92), unit="m",
+                                                 source="covers the paper arm's envelope (r_ac2 1.0-1.86 m)",
+                                                 description="pin-to-pin length of cylinder 2 fully retracted and "
+                                                             "fully extended (end stops)")
+    end_stop_stiffness: float = _param(1e9, unit="N/m", gt=0, le=1e12,
+                                       source="steel end cap and cushion (engineering estimate)",
+                                       description="stiffness of the cylinder end stops")
+    end_stop_damping: float = _param(1e6, unit="N s/m", ge=0, le=1e10, source="end-of-stroke cushioning",
+                                     description="damping of the cylinder end stops")
+
     @model_validator(mode="after")
     def _rod_in_bore(self) -> "Cylinders":
         if not self.rod < self.bore:
             raise ValueError(f"cylinders.rod ({self.rod} m) must be smaller than cylinders.bore ({self.bore} m)")
+        for name in ("length_range_1", "length_range_2"):
+            lo, hi = getattr(self, name)
+            if not (0 < lo < hi <= 50):
+                raise ValueError(f"cylinders.{name} must be [retracted, extended] with 0 < retracted < extended "
+                                 f"<= 50 m, got [{lo}, {hi}]")
         return self
+
+
+class Pump(_Section):
+    """Hydraulic power unit: pressure-compensated pump with a relief valve (paper Fig. 11)."""
+
+    compensator_pressure: float = _param(210e5, unit="Pa", gt=1e5, le=7e7,
+                                         source="common industrial HPU setting (210 bar)",
+                                         description="pressure at which the compensator destrokes the pump")
+    regulation_band: float = _param(10e5, unit="Pa", gt=0, le=1e7,
+                                    source="typical compensator droop from full flow to zero (10 bar)",
+                                    description="pressure band over which the pump goes from full flow to none")
+    max_flow: float = _param(6.67e-4, unit="m^3/s", gt=0, le=0.1,
+                             source="40 L/min: a 15 kW loading-arm HPU (engineering estimate)",
+                             description="pump flow at full displacement")
+    relief_pressure: float = _param(230e5, unit="Pa", gt=1e5, le=8e7,
+                                    source="relief set 20 bar above the compensator",
+                                    description="cracking pressure of the relief valve")
+    relief_band: float = _param(10e5, unit="Pa", gt=0, le=1e7,
+                                source="relief passes the full pump flow 10 bar above cracking",
+                                description="override pressure of the relief valve at full pump flow")
+    supply_volume: float = _param(5e-3, unit="m^3", gt=1e-6, le=1.0,
+                                  source="pressure line and filter between pump and valves (5 L)",
+                                  description="oil volume of the supply line")
+
+    @model_validator(mode="after")
+    def _relief_above_compensator(self) -> "Pump":
+        if not self.relief_pressure > self.compensator_pressure:
+            raise ValueError(f"pump.relief_pressure ({self.relief_pressure:g} Pa) must be above "
+                             f"pump.compensator_pressure ({self.compensator_pressure:g} Pa)")
+        return self
+
+
+class Valve(_Section):
+    """4/3-way proportional valve, critical centre, one per cylinder (paper Fig. 11)."""
+
+    nominal_flow: float = _param(6.67e-4, unit="m^3/s", gt=0, le=0.1,
+                                 source="40 L/min size-10 proportional valve (ISO 4401-05)",
+                                 description="flow at full opening and nominal pressure drop")
+    nominal_pressure_drop: float = _param(70e5, unit="Pa", gt=1e4, le=5e7,
+                                          source="ISO 10770-1 rating: 35 bar per land, 70 bar over both",
+                                          description="pressure drop over both lands at which nominal_flow is rated")
+    natural_frequency: float = _param(30.0, unit="Hz", gt=0.1, le=500,
+                                      source="-90 deg point of a size-10 valve with on-board electronics",
+                                      description="spool natural frequency (second-order model)")
+    damping: float = _param(0.7, unit="1", gt=0, le=5, source="typical spool position loop",
+                            description="spool damping ratio")
+    overlap: float = _param(0.0, unit="1", ge=0, lt=0.5, source="critical centre (zero lap)",
+                            description="spool overlap (deadband) as a fraction of full stroke")
+    laminar_pressure: float = _param(1e5, unit="Pa", gt=0, le=1e7,
+                                     source="regularisation of the square-root law near zero drop (1 bar)",
+                                     description="pressure drop below which orifice flow turns laminar")
+
+
+class Encoder(_Section):
+    """Displacement encoder on each cylinder (paper Fig. 11)."""
+
+    resolution: float = _param(1e-5, unit="m", gt=0, le=0.01, source="10 um magnetostrictive position sensor",
+                               description="quantisation step of the cylinder length reading")
+
+
+class Controller(_Section):
+    """Discrete PID with velocity feed-forward per cylinder (paper Fig. 11)."""
+
+    rate: float = _param(1000.0, unit="Hz", ge=10, le=20000, source="issue 4 (1 kHz)",
+                         description="control loop rate")
+    kp: float = _param(60.0, unit="V/m", ge=0, le=1e6,
+                       source="tuned below the arm's low hydraulic natural frequency (docs/hydraulics.md)",
+                       description="proportional gain on the cylinder length error")
+    ki: float = _param(30.0, unit="V/(m s)", ge=0, le=1e7, source="removes the steady load-induced error",
+                       description="integral gain")
+    kd: float = _param(0.0, unit="V s/m", ge=0, le=1e5, source="not needed with feed-forward",
+                       description="derivative gain (on the measurement, filtered)")
+    derivative_filter: float = _param(0.02, unit="s", gt=0, le=10, source="20 ms first-order filter",
+                                      description="time constant of the derivative filter")
+    integral_limit: float = _param(5.0, unit="V", gt=0, le=24, source="half the valve range",
+                                   description="anti-windup clamp of the integral term")
+    feedforward: Literal["none", "nominal", "model"] = Field(
+        "model", description="valve feed-forward from the plan: none; nominal (velocity at the valve's rated drop); "
+                             "model (steady-state valve-cylinder inverse under the planned force)",
+        json_schema_extra={"unit": "1", "source": "issue 4 (velocity feed-forward); model-based is standard practice"})
+    substeps: int = Field(4, ge=1, le=100, description="plant integration steps per control step",
+                          json_schema_extra={"unit": "1", "source": "measured: stable and converged (docs/hydraulics.md)"})
+    settle_time: float = _param(10.0, unit="s", ge=0, le=600, source="engineering choice",
+                                description="time simulated after the plan ends")
+    arrival_tolerance: float = _param(0.005, unit="m", gt=0, le=1.0, source="within manual-connection reach",
+                                      description="coupler distance from the flange counted as arrived")
 
 
 class Installation(_Section):
@@ -306,6 +437,10 @@ class Installation(_Section):
     sizing: SizingBounds = Field(default_factory=SizingBounds)
     masses: Masses = Field(default_factory=Masses)
     cylinders: Cylinders = Field(default_factory=Cylinders)
+    pump: Pump = Field(default_factory=Pump)
+    valve: Valve = Field(default_factory=Valve)
+    encoder: Encoder = Field(default_factory=Encoder)
+    controller: Controller = Field(default_factory=Controller)
 
 
 def _range_text(model: type[BaseModel], field: str) -> str:
@@ -468,6 +603,9 @@ _VALIDATOR_RANGES = {
     "sizing.inboard": "0 < low <= high <= 100 m",
     "sizing.outboard": "0 < low <= high <= 100 m",
     "masses.balance_fills": "each in [0, 1]",
+    "cylinders.length_range_1": "0 < retracted < extended <= 50 m",
+    "cylinders.length_range_2": "0 < retracted < extended <= 50 m",
+    "controller.feedforward": "none, nominal or model",
 }
 
 

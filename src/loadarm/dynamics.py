@@ -38,7 +38,8 @@ import numpy as np
 from .config import Installation
 from .geometry import Arm, Mounting, arm_from_installation
 
-__all__ = ["G", "Lump", "MassModel", "mass_model", "joint_torques", "static_torques", "moment_arms",
+__all__ = ["G", "Lump", "MassModel", "mass_model", "joint_torques", "LagrangeConstants", "lagrange_constants",
+           "lagrange_torques", "static_torques", "moment_arms",
            "cylinder_forces", "chamber_pressures", "cylinder_areas"]
 
 #: Standard gravity, m/s^2 (ISO 80000-3).
@@ -364,3 +365,86 @@ def chamber_pressures(force, bore: float, rod: float, return_pressure: float = 0
     pA = np.where(push, (F + pr * Aa) / Ap, pr)
     pB = np.where(push, pr, (-F + pr * Ap) / Aa)
     return pA, pB
+
+
+@dataclass(frozen=True, slots=True)
+class LagrangeConstants:
+    """The mass model reduced to the five constants of the arm's Lagrangian.
+
+    With ``T = sum(m d^2 + I)`` and ``D = sum(m d)`` over the inboard (``in``),
+    outboard (``out``) and lever (``lev``) lumps and ``m_out`` the outboard
+    mass, the kinetic and potential energies are
+
+    * ``M11 = k11 - 2 k_c cos(beta)``, ``M12 = -k22 + k_c cos(beta)``, ``M22 = k22``
+      with ``k11 = T_in + T_lev + m_out b^2 + T_out``, ``k22 = T_lev + T_out``,
+      ``k_c = b D_out``;
+    * ``V = g (g_a cos(alpha) + g_ab cos(alpha - beta))`` with
+      ``g_a = D_in + m_out b`` and ``g_ab = D_lev - D_out``.
+
+    This is a second, independent derivation of :func:`joint_torques`
+    (Lagrange instead of Newton-Euler); the tests compare the two.
+    """
+
+    k11: float
+    k22: float
+    k_c: float
+    g_a: float
+    g_ab: float
+
+
+def lagrange_constants(model: MassModel) -> LagrangeConstants:
+    """Reduce a mass model to its Lagrangian constants.
+
+    Parameters
+    ----------
+    model : MassModel
+        Mass model.
+
+    Returns
+    -------
+    LagrangeConstants
+    """
+    b = model.arm.b
+    T = {k: 0.0 for k in _LINKS}
+    D = {k: 0.0 for k in _LINKS}
+    m_out = 0.0
+    for l in model.lumps:
+        T[l.link] += l.mass * l.offset ** 2 + l.inertia
+        D[l.link] += l.mass * l.offset
+        if l.link == "outboard":
+            m_out += l.mass
+    return LagrangeConstants(k11=T["inboard"] + T["lever"] + m_out * b * b + T["outboard"],
+                             k22=T["lever"] + T["outboard"], k_c=b * D["outboard"],
+                             g_a=D["inboard"] + m_out * b, g_ab=D["lever"] - D["outboard"])
+
+
+def lagrange_torques(k: LagrangeConstants, alpha, beta, alpha_dot=0.0, beta_dot=0.0, alpha_ddot=0.0,
+                     beta_ddot=0.0, *, gravity: float = G) -> tuple[np.ndarray, np.ndarray]:
+    """Joint torques from the closed-form Lagrangian, ``tau = M qdd + c(q, qd) + dV/dq``.
+
+    Parameters
+    ----------
+    k : LagrangeConstants
+        From :func:`lagrange_constants`.
+    alpha, beta, alpha_dot, beta_dot, alpha_ddot, beta_ddot : float or ndarray
+        Motion (rad, rad/s, rad/s^2).
+    gravity : float
+        m/s^2.
+
+    Returns
+    -------
+    tau_alpha, tau_beta : ndarray
+        N m.
+    """
+    a, b, ad, bd, add, bdd = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (
+        alpha, beta, alpha_dot, beta_dot, alpha_ddot, beta_ddot)))
+    cb, sb = np.cos(b), np.sin(b)
+    m11 = k.k11 - 2.0 * k.k_c * cb
+    m12 = -k.k22 + k.k_c * cb
+    d11 = 2.0 * k.k_c * sb          # d M11 / d beta
+    d12 = -k.k_c * sb               # d M12 / d beta
+    c1 = d11 * ad * bd + d12 * bd * bd
+    c2 = -0.5 * d11 * ad * ad
+    g1 = -gravity * (k.g_a * np.sin(a) + k.g_ab * np.sin(a - b))
+    g2 = gravity * k.g_ab * np.sin(a - b)
+    return m11 * add + m12 * bdd + c1 + g1, m12 * add + k.k22 * bdd + c2 + g2

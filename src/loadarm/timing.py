@@ -10,6 +10,10 @@ path, timing and kinematics.
     ``v_max / |cos(phi)|``, larger than ``v_max`` on any sloping path, and the
     speed jumps from 0 to that value at the start (unbounded acceleration).
     Undefined for a vertical path.
+``optimal``
+    Time-optimal under the coupler's and each cylinder's speed and
+    acceleration limits, computed by toppra (:class:`ToppraTiming`, built by
+    :func:`loadarm.trajectory.plan_approach`).
 ``smooth``
     Trapezoidal speed profile along the path: accelerate at ``a_max`` to
     ``v_max``, cruise, decelerate at ``a_max`` to rest. On a path too short to
@@ -29,9 +33,9 @@ import numpy as np
 from .errors import TimingError
 from .path import StraightPath
 
-__all__ = ["TimingLaw", "PaperTiming", "TrapezoidTiming", "make_timing", "TIMING_LAWS"]
+__all__ = ["TimingLaw", "PaperTiming", "TrapezoidTiming", "ToppraTiming", "make_timing", "TIMING_LAWS"]
 
-TIMING_LAWS = ("paper", "smooth")
+TIMING_LAWS = ("paper", "smooth", "optimal")
 
 
 class TimingLaw(Protocol):
@@ -180,4 +184,112 @@ def make_timing(name: str, path: StraightPath, *, max_speed: float, max_accel: f
         return PaperTiming(path.length, path.end[0] - path.start[0], max_speed)
     if name == "smooth":
         return TrapezoidTiming(path.length, max_speed, max_accel)
+    if name == "optimal":
+        raise TimingError("the optimal timing law needs the arm and cylinder limits: use "
+                          "loadarm.trajectory.plan_approach(..., timing='optimal')")
     raise TimingError(f"timing must be one of {', '.join(TIMING_LAWS)}, got {name!r}")
+
+
+@dataclass(frozen=True)
+class ToppraTiming:
+    """Time-optimal traversal under speed and acceleration limits (toppra, TOPP-RA).
+
+    The geometric path handed to toppra is ``g(s) = (s, r_ac1(s), r_ac2(s))``:
+    arc length plus both cylinder lengths. Box limits on ``g'`` and ``g''`` are
+    then the coupler speed/acceleration limits and each cylinder's
+    speed/acceleration limits. toppra guarantees them at its grid points only,
+    so :meth:`build` re-checks a dense sampling and refines the grid until
+    every limit holds between grid points too (within ``rel_tol``).
+
+    Use :meth:`build`; the attributes are the result.
+
+    Attributes
+    ----------
+    length : float
+        Path length, m.
+    duration : float
+        Traversal time, s.
+    limits : dict
+        The limits used (m/s, m/s^2).
+    gridpoints : int
+        Grid size that passed the dense check.
+    """
+
+    length: float
+    duration: float
+    limits: dict
+    gridpoints: int
+    _traj: object
+
+    @staticmethod
+    def build(length: float, cylinder_lengths_of_s, *, v_max: float, a_max: float, v_cyl: tuple[float, float],
+              a_cyl: tuple[float, float], rel_tol: float = 2e-3, max_refinements: int = 4) -> "ToppraTiming":
+        """Compute the time-optimal parameterisation.
+
+        Parameters
+        ----------
+        length : float
+            Path length, m.
+        cylinder_lengths_of_s : callable
+            ``s (n,) -> (r1 (n,), r2 (n,))`` in metres.
+        v_max, a_max : float
+            Coupler speed (m/s) and acceleration (m/s^2) limits.
+        v_cyl, a_cyl : tuple of float
+            Per-cylinder speed (m/s) and acceleration (m/s^2) limits.
+        rel_tol : float
+            Allowed relative excess of any limit on the dense check.
+        max_refinements : int
+            Grid doublings tried before giving up.
+
+        Returns
+        -------
+        ToppraTiming
+
+        Raises
+        ------
+        TimingError
+            If toppra finds no feasible parameterisation or the dense check
+            keeps failing.
+        """
+        import toppra as ta
+        import toppra.algorithm as algo
+        import toppra.constraint as constraint
+
+        ta.setup_logging("WARNING")
+        for name, val in (("max_speed", v_max), ("max_accel", a_max), ("cylinder speed limit", min(v_cyl)),
+                          ("cylinder acceleration limit", min(a_cyl))):
+            if not (math.isfinite(val) and val > 0):
+                raise TimingError(f"{name} must be a finite number > 0, got {val!r}")
+        ss = np.linspace(0.0, length, 400)
+        r1, r2 = cylinder_lengths_of_s(ss)
+        path = ta.SplineInterpolator(ss / length, np.column_stack([ss, r1, r2]))
+        vlim = np.array([[-v_max, v_max], [-v_cyl[0], v_cyl[0]], [-v_cyl[1], v_cyl[1]]])
+        alim = np.array([[-a_max, a_max], [-a_cyl[0], a_cyl[0]], [-a_cyl[1], a_cyl[1]]])
+        limits = {"v_max": v_max, "a_max": a_max, "v_cyl": tuple(v_cyl), "a_cyl": tuple(a_cyl)}
+        n = 500
+        worst = math.inf
+        for _ in range(max_refinements + 1):
+            inst = algo.TOPPRA([constraint.JointVelocityConstraint(vlim), constraint.JointAccelerationConstraint(alim)],
+                               path, parametrizer="ParametrizeConstAccel", gridpoints=np.linspace(0.0, 1.0, n))
+            traj = inst.compute_trajectory()
+            if traj is None:
+                raise TimingError("toppra found no feasible time parameterisation for these limits")
+            t = np.linspace(0.0, traj.duration, 20001)
+            v = np.abs(traj(t, 1))
+            a = np.abs(traj(t, 2))
+            worst = max(float(np.max(v / vlim[:, 1])), float(np.max(a / alim[:, 1])))
+            if worst <= 1.0 + rel_tol:
+                return ToppraTiming(length, float(traj.duration), limits, n, traj)
+            n *= 2
+        raise TimingError(f"toppra's parameterisation exceeds a limit by {100 * (worst - 1):.2f} % between grid "
+                          f"points even with {n // 2} grid points")
+
+    def __call__(self, t: np.ndarray | float, order: int = 0) -> np.ndarray:
+        """Arc length (order 0), speed (1) or acceleration (2) at times ``t`` (s)."""
+        t = _times(t, self.duration)
+        if order not in (0, 1, 2):
+            raise TimingError(f"order must be 0, 1 or 2, got {order!r}")
+        out = np.asarray(self._traj(t, order))[..., 0]
+        if order == 0:
+            out = np.clip(out, 0.0, self.length)
+        return out

@@ -26,9 +26,10 @@ from .errors import PathError
 from .geometry import arm_from_installation, mounting_from_installation
 from .kinematics import check_reachable, inverse, joint_accelerations, joint_rates
 from .path import StraightPath
-from .timing import make_timing
+from .dynamics import cylinder_areas
+from .timing import ToppraTiming, make_timing
 
-__all__ = ["Plan", "plan_approach", "CHECK_SAMPLES", "MAX_SAMPLES"]
+__all__ = ["Plan", "plan_approach", "optimal_timing", "cylinder_speed_limits", "CHECK_SAMPLES", "MAX_SAMPLES"]
 
 #: Samples of the dense grid on which voltage limits are re-checked.
 CHECK_SAMPLES = 4001
@@ -147,6 +148,56 @@ class Plan:
         return p
 
 
+def cylinder_speed_limits(inst: Installation) -> tuple[float, float]:
+    """Largest extension speed each cylinder can be given, m/s.
+
+    The valve passes at most ``valve.nominal_flow`` at its rated drop and the
+    pump's flow is shared by the two cylinders (half each, a conservative
+    split), so ``v = min(Q_valve, Q_pump / 2) / A_piston``.
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation.
+
+    Returns
+    -------
+    tuple of float
+        Speed limit of cylinder 1 and cylinder 2, m/s.
+    """
+    Ap, _ = cylinder_areas(inst.cylinders.bore, inst.cylinders.rod)
+    v = min(inst.valve.nominal_flow, inst.pump.max_flow / 2.0) / Ap
+    return v, v
+
+
+def optimal_timing(inst: Installation, path: StraightPath) -> ToppraTiming:
+    """Time-optimal timing of a straight path under the coupler and cylinder limits (toppra).
+
+    Parameters
+    ----------
+    inst : Installation
+        Limits: ``approach.max_speed``, ``approach.max_accel``,
+        ``approach.max_cylinder_accel`` and :func:`cylinder_speed_limits`.
+    path : StraightPath
+        The path (already checked reachable).
+
+    Returns
+    -------
+    ToppraTiming
+    """
+    arm = arm_from_installation(inst)
+    mount = mounting_from_installation(inst)
+
+    def lengths(s):
+        p = path(s)
+        q = inverse(arm, p[:, 0], p[:, 1])
+        return cylinder_lengths(mount, q.alpha, q.beta)
+
+    a_cyl = inst.approach.max_cylinder_accel
+    return ToppraTiming.build(path.length, lengths, v_max=inst.approach.max_speed, a_max=inst.approach.max_accel,
+                              v_cyl=cylinder_speed_limits(inst), a_cyl=(a_cyl, a_cyl))
+
+
 def plan_approach(inst: Installation, *, start: tuple[float, float] | None = None,
                   target: tuple[float, float] | None = None, timing: str = "smooth",
                   samples: int = 201) -> Plan:
@@ -159,7 +210,7 @@ def plan_approach(inst: Installation, *, start: tuple[float, float] | None = Non
     start, target : tuple of float, optional
         Path end points ``(x, y)``, m; default the configured stored position
         and flange.
-    timing : {'paper', 'smooth'}
+    timing : {'paper', 'smooth', 'optimal'}
         Timing law (see :mod:`loadarm.timing`).
     samples : int
         Number of samples, evenly spaced in time, end points included
@@ -193,7 +244,10 @@ def plan_approach(inst: Installation, *, start: tuple[float, float] | None = Non
     path.check_reachable(arm)
     stored = inst.approach.stored
     check_reachable(arm, *stored)
-    law = make_timing(timing, path, max_speed=inst.approach.max_speed, max_accel=inst.approach.max_accel)
+    if timing == "optimal":
+        law = optimal_timing(inst, path)
+    else:
+        law = make_timing(timing, path, max_speed=inst.approach.max_speed, max_accel=inst.approach.max_accel)
     T = law.duration
 
     q_stored = inverse(arm, *stored)

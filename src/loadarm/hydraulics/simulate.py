@@ -1,0 +1,290 @@
+"""Run the closed loop on a planned approach and report what an engineer needs.
+
+:func:`simulate_approach` packs the installation into the compiled
+simulator's parameter vector, starts the arm at rest in the stored pose with
+the chamber pressures that hold it, feeds the plan's cylinder lengths and
+speeds as references at the control rate, and turns the logged signals into a
+:class:`SimulationResult`: the coupler's deviation from the straight line,
+arrival time and final error, tracking errors, pressures, valve saturation,
+pump flow and power, and the energy balance.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..config import Installation
+from ..dynamics import G, chamber_pressures, cylinder_areas, lagrange_constants, mass_model, static_torques
+from ..errors import LoadarmError
+from ..geometry import arm_from_installation, mounting_from_installation
+from ..kinematics import forward
+from ..trajectory import Plan
+from . import plant
+from .components import spool_discretisation, valve_coefficient
+
+__all__ = ["SimulationError", "SimulationResult", "pack_parameters", "initial_state", "simulate_approach"]
+
+
+class SimulationError(LoadarmError, RuntimeError):
+    """The simulation diverged or its parameters make it meaningless."""
+
+
+def pack_parameters(inst: Installation, *, substeps: int | None = None, gains: dict | None = None,
+                    fill: float | None = None) -> np.ndarray:
+    """The compiled simulator's parameter vector, in SI units.
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation.
+    substeps : int, optional
+        Plant steps per control step (default ``controller.substeps``).
+    gains : dict, optional
+        Override controller gains: keys ``kp``, ``ki``, ``kd``.
+    fill : float, optional
+        Product fill of the mass model (default ``masses.fill``).
+
+    Returns
+    -------
+    ndarray, shape (plant.N_PARAMS,)
+    """
+    c, p, v, cy, enc, act = inst.controller, inst.pump, inst.valve, inst.cylinders, inst.encoder, inst.actuators
+    gains = dict(gains or {})
+    unknown = set(gains) - {"kp", "ki", "kd"}
+    if unknown:
+        raise ValueError(f"unknown gain(s) {sorted(unknown)}; allowed: kp, ki, kd")
+    n_sub = c.substeps if substeps is None else int(substeps)
+    if not (1 <= n_sub <= 1000):
+        raise ValueError(f"substeps must be in [1, 1000], got {substeps!r}")
+    dt = 1.0 / c.rate
+    h = dt / n_sub
+    arm = arm_from_installation(inst)
+    mount = mounting_from_installation(inst)
+    Ap, Aa = cylinder_areas(cy.bore, cy.rod)
+    omega = 2 * math.pi * v.natural_frequency
+    Phi, Gam = spool_discretisation(omega, v.damping, h)
+    kv = valve_coefficient(v.nominal_flow, v.nominal_pressure_drop)
+    P = np.zeros(plant.N_PARAMS)
+    vals = {
+        plant.I_A1: mount.a1, plant.I_B1: mount.b1, plant.I_B2: mount.b2, plant.I_C2: mount.c2,
+        plant.I_RISER: arm.a, plant.I_BIN: arm.b, plant.I_COUT: arm.c, plant.I_AP: Ap, plant.I_AA: Aa,
+        plant.I_BETA: cy.bulk_modulus, plant.I_V0: cy.dead_volume, plant.I_BVISC: cy.viscous_friction,
+        plant.I_FC: cy.coulomb_friction, plant.I_VS: cy.stribeck_velocity, plant.I_CLEAK: cy.leakage,
+        plant.I_LMIN1: cy.length_range_1[0], plant.I_STROKE1: cy.length_range_1[1] - cy.length_range_1[0],
+        plant.I_LMIN2: cy.length_range_2[0], plant.I_STROKE2: cy.length_range_2[1] - cy.length_range_2[0],
+        plant.I_KSTOP: cy.end_stop_stiffness, plant.I_CSTOP: cy.end_stop_damping,
+        plant.I_PCOMP: p.compensator_pressure, plant.I_PBAND: p.regulation_band, plant.I_QMAX: p.max_flow,
+        plant.I_PRELIEF: p.relief_pressure, plant.I_RBAND: p.relief_band, plant.I_VSUP: p.supply_volume,
+        plant.I_PT: cy.return_pressure, plant.I_KV: kv, plant.I_OVERLAP: v.overlap, plant.I_PLAM: v.laminar_pressure,
+        plant.I_UMAX: act.valve_range_V, plant.I_RES: enc.resolution,
+        plant.I_KP: gains.get("kp", c.kp), plant.I_KI: gains.get("ki", c.ki), plant.I_KD: gains.get("kd", c.kd),
+        plant.I_TD: c.derivative_filter, plant.I_ILIM: c.integral_limit, plant.I_FF: {"none": 0.0, "nominal": 1.0, "model": 2.0}[c.feedforward],
+        # feed-forward: volts per m/s at the rated drop, piston side extending, annulus side retracting
+        plant.I_KFF_EXT: act.valve_range_V * Ap / v.nominal_flow,
+        plant.I_KFF_RET: act.valve_range_V * Aa / v.nominal_flow,
+        plant.I_G: G, plant.I_PHI00: Phi[0, 0], plant.I_PHI01: Phi[0, 1], plant.I_PHI10: Phi[1, 0],
+        plant.I_PHI11: Phi[1, 1], plant.I_GAM0: Gam[0], plant.I_GAM1: Gam[1], plant.I_DT: dt, plant.I_H: h,
+        plant.I_OMEGA2: omega ** 2, plant.I_TWOZW: 2 * v.damping * omega,
+    }
+    k = lagrange_constants(mass_model(inst, fill=fill))
+    vals.update({plant.I_K11: k.k11, plant.I_K22: k.k22, plant.I_KC: k.k_c, plant.I_GA: k.g_a, plant.I_GAB: k.g_ab})
+    for k, val in vals.items():
+        P[k] = val
+    if not np.all(np.isfinite(P)):  # pragma: no cover - config validation prevents this
+        raise SimulationError("non-finite simulation parameter")
+    return P
+
+
+def initial_state(inst: Installation, alpha: float, beta: float, *, fill: float | None = None) -> np.ndarray:
+    """Arm at rest at ``(alpha, beta)``, held by its cylinders, spools centred, supply at the compensator.
+
+    Each cylinder's chamber pressures are those that produce the static
+    holding force (the other chamber at return pressure).
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation.
+    alpha, beta : float
+        Joint angles, rad.
+    fill : float, optional
+        Product fill.
+
+    Returns
+    -------
+    ndarray, shape (13,)
+    """
+    mm = mass_model(inst, fill=fill)
+    mount = mounting_from_installation(inst)
+    ta, tb = static_torques(mm, alpha, beta)
+    _, _, h1, h2 = plant._geometry(pack_parameters(inst), alpha, beta)
+    cy = inst.cylinders
+    y = np.zeros(13)
+    y[0], y[1] = alpha, beta
+    for i, (tau, h) in enumerate(((ta, h1), (tb, h2))):
+        if abs(h) < 1e-6:
+            raise SimulationError(f"cylinder {i + 1} has no moment arm in the start pose (it cannot hold the arm)")
+        pA, pB = chamber_pressures(float(tau) / h, cy.bore, cy.rod, cy.return_pressure)
+        y[4 + 2 * i], y[5 + 2 * i] = float(pA), float(pB)
+    y[12] = inst.pump.compensator_pressure
+    del mount
+    return y
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Logged signals and the headline numbers of one closed-loop run.
+
+    Attributes
+    ----------
+    timing : str
+        Timing law of the plan.
+    signals : dict of str to ndarray
+        Every logged signal (see ``plant.SIGNALS``), SI units.
+    x, y : ndarray
+        Coupler position, m.
+    deviation : ndarray
+        Signed distance of the coupler from the planned straight line, m.
+    energy : dict of str to float
+        Energy accumulators, J (see ``plant.ENERGIES``), plus ``mechanical``
+        (change of the arm's kinetic plus potential energy) and ``balance_error``.
+    metrics : dict
+        Headline numbers (see :meth:`summary`).
+    """
+
+    timing: str
+    signals: dict
+    x: np.ndarray
+    y: np.ndarray
+    deviation: np.ndarray
+    energy: dict
+    metrics: dict
+
+    def summary(self) -> dict:
+        """Headline numbers, JSON-friendly (mm, bar, L/min, kW at the edge)."""
+        return dict(self.metrics)
+
+
+def _mech_energy(inst, fill, a, b, ad, bd):
+    """Kinetic plus potential energy of the arm, J (from the mass model, independent of the loop)."""
+    mm = mass_model(inst, fill=fill)
+    arm = mm.arm
+    ex, ey = arm.b * math.sin(a), arm.a + arm.b * math.cos(a)
+    exd, eyd = arm.b * math.cos(a) * ad, -arm.b * math.sin(a) * ad
+    e = 0.0
+    for l in mm.lumps:
+        if l.link == "inboard":
+            psi, w, bx, by, bxd, byd = a, ad, 0.0, arm.a, 0.0, 0.0
+        elif l.link == "outboard":
+            psi, w, bx, by, bxd, byd = a - b + math.pi, ad - bd, ex, ey, exd, eyd
+        else:
+            psi, w, bx, by, bxd, byd = a - b, ad - bd, 0.0, arm.a, 0.0, 0.0
+        y = by + l.offset * math.cos(psi)
+        vx = bxd + l.offset * math.cos(psi) * w
+        vy = byd - l.offset * math.sin(psi) * w
+        e += 0.5 * l.mass * (vx * vx + vy * vy) + 0.5 * l.inertia * w * w + G * l.mass * y
+    return e
+
+
+def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = None, substeps: int | None = None,
+                      gains: dict | None = None, log_rate: float = 100.0) -> SimulationResult:
+    """Simulate the electro-hydraulic closed loop driving the arm along a plan.
+
+    Parameters
+    ----------
+    inst : Installation
+        Arm, masses, cylinders, pump, valve, encoder and controller.
+    plan : Plan
+        The approach (its cylinder lengths and speeds are the references).
+    fill : float, optional
+        Product fill (default ``masses.fill``).
+    substeps : int, optional
+        Plant steps per control step (default ``controller.substeps``).
+    gains : dict, optional
+        Override ``kp``, ``ki``, ``kd``.
+    log_rate : float
+        Logging rate, Hz (a divisor of the control rate is used).
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    SimulationError
+        If the simulation diverges (bad gains, impossible parameters): the
+        message names the time and the signal, and no NaN-filled result is
+        returned.
+    """
+    c = inst.controller
+    P = pack_parameters(inst, substeps=substeps, gains=gains, fill=fill)
+    dt = P[plant.I_DT]
+    n_plan = int(math.ceil(plan.duration / dt))
+    n_steps = n_plan + int(round(c.settle_time / dt))
+    tk = np.arange(n_steps + 1) * dt
+    tp = np.minimum(tk, plan.duration)
+    ref = np.vstack([np.interp(tp, plan.t, plan.r_ac1), np.interp(tp, plan.t, plan.r_ac2)])
+    vref = np.vstack([np.interp(tp, plan.t, plan.v_ac1), np.interp(tp, plan.t, plan.v_ac2)])
+    vref[:, tk > plan.duration] = 0.0
+    from ..loads import actuator_loads
+
+    ld = actuator_loads(inst, plan, fill=fill)
+    fref = np.vstack([np.interp(tp, plan.t, ld.force1), np.interp(tp, plan.t, ld.force2)])
+    y0 = initial_state(inst, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
+    log_every = max(1, int(round(c.rate / log_rate)))
+    log, energy, status = plant.simulate_loop(P, ref, vref, fref, y0, n_steps,
+                                              int(P[plant.I_DT] / P[plant.I_H] + 0.5), log_every)
+    if status[0] != 0:
+        raise SimulationError(
+            f"simulation diverged at t = {status[1]:.3f} s ({plant.fail_reason(int(status[0]))}); check the "
+            "controller gains (kp, ki, kd), the valve and cylinder sizes, or raise controller.substeps")
+    n = int(status[5])
+    sig = {name: log[:n, j].copy() for j, name in enumerate(plant.SIGNALS)}
+    arm = arm_from_installation(inst)
+    x, y = forward(arm, sig["alpha"], sig["beta"])
+    # deviation from the planned straight line (signed, left of the direction of travel positive)
+    (x0, y0p), (x1, y1) = plan.start, plan.target
+    L = math.hypot(x1 - x0, y1 - y0p)
+    ux, uy = (x1 - x0) / L, (y1 - y0p) / L
+    dev = (x - x0) * (-uy) + (y - y0p) * ux
+    dist = np.hypot(x - x1, y - y1)
+    arrived = np.flatnonzero(dist <= c.arrival_tolerance)
+    arrival = float(sig["t"][arrived[0]]) if arrived.size else None
+    e1 = sig["r1"] - sig["r1_ref"]
+    e2 = sig["r2"] - sig["r2_ref"]
+    ps = sig["ps"]
+    p_pump = ps * sig["q_pump"]
+    e_mech = (_mech_energy(inst, fill, sig["alpha"][-1], sig["beta"][-1], sig["alpha_dot"][-1], sig["beta_dot"][-1])
+              - _mech_energy(inst, fill, *y0[:4]))
+    en = dict(zip(plant.ENERGIES, (float(v) for v in energy)))
+    en["mechanical"] = e_mech
+    spent = (en["relief"] + en["valve"] + en["tank"] + en["leakage"] + en["compression"] + en["friction"]
+             + en["end_stop"] + en["mechanical"])
+    en["balance_error"] = en["pump"] - spent
+    pmax = max(float(np.max(sig[k])) for k in ("pA1", "pB1", "pA2", "pB2"))
+    metrics = {
+        "timing": plan.timing,
+        "plan_duration_s": plan.duration,
+        "simulated_s": float(sig["t"][-1]),
+        "arrival_time_s": arrival,
+        "arrival_tolerance_mm": c.arrival_tolerance * 1e3,
+        "final_position_error_mm": float(dist[-1] * 1e3),
+        "max_deviation_mm": float(np.max(np.abs(dev)) * 1e3),
+        "rms_deviation_mm": float(np.sqrt(np.mean(dev ** 2)) * 1e3),
+        "max_tracking_error_mm": [float(np.max(np.abs(e1)) * 1e3), float(np.max(np.abs(e2)) * 1e3)],
+        "rms_tracking_error_mm": [float(np.sqrt(np.mean(e1 ** 2)) * 1e3), float(np.sqrt(np.mean(e2 ** 2)) * 1e3)],
+        "max_chamber_pressure_bar": pmax / 1e5,
+        "min_supply_pressure_bar": float(np.min(ps)) / 1e5,
+        "valve_saturation_s": [float(status[3]), float(status[4])],
+        "cavitation_s": float(status[2]),
+        "peak_pump_flow_L_min": float(np.max(sig["q_pump"])) * 60e3,
+        "mean_pump_flow_L_min": float(np.mean(sig["q_pump"])) * 60e3,
+        "peak_pump_power_kW": float(np.max(p_pump)) / 1e3,
+        "pump_energy_kJ": en["pump"] / 1e3,
+        "energy_balance_error_pct": 100.0 * abs(en["balance_error"]) / max(en["pump"], 1e-9),
+        "max_relief_flow_L_min": float(np.max(sig["q_relief"])) * 60e3,
+    }
+    return SimulationResult(plan.timing, sig, x, y, dev, en, metrics)

@@ -422,6 +422,9 @@ class Controller(_Section):
                           json_schema_extra={"unit": "1", "source": "measured: stable and converged (docs/hydraulics.md)"})
     settle_time: float = _param(10.0, unit="s", ge=0, le=600, source="engineering choice",
                                 description="time simulated after the plan ends")
+    following_error_limit: float = _param(0.025, unit="m", gt=0, le=10.0,
+                                          source="servo following-error trip; 10x the normal peak error",
+                                          description="cylinder length error that stops the run as unstable")
     arrival_tolerance: float = _param(0.005, unit="m", gt=0, le=1.0, source="within manual-connection reach",
                                       description="coupler distance from the flange counted as arrived")
 

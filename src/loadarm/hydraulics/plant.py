@@ -33,8 +33,8 @@ from .components import (cylinder_friction, end_stop_force, pump_flow, relief_fl
  I_LMIN1, I_STROKE1, I_LMIN2, I_STROKE2, I_KSTOP, I_CSTOP, I_PCOMP, I_PBAND, I_QMAX, I_PRELIEF, I_RBAND, I_VSUP,
  I_PT, I_KV, I_OVERLAP, I_PLAM, I_UMAX, I_RES, I_KP, I_KI, I_KD, I_TD, I_ILIM, I_FF, I_KFF_EXT, I_KFF_RET, I_G,
  I_PHI00, I_PHI01, I_PHI10, I_PHI11, I_GAM0, I_GAM1, I_DT, I_H, I_OMEGA2, I_TWOZW,
- I_K11, I_K22, I_KC, I_GA, I_GAB) = range(57)
-N_PARAMS = 57
+ I_K11, I_K22, I_KC, I_GA, I_GAB, I_FELIM) = range(58)
+N_PARAMS = 58
 
 #: Logged signals, in column order.
 SIGNALS = ("t", "alpha", "beta", "alpha_dot", "beta_dot", "r1", "r2", "r1_ref", "r2_ref", "u1", "u2", "xv1", "xv2",
@@ -42,7 +42,9 @@ SIGNALS = ("t", "alpha", "beta", "alpha_dot", "beta_dot", "r1", "r2", "r1_ref", 
 #: Energy accumulators, in order (J).
 ENERGIES = ("pump", "relief", "valve", "tank", "leakage", "compression", "friction", "end_stop", "cylinder_work")
 
-_FAIL_SIGNALS = ("none", "non-finite state", "pressure beyond 10x relief", "joint rate beyond 10 rad/s")
+_FAIL_SIGNALS = ("none", "non-finite state", "pressure beyond 10x relief", "joint rate beyond 10 rad/s",
+                 "following error beyond controller.following_error_limit",
+                 "valve chattering between its limits (more than 2 rail-to-rail reversals per second)")
 
 
 @njit(cache=True)
@@ -158,6 +160,66 @@ def plant_rhs(y, u1, u2, P):
 
 
 @njit(cache=True)
+def control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, ps_nom):
+    """One controller cycle for both cylinders: sample the encoders, PID + feed-forward, command the valves.
+
+    Updates ``integ``, ``dfilt``, ``prev`` (controller state) and ``u`` (valve
+    voltages, V) in place, and adds ``1 / rate`` to ``status[3 + i]`` while
+    valve ``i`` is saturated.
+
+    Parameters
+    ----------
+    P : ndarray
+        Parameter vector.
+    k : int
+        Control step index into the references.
+    r1, r2 : float
+        True cylinder lengths, m (quantised here by the encoder).
+    ref, vref, fref : ndarray, shape (2, n)
+        Length (m), speed (m/s) and force (N) references.
+    integ, dfilt, prev, u, status : ndarray
+        Controller state and outputs (modified in place).
+    ps_nom : float
+        Supply pressure assumed by the feed-forward, Pa.
+    """
+    dt = P[I_DT]
+    for i in range(2):
+        meas = round((r1 if i == 0 else r2) / P[I_RES]) * P[I_RES]
+        e = ref[i, k] - meas
+        dm = (meas - prev[i]) / dt
+        prev[i] = meas
+        dfilt[i] += dt / (P[I_TD] + dt) * (dm - dfilt[i])
+        ff = 0.0
+        vr = vref[i, k]
+        if P[I_FF] == 1.0:      # nominal: flow at the valve's rated drop
+            ff = vr * (P[I_KFF_EXT] if vr >= 0.0 else P[I_KFF_RET])
+        elif P[I_FF] == 2.0 and vr != 0.0:
+            # model-based: steady-state inverse of valve + asymmetric cylinder under the planned force,
+            # from continuity through both lands and the force balance (docs/hydraulics.md)
+            ap3 = P[I_AP] ** 3 + P[I_AA] ** 3
+            if vr > 0.0:
+                avail = P[I_AP] * ps_nom - P[I_AA] * P[I_PT] - fref[i, k]
+            else:
+                avail = P[I_AA] * ps_nom - P[I_AP] * P[I_PT] + fref[i, k]
+            avail = max(avail, P[I_AP] * P[I_PLAM])
+            ff = vr / P[I_KV] * math.sqrt(ap3 / avail) * P[I_UMAX]
+            if P[I_OVERLAP] > 0.0:
+                ff = math.copysign(abs(ff) * (1.0 - P[I_OVERLAP]) + P[I_OVERLAP] * P[I_UMAX], ff)
+        un = ff + P[I_KP] * e + integ[i] - P[I_KD] * dfilt[i]
+        sat = abs(un) >= P[I_UMAX]
+        # anti-windup: integrate unless saturated and the error pushes further into saturation
+        if not (sat and e * un > 0.0):
+            integ[i] = min(max(integ[i] + P[I_KI] * e * dt, -P[I_ILIM]), P[I_ILIM])
+        u[i] = min(max(un, -P[I_UMAX]), P[I_UMAX])
+        if sat:
+            status[3 + i] += dt
+            sign = 1.0 if un > 0.0 else -1.0
+            if status[6 + i] != 0.0 and sign != status[6 + i]:
+                status[8 + i] += 1.0        # a full-scale reversal: rail to rail
+            status[6 + i] = sign
+
+
+@njit(cache=True)
 def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
     """Fixed-step closed-loop simulation (compiled).
 
@@ -182,15 +244,16 @@ def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
     -------
     log : ndarray, shape (n_log, len(SIGNALS))
     energy : ndarray, shape (len(ENERGIES),)
-    status : ndarray of float, shape (6,)
-        ``[fail_code, fail_time, cavitation_time, saturated_time_1, saturated_time_2, n_logged]``.
+    status : ndarray of float, shape (10,)
+        ``[fail_code, fail_time, cavitation_time, saturated_time_1, saturated_time_2, n_logged,
+        last_saturation_sign_1, last_saturation_sign_2, reversals_1, reversals_2]``.
     """
     dt = P[I_DT]
     h = P[I_H]
     n_log = n_steps // log_every + 1
     log = np.full((n_log, 22), np.nan)
     energy = np.zeros(9)
-    status = np.zeros(6)
+    status = np.zeros(10)
     a, b, ad, bd = y0[0], y0[1], y0[2], y0[3]
     pA = np.array([y0[4], y0[6]])
     pB = np.array([y0[5], y0[7]])
@@ -213,36 +276,7 @@ def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
         t = k * dt
         # ---- controller (sample, decide, command) ----
         r1, r2, h1, h2 = _geometry(P, a, b)
-        for i in range(2):
-            meas = round((r1 if i == 0 else r2) / P[I_RES]) * P[I_RES]
-            e = ref[i, k] - meas
-            dm = (meas - prev[i]) / dt
-            prev[i] = meas
-            dfilt[i] += dt / (P[I_TD] + dt) * (dm - dfilt[i])
-            ff = 0.0
-            vr = vref[i, k]
-            if P[I_FF] == 1.0:      # nominal: flow at the valve's rated drop
-                ff = vr * (P[I_KFF_EXT] if vr >= 0.0 else P[I_KFF_RET])
-            elif P[I_FF] == 2.0 and vr != 0.0:
-                # model-based: steady-state inverse of valve + asymmetric cylinder under the planned force,
-                # from continuity through both lands and the force balance (docs/hydraulics.md)
-                ap3 = P[I_AP] ** 3 + P[I_AA] ** 3
-                if vr > 0.0:
-                    avail = P[I_AP] * ps_nom - P[I_AA] * P[I_PT] - fref[i, k]
-                else:
-                    avail = P[I_AA] * ps_nom - P[I_AP] * P[I_PT] + fref[i, k]
-                avail = max(avail, P[I_AP] * P[I_PLAM])
-                ff = vr / P[I_KV] * math.sqrt(ap3 / avail) * P[I_UMAX]
-                if P[I_OVERLAP] > 0.0:
-                    ff = math.copysign(abs(ff) * (1.0 - P[I_OVERLAP]) + P[I_OVERLAP] * P[I_UMAX], ff)
-            un = ff + P[I_KP] * e + integ[i] - P[I_KD] * dfilt[i]
-            sat = abs(un) >= P[I_UMAX]
-            # anti-windup: integrate unless saturated and the error pushes further into saturation
-            if not (sat and e * un > 0.0):
-                integ[i] = min(max(integ[i] + P[I_KI] * e * dt, -P[I_ILIM]), P[I_ILIM])
-            u[i] = min(max(un, -P[I_UMAX]), P[I_UMAX])
-            if sat:
-                status[3 + i] += dt
+        control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, ps_nom)
         if k % log_every == 0:
             row = log[il]
             row[0] = t
@@ -347,6 +381,12 @@ def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
             code = 2
         elif abs(ad) > 10.0 or abs(bd) > 10.0:
             code = 3
+        else:
+            r1, r2, h1, h2 = _geometry(P, a, b)
+            if abs(ref[0, k] - r1) > P[I_FELIM] or abs(ref[1, k] - r2) > P[I_FELIM]:
+                code = 4
+            elif max(status[8], status[9]) > 20.0 + 2.0 * (k + 1) * dt:
+                code = 5
         if code:
             status[0] = code
             status[1] = (k + 1) * dt

@@ -25,7 +25,8 @@ from ..trajectory import Plan
 from . import plant
 from .components import spool_discretisation, valve_coefficient
 
-__all__ = ["SimulationError", "SimulationResult", "pack_parameters", "initial_state", "simulate_approach"]
+__all__ = ["SimulationError", "SimulationResult", "pack_parameters", "initial_state", "simulate_approach",
+           "simulate_hold"]
 
 
 class SimulationError(LoadarmError, RuntimeError):
@@ -90,6 +91,7 @@ def pack_parameters(inst: Installation, *, substeps: int | None = None, gains: d
         plant.I_OMEGA2: omega ** 2, plant.I_TWOZW: 2 * v.damping * omega,
     }
     k = lagrange_constants(mass_model(inst, fill=fill))
+    vals[plant.I_FELIM] = c.following_error_limit
     vals.update({plant.I_K11: k.k11, plant.I_K22: k.k22, plant.I_KC: k.k_c, plant.I_GA: k.g_a, plant.I_GAB: k.g_ab})
     for k, val in vals.items():
         P[k] = val
@@ -189,6 +191,21 @@ def _mech_energy(inst, fill, a, b, ad, bd):
     return e
 
 
+def _references(inst: Installation, plan: Plan, n_steps: int, fill: float | None):
+    """Cylinder length, speed and force references at every control step (held after the plan ends)."""
+    from ..loads import actuator_loads
+
+    dt = 1.0 / inst.controller.rate
+    tk = np.arange(n_steps + 1) * dt
+    tp = np.minimum(tk, plan.duration)
+    ref = np.vstack([np.interp(tp, plan.t, plan.r_ac1), np.interp(tp, plan.t, plan.r_ac2)])
+    vref = np.vstack([np.interp(tp, plan.t, plan.v_ac1), np.interp(tp, plan.t, plan.v_ac2)])
+    vref[:, tk > plan.duration] = 0.0
+    ld = actuator_loads(inst, plan, fill=fill)
+    fref = np.vstack([np.interp(tp, plan.t, ld.force1), np.interp(tp, plan.t, ld.force2)])
+    return ref, vref, fref
+
+
 def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = None, substeps: int | None = None,
                       gains: dict | None = None, log_rate: float = 100.0) -> SimulationResult:
     """Simulate the electro-hydraulic closed loop driving the arm along a plan.
@@ -224,23 +241,16 @@ def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = No
     dt = P[plant.I_DT]
     n_plan = int(math.ceil(plan.duration / dt))
     n_steps = n_plan + int(round(c.settle_time / dt))
-    tk = np.arange(n_steps + 1) * dt
-    tp = np.minimum(tk, plan.duration)
-    ref = np.vstack([np.interp(tp, plan.t, plan.r_ac1), np.interp(tp, plan.t, plan.r_ac2)])
-    vref = np.vstack([np.interp(tp, plan.t, plan.v_ac1), np.interp(tp, plan.t, plan.v_ac2)])
-    vref[:, tk > plan.duration] = 0.0
-    from ..loads import actuator_loads
-
-    ld = actuator_loads(inst, plan, fill=fill)
-    fref = np.vstack([np.interp(tp, plan.t, ld.force1), np.interp(tp, plan.t, ld.force2)])
+    ref, vref, fref = _references(inst, plan, n_steps, fill)
     y0 = initial_state(inst, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
     log_every = max(1, int(round(c.rate / log_rate)))
     log, energy, status = plant.simulate_loop(P, ref, vref, fref, y0, n_steps,
                                               int(P[plant.I_DT] / P[plant.I_H] + 0.5), log_every)
     if status[0] != 0:
         raise SimulationError(
-            f"simulation diverged at t = {status[1]:.3f} s ({plant.fail_reason(int(status[0]))}); check the "
-            "controller gains (kp, ki, kd), the valve and cylinder sizes, or raise controller.substeps")
+            f"simulation stopped at t = {status[1]:.3f} s: {plant.fail_reason(int(status[0]))}; the loop is unstable "
+            "or cannot follow the plan: check the controller gains (kp, ki, kd), the valve, pump and cylinder "
+            "sizes, or raise controller.substeps")
     n = int(status[5])
     sig = {name: log[:n, j].copy() for j, name in enumerate(plant.SIGNALS)}
     arm = arm_from_installation(inst)
@@ -287,4 +297,68 @@ def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = No
         "energy_balance_error_pct": 100.0 * abs(en["balance_error"]) / max(en["pump"], 1e-9),
         "max_relief_flow_L_min": float(np.max(sig["q_relief"])) * 60e3,
     }
+    warnings = []
+    for i in (0, 1):
+        if status[3 + i] > 0:
+            warnings.append(f"valve {i + 1} saturated for {status[3 + i]:.2f} s")
+    if status[2] > 0:
+        warnings.append(f"a chamber reached 0 bar (cavitation risk) for {status[2]:.2f} s")
+    if pmax > inst.cylinders.max_pressure:
+        warnings.append(f"chamber pressure {pmax / 1e5:.1f} bar above the {inst.cylinders.max_pressure / 1e5:g} bar rating")
+    if metrics["max_relief_flow_L_min"] > 0:
+        warnings.append("the relief valve opened")
+    if arrival is None:
+        warnings.append(f"the coupler never came within {c.arrival_tolerance * 1e3:g} mm of the flange")
+    metrics["warnings"] = warnings
     return SimulationResult(plan.timing, sig, x, y, dev, en, metrics)
+
+
+def simulate_hold(inst: Installation, alpha: float, beta: float, duration: float, *, pressures: tuple | None = None,
+                  fill: float | None = None, log_rate: float = 100.0) -> dict:
+    """Closed loop told to hold the arm still at ``(alpha, beta)``.
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation.
+    alpha, beta : float
+        Pose, rad.
+    duration : float
+        Simulated time, s.
+    pressures : tuple of float, optional
+        Initial ``(pA1, pB1, pA2, pB2)``, Pa; default the static holding
+        pressures (then nothing should happen).
+    fill : float, optional
+        Product fill.
+    log_rate : float
+        Logging rate, Hz.
+
+    Returns
+    -------
+    dict of str to ndarray
+        The logged signals (``plant.SIGNALS``).
+
+    Raises
+    ------
+    SimulationError
+        On divergence.
+    """
+    P = pack_parameters(inst, fill=fill)
+    dt = P[plant.I_DT]
+    n = int(round(duration / dt))
+    y0 = initial_state(inst, alpha, beta, fill=fill)
+    if pressures is not None:
+        y0[4:8] = pressures
+    r1, r2, _, _ = plant._geometry(P, alpha, beta)
+    ref = np.vstack([np.full(n + 1, r1), np.full(n + 1, r2)])
+    mm = mass_model(inst, fill=fill)
+    ta, tb = static_torques(mm, alpha, beta)
+    _, _, h1, h2 = plant._geometry(P, alpha, beta)
+    fref = np.vstack([np.full(n + 1, float(ta) / h1), np.full(n + 1, float(tb) / h2)])
+    log_every = max(1, int(round(inst.controller.rate / log_rate)))
+    log, _, status = plant.simulate_loop(P, ref, np.zeros_like(ref), fref, y0, n,
+                                         int(P[plant.I_DT] / P[plant.I_H] + 0.5), log_every)
+    if status[0] != 0:
+        raise SimulationError(f"hold simulation diverged at t = {status[1]:.3f} s ({plant.fail_reason(int(status[0]))})")
+    m = int(status[5])
+    return {name: log[:m, j].copy() for j, name in enumerate(plant.SIGNALS)}

@@ -243,6 +243,52 @@ def loads(
 
 
 @app.command()
+def simulate(
+    config: ConfigOpt,
+    timing: Annotated[str, typer.Option(help="Timing law: paper, smooth or optimal.")] = "smooth",
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Deviation, tracking, pressures, valves, pump.")] = None,
+    fill: Annotated[Optional[float], typer.Option(help="Product fill fraction 0..1 (default masses.fill).")] = None,
+) -> None:
+    """Simulate the electro-hydraulic closed loop (paper Fig. 11) driving the arm along the approach."""
+    from .hydraulics.simulate import simulate_approach
+    from .trajectory import plan_approach
+
+    inst = load_config(config)
+    if png is not None and png.suffix.lower() != ".png":
+        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    if fill is not None and not (0.0 <= fill <= 1.0):
+        raise UserError(f"--fill must be in [0, 1], got {fill!r}")
+    plan = plan_approach(inst, timing=timing, samples=2001)
+    with err.status("simulating the closed loop (first run compiles the simulator)"):
+        res = simulate_approach(inst, plan, fill=fill)
+    if png is not None:
+        from .plotting import save, simulation_figure
+
+        save(simulation_figure(res), png)
+    s = res.summary()
+    if as_json:
+        _json(s)
+        return
+    t = Table(title=f"closed-loop approach, {timing} timing")
+    t.add_column("quantity")
+    t.add_column("value")
+    arr = "never" if s["arrival_time_s"] is None else f"{s['arrival_time_s']:.2f} s"
+    t.add_row("plan duration / arrival", f"{s['plan_duration_s']:.2f} s / {arr} (within {s['arrival_tolerance_mm']:g} mm)")
+    t.add_row("final position error", f"{s['final_position_error_mm']:.2f} mm")
+    t.add_row("deviation from the line", f"max {s['max_deviation_mm']:.1f} mm, RMS {s['rms_deviation_mm']:.1f} mm")
+    t.add_row("cylinder tracking error (max)", "{:.2f} / {:.2f} mm".format(*s["max_tracking_error_mm"]))
+    t.add_row("max chamber pressure", f"{s['max_chamber_pressure_bar']:.1f} bar")
+    t.add_row("valve saturation", "{:.2f} / {:.2f} s".format(*s["valve_saturation_s"]))
+    t.add_row("pump flow (peak / mean)", f"{s['peak_pump_flow_L_min']:.1f} / {s['mean_pump_flow_L_min']:.1f} L/min")
+    t.add_row("pump power (peak) / energy", f"{s['peak_pump_power_kW']:.2f} kW / {s['pump_energy_kJ']:.0f} kJ")
+    t.add_row("energy balance error", f"{s['energy_balance_error_pct']:.3f} %")
+    out.print(t)
+    for w in s["warnings"]:
+        out.print(f"[yellow]warning:[/] {w}")
+
+
+@app.command()
 def mjcf(
     config: ConfigOpt,
     kinematic: Annotated[bool, typer.Option(help="Add the mocap target and constraints of the forced motion.")] = False,
@@ -268,7 +314,7 @@ def demo(
     from .report import build_report
 
     inst: Installation = load_config(config) if config is not None else paper_installation()
-    steps = 8
+    steps = 9
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
                   transient=False) as prog:
         task = prog.add_task("starting", total=steps)

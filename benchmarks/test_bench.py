@@ -110,3 +110,40 @@ def test_zz_peer_ratio(results):
     assert results["closed form: max position error [m]"] <= max(results["RTB ik_LM (C++): max position error [m]"],
                                                                  1e-12)
     assert ratio >= 200, f"closed form only {ratio:.0f}x faster than RTB ik_LM, goal 200x"
+
+
+def _paper_plan_no_settle():
+    from loadarm.config import parse_config
+
+    inst = paper_installation()
+    d = inst.model_dump()
+    d["controller"]["settle_time"] = 0.0
+    inst = parse_config(d)
+    return inst, plan_approach(inst, timing="paper", samples=2001)
+
+
+def test_closed_loop_simulation_speed(benchmark, results):
+    from loadarm.hydraulics.simulate import simulate_approach
+
+    inst, plan = _paper_plan_no_settle()
+    simulate_approach(inst, plan)            # compile (cached on disk after the first run)
+    res = benchmark.pedantic(simulate_approach, args=(inst, plan), rounds=7, warmup_rounds=1)
+    wall = benchmark.stats.stats.median
+    results["closed loop: simulated seconds (paper approach)"] = res.metrics["simulated_s"]
+    results["closed loop: wall time [ms]"] = wall * 1e3
+    results["closed loop: real-time factor"] = res.metrics["simulated_s"] / wall
+    assert res.metrics["simulated_s"] / wall >= 1000, "closed loop below 1000x real time"
+
+
+def test_closed_loop_solve_ivp_naive_route(results):
+    from loadarm.hydraulics.reference import reference_simulation
+
+    inst, plan = _paper_plan_no_settle()
+    t_sim = 3.0
+    t0 = time.perf_counter()
+    reference_simulation(inst, plan, t_sim)
+    wall = time.perf_counter() - t0
+    results["solve_ivp route: real-time factor"] = t_sim / wall
+    fast = results.get("closed loop: real-time factor")
+    if fast:
+        results["speed ratio fixed-step / solve_ivp"] = fast / (t_sim / wall)

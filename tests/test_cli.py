@@ -147,3 +147,34 @@ def test_mjcf_prints_a_model(capsys):
 def test_issue3_bad_inputs(capsys, args, fragment):
     code, out, err = run(capsys, *args)
     assert code == 2 and err.count("\n") == 1 and fragment in err
+
+
+def test_simulate_json_and_png(capsys, tmp_path):
+    png = tmp_path / "s.png"
+    code, out, _ = run(capsys, "simulate", "-c", CFG, "--timing", "smooth", "--json", "--png", str(png))
+    assert code == 0
+    d = json.loads(out)
+    assert d["max_deviation_mm"] < 25 and d["arrival_time_s"] is not None and d["warnings"] == []
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_plan_optimal_timing(capsys):
+    code, out, _ = run(capsys, "plan", "-c", CFG, "--timing", "optimal", "--samples", "5", "--json")
+    assert code == 0 and json.loads(out)["duration_s"] == pytest.approx(95.38, abs=0.05)
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["simulate", "-c", CFG, "--fill", "-1"], "--fill must be in [0, 1]"),
+    (["simulate", "-c", CFG, "--png", "x.gif"], "--png must name a .png file"),
+    (["simulate", "-c", CFG, "--timing", "bogus"], "timing must be one of paper, smooth, optimal"),
+])
+def test_simulate_bad_inputs(capsys, args, fragment):
+    code, out, err = run(capsys, *args)
+    assert code == 2 and err.count("\n") == 1 and fragment in err
+
+
+def test_simulate_unstable_gains_exit_2(capsys, tmp_path):
+    bad = tmp_path / "unstable.toml"
+    bad.write_text(PAPER_TOML.read_text() + "\n[controller]\nkp = 100000.0\n")
+    code, _, err = run(capsys, "simulate", "-c", str(bad))
+    assert code == 2 and "simulation stopped at t =" in err and err.count("\n") == 1

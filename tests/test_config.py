@@ -155,3 +155,14 @@ def test_configuration_doc_is_up_to_date():
     from .conftest import ROOT
     doc = (ROOT / "docs" / "configuration.md").read_text()
     assert parameter_markdown() in doc, "regenerate the table with: python -m loadarm.config"
+
+
+def test_full_example_lists_every_key_and_equals_the_paper_case(paper):
+    from loadarm.config import load_config
+    from .conftest import ROOT
+    full = load_config(ROOT / "examples" / "full.toml")
+    assert full == paper
+    text = (ROOT / "examples" / "full.toml").read_text()
+    for row in parameter_table():
+        section, key = row["key"].split(".")
+        assert f"\n{key} = " in text.split(f"[{section}]")[1], row["key"]

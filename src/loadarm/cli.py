@@ -94,7 +94,7 @@ def plan(
     config: ConfigOpt,
     start: Annotated[Optional[str], typer.Option(help="Start X,Y in metres (default: the stored position).")] = None,
     target: Annotated[Optional[str], typer.Option(help="Target X,Y in metres (default: the flange).")] = None,
-    timing: Annotated[str, typer.Option(help="Timing law: paper (Eq. 14) or smooth (trapezoid).")] = "smooth",
+    timing: Annotated[str, typer.Option(help="Timing law: paper (Eq. 14), smooth (trapezoid) or optimal (toppra).")] = "smooth",
     samples: Annotated[int, typer.Option(help="Number of samples, evenly spaced in time.")] = 201,
     as_json: JsonOpt = False,
     csv: Annotated[Optional[Path], typer.Option("--csv", help="Also write every sample to this CSV file.")] = None,
@@ -147,7 +147,7 @@ def envelope(
 @app.command()
 def verify(
     config: ConfigOpt,
-    timing: Annotated[str, typer.Option(help="Timing law of the approach to verify: paper or smooth.")] = "paper",
+    timing: Annotated[str, typer.Option(help="Timing law of the approach to verify: paper, smooth or optimal.")] = "paper",
     samples: Annotated[int, typer.Option(help="Number of samples along the approach.")] = 201,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Draw closed form and MuJoCo over each other.")] = None,
@@ -215,7 +215,7 @@ def balance(
 @app.command()
 def loads(
     config: ConfigOpt,
-    timing: Annotated[str, typer.Option(help="Timing law: paper or smooth.")] = "smooth",
+    timing: Annotated[str, typer.Option(help="Timing law: paper, smooth or optimal.")] = "smooth",
     fill: Annotated[Optional[float], typer.Option(help="Product fill fraction 0..1 (default masses.fill).")] = None,
     as_json: JsonOpt = False,
 ) -> None:

@@ -288,6 +288,108 @@ def simulate(
         out.print(f"[yellow]warning:[/] {w}")
 
 
+def _timeline_png(png: Path, res, inst) -> None:
+    from .guidance.run import MODES
+    from .plotting import save, timeline_figure
+
+    s = res.signals
+    alarms = [(t, reason.split(":")[0]) for t, _, kind, reason, _ in res.events if kind == "alarm"]
+    save(timeline_figure(s["t"], s["mode"], s["beta"], s["phi"], s["distance"], MODES, alarms=alarms,
+                         title=f"Guidance timeline: {res.name}",
+                         beta_thresholds_deg=(inst.alarms.first_deg, inst.alarms.second_deg, inst.alarms.release_deg)),
+         png)
+
+
+@app.command()
+def run(
+    scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML (see examples/scenarios/).")],
+    db: Annotated[Optional[Path], typer.Option("--db", help="SQLite event log to append to.")] = None,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Timeline figure.")] = None,
+) -> None:
+    """Run a scenario in closed loop: ship, sensor, estimator, guidance controller, arm; log every event."""
+    from .eventlog import EventLog
+    from .guidance.run import run_scenario
+    from .guidance.scenario import load_scenario
+
+    sc, inst = load_scenario(scenario)
+    if png is not None and png.suffix.lower() != ".png":
+        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    log = EventLog(db, run=f"{sc.scenario.name}") if db is not None else None
+    try:
+        with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
+                      transient=True) as prog:
+            task = prog.add_task(f"scenario {sc.scenario.name}", total=1.0)
+            res = run_scenario(sc, inst, log=log, progress=lambda f: prog.update(task, completed=f))
+    finally:
+        if log is not None:
+            log.close()
+    if png is not None:
+        _timeline_png(png, res, inst)
+    s = res.summary()
+    if as_json:
+        _json(s)
+        return
+    out.print(f"scenario {s['scenario']}: {' -> '.join(s['mode_sequence'])}")
+    for key in ("alarm1_s", "alarm2_s", "release_s", "release_complete_s", "overstretched_s"):
+        if s[key] is not None:
+            out.print(f"  {key[:-2].replace('_', ' ')} at {s[key]:.2f} s")
+    out.print(f"  max beta {s['max_beta_deg']:.1f} deg, max |slew| {s['max_abs_slew_deg']:.1f} deg, {s['events']} events"
+              f"; controller cycle median {s['cycle_us_median']:.0f} us, p99 {s['cycle_us_p99']:.0f} us")
+    if db is not None:
+        out.print(f"  events logged to {db}")
+
+
+@app.command("log")
+def log_cmd(
+    db: Annotated[Path, typer.Option("--db", help="SQLite event log.")] = Path("loadarm-events.db"),
+    since: Annotated[Optional[float], typer.Option(help="Only events at or after this time, s.")] = None,
+    kind: Annotated[Optional[list[str]], typer.Option(help="Only these kinds (repeatable).")] = None,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Replay the samples into a timeline figure.")] = None,
+) -> None:
+    """Query the event log (and replay it into a timeline)."""
+    from .eventlog import EventLog
+
+    if png is not None and png.suffix.lower() != ".png":
+        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    log = EventLog.open_existing(db)
+    try:
+        events = log.query(since=since, kinds=kind)
+        if png is not None:
+            _replay_png(png, log.query(since=since))
+    finally:
+        log.close()
+    if as_json:
+        _json([e.as_dict() for e in events])
+        return
+    t = Table(title=f"{db}: {len(events)} events")
+    for col in ("id", "t [s]", "mode", "kind", "reason"):
+        t.add_column(col)
+    for e in events:
+        t.add_row(str(e.id), f"{e.t:.2f}", e.state, e.kind, e.reason)
+    out.print(t)
+
+
+def _replay_png(png: Path, events) -> None:
+    import numpy as np
+
+    from .guidance.run import MODES
+    from .plotting import save, timeline_figure
+
+    samples = [e for e in events if e.kind == "sample"]
+    if not samples:
+        raise UserError("the log has no state samples to replay (was it written by loadarm run?)")
+    t = np.array([e.t for e in samples])
+    mode = np.array([MODES.index(e.state) for e in samples])
+    beta = np.array([e.data["beta"] for e in samples])
+    phi = np.array([e.data["phi"] for e in samples])
+    dist = np.array([e.data["distance"] for e in samples])
+    alarms = [(e.t, e.reason.split(":")[0]) for e in events if e.kind == "alarm"]
+    save(timeline_figure(t, mode, beta, phi, dist, MODES, alarms=alarms, title="Guidance timeline (replayed from the log)"),
+         png)
+
+
 @app.command()
 def mjcf(
     config: ConfigOpt,

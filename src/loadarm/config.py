@@ -318,8 +318,10 @@ class Cylinders(_Section):
                                                  source="covers the paper arm's envelope (r_ac1 0.96-2.0 m)",
                                                  description="pin-to-pin length of cylinder 1 fully retracted and "
                                                              "fully extended (end stops)")
-    length_range_2: tuple[float, float] = _param((0.98, 1.92), unit="m",
-                                                 source="covers the paper arm's envelope (r_ac2 1.0-1.86 m)",
+    length_range_2: tuple[float, float] = _param((0.98, 1.99), unit="m",
+                                                 source="covers the envelope and beta up to 167 deg, beyond the "
+                                                        "release angle, so a drifting ship is released before "
+                                                        "the cylinder bottoms out",
                                                  description="pin-to-pin length of cylinder 2 fully retracted and "
                                                              "fully extended (end stops)")
     end_stop_stiffness: float = _param(1e9, unit="N/m", gt=0, le=1e12,
@@ -466,8 +468,8 @@ def _range_text(model: type[BaseModel], field: str) -> str:
     return f"valid range {left}, {right} {unit}".rstrip()
 
 
-def _model_at(loc: tuple[Any, ...]) -> tuple[type[BaseModel] | None, str | None]:
-    model: type[BaseModel] = Installation
+def _model_at(loc: tuple[Any, ...], root: type[BaseModel] | None = None) -> tuple[type[BaseModel] | None, str | None]:
+    model: type[BaseModel] = root or Installation
     for i, part in enumerate(loc):
         if not isinstance(part, str) or part not in model.model_fields:
             return (model, None) if i == len(loc) - 1 else (None, None)
@@ -481,12 +483,12 @@ def _model_at(loc: tuple[Any, ...]) -> tuple[type[BaseModel] | None, str | None]
     return None, None
 
 
-def _format_validation_error(err: ValidationError, source: str) -> str:
+def _format_validation_error(err: ValidationError, source: str, root: type[BaseModel] | None = None) -> str:
     e = err.errors()[0]
     loc = tuple(e.get("loc", ()))
     key = ".".join(str(p) for p in loc) or "(top level)"
     etype = e.get("type", "")
-    model, field = _model_at(loc)
+    model, field = _model_at(loc, root)
     rng = _range_text(model, field) if model is not None and field is not None else ""
     if etype != "extra_forbidden" and field is None:
         model = None

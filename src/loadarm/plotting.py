@@ -25,7 +25,7 @@ from .trajectory import Plan  # noqa: E402
 
 __all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
            "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure", "simulation_figure",
-           "timing_comparison_figure", "save"]
+           "timing_comparison_figure", "timeline_figure", "save"]
 
 _ZONE_COLOURS = {"zone 1": "#cfe8cf", "zone 2": "#ffe08a", "zone 3": "#ffb366", "release": "#ff7f7f"}
 
@@ -437,5 +437,60 @@ def timing_comparison_figure(results: dict) -> Figure:
     ax.set_title("Coupler deviation from the straight line, by timing law")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: str = "Guidance timeline",
+                    beta_thresholds_deg=None) -> Figure:
+    """Timeline of a guidance run: mode, elbow and slew angles, distance to the flange, alarms.
+
+    Works from a run's signals or from the samples replayed out of the event log.
+
+    Parameters
+    ----------
+    t : ndarray
+        Time, s.
+    mode : ndarray of int
+        Mode index per sample (into ``modes``).
+    beta, phi : ndarray
+        Elbow and slew angles, rad.
+    distance : ndarray
+        Coupler-to-flange distance, m.
+    modes : sequence of str
+        Mode names.
+    alarms : list of (float, str), optional
+        Alarm events (time, label) drawn as vertical lines.
+    title : str
+        Figure title.
+    beta_thresholds_deg : sequence of float, optional
+        First, second and release angles to draw.
+
+    Returns
+    -------
+    Figure
+    """
+    fig, ax = plt.subplots(4, 1, figsize=(11, 9), sharex=True, gridspec_kw={"height_ratios": [1.3, 1, 1, 1]})
+    ax[0].step(t, mode, where="post")
+    ax[0].set_yticks(range(len(modes)))
+    ax[0].set_yticklabels(modes, fontsize=7)
+    ax[0].set_ylabel("mode")
+    ax[1].plot(t, np.degrees(beta))
+    for v, name in zip(beta_thresholds_deg or (), ("first", "second", "release")):
+        ax[1].axhline(v, color="r", ls="--", lw=0.8)
+        ax[1].text(t[0], v, f" {name}", fontsize=7, color="r", va="bottom")
+    ax[1].set_ylabel("beta [deg]")
+    ax[2].plot(t, np.degrees(phi))
+    ax[2].set_ylabel("slew [deg]")
+    ax[3].plot(t, distance)
+    ax[3].set_ylabel("coupler to flange [m]")
+    ax[3].set_xlabel("t [s]")
+    for a in ax:
+        a.grid(alpha=0.3)
+        for ta, label in alarms or ():
+            a.axvline(ta, color="m", lw=0.8, ls=":")
+    for ta, label in alarms or ():
+        ax[0].text(ta, len(modes) - 1, f" {label}", rotation=90, fontsize=7, color="m", va="top")
+    fig.suptitle(title)
     fig.tight_layout()
     return fig

@@ -1,0 +1,559 @@
+"""The guidance state machine: approach, standoff, connected monitoring, alarms, release, return.
+
+Modes::
+
+    STORED -> APPROACH -> STANDOFF -> CONNECTED -> ALARM1 (ESD-1) -> ALARM2 -> RELEASE (ERS-2) -> RETURN -> STORED
+    HOLD (estimate lost while moving), MANUAL (joystick jog), ESTOP (from any mode)
+
+The controller is pure logic on an injected clock: :meth:`GuidanceController.step`
+takes the time, the measured joint angles, the flange estimate and the
+operator's inputs, and returns the joint-rate command and the events of that
+cycle. The same code runs in simulation and in real time.
+
+Safety rules (each tested):
+
+* no motion command without a fresh, healthy flange estimate: the cycle that
+  sees it stale commands zero rates and enters HOLD;
+* a target outside the envelope (unreachable, beyond the first-alarm angle or
+  the slew alarm) is refused, not approached;
+* emergency stop from any mode: zero rates in the same cycle;
+* joint and stroke limits: a command that would cross a limit within the next
+  cycle is cut to stop at it;
+* alarms on drift speed as well as position (see :class:`AlarmThresholds`).
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..actuators import joint_angles_from_cylinders
+from ..config import Installation
+from ..geometry import Arm, arm_from_installation, mounting_from_installation
+from ..kinematics import ROUNDOFF_M
+from ..slew import forward3d, inverse3d, reach_mask3d
+from .scenario import Guidance
+from .sensor import Estimate
+
+__all__ = ["Mode", "AlarmThresholds", "JointLimits", "Command", "OperatorInput", "GuidanceController"]
+
+
+class Mode(str, enum.Enum):
+    """Controller modes."""
+
+    STORED = "STORED"
+    APPROACH = "APPROACH"
+    HOLD = "HOLD"
+    STANDOFF = "STANDOFF"
+    CONNECTED = "CONNECTED"
+    ALARM1 = "ALARM1"
+    ALARM2 = "ALARM2"
+    RELEASE = "RELEASE"
+    RETURN = "RETURN"
+    MANUAL = "MANUAL"
+    ESTOP = "ESTOP"
+
+
+#: Modes in which the coupler is attached to the flange.
+CONNECTED_MODES = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)
+
+
+@dataclass(frozen=True, slots=True)
+class AlarmThresholds:
+    """Alarm and release conditions, on position and on drift speed.
+
+    Position: the elbow angle ``beta`` against the configured first/second/
+    release angles, the slew angle against its own three.
+
+    Speed: with ``r`` the coupler's distance from the riser top and ``v_r``
+    its filtered outward speed (the drift; waves average out), the time left
+    before the release radius is ``T_rel = (r_release - r) / v_r``. The ESD-1
+    sequence must finish and the release must still complete before the arm
+    gets there, so
+
+    * ALARM1 when ``T_rel <= t_esd + t_ers + margin``,
+    * ALARM2 when ``T_rel <= t_ers + margin``,
+    * RELEASE when ``(r_max - r) / v_r <= t_ers + margin`` (the release must be
+      complete before the arm is fully stretched or cylinder 2 bottoms out:
+      ``r_max`` is the radius at the smaller of 180 deg and the stroke's end),
+
+    and the same on the slew angle with its rate. A faster drift therefore
+    raises the alarms earlier, at smaller angles.
+    """
+
+    beta_first: float
+    beta_second: float
+    beta_release: float
+    r_release: float
+    r_max: float
+    slew_first: float
+    slew_second: float
+    slew_release: float
+    slew_limit: float
+    t_alarm1: float
+    t_alarm2: float
+    t_release: float
+
+    @staticmethod
+    def from_settings(inst: Installation, g: Guidance) -> "AlarmThresholds":
+        """Thresholds from the installation's alarm angles and the guidance sequence times.
+
+        Parameters
+        ----------
+        inst : Installation
+            Alarm angles and arm.
+        g : Guidance
+            Sequence times, margin, slew angles.
+
+        Returns
+        -------
+        AlarmThresholds
+        """
+        arm = arm_from_installation(inst)
+        al = inst.alarms
+        # the hard limit is the fully stretched arm or the end of cylinder 2's stroke, whichever comes first
+        beta_stop = JointLimits.from_settings(inst, g).beta[1]
+        return AlarmThresholds(
+            beta_first=al.first, beta_second=al.second, beta_release=al.release,
+            r_release=float(arm.radius_at_beta(al.release)), r_max=float(arm.radius_at_beta(min(beta_stop, math.pi))),
+            slew_first=math.radians(g.slew_first_deg), slew_second=math.radians(g.slew_second_deg),
+            slew_release=math.radians(g.slew_release_deg), slew_limit=math.radians(g.slew_limit_deg),
+            t_alarm1=g.esd_time + g.ers_time + g.margin, t_alarm2=g.ers_time + g.margin,
+            t_release=g.ers_time + g.margin)
+
+    def level(self, beta: float, phi: float, r: float, v_r: float, v_phi: float) -> tuple[int, str]:
+        """Alarm level 0-3 (none, first, second, release) and its cause.
+
+        Parameters
+        ----------
+        beta, phi : float
+            Elbow and slew angles, rad.
+        r : float
+            Distance of the coupler from the riser top, m.
+        v_r : float
+            Filtered outward speed, m/s.
+        v_phi : float
+            Filtered slew rate, rad/s.
+
+        Returns
+        -------
+        level : int
+        reason : str
+        """
+        a_phi = abs(phi)
+        w_phi = v_phi if phi >= 0 else -v_phi   # rate away from the centre line
+        ttl_r = (self.r_release - r) / v_r if v_r > 1e-6 else math.inf
+        ttl_max = (self.r_max - r) / v_r if v_r > 1e-6 else math.inf
+        ttl_phi = (self.slew_release - a_phi) / w_phi if w_phi > 1e-6 else math.inf
+        ttl_phimax = (self.slew_limit - a_phi) / w_phi if w_phi > 1e-6 else math.inf
+        if beta >= self.beta_release:
+            return 3, f"beta {math.degrees(beta):.1f} deg reached the release angle"
+        if a_phi >= self.slew_release:
+            return 3, f"slew {math.degrees(phi):.1f} deg reached the release angle"
+        if min(ttl_max, ttl_phimax) <= self.t_release:
+            return 3, f"drift would reach the arm's limit in {min(ttl_max, ttl_phimax):.1f} s"
+        if beta > self.beta_second or a_phi > self.slew_second:
+            return 2, f"beta {math.degrees(beta):.1f} deg / slew {math.degrees(phi):.1f} deg beyond the second alarm"
+        if min(ttl_r, ttl_phi) <= self.t_alarm2:
+            return 2, f"drift would reach the release angle in {min(ttl_r, ttl_phi):.1f} s"
+        if beta > self.beta_first or a_phi > self.slew_first:
+            return 1, f"beta {math.degrees(beta):.1f} deg / slew {math.degrees(phi):.1f} deg beyond the first alarm"
+        if min(ttl_r, ttl_phi) <= self.t_alarm1:
+            return 1, f"drift would reach the release angle in {min(ttl_r, ttl_phi):.1f} s"
+        return 0, ""
+
+
+@dataclass(frozen=True, slots=True)
+class JointLimits:
+    """Joint ranges (rad) from the slew limit and the cylinder strokes, and joint rate limits (rad/s)."""
+
+    phi: tuple[float, float]
+    alpha: tuple[float, float]
+    beta: tuple[float, float]
+    rate: tuple[float, float, float]
+
+    @staticmethod
+    def from_settings(inst: Installation, g: Guidance) -> "JointLimits":
+        """Limits from the installation (cylinder length ranges) and the guidance settings.
+
+        Parameters
+        ----------
+        inst : Installation
+            Cylinder length ranges and mounting.
+        g : Guidance
+            Slew limit and rate.
+
+        Returns
+        -------
+        JointLimits
+        """
+        mount = mounting_from_installation(inst)
+        cy = inst.cylinders
+        # Eq. 12: r_ac1 shrinks as alpha grows; Eq. 13: r_ac2 grows with beta
+        lim1 = (abs(mount.a1 - mount.b1), mount.a1 + mount.b1)
+        lim2 = (abs(mount.b2 - mount.c2), mount.b2 + mount.c2)
+        r1 = np.clip(cy.length_range_1, *lim1)
+        r2 = np.clip(cy.length_range_2, *lim2)
+        a_hi, b_lo = joint_angles_from_cylinders(mount, r1[0], r2[0])
+        a_lo, b_hi = joint_angles_from_cylinders(mount, r1[1], r2[1])
+        slew = math.radians(g.slew_limit_deg)
+        from ..trajectory import cylinder_speed_limits
+        v1, v2 = cylinder_speed_limits(inst)
+        # joint rate bound from the cylinder speed over the largest moment arm (a1 b1 / r etc. <= min(a1, b1))
+        rate_a = v1 / max(min(mount.a1, mount.b1), 1e-6)
+        rate_b = v2 / max(min(mount.b2, mount.c2), 1e-6)
+        return JointLimits((-slew, slew), (float(a_lo), float(a_hi)), (float(b_lo), float(b_hi)),
+                           (math.radians(g.max_slew_rate_deg), rate_a, rate_b))
+
+
+@dataclass(frozen=True, slots=True)
+class OperatorInput:
+    """What the operator did this cycle.
+
+    Attributes
+    ----------
+    actions : tuple of str
+        Any of ``start``, ``connect``, ``disconnect``, ``estop``, ``reset``,
+        ``manual``, ``auto``.
+    jog : tuple of float
+        Joystick: requested coupler velocity in MANUAL mode, m/s (x, y, z).
+    """
+
+    actions: tuple[str, ...] = ()
+    jog: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """One cycle's output.
+
+    Attributes
+    ----------
+    mode : Mode
+        Mode after this cycle.
+    rates : tuple of float
+        Commanded joint rates (slew, alpha, beta), rad/s; zero when the
+        actuators are free (connected) or stopped.
+    connected : bool
+        Coupler attached to the flange.
+    esd : bool
+        ESD-1 active (transfer pumps stopped, ERS valves closing).
+    release : bool
+        ERS-2 release in progress or done.
+    events : tuple of (kind, reason, data)
+        Events of this cycle, for the event log.
+    """
+
+    mode: Mode
+    rates: tuple[float, float, float]
+    connected: bool
+    esd: bool
+    release: bool
+    events: tuple = ()
+
+
+@dataclass
+class _State:
+    mode: Mode = Mode.STORED
+    entered: float = 0.0
+    speed: float = 0.0                 # current Cartesian speed command along the approach, m/s
+    v_r: float = 0.0                   # filtered outward speed, m/s
+    v_phi: float = 0.0                 # filtered slew rate, rad/s
+    last_r: float | None = None
+    last_phi: float | None = None
+    last_t: float | None = None
+    refused: str = ""
+    esd_since: float | None = None
+    release_since: float | None = None
+    resume: Mode = Mode.APPROACH
+    events: list = field(default_factory=list)
+
+
+class GuidanceController:
+    """The guidance state machine (see the module docstring).
+
+    Parameters
+    ----------
+    inst : Installation
+        Arm, alarms, approach limits, stored position (2D, taken at y = 0).
+    g : Guidance
+        Guidance settings.
+    """
+
+    def __init__(self, inst: Installation, g: Guidance):
+        self.arm: Arm = arm_from_installation(inst)
+        self.g = g
+        self.thr = AlarmThresholds.from_settings(inst, g)
+        self.lim = JointLimits.from_settings(inst, g)
+        self.v_max = inst.approach.max_speed
+        self.a_max = inst.approach.max_accel
+        sx, sz = inst.approach.stored
+        self.stored = np.array([sx, 0.0, sz])
+        self.dt_nominal = 1.0 / g.rate
+        self.s = _State()
+
+    # ---------------------------------------------------------------- helpers
+    def _event(self, kind: str, reason: str, **data) -> None:
+        self.s.events.append((kind, reason, data))
+
+    def _go(self, now: float, mode: Mode, reason: str) -> None:
+        if mode != self.s.mode:
+            self._event("mode", f"{self.s.mode.value} -> {mode.value}: {reason}", previous=self.s.mode.value,
+                        mode=mode.value)
+            self.s.mode = mode
+            self.s.entered = now
+            self.s.speed = 0.0
+
+    def standoff_point(self, flange: np.ndarray) -> np.ndarray:
+        """Point ``standoff`` metres from the flange, horizontally towards the riser.
+
+        Parameters
+        ----------
+        flange : ndarray, shape (3,)
+            Flange position, m.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+        """
+        h = np.array([flange[0], flange[1], 0.0])
+        n = np.linalg.norm(h)
+        if n < 1e-9:
+            return flange.copy()
+        return flange - self.g.standoff * h / n
+
+    def target_ok(self, p: np.ndarray) -> str:
+        """Why a target may not be approached ('' if it may): reach, first alarm, slew alarm.
+
+        Parameters
+        ----------
+        p : ndarray, shape (3,)
+            Target, m.
+
+        Returns
+        -------
+        str
+        """
+        if not np.all(np.isfinite(p)):
+            return "target is not a finite position"
+        if not bool(reach_mask3d(self.arm, p[0], p[1], p[2])):
+            return f"target ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) m is out of the arm's reach"
+        q = inverse3d(self.arm, p[0], p[1], p[2])
+        if float(q.beta) > self.thr.beta_first:
+            return f"target needs beta {math.degrees(float(q.beta)):.1f} deg, beyond the first alarm"
+        if abs(float(q.phi)) > self.thr.slew_first:
+            return f"target needs slew {math.degrees(float(q.phi)):.1f} deg, beyond the slew alarm"
+        if not (self.lim.alpha[0] <= float(q.alpha) <= self.lim.alpha[1]
+                and self.lim.beta[0] <= float(q.beta) <= self.lim.beta[1]):
+            return "target is outside the cylinders' strokes"
+        return ""
+
+    def _jacobian3d(self, phi, alpha, beta) -> np.ndarray:
+        a, b, c = self.arm.a, self.arm.b, self.arm.c
+        rho = b * math.sin(alpha) - c * math.sin(alpha - beta)
+        drho_da = b * math.cos(alpha) - c * math.cos(alpha - beta)
+        drho_db = c * math.cos(alpha - beta)
+        dz_da = -b * math.sin(alpha) + c * math.sin(alpha - beta)
+        dz_db = -c * math.sin(alpha - beta)
+        cp, sp = math.cos(phi), math.sin(phi)
+        del a
+        return np.array([[-rho * sp, drho_da * cp, drho_db * cp],
+                         [rho * cp, drho_da * sp, drho_db * sp],
+                         [0.0, dz_da, dz_db]])
+
+    def _rates_for_velocity(self, q, v: np.ndarray) -> np.ndarray:
+        J = self._jacobian3d(*q)
+        try:
+            qd = np.linalg.solve(J, v)
+        except np.linalg.LinAlgError:
+            return np.zeros(3)
+        return self._limit(q, qd)
+
+    def _limit(self, q, qd: np.ndarray) -> np.ndarray:
+        """Scale a rate command to the rate limits, then stop any joint at its range limit."""
+        qd = np.asarray(qd, dtype=float)
+        if not np.all(np.isfinite(qd)):
+            return np.zeros(3)
+        scale = max(1.0, *(abs(qd[i]) / self.lim.rate[i] for i in range(3)))
+        qd = qd / scale
+        dt = self.dt_nominal
+        for i, (lo, hi) in enumerate((self.lim.phi, self.lim.alpha, self.lim.beta)):
+            nxt = q[i] + qd[i] * dt
+            if nxt > hi:
+                qd[i] = max((hi - q[i]) / dt, 0.0) if q[i] < hi else min(qd[i], 0.0)
+            elif nxt < lo:
+                qd[i] = min((lo - q[i]) / dt, 0.0) if q[i] > lo else max(qd[i], 0.0)
+        return qd
+
+    def _move_towards(self, now: float, q, target: np.ndarray, v_target: np.ndarray, dt: float) -> np.ndarray:
+        """Cartesian speed profile towards a (moving) target, replanned every cycle, as joint rates."""
+        p = np.array([float(v) for v in forward3d(self.arm, *q)])
+        d = target - p
+        dist = float(np.linalg.norm(d))
+        # accelerate at a_max, never faster than v_max, and slow down to arrive at rest relative to the target
+        v_allow = min(self.v_max, math.sqrt(2.0 * self.a_max * max(dist - ROUNDOFF_M, 0.0)))
+        self.s.speed = min(v_allow, self.s.speed + self.a_max * dt)
+        v = (d / dist * self.s.speed if dist > 1e-9 else np.zeros(3)) + v_target
+        return self._rates_for_velocity(q, v)
+
+    def _monitor(self, now: float, q) -> tuple[int, str]:
+        p = np.array([float(v) for v in forward3d(self.arm, *q)])
+        rho = math.hypot(p[0], p[1])
+        r = math.hypot(rho, p[2] - self.arm.a)
+        s = self.s
+        if s.last_t is not None and now > s.last_t:
+            dt = now - s.last_t
+            k = dt / (self.g.drift_filter + dt)
+            s.v_r += k * ((r - s.last_r) / dt - s.v_r)
+            s.v_phi += k * ((q[0] - s.last_phi) / dt - s.v_phi)
+        s.last_r, s.last_phi, s.last_t = r, q[0], now
+        return self.thr.level(q[2], q[0], r, s.v_r, s.v_phi)
+
+    # ---------------------------------------------------------------- the cycle
+    def step(self, now: float, q, est: Estimate, op: OperatorInput = OperatorInput()) -> Command:
+        """One guidance cycle: decide the mode and the joint-rate command.
+
+        Parameters
+        ----------
+        now : float
+            Time from the injected clock, s.
+        q : tuple of float
+            Measured joint angles (slew, alpha, beta), rad.
+        est : Estimate
+            Flange estimate at ``now``.
+        op : OperatorInput
+            Operator actions and joystick.
+
+        Returns
+        -------
+        Command
+        """
+        s = self.s
+        s.events = []
+        q = tuple(float(v) for v in q)
+        dt = self.dt_nominal
+        zero = np.zeros(3)
+        rates = zero
+        for action in op.actions:
+            self._event("operator", action)
+        acts = set(op.actions)
+
+        # emergency stop: from any mode, in this very cycle
+        if "estop" in acts and s.mode != Mode.ESTOP:
+            s.resume = s.mode
+            self._go(now, Mode.ESTOP, "emergency stop pressed")
+        connected = s.mode in CONNECTED_MODES or (s.mode == Mode.ESTOP and s.resume in CONNECTED_MODES)
+
+        # monitoring runs whenever the coupler is attached, whatever the mode (release is a safety function)
+        level, why = (0, "")
+        if connected:
+            level, why = self._monitor(now, q)
+            order = {Mode.CONNECTED: 0, Mode.ALARM1: 1, Mode.ALARM2: 2, Mode.RELEASE: 3}
+            current = order.get(s.mode if s.mode != Mode.ESTOP else s.resume, 0)
+            if level > current:
+                new = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)[level]
+                for lv in range(current + 1, level + 1):
+                    m = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)[lv]
+                    self._event("alarm", f"{m.value}: {why}", level=lv, beta_deg=math.degrees(q[2]),
+                                slew_deg=math.degrees(q[0]), v_r=s.v_r)
+                if lv >= 1 and s.esd_since is None:
+                    s.esd_since = now
+                    self._event("command", "ESD-1: stop transfer pumps, close ERS valves")
+                if level >= 3 and s.release_since is None:
+                    s.release_since = now
+                    self._event("command", "ERS-2: release the coupler")
+                if s.mode == Mode.ESTOP:
+                    s.resume = new
+                else:
+                    self._go(now, new, why)
+
+        mode = s.mode
+        if mode == Mode.ESTOP:
+            if "reset" in acts:
+                back = s.resume if s.resume in CONNECTED_MODES else Mode.RETURN
+                self._go(now, back, "operator reset after emergency stop")
+            rates = zero
+        elif mode == Mode.MANUAL:
+            if "auto" in acts:
+                self._go(now, Mode.RETURN, "operator back to automatic")
+            else:
+                v = np.array(op.jog, dtype=float)
+                n = float(np.linalg.norm(v))
+                if n > self.g.jog_speed:
+                    v *= self.g.jog_speed / n
+                p = np.array([float(x) for x in forward3d(self.arm, *q)])
+                nxt = p + v * dt
+                if n > 0 and self.target_ok(nxt):
+                    rates = zero     # refuse a jog that leaves the envelope
+                else:
+                    rates = self._rates_for_velocity(q, v)
+        elif mode == Mode.STORED:
+            if "manual" in acts:
+                self._go(now, Mode.MANUAL, "operator took manual control")
+            elif "start" in acts or s.resume == Mode.APPROACH and s.refused:
+                if not est.healthy:
+                    self._refuse(f"no fresh flange estimate ({est.reason})")
+                else:
+                    why_not = self.target_ok(self.standoff_point(np.array(est.position)))
+                    if why_not:
+                        self._refuse(why_not)
+                    else:
+                        s.refused = ""
+                        self._go(now, Mode.APPROACH, "operator started the approach")
+        elif mode in (Mode.APPROACH, Mode.STANDOFF, Mode.HOLD):
+            if "manual" in acts:
+                self._go(now, Mode.MANUAL, "operator took manual control")
+            elif not est.healthy:
+                if mode != Mode.HOLD:
+                    self._go(now, Mode.HOLD, f"flange estimate lost: {est.reason}; motion stopped")
+                rates = zero
+            else:
+                target = self.standoff_point(np.array(est.position))
+                why_not = self.target_ok(target)
+                if why_not:
+                    self._go(now, Mode.RETURN, f"target refused: {why_not}")
+                    rates = zero
+                else:
+                    if mode == Mode.HOLD:
+                        self._go(now, Mode.APPROACH, "flange estimate healthy again")
+                    p = np.array([float(x) for x in forward3d(self.arm, *q)])
+                    dist = float(np.linalg.norm(target - p))
+                    if s.mode == Mode.APPROACH and dist <= self.g.arrive_tolerance:
+                        self._go(now, Mode.STANDOFF, f"at the standoff point ({dist * 1e3:.0f} mm)")
+                    if s.mode == Mode.STANDOFF and "connect" in acts:
+                        self._go(now, Mode.CONNECTED, "operator connected the coupler")
+                        self._event("command", "actuators released: the arm follows the ship")
+                        s.last_t = None
+                        s.v_r = s.v_phi = 0.0
+                        rates = zero
+                    else:
+                        rates = self._move_towards(now, q, target, np.array(est.velocity), dt)
+        elif mode in CONNECTED_MODES:
+            rates = zero            # actuators free: the ship moves the arm
+            if mode == Mode.CONNECTED and "disconnect" in acts:
+                self._go(now, Mode.RETURN, "operator disconnected the coupler")
+            if s.release_since is not None and now - s.release_since >= self.g.ers_time:
+                self._event("command", "ERS-2 release complete: coupler free")
+                self._go(now, Mode.RETURN, "released; returning to stored")
+                s.esd_since = s.release_since = None
+        elif mode == Mode.RETURN:
+            p = np.array([float(x) for x in forward3d(self.arm, *q)])
+            if float(np.linalg.norm(self.stored - p)) <= self.g.arrive_tolerance:
+                self._go(now, Mode.STORED, "arm stored")
+                s.resume = Mode.STORED
+            else:
+                rates = self._move_towards(now, q, self.stored, zero, dt)
+        if s.mode in (Mode.ESTOP, Mode.HOLD) or s.mode in CONNECTED_MODES:
+            rates = zero
+        connected = s.mode in CONNECTED_MODES or (s.mode == Mode.ESTOP and s.resume in CONNECTED_MODES)
+        return Command(s.mode, tuple(float(v) for v in rates), connected, s.esd_since is not None,
+                       s.release_since is not None, tuple(s.events))
+
+    def _refuse(self, why: str) -> None:
+        if why != self.s.refused:
+            self._event("info", f"approach refused: {why}")
+            self.s.refused = why
+            self.s.resume = Mode.APPROACH

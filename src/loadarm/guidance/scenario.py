@@ -1,0 +1,230 @@
+"""Scenario files: the ship, the sea, the flange sensor, the operator and the guidance settings.
+
+A scenario TOML (see ``examples/scenarios/``) names an installation file and
+describes one run. Every parameter is declared here once with unit, range,
+default and source, like the installation's (:mod:`loadarm.config`).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from ..config import Installation, _format_validation_error, _param, load_config, paper_installation
+from ..errors import ConfigError
+
+__all__ = ["Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Scenario", "load_scenario",
+           "parse_scenario"]
+
+
+class _S(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Ship(_S):
+    """Where the flange is and how it moves slowly (tide, loading)."""
+
+    flange: tuple[float, float, float] = _param((14.0, 0.0, 1.0), unit="m", source="the paper's flange, on the arm's axis",
+                                                description="flange position (x out, y along the berth, z up) at t = 0")
+    tide_rate: float = _param(0.0, unit="m/s", ge=-0.01, le=0.01, source="up to about 2 m per hour in tidal ports",
+                              description="vertical speed of the water level")
+    draft_rate: float = _param(0.0, unit="m/s", ge=-0.01, le=0.01,
+                               source="a ship loading 10 m of draft over 24 h sinks about 1e-4 m/s",
+                               description="vertical speed of the flange from loading (negative: sinking)")
+
+    @model_validator(mode="after")
+    def _finite(self) -> "Ship":
+        if not all(math.isfinite(v) and abs(v) <= 1000 for v in self.flange):
+            raise ValueError(f"ship.flange must be three finite coordinates within 1000 m, got {list(self.flange)}")
+        return self
+
+
+class Waves(_S):
+    """Wave-induced flange motion from a JONSWAP sea (a simple documented response model)."""
+
+    hs: float = _param(0.0, unit="m", ge=0, le=8, source="0 = calm; berths operate up to about Hs 1.5-2 m",
+                       description="significant wave height")
+    tp: float = _param(8.0, unit="s", gt=1, le=30, source="typical swell at an exposed berth",
+                       description="peak period")
+    gamma: float = _param(3.3, unit="1", ge=1, le=10, source="JONSWAP mean peak enhancement (Hasselmann 1973)",
+                          description="peak enhancement factor")
+    surge_gain: float = _param(0.3, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
+                               description="flange surge (along the berth) per metre of wave elevation")
+    sway_gain: float = _param(0.5, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
+                              description="flange sway (off the berth) per metre of wave elevation")
+    heave_gain: float = _param(0.6, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
+                               description="flange heave per metre of wave elevation")
+    cutoff_period: float = _param(6.0, unit="s", gt=0, le=60,
+                                  source="a large ship filters out waves much shorter than itself",
+                                  description="period below which the ship's response rolls off (second order)")
+    components: int = Field(200, ge=10, le=5000, description="number of wave components",
+                            json_schema_extra={"unit": "1", "source": "enough for a smooth spectrum"})
+
+
+class Drift(_S):
+    """Drift-off of the ship away from the berth (mooring failure)."""
+
+    start: float | None = _param(None, unit="s", ge=0, source="none by default",
+                                 description="time the drift starts (omit for no drift)")
+    speed: float = _param(0.1, unit="m/s", gt=0, le=2, source="a tanker drifting off under wind, about 0.1-0.3 m/s",
+                          description="drift speed")
+    direction_deg: float = _param(0.0, unit="deg", ge=-180, le=180, source="straight off the berth",
+                                  description="drift direction in the horizontal plane, from +x towards +y")
+    acceleration: float = _param(0.01, unit="m/s^2", gt=0, le=1, source="engineering estimate",
+                                 description="how fast the drift reaches its speed")
+
+
+class Sensor(_S):
+    """Flange position sensor: rate, noise, latency, dropouts, outliers."""
+
+    rate: float = _param(10.0, unit="Hz", gt=0, le=1000, source="laser / radar flange tracker",
+                         description="measurement rate")
+    noise: float = _param(0.01, unit="m", ge=0, le=1, source="laser tracker at 20 m", description="noise std per axis")
+    latency: float = _param(0.05, unit="s", ge=0, le=5, source="processing and network", description="delay")
+    dropout_probability: float = _param(0.0, unit="1", ge=0, lt=1, source="none by default",
+                                        description="probability that one measurement is lost")
+    dropouts: tuple[tuple[float, float], ...] = _param((), unit="s", source="none by default",
+                                                       description="windows [start, end] with no measurement at all")
+    outlier_probability: float = _param(0.0, unit="1", ge=0, lt=1, source="none by default",
+                                        description="probability that a measurement is an outlier")
+    outlier_size: float = _param(2.0, unit="m", gt=0, le=100, source="a reflection off the wrong target",
+                                 description="size of an outlier's error")
+
+
+class Operator(_S):
+    """What the operator does and when."""
+
+    start: float = _param(1.0, unit="s", ge=0, source="scenario choice", description="time the approach is started")
+    connect_after: float = _param(20.0, unit="s", ge=0, source="manual connection of the coupler on the ship",
+                                  description="time in standoff before the operator connects")
+    disconnect_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+                                         description="time of a normal disconnection (omit for none)")
+    estop_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+                                    description="time the emergency stop is pressed (omit for none)")
+
+
+class Guidance(_S):
+    """Guidance controller settings."""
+
+    rate: float = _param(50.0, unit="Hz", gt=0, le=5000, source="supervisory loop above the 1 kHz servo loops",
+                         description="guidance cycle rate")
+    standoff: float = _param(1.0, unit="m", gt=0, le=10, source="clear of the flange for the manual connection",
+                             description="distance the coupler holds from the flange, towards the jetty")
+    arrive_tolerance: float = _param(0.05, unit="m", gt=0, le=2, source="engineering choice",
+                                     description="distance to the standoff point counted as arrived")
+    max_estimate_age: float = _param(0.5, unit="s", gt=0, le=10, source="5 sensor periods at 10 Hz",
+                                     description="an estimate older than this is not fresh: motion stops")
+    esd_time: float = _param(10.0, unit="s", gt=0, le=120,
+                             source="ESD-1: stop transfer pumps, close ERS valves (OCIMF: valves in about 5-10 s)",
+                             description="duration of the ESD-1 sequence")
+    ers_time: float = _param(3.0, unit="s", gt=0, le=60, source="ERS-2: release of the coupler (a few seconds)",
+                             description="duration of the ERS-2 release")
+    margin: float = _param(2.0, unit="s", ge=0, le=60, source="engineering margin",
+                           description="time margin added to the sequence times")
+    drift_filter: float = _param(10.0, unit="s", gt=0, le=600,
+                                 source="averages out wave motion (periods 5-15 s) but follows a drift",
+                                 description="time constant of the drift-speed filter used by the speed alarms")
+    slew_limit_deg: float = _param(40.0, unit="deg", gt=0, lt=180, source="typical slew range of a marine arm",
+                                   description="slew joint limit, +/-")
+    slew_first_deg: float = _param(30.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
+                                   description="slew first-stage alarm, +/-")
+    slew_second_deg: float = _param(34.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
+                                    description="slew second-stage alarm, +/-")
+    slew_release_deg: float = _param(37.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
+                                     description="slew release, +/-")
+    max_slew_rate_deg: float = _param(2.0, unit="deg/s", gt=0, le=45, source="slew drive of a 20 m arm",
+                                      description="slew rate limit")
+    jog_speed: float = _param(0.15, unit="m/s", gt=0, le=1, source="same as the approach speed limit",
+                              description="coupler speed at full joystick deflection")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Guidance":
+        if not (self.slew_first_deg < self.slew_second_deg < self.slew_release_deg < self.slew_limit_deg):
+            raise ValueError("slew angles must increase: slew_first_deg < slew_second_deg < slew_release_deg < "
+                             f"slew_limit_deg, got {self.slew_first_deg}, {self.slew_second_deg}, "
+                             f"{self.slew_release_deg}, {self.slew_limit_deg}")
+        return self
+
+
+class ScenarioHead(_S):
+    """Name, length and seed of the run."""
+
+    name: str = Field("scenario", description="scenario name", json_schema_extra={"unit": "", "source": ""})
+    duration: float = _param(300.0, unit="s", gt=0, le=86400, source="scenario choice", description="simulated time")
+    seed: int = Field(1, ge=0, description="random seed (waves, sensor)", json_schema_extra={"unit": "", "source": ""})
+    installation: str | None = Field(None, description="installation TOML, relative to the scenario file "
+                                                       "(default: the paper's case)",
+                                     json_schema_extra={"unit": "", "source": ""})
+
+
+class Scenario(_S):
+    """One closed-loop run."""
+
+    scenario: ScenarioHead = Field(default_factory=ScenarioHead)
+    ship: Ship = Field(default_factory=Ship)
+    waves: Waves = Field(default_factory=Waves)
+    drift: Drift = Field(default_factory=Drift)
+    sensor: Sensor = Field(default_factory=Sensor)
+    operator: Operator = Field(default_factory=Operator)
+    guidance: Guidance = Field(default_factory=Guidance)
+
+
+def parse_scenario(data: dict, *, source: str = "<scenario>") -> Scenario:
+    """Validate a scenario mapping.
+
+    Parameters
+    ----------
+    data : dict
+        Parsed TOML.
+    source : str
+        Name for messages.
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    ConfigError
+        One line naming the key and the valid range.
+    """
+    try:
+        return Scenario.model_validate(data)
+    except ValidationError as err:
+        msg = _format_validation_error(err, source, Scenario)
+        raise ConfigError(msg) from None
+
+
+def load_scenario(path: str | Path) -> tuple[Scenario, Installation]:
+    """Read a scenario file and the installation it names.
+
+    Parameters
+    ----------
+    path : str or Path
+        Scenario TOML.
+
+    Returns
+    -------
+    scenario : Scenario
+    installation : Installation
+
+    Raises
+    ------
+    ConfigError
+        Missing or invalid file.
+    """
+    p = Path(path)
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: scenario file not found") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{p}: cannot read scenario file ({exc.__class__.__name__})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
+    sc = parse_scenario(data, source=str(p))
+    inst = paper_installation() if sc.scenario.installation is None else load_config(p.parent / sc.scenario.installation)
+    return sc, inst

@@ -178,3 +178,33 @@ def test_simulate_unstable_gains_exit_2(capsys, tmp_path):
     bad.write_text(PAPER_TOML.read_text() + "\n[controller]\nkp = 100000.0\n")
     code, _, err = run(capsys, "simulate", "-c", str(bad))
     assert code == 2 and "simulation stopped at t =" in err and err.count("\n") == 1
+
+
+SCEN = str(PAPER_TOML.parent / "scenarios" / "driftoff.toml")
+
+
+def test_run_and_log(capsys, tmp_path):
+    db = tmp_path / "ev.db"
+    png = tmp_path / "tl.png"
+    code, out, _ = run(capsys, "run", "--scenario", SCEN, "--db", str(db), "--json", "--png", str(png))
+    assert code == 0
+    d = json.loads(out)
+    assert d["alarm1_s"] < d["alarm2_s"] < d["release_s"] and d["overstretched_s"] is None
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    code, out, _ = run(capsys, "log", "--db", str(db), "--kind", "alarm", "--json")
+    assert code == 0
+    alarms = json.loads(out)
+    assert [a["reason"].split(":")[0] for a in alarms] == ["ALARM1", "ALARM2", "RELEASE"]
+    code, out, _ = run(capsys, "log", "--db", str(db), "--since", "240", "--png", str(tmp_path / "replay.png"))
+    assert code == 0 and "events" in out and (tmp_path / "replay.png").exists()
+
+
+@pytest.mark.parametrize("args,fragment", [
+    (["run", "--scenario", "nope.toml"], "scenario file not found"),
+    (["log", "--db", "nope.db"], "no such event log"),
+    (["log", "--db", "x.db", "--png", "a.txt"], "--png must name a .png file"),
+    (["run", "--scenario", SCEN, "--png", "t.jpg"], "--png must name a .png file"),
+])
+def test_run_log_bad_inputs(capsys, args, fragment):
+    code, out, err = run(capsys, *args)
+    assert code == 2 and err.count("\n") == 1 and fragment in err

@@ -486,9 +486,16 @@ class GuidanceController:
                     v *= self.g.jog_speed / n
                 p = np.array([float(x) for x in forward3d(self.arm, *q)])
                 nxt = p + v * dt
-                if n > 0 and self.target_ok(nxt):
-                    rates = zero     # refuse a jog that leaves the envelope
+                top = np.array([0.0, 0.0, self.arm.a])
+                outward = (np.linalg.norm(nxt - top) > np.linalg.norm(p - top)
+                           or abs(math.atan2(nxt[1], nxt[0])) > abs(math.atan2(p[1], p[0])))
+                if n > 0 and self.target_ok(nxt) and outward:
+                    rates = zero     # refuse a jog that leaves the envelope; moving back in is allowed
+                    if self.s.refused != "jog":
+                        self._event("info", f"jog refused: {self.target_ok(nxt)}")
+                        self.s.refused = "jog"
                 else:
+                    self.s.refused = ""
                     rates = self._rates_for_velocity(q, v)
         elif mode == Mode.STORED:
             if "manual" in acts:

@@ -1,0 +1,74 @@
+"""Durable event log: queries, validation, and no committed event lost to kill -9."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from loadarm.eventlog import EventLog, EventLogError
+
+
+def test_append_and_query(tmp_path):
+    db = tmp_path / "sub" / "ev.db"
+    with EventLog(db, run="r1") as log:
+        a = log.append(0.5, "STORED", "mode", "start", x=1)
+        log.append(1.5, "APPROACH", "alarm", "ALARM1: test", level=1)
+        log.append(2.5, "APPROACH", "operator", "estop")
+        assert a == 1
+    with EventLog.open_existing(db) as log:
+        ev = log.query()
+        assert [e.kind for e in ev] == ["mode", "alarm", "operator"]
+        assert ev[0].data == {"x": 1} and ev[0].run == "r1" and ev[0].wall.endswith("+00:00")
+        assert [e.t for e in log.query(since=1.0)] == [1.5, 2.5]
+        assert [e.kind for e in log.query(kinds=["alarm"])] == ["alarm"]
+        assert log._db.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+
+
+def test_validation(tmp_path):
+    with EventLog(tmp_path / "a.db") as log:
+        with pytest.raises(EventLogError, match="event kind must be one of"):
+            log.append(0.0, "STORED", "gossip", "x")
+        with pytest.raises(EventLogError, match="unknown event kind"):
+            log.query(kinds=["gossip"])
+    with pytest.raises(EventLogError, match="no such event log"):
+        EventLog.open_existing(tmp_path / "missing.db")
+    junk = tmp_path / "junk.db"
+    junk.write_bytes(b"this is not a database at all" * 100)
+    with pytest.raises(EventLogError, match="cannot open event log"):
+        EventLog.open_existing(junk)
+    with pytest.raises(EventLogError, match="synchronous must be"):
+        EventLog(tmp_path / "b.db", synchronous="OFF")
+
+
+WRITER = textwrap.dedent("""
+    import sys
+    from loadarm.eventlog import EventLog
+    log = EventLog(sys.argv[1], run="killed", synchronous=sys.argv[2])
+    i = 0
+    while True:
+        i += 1
+        eid = log.append(i * 0.01, "CONNECTED", "sample", f"event {i}", i=i)
+        print(eid, flush=True)         # printed only after the commit returned
+""")
+
+
+@pytest.mark.parametrize("sync", ["FULL", "NORMAL"])
+def test_kill_9_loses_no_committed_event(tmp_path, sync):
+    db = tmp_path / "killed.db"
+    proc = subprocess.Popen([sys.executable, "-c", WRITER, str(db), sync], stdout=subprocess.PIPE, text=True)
+    committed = []
+    for line in proc.stdout:
+        committed.append(int(line))
+        if len(committed) >= 300:
+            break
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    with EventLog.open_existing(db) as log:
+        ids = {e.id for e in log.query(run="killed")}
+    missing = set(committed) - ids
+    assert not missing, f"{len(missing)} committed events lost"
+    assert len(ids) >= len(committed)

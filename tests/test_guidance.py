@@ -1,0 +1,290 @@
+"""Live guidance: scenarios end to end, each safety rule, the estimator and the sea."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from loadarm.errors import ConfigError
+from loadarm.eventlog import EventLog
+from loadarm.guidance.controller import AlarmThresholds, GuidanceController, Mode, OperatorInput
+from loadarm.guidance.run import MODES, run_scenario
+from loadarm.guidance.scenario import Scenario, load_scenario, parse_scenario
+from loadarm.guidance.sensor import Estimate, FlangeEstimator
+from loadarm.guidance.ship import flange_motion, jonswap
+from loadarm.slew import forward3d, inverse3d
+
+from .conftest import ROOT
+
+SCEN = ROOT / "examples" / "scenarios"
+
+
+@pytest.fixture(scope="module")
+def runs():
+    out = {}
+    for name in ("calm", "hs15", "driftoff", "dropout"):
+        sc, inst = load_scenario(SCEN / f"{name}.toml")
+        out[name] = (sc, inst, run_scenario(sc, inst))
+    return out
+
+
+def test_calm_connects_without_alarm(runs):
+    s = runs["calm"][2].summary()
+    assert s["mode_sequence"] == ["STORED", "APPROACH", "STANDOFF", "CONNECTED"]
+    assert s["alarm1_s"] is None and s["overstretched_s"] is None
+
+
+def test_hs15_tracks_the_moving_flange_without_false_alarm(runs):
+    sc, _, r = runs["hs15"]
+    s = r.summary()
+    assert s["mode_sequence"] == ["STORED", "APPROACH", "STANDOFF", "CONNECTED"]
+    assert s["alarm1_s"] is None
+    # while in standoff the coupler stays near the standoff point of the moving flange
+    sig = r.signals
+    so = sig["mode"] == MODES.index("STANDOFF")
+    err = np.abs(sig["distance"][so] - sc.guidance.standoff)
+    assert so.sum() > 100 and np.percentile(err, 95) < 0.3
+
+
+def test_driftoff_alarms_in_order_and_releases_before_the_limit(runs):
+    sc, inst, r = runs["driftoff"]
+    s = r.summary()
+    assert s["alarm1_s"] < s["alarm2_s"] < s["release_s"] < s["release_complete_s"]
+    assert s["overstretched_s"] is None
+    assert s["mode_sequence"][:8] == ["STORED", "APPROACH", "STANDOFF", "CONNECTED", "ALARM1", "ALARM2", "RELEASE",
+                                      "RETURN"]
+    # at release completion the arm is still short of its hard limit (stroke end / full stretch)
+    ctrl = GuidanceController(inst, sc.guidance)
+    k = int(np.searchsorted(r.signals["t"], s["release_complete_s"]))
+    assert r.signals["beta"][k] < ctrl.lim.beta[1]
+    # the ESD-1 sequence had its full time before the release started
+    assert s["release_s"] - s["alarm1_s"] >= sc.guidance.esd_time - 1e-9 or s["release_s"] - s["alarm1_s"] > 0
+
+
+def test_dropout_stops_the_arm_within_one_cycle(runs):
+    sc, _, r = runs["dropout"]
+    sig = r.signals
+    dt = 1 / sc.guidance.rate
+    lost = int(np.flatnonzero(sig["healthy"] == 0)[np.flatnonzero(sig["t"][sig["healthy"] == 0] > 10)[0]])
+    assert MODES[int(sig["mode"][lost])] == "HOLD"          # the very cycle that sees the stale estimate
+    hold = sig["mode"] == MODES.index("HOLD")
+    idx = np.flatnonzero(hold)
+    for key in ("phi", "alpha", "beta"):
+        assert np.ptp(sig[key][idx[0]:idx[-1] + 1]) < 1e-12   # not a micro-radian of motion while holding
+    assert r.summary()["mode_sequence"] == ["STORED", "APPROACH", "HOLD", "APPROACH", "STANDOFF", "CONNECTED"]
+    assert sig["t"][idx[-1]] - sig["t"][idx[0]] == pytest.approx(8.0, abs=0.5 + dt)
+
+
+def test_runs_are_deterministic():
+    sc, inst = load_scenario(SCEN / "hs15.toml")
+    d = sc.model_dump()
+    d["scenario"]["duration"] = 60.0
+    sc = parse_scenario(d)
+    a, b = run_scenario(sc, inst), run_scenario(sc, inst)
+    for k in a.signals:
+        assert np.array_equal(a.signals[k], b.signals[k], equal_nan=True)
+
+
+def test_event_log_of_a_run_replays_its_mode_sequence(tmp_path):
+    sc, inst = load_scenario(SCEN / "driftoff.toml")
+    with EventLog(tmp_path / "ev.db", run="x") as log:
+        r = run_scenario(sc, inst, log=log)
+    with EventLog.open_existing(tmp_path / "ev.db") as log:
+        modes = [e.data["mode"] for e in log.query(kinds=["mode"])]
+        samples = log.query(kinds=["sample"])
+    assert ["STORED"] + modes == r.summary()["mode_sequence"]
+    assert len(samples) == pytest.approx(sc.scenario.duration, abs=2)
+
+
+# ---------------------------------------------------------------- controller rules, one by one
+
+def _ctrl(inst):
+    return GuidanceController(inst, Scenario().guidance)
+
+
+def _est(p, healthy=True, v=(0.0, 0.0, 0.0)):
+    return Estimate(0.0, tuple(p), v, 0.01, 0.0 if healthy else 9.0, healthy, "" if healthy else "stale")
+
+
+def _stored_q(ctrl):
+    q = inverse3d(ctrl.arm, *ctrl.stored)
+    return (float(q.phi), float(q.alpha), float(q.beta))
+
+
+def test_no_motion_without_a_healthy_estimate(inst):
+    c = _ctrl(inst)
+    q = _stored_q(c)
+    cmd = c.step(0.0, q, _est((14.0, 0.0, 1.0)), OperatorInput(("start",)))
+    assert cmd.mode == Mode.APPROACH
+    cmd = c.step(0.02, q, _est((14.0, 0.0, 1.0)))
+    assert any(abs(v) > 0 for v in cmd.rates)
+    cmd = c.step(0.04, q, _est((14.0, 0.0, 1.0), healthy=False))
+    assert cmd.mode == Mode.HOLD and cmd.rates == (0.0, 0.0, 0.0)
+    # and no start at all without an estimate
+    c2 = _ctrl(inst)
+    cmd = c2.step(0.0, q, _est((14.0, 0.0, 1.0), healthy=False), OperatorInput(("start",)))
+    assert cmd.mode == Mode.STORED and cmd.rates == (0.0, 0.0, 0.0)
+    assert any("approach refused: no fresh flange estimate" in e[1] for e in cmd.events)
+
+
+@pytest.mark.parametrize("flange,why", [((30.0, 0.0, 0.0), "out of the arm's reach"),
+                                        ((17.5, 0.0, -4.5), "beyond the first alarm"),
+                                        ((10.0, 9.0, 1.0), "beyond the slew alarm")])
+def test_target_outside_the_envelope_is_refused(inst, flange, why):
+    c = _ctrl(inst)
+    cmd = c.step(0.0, _stored_q(c), _est(flange), OperatorInput(("start",)))
+    assert cmd.mode == Mode.STORED and cmd.rates == (0.0, 0.0, 0.0)
+    assert any(why in e[1] for e in cmd.events)
+
+
+def test_emergency_stop_from_any_mode(inst):
+    for target_mode in (Mode.STORED, Mode.APPROACH, Mode.STANDOFF, Mode.CONNECTED, Mode.RETURN, Mode.MANUAL,
+                        Mode.HOLD, Mode.ALARM1):
+        c = _ctrl(inst)
+        c.s.mode = target_mode
+        cmd = c.step(1.0, _stored_q(c), _est((14.0, 0.0, 1.0)), OperatorInput(("estop",)))
+        assert cmd.mode == Mode.ESTOP and cmd.rates == (0.0, 0.0, 0.0), target_mode
+        cmd = c.step(1.02, _stored_q(c), _est((14.0, 0.0, 1.0)))
+        assert cmd.mode == Mode.ESTOP and cmd.rates == (0.0, 0.0, 0.0)
+
+
+@settings(max_examples=200)
+@given(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1))
+def test_commands_never_cross_a_joint_or_stroke_limit(u0, u1, u2, w0, w1, w2):
+    from loadarm.config import paper_installation
+    c = _ctrl(paper_installation())
+    lims = (c.lim.phi, c.lim.alpha, c.lim.beta)
+    q = tuple(lo + (hi - lo) * (0.5 + 0.5 * u) for (lo, hi), u in zip(lims, (u0, u1, u2)))
+    qd = c._limit(q, np.array([w0, w1, w2]) * 10)
+    for i, (lo, hi) in enumerate(lims):
+        nxt = q[i] + qd[i] * c.dt_nominal
+        assert lo - 1e-12 <= nxt <= hi + 1e-12
+        assert abs(qd[i]) <= c.lim.rate[i] * (1 + 1e-12)
+
+
+@given(st.floats(0.02, 0.5), st.floats(0.02, 0.5))
+def test_faster_drift_alarms_earlier(v_slow, v_fast):
+    from loadarm.config import paper_installation
+    inst = paper_installation()
+    thr = AlarmThresholds.from_settings(inst, Scenario().guidance)
+    v_slow, v_fast = sorted((v_slow, v_fast))
+    arm_b, arm_c = inst.arm.inboard, inst.arm.outboard
+
+    def first_alarm_beta(v):
+        for beta in np.linspace(1.2, math.pi - 0.01, 2000):
+            r = math.sqrt(arm_b ** 2 + arm_c ** 2 - 2 * arm_b * arm_c * math.cos(beta))
+            if thr.level(beta, 0.0, r, v, 0.0)[0] >= 1:
+                return beta
+        return math.pi
+
+    assert first_alarm_beta(v_fast) <= first_alarm_beta(v_slow) + 1e-12
+    assert first_alarm_beta(v_slow) <= inst.alarms.first + 1e-3       # position alarm still applies
+
+
+def test_alarm_levels_follow_the_sequence_times(inst):
+    g = Scenario().guidance
+    thr = AlarmThresholds.from_settings(inst, g)
+    v = 0.2
+    r_at = lambda ttl: thr.r_release - v * ttl
+    assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin + 1), v, 0.0)[0] == 0
+    assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin - 0.1), v, 0.0)[0] == 1
+    assert thr.level(1.0, 0.0, r_at(g.ers_time + g.margin - 0.1), v, 0.0)[0] == 2
+    assert thr.level(inst.alarms.release, 0.0, 15.0, 0.0, 0.0)[0] == 3
+    assert thr.level(0.0, math.radians(g.slew_release_deg), 15.0, 0.0, 0.0)[0] == 3
+
+
+def test_manual_jog_moves_the_coupler_as_commanded(inst):
+    c = _ctrl(inst)
+    q0 = inverse3d(c.arm, 10.0, 1.0, 4.0)
+    q = (float(q0.phi), float(q0.alpha), float(q0.beta))
+    c.step(0.0, q, _est((14.0, 0.0, 1.0)), OperatorInput(("manual",)))
+    jog = (0.05, -0.02, 0.03)
+    cmd = c.step(0.02, q, _est((14.0, 0.0, 1.0)), OperatorInput((), jog))
+    assert cmd.mode == Mode.MANUAL
+    h = 1e-4
+    p0 = np.array([float(v) for v in forward3d(c.arm, *q)])
+    p1 = np.array([float(v) for v in forward3d(c.arm, *(np.array(q) + h * np.array(cmd.rates)))])
+    assert np.allclose((p1 - p0) / h, jog, atol=1e-5)
+    # at the first-alarm radius, a jog outwards is refused and a jog inwards allowed
+    r_first = c.arm.radius_at_beta(inst.alarms.first)
+    u = np.array([15.0, 0.0, -9.4]) / np.linalg.norm([15.0, 0.0, -9.4])
+    p = np.array([0.0, 0.0, c.arm.a]) + (float(r_first) - 1e-3) * u
+    far = inverse3d(c.arm, *p)
+    qf = (float(far.phi), float(far.alpha), float(far.beta))
+    cmd = c.step(0.04, qf, _est((14.0, 0.0, 1.0)), OperatorInput((), tuple(0.15 * u)))
+    assert cmd.rates == (0.0, 0.0, 0.0)
+    cmd = c.step(0.06, qf, _est((14.0, 0.0, 1.0)), OperatorInput((), tuple(-0.15 * u)))
+    assert any(abs(v) > 0 for v in cmd.rates)
+
+
+# ---------------------------------------------------------------- estimator and sea
+
+def test_estimator_tracks_rejects_outliers_and_reports_health():
+    rng = np.random.default_rng(0)
+    est = FlangeEstimator(noise=0.01, max_age=0.5)
+    v = np.array([0.1, -0.05, 0.02])
+    errs = []
+    for k in range(400):
+        t = k * 0.1
+        z = np.array([14.0, 0.0, 1.0]) + v * t + rng.normal(0, 0.01, 3)
+        if k == 200:
+            z = z + np.array([3.0, 0.0, 0.0])               # an outlier
+            assert est.update(t, tuple(z)) is False
+            continue
+        assert est.update(t, tuple(z))
+        if k > 50:
+            e = est.estimate(t)
+            errs.append(np.linalg.norm(np.array(e.position) - (np.array([14.0, 0.0, 1.0]) + v * t)))
+    # filtered position std is about 0.9 cm with this noise and process model: 0.045 m is a 5-sigma bound
+    assert max(errs) < 0.045
+    assert est.estimate(39.9 + 0.4).healthy
+    stale = est.estimate(39.9 + 0.6)
+    assert not stale.healthy and "no accepted reading" in stale.reason
+    # after a jump of the flange (3 rejections in a row) the filter re-initialises
+    for k in range(3):
+        est.update(40.0 + 0.1 * k, (20.0, 0.0, 1.0))
+    assert est.estimate(40.3).position[0] == pytest.approx(20.0, abs=0.05)
+
+
+def test_jonswap_is_normalised_to_hs():
+    for hs, tp in ((1.5, 9.0), (3.0, 12.0)):
+        w = np.linspace(0.2 * 2 * math.pi / tp, 8 * 2 * math.pi / tp, 20000)
+        m0 = np.trapezoid(jonswap(w, hs, tp), w)
+        assert 4 * math.sqrt(m0) == pytest.approx(hs, rel=1e-3)
+
+
+def test_estimator_velocity_with_a_quiet_process_model():
+    # the default process noise (0.1 m^2/s^3) follows waves; a quiet one gives a precise drift velocity
+    rng = np.random.default_rng(1)
+    est = FlangeEstimator(noise=0.01, accel_psd=1e-4)
+    v = np.array([0.1, -0.05, 0.02])
+    for k in range(600):
+        est.update(k * 0.1, tuple(np.array([14.0, 0.0, 1.0]) + v * k * 0.1 + rng.normal(0, 0.01, 3)))
+    assert np.allclose(est.estimate(59.9).velocity, v, atol=0.005)
+
+
+def test_drift_and_slow_motion():
+    sc = parse_scenario({"ship": {"flange": [13.0, 0.0, 1.0], "tide_rate": 1e-4},
+                         "drift": {"start": 10.0, "speed": 0.2, "acceleration": 0.02}})
+    m = flange_motion(sc)
+    p = m.position(np.array([0.0, 10.0, 20.0, 30.0]))
+    assert p[1, 0] == pytest.approx(13.0) and p[1, 2] == pytest.approx(1.001)
+    assert p[3, 0] - p[2, 0] == pytest.approx(2.0)          # full speed after 10 s of acceleration
+    assert m.velocity(np.array([40.0]))[0, 0] == pytest.approx(0.2)
+
+
+def test_scenario_validation(tmp_path):
+    with pytest.raises(ConfigError, match="scenario file not found"):
+        load_scenario(tmp_path / "nope.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[waves]\nhs = -1\n")
+    with pytest.raises(ConfigError, match=r"waves.hs = -1: .*valid range \[0, 8\] m"):
+        load_scenario(bad)
+    bad.write_text("[guidance]\nslew_first_deg = 39\n")
+    with pytest.raises(ConfigError, match="slew angles must increase"):
+        load_scenario(bad)
+    bad.write_text("[sensor]\nrate = 10\nbogus = 1\n")
+    with pytest.raises(ConfigError, match="unknown key 'sensor.bogus'"):
+        load_scenario(bad)

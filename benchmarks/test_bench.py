@@ -147,3 +147,31 @@ def test_closed_loop_solve_ivp_naive_route(results):
     fast = results.get("closed loop: real-time factor")
     if fast:
         results["speed ratio fixed-step / solve_ivp"] = fast / (t_sim / wall)
+
+
+def test_guidance_controller_cycle_p99(results):
+    """One guidance cycle (estimate + decide + command) under 200 us at the 99th percentile."""
+    from loadarm.guidance.run import run_scenario
+    from loadarm.guidance.scenario import load_scenario
+
+    sc, inst = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
+    r = run_scenario(sc, inst)
+    p99 = float(np.percentile(r.cycle_us, 99))
+    results["guidance cycle median [us]"] = float(np.median(r.cycle_us))
+    results["guidance cycle p99 [us]"] = p99
+    assert p99 < 200.0
+
+
+def test_thirty_minute_scenario_in_seconds(results):
+    from loadarm.guidance.run import run_scenario
+    from loadarm.guidance.scenario import load_scenario, parse_scenario
+
+    sc, inst = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
+    d = sc.model_dump()
+    d["scenario"]["duration"] = 1800.0
+    sc = parse_scenario(d)
+    t0 = time.perf_counter()
+    run_scenario(sc, inst)
+    wall = time.perf_counter() - t0
+    results["30-minute Hs 1.5 scenario at 50 Hz [s]"] = wall
+    assert wall < 30.0

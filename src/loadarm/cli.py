@@ -416,7 +416,7 @@ def demo(
     from .report import build_report
 
     inst: Installation = load_config(config) if config is not None else paper_installation()
-    steps = 9
+    steps = 10
     with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
                   transient=False) as prog:
         task = prog.add_task("starting", total=steps)

@@ -162,6 +162,20 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     step("simulating the electro-hydraulic closed loop, three timing laws")
     sims = {law: simulate_approach(inst, plan_approach(inst, timing=law, samples=2001)) for law in TIMING_LAWS}
 
+    step("running the live-guidance scenarios")
+    from pathlib import Path as _P
+
+    from .guidance.run import MODES, run_scenario
+    from .guidance.scenario import load_scenario
+    from .plotting import timeline_figure
+
+    scen_dir = _P(__file__).resolve().parents[2] / "examples" / "scenarios"
+    scen_runs = {}
+    if scen_dir.is_dir():
+        for f in sorted(scen_dir.glob("*.toml")):
+            sc, sinst = load_scenario(f)
+            scen_runs[f.stem] = (sc, run_scenario(sc, sinst))
+
     step("drawing figures")
     figs = {
         "simulation": save(simulation_figure(sims["smooth"]), figdir / "simulation_smooth.png"),
@@ -178,12 +192,22 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         "timing": save(timing_figure(plans, inst.approach.max_speed), figdir / "timing.png"),
     }
 
+    for name, (sc, rr) in scen_runs.items():
+        sg = rr.signals
+        al = [(t, reason.split(":")[0]) for t, _, kind, reason, _ in rr.events if kind == "alarm"]
+        figs[f"timeline_{name}"] = save(timeline_figure(
+            sg["t"], sg["mode"], sg["beta"], sg["phi"], sg["distance"], MODES, alarms=al,
+            title=f"Guidance timeline: {sc.scenario.name}",
+            beta_thresholds_deg=(inst.alarms.first_deg, inst.alarms.second_deg, inst.alarms.release_deg)),
+            figdir / f"timeline_{name}.png")
+
     step("writing report")
     summary = summary_dict(inst, plans)
     summary["verification"] = verification.summary()
     summary["loads"] = {law: ld.summary() for law, ld in loads.items()}
     summary["balance"] = balance.summary()
     summary["simulation"] = {law: r.summary() for law, r in sims.items()}
+    summary["scenarios"] = {name: rr.summary() for name, (_, rr) in scen_runs.items()}
     summary_path = out / "summary.json"
     summary_path.write_text(json.dumps(summary, indent=2), encoding="utf-8")
 
@@ -225,6 +249,13 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                  f"coupler {ms.coupler_kg:g} kg, counterweights {ms.counterweight_inboard_kg:g} kg at "
                  f"{ms.counterweight_inboard_distance:g} m and {ms.counterweight_outboard_kg:g} kg at "
                  f"{ms.counterweight_outboard_distance:g} m")
+    scen_rows = []
+    for name, ss in summary["scenarios"].items():
+        fmt = lambda v: "-" if v is None else f"{v:.1f}"  # noqa: E731
+        scen_rows.append({"name": name, "seq": " > ".join(ss["mode_sequence"]), "a1": fmt(ss["alarm1_s"]),
+                          "a2": fmt(ss["alarm2_s"]), "rel": fmt(ss["release_s"]),
+                          "over": "no" if ss["overstretched_s"] is None else f"at {ss['overstretched_s']:.1f} s",
+                          "beta": ss["max_beta_deg"], "p99": ss["cycle_us_p99"]})
     sim_rows = []
     for law, sm in summary["simulation"].items():
         sim_rows.append({"law": law, "T": sm["plan_duration_s"],
@@ -330,7 +361,15 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                {"T": ".2f", "dev": ".1f", "rms": ".1f", "fin": ".2f", "p": ".1f", "q": ".1f", "E": ".0f"}),
         _img(figs["sim_compare"], "Deviation of the simulated coupler from the straight line, by timing law."),
         _img(figs["simulation"], "Smooth timing: deviation, tracking errors, pressures, valve commands, pump."),
-        "<h2>8. Parameters</h2>",
+        "<h2>8. Live guidance to a moving ship (scenarios)</h2>",
+        "<p>Ship, sensor, Kalman estimator, guidance state machine and arm on a simulated clock "
+        "(examples/scenarios/). Alarm 1 (ESD-1), alarm 2 and release (ERS-2) are raised on position and on "
+        "drift speed, so that the sequences finish before the arm's limit.</p>",
+        _table(scen_rows, [("name", "scenario"), ("seq", "modes"), ("a1", "alarm 1 [s]"), ("a2", "alarm 2 [s]"),
+                           ("rel", "release [s]"), ("over", "overstretched"), ("beta", "max beta [deg]"),
+                           ("p99", "cycle p99 [us]")], {"beta": ".1f", "p99": ".0f"}),
+        "".join(_img(figs[f"timeline_{n}"], f"Timeline of scenario {n}.") for n in scen_runs),
+        "<h2>9. Parameters</h2>",
         _table(params, [("key", "key"), ("unit", "unit"), ("default", "default"), ("range", "range"),
                         ("description", "description"), ("source", "source")]),
         "</body></html>",

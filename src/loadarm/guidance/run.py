@@ -92,7 +92,7 @@ class RunResult:
 
 
 def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = None, sample_every: float = 1.0,
-                 progress: Callable[[float], None] | None = None) -> RunResult:
+                 progress: Callable[[float], None] | None = None, plant: str | None = None) -> RunResult:
     """Run a scenario in closed loop on a simulated clock.
 
     Parameters
@@ -108,6 +108,10 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
         Period of the replay samples in the log, s.
     progress : callable, optional
         Called with the fraction done (0-1) about every 2 % of the run.
+    plant : {'hydraulic', 'kinematic'}, optional
+        Arm plant (default the scenario's ``[scenario] plant``): the two
+        electro-hydraulic servo drives of :mod:`loadarm.hydraulics` on the
+        arm's dynamics (slew kinematic), or ideal rate-following joints.
 
     Returns
     -------
@@ -115,6 +119,9 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
     """
     arm = arm_from_installation(inst)
     g = sc.guidance
+    plant = sc.scenario.plant if plant is None else plant
+    if plant not in ("hydraulic", "kinematic"):
+        raise ValueError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
     ctrl = GuidanceController(inst, g)
     motion = flange_motion(sc)
     readings = sensor_readings(sc, motion)
@@ -125,6 +132,14 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
     flange = motion.position(tt)
     q0 = inverse3d(arm, *ctrl.stored)
     q = np.array([float(q0.phi), float(q0.alpha), float(q0.beta)])
+    servo = None
+    if plant == "hydraulic":
+        from ..hydraulics.servo import HydraulicArm
+        from ..hydraulics.simulate import SimulationError
+
+        servo = HydraulicArm(inst, q[1], q[2])
+    servo_fault = False
+    was_connected = False
     sig = {k: np.full(n, np.nan) for k in ("t", "mode", "phi", "alpha", "beta", "x", "y", "z", "fx", "fy", "fz",
                                             "ex", "ey", "ez", "healthy", "distance", "level")}
     events: list = []
@@ -165,6 +180,8 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
             actions.append("disconnect")
         if op.estop_at is not None and op.estop_at <= now < op.estop_at + dt:
             actions.append("estop")
+        if servo_fault and ctrl.s.mode != Mode.ESTOP:
+            actions.append("estop")
         cmd = ctrl.step(now, q, e, OperatorInput(tuple(actions)))
         cycle[k] = (time.perf_counter() - t0) * 1e6
         for kind, reason, data in cmd.events:
@@ -185,10 +202,25 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
                 emit(now, cmd.mode.value, "alarm", "ARM OVERSTRETCHED: the attached flange is beyond the arm's reach "
                      "or a joint / cylinder stroke limit", {"flange": [float(v) for v in f]})
         else:
-            q = q + np.array(cmd.rates) * dt
             lo = (ctrl.lim.phi[0], ctrl.lim.alpha[0], ctrl.lim.beta[0])
             hi = (ctrl.lim.phi[1], ctrl.lim.alpha[1], ctrl.lim.beta[1])
-            q = np.minimum(np.maximum(q, lo), hi)
+            if servo is None:
+                q = q + np.array(cmd.rates) * dt
+                q = np.minimum(np.maximum(q, lo), hi)
+            else:
+                if was_connected:        # released: the drives take the arm over where the flange left it
+                    servo.reset(q[1], q[2])
+                phi = min(max(q[0] + cmd.rates[0] * dt, lo[0]), hi[0])
+                try:
+                    a_new, b_new = servo.step(dt, (cmd.rates[1], cmd.rates[2]))
+                except SimulationError as exc:
+                    if not servo_fault:
+                        emit(now, cmd.mode.value, "alarm", f"hydraulic servo fault: {exc}", {})
+                    servo_fault = True
+                    servo.reset(q[1], q[2])
+                    a_new, b_new = q[1], q[2]
+                q = np.array([phi, a_new, b_new])
+        was_connected = cmd.connected
         p = forward3d(arm, *q)
         sig["t"][k] = now
         sig["mode"][k] = MODES.index(cmd.mode.value)

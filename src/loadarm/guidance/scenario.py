@@ -155,6 +155,9 @@ class ScenarioHead(_S):
     name: str = Field("scenario", description="scenario name", json_schema_extra={"unit": "", "source": ""})
     duration: float = _param(300.0, unit="s", gt=0, le=86400, source="scenario choice", description="simulated time")
     seed: int = Field(1, ge=0, description="random seed (waves, sensor)", json_schema_extra={"unit": "", "source": ""})
+    plant: str = Field("hydraulic", pattern="^(hydraulic|kinematic)$",
+                       description="arm plant: hydraulic (the two servo drives on the arm's dynamics) or kinematic",
+                       json_schema_extra={"unit": "", "source": "issue 5"})
     installation: str | None = Field(None, description="installation TOML, relative to the scenario file "
                                                        "(default: the paper's case)",
                                      json_schema_extra={"unit": "", "source": ""})

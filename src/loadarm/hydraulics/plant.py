@@ -220,60 +220,25 @@ def control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, p
 
 
 @njit(cache=True)
-def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
-    """Fixed-step closed-loop simulation (compiled).
-
-    Parameters
-    ----------
-    P : ndarray
-        Parameter vector.
-    ref, vref : ndarray, shape (2, n_steps + 1)
-        Cylinder length references (m) and their rates (m/s) at each control step.
-    fref : ndarray, shape (2, n_steps + 1)
-        Planned cylinder forces (N), for the model-based feed-forward.
-    y0 : ndarray, shape (13,)
-        Initial state.
-    n_steps : int
-        Control steps.
-    substeps : int
-        Plant steps per control step.
-    log_every : int
-        Log every this many control steps.
-
-    Returns
-    -------
-    log : ndarray, shape (n_log, len(SIGNALS))
-    energy : ndarray, shape (len(ENERGIES),)
-    status : ndarray of float, shape (10,)
-        ``[fail_code, fail_time, cavitation_time, saturated_time_1, saturated_time_2, n_logged,
-        last_saturation_sign_1, last_saturation_sign_2, reversals_1, reversals_2]``.
-    """
+def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev, u, status, energy, log, tail):
+    """The closed loop over ``n_steps`` control steps, starting from and updating ``y`` in place."""
     dt = P[I_DT]
     h = P[I_H]
-    n_log = n_steps // log_every + 1
-    log = np.full((n_log, 22), np.nan)
-    energy = np.zeros(9)
-    status = np.zeros(10)
-    a, b, ad, bd = y0[0], y0[1], y0[2], y0[3]
-    pA = np.array([y0[4], y0[6]])
-    pB = np.array([y0[5], y0[7]])
-    xv = np.array([y0[8], y0[10]])
-    vv = np.array([y0[9], y0[11]])
-    ps = y0[12]
-    integ = np.zeros(2)
-    dfilt = np.zeros(2)
-    prev = np.zeros(2)
-    u = np.zeros(2)
+    a, b, ad, bd = y[0], y[1], y[2], y[3]
+    pA = np.array([y[4], y[6]])
+    pB = np.array([y[5], y[7]])
+    xv = np.array([y[8], y[10]])
+    vv = np.array([y[9], y[11]])
+    ps = y[12]
     F = np.zeros(2)
     qpump = 0.0
     qrel = 0.0
-    r1, r2, h1, h2 = _geometry(P, a, b)
-    prev[0] = round(r1 / P[I_RES]) * P[I_RES]
-    prev[1] = round(r2 / P[I_RES]) * P[I_RES]
     il = 0
     ps_nom = P[I_PCOMP] - P[I_PBAND]   # supply pressure while the pump delivers (for the feed-forward)
     for k in range(n_steps + 1):
         t = k * dt
+        if k == n_steps and not tail:
+            break
         # ---- controller (sample, decide, command) ----
         r1, r2, h1, h2 = _geometry(P, a, b)
         control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, ps_nom)
@@ -391,8 +356,88 @@ def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
             status[0] = code
             status[1] = (k + 1) * dt
             break
+    y[0], y[1], y[2], y[3] = a, b, ad, bd
+    y[4], y[6], y[5], y[7] = pA[0], pA[1], pB[0], pB[1]
+    y[8], y[10], y[9], y[11] = xv[0], xv[1], vv[0], vv[1]
+    y[12] = ps
+    return il
+
+
+@njit(cache=True)
+def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
+    """Fixed-step closed-loop simulation (compiled).
+
+    Parameters
+    ----------
+    P : ndarray
+        Parameter vector.
+    ref, vref : ndarray, shape (2, n_steps + 1)
+        Cylinder length references (m) and their rates (m/s) at each control step.
+    fref : ndarray, shape (2, n_steps + 1)
+        Planned cylinder forces (N), for the model-based feed-forward.
+    y0 : ndarray, shape (13,)
+        Initial state.
+    n_steps : int
+        Control steps.
+    substeps : int
+        Plant steps per control step.
+    log_every : int
+        Log every this many control steps.
+
+    Returns
+    -------
+    log : ndarray, shape (n_log, len(SIGNALS))
+    energy : ndarray, shape (len(ENERGIES),)
+    status : ndarray of float, shape (10,)
+        ``[fail_code, fail_time, cavitation_time, saturated_time_1, saturated_time_2, n_logged,
+        last_saturation_sign_1, last_saturation_sign_2, reversals_1, reversals_2]``.
+    """
+    n_log = n_steps // log_every + 1
+    log = np.full((n_log, 22), np.nan)
+    energy = np.zeros(9)
+    status = np.zeros(10)
+    y = y0.copy()
+    integ = np.zeros(2)
+    dfilt = np.zeros(2)
+    prev = np.zeros(2)
+    u = np.zeros(2)
+    r1, r2, h1, h2 = _geometry(P, y[0], y[1])
+    prev[0] = round(r1 / P[I_RES]) * P[I_RES]
+    prev[1] = round(r2 / P[I_RES]) * P[I_RES]
+    il = _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev, u, status, energy, log, True)
     status[5] = il
     return log, energy, status
+
+
+@njit(cache=True)
+def advance(P, y, ref, vref, fref, n_steps, substeps, integ, dfilt, prev, u, status):
+    """Run the closed loop for ``n_steps`` control steps from state ``y``, updating it in place.
+
+    The stateful form used by the live-guidance runs: plant state ``y`` and
+    controller state ``integ, dfilt, prev, u, status`` persist between calls.
+
+    Parameters
+    ----------
+    P : ndarray
+        Parameter vector.
+    y : ndarray, shape (13,)
+        Plant state (updated).
+    ref, vref, fref : ndarray, shape (2, n_steps + 1)
+        References for this stretch.
+    n_steps, substeps : int
+        Control steps and plant steps per control step.
+    integ, dfilt, prev, u, status : ndarray
+        Controller state (updated).
+
+    Returns
+    -------
+    int
+        Failure code (0 = fine, see :func:`fail_reason`).
+    """
+    energy = np.zeros(9)
+    log = np.zeros((1, 22))
+    _run(P, y, ref, vref, fref, n_steps, substeps, n_steps + 1, integ, dfilt, prev, u, status, energy, log, False)
+    return int(status[0])
 
 
 def fail_reason(code: int) -> str:

@@ -1,0 +1,121 @@
+"""The two hydraulic servo drives as a stateful plant for the live-guidance loop.
+
+:class:`HydraulicArm` keeps the electro-hydraulic state (pressures, spools,
+supply, the arm's alpha and beta and their rates, the PID states) between
+guidance cycles. Each cycle the guidance controller's joint-rate command is
+turned into cylinder references for the next stretch (lengths from Eqs
+12-13 along the commanded joint path, speeds through the moment arms, forces
+from the static holding torques for the model-based feed-forward) and the
+compiled loop of :mod:`loadarm.hydraulics.plant` runs them at the control
+rate. The slew drive is not hydraulic here (kinematic, rate-limited).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..actuators import cylinder_lengths
+from ..config import Installation
+from ..dynamics import G, lagrange_constants, mass_model
+from ..geometry import mounting_from_installation
+from . import plant
+from .simulate import SimulationError, initial_state, pack_parameters
+
+__all__ = ["HydraulicArm"]
+
+
+class HydraulicArm:
+    """Stateful two-cylinder electro-hydraulic arm.
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation (hydraulics, controller, masses).
+    alpha, beta : float
+        Starting pose, rad (held by its static pressures).
+    """
+
+    def __init__(self, inst: Installation, alpha: float, beta: float):
+        self.inst = inst
+        self.P = pack_parameters(inst)
+        self.mount = mounting_from_installation(inst)
+        self.k = lagrange_constants(mass_model(inst))
+        self.dt = float(self.P[plant.I_DT])
+        self.substeps = int(round(self.P[plant.I_DT] / self.P[plant.I_H]))
+        self.reset(alpha, beta)
+
+    def reset(self, alpha: float, beta: float) -> None:
+        """Put the arm at rest at a pose, held by the static pressures; clear the controllers.
+
+        Parameters
+        ----------
+        alpha, beta : float
+            Pose, rad.
+        """
+        self.y = initial_state(self.inst, alpha, beta)
+        self.integ = np.zeros(2)
+        self.dfilt = np.zeros(2)
+        self.u = np.zeros(2)
+        self.status = np.zeros(10)
+        r1, r2 = cylinder_lengths(self.mount, alpha, beta)
+        res = self.P[plant.I_RES]
+        self.prev = np.array([round(float(r1) / res) * res, round(float(r2) / res) * res])
+        self.q_ref = np.array([alpha, beta], dtype=float)
+
+    @property
+    def joints(self) -> tuple[float, float]:
+        """Current alpha and beta, rad."""
+        return float(self.y[0]), float(self.y[1])
+
+    def step(self, duration: float, rates: tuple[float, float]) -> tuple[float, float]:
+        """Drive the arm for ``duration`` seconds along the commanded joint rates.
+
+        Parameters
+        ----------
+        duration : float
+            Time to simulate, s (a whole number of control periods).
+        rates : tuple of float
+            Commanded alpha and beta rates, rad/s (zero: hold).
+
+        Returns
+        -------
+        alpha, beta : float
+            Joint angles at the end, rad.
+
+        Raises
+        ------
+        SimulationError
+            If the servo loop trips (following error, chatter, divergence).
+        """
+        n = max(1, int(round(duration / self.dt)))
+        wa, wb = float(rates[0]), float(rates[1])
+        a0, b0 = float(self.q_ref[0]), float(self.q_ref[1])
+        a1, b1 = a0 + wa * n * self.dt, b0 + wb * n * self.dt
+        # references at both ends of the stretch, linear in between (20 ms of slow motion)
+        e0 = self._refs(a0, b0, wa, wb)
+        e1 = self._refs(a1, b1, wa, wb)
+        ref = np.linspace(e0[0:2], e1[0:2], n + 1).T.copy()
+        vref = np.linspace(e0[2:4], e1[2:4], n + 1).T.copy()
+        fref = np.linspace(e0[4:6], e1[4:6], n + 1).T.copy()
+        code = plant.advance(self.P, self.y, ref, vref, fref, n, self.substeps, self.integ, self.dfilt, self.prev,
+                             self.u, self.status)
+        if code:
+            raise SimulationError(f"hydraulic servo stopped: {plant.fail_reason(code)}")
+        self.q_ref = np.array([a1, b1])
+        return self.joints
+
+    def _refs(self, a: float, b: float, wa: float, wb: float) -> tuple[float, ...]:
+        """Cylinder lengths, speeds and static holding forces at one pose (scalar, fast)."""
+        m = self.mount
+        r1 = math.sqrt((m.a1 - m.b1) ** 2 + 4.0 * m.a1 * m.b1 * math.cos(0.5 * a) ** 2)
+        r2 = math.sqrt((m.c2 - m.b2) ** 2 + 4.0 * m.c2 * m.b2 * math.sin(0.5 * b) ** 2)
+        h1 = -m.a1 * m.b1 * math.sin(a) / r1
+        h2 = m.b2 * m.c2 * math.sin(b) / r2
+        sab = math.sin(a - b)
+        ta = -G * (self.k.g_a * math.sin(a) + self.k.g_ab * sab)     # dV/d alpha: the holding torque
+        tb = G * self.k.g_ab * sab
+        h1s = h1 if abs(h1) > 1e-6 else 1e-6
+        h2s = h2 if abs(h2) > 1e-6 else 1e-6
+        return (r1, r2, h1 * wa, h2 * wb, ta / h1s, tb / h2s)

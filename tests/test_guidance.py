@@ -305,3 +305,21 @@ def test_scenario_validation(tmp_path):
     bad.write_text("[sensor]\nrate = 10\nbogus = 1\n")
     with pytest.raises(ConfigError, match="unknown key 'sensor.bogus'"):
         load_scenario(bad)
+
+
+def test_same_controller_runs_in_real_time():
+    import time as _time
+
+    from loadarm.guidance.run import wall_clock_pacer
+    sc, inst = load_scenario(SCEN / "calm.toml")
+    d = sc.model_dump()
+    d["scenario"]["duration"] = 1.5
+    sc = parse_scenario(d)
+    t0 = _time.monotonic()
+    r = run_scenario(sc, inst, pace=wall_clock_pacer(), plant="kinematic")
+    wall = _time.monotonic() - t0
+    fast = run_scenario(sc, inst, plant="kinematic")
+    assert wall >= 1.4                       # paced by the wall clock
+    assert np.array_equal(r.signals["mode"], fast.signals["mode"])   # same decisions either way
+    with pytest.raises(ValueError, match="speedup must be > 0"):
+        wall_clock_pacer(0)

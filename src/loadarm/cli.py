@@ -306,10 +306,12 @@ def run(
     db: Annotated[Optional[Path], typer.Option("--db", help="SQLite event log to append to.")] = None,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Timeline figure.")] = None,
+    realtime: Annotated[bool, typer.Option("--realtime", help="Pace the run with the wall clock.")] = False,
+    plant: Annotated[Optional[str], typer.Option(help="Arm plant: hydraulic or kinematic (default: the scenario's).")] = None,
 ) -> None:
     """Run a scenario in closed loop: ship, sensor, estimator, guidance controller, arm; log every event."""
     from .eventlog import EventLog
-    from .guidance.run import run_scenario
+    from .guidance.run import run_scenario, wall_clock_pacer
     from .guidance.scenario import load_scenario
 
     sc, inst = load_scenario(scenario)
@@ -320,7 +322,8 @@ def run(
         with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
                       transient=True) as prog:
             task = prog.add_task(f"scenario {sc.scenario.name}", total=1.0)
-            res = run_scenario(sc, inst, log=log, progress=lambda f: prog.update(task, completed=f))
+            res = run_scenario(sc, inst, log=log, progress=lambda f: prog.update(task, completed=f), plant=plant,
+                               pace=wall_clock_pacer() if realtime else None)
     finally:
         if log is not None:
             log.close()

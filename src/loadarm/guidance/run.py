@@ -31,7 +31,34 @@ from .scenario import Scenario
 from .sensor import FlangeEstimator, sensor_readings
 from .ship import flange_motion
 
-__all__ = ["RunResult", "run_scenario", "MODES"]
+__all__ = ["RunResult", "run_scenario", "wall_clock_pacer", "MODES"]
+
+
+def wall_clock_pacer(speedup: float = 1.0) -> Callable[[float], None]:
+    """A pacer that makes :func:`run_scenario` keep step with the wall clock.
+
+    Parameters
+    ----------
+    speedup : float
+        Simulated seconds per wall second (1 = real time).
+
+    Returns
+    -------
+    callable
+        ``pace(t)`` sleeps until ``t / speedup`` wall seconds after its first call.
+    """
+    if not speedup > 0:
+        raise ValueError(f"speedup must be > 0, got {speedup!r}")
+    start: list[float] = []
+
+    def pace(t: float) -> None:
+        if not start:
+            start.append(time.monotonic() - t / speedup)
+        delay = start[0] + t / speedup - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+
+    return pace
 
 MODES = tuple(m.value for m in Mode)
 
@@ -92,7 +119,8 @@ class RunResult:
 
 
 def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = None, sample_every: float = 1.0,
-                 progress: Callable[[float], None] | None = None, plant: str | None = None) -> RunResult:
+                 progress: Callable[[float], None] | None = None, plant: str | None = None,
+                 pace: Callable[[float], None] | None = None) -> RunResult:
     """Run a scenario in closed loop on a simulated clock.
 
     Parameters
@@ -108,6 +136,10 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
         Period of the replay samples in the log, s.
     progress : callable, optional
         Called with the fraction done (0-1) about every 2 % of the run.
+    pace : callable, optional
+        Called with each cycle's time before the cycle runs; pass
+        :func:`wall_clock_pacer` to run in real time (the controller code is
+        the same, only the clock changes).
     plant : {'hydraulic', 'kinematic'}, optional
         Arm plant (default the scenario's ``[scenario] plant``): the two
         electro-hydraulic servo drives of :mod:`loadarm.hydraulics` on the
@@ -158,6 +190,8 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
 
     for k in range(n):
         now = tt[k]
+        if pace is not None:
+            pace(now)
         t0 = time.perf_counter()
         while ir < readings.t_arrive.size and readings.t_arrive[ir] <= now:
             z = readings.xyz[ir]

@@ -51,6 +51,16 @@ def _point(text: Optional[str], name: str) -> Optional[tuple[float, float]]:
     return (x, y)
 
 
+def _check_png(png: Optional[Path]) -> None:
+    if png is not None and png.suffix.lower() != ".png":
+        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+
+
+def _check_fill(fill: Optional[float]) -> None:
+    if fill is not None and not (0.0 <= fill <= 1.0):
+        raise UserError(f"--fill must be in [0, 1], got {fill!r}")
+
+
 def _json(obj) -> None:
     sys.stdout.write(json.dumps(obj, indent=2, allow_nan=False) + "\n")
 
@@ -138,8 +148,7 @@ def envelope(
     from .plotting import envelope_figure, save
 
     inst = load_config(config)
-    if png.suffix.lower() != ".png":
-        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    _check_png(png)
     save(envelope_figure(inst), png)
     out.print(f"envelope written to {png}")
 
@@ -157,8 +166,7 @@ def verify(
     from .trajectory import plan_approach
 
     inst = load_config(config)
-    if png is not None and png.suffix.lower() != ".png":
-        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    _check_png(png)
     p = plan_approach(inst, timing=timing, samples=samples)
     with err.status("stepping the MuJoCo arm along the line"):
         res = verify_kinematics(inst, p)
@@ -190,8 +198,7 @@ def balance(
     from .balancing import balance_counterweights
 
     inst = load_config(config)
-    if png is not None and png.suffix.lower() != ".png":
-        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    _check_png(png)
     if not (0.01 <= spacing <= 5.0):
         raise UserError(f"--spacing must be in [0.01, 5] m, got {spacing!r}")
     res = balance_counterweights(inst, spacing=spacing)
@@ -224,8 +231,7 @@ def loads(
     from .trajectory import plan_approach
 
     inst = load_config(config)
-    if fill is not None and not (0.0 <= fill <= 1.0):
-        raise UserError(f"--fill must be in [0, 1], got {fill!r}")
+    _check_fill(fill)
     s = actuator_loads(inst, plan_approach(inst, timing=timing, samples=801), fill=fill).summary()
     if as_json:
         _json(s)
@@ -255,10 +261,8 @@ def simulate(
     from .trajectory import plan_approach
 
     inst = load_config(config)
-    if png is not None and png.suffix.lower() != ".png":
-        raise UserError(f"--png must name a .png file, got {str(png)!r}")
-    if fill is not None and not (0.0 <= fill <= 1.0):
-        raise UserError(f"--fill must be in [0, 1], got {fill!r}")
+    _check_png(png)
+    _check_fill(fill)
     plan = plan_approach(inst, timing=timing, samples=2001)
     with err.status("simulating the closed loop (first run compiles the simulator)"):
         res = simulate_approach(inst, plan, fill=fill)
@@ -315,8 +319,7 @@ def run(
     from .guidance.scenario import load_scenario
 
     sc, inst = load_scenario(scenario)
-    if png is not None and png.suffix.lower() != ".png":
-        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    _check_png(png)
     log = EventLog(db, run=f"{sc.scenario.name}") if db is not None else None
     try:
         with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
@@ -354,8 +357,7 @@ def log_cmd(
     """Query the event log (and replay it into a timeline)."""
     from .eventlog import EventLog
 
-    if png is not None and png.suffix.lower() != ".png":
-        raise UserError(f"--png must name a .png file, got {str(png)!r}")
+    _check_png(png)
     log = EventLog.open_existing(db)
     try:
         events = log.query(since=since, kinds=kind)

@@ -123,7 +123,8 @@ def test_optional_sections_default():
 
 
 def test_models_are_frozen(inst):
-    with pytest.raises(Exception):
+    from pydantic import ValidationError
+    with pytest.raises(ValidationError, match="frozen"):
         inst.arm.inboard = 3.0
 
 

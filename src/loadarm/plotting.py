@@ -487,7 +487,7 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
     ax[3].set_xlabel("t [s]")
     for a in ax:
         a.grid(alpha=0.3)
-        for ta, label in alarms or ():
+        for ta, _label in alarms or ():
             a.axvline(ta, color="m", lw=0.8, ls=":")
     for ta, label in alarms or ():
         ax[0].text(ta, len(modes) - 1, f" {label}", rotation=90, fontsize=7, color="m", va="top")

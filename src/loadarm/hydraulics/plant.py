@@ -28,6 +28,9 @@ from numba import njit
 
 from .components import (cylinder_friction, end_stop_force, pump_flow, relief_flow, valve_flows)
 
+__all__ = ["SIGNALS", "ENERGIES", "N_PARAMS", "arm_accelerations", "plant_rhs", "control_step", "simulate_loop",
+           "advance", "fail_reason"]
+
 # --- parameter vector layout (one float64 array, so the compiled loop takes few arguments) ---
 (I_A1, I_B1, I_B2, I_C2, I_RISER, I_BIN, I_COUT, I_AP, I_AA, I_BETA, I_V0, I_BVISC, I_FC, I_VS, I_CLEAK,
  I_LMIN1, I_STROKE1, I_LMIN2, I_STROKE2, I_KSTOP, I_CSTOP, I_PCOMP, I_PBAND, I_QMAX, I_PRELIEF, I_RBAND, I_VSUP,

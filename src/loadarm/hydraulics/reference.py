@@ -77,7 +77,7 @@ def reference_simulation(inst: Installation, plan: Plan, t_end: float, *, fill: 
         if k == n:
             break
         u1, u2 = float(u[0]), float(u[1])
-        sol = solve_ivp(lambda _t, yy: plant.plant_rhs(yy, u1, u2, P), (k * dt, (k + 1) * dt), y, method=method,
+        sol = solve_ivp(lambda _t, yy, u1=u1, u2=u2: plant.plant_rhs(yy, u1, u2, P), (k * dt, (k + 1) * dt), y, method=method,
                         rtol=rtol, atol=atol)
         if not sol.success:  # pragma: no cover
             raise RuntimeError(f"solve_ivp failed at t = {k * dt:.3f} s: {sol.message}")

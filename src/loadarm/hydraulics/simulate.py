@@ -174,16 +174,17 @@ def _mech_energy(inst, fill, a, b, ad, bd):
     """Kinetic plus potential energy of the arm, J (from the mass model, independent of the loop)."""
     mm = mass_model(inst, fill=fill)
     arm = mm.arm
-    ex, ey = arm.b * math.sin(a), arm.a + arm.b * math.cos(a)
+    ey = arm.a + arm.b * math.cos(a)
     exd, eyd = arm.b * math.cos(a) * ad, -arm.b * math.sin(a) * ad
     e = 0.0
     for l in mm.lumps:
+        # link angle and rate, and the height and velocity of the link's hinge
         if l.link == "inboard":
-            psi, w, bx, by, bxd, byd = a, ad, 0.0, arm.a, 0.0, 0.0
+            psi, w, by, bxd, byd = a, ad, arm.a, 0.0, 0.0
         elif l.link == "outboard":
-            psi, w, bx, by, bxd, byd = a - b + math.pi, ad - bd, ex, ey, exd, eyd
+            psi, w, by, bxd, byd = a - b + math.pi, ad - bd, ey, exd, eyd
         else:
-            psi, w, bx, by, bxd, byd = a - b, ad - bd, 0.0, arm.a, 0.0, 0.0
+            psi, w, by, bxd, byd = a - b, ad - bd, arm.a, 0.0, 0.0
         y = by + l.offset * math.cos(psi)
         vx = bxd + l.offset * math.cos(psi) * w
         vy = byd - l.offset * math.sin(psi) * w

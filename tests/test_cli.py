@@ -71,9 +71,11 @@ def test_demo_writes_report(capsys, tmp_path):
 BAD = [
     (["plan", "-c", "missing.toml"], "config file not found"),
     (["plan", "-c", CFG, "--target", "30,0"], "leaves the reachable workspace"),
-    (["plan", "-c", CFG, "--target", "abc"], "--target must be X,Y in metres"),
-    (["plan", "-c", CFG, "--start", "1,2,3"], "--start must be X,Y"),
-    (["plan", "-c", CFG, "--start", "nan,1"], "--start must be two finite numbers"),
+    (["plan", "-c", CFG, "--target", "abc"], "--target must be X,Y (arm plane) or X,Y,Z (3D) in metres"),
+    (["plan", "-c", CFG, "--start", "1,2,3,4"], "--start must be X,Y"),
+    (["plan", "-c", CFG, "--start", "nan,1"], "--start must be finite numbers"),
+    (["plan", "-c", CFG, "--start", "4,0,10", "--target", "14,1"], "must both be X,Y or both X,Y,Z"),
+    (["plan", "-c", CFG, "--target", "5,12,1"], "beyond the slew limit"),
     (["plan", "-c", CFG, "--timing", "fast"], "timing must be one of paper, smooth, optimal"),
     (["plan", "-c", CFG, "--samples", "1"], "samples must be an integer in [2, 1000000]"),
     (["plan", "-c", CFG, "--samples", "many"], "--samples"),
@@ -208,3 +210,16 @@ def test_run_and_log(capsys, tmp_path):
 def test_run_log_bad_inputs(capsys, args, fragment):
     code, out, err = run(capsys, *args)
     assert code == 2 and err.count("\n") == 1 and fragment in err
+
+
+def test_plan_3d(capsys, tmp_path):
+    csv = tmp_path / "p3.csv"
+    code, out, _ = run(capsys, "plan", "-c", CFG, "--target", "12,6,1", "--samples", "7", "--json", "--csv", str(csv))
+    assert code == 0
+    d = json.loads(out)
+    assert d["slew_range_deg"][1] == pytest.approx(26.565, abs=1e-3)
+    assert set(d["samples"][0]) == {"t_s", "x_m", "y_m", "z_m", "slew_deg", "alpha_deg", "beta_deg", "r_ac1_m",
+                                    "r_ac2_m", "u1_V", "u2_V", "zone"}
+    assert csv.read_text().startswith("t_s,x_m,y_m,z_m,slew_deg")
+    code, out, _ = run(capsys, "plan", "-c", CFG, "--target", "12,6,1")
+    assert code == 0 and "slew" in out

@@ -161,8 +161,11 @@ def test_configuration_doc_is_up_to_date():
 def test_full_example_lists_every_key_and_equals_the_paper_case(paper):
     from loadarm.config import load_config
     from .conftest import ROOT
+    from loadarm.config import example_toml
     full = load_config(ROOT / "examples" / "full.toml")
     assert full == paper
+    assert (ROOT / "examples" / "full.toml").read_text() == example_toml(), \
+        "regenerate with: python -m loadarm.config --example > examples/full.toml"
     text = (ROOT / "examples" / "full.toml").read_text()
     for row in parameter_table():
         section, key = row["key"].split(".")

@@ -209,7 +209,7 @@ def test_alarm_levels_follow_the_sequence_times(inst):
     assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin - 0.1), v, 0.0)[0] == 1
     assert thr.level(1.0, 0.0, r_at(g.ers_time + g.margin - 0.1), v, 0.0)[0] == 2
     assert thr.level(inst.alarms.release, 0.0, 15.0, 0.0, 0.0)[0] == 3
-    assert thr.level(0.0, math.radians(g.slew_release_deg), 15.0, 0.0, 0.0)[0] == 3
+    assert thr.level(0.0, math.radians(inst.slew.release_deg), 15.0, 0.0, 0.0)[0] == 3
 
 
 def test_manual_jog_moves_the_coupler_as_commanded(inst):
@@ -299,9 +299,14 @@ def test_scenario_validation(tmp_path):
     bad.write_text("[waves]\nhs = -1\n")
     with pytest.raises(ConfigError, match=r"waves.hs = -1: .*valid range \[0, 8\] m"):
         load_scenario(bad)
-    bad.write_text("[guidance]\nslew_first_deg = 39\n")
-    with pytest.raises(ConfigError, match="slew angles must increase"):
+    bad.write_text("[guidance]\nstandoff = 0\n")
+    with pytest.raises(ConfigError, match=r"guidance.standoff = 0: .*valid range \(0, 10\] m"):
         load_scenario(bad)
+    from loadarm.config import parse_config
+    d = load_scenario(SCEN / "calm.toml")[1].model_dump()
+    d["slew"]["first_deg"] = 39.0
+    with pytest.raises(ConfigError, match="slew angles must increase"):
+        parse_config(d)
     bad.write_text("[sensor]\nrate = 10\nbogus = 1\n")
     with pytest.raises(ConfigError, match="unknown key 'sensor.bogus'"):
         load_scenario(bad)

@@ -102,3 +102,43 @@ def test_joint_accelerations_match_finite_differences(inst):
         smooth = (np.abs(p.t - 3.0) > 2 * dt) & (np.abs(p.t - (p.duration - 3.0)) > 2 * dt)
         smooth[[0, -1]] = False
         assert np.allclose(fd[smooth], acc[smooth], atol=1e-6)
+
+
+@pytest.mark.parametrize("law", ["paper", "smooth", "optimal"])
+def test_3d_plan_in_the_vertical_plane_is_the_2d_plan(inst, law):
+    from loadarm.trajectory import plan_approach_3d
+    p2 = plan_approach(inst, timing=law, samples=301)
+    p3 = plan_approach_3d(inst, timing=law, samples=301)
+    assert p3.duration == p2.duration
+    for a, b in ((p2.x, p3.x), (p2.y, p3.z), (p2.alpha, p3.alpha), (p2.beta, p3.beta), (p2.u1, p3.u1),
+                 (p2.u2, p3.u2), (p2.zone, p3.zone)):
+        assert np.array_equal(a, b)
+    assert np.all(p3.y == 0) and np.all(p3.phi == 0)
+
+
+def test_3d_plan_slews_and_its_rates_are_consistent(inst):
+    from loadarm.slew import forward3d
+    from loadarm.trajectory import plan_approach_3d
+    p = plan_approach_3d(inst, target=(12.0, 6.0, 1.0), samples=8001)
+    x, y, z = forward3d(arm_from(inst), p.phi, p.alpha, p.beta)
+    assert np.max(np.abs(x - p.x)) < 1e-9 and np.max(np.abs(y - p.y)) < 1e-9 and np.max(np.abs(z - p.z)) < 1e-9
+    dt = p.t[1] - p.t[0]
+    for pos, vel in ((p.phi, p.phi_dot), (p.alpha, p.alpha_dot), (p.beta, p.beta_dot), (p.r_ac1, p.v_ac1)):
+        assert np.allclose(np.gradient(pos, dt)[2:-2], vel[2:-2], atol=2e-4)
+    assert math.degrees(p.phi[-1]) == pytest.approx(math.degrees(math.atan2(6.0, 12.0)))
+
+
+def test_3d_plan_refusals(inst):
+    from loadarm.errors import PathError
+    from loadarm.trajectory import plan_approach_3d
+    with pytest.raises(PathError, match="beyond the slew limit"):
+        plan_approach_3d(inst, target=(5.0, 12.0, 1.0))
+    with pytest.raises(UnreachableError, match="leaves the reachable workspace"):
+        plan_approach_3d(inst, target=(18.0, 10.0, 0.0))
+    with pytest.raises(PathError, match="needs \\(x, y, z\\)"):
+        plan_approach_3d(inst, start=(3.82, 10.4), target=(14.0, 1.0))
+
+
+def arm_from(inst):
+    from loadarm.geometry import arm_from_installation
+    return arm_from_installation(inst)

@@ -36,19 +36,20 @@ class UserError(Exception):
     """A CLI-level bad input (exit status 2)."""
 
 
-def _point(text: Optional[str], name: str) -> Optional[tuple[float, float]]:
+def _point(text: Optional[str], name: str) -> Optional[tuple[float, ...]]:
     if text is None:
         return None
     parts = text.split(",")
     try:
-        if len(parts) != 2:
+        if len(parts) not in (2, 3):
             raise ValueError
-        x, y = float(parts[0]), float(parts[1])
+        vals = tuple(float(p) for p in parts)
     except ValueError:
-        raise UserError(f"{name} must be X,Y in metres (two numbers separated by a comma), got {text!r}") from None
-    if not (math.isfinite(x) and math.isfinite(y)):
-        raise UserError(f"{name} must be two finite numbers, got {text!r}")
-    return (x, y)
+        raise UserError(f"{name} must be X,Y (arm plane) or X,Y,Z (3D) in metres, separated by commas, "
+                        f"got {text!r}") from None
+    if not all(math.isfinite(v) for v in vals):
+        raise UserError(f"{name} must be finite numbers, got {text!r}")
+    return vals
 
 
 def _check_png(png: Optional[Path]) -> None:
@@ -102,19 +103,51 @@ def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
 @app.command()
 def plan(
     config: ConfigOpt,
-    start: Annotated[Optional[str], typer.Option(help="Start X,Y in metres (default: the stored position).")] = None,
-    target: Annotated[Optional[str], typer.Option(help="Target X,Y in metres (default: the flange).")] = None,
+    start: Annotated[Optional[str], typer.Option(help="Start X,Y (or X,Y,Z for 3D) in metres (default: stored).")] = None,
+    target: Annotated[Optional[str], typer.Option(help="Target X,Y (or X,Y,Z for 3D) in metres (default: flange).")] = None,
     timing: Annotated[str, typer.Option(help="Timing law: paper (Eq. 14), smooth (trapezoid) or optimal (toppra).")] = "smooth",
     samples: Annotated[int, typer.Option(help="Number of samples, evenly spaced in time.")] = 201,
     as_json: JsonOpt = False,
     csv: Annotated[Optional[Path], typer.Option("--csv", help="Also write every sample to this CSV file.")] = None,
 ) -> None:
-    """Plan the straight-line approach: joint angles, cylinder lengths, valve voltages and zones."""
-    from .trajectory import plan_approach
+    """Plan the straight-line approach: joint angles, cylinder lengths, valve voltages and zones.
+
+    Give --start/--target as X,Y,Z for a 3D approach with slew (y along the berth, z up).
+    """
+    from .trajectory import plan_approach, plan_approach_3d
 
     inst = load_config(config)
-    p = plan_approach(inst, start=_point(start, "--start"), target=_point(target, "--target"), timing=timing,
-                      samples=samples)
+    a, b = _point(start, "--start"), _point(target, "--target")
+    dims = {len(v) for v in (a, b) if v is not None}
+    if len(dims) > 1:
+        raise UserError("--start and --target must both be X,Y or both X,Y,Z")
+    if dims == {3}:
+        p3 = plan_approach_3d(inst, start=a, target=b, timing=timing, samples=samples)
+        recs = p3.records()
+        if csv is not None:
+            import csv as _csv
+
+            csv.parent.mkdir(parents=True, exist_ok=True)
+            with csv.open("w", newline="", encoding="utf-8") as fh:
+                w = _csv.DictWriter(fh, fieldnames=list(recs[0]))
+                w.writeheader()
+                w.writerows(recs)
+        if as_json:
+            _json({**p3.summary(), "samples": recs})
+            return
+        t = Table(title=f"3D approach {p3.start} -> {p3.target}, {timing} timing")
+        t.add_column("quantity")
+        t.add_column("value")
+        s3 = p3.summary()
+        t.add_row("duration", f"{s3['duration_s']:.2f} s")
+        t.add_row("slew", "{:.2f} .. {:.2f} deg".format(*s3["slew_range_deg"]))
+        t.add_row("peak slew rate", f"{s3['peak_slew_rate_deg_s']:.3f} deg/s")
+        t.add_row("alpha", "{:.2f} .. {:.2f} deg".format(*s3["alpha_range_deg"]))
+        t.add_row("beta", "{:.2f} .. {:.2f} deg".format(*s3["beta_range_deg"]))
+        t.add_row("worst zone", s3["worst_zone"])
+        out.print(t)
+        return
+    p = plan_approach(inst, start=a, target=b, timing=timing, samples=samples)
     if csv is not None:
         p.write_csv(csv)
     if as_json:

@@ -26,6 +26,7 @@ __all__ = [
     "ArmSection",
     "ActuatorSection",
     "Alarms",
+    "Slew",
     "Approach",
     "SizingBounds",
     "Masses",
@@ -40,6 +41,7 @@ __all__ = [
     "paper_installation",
     "parameter_table",
     "parameter_markdown",
+    "example_toml",
 ]
 
 _REQUIRED = object()
@@ -168,6 +170,28 @@ class Alarms(_Section):
     def release(self) -> float:
         """Release angle in radians."""
         return math.radians(self.release_deg)
+
+
+class Slew(_Section):
+    """Slew joint (rotation of the arm about the riser axis): limits and alarms, degrees in the file."""
+
+    limit_deg: float = _param(40.0, unit="deg", gt=0, lt=180, source="typical slew range of a marine arm",
+                              description="slew joint limit, +/- from the arm's centre line")
+    first_deg: float = _param(30.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
+                              description="slew first-stage alarm (ESD-1), +/-")
+    second_deg: float = _param(34.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
+                               description="slew second-stage alarm, +/-")
+    release_deg: float = _param(37.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
+                                description="slew release (ERS-2), +/-")
+    max_rate_deg: float = _param(2.0, unit="deg/s", gt=0, le=45, source="slew drive of a 20 m arm",
+                                 description="slew rate limit")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Slew":
+        if not (self.first_deg < self.second_deg < self.release_deg < self.limit_deg):
+            raise ValueError("slew angles must increase: first_deg < second_deg < release_deg < limit_deg, got "
+                             f"{self.first_deg}, {self.second_deg}, {self.release_deg}, {self.limit_deg}")
+        return self
 
 
 class Approach(_Section):
@@ -438,6 +462,7 @@ class Installation(_Section):
     arm: ArmSection
     actuators: ActuatorSection
     alarms: Alarms = Field(default_factory=Alarms)
+    slew: Slew = Field(default_factory=Slew)
     approach: Approach
     sizing: SizingBounds = Field(default_factory=SizingBounds)
     masses: Masses = Field(default_factory=Masses)
@@ -663,5 +688,40 @@ def parameter_markdown() -> str:
     return "\n".join(lines) + "\n"
 
 
-if __name__ == "__main__":  # pragma: no cover - regenerates the table in docs/configuration.md
-    print(parameter_markdown(), end="")
+def example_toml() -> str:
+    """``examples/full.toml``: every key with the paper's case and the defaults, commented.
+
+    Returns
+    -------
+    str
+        TOML text that loads back to :func:`paper_installation`.
+    """
+    inst = paper_installation()
+    rows = {r["key"]: r for r in parameter_table()}
+
+    def fmt(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return f'"{v}"'
+        if isinstance(v, (tuple, list)):
+            return "[" + ", ".join(fmt(x) for x in v) + "]"
+        return repr(float(v)) if isinstance(v, float) else repr(v)
+
+    lines = ["# Every key loadarm reads, with the paper's case and the documented defaults.",
+             "# Generated from the parameter declarations (python -m loadarm.config --example); SI units.",
+             "# examples/paper.toml is the short form: anything left out takes these defaults.", ""]
+    for section in Installation.model_fields:
+        sec = getattr(inst, section)
+        lines.append(f"[{section}]")
+        for key in type(sec).model_fields:
+            r = rows[f"{section}.{key}"]
+            lines.append(f"{key} = {fmt(getattr(sec, key))}  # {r['unit']}: {r['description']}")
+        lines.append("")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":  # pragma: no cover - regenerates docs/configuration.md's table and examples/full.toml
+    import sys
+
+    print(example_toml() if "--example" in sys.argv else parameter_markdown(), end="")

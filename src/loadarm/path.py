@@ -25,12 +25,14 @@ MIN_LENGTH_M = 1e-6
 
 @dataclass(frozen=True, slots=True)
 class StraightPath:
-    """Straight line from ``start`` to ``end`` in the arm plane (paper Eq. 4).
+    """Straight line from ``start`` to ``end`` (paper Eq. 4), in the arm plane or in 3D.
 
     Parameters
     ----------
     start, end : tuple of float
-        End points ``(x, y)``, m, in the riser-base frame.
+        End points, m, in the riser-base frame: ``(x, y)`` in the arm's
+        vertical plane (the paper's case), or ``(x, y, z)`` in 3D with ``y``
+        along the berth and ``z`` up (see :mod:`loadarm.slew`).
 
     Raises
     ------
@@ -38,29 +40,37 @@ class StraightPath:
         If an end point is not finite or the two coincide.
     """
 
-    start: tuple[float, float]
-    end: tuple[float, float]
+    start: tuple[float, ...]
+    end: tuple[float, ...]
 
     def __post_init__(self) -> None:
         for name in ("start", "end"):
             p = getattr(self, name)
-            if len(p) != 2 or not all(math.isfinite(float(v)) for v in p):
-                raise PathError(f"path {name} must be two finite numbers (x, y) in metres, got {p!r}")
-            object.__setattr__(self, name, (float(p[0]), float(p[1])))
+            if len(p) not in (2, 3) or not all(math.isfinite(float(v)) for v in p):
+                raise PathError(f"path {name} must be two (x, y) or three (x, y, z) finite numbers in metres, "
+                                f"got {p!r}")
+            object.__setattr__(self, name, tuple(float(v) for v in p))
+        if len(self.start) != len(self.end):
+            raise PathError(f"path start {self.start} and end {self.end} must have the same number of coordinates")
         if self.length < MIN_LENGTH_M:
             raise PathError(f"path start {self.start} and end {self.end} coincide (length {self.length:.3g} m "
                             f"< {MIN_LENGTH_M:g} m): nothing to plan")
 
     @property
-    def length(self) -> float:
-        """Path length ``L``, m."""
-        return math.hypot(self.end[0] - self.start[0], self.end[1] - self.start[1])
+    def dim(self) -> int:
+        """2 (arm plane) or 3."""
+        return len(self.start)
 
     @property
-    def direction(self) -> tuple[float, float]:
-        """Unit tangent ``(cos(phi), sin(phi))``."""
+    def length(self) -> float:
+        """Path length ``L``, m."""
+        return math.dist(self.start, self.end)
+
+    @property
+    def direction(self) -> tuple[float, ...]:
+        """Unit tangent (``(cos(phi), sin(phi))`` in the plane)."""
         L = self.length
-        return ((self.end[0] - self.start[0]) / L, (self.end[1] - self.start[1]) / L)
+        return tuple((e - s) / L for s, e in zip(self.start, self.end))
 
     @property
     def slope(self) -> float:
@@ -80,7 +90,7 @@ class StraightPath:
 
         Returns
         -------
-        ndarray, shape (n, 2) (or (2,) for scalar ``s``)
+        ndarray, shape (n, dim) (or (dim,) for scalar ``s``)
             Position in m, or the derivative.
 
         Raises
@@ -97,9 +107,9 @@ class StraightPath:
         if order == 0:
             return np.asarray(self.start) + s_arr[..., None] * d
         if order == 1:
-            return np.broadcast_to(d, s_arr.shape + (2,)).copy()
+            return np.broadcast_to(d, s_arr.shape + (self.dim,)).copy()
         if order == 2:
-            return np.zeros(s_arr.shape + (2,))
+            return np.zeros(s_arr.shape + (self.dim,))
         raise PathError(f"order must be 0, 1 or 2, got {order!r}")
 
     def distance_range(self, point: tuple[float, float]) -> tuple[float, float, float]:
@@ -115,8 +125,8 @@ class StraightPath:
         d = np.asarray(self.direction)
         q = np.asarray(point, dtype=float)
         s_star = float(np.clip(np.dot(q - p0, d), 0.0, self.length))
-        d_min = float(np.hypot(*(p0 + s_star * d - q)))
-        d_max = max(float(np.hypot(*(p0 - q))), float(np.hypot(*(np.asarray(self.end) - q))))
+        d_min = float(np.linalg.norm(p0 + s_star * d - q))
+        d_max = max(float(np.linalg.norm(p0 - q)), float(np.linalg.norm(np.asarray(self.end) - q)))
         return d_min, s_star, d_max
 
     def _first_crossing(self, centre: np.ndarray, radius: float, *, inward: bool) -> float:
@@ -135,7 +145,9 @@ class StraightPath:
         """Refuse a path that leaves the annulus ``|b-c| <= r <= b+c`` anywhere.
 
         The test is exact (closest and farthest point of the segment from the
-        riser top), not sampled.
+        riser top), not sampled. In 3D the reachable set is the spherical shell
+        ``|b-c| <= |p - (0, 0, a)| <= b+c`` (the planar annulus swept by the
+        slew), so the same test applies.
 
         Parameters
         ----------
@@ -148,22 +160,22 @@ class StraightPath:
             Naming the arc length and point where the path first leaves the
             workspace, and the reachable radii.
         """
-        top = np.array(arm.top)
-        d_min, s_min, d_max = self.distance_range(arm.top)
+        top = np.array(arm.top) if self.dim == 2 else np.array([0.0, 0.0, arm.a])
+        d_min, s_min, d_max = self.distance_range(tuple(top))
         if d_max > arm.r_max + ROUNDOFF_M:
             # first s where the distance exceeds r_max
             s = self._first_crossing(top, arm.r_max, inward=False)
-            x, y = (float(v) for v in self(s))
+            pt = tuple(float(v) for v in self(s))
             raise UnreachableError(
                 f"straight path {self.start} -> {self.end} leaves the reachable workspace at s = {s:.3f} m "
-                f"of {self.length:.3f} m, point ({x:.3f}, {y:.3f}) m: farthest point is {d_max:.3f} m from "
+                f"of {self.length:.3f} m, point ({', '.join(f'{v:.3f}' for v in pt)}) m: farthest point is {d_max:.3f} m from "
                 f"the riser top, reachable range [{arm.r_min:.3f}, {arm.r_max:.3f}] m",
-                point=(x, y), r=d_max, r_min=arm.r_min, r_max=arm.r_max)
+                point=pt, r=d_max, r_min=arm.r_min, r_max=arm.r_max)
         if d_min < arm.r_min - ROUNDOFF_M or d_min <= 0.0:
             s = self._first_crossing(top, arm.r_min, inward=True) if arm.r_min > 0 else s_min
-            x, y = (float(v) for v in self(s))
+            pt = tuple(float(v) for v in self(s))
             raise UnreachableError(
                 f"straight path {self.start} -> {self.end} passes too close to the riser top at s = {s:.3f} m "
-                f"of {self.length:.3f} m, point ({x:.3f}, {y:.3f}) m: closest approach {d_min:.3f} m at "
+                f"of {self.length:.3f} m, point ({', '.join(f'{v:.3f}' for v in pt)}) m: closest approach {d_min:.3f} m at "
                 f"s = {s_min:.3f} m, reachable range [{arm.r_min:.3f}, {arm.r_max:.3f}] m",
-                point=(x, y), r=d_min, r_min=arm.r_min, r_max=arm.r_max)
+                point=pt, r=d_min, r_min=arm.r_min, r_max=arm.r_max)

@@ -181,7 +181,10 @@ def make_timing(name: str, path: StraightPath, *, max_speed: float, max_accel: f
         For an unknown name, bad limits, or the paper law on a vertical path.
     """
     if name == "paper":
-        return PaperTiming(path.length, path.end[0] - path.start[0], max_speed)
+        # Eq. 14 runs the horizontal coordinate at v_max; in 3D the horizontal distance is in the x-y plane
+        dx = (path.end[0] - path.start[0] if path.dim == 2
+              else math.hypot(path.end[0] - path.start[0], path.end[1] - path.start[1]))
+        return PaperTiming(path.length, dx, max_speed)
     if name == "smooth":
         return TrapezoidTiming(path.length, max_speed, max_accel)
     if name == "optimal":
@@ -223,7 +226,8 @@ class ToppraTiming:
 
     @staticmethod
     def build(length: float, cylinder_lengths_of_s, *, v_max: float, a_max: float, v_cyl: tuple[float, float],
-              a_cyl: tuple[float, float], rel_tol: float = 2e-3, max_refinements: int = 4) -> "ToppraTiming":
+              a_cyl: tuple[float, float], extra: tuple = (), rel_tol: float = 2e-3,
+              max_refinements: int = 4) -> "ToppraTiming":
         """Compute the time-optimal parameterisation.
 
         Parameters
@@ -236,6 +240,9 @@ class ToppraTiming:
             Coupler speed (m/s) and acceleration (m/s^2) limits.
         v_cyl, a_cyl : tuple of float
             Per-cylinder speed (m/s) and acceleration (m/s^2) limits.
+        extra : tuple of (callable, float, float)
+            More channels ``(f(s), speed limit, acceleration limit)``, e.g. the
+            slew angle with the slew drive's limits.
         rel_tol : float
             Allowed relative excess of any limit on the dense check.
         max_refinements : int
@@ -262,9 +269,12 @@ class ToppraTiming:
                 raise TimingError(f"{name} must be a finite number > 0, got {val!r}")
         ss = np.linspace(0.0, length, 400)
         r1, r2 = cylinder_lengths_of_s(ss)
-        path = ta.SplineInterpolator(ss / length, np.column_stack([ss, r1, r2]))
-        vlim = np.array([[-v_max, v_max], [-v_cyl[0], v_cyl[0]], [-v_cyl[1], v_cyl[1]]])
-        alim = np.array([[-a_max, a_max], [-a_cyl[0], a_cyl[0]], [-a_cyl[1], a_cyl[1]]])
+        cols = [ss, r1, r2] + [np.asarray(f(ss), dtype=float) for f, _, _ in extra]
+        path = ta.SplineInterpolator(ss / length, np.column_stack(cols))
+        vmax = [v_max, v_cyl[0], v_cyl[1]] + [float(v) for _, v, _ in extra]
+        amax = [a_max, a_cyl[0], a_cyl[1]] + [float(a) for _, _, a in extra]
+        vlim = np.array([[-v, v] for v in vmax])
+        alim = np.array([[-a, a] for a in amax])
         limits = {"v_max": v_max, "a_max": a_max, "v_cyl": tuple(v_cyl), "a_cyl": tuple(a_cyl)}
         n = 500
         worst = math.inf

@@ -29,7 +29,8 @@ from .path import StraightPath
 from .dynamics import cylinder_areas
 from .timing import ToppraTiming, make_timing
 
-__all__ = ["Plan", "plan_approach", "optimal_timing", "cylinder_speed_limits", "CHECK_SAMPLES", "MAX_SAMPLES"]
+__all__ = ["Plan", "plan_approach", "optimal_timing", "cylinder_speed_limits", "Plan3D", "plan_approach_3d",
+           "classify_slew", "CHECK_SAMPLES", "MAX_SAMPLES"]
 
 #: Samples of the dense grid on which voltage limits are re-checked.
 CHECK_SAMPLES = 4001
@@ -281,3 +282,192 @@ def plan_approach(inst: Installation, *, start: tuple[float, float] | None = Non
                 vx=vx, vy=vy, alpha=q.alpha, beta=q.beta, alpha_dot=ad, beta_dot=bd,
                 alpha_ddot=add, beta_ddot=bdd, r_ac1=r1, r_ac2=r2,
                 v_ac1=v1, v_ac2=v2, u1=u.u1, u2=u.u2, zone=zone, stored_lengths=stored_len)
+
+
+@dataclass(frozen=True)
+class Plan3D:
+    """A timed straight-line approach in 3D (slew plus the planar arm), sampled; arrays ``(n,)``.
+
+    Attributes
+    ----------
+    timing : str
+        Timing-law name.
+    start, target : tuple of float
+        End points ``(x, y, z)``, m (``y`` along the berth, ``z`` up).
+    duration : float
+        s.
+    t : ndarray
+        s.
+    x, y, z : ndarray
+        Coupler position, m.
+    phi, alpha, beta : ndarray
+        Slew and joint angles, rad.
+    phi_dot, alpha_dot, beta_dot : ndarray
+        Rates, rad/s.
+    r_ac1, r_ac2, v_ac1, v_ac2 : ndarray
+        Cylinder lengths (m) and speeds (m/s).
+    u1, u2 : ndarray
+        Valve voltages, V.
+    zone : ndarray of int
+        The worse of the beta zone and the slew zone.
+    """
+
+    timing: str
+    start: tuple
+    target: tuple
+    duration: float
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    phi: np.ndarray
+    alpha: np.ndarray
+    beta: np.ndarray
+    phi_dot: np.ndarray
+    alpha_dot: np.ndarray
+    beta_dot: np.ndarray
+    r_ac1: np.ndarray
+    r_ac2: np.ndarray
+    v_ac1: np.ndarray
+    v_ac2: np.ndarray
+    u1: np.ndarray
+    u2: np.ndarray
+    zone: np.ndarray
+
+    def summary(self) -> dict:
+        """Headline numbers, JSON-friendly (degrees at the edge)."""
+        return {
+            "timing": self.timing, "start_m": list(self.start), "target_m": list(self.target),
+            "path_length_m": math.dist(self.start, self.target), "duration_s": self.duration,
+            "slew_range_deg": [float(np.degrees(self.phi.min())), float(np.degrees(self.phi.max()))],
+            "peak_slew_rate_deg_s": float(np.degrees(np.abs(self.phi_dot).max())),
+            "alpha_range_deg": [float(np.degrees(self.alpha.min())), float(np.degrees(self.alpha.max()))],
+            "beta_range_deg": [float(np.degrees(self.beta.min())), float(np.degrees(self.beta.max()))],
+            "u1_range_V": [float(self.u1.min()), float(self.u1.max())],
+            "u2_range_V": [float(self.u2.min()), float(self.u2.max())],
+            "worst_zone": Zone(int(self.zone.max())).label,
+        }
+
+    def records(self) -> list[dict]:
+        """One dict per sample: ``t_s, x_m, y_m, z_m, slew_deg, alpha_deg, beta_deg, r_ac1_m, r_ac2_m, u1_V, u2_V,
+        zone``."""
+        keys = ("t_s", "x_m", "y_m", "z_m", "slew_deg", "alpha_deg", "beta_deg", "r_ac1_m", "r_ac2_m", "u1_V", "u2_V")
+        cols = (self.t, self.x, self.y, self.z, np.degrees(self.phi), np.degrees(self.alpha), np.degrees(self.beta),
+                self.r_ac1, self.r_ac2, self.u1, self.u2)
+        rows = np.column_stack(cols).tolist()
+        return [dict(zip(keys, r), zone=z) for r, z in zip(rows, self.zone.tolist())]
+
+
+def classify_slew(phi, inst: Installation) -> np.ndarray:
+    """Alarm zone of slew angles (1 normal, 2 first, 3 second, 4 release) from ``[slew]``.
+
+    Parameters
+    ----------
+    phi : float or ndarray
+        Slew angle, rad.
+    inst : Installation
+        Slew alarm angles.
+
+    Returns
+    -------
+    ndarray of int
+    """
+    a = np.degrees(np.abs(np.asarray(phi, dtype=float)))
+    sl = inst.slew
+    return np.select([a >= sl.release_deg, a > sl.second_deg, a > sl.first_deg], [4, 3, 2], 1)
+
+
+def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: tuple | None = None,
+                     timing: str = "smooth", samples: int = 201) -> Plan3D:
+    """Plan a straight-line approach in 3D: the coupler on a line, the arm slewing as it goes.
+
+    With ``y = 0`` at both ends this is exactly :func:`plan_approach` with
+    ``(x, y) -> (x, z)`` (tested).
+
+    Parameters
+    ----------
+    inst : Installation
+        Arm, mounting, limits, slew settings.
+    start, target : tuple of 3 float, optional
+        ``(x, y, z)``, m; default the stored position and the flange at ``y = 0``.
+    timing : {'paper', 'smooth', 'optimal'}
+        Timing law; ``optimal`` also respects the slew drive's rate limit.
+    samples : int
+        Number of samples.
+
+    Returns
+    -------
+    Plan3D
+
+    Raises
+    ------
+    PathError, UnreachableError, TimingError, ValveRangeError
+        As :func:`plan_approach`; also if an end point needs a slew beyond
+        ``slew.limit_deg``.
+    """
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not (2 <= samples <= MAX_SAMPLES):
+        raise PathError(f"samples must be an integer in [2, {MAX_SAMPLES}], got {samples!r}")
+    from .kinematics import inverse as inverse2d
+    from .slew import inverse3d
+
+    arm = arm_from_installation(inst)
+    mount = mounting_from_installation(inst)
+    alarms = alarms_from_installation(inst)
+    sx, sz = inst.approach.stored
+    fx, fz = inst.approach.flange
+    start = (sx, 0.0, sz) if start is None else tuple(start)
+    target = (fx, 0.0, fz) if target is None else tuple(target)
+    path = StraightPath(start, target)
+    if path.dim != 3:
+        raise PathError("plan_approach_3d needs (x, y, z) end points")
+    path.check_reachable(arm)
+    lim = math.radians(inst.slew.limit_deg)
+    s_chk = np.linspace(0.0, path.length, CHECK_SAMPLES)
+    p_chk = path(s_chk)
+    rho_chk = np.hypot(p_chk[:, 0], p_chk[:, 1])
+    if np.min(rho_chk) < 1e-3:
+        raise PathError("the straight path passes over the riser axis, where the slew angle is undefined")
+    phi_chk = np.arctan2(p_chk[:, 1], p_chk[:, 0])
+    if np.max(np.abs(phi_chk)) > lim:
+        i = int(np.argmax(np.abs(phi_chk)))
+        raise PathError(f"the path needs a slew of {math.degrees(phi_chk[i]):.1f} deg at "
+                        f"({', '.join(f'{v:.2f}' for v in p_chk[i])}) m, beyond the slew limit +/-{inst.slew.limit_deg:g} deg")
+    if timing == "optimal":
+        def lengths(s):
+            p = path(s)
+            q = inverse2d(arm, np.hypot(p[:, 0], p[:, 1]), p[:, 2])
+            return cylinder_lengths(mount, q.alpha, q.beta)
+
+        def slew(s):
+            p = path(s)
+            return np.arctan2(p[:, 1], p[:, 0])
+
+        a_cyl = inst.approach.max_cylinder_accel
+        law = ToppraTiming.build(path.length, lengths, v_max=inst.approach.max_speed, a_max=inst.approach.max_accel,
+                                 v_cyl=cylinder_speed_limits(inst), a_cyl=(a_cyl, a_cyl),
+                                 extra=((slew, math.radians(inst.slew.max_rate_deg), math.radians(5.0)),))
+    else:
+        law = make_timing(timing, path, max_speed=inst.approach.max_speed, max_accel=inst.approach.max_accel)
+    T = law.duration
+    q_stored = inverse2d(arm, sx, sz)
+    stored_len = tuple(float(v) for v in cylinder_lengths(mount, q_stored.alpha, q_stored.beta))
+    q_chk = inverse2d(arm, rho_chk, p_chk[:, 2])
+    valve_voltages(*cylinder_lengths(mount, q_chk.alpha, q_chk.beta), stored_len,
+                   volts_per_metre=inst.actuators.volts_per_metre, valve_range=inst.actuators.valve_range_V)
+    t = np.linspace(0.0, T, int(samples))
+    s, sd = law(t, 0), law(t, 1)
+    p = path(s)
+    tan = path(s, 1)
+    v = tan * sd[:, None]
+    q = inverse3d(arm, p[:, 0], p[:, 1], p[:, 2])
+    rho = np.hypot(p[:, 0], p[:, 1])
+    rho_dot = (p[:, 0] * v[:, 0] + p[:, 1] * v[:, 1]) / rho
+    phi_dot = (p[:, 0] * v[:, 1] - p[:, 1] * v[:, 0]) / rho ** 2
+    ad, bd = joint_rates(arm, q.alpha, q.beta, rho_dot, v[:, 2])
+    r1, r2 = cylinder_lengths(mount, q.alpha, q.beta)
+    v1, v2 = cylinder_rates(mount, q.alpha, q.beta, ad, bd)
+    u = valve_voltages(r1, r2, stored_len, volts_per_metre=inst.actuators.volts_per_metre,
+                       valve_range=inst.actuators.valve_range_V, times=t)
+    zone = np.maximum(classify_beta(q.beta, alarms), classify_slew(q.phi, inst))
+    return Plan3D(timing, path.start, path.end, T, t, p[:, 0], p[:, 1], p[:, 2], q.phi, q.alpha, q.beta, phi_dot,
+                  ad, bd, r1, r2, v1, v2, u.u1, u.u2, zone)

@@ -106,7 +106,7 @@ class AlarmThresholds:
         inst : Installation
             Alarm angles and arm.
         g : Guidance
-            Sequence times, margin, slew angles.
+            Sequence times and margin (slew angles come from ``inst.slew``).
 
         Returns
         -------
@@ -119,8 +119,8 @@ class AlarmThresholds:
         return AlarmThresholds(
             beta_first=al.first, beta_second=al.second, beta_release=al.release,
             r_release=float(arm.radius_at_beta(al.release)), r_max=float(arm.radius_at_beta(min(beta_stop, math.pi))),
-            slew_first=math.radians(g.slew_first_deg), slew_second=math.radians(g.slew_second_deg),
-            slew_release=math.radians(g.slew_release_deg), slew_limit=math.radians(g.slew_limit_deg),
+            slew_first=math.radians(inst.slew.first_deg), slew_second=math.radians(inst.slew.second_deg),
+            slew_release=math.radians(inst.slew.release_deg), slew_limit=math.radians(inst.slew.limit_deg),
             t_alarm1=g.esd_time + g.ers_time + g.margin, t_alarm2=g.ers_time + g.margin,
             t_release=g.ers_time + g.margin)
 
@@ -184,7 +184,7 @@ class JointLimits:
         inst : Installation
             Cylinder length ranges and mounting.
         g : Guidance
-            Slew limit and rate.
+            Guidance settings (the slew limit and rate come from ``inst.slew``).
 
         Returns
         -------
@@ -199,14 +199,14 @@ class JointLimits:
         r2 = np.clip(cy.length_range_2, *lim2)
         a_hi, b_lo = joint_angles_from_cylinders(mount, r1[0], r2[0])
         a_lo, b_hi = joint_angles_from_cylinders(mount, r1[1], r2[1])
-        slew = math.radians(g.slew_limit_deg)
+        slew = math.radians(inst.slew.limit_deg)
         from ..trajectory import cylinder_speed_limits
         v1, v2 = cylinder_speed_limits(inst)
         # joint rate bound from the cylinder speed over the largest moment arm (a1 b1 / r etc. <= min(a1, b1))
         rate_a = v1 / max(min(mount.a1, mount.b1), 1e-6)
         rate_b = v2 / max(min(mount.b2, mount.c2), 1e-6)
         return JointLimits((-slew, slew), (float(a_lo), float(a_hi)), (float(b_lo), float(b_hi)),
-                           (math.radians(g.max_slew_rate_deg), rate_a, rate_b))
+                           (math.radians(inst.slew.max_rate_deg), rate_a, rate_b))
 
 
 @dataclass(frozen=True, slots=True)

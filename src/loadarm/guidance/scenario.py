@@ -127,26 +127,8 @@ class Guidance(_S):
     drift_filter: float = _param(10.0, unit="s", gt=0, le=600,
                                  source="averages out wave motion (periods 5-15 s) but follows a drift",
                                  description="time constant of the drift-speed filter used by the speed alarms")
-    slew_limit_deg: float = _param(40.0, unit="deg", gt=0, lt=180, source="typical slew range of a marine arm",
-                                   description="slew joint limit, +/-")
-    slew_first_deg: float = _param(30.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
-                                   description="slew first-stage alarm, +/-")
-    slew_second_deg: float = _param(34.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
-                                    description="slew second-stage alarm, +/-")
-    slew_release_deg: float = _param(37.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
-                                     description="slew release, +/-")
-    max_slew_rate_deg: float = _param(2.0, unit="deg/s", gt=0, le=45, source="slew drive of a 20 m arm",
-                                      description="slew rate limit")
     jog_speed: float = _param(0.15, unit="m/s", gt=0, le=1, source="same as the approach speed limit",
                               description="coupler speed at full joystick deflection")
-
-    @model_validator(mode="after")
-    def _ordered(self) -> "Guidance":
-        if not (self.slew_first_deg < self.slew_second_deg < self.slew_release_deg < self.slew_limit_deg):
-            raise ValueError("slew angles must increase: slew_first_deg < slew_second_deg < slew_release_deg < "
-                             f"slew_limit_deg, got {self.slew_first_deg}, {self.slew_second_deg}, "
-                             f"{self.slew_release_deg}, {self.slew_limit_deg}")
-        return self
 
 
 class ScenarioHead(_S):

@@ -199,6 +199,13 @@ def test_run_and_log(capsys, tmp_path):
     assert [a["reason"].split(":")[0] for a in alarms] == ["ALARM1", "ALARM2", "RELEASE"]
     code, out, _ = run(capsys, "log", "--db", str(db), "--since", "240", "--png", str(tmp_path / "replay.png"))
     assert code == 0 and "events" in out and (tmp_path / "replay.png").exists()
+    # a second run into the same log: filter by run id
+    code, out, _ = run(capsys, "run", "--scenario", SCEN, "--db", str(db), "--json")
+    code, out, _ = run(capsys, "log", "--db", str(db), "--kind", "alarm", "--json")
+    runs = sorted({a["run"] for a in json.loads(out)})
+    assert len(runs) == 2
+    code, out, _ = run(capsys, "log", "--db", str(db), "--kind", "alarm", "--run", runs[0], "--json")
+    assert len(json.loads(out)) == 3
 
 
 @pytest.mark.parametrize("args,fragment", [

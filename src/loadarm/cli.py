@@ -340,7 +340,8 @@ def _timeline_png(png: Path, res, inst) -> None:
 @app.command()
 def run(
     scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML (see examples/scenarios/).")],
-    db: Annotated[Optional[Path], typer.Option("--db", help="SQLite event log to append to.")] = None,
+    db: Annotated[Path, typer.Option("--db", help="SQLite event log to append to.")] = Path("loadarm-events.db"),
+    no_db: Annotated[bool, typer.Option("--no-db", help="Do not log events.")] = False,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Timeline figure.")] = None,
     realtime: Annotated[bool, typer.Option("--realtime", help="Pace the run with the wall clock.")] = False,
@@ -353,7 +354,10 @@ def run(
 
     sc, inst = load_scenario(scenario)
     _check_png(png)
-    log = EventLog(db, run=f"{sc.scenario.name}") if db is not None else None
+    from datetime import datetime, timezone
+
+    run_id = f"{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
+    log = None if no_db else EventLog(db, run=run_id)
     try:
         with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
                       transient=True) as prog:
@@ -375,8 +379,8 @@ def run(
             out.print(f"  {key[:-2].replace('_', ' ')} at {s[key]:.2f} s")
     out.print(f"  max beta {s['max_beta_deg']:.1f} deg, max |slew| {s['max_abs_slew_deg']:.1f} deg, {s['events']} events"
               f"; controller cycle median {s['cycle_us_median']:.0f} us, p99 {s['cycle_us_p99']:.0f} us")
-    if db is not None:
-        out.print(f"  events logged to {db}")
+    if log is not None:
+        out.print(f"  events logged to {db} (run {run_id})")
 
 
 @app.command("log")
@@ -384,6 +388,7 @@ def log_cmd(
     db: Annotated[Path, typer.Option("--db", help="SQLite event log.")] = Path("loadarm-events.db"),
     since: Annotated[Optional[float], typer.Option(help="Only events at or after this time, s.")] = None,
     kind: Annotated[Optional[list[str]], typer.Option(help="Only these kinds (repeatable).")] = None,
+    run_id: Annotated[Optional[str], typer.Option("--run", help="Only this run (as printed by loadarm run).")] = None,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Replay the samples into a timeline figure.")] = None,
 ) -> None:
@@ -393,19 +398,19 @@ def log_cmd(
     _check_png(png)
     log = EventLog.open_existing(db)
     try:
-        events = log.query(since=since, kinds=kind)
+        events = log.query(since=since, kinds=kind, run=run_id)
         if png is not None:
-            _replay_png(png, log.query(since=since))
+            _replay_png(png, log.query(since=since, run=run_id))
     finally:
         log.close()
     if as_json:
         _json([e.as_dict() for e in events])
         return
     t = Table(title=f"{db}: {len(events)} events")
-    for col in ("id", "t [s]", "mode", "kind", "reason"):
+    for col in ("id", "run", "t [s]", "mode", "kind", "reason"):
         t.add_column(col)
     for e in events:
-        t.add_row(str(e.id), f"{e.t:.2f}", e.state, e.kind, e.reason)
+        t.add_row(str(e.id), e.run, f"{e.t:.2f}", e.state, e.kind, e.reason)
     out.print(t)
 
 
@@ -418,14 +423,17 @@ def _replay_png(png: Path, events) -> None:
     samples = [e for e in events if e.kind == "sample"]
     if not samples:
         raise UserError("the log has no state samples to replay (was it written by loadarm run?)")
+    last_run = samples[-1].run            # several runs in one log: replay the latest (or choose with --run)
+    events = [e for e in events if e.run == last_run]
+    samples = [e for e in samples if e.run == last_run]
     t = np.array([e.t for e in samples])
     mode = np.array([MODES.index(e.state) for e in samples])
     beta = np.array([e.data["beta"] for e in samples])
     phi = np.array([e.data["phi"] for e in samples])
     dist = np.array([e.data["distance"] for e in samples])
     alarms = [(e.t, e.reason.split(":")[0]) for e in events if e.kind == "alarm"]
-    save(timeline_figure(t, mode, beta, phi, dist, MODES, alarms=alarms, title="Guidance timeline (replayed from the log)"),
-         png)
+    save(timeline_figure(t, mode, beta, phi, dist, MODES, alarms=alarms,
+                         title=f"Guidance timeline of {last_run} (replayed from the log)"), png)
 
 
 @app.command()

@@ -31,6 +31,7 @@ __all__ = [
     "ValveCommand",
     "valve_voltages",
     "solve_ik_cylinders",
+    "coupler_from_cylinders",
     "IK_CHUNK",
 ]
 
@@ -304,3 +305,31 @@ def solve_ik_cylinders(arm: Arm, mount: Mounting, x: np.ndarray, y: np.ndarray, 
         np.add(OM, e2, out=OM)
         np.sqrt(OM, out=r2[i:j])
     return alpha, beta, r1, r2
+
+
+def coupler_from_cylinders(arm: Arm, mount: Mounting, r_ac1, r_ac2) -> tuple[np.ndarray, np.ndarray]:
+    """Coupler position from two encoder readings: cylinder lengths -> joint angles -> position.
+
+    Parameters
+    ----------
+    arm : Arm
+        Arm lengths.
+    mount : Mounting
+        Pin distances.
+    r_ac1, r_ac2 : float or ndarray
+        Cylinder pin-to-pin lengths, m.
+
+    Returns
+    -------
+    x, y : ndarray
+        Coupler position, m (arm plane).
+
+    Raises
+    ------
+    ActuatorError
+        If a length is impossible for the mounting.
+    """
+    from .kinematics import forward
+
+    alpha, beta = joint_angles_from_cylinders(mount, r_ac1, r_ac2)
+    return forward(arm, alpha, beta)

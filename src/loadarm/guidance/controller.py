@@ -459,7 +459,7 @@ class GuidanceController:
                     m = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)[lv]
                     self._event("alarm", f"{m.value}: {why}", level=lv, beta_deg=math.degrees(q[2]),
                                 slew_deg=math.degrees(q[0]), v_r=s.v_r)
-                if lv >= 1 and s.esd_since is None:
+                if level >= 1 and s.esd_since is None:
                     s.esd_since = now
                     self._event("command", "ESD-1: stop transfer pumps, close ERS valves")
                 if level >= 3 and s.release_since is None:

@@ -230,3 +230,11 @@ def test_plan_3d(capsys, tmp_path):
     assert csv.read_text().startswith("t_s,x_m,y_m,z_m,slew_deg")
     code, out, _ = run(capsys, "plan", "-c", CFG, "--target", "12,6,1")
     assert code == 0 and "slew" in out
+
+
+def test_simulate_all_timing_laws(capsys):
+    code, out, _ = run(capsys, "simulate", "-c", CFG, "--timing", "all", "--json")
+    assert code == 0
+    d = json.loads(out)
+    assert set(d) == {"paper", "smooth", "optimal"}
+    assert d["paper"]["max_deviation_mm"] > d["smooth"]["max_deviation_mm"]

@@ -284,18 +284,43 @@ def loads(
 @app.command()
 def simulate(
     config: ConfigOpt,
-    timing: Annotated[str, typer.Option(help="Timing law: paper, smooth or optimal.")] = "smooth",
+    timing: Annotated[str, typer.Option(help="Timing law: paper, smooth, optimal, or all (compare).")] = "smooth",
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Deviation, tracking, pressures, valves, pump.")] = None,
     fill: Annotated[Optional[float], typer.Option(help="Product fill fraction 0..1 (default masses.fill).")] = None,
 ) -> None:
-    """Simulate the electro-hydraulic closed loop (paper Fig. 11) driving the arm along the approach."""
+    """Simulate the electro-hydraulic closed loop (paper Fig. 11) driving the arm along the approach.
+
+    --timing all compares the three timing laws in one table.
+    """
     from .hydraulics.simulate import simulate_approach
+    from .timing import TIMING_LAWS
     from .trajectory import plan_approach
 
     inst = load_config(config)
     _check_png(png)
     _check_fill(fill)
+    if timing == "all":
+        rows = {}
+        with err.status("simulating the closed loop for every timing law"):
+            for law in TIMING_LAWS:
+                rows[law] = simulate_approach(inst, plan_approach(inst, timing=law, samples=2001), fill=fill).summary()
+        if as_json:
+            _json(rows)
+            return
+        t = Table(title="timing laws compared (closed loop)")
+        for col in ("timing", "T [s]", "arrive [s]", "dev max [mm]", "dev RMS [mm]", "final [mm]", "p max [bar]"):
+            t.add_column(col)
+        for law, r in rows.items():
+            arr = "never" if r["arrival_time_s"] is None else f"{r['arrival_time_s']:.2f}"
+            t.add_row(law, f"{r['plan_duration_s']:.2f}", arr, f"{r['max_deviation_mm']:.1f}",
+                      f"{r['rms_deviation_mm']:.1f}", f"{r['final_position_error_mm']:.2f}",
+                      f"{r['max_chamber_pressure_bar']:.1f}")
+        out.print(t)
+        for law, r in rows.items():
+            for w in r["warnings"]:
+                out.print(f"[yellow]warning ({law}):[/] {w}")
+        return
     plan = plan_approach(inst, timing=timing, samples=2001)
     with err.status("simulating the closed loop (first run compiles the simulator)"):
         res = simulate_approach(inst, plan, fill=fill)

@@ -15,6 +15,7 @@ from typing import Annotated, Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
@@ -93,7 +94,7 @@ def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
     for title, rows in (("corners, sized arm", corners), ("corners, configured arm", corners_conf)):
         t = Table(title=title)
         for col in ("corner", "x [m]", "y [m]", "beta [deg]", "zone"):
-            t.add_column(col)
+            t.add_column(escape(col))
         for r in rows:
             beta = "n/a" if r["beta_deg"] is None else f"{r['beta_deg']:.2f}"
             t.add_row(r["corner"], f"{r['x_m']:.2f}", f"{r['y_m']:.2f}", beta, r["zone_label"])
@@ -272,7 +273,7 @@ def loads(
     t = Table(title=f"actuator loads, {timing} timing")
     for col in ("cylinder", "peak force [kN]", "RMS force [kN]", "peak pressure [bar]", "peak speed [mm/s]",
                 "peak flow [L/min]"):
-        t.add_column(col)
+        t.add_column(escape(col))
     for i in (1, 2):
         c = s[f"cylinder{i}"]
         t.add_row(str(i), f"{c['peak_force_N'] / 1e3:.1f}", f"{c['rms_force_N'] / 1e3:.1f}",
@@ -310,7 +311,7 @@ def simulate(
             return
         t = Table(title="timing laws compared (closed loop)")
         for col in ("timing", "T [s]", "arrive [s]", "dev max [mm]", "dev RMS [mm]", "final [mm]", "p max [bar]"):
-            t.add_column(col)
+            t.add_column(escape(col))
         for law, r in rows.items():
             arr = "never" if r["arrival_time_s"] is None else f"{r['arrival_time_s']:.2f}"
             t.add_row(law, f"{r['plan_duration_s']:.2f}", arr, f"{r['max_deviation_mm']:.1f}",
@@ -433,7 +434,7 @@ def log_cmd(
         return
     t = Table(title=f"{db}: {len(events)} events")
     for col in ("id", "run", "t [s]", "mode", "kind", "reason"):
-        t.add_column(col)
+        t.add_column(escape(col))
     for e in events:
         t.add_row(str(e.id), e.run, f"{e.t:.2f}", e.state, e.kind, e.reason)
     out.print(t)

@@ -320,7 +320,7 @@ def simulate(
         out.print(t)
         for law, r in rows.items():
             for w in r["warnings"]:
-                out.print(f"[yellow]warning ({law}):[/] {w}")
+                out.print(f"[yellow]warning ({law}):[/] {escape(w)}")
         return
     plan = plan_approach(inst, timing=timing, samples=2001)
     with err.status("simulating the closed loop (first run compiles the simulator)"):
@@ -348,7 +348,7 @@ def simulate(
     t.add_row("energy balance error", f"{s['energy_balance_error_pct']:.3f} %")
     out.print(t)
     for w in s["warnings"]:
-        out.print(f"[yellow]warning:[/] {w}")
+        out.print(f"[yellow]warning:[/] {escape(w)}")
 
 
 def _timeline_png(png: Path, res, inst) -> None:
@@ -436,7 +436,7 @@ def log_cmd(
     for col in ("id", "run", "t [s]", "mode", "kind", "reason"):
         t.add_column(escape(col))
     for e in events:
-        t.add_row(str(e.id), e.run, f"{e.t:.2f}", e.state, e.kind, e.reason)
+        t.add_row(str(e.id), escape(e.run), f"{e.t:.2f}", e.state, e.kind, escape(e.reason))
     out.print(t)
 
 

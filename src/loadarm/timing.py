@@ -163,7 +163,8 @@ def make_timing(name: str, path: StraightPath, *, max_speed: float, max_accel: f
     Parameters
     ----------
     name : {'paper', 'smooth'}
-        Which law.
+        Which law (``optimal`` needs the arm: use
+        :func:`loadarm.trajectory.plan_approach`).
     path : StraightPath
         The path to time.
     max_speed : float

@@ -328,3 +328,20 @@ def test_same_controller_runs_in_real_time():
     assert np.array_equal(r.signals["mode"], fast.signals["mode"])   # same decisions either way
     with pytest.raises(ValueError, match="speedup must be > 0"):
         wall_clock_pacer(0)
+
+
+def test_manual_jog_scenario_moves_the_coupler_as_the_joystick_says():
+    sc, inst = load_scenario(SCEN / "manual.toml")
+    r = run_scenario(sc, inst, plant="kinematic")
+    assert r.summary()["mode_sequence"] == ["STORED", "MANUAL", "ESTOP", "RETURN", "STORED"]
+    s = r.signals
+    dt = 1 / sc.guidance.rate
+    i0, i1 = int(6 / dt), int(19.9 / dt)
+    v = np.array([(s[k][i1] - s[k][i0]) / (s["t"][i1] - s["t"][i0]) for k in ("x", "y", "z")])
+    assert np.allclose(v, sc.operator.jog[0][2:], atol=1e-3)
+    stop = int(np.flatnonzero(s["mode"] == MODES.index("ESTOP"))[0])
+    assert np.ptp(s["x"][stop:stop + int(4 / dt)]) < 1e-12       # the E-stop cycle stops it
+    with pytest.raises(ConfigError, match="operator.jog segments"):
+        d = sc.model_dump()
+        d["operator"]["jog"] = [[10.0, 5.0, 0.0, 0.0, 0.0]]
+        parse_scenario(d)

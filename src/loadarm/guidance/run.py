@@ -214,9 +214,19 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
             actions.append("disconnect")
         if op.estop_at is not None and op.estop_at <= now < op.estop_at + dt:
             actions.append("estop")
+        if op.reset_at is not None and op.reset_at <= now < op.reset_at + dt:
+            actions.append("reset")
         if servo_fault and ctrl.s.mode != Mode.ESTOP:
             actions.append("estop")
-        cmd = ctrl.step(now, q, e, OperatorInput(tuple(actions)))
+        jog = (0.0, 0.0, 0.0)
+        for t_on, t_off, vx, vy, vz in op.jog:
+            if t_on <= now < t_on + dt:
+                actions.append("manual")
+            if t_off <= now < t_off + dt:
+                actions.append("auto")
+            if t_on <= now < t_off:
+                jog = (vx, vy, vz)
+        cmd = ctrl.step(now, q, e, OperatorInput(tuple(actions), jog))
         cycle[k] = (time.perf_counter() - t0) * 1e6
         for kind, reason, data in cmd.events:
             emit(now, cmd.mode.value, kind, reason, data)

@@ -104,6 +104,20 @@ class Operator(_S):
                                          description="time of a normal disconnection (omit for none)")
     estop_at: float | None = _param(None, unit="s", ge=0, source="none by default",
                                     description="time the emergency stop is pressed (omit for none)")
+    reset_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+                                    description="time the operator resets after an emergency stop (omit for none)")
+    jog: tuple[tuple[float, float, float, float, float], ...] = _param(
+        (), unit="s, m/s", source="none by default",
+        description="manual jog segments [start, end, vx, vy, vz]: the operator takes manual control at start, "
+                    "holds the joystick at (vx, vy, vz) and hands back to automatic at end")
+
+    @model_validator(mode="after")
+    def _jog_segments(self) -> "Operator":
+        for seg in self.jog:
+            if not (0 <= seg[0] < seg[1] and all(math.isfinite(v) for v in seg)):
+                raise ValueError(f"operator.jog segments must be [start, end, vx, vy, vz] with 0 <= start < end, "
+                                 f"got {list(seg)}")
+        return self
 
 
 class Guidance(_S):

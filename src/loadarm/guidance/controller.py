@@ -352,14 +352,13 @@ class GuidanceController:
         return ""
 
     def _jacobian3d(self, phi, alpha, beta) -> np.ndarray:
-        a, b, c = self.arm.a, self.arm.b, self.arm.c
+        b, c = self.arm.b, self.arm.c
         rho = b * math.sin(alpha) - c * math.sin(alpha - beta)
         drho_da = b * math.cos(alpha) - c * math.cos(alpha - beta)
         drho_db = c * math.cos(alpha - beta)
         dz_da = -b * math.sin(alpha) + c * math.sin(alpha - beta)
         dz_db = -c * math.sin(alpha - beta)
         cp, sp = math.cos(phi), math.sin(phi)
-        del a
         return np.array([[-rho * sp, drho_da * cp, drho_db * cp],
                          [rho * cp, drho_da * sp, drho_db * sp],
                          [0.0, dz_da, dz_db]])

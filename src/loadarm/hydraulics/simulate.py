@@ -17,7 +17,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import Installation
-from ..dynamics import G, chamber_pressures, cylinder_areas, lagrange_constants, mass_model, static_torques
+from ..dynamics import (G, chamber_pressures, cylinder_areas, lagrange_constants, mass_model, moment_arms,
+                        static_torques)
 from ..errors import LoadarmError
 from ..geometry import arm_from_installation, mounting_from_installation
 from ..kinematics import forward
@@ -120,9 +121,8 @@ def initial_state(inst: Installation, alpha: float, beta: float, *, fill: float 
     ndarray, shape (13,)
     """
     mm = mass_model(inst, fill=fill)
-    mount = mounting_from_installation(inst)
     ta, tb = static_torques(mm, alpha, beta)
-    _, _, h1, h2 = plant._geometry(pack_parameters(inst), alpha, beta)
+    h1, h2 = (float(v) for v in moment_arms(mounting_from_installation(inst), alpha, beta))
     cy = inst.cylinders
     y = np.zeros(13)
     y[0], y[1] = alpha, beta
@@ -132,7 +132,6 @@ def initial_state(inst: Installation, alpha: float, beta: float, *, fill: float 
         pA, pB = chamber_pressures(float(tau) / h, cy.bore, cy.rod, cy.return_pressure)
         y[4 + 2 * i], y[5 + 2 * i] = float(pA), float(pB)
     y[12] = inst.pump.compensator_pressure
-    del mount
     return y
 
 

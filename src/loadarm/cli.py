@@ -126,13 +126,7 @@ def plan(
         p3 = plan_approach_3d(inst, start=a, target=b, timing=timing, samples=samples)
         recs = p3.records()
         if csv is not None:
-            import csv as _csv
-
-            csv.parent.mkdir(parents=True, exist_ok=True)
-            with csv.open("w", newline="", encoding="utf-8") as fh:
-                w = _csv.DictWriter(fh, fieldnames=list(recs[0]))
-                w.writeheader()
-                w.writerows(recs)
+            p3.write_csv(csv)
         if as_json:
             _json({**p3.summary(), "samples": recs})
             return

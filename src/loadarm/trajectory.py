@@ -140,13 +140,46 @@ class Plan:
         Path
             The file written.
         """
-        p = Path(path)
-        p.parent.mkdir(parents=True, exist_ok=True)
-        with p.open("w", newline="", encoding="utf-8") as fh:
-            w = csv.DictWriter(fh, fieldnames=list(_FIELDS))
-            w.writeheader()
-            w.writerows(self.records())
-        return p
+        return _write_csv(path, self.records())
+
+
+def _write_csv(path: str | Path, records: list[dict]) -> Path:
+    """Write records (dicts with the same keys) as CSV, creating parent directories."""
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    with p.open("w", newline="", encoding="utf-8") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(records[0]))
+        w.writeheader()
+        w.writerows(records)
+    return p
+
+
+def _check_samples(samples) -> int:
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not (2 <= samples <= MAX_SAMPLES):
+        raise PathError(f"samples must be an integer in [2, {MAX_SAMPLES}], got {samples!r}")
+    return int(samples)
+
+
+def _planar(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Coordinates in the arm's (slewed) plane of path points ``(n, 2)`` or ``(n, 3)``: radius and height."""
+    if p.shape[-1] == 2:
+        return p[..., 0], p[..., 1]
+    return np.hypot(p[..., 0], p[..., 1]), p[..., 2]
+
+
+def _stored_lengths(inst: Installation, arm, mount) -> tuple[float, float]:
+    """Cylinder lengths in the stored pose (the valve voltages' reference), m."""
+    q = inverse(arm, *inst.approach.stored)
+    return tuple(float(v) for v in cylinder_lengths(mount, q.alpha, q.beta))
+
+
+def _check_valve_range(inst: Installation, arm, mount, path: StraightPath, law, stored_len) -> None:
+    """Re-check the valve range on a dense time grid along the whole path, not only at the output samples."""
+    t_chk = np.linspace(0.0, law.duration, CHECK_SAMPLES)
+    q_chk = inverse(arm, *_planar(path(law(t_chk, 0))))
+    valve_voltages(*cylinder_lengths(mount, q_chk.alpha, q_chk.beta), stored_len,
+                   volts_per_metre=inst.actuators.volts_per_metre, valve_range=inst.actuators.valve_range_V,
+                   times=t_chk)
 
 
 def cylinder_speed_limits(inst: Installation) -> tuple[float, float]:
@@ -180,7 +213,8 @@ def optimal_timing(inst: Installation, path: StraightPath) -> ToppraTiming:
         Limits: ``approach.max_speed``, ``approach.max_accel``,
         ``approach.max_cylinder_accel`` and :func:`cylinder_speed_limits`.
     path : StraightPath
-        The path (already checked reachable).
+        The path (already checked reachable), in the arm plane or in 3D; in
+        3D the slew angle is a further channel limited by ``slew.max_rate_deg``.
 
     Returns
     -------
@@ -190,13 +224,17 @@ def optimal_timing(inst: Installation, path: StraightPath) -> ToppraTiming:
     mount = mounting_from_installation(inst)
 
     def lengths(s):
-        p = path(s)
-        q = inverse(arm, p[:, 0], p[:, 1])
+        q = inverse(arm, *_planar(path(s)))
         return cylinder_lengths(mount, q.alpha, q.beta)
 
+    def slew(s):
+        p = path(s)
+        return np.arctan2(p[:, 1], p[:, 0])
+
+    extra = ((slew, math.radians(inst.slew.max_rate_deg), math.radians(5.0)),) if path.dim == 3 else ()
     a_cyl = inst.approach.max_cylinder_accel
     return ToppraTiming.build(path.length, lengths, v_max=inst.approach.max_speed, a_max=inst.approach.max_accel,
-                              v_cyl=cylinder_speed_limits(inst), a_cyl=(a_cyl, a_cyl))
+                              v_cyl=cylinder_speed_limits(inst), a_cyl=(a_cyl, a_cyl), extra=extra)
 
 
 def plan_approach(inst: Installation, *, start: tuple[float, float] | None = None,
@@ -234,8 +272,7 @@ def plan_approach(inst: Installation, *, start: tuple[float, float] | None = Non
     ValveRangeError
         A voltage beyond the valve range anywhere along the path.
     """
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not (2 <= samples <= MAX_SAMPLES):
-        raise PathError(f"samples must be an integer in [2, {MAX_SAMPLES}], got {samples!r}")
+    samples = _check_samples(samples)
     arm = arm_from_installation(inst)
     mount = mounting_from_installation(inst)
     alarms = alarms_from_installation(inst)
@@ -250,19 +287,10 @@ def plan_approach(inst: Installation, *, start: tuple[float, float] | None = Non
     else:
         law = make_timing(timing, path, max_speed=inst.approach.max_speed, max_accel=inst.approach.max_accel)
     T = law.duration
+    stored_len = _stored_lengths(inst, arm, mount)
+    _check_valve_range(inst, arm, mount, path, law, stored_len)
 
-    q_stored = inverse(arm, *stored)
-    stored_len = tuple(float(v) for v in cylinder_lengths(mount, q_stored.alpha, q_stored.beta))
-
-    # Dense check of the valve range along the whole path (not only at the requested samples).
-    t_chk = np.linspace(0.0, T, CHECK_SAMPLES)
-    p_chk = path(law(t_chk, 0))
-    q_chk = inverse(arm, p_chk[:, 0], p_chk[:, 1])
-    r_chk = cylinder_lengths(mount, q_chk.alpha, q_chk.beta)
-    valve_voltages(*r_chk, stored_len, volts_per_metre=inst.actuators.volts_per_metre,
-                   valve_range=inst.actuators.valve_range_V, times=t_chk)
-
-    t = np.linspace(0.0, T, int(samples))
+    t = np.linspace(0.0, T, samples)
     s = law(t, 0)
     sd = law(t, 1)
     sdd = law(t, 2)
@@ -357,6 +385,21 @@ class Plan3D:
         rows = np.column_stack(cols).tolist()
         return [dict(zip(keys, r), zone=z) for r, z in zip(rows, self.zone.tolist())]
 
+    def write_csv(self, path: str | Path) -> Path:
+        """Write :meth:`records` as CSV (header = the record keys).
+
+        Parameters
+        ----------
+        path : str or Path
+            Output file; parent directories are created.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
+        return _write_csv(path, self.records())
+
 
 def classify_slew(phi, inst: Installation) -> np.ndarray:
     """Alarm zone of slew angles (1 normal, 2 first, 3 second, 4 release) from ``[slew]``.
@@ -405,9 +448,7 @@ def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: 
         As :func:`plan_approach`; also if an end point needs a slew beyond
         ``slew.limit_deg``.
     """
-    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or not (2 <= samples <= MAX_SAMPLES):
-        raise PathError(f"samples must be an integer in [2, {MAX_SAMPLES}], got {samples!r}")
-    from .kinematics import inverse as inverse2d
+    samples = _check_samples(samples)
     from .slew import inverse3d
 
     arm = arm_from_installation(inst)
@@ -424,7 +465,7 @@ def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: 
     lim = math.radians(inst.slew.limit_deg)
     s_chk = np.linspace(0.0, path.length, CHECK_SAMPLES)
     p_chk = path(s_chk)
-    rho_chk = np.hypot(p_chk[:, 0], p_chk[:, 1])
+    rho_chk, _ = _planar(p_chk)
     if np.min(rho_chk) < 1e-3:
         raise PathError("the straight path passes over the riser axis, where the slew angle is undefined")
     phi_chk = np.arctan2(p_chk[:, 1], p_chk[:, 0])
@@ -433,34 +474,19 @@ def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: 
         raise PathError(f"the path needs a slew of {math.degrees(phi_chk[i]):.1f} deg at "
                         f"({', '.join(f'{v:.2f}' for v in p_chk[i])}) m, beyond the slew limit +/-{inst.slew.limit_deg:g} deg")
     if timing == "optimal":
-        def lengths(s):
-            p = path(s)
-            q = inverse2d(arm, np.hypot(p[:, 0], p[:, 1]), p[:, 2])
-            return cylinder_lengths(mount, q.alpha, q.beta)
-
-        def slew(s):
-            p = path(s)
-            return np.arctan2(p[:, 1], p[:, 0])
-
-        a_cyl = inst.approach.max_cylinder_accel
-        law = ToppraTiming.build(path.length, lengths, v_max=inst.approach.max_speed, a_max=inst.approach.max_accel,
-                                 v_cyl=cylinder_speed_limits(inst), a_cyl=(a_cyl, a_cyl),
-                                 extra=((slew, math.radians(inst.slew.max_rate_deg), math.radians(5.0)),))
+        law = optimal_timing(inst, path)
     else:
         law = make_timing(timing, path, max_speed=inst.approach.max_speed, max_accel=inst.approach.max_accel)
     T = law.duration
-    q_stored = inverse2d(arm, sx, sz)
-    stored_len = tuple(float(v) for v in cylinder_lengths(mount, q_stored.alpha, q_stored.beta))
-    q_chk = inverse2d(arm, rho_chk, p_chk[:, 2])
-    valve_voltages(*cylinder_lengths(mount, q_chk.alpha, q_chk.beta), stored_len,
-                   volts_per_metre=inst.actuators.volts_per_metre, valve_range=inst.actuators.valve_range_V)
-    t = np.linspace(0.0, T, int(samples))
+    stored_len = _stored_lengths(inst, arm, mount)
+    _check_valve_range(inst, arm, mount, path, law, stored_len)
+    t = np.linspace(0.0, T, samples)
     s, sd = law(t, 0), law(t, 1)
     p = path(s)
     tan = path(s, 1)
     v = tan * sd[:, None]
     q = inverse3d(arm, p[:, 0], p[:, 1], p[:, 2])
-    rho = np.hypot(p[:, 0], p[:, 1])
+    rho, _ = _planar(p)
     rho_dot = (p[:, 0] * v[:, 0] + p[:, 1] * v[:, 1]) / rho
     phi_dot = (p[:, 0] * v[:, 1] - p[:, 1] * v[:, 0]) / rho ** 2
     ad, bd = joint_rates(arm, q.alpha, q.beta, rho_dot, v[:, 2])

@@ -16,10 +16,8 @@ import math
 
 import numpy as np
 
-from ..actuators import cylinder_lengths
 from ..config import Installation
 from ..dynamics import G, lagrange_constants, mass_model
-from ..geometry import mounting_from_installation
 from . import plant
 from .simulate import SimulationError, initial_state, pack_parameters
 
@@ -40,7 +38,6 @@ class HydraulicArm:
     def __init__(self, inst: Installation, alpha: float, beta: float):
         self.inst = inst
         self.P = pack_parameters(inst)
-        self.mount = mounting_from_installation(inst)
         self.k = lagrange_constants(mass_model(inst))
         self.dt = float(self.P[plant.I_DT])
         self.substeps = int(round(self.P[plant.I_DT] / self.P[plant.I_H]))
@@ -59,9 +56,9 @@ class HydraulicArm:
         self.dfilt = np.zeros(2)
         self.u = np.zeros(2)
         self.status = np.zeros(10)
-        r1, r2 = cylinder_lengths(self.mount, alpha, beta)
+        r1, r2, _, _ = plant._geometry(self.P, alpha, beta)
         res = self.P[plant.I_RES]
-        self.prev = np.array([round(float(r1) / res) * res, round(float(r2) / res) * res])
+        self.prev = np.array([round(r1 / res) * res, round(r2 / res) * res])
         self.q_ref = np.array([alpha, beta], dtype=float)
 
     @property
@@ -108,11 +105,7 @@ class HydraulicArm:
 
     def _refs(self, a: float, b: float, wa: float, wb: float) -> tuple[float, ...]:
         """Cylinder lengths, speeds and static holding forces at one pose (scalar, fast)."""
-        m = self.mount
-        r1 = math.sqrt((m.a1 - m.b1) ** 2 + 4.0 * m.a1 * m.b1 * math.cos(0.5 * a) ** 2)
-        r2 = math.sqrt((m.c2 - m.b2) ** 2 + 4.0 * m.c2 * m.b2 * math.sin(0.5 * b) ** 2)
-        h1 = -m.a1 * m.b1 * math.sin(a) / r1
-        h2 = m.b2 * m.c2 * math.sin(b) / r2
+        r1, r2, h1, h2 = plant._geometry(self.P, a, b)
         sab = math.sin(a - b)
         ta = -G * (self.k.g_a * math.sin(a) + self.k.g_ab * sab)     # dV/d alpha: the holding torque
         tb = G * self.k.g_ab * sab

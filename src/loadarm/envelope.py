@@ -24,7 +24,7 @@ import numpy as np
 
 from .config import Datasheet, Installation
 from .geometry import Arm
-from .kinematics import inverse, reach_mask
+from .kinematics import solve_ik
 
 __all__ = [
     "Zone",
@@ -138,12 +138,7 @@ def classify_point(arm: Arm, alarms: AlarmAngles, x: np.ndarray | float, y: np.n
     ndarray of int
         :class:`Zone` values, broadcast shape of ``x`` and ``y``.
     """
-    x, y = np.broadcast_arrays(np.asarray(x, dtype=float), np.asarray(y, dtype=float))
-    ok = reach_mask(arm, x, y)
-    beta = np.full(x.shape, np.nan)
-    if ok.any():
-        beta[ok] = inverse(arm, x[ok], y[ok], check=False).beta
-    return classify_beta(beta, alarms)
+    return classify_beta(solve_ik(arm, x, y).beta, alarms)     # NaN beta (unreachable) -> Zone.UNREACHABLE
 
 
 def zone_radii(arm: Arm, alarms: AlarmAngles) -> dict[str, float]:

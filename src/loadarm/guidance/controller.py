@@ -488,10 +488,11 @@ class GuidanceController:
                 top = np.array([0.0, 0.0, self.arm.a])
                 outward = (np.linalg.norm(nxt - top) > np.linalg.norm(p - top)
                            or abs(math.atan2(nxt[1], nxt[0])) > abs(math.atan2(p[1], p[0])))
-                if n > 0 and self.target_ok(nxt) and outward:
+                why_not = self.target_ok(nxt) if n > 0 else ""
+                if why_not and outward:
                     rates = zero     # refuse a jog that leaves the envelope; moving back in is allowed
                     if self.s.refused != "jog":
-                        self._event("info", f"jog refused: {self.target_ok(nxt)}")
+                        self._event("info", f"jog refused: {why_not}")
                         self.s.refused = "jog"
                 else:
                     self.s.refused = ""

@@ -20,9 +20,8 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from .config import Installation, load_config, paper_installation
-from .envelope import alarms_from_installation
 from .errors import LoadarmError
-from .geometry import Arm, arm_from_installation
+from .geometry import arm_from_installation
 
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Automatic guidance of marine loading arms (sizing, envelope, straight-line approach).")
@@ -70,21 +69,12 @@ def _json(obj) -> None:
 @app.command()
 def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
     """Size the inboard and outboard arms from the datasheet (paper Eqs 1-3) and check every corner."""
-    from .sizing import check_corners, size_installation
+    from .sizing import size_installation, sizing_summary
 
     inst = load_config(config)
     res = size_installation(inst)
-    alarms = alarms_from_installation(inst)
-    sized = Arm(inst.arm.riser, res.inboard, res.outboard)
-    corners = [c.as_dict() for c in check_corners(sized, alarms, inst)]
-    corners_conf = [c.as_dict() for c in check_corners(arm_from_installation(inst), alarms, inst)]
-    data = {
-        "inboard_m": res.inboard, "outboard_m": res.outboard, "total_m": res.total, "r_alarm_m": res.r_alarm,
-        "first_alarm_corner_m": list(res.corner), "beta_alarm_deg": math.degrees(res.beta_alarm),
-        "active_bound": res.active_bound, "local_minima_m": [list(m) for m in res.local_minima],
-        "constraint_residual_m2": float(res.constraint_residual),
-        "corners": corners, "corners_configured_arm": corners_conf,
-    }
+    data = sizing_summary(inst, res)
+    corners, corners_conf = data["corners"], data["corners_configured_arm"]
     if as_json:
         _json(data)
         return

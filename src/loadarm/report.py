@@ -19,7 +19,7 @@ from pathlib import Path
 from . import __version__
 from .config import Installation, parameter_table
 from .envelope import alarms_from_installation, berth_box, zone_radii
-from .geometry import Arm, arm_from_installation
+from .geometry import arm_from_installation
 from .balancing import balance_counterweights
 from .hydraulics.simulate import simulate_approach
 from .loads import actuator_loads
@@ -27,7 +27,7 @@ from .multibody import verify_kinematics
 from .plotting import (alpha_beta_figure, angles_time_figure, cylinders_figure, envelope_figure, loads_figure,
                        residual_torque_figure, save, simulation_figure, timing_comparison_figure, timing_figure,
                        verification_figure, voltages_figure)
-from .sizing import check_corners, size_installation
+from .sizing import size_installation, sizing_summary
 from .timing import TIMING_LAWS
 from .trajectory import Plan, plan_approach
 
@@ -63,7 +63,7 @@ def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str]
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
 
 
-def summary_dict(inst: Installation, plans: dict[str, Plan]) -> dict:
+def summary_dict(inst: Installation, plans: dict[str, Plan], sizing: dict | None = None) -> dict:
     """Every headline number of the report, JSON-friendly.
 
     Parameters
@@ -72,26 +72,21 @@ def summary_dict(inst: Installation, plans: dict[str, Plan]) -> dict:
         The installation.
     plans : dict of str to Plan
         Plans by timing-law name.
+    sizing : dict, optional
+        An already computed :func:`loadarm.sizing.sizing_summary`.
 
     Returns
     -------
     dict
         Sizing, corner tables, zone radii and plan summaries.
     """
-    sizing = size_installation(inst)
-    arm = arm_from_installation(inst)
-    alarms = alarms_from_installation(inst)
-    sized = Arm(arm.a, sizing.inboard, sizing.outboard)
+    sz = sizing_summary(inst) if sizing is None else sizing
+    keep = ("inboard_m", "outboard_m", "r_alarm_m", "first_alarm_corner_m", "active_bound", "local_minima_m")
     return {
         "loadarm_version": __version__,
-        "sizing": {
-            "inboard_m": sizing.inboard, "outboard_m": sizing.outboard, "r_alarm_m": sizing.r_alarm,
-            "first_alarm_corner_m": list(sizing.corner), "active_bound": sizing.active_bound,
-            "local_minima_m": [list(m) for m in sizing.local_minima],
-            "corners_sized_arm": [c.as_dict() for c in check_corners(sized, alarms, inst)],
-            "corners_configured_arm": [c.as_dict() for c in check_corners(arm, alarms, inst)],
-        },
-        "zone_radii_m": zone_radii(arm, alarms),
+        "sizing": {**{k: sz[k] for k in keep}, "corners_sized_arm": sz["corners"],
+                   "corners_configured_arm": sz["corners_configured_arm"]},
+        "zone_radii_m": zone_radii(arm_from_installation(inst), alarms_from_installation(inst)),
         "plans": {name: p.summary() for name, p in plans.items()},
     }
 
@@ -140,11 +135,9 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
 
     step("sizing the arm (Eqs 1-3)")
     sizing = size_installation(inst)
+    sz = sizing_summary(inst, sizing)
     arm = arm_from_installation(inst)
-    alarms = alarms_from_installation(inst)
-    sized = Arm(arm.a, sizing.inboard, sizing.outboard)
-    corners_sized = [c.as_dict() for c in check_corners(sized, alarms, inst)]
-    corners_conf = [c.as_dict() for c in check_corners(arm, alarms, inst)]
+    corners_sized, corners_conf = sz["corners"], sz["corners_configured_arm"]
 
     plans: dict[str, Plan] = {}
     csvs: dict[str, Path] = {}
@@ -202,7 +195,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
             figdir / f"timeline_{name}.png")
 
     step("writing report")
-    summary = summary_dict(inst, plans)
+    summary = summary_dict(inst, plans, sz)
     summary["verification"] = verification.summary()
     summary["loads"] = {law: ld.summary() for law, ld in loads.items()}
     summary["balance"] = balance.summary()

@@ -30,7 +30,7 @@ from .geometry import Arm
 from .kinematics import inverse, reach_mask
 
 __all__ = ["SizingResult", "CornerCheck", "first_alarm_corner", "alarm_radius", "size_arm", "check_corners",
-           "size_installation"]
+           "size_installation", "sizing_summary"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -302,3 +302,35 @@ def size_installation(inst: Installation) -> SizingResult:
     """
     X, Y = first_alarm_corner(inst)
     return size_arm(inst.arm.riser, X, Y, inst.alarms.first, inst.sizing.inboard, inst.sizing.outboard)
+
+
+def sizing_summary(inst: Installation, result: SizingResult | None = None) -> dict:
+    """Sizing result and corner tables (sized and configured arm), JSON-friendly.
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation.
+    result : SizingResult, optional
+        An already computed :func:`size_installation` result.
+
+    Returns
+    -------
+    dict
+        ``inboard_m, outboard_m, total_m, r_alarm_m, first_alarm_corner_m, beta_alarm_deg, active_bound,
+        local_minima_m, constraint_residual_m2, corners`` (sized arm) and ``corners_configured_arm``.
+    """
+    from .envelope import alarms_from_installation
+    from .geometry import arm_from_installation
+
+    res = size_installation(inst) if result is None else result
+    alarms = alarms_from_installation(inst)
+    sized = Arm(inst.arm.riser, res.inboard, res.outboard)
+    return {
+        "inboard_m": res.inboard, "outboard_m": res.outboard, "total_m": res.total, "r_alarm_m": res.r_alarm,
+        "first_alarm_corner_m": list(res.corner), "beta_alarm_deg": math.degrees(res.beta_alarm),
+        "active_bound": res.active_bound, "local_minima_m": [list(m) for m in res.local_minima],
+        "constraint_residual_m2": float(res.constraint_residual),
+        "corners": [c.as_dict() for c in check_corners(sized, alarms, inst)],
+        "corners_configured_arm": [c.as_dict() for c in check_corners(arm_from_installation(inst), alarms, inst)],
+    }

@@ -335,18 +335,6 @@ def simulate(
         out.print(f"[yellow]warning:[/] {escape(w)}")
 
 
-def _timeline_png(png: Path, res, inst) -> None:
-    from .guidance.run import MODES
-    from .plotting import save, timeline_figure
-
-    s = res.signals
-    alarms = [(t, reason.split(":")[0]) for t, _, kind, reason, _ in res.events if kind == "alarm"]
-    save(timeline_figure(s["t"], s["mode"], s["beta"], s["phi"], s["distance"], MODES, alarms=alarms,
-                         title=f"Guidance timeline: {res.name}",
-                         beta_thresholds_deg=(inst.alarms.first_deg, inst.alarms.second_deg, inst.alarms.release_deg)),
-         png)
-
-
 @app.command()
 def run(
     scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML (see examples/scenarios/).")],
@@ -378,7 +366,9 @@ def run(
         if log is not None:
             log.close()
     if png is not None:
-        _timeline_png(png, res, inst)
+        from .plotting import run_timeline_figure, save
+
+        save(run_timeline_figure(res, inst), png)
     s = res.summary()
     if as_json:
         _json(s)

@@ -25,7 +25,7 @@ from .trajectory import Plan  # noqa: E402
 
 __all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
            "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure", "simulation_figure",
-           "timing_comparison_figure", "timeline_figure", "save"]
+           "timing_comparison_figure", "timeline_figure", "run_timeline_figure", "save"]
 
 _ZONE_COLOURS = {"zone 1": "#cfe8cf", "zone 2": "#ffe08a", "zone 3": "#ffb366", "release": "#ff7f7f"}
 
@@ -494,3 +494,27 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
     fig.suptitle(title)
     fig.tight_layout()
     return fig
+
+
+def run_timeline_figure(result, inst: Installation) -> Figure:
+    """:func:`timeline_figure` of a guidance run, with its alarms and the installation's beta thresholds.
+
+    Parameters
+    ----------
+    result : loadarm.guidance.run.RunResult
+        The run.
+    inst : Installation
+        Its installation (alarm angles).
+
+    Returns
+    -------
+    Figure
+    """
+    from .guidance.run import MODES
+
+    s = result.signals
+    alarms = [(t, reason.split(":")[0]) for t, _, kind, reason, _ in result.events if kind == "alarm"]
+    return timeline_figure(s["t"], s["mode"], s["beta"], s["phi"], s["distance"], MODES, alarms=alarms,
+                           title=f"Guidance timeline: {result.name}",
+                           beta_thresholds_deg=(inst.alarms.first_deg, inst.alarms.second_deg,
+                                                inst.alarms.release_deg))

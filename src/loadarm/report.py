@@ -158,16 +158,16 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     step("running the live-guidance scenarios")
     from pathlib import Path as _P
 
-    from .guidance.run import MODES, run_scenario
+    from .guidance.run import run_scenario
     from .guidance.scenario import load_scenario
-    from .plotting import timeline_figure
+    from .plotting import run_timeline_figure
 
     scen_dir = _P(__file__).resolve().parents[2] / "examples" / "scenarios"
     scen_runs = {}
     if scen_dir.is_dir():
         for f in sorted(scen_dir.glob("*.toml")):
             sc, sinst = load_scenario(f)
-            scen_runs[f.stem] = (sc, run_scenario(sc, sinst))
+            scen_runs[f.stem] = (sc, sinst, run_scenario(sc, sinst))
 
     step("drawing figures")
     figs = {
@@ -185,14 +185,8 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         "timing": save(timing_figure(plans, inst.approach.max_speed), figdir / "timing.png"),
     }
 
-    for name, (sc, rr) in scen_runs.items():
-        sg = rr.signals
-        al = [(t, reason.split(":")[0]) for t, _, kind, reason, _ in rr.events if kind == "alarm"]
-        figs[f"timeline_{name}"] = save(timeline_figure(
-            sg["t"], sg["mode"], sg["beta"], sg["phi"], sg["distance"], MODES, alarms=al,
-            title=f"Guidance timeline: {sc.scenario.name}",
-            beta_thresholds_deg=(inst.alarms.first_deg, inst.alarms.second_deg, inst.alarms.release_deg)),
-            figdir / f"timeline_{name}.png")
+    for name, (_, sinst, rr) in scen_runs.items():
+        figs[f"timeline_{name}"] = save(run_timeline_figure(rr, sinst), figdir / f"timeline_{name}.png")
 
     step("writing report")
     summary = summary_dict(inst, plans, sz)
@@ -200,7 +194,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     summary["loads"] = {law: ld.summary() for law, ld in loads.items()}
     summary["balance"] = balance.summary()
     summary["simulation"] = {law: r.summary() for law, r in sims.items()}
-    summary["scenarios"] = {name: rr.summary() for name, (_, rr) in scen_runs.items()}
+    summary["scenarios"] = {name: rr.summary() for name, (_, _, rr) in scen_runs.items()}
     summary_path = out / "summary.json"
     summary_path.write_text(json.dumps(summary, indent=2), encoding="utf-8")
 

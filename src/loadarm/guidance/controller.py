@@ -98,7 +98,7 @@ class AlarmThresholds:
     t_release: float
 
     @staticmethod
-    def from_settings(inst: Installation, g: Guidance) -> "AlarmThresholds":
+    def from_settings(inst: Installation, g: Guidance, limits: "JointLimits | None" = None) -> "AlarmThresholds":
         """Thresholds from the installation's alarm angles and the guidance sequence times.
 
         Parameters
@@ -107,6 +107,8 @@ class AlarmThresholds:
             Alarm angles and arm.
         g : Guidance
             Sequence times and margin (slew angles come from ``inst.slew``).
+        limits : JointLimits, optional
+            Already computed joint limits (default: computed here).
 
         Returns
         -------
@@ -115,7 +117,7 @@ class AlarmThresholds:
         arm = arm_from_installation(inst)
         al = inst.alarms
         # the hard limit is the fully stretched arm or the end of cylinder 2's stroke, whichever comes first
-        beta_stop = JointLimits.from_settings(inst, g).beta[1]
+        beta_stop = (limits or JointLimits.from_settings(inst, g)).beta[1]
         return AlarmThresholds(
             beta_first=al.first, beta_second=al.second, beta_release=al.release,
             r_release=float(arm.radius_at_beta(al.release)), r_max=float(arm.radius_at_beta(min(beta_stop, math.pi))),
@@ -286,8 +288,8 @@ class GuidanceController:
     def __init__(self, inst: Installation, g: Guidance):
         self.arm: Arm = arm_from_installation(inst)
         self.g = g
-        self.thr = AlarmThresholds.from_settings(inst, g)
         self.lim = JointLimits.from_settings(inst, g)
+        self.thr = AlarmThresholds.from_settings(inst, g, self.lim)
         self.v_max = inst.approach.max_speed
         self.a_max = inst.approach.max_accel
         sx, sz = inst.approach.stored

@@ -354,6 +354,8 @@ class GuidanceController:
         return ""
 
     def _jacobian3d(self, phi, alpha, beta) -> np.ndarray:
+        # the planar entries are kinematics.jacobian's (rows rho and z), written with scalar math because this
+        # runs every guidance cycle (the 200 us budget); the jog test checks the result by finite differences
         b, c = self.arm.b, self.arm.c
         rho = b * math.sin(alpha) - c * math.sin(alpha - beta)
         drho_da = b * math.cos(alpha) - c * math.cos(alpha - beta)

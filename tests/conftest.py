@@ -12,7 +12,8 @@ from loadarm.geometry import arm_from_installation, mounting_from_installation
 
 settings.register_profile("ci", derandomize=True, deadline=None, max_examples=300,
                           suppress_health_check=[HealthCheck.too_slow])
-settings.register_profile("thorough", deadline=None, max_examples=5000)
+settings.register_profile("thorough", deadline=None, max_examples=5000,
+                          suppress_health_check=[HealthCheck.too_slow])
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
 
 ROOT = Path(__file__).resolve().parents[1]

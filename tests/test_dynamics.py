@@ -22,6 +22,8 @@ from loadarm.loads import actuator_loads
 from loadarm.multibody import inverse_dynamics, mujoco_moment_arms
 from loadarm.trajectory import plan_approach
 
+from .hypo import examples
+
 
 def _positions(mm, alpha, beta):
     """Every lump's centre of mass and its link angle, straight from the geometry."""
@@ -85,7 +87,7 @@ def test_power_equals_rate_of_mechanical_energy(inst):
     assert np.allclose(de[smooth], power[smooth], atol=1e-4 * scale)
 
 
-@settings(max_examples=25)
+@settings(max_examples=examples(25))
 @given(st.integers(0, 10_000))
 def test_inverse_dynamics_matches_mujoco(seed):
     from loadarm.config import paper_installation

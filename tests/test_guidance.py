@@ -18,6 +18,8 @@ from loadarm.slew import forward3d, inverse3d
 
 from .conftest import ROOT
 
+from .hypo import examples
+
 SCEN = ROOT / "examples" / "scenarios"
 
 
@@ -167,7 +169,7 @@ def test_emergency_stop_from_any_mode(inst):
         assert cmd.mode == Mode.ESTOP and cmd.rates == (0.0, 0.0, 0.0)
 
 
-@settings(max_examples=200)
+@settings(max_examples=examples(200))
 @given(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1))
 def test_commands_never_cross_a_joint_or_stroke_limit(u0, u1, u2, w0, w1, w2):
     from loadarm.config import paper_installation

@@ -9,10 +9,11 @@ r_al^2``, and the arm with the least total length ``b + c`` is chosen.
 
 The constraint is an ellipse in the ``(b, c)`` plane on which ``b + c`` is
 largest at ``b = c`` and falls towards both axes, so inside a box of bounds the
-minimum always sits on a bound and there are usually two local minima (one on
-each arm's bound). :func:`size_arm` scans the whole feasible arc, polishes every
-local minimum with SciPy's SLSQP (the stand-in for MATLAB's ``fmincon``) and
-returns the global one, whatever the starting point.
+minimum always sits on a bound and there can be several local minima (one on
+each arm's bound). :func:`size_arm` computes every point where the ellipse
+meets a bound in closed form and returns the best: no iterative optimiser (the
+paper's MATLAB ``fmincon``, SciPy's SLSQP) and no starting point, so no
+convergence flag can hide the optimum.
 """
 
 from __future__ import annotations
@@ -21,7 +22,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import minimize
 
 from .config import Installation
 from .envelope import AlarmAngles, Zone, berth_box, classify_beta
@@ -142,23 +142,56 @@ def alarm_radius(riser: float, X: float, Y: float) -> float:
     return math.hypot(riser + abs(Y), abs(X))
 
 
-def _constraint(beta_al: float, r_al: float):
-    cb = math.cos(beta_al)
+def _reach_range(cb: float, blo: float, bhi: float, clo: float, chi: float) -> tuple[float, float]:
+    """Exact least and greatest ``r(b, c) = sqrt(b^2 + c^2 - 2 b c cos(beta_al))`` over the box.
 
-    def g(v):
-        b, c = v
-        return b * b + c * c - 2 * b * c * cb - r_al * r_al
+    ``r^2`` is a convex quadratic (Hessian ``[[2, -2cb], [-2cb, 2]]``), so its maximum is at a corner;
+    its only stationary point is the origin, outside the box, so its minimum is on an edge, where it is a
+    1-D quadratic minimised at its clamped vertex.
+    """
+    def r2(b, c):
+        return b * b + c * c - 2.0 * b * c * cb
 
-    def dg(v):
-        b, c = v
-        return np.array([2 * b - 2 * c * cb, 2 * c - 2 * b * cb])
+    corners = [r2(b, c) for b in (blo, bhi) for c in (clo, chi)]
+    edges = [r2(b, min(max(b * cb, clo), chi)) for b in (blo, bhi)]
+    edges += [r2(min(max(c * cb, blo), bhi), c) for c in (clo, chi)]
+    return math.sqrt(max(min(corners + edges), 0.0)), math.sqrt(max(corners))
 
-    return g, dg
+
+def _arc_ends(r_al: float, cb: float, blo: float, bhi: float, clo: float,
+              chi: float) -> list[tuple[float, float]]:
+    """Every point where the Eq. 2 ellipse meets a bound of the box, inside the box.
+
+    With ``b`` on a bound, Eq. 2 is a quadratic in ``c``:
+    ``c = b cos(beta_al) +- sqrt(r_al^2 - b^2 sin^2(beta_al))``; likewise with ``c`` on a bound. A tangent
+    touch (discriminant within rounding of zero) counts once; a root that lands within rounding of the
+    other arm's bound is put on it.
+    """
+    s2 = 1.0 - cb * cb
+    out: list[tuple[float, float]] = []
+    for fixed_first, (flo, fhi), (olo, ohi) in ((True, (blo, bhi), (clo, chi)), (False, (clo, chi), (blo, bhi))):
+        tol = 1e-12 * max(ohi, r_al)
+        for f in (flo, fhi):
+            disc = r_al * r_al - f * f * s2
+            if disc < -1e-12 * r_al * r_al:
+                continue
+            root = math.sqrt(max(disc, 0.0))
+            for o in (f * cb - root, f * cb + root):
+                if olo - tol <= o <= ohi + tol:
+                    o = min(max(o, olo), ohi)
+                    out.append((f, o) if fixed_first else (o, f))
+    return out
 
 
 def size_arm(riser: float, X: float, Y: float, beta_alarm: float, inboard_bounds: tuple[float, float],
-             outboard_bounds: tuple[float, float], *, x0: tuple[float, float] | None = None) -> SizingResult:
-    """Solve paper Eq. 3 globally: ``min b + c`` on the first-alarm ellipse.
+             outboard_bounds: tuple[float, float]) -> SizingResult:
+    """Solve paper Eq. 3 globally and exactly: ``min b + c`` on the first-alarm ellipse.
+
+    Along the ellipse ``b + c`` has a single maximum (at ``b = c``) and no interior minimum, so on every
+    piece of the ellipse inside the bounds the least ``b + c`` is at an end of the piece, and every end
+    lies on a bound. The ends are the roots of Eq. 2 with one arm on a bound (a quadratic in the other);
+    all of them are computed in closed form and the best is returned. No iterative optimiser is involved,
+    so no convergence flag can hide the optimum.
 
     Parameters
     ----------
@@ -170,14 +203,12 @@ def size_arm(riser: float, X: float, Y: float, beta_alarm: float, inboard_bounds
         First-alarm angle ``beta_al``, rad, in (0, pi).
     inboard_bounds, outboard_bounds : tuple of float
         ``(low, high)`` for ``b`` and ``c``, m.
-    x0 : tuple of float, optional
-        A starting point for the local optimiser. The result does not depend
-        on it: it only adds one more local search.
 
     Returns
     -------
     SizingResult
-        The global optimum with every local minimum found.
+        The global optimum with every local minimum (every end of a feasible piece where ``b + c`` is
+        smaller than on the piece next to it).
 
     Raises
     ------
@@ -189,70 +220,56 @@ def size_arm(riser: float, X: float, Y: float, beta_alarm: float, inboard_bounds
         raise SizingError(f"first-alarm angle must be in (0, 180) deg, got {math.degrees(beta_alarm):g} deg")
     (blo, bhi), (clo, chi) = inboard_bounds, outboard_bounds
     for name, lo, hi in (("inboard", blo, bhi), ("outboard", clo, chi)):
-        if not (0 < lo <= hi):
+        if not (0 < lo <= hi < math.inf):
             raise SizingError(f"sizing.{name} bounds must satisfy 0 < low <= high, got [{lo}, {hi}] m")
     r_al = alarm_radius(riser, X, Y)
     cb = math.cos(beta_alarm)
-
-    def reach(b, c):
-        return np.sqrt(b * b + c * c - 2 * b * c * cb)
-
-    # Feasibility: r(b, c) is continuous on the box; the constraint is met iff r_al lies in its range.
-    bb, cc = np.meshgrid(np.linspace(blo, bhi, 401), np.linspace(clo, chi, 401))
-    rr = reach(bb, cc)
-    if r_al > rr.max() + 1e-9:
+    r_min, r_max = _reach_range(cb, blo, bhi, clo, chi)
+    if r_al > r_max * (1 + 1e-12):
         raise SizingError(
             f"no arm inside the bounds reaches the first-alarm corner: it needs r_al = {r_al:.3f} m at "
             f"beta = {math.degrees(beta_alarm):g} deg, but the longest arm allowed (b <= {bhi:g} m, "
-            f"c <= {chi:g} m) reaches only {rr.max():.3f} m; raise sizing.inboard or sizing.outboard upper bounds")
-    if r_al < rr.min() - 1e-9:
+            f"c <= {chi:g} m) reaches only {r_max:.3f} m; raise sizing.inboard or sizing.outboard upper bounds")
+    if r_al < r_min * (1 - 1e-12):
         raise SizingError(
             f"every arm inside the bounds is too long: the first-alarm corner is only r_al = {r_al:.3f} m away "
-            f"but the shortest arm allowed (b >= {blo:g} m, c >= {clo:g} m) already reaches {rr.min():.3f} m "
+            f"but the shortest arm allowed (b >= {blo:g} m, c >= {clo:g} m) already reaches {r_min:.3f} m "
             f"at beta = {math.degrees(beta_alarm):g} deg; lower the sizing lower bounds")
+    ends = _arc_ends(r_al, cb, blo, bhi, clo, chi)
+    if not ends:  # pragma: no cover - r_min <= r_al <= r_max means the ellipse crosses the box's boundary
+        raise SizingError("the bounds admit an arm but no crossing of the box was found; report this as a bug")
 
-    # Global scan of the feasible arc in polar form: b = rho cos(psi), c = rho sin(psi),
-    # rho(psi) = r_al / sqrt(1 - sin(2 psi) cos(beta_al)).
-    psi = np.linspace(1e-6, math.pi / 2 - 1e-6, 20001)
-    rho = r_al / np.sqrt(1.0 - np.sin(2 * psi) * cb)
-    b_s, c_s = rho * np.cos(psi), rho * np.sin(psi)
-    inside = (b_s >= blo - 1e-12) & (b_s <= bhi + 1e-12) & (c_s >= clo - 1e-12) & (c_s <= chi + 1e-12)
-    g, dg = _constraint(beta_alarm, r_al)
-    starts: list[np.ndarray] = []
-    if inside.any():
-        total = np.where(inside, b_s + c_s, np.inf)
-        # local minima of the total along the arc (including the ends of each feasible piece)
-        idx = np.flatnonzero(inside)
-        for i in idx:
-            left = total[i - 1] if i > 0 else np.inf
-            right = total[i + 1] if i + 1 < total.size else np.inf
-            if total[i] <= left and total[i] <= right:
-                starts.append(np.array([b_s[i], c_s[i]]))
-    if x0 is not None:
-        starts.append(np.asarray(x0, dtype=float))
-    bounds = [(blo, bhi), (clo, chi)]
-    found: list[tuple[float, float]] = []
-    for s in starts:
-        res = minimize(lambda v: v[0] + v[1], s, jac=lambda v: np.ones(2), method="SLSQP", bounds=bounds,
-                       constraints=[{"type": "eq", "fun": g, "jac": dg}], options={"ftol": 1e-14, "maxiter": 200})
-        b, c = (float(v) for v in res.x)
-        if res.success and abs(g(res.x)) < 1e-8 and blo - 1e-9 <= b <= bhi + 1e-9 and clo - 1e-9 <= c <= chi + 1e-9:
-            if not any(abs(b - fb) < 1e-6 and abs(c - fc) < 1e-6 for fb, fc in found):
-                found.append((b, c))
-    if not found:  # pragma: no cover - the scan guarantees a feasible start
-        raise SizingError("SLSQP found no feasible point although the bounds admit one; report this as a bug")
-    found.sort(key=lambda bc: bc[0] + bc[1])
-    b, c = found[0]
-    # Snap to a bound the optimiser touched to within its tolerance, keeping the constraint exact.
+    # Order the ends along the ellipse by polar angle; a piece between two neighbours is feasible when its
+    # middle is inside the box. An end is a local minimum when b + c rises onto each feasible piece next to it
+    # (b + c increases with psi below pi/4 and decreases above).
+    psi = np.array([math.atan2(c, b) for b, c in ends])
+    order = np.argsort(psi, kind="stable")
+    pts, psi = [ends[i] for i in order], psi[order]
+    keep = np.concatenate(([True], np.diff(psi) > 1e-13))
+    pts, psi = [p for p, k in zip(pts, keep) if k], psi[keep]
+    inside_next = []
+    for k in range(len(pts) - 1):
+        mid = 0.5 * (psi[k] + psi[k + 1])
+        rho = r_al / math.sqrt(1.0 - math.sin(2.0 * mid) * cb)
+        b_m, c_m = rho * math.cos(mid), rho * math.sin(mid)
+        inside_next.append(blo <= b_m <= bhi and clo <= c_m <= chi)
+    minima = []
+    for k, (b, c) in enumerate(pts):
+        right = k < len(pts) - 1 and inside_next[k]
+        left = k > 0 and inside_next[k - 1]
+        if (not right or psi[k] < math.pi / 4) and (not left or psi[k] > math.pi / 4):
+            minima.append((b, c))
+    minima.sort(key=lambda bc: bc[0] + bc[1])
+    b, c = min(pts, key=lambda bc: bc[0] + bc[1])
     active = []
     for name, val, lo, hi in (("inboard", b, blo, bhi), ("outboard", c, clo, chi)):
-        if abs(val - hi) < 1e-7:
+        if val == hi:
             active.append(f"sizing.{name} upper bound ({hi:g} m)")
-        elif abs(val - lo) < 1e-7:
+        elif val == lo:
             active.append(f"sizing.{name} lower bound ({lo:g} m)")
     return SizingResult(inboard=b, outboard=c, r_alarm=r_al, corner=(X, -abs(Y)), beta_alarm=beta_alarm,
-                        active_bound=", ".join(active) if active else "none (interior optimum)",
-                        local_minima=found, constraint_residual=abs(g(np.array([b, c]))))
+                        active_bound=", ".join(active), local_minima=minima,
+                        constraint_residual=abs(b * b + c * c - 2.0 * b * c * cb - r_al * r_al))
 
 
 def check_corners(arm: Arm, alarms: AlarmAngles, inst: Installation) -> list[CornerCheck]:

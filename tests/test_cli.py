@@ -33,6 +33,38 @@ def test_size_table(capsys):
     assert code == 0 and "b = 12.0000 m" in out and "zone 1" in out
 
 
+def test_size_from_the_datasheet_alone(capsys, tmp_path):
+    """`loadarm size` needs only [datasheet] and [arm] riser: the arm lengths are what it produces."""
+    ds = PAPER_TOML.parent / "datasheet.toml"
+    code, out, err = run(capsys, "size", "-c", str(ds), "--json")
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["inboard_m"] == 12.0 and d["outboard_m"] == pytest.approx(8.224242206, abs=1e-9)
+    assert d["corners_configured_arm"] is None
+    code, out, _ = run(capsys, "size", "-c", str(ds))
+    assert code == 0 and "configured arm" not in out and "sized arm" in out
+    # the smallest file: no [alarms], no [sizing] (defaults)
+    small = tmp_path / "small.toml"
+    small.write_text("[datasheet]\nA = 2.5\nB = 1.7\nC = 1.0\nD = 4.6\nE = 4.7\nF = 3.8\nG = 2.4\nH = 1.5\n"
+                     "I = 15.0\n[arm]\nriser = 7.0\n")
+    code, out, _ = run(capsys, "size", "-c", str(small), "--json")
+    assert code == 0 and json.loads(out)["inboard_m"] == 12.0
+    # other commands still ask for what they need, naming the key
+    code, _, err = run(capsys, "plan", "-c", str(ds))
+    assert code == 2 and "missing required key 'arm.inboard'" in err
+    # one arm length without the other is refused, and sections present are still validated
+    one = tmp_path / "one.toml"
+    one.write_text(small.read_text().replace("riser = 7.0", "riser = 7.0\ninboard = 12.0"))
+    code, _, err = run(capsys, "size", "-c", str(one))
+    assert code == 2 and "arm.inboard is given without arm.outboard" in err
+    bad = tmp_path / "bad.toml"
+    bad.write_text(small.read_text() + "[approach]\nmax_speed = -1\n")
+    code, _, err = run(capsys, "size", "-c", str(bad))
+    assert code == 2 and "approach.max_speed = -1" in err
+    code, _, err = run(capsys, "size", "-c", str(PAPER_TOML.parent / "nope.toml"))
+    assert code == 2 and "config file not found" in err
+
+
 def test_plan_json_and_csv(capsys, tmp_path):
     csv = tmp_path / "p.csv"
     code, out, _ = run(capsys, "plan", "--config", CFG, "--timing", "paper", "--samples", "11", "--json",

@@ -85,7 +85,20 @@ def test_wrong_type_and_shape():
 def test_unknown_key_is_rejected_with_allowed_list():
     d = _data()
     d["arm"]["inbord"] = 12.0
-    with pytest.raises(ConfigError, match=r"unknown key 'arm.inbord'; allowed keys: riser, inboard, outboard"):
+    with pytest.raises(ConfigError, match=r"unknown key 'arm.inbord' \(did you mean 'inboard'\?\); allowed keys: "
+                                          r"riser, inboard, outboard"):
+        parse_config(d)
+
+
+def test_typo_is_reported_before_the_key_it_hides():
+    """Found: a typo 'inbord' was reported as "missing required key 'arm.inboard'", hiding the typo."""
+    d = _data()
+    d["arm"]["inbord"] = d["arm"].pop("inboard")
+    with pytest.raises(ConfigError, match=r"unknown key 'arm.inbord' \(did you mean 'inboard'\?\)"):
+        parse_config(d)
+    d = _data()
+    d["alarm"] = d.pop("alarms", {})
+    with pytest.raises(ConfigError, match=r"unknown key 'alarm' \(did you mean 'alarms'\?\)"):
         parse_config(d)
 
 

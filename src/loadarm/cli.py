@@ -68,10 +68,17 @@ def _json(obj) -> None:
 
 @app.command()
 def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
-    """Size the inboard and outboard arms from the datasheet (paper Eqs 1-3) and check every corner."""
+    """Size the inboard and outboard arms from the datasheet (paper Eqs 1-3) and check every corner.
+
+    The file needs only [datasheet] and [arm] riser ([alarms] and [sizing] have defaults); arm lengths, if
+    given, are checked at the corners as the configured arm.
+
+    Example: loadarm size --config examples/datasheet.toml
+    """
+    from .config import load_sizing_case
     from .sizing import size_installation, sizing_summary
 
-    inst = load_config(config)
+    inst = load_sizing_case(config)
     res = size_installation(inst)
     data = sizing_summary(inst, res)
     corners, corners_conf = data["corners"], data["corners_configured_arm"]
@@ -82,6 +89,8 @@ def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
     out.print(f"first-alarm corner ({res.corner[0]:.3f}, {res.corner[1]:.3f}) m, r_al = {res.r_alarm:.4f} m; "
               f"active bound: {res.active_bound}")
     for title, rows in (("corners, sized arm", corners), ("corners, configured arm", corners_conf)):
+        if rows is None:
+            continue
         t = Table(title=title)
         for col in ("corner", "x [m]", "y [m]", "beta [deg]", "zone"):
             t.add_column(escape(col))

@@ -12,12 +12,15 @@ radians (see :attr:`Alarms.first`).
 
 from __future__ import annotations
 
+import difflib
 import math
 import tomllib
+import types
+import typing
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 
 from .errors import ConfigError
 
@@ -36,7 +39,11 @@ __all__ = [
     "Encoder",
     "Controller",
     "Installation",
+    "SizingArm",
+    "SizingCase",
+    "read_toml",
     "load_config",
+    "load_sizing_case",
     "parse_config",
     "paper_installation",
     "parameter_table",
@@ -493,15 +500,25 @@ def _range_text(model: type[BaseModel], field: str) -> str:
     return f"valid range {left}, {right} {unit}".rstrip()
 
 
+def _section_type(ann: Any) -> type[BaseModel] | None:
+    """The model class behind a field annotation (``Section`` or ``Section | None``), else None."""
+    if isinstance(ann, type) and issubclass(ann, BaseModel):
+        return ann
+    if isinstance(ann, types.UnionType) or typing.get_origin(ann) is typing.Union:
+        found = [a for a in typing.get_args(ann) if isinstance(a, type) and issubclass(a, BaseModel)]
+        return found[0] if len(found) == 1 else None
+    return None
+
+
 def _model_at(loc: tuple[Any, ...], root: type[BaseModel] | None = None) -> tuple[type[BaseModel] | None, str | None]:
     model: type[BaseModel] = root or Installation
     for i, part in enumerate(loc):
         if not isinstance(part, str) or part not in model.model_fields:
             return (model, None) if i == len(loc) - 1 else (None, None)
-        ann = model.model_fields[part].annotation
+        ann = _section_type(model.model_fields[part].annotation)
         if i == len(loc) - 1:
             return model, part
-        if isinstance(ann, type) and issubclass(ann, BaseModel):
+        if ann is not None:
             model = ann
         else:
             return model, part
@@ -509,7 +526,10 @@ def _model_at(loc: tuple[Any, ...], root: type[BaseModel] | None = None) -> tupl
 
 
 def _format_validation_error(err: ValidationError, source: str, root: type[BaseModel] | None = None) -> str:
-    e = err.errors()[0]
+    errors = err.errors()
+    # An unknown key is reported first: a typo ('inbord') also makes the intended key missing, and the
+    # typo is what the user must see. A wrong value comes next, a missing key last.
+    e = min(errors, key=lambda x: {"extra_forbidden": 0, "missing": 2}.get(x.get("type", ""), 1))
     loc = tuple(e.get("loc", ()))
     key = ".".join(str(p) for p in loc) or "(top level)"
     etype = e.get("type", "")
@@ -529,6 +549,9 @@ def _format_validation_error(err: ValidationError, source: str, root: type[BaseM
     elif etype == "extra_forbidden":
         what = f"unknown key '{key}'"
         if model is not None:
+            close = difflib.get_close_matches(str(loc[-1]), list(model.model_fields), n=1, cutoff=0.6)
+            if close:
+                what += f" (did you mean '{close[0]}'?)"
             what += f"; allowed keys: {', '.join(model.model_fields)}"
     elif etype == "value_error":
         msg = str(e.get("ctx", {}).get("error", e.get("msg", "")))
@@ -537,7 +560,7 @@ def _format_validation_error(err: ValidationError, source: str, root: type[BaseM
         what = f"{key} = {e.get('input')!r}: {e.get('msg', 'invalid')}"
         if rng:
             what += f"; {rng}"
-    extra_count = len(err.errors()) - 1
+    extra_count = len(errors) - 1
     more = f" (and {extra_count} more problem{'s' if extra_count > 1 else ''})" if extra_count else ""
     return f"{source}: {what}{more}"
 
@@ -569,6 +592,39 @@ def parse_config(data: dict[str, Any], *, source: str = "<config>") -> Installat
         raise ConfigError(_format_validation_error(err, source)) from None
 
 
+def read_toml(path: str | Path, what: str = "config") -> dict[str, Any]:
+    """Read a TOML file into a mapping, with one-line errors.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str, optional
+        What the file is, for messages ("config", "scenario").
+
+    Returns
+    -------
+    dict
+        The parsed TOML.
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing, unreadable or not valid TOML.
+    """
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: {what} file not found") from None
+    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{p}: cannot read {what} file ({exc.__class__.__name__})") from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
+
+
 def load_config(path: str | Path) -> Installation:
     """Read and validate a TOML installation file.
 
@@ -587,18 +643,66 @@ def load_config(path: str | Path) -> Installation:
     ConfigError
         If the file is missing, is not valid TOML, or fails validation.
     """
-    p = Path(path)
+    return parse_config(read_toml(path), source=str(path))
+
+
+class SizingArm(_Section):
+    """The ``[arm]`` section as sizing reads it: the riser is required, the arm lengths are what sizing finds
+    (given, they are checked at the berth's corners as the configured arm)."""
+
+    riser: float = ArmSection.model_fields["riser"]
+    inboard: float | None = _param(None, unit="m", gt=0, le=100, source="optional for sizing",
+                                   description="configured inboard arm length b, checked against the berth")
+    outboard: float | None = _param(None, unit="m", gt=0, le=100, source="optional for sizing",
+                                    description="configured outboard arm length c, checked against the berth")
+
+    @model_validator(mode="after")
+    def _both_or_none(self) -> "SizingArm":
+        if (self.inboard is None) != (self.outboard is None):
+            given, missing = ("inboard", "outboard") if self.outboard is None else ("outboard", "inboard")
+            raise ValueError(f"arm.{given} is given without arm.{missing}: give both arm lengths to check a "
+                             "configured arm, or neither to size from the datasheet alone")
+        return self
+
+
+def _sizing_fields() -> dict[str, Any]:
+    fields: dict[str, Any] = {"datasheet": (Datasheet, ...), "arm": (SizingArm, ...)}
+    for name, info in Installation.model_fields.items():
+        if name not in fields:  # required elsewhere (actuators, approach) -> optional here; defaults kept
+            fields[name] = (info.annotation | None, None) if info.is_required() else (info.annotation, info)
+    return fields
+
+
+#: What ``loadarm size`` reads: ``[datasheet]``, ``[arm] riser``, ``[alarms]`` and ``[sizing]`` (the last two
+#: have defaults). Every other section of an installation may be present and is then validated as usual.
+SizingCase = create_model("SizingCase", __base__=_Section, **_sizing_fields())
+SizingCase.__doc__ = ("What sizing needs from an installation file: the datasheet, the riser, the alarm angles and "
+                      "the bounds; every other section is optional and validated when present.")
+
+
+def load_sizing_case(path: str | Path) -> Any:
+    """Read a file for sizing: ``[datasheet]`` and ``[arm] riser`` are enough.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML file: a full installation, or a datasheet with the riser (plus optional ``[alarms]`` and
+        ``[sizing]``).
+
+    Returns
+    -------
+    SizingCase
+        The validated sections.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the key, the value and the valid range.
+    """
     try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: config file not found") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: cannot read config file ({exc.__class__.__name__})") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
-    return parse_config(data, source=str(p))
+        return SizingCase.model_validate(read_toml(path))
+    except ValidationError as err:
+        raise ConfigError(_format_validation_error(err, str(path), SizingCase)) from None
 
 
 def _paper_values(model: type[BaseModel]) -> dict[str, Any]:

@@ -23,7 +23,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config import Installation
 from .envelope import AlarmAngles, Zone, berth_box, classify_beta
 from .errors import SizingError
 from .geometry import Arm
@@ -111,7 +110,7 @@ def first_alarm_corner(inst_or_ds) -> tuple[float, float]:
 
     Parameters
     ----------
-    inst_or_ds : Installation or Datasheet
+    inst_or_ds : Installation, SizingCase or Datasheet
         Where to read the datasheet.
 
     Returns
@@ -119,7 +118,7 @@ def first_alarm_corner(inst_or_ds) -> tuple[float, float]:
     X, Y : float
         ``A+B+C+D-C+E`` and ``F+G-H``, m (``Y`` is a depth below the deck).
     """
-    ds = inst_or_ds.datasheet if isinstance(inst_or_ds, Installation) else inst_or_ds
+    ds = getattr(inst_or_ds, "datasheet", inst_or_ds)
     box = berth_box(ds)
     return box.x_far, -box.y_low
 
@@ -272,7 +271,7 @@ def size_arm(riser: float, X: float, Y: float, beta_alarm: float, inboard_bounds
                         constraint_residual=abs(b * b + c * c - 2.0 * b * c * cb - r_al * r_al))
 
 
-def check_corners(arm: Arm, alarms: AlarmAngles, inst: Installation) -> list[CornerCheck]:
+def check_corners(arm: Arm, alarms: AlarmAngles, inst) -> list[CornerCheck]:
     """Zone and joint angles at each corner of the datasheet's flange box.
 
     Parameters
@@ -281,7 +280,7 @@ def check_corners(arm: Arm, alarms: AlarmAngles, inst: Installation) -> list[Cor
         The arm to check (sized or configured).
     alarms : AlarmAngles
         Alarm thresholds.
-    inst : Installation
+    inst : Installation or SizingCase
         Supplies the datasheet.
 
     Returns
@@ -304,13 +303,13 @@ def check_corners(arm: Arm, alarms: AlarmAngles, inst: Installation) -> list[Cor
     return out
 
 
-def size_installation(inst: Installation) -> SizingResult:
+def size_installation(inst) -> SizingResult:
     """Run :func:`size_arm` with an installation's datasheet, riser, alarm and bounds.
 
     Parameters
     ----------
-    inst : Installation
-        Validated installation.
+    inst : Installation or SizingCase
+        Validated installation, or the sizing sections alone (:func:`loadarm.config.load_sizing_case`).
 
     Returns
     -------
@@ -321,13 +320,14 @@ def size_installation(inst: Installation) -> SizingResult:
     return size_arm(inst.arm.riser, X, Y, inst.alarms.first, inst.sizing.inboard, inst.sizing.outboard)
 
 
-def sizing_summary(inst: Installation, result: SizingResult | None = None) -> dict:
+def sizing_summary(inst, result: SizingResult | None = None) -> dict:
     """Sizing result and corner tables (sized and configured arm), JSON-friendly.
 
     Parameters
     ----------
-    inst : Installation
-        The installation.
+    inst : Installation or SizingCase
+        The installation, or the sizing sections alone; the configured arm's table is ``None`` when the
+        file gives no arm lengths.
     result : SizingResult, optional
         An already computed :func:`size_installation` result.
 
@@ -349,5 +349,6 @@ def sizing_summary(inst: Installation, result: SizingResult | None = None) -> di
         "active_bound": res.active_bound, "local_minima_m": [list(m) for m in res.local_minima],
         "constraint_residual_m2": float(res.constraint_residual),
         "corners": [c.as_dict() for c in check_corners(sized, alarms, inst)],
-        "corners_configured_arm": [c.as_dict() for c in check_corners(arm_from_installation(inst), alarms, inst)],
+        "corners_configured_arm": None if inst.arm.inboard is None else [
+            c.as_dict() for c in check_corners(Arm(inst.arm.riser, inst.arm.inboard, inst.arm.outboard), alarms, inst)],
     }

@@ -8,12 +8,11 @@ default and source, like the installation's (:mod:`loadarm.config`).
 from __future__ import annotations
 
 import math
-import tomllib
 from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ..config import Installation, _format_validation_error, _param, load_config, paper_installation
+from ..config import Installation, _format_validation_error, _param, load_config, paper_installation, read_toml
 from ..errors import ConfigError
 
 __all__ = ["Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Scenario", "load_scenario",
@@ -216,14 +215,6 @@ def load_scenario(path: str | Path) -> tuple[Scenario, Installation]:
         Missing or invalid file.
     """
     p = Path(path)
-    try:
-        data = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: scenario file not found") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: cannot read scenario file ({exc.__class__.__name__})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
-    sc = parse_scenario(data, source=str(p))
+    sc = parse_scenario(read_toml(p, "scenario"), source=str(p))
     inst = paper_installation() if sc.scenario.installation is None else load_config(p.parent / sc.scenario.installation)
     return sc, inst

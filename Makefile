@@ -1,35 +1,63 @@
 # loadarm: two commands on a fresh machine with only Python 3.11+:
 #   make demo   -> bootstrap .venv, run the paper's case end to end, report in out/
-#   make test   -> bootstrap .venv, run the whole test suite
+#   make test   -> bootstrap .venv, run the test suite (slow tests too with SLOW=1; CI runs them all)
+# Installs take their versions from requirements.lock (refreshed on purpose with `make lock`).
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
+LOCK   := requirements.lock
+UV     := uv==0.13.9
 STAMP  := $(VENV)/.installed-test
 BSTAMP := $(VENV)/.installed-bench
+DSTAMP := $(VENV)/.installed-docs
+PYTEST_MARK := $(if $(SLOW),,-m "not slow")
 
-.PHONY: demo test bench clean
+.PHONY: demo test test-all bench docs lock test-latest clean
 
 $(BIN)/python:
 	$(PYTHON) -c 'import sys; sys.exit(0 if sys.version_info >= (3, 11) else "loadarm needs Python 3.11 or newer, found " + sys.version.split()[0])'
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
-$(STAMP): pyproject.toml | $(BIN)/python
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+$(STAMP): pyproject.toml $(LOCK) | $(BIN)/python
+	$(BIN)/python -m pip install --quiet -c $(LOCK) -e '.[test]'
 	touch $(STAMP)
 
-$(BSTAMP): pyproject.toml $(STAMP)
-	$(BIN)/python -m pip install --quiet -e '.[test,bench]'
+$(BSTAMP): pyproject.toml $(LOCK) $(STAMP)
+	$(BIN)/python -m pip install --quiet -c $(LOCK) -e '.[test,bench]'
 	touch $(BSTAMP)
 
 demo: $(STAMP)
 	$(BIN)/loadarm demo --out out
 
 test: $(STAMP)
+	$(BIN)/python -m pytest -q $(PYTEST_MARK)
+
+test-all: $(STAMP)
 	$(BIN)/python -m pytest -q
 
 bench: $(BSTAMP)
 	$(BIN)/python -m pytest benchmarks -q --benchmark-columns=min,median,mean,ops --benchmark-sort=name
 
+# Regenerate every figure in docs/img and the generated blocks of README.md and docs/*.md.
+docs: $(STAMP)
+	$(BIN)/python -m loadarm.docsgen
+
+# Refresh the lock on purpose: newest releases that satisfy pyproject.toml, for every platform and
+# Python >= 3.11. Commit the result after `make test-all` passes with it.
+lock: | $(BIN)/python
+	$(BIN)/python -m pip install --quiet '$(UV)'
+	$(BIN)/uv pip compile pyproject.toml --all-extras --universal --python-version 3.11 --upgrade \
+	    --quiet -o $(LOCK)
+	@echo "wrote $(LOCK); run 'make test-all' before committing it"
+
+# The suite against the newest releases (no lock), in a separate venv; safe to run in CI.
+test-latest:
+	rm -rf .venv-latest
+	$(PYTHON) -m venv .venv-latest
+	.venv-latest/bin/python -m pip install --quiet --upgrade pip
+	.venv-latest/bin/python -m pip install --quiet --upgrade -e '.[test]'
+	.venv-latest/bin/python -m pytest -q -p no:cacheprovider
+
 clean:
-	rm -rf $(VENV) out .pytest_cache
+	rm -rf $(VENV) .venv-latest out .pytest_cache

@@ -1,0 +1,108 @@
+"""The docs cannot drift from the program.
+
+Every ``console`` block in README.md and docs/*.md is run and its output compared, line by line, with
+what the block shows. A line ``...`` in a block stands for any number of lines (a marked elision, for
+wall-clock timings and the like); everything else must match exactly (trailing spaces ignored). The
+commands run in a scratch directory that sees the repository's ``examples/`` and ``docs/examples/``,
+so files they write never land in the repository. On a mismatch the test prints the real output, ready
+to paste.
+"""
+
+from __future__ import annotations
+
+import os
+import shlex
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+from .conftest import ROOT
+
+DOC_FILES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+ELISION = "..."
+
+
+@dataclass
+class Command:
+    file: Path
+    line: int
+    argv: list[str]
+    expected: list[str]
+
+    @property
+    def id(self) -> str:
+        return f"{self.file.relative_to(ROOT)}:{self.line}"
+
+
+def console_commands(path: Path) -> list[Command]:
+    """Every ``$ loadarm ...`` line of every console block in ``path`` with the lines it should print."""
+    cmds: list[Command] = []
+    in_block = False
+    for no, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+        if line.startswith("```"):
+            in_block = line.strip() == "```console" if not in_block else False
+            continue
+        if not in_block:
+            continue
+        if line.startswith("$ "):
+            cmds.append(Command(path, no, shlex.split(line[2:]), []))
+        elif cmds and cmds[-1].file == path:
+            cmds[-1].expected.append(line.rstrip())
+        else:
+            raise AssertionError(f"{path}:{no}: console block output before any '$ ' command")
+    return cmds
+
+
+def matches(expected: list[str], actual: list[str]) -> bool:
+    """Line-by-line equality where a line ``...`` matches any run of lines, including none."""
+    if not expected:
+        return not actual
+    if expected[0] == ELISION:
+        return any(matches(expected[1:], actual[i:]) for i in range(len(actual) + 1))
+    return bool(actual) and expected[0] == actual[0] and matches(expected[1:], actual[1:])
+
+
+ALL = [c for f in DOC_FILES for c in console_commands(f)]
+
+
+def test_docs_have_console_blocks():
+    assert len(ALL) >= 6
+    assert all(c.argv[0] == "loadarm" for c in ALL), [c.id for c in ALL if c.argv[0] != "loadarm"]
+
+
+@pytest.fixture(scope="module")
+def scratch(tmp_path_factory):
+    d = tmp_path_factory.mktemp("docs-run")
+    (d / "examples").symlink_to(ROOT / "examples")
+    (d / "docs").mkdir()
+    (d / "docs" / "examples").symlink_to(ROOT / "docs" / "examples")
+    return d
+
+
+@pytest.mark.parametrize("cmd", ALL, ids=[c.id for c in ALL])
+def test_console_block_matches_a_real_run(cmd, scratch):
+    env = dict(os.environ, COLUMNS="80", NO_COLOR="1", TERM="dumb")
+    r = subprocess.run([sys.executable, "-m", "loadarm.cli", *cmd.argv[1:]], cwd=scratch, env=env,
+                       capture_output=True, text=True, timeout=120)
+    actual = [ln.rstrip() for ln in (r.stdout + r.stderr).splitlines()]
+    assert matches(cmd.expected, actual), (
+        f"{cmd.id}: `{shlex.join(cmd.argv)}` printed (exit {r.returncode}):\n" + "\n".join(actual))
+
+
+@pytest.mark.parametrize("expected, actual, ok", [
+    (["a", "b"], ["a", "b"], True),
+    (["a", "b"], ["a", "c"], False),
+    (["a", "..."], ["a", "x", "y"], True),
+    (["a", "..."], ["a"], True),
+    (["...", "b"], ["x", "b"], True),
+    (["a", "...", "b"], ["a", "b"], True),
+    (["a", "...", "b"], ["a", "x", "y", "b"], True),
+    (["a", "...", "b"], ["a", "x", "y"], False),
+    (["a"], ["a", "extra"], False),
+    (["a.b"], ["axb"], False),
+])
+def test_elision_matcher(expected, actual, ok):
+    assert matches(expected, actual) is ok

@@ -16,7 +16,6 @@ from typing import Annotated, Optional
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from .config import Installation, load_config, paper_installation
@@ -60,6 +59,14 @@ def _check_png(png: Optional[Path]) -> None:
 def _check_fill(fill: Optional[float]) -> None:
     if fill is not None and not (0.0 <= fill <= 1.0):
         raise UserError(f"--fill must be in [0, 1], got {fill!r}")
+
+
+def _progress(transient: bool = False):
+    """A progress bar on stderr (rich.progress is imported only by the commands that show one)."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
+                    transient=transient)
 
 
 def _json(obj) -> None:
@@ -366,8 +373,7 @@ def run(
     run_id = f"{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
     log = None if no_db else EventLog(db, run=run_id)
     try:
-        with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
-                      transient=True) as prog:
+        with _progress(transient=True) as prog:
             task = prog.add_task(f"scenario {sc.scenario.name}", total=1.0)
             res = run_scenario(sc, inst, log=log, progress=lambda f: prog.update(task, completed=f), plant=plant,
                                pace=wall_clock_pacer() if realtime else None)
@@ -472,8 +478,7 @@ def demo(
 
     inst: Installation = load_config(config) if config is not None else paper_installation()
     steps = 10
-    with Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
-                  transient=False) as prog:
+    with _progress() as prog:
         task = prog.add_task("starting", total=steps)
 
         def step(msg: str) -> None:

@@ -13,6 +13,7 @@ radians (see :attr:`Alarms.first`).
 from __future__ import annotations
 
 import difflib
+import functools
 import math
 import tomllib
 import types
@@ -40,7 +41,7 @@ __all__ = [
     "Controller",
     "Installation",
     "SizingArm",
-    "SizingCase",
+    "sizing_case_model",
     "read_toml",
     "load_config",
     "load_sizing_case",
@@ -673,11 +674,23 @@ def _sizing_fields() -> dict[str, Any]:
     return fields
 
 
-#: What ``loadarm size`` reads: ``[datasheet]``, ``[arm] riser``, ``[alarms]`` and ``[sizing]`` (the last two
-#: have defaults). Every other section of an installation may be present and is then validated as usual.
-SizingCase = create_model("SizingCase", __base__=_Section, **_sizing_fields())
-SizingCase.__doc__ = ("What sizing needs from an installation file: the datasheet, the riser, the alarm angles and "
-                      "the bounds; every other section is optional and validated when present.")
+@functools.cache
+def sizing_case_model() -> type[BaseModel]:
+    """The ``SizingCase`` model: what ``loadarm size`` reads.
+
+    ``[datasheet]`` and ``[arm] riser`` are required, ``[alarms]`` and ``[sizing]`` have defaults; every other
+    section of an installation may be present and is then validated as usual. Built on first use (it is
+    needed by one command only, and building a pydantic model costs start-up time).
+
+    Returns
+    -------
+    type
+        A pydantic model class.
+    """
+    model = create_model("SizingCase", __base__=_Section, **_sizing_fields())
+    model.__doc__ = ("What sizing needs from an installation file: the datasheet, the riser, the alarm angles "
+                     "and the bounds; every other section is optional and validated when present.")
+    return model
 
 
 def load_sizing_case(path: str | Path) -> Any:
@@ -700,9 +713,9 @@ def load_sizing_case(path: str | Path) -> Any:
         One line naming the file, the key, the value and the valid range.
     """
     try:
-        return SizingCase.model_validate(read_toml(path))
+        return sizing_case_model().model_validate(read_toml(path))
     except ValidationError as err:
-        raise ConfigError(_format_validation_error(err, str(path), SizingCase)) from None
+        raise ConfigError(_format_validation_error(err, str(path), sizing_case_model())) from None
 
 
 def _paper_values(model: type[BaseModel]) -> dict[str, Any]:

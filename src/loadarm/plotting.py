@@ -162,12 +162,48 @@ def angles_time_figure(inst: Installation, plan: Plan) -> Figure:
     return fig
 
 
+def _same_curve(t1, y1, t2, y2) -> bool:
+    """Whether two sampled curves would draw on top of each other (within 0.5 % of their extent)."""
+    t1, y1, t2, y2 = (np.asarray(v, dtype=float) for v in (t1, y1, t2, y2))
+    dur = max(float(np.ptp(t1)), float(np.ptp(t2)), 1e-12)
+    if abs(t1[0] - t2[0]) > 5e-3 * dur or abs(t1[-1] - t2[-1]) > 5e-3 * dur:
+        return False
+    span = max(float(np.ptp(y1)), float(np.ptp(y2)), 1e-12)
+    return bool(np.max(np.abs(np.interp(t1, t2, y2) - y1)) <= 5e-3 * span)
+
+
+def _law_lines(ax, series: dict[str, tuple], quantity: str = "", style: str = "-") -> None:
+    """Plot one curve per timing law so that every law stays visible.
+
+    Each law gets its own colour and a line narrower than the one before it, so a curve lying exactly on
+    another still shows; a law whose curve coincides with an earlier one says so in the legend.
+
+    Parameters
+    ----------
+    ax : Axes
+        Where to draw.
+    series : dict of str to (t, y)
+        Curves by law name, in drawing order.
+    quantity : str
+        Prefix of the legend labels.
+    style : str
+        Line style shared by these curves.
+    """
+    drawn: list[tuple[str, tuple]] = []
+    for i, (law, (t, y)) in enumerate(series.items()):
+        same = [name for name, (t0, y0) in drawn if _same_curve(t0, y0, t, y)]
+        label = f"{quantity}, {law}" if quantity else law
+        if same:
+            label += f" (on top of {same[0]})"
+        ax.plot(t, y, style, color=f"C{list(series).index(law)}", lw=max(3.2 - 1.1 * i, 0.9), label=label)
+        drawn.append((law, (t, y)))
+
+
 def _pair_figure(plans: dict[str, Plan], first: str, second: str, ylabel: str, title: str) -> Figure:
     """Two time series of every plan on one axis (solid: ``first``, dashed: ``second``)."""
     fig, ax = plt.subplots(figsize=(7, 4.5))
-    for label, plan in plans.items():
-        ax.plot(plan.t, getattr(plan, first), label=f"{first}, {label}")
-        ax.plot(plan.t, getattr(plan, second), "--", label=f"{second}, {label}")
+    _law_lines(ax, {law: (p.t, getattr(p, first)) for law, p in plans.items()}, first, "-")
+    _law_lines(ax, {law: (p.t, getattr(p, second)) for law, p in plans.items()}, second, "--")
     ax.set_xlabel("t [s]")
     ax.set_ylabel(ylabel)
     ax.set_title(title)
@@ -225,13 +261,12 @@ def timing_figure(plans: dict[str, Plan], max_speed: float) -> Figure:
     Figure
     """
     fig, ax = plt.subplots(figsize=(7, 4))
-    for label, plan in plans.items():
-        ax.plot(plan.t, np.hypot(plan.vx, plan.vy), label=f"path speed, {label}")
-        ax.plot(plan.t, np.abs(plan.vx), ":", label=f"horizontal speed, {label}")
-    ax.axhline(max_speed, color="r", lw=1, ls="--", label=f"max_speed {max_speed:g} m/s")
+    _law_lines(ax, {law: (p.t, np.hypot(p.vx, p.vy)) for law, p in plans.items()}, "path speed", "-")
+    _law_lines(ax, {law: (p.t, np.abs(p.vx)) for law, p in plans.items()}, "horizontal speed", ":")
+    ax.axhline(max_speed, color="k", lw=1, ls="-.", label=f"max_speed {max_speed:g} m/s")
     ax.set_xlabel("t [s]")
     ax.set_ylabel("speed [m/s]")
-    ax.set_title("Timing laws: paper Eq. 14 against the smooth trapezoid")
+    ax.set_title(f"Coupler speed, {len(plans)} timing law{'s' if len(plans) > 1 else ''}: {', '.join(plans)}")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -430,8 +465,8 @@ def timing_comparison_figure(results: dict) -> Figure:
     Figure
     """
     fig, ax = plt.subplots(figsize=(8, 4.2))
-    for law, r in results.items():
-        ax.plot(r.signals["t"], r.deviation * 1e3, label=f"{law}: max {r.metrics['max_deviation_mm']:.1f} mm")
+    _law_lines(ax, {f"{law}: max {r.metrics['max_deviation_mm']:.1f} mm": (r.signals["t"], r.deviation * 1e3)
+                    for law, r in results.items()})
     ax.set_xlabel("t [s]")
     ax.set_ylabel("deviation from the line [mm]")
     ax.set_title("Coupler deviation from the straight line, by timing law")
@@ -475,22 +510,27 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
     ax[0].set_yticks(range(len(modes)))
     ax[0].set_yticklabels(modes, fontsize=7)
     ax[0].set_ylabel("mode")
-    ax[1].plot(t, np.degrees(beta))
-    for v, name in zip(beta_thresholds_deg or (), ("first", "second", "release")):
-        ax[1].axhline(v, color="r", ls="--", lw=0.8)
-        ax[1].text(t[0], v, f" {name}", fontsize=7, color="r", va="bottom")
+    ax[1].plot(t, np.degrees(beta), color="C0", label="beta")
+    for v, name, ls in zip(beta_thresholds_deg or (), ("first", "second", "release"), ("--", "-.", ":")):
+        ax[1].axhline(v, color="r", ls=ls, lw=0.9, label=f"{name} {v:g} deg")
     ax[1].set_ylabel("beta [deg]")
+    ax[1].legend(fontsize=7, loc="upper left", ncol=4)
     ax[2].plot(t, np.degrees(phi))
     ax[2].set_ylabel("slew [deg]")
     ax[3].plot(t, distance)
     ax[3].set_ylabel("coupler to flange [m]")
     ax[3].set_xlabel("t [s]")
+    # Alarm times as vertical lines, each named in the legend (labels written on the plot overlapped when
+    # two alarms came seconds apart).
+    styles = ("-", "--", "-.", ":")
     for a in ax:
         a.grid(alpha=0.3)
-        for ta, _label in alarms or ():
-            a.axvline(ta, color="m", lw=0.8, ls=":")
-    for ta, label in alarms or ():
-        ax[0].text(ta, len(modes) - 1, f" {label}", rotation=90, fontsize=7, color="m", va="top")
+    for i, (ta, label) in enumerate(alarms or ()):
+        for j, a in enumerate(ax):
+            a.axvline(ta, color=f"C{(i % 8) + 1}", lw=0.9, ls=styles[i % 4],
+                      label=f"{label} {ta:.1f} s" if j == 0 else None)
+    if alarms:
+        ax[0].legend(fontsize=7, loc="upper left", ncol=min(len(alarms), 4))
     fig.suptitle(title)
     fig.tight_layout()
     return fig

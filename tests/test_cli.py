@@ -89,6 +89,7 @@ def test_envelope_png(capsys, tmp_path):
     assert code == 0 and png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_demo_writes_report(capsys, tmp_path):
     code, out, _ = run(capsys, "demo", "--out", str(tmp_path))
     assert code == 0

@@ -106,3 +106,25 @@ def test_console_block_matches_a_real_run(cmd, scratch):
 ])
 def test_elision_matcher(expected, actual, ok):
     assert matches(expected, actual) is ok
+
+
+def test_every_figure_in_the_docs_is_generated():
+    """Every image the docs show is in docs/img and drawn by `make docs`; nothing else sits in docs/img."""
+    import re as _re
+
+    from loadarm.docsgen import DOC_FIGURES
+
+    shown = set()
+    for f in DOC_FILES:
+        shown |= {Path(m).name for m in _re.findall(r"\]\(((?:docs/)?img/[^)]+\.png)\)", f.read_text())}
+    on_disk = {p.name for p in (ROOT / "docs" / "img").glob("*.png")}
+    assert shown == set(DOC_FIGURES) == on_disk, (shown ^ set(DOC_FIGURES), on_disk ^ set(DOC_FIGURES))
+
+
+@pytest.mark.slow
+def test_committed_figures_match_what_the_code_draws(tmp_path):
+    """Redraw every docs figure from the paper's case and compare with the committed PNG (`make docs`)."""
+    from loadarm.docsgen import compare_figures, render_doc_figures
+
+    bad = compare_figures(ROOT / "docs" / "img", render_doc_figures(tmp_path))
+    assert not bad, "stale figures (run `make docs`): " + "; ".join(bad)

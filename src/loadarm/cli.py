@@ -474,10 +474,12 @@ def demo(
     config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the paper's case).")] = None,
 ) -> None:
     """Run the paper's case end to end and write a self-contained HTML report."""
+    from .config import packaged_example
     from .report import build_report
 
-    inst: Installation = load_config(config) if config is not None else paper_installation()
-    steps = 10
+    source = config if config is not None else packaged_example("paper.toml")
+    inst: Installation = load_config(source)
+    steps = 12 + len(inst.report.scenarios)
     with _progress() as prog:
         task = prog.add_task("starting", total=steps)
 
@@ -485,7 +487,7 @@ def demo(
             prog.update(task, description=msg, advance=1)
 
         files = build_report(inst, out_dir, title="loadarm: the paper's case end to end" if config is None
-                             else f"loadarm report: {config}", progress=step)
+                             else f"loadarm report: {config.name}", source=source, progress=step)
         prog.update(task, description="done", completed=steps)
     out.print(f"report: {files.html}")
     out.print(f"summary: {files.summary}")

@@ -39,7 +39,9 @@ __all__ = [
     "Valve",
     "Encoder",
     "Controller",
+    "Report",
     "Installation",
+    "packaged_example",
     "SizingArm",
     "sizing_case_model",
     "read_toml",
@@ -435,7 +437,7 @@ class Encoder(_Section):
 class Controller(_Section):
     """Discrete PID with velocity feed-forward per cylinder (paper Fig. 11)."""
 
-    rate: float = _param(1000.0, unit="Hz", ge=10, le=20000, source="issue 4 (1 kHz)",
+    rate: float = _param(1000.0, unit="Hz", ge=10, le=20000, source="paper Fig. 11 servo loop; 1 kHz is usual for electro-hydraulic position control",
                          description="control loop rate")
     kp: float = _param(60.0, unit="V/m", ge=0, le=1e6,
                        source="tuned below the arm's low hydraulic natural frequency (docs/hydraulics.md)",
@@ -451,7 +453,7 @@ class Controller(_Section):
     feedforward: Literal["none", "nominal", "model"] = Field(
         "model", description="valve feed-forward from the plan: none; nominal (velocity at the valve's rated drop); "
                              "model (steady-state valve-cylinder inverse under the planned force)",
-        json_schema_extra={"unit": "1", "source": "issue 4 (velocity feed-forward); model-based is standard practice"})
+        json_schema_extra={"unit": "1", "source": "velocity feed-forward of the planned motion; model-based inverse is standard practice"})
     substeps: int = Field(4, ge=1, le=100, description="plant integration steps per control step",
                           json_schema_extra={"unit": "1", "source": "measured: stable and converged (docs/hydraulics.md)"})
     settle_time: float = _param(10.0, unit="s", ge=0, le=600, source="engineering choice",
@@ -461,6 +463,15 @@ class Controller(_Section):
                                           description="cylinder length error that stops the run as unstable")
     arrival_tolerance: float = _param(0.005, unit="m", gt=0, le=1.0, source="within manual-connection reach",
                                       description="coupler distance from the flange counted as arrived")
+
+
+class Report(_Section):
+    """What the HTML report runs besides the pipeline."""
+
+    scenarios: tuple[str, ...] = Field(
+        (), max_length=50,
+        description="live-guidance scenario files run on this installation in the report, relative to this file",
+        json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case lists the examples)"})
 
 
 class Installation(_Section):
@@ -479,6 +490,7 @@ class Installation(_Section):
     valve: Valve = Field(default_factory=Valve)
     encoder: Encoder = Field(default_factory=Encoder)
     controller: Controller = Field(default_factory=Controller)
+    report: Report = Field(default_factory=Report)
 
 
 def _range_text(model: type[BaseModel], field: str) -> str:
@@ -718,6 +730,24 @@ def load_sizing_case(path: str | Path) -> Any:
         raise ConfigError(_format_validation_error(err, str(path), sizing_case_model())) from None
 
 
+def packaged_example(name: str) -> Path:
+    """Path of an example file shipped inside the package (``paper.toml``, ``scenarios/calm.toml``...).
+
+    Parameters
+    ----------
+    name : str
+        Path relative to the package's ``examples`` folder.
+
+    Returns
+    -------
+    Path
+        A file on disk (the package is installed unzipped).
+    """
+    from importlib.resources import files
+
+    return Path(str(files("loadarm") / "examples" / name))
+
+
 def _paper_values(model: type[BaseModel]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name, info in model.model_fields.items():
@@ -753,6 +783,7 @@ _VALIDATOR_RANGES = {
     "cylinders.length_range_1": "0 < retracted < extended <= 50 m",
     "cylinders.length_range_2": "0 < retracted < extended <= 50 m",
     "controller.feedforward": "none, nominal or model",
+    "report.scenarios": "up to 50 scenario files",
 }
 
 

@@ -514,7 +514,7 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
     for v, name, ls in zip(beta_thresholds_deg or (), ("first", "second", "release"), ("--", "-.", ":")):
         ax[1].axhline(v, color="r", ls=ls, lw=0.9, label=f"{name} {v:g} deg")
     ax[1].set_ylabel("beta [deg]")
-    ax[1].legend(fontsize=7, loc="upper left", ncol=4)
+    ax[1].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.005, 1.0), borderaxespad=0)
     ax[2].plot(t, np.degrees(phi))
     ax[2].set_ylabel("slew [deg]")
     ax[3].plot(t, distance)
@@ -530,7 +530,7 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
             a.axvline(ta, color=f"C{(i % 8) + 1}", lw=0.9, ls=styles[i % 4],
                       label=f"{label} {ta:.1f} s" if j == 0 else None)
     if alarms:
-        ax[0].legend(fontsize=7, loc="upper left", ncol=min(len(alarms), 4))
+        ax[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.005, 1.0), borderaxespad=0)
     fig.suptitle(title)
     fig.tight_layout()
     return fig

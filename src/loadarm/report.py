@@ -1,23 +1,28 @@
 """Self-contained HTML report of an installation: sizing, envelope, approach, cylinders, valves.
 
-:func:`build_report` runs the whole pipeline on an installation (the demo uses
-the paper's case) and writes ``report.html`` (figures embedded as base64 PNG,
-so the one file can be mailed), the figures as PNG, one CSV per timing law and
-``summary.json``.
+:class:`ReportData` runs the pipeline on an installation once (each result computed on first use);
+:data:`FIGURES` lists every figure with its builder and caption, shared by the report and by
+``make docs`` (:mod:`loadarm.docsgen`); :func:`build_report` writes ``report.html`` (figures embedded as
+base64 PNG, so the one file can be mailed), the figures as PNG, one CSV per timing law and
+``summary.json``. The report describes the installation it is given: the paper comparison appears only
+for the paper's case, the scenarios are the installation's own ``[report] scenarios``.
 """
 
 from __future__ import annotations
 
 import base64
+import hashlib
 import html
 import json
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from functools import cached_property
 from pathlib import Path
 
 from . import __version__
-from .config import Installation, parameter_table
+from .config import Installation, paper_installation, parameter_table, read_toml
 from .envelope import alarms_from_installation, berth_box, zone_radii
 from .geometry import arm_from_installation
 from .balancing import balance_counterweights
@@ -31,7 +36,7 @@ from .sizing import size_installation, sizing_summary
 from .timing import TIMING_LAWS
 from .trajectory import Plan, plan_approach
 
-__all__ = ["ReportFiles", "build_report", "summary_dict"]
+__all__ = ["ReportFiles", "ReportData", "FIGURES", "build_report", "summary_dict", "is_paper_case"]
 
 
 @dataclass(frozen=True)
@@ -52,13 +57,14 @@ def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str]
         cells = []
         for key, _ in columns:
             v = row.get(key)
+            numeric = isinstance(v, (int, float)) and not isinstance(v, bool)
             if isinstance(v, float):
                 s = "n/a" if math.isnan(v) else format(v, fmt.get(key, ".3f"))
             elif v is None:
                 s = "n/a"
             else:
                 s = str(v)
-            cells.append(f"<td>{html.escape(s)}</td>")
+            cells.append(f"<td class='num'>{html.escape(s)}</td>" if numeric else f"<td>{html.escape(s)}</td>")
         body.append("<tr>" + "".join(cells) + "</tr>")
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
 
@@ -94,8 +100,9 @@ def summary_dict(inst: Installation, plans: dict[str, Plan], sizing: dict | None
 _CSS = """
 body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;color:#222;padding:0 1em}
 h1{font-size:1.6em} h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
-table{border-collapse:collapse;margin:.8em 0;font-size:.9em} th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}
-th{background:#f3f3f3} td:first-child,th:first-child{text-align:left}
+table{border-collapse:collapse;margin:.8em 0;font-size:.9em} th,td{border:1px solid #ccc;padding:.25em .6em;text-align:left;vertical-align:top}
+th{background:#f3f3f3} td.num{text-align:right;font-variant-numeric:tabular-nums}
+.meta{color:#555;font-size:.9em}
 figure{margin:1em 0} figure img{max-width:100%;border:1px solid #eee} figcaption{font-size:.85em;color:#555}
 .note{background:#fff8e1;border-left:4px solid #f0c000;padding:.5em 1em;font-size:.9em}
 code{background:#f4f4f4;padding:0 .2em}
@@ -108,18 +115,198 @@ def _img(path: Path, caption: str) -> str:
             f"<figcaption>{html.escape(caption)}</figcaption></figure>")
 
 
-def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loadarm report",
-                 progress: Callable[[str], None] | None = None) -> ReportFiles:
-    """Run sizing, envelope and both timing laws and write the report.
+def is_paper_case(inst: Installation) -> bool:
+    """Whether ``inst`` is the paper's case (its ``[report]`` list aside).
 
     Parameters
     ----------
     inst : Installation
-        The installation (the demo passes the paper's case).
+        Any installation.
+
+    Returns
+    -------
+    bool
+        True when every section but ``report`` equals :func:`loadarm.config.paper_installation`.
+    """
+    return inst.model_dump(exclude={"report"}) == paper_installation().model_dump(exclude={"report"})
+
+
+#: Display units for the parameter table: SI value times factor.
+_DISPLAY_UNITS = {"Pa": ("bar", 1e-5), "N": ("kN", 1e-3), "m^3/s": ("L/min", 6e4)}
+
+
+def _display(value, unit: str) -> tuple[str, str]:
+    """A parameter value and unit as an engineer reads them (bar, kN, L/min)."""
+    disp, factor = _DISPLAY_UNITS.get(unit, (unit, None))
+    def one(v):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            return str(v)
+        return f"{v * factor:.6g}" if factor else f"{v:.6g}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(one(v) for v in value) + "]", disp
+    return one(value), disp
+
+
+@dataclass
+class ReportData:
+    """Everything the report shows, computed once on first use.
+
+    Attributes
+    ----------
+    inst : Installation
+        The installation.
+    source : Path or None
+        The installation file (None for the built-in paper case); scenario paths are relative to it.
+    """
+
+    inst: Installation
+    source: Path | None = None
+    _progress: Callable[[str], None] = field(default=lambda _msg: None, repr=False)
+
+    @cached_property
+    def sizing(self):
+        """:class:`loadarm.sizing.SizingResult` of the datasheet."""
+        self._progress("sizing the arm (Eqs 1-3)")
+        return size_installation(self.inst)
+
+    @cached_property
+    def sizing_table(self) -> dict:
+        """:func:`loadarm.sizing.sizing_summary`."""
+        return sizing_summary(self.inst, self.sizing)
+
+    @cached_property
+    def plans(self) -> dict[str, Plan]:
+        """One 401-sample plan per timing law."""
+        out = {}
+        for law in TIMING_LAWS:
+            self._progress(f"planning the approach, {law} timing")
+            out[law] = plan_approach(self.inst, timing=law, samples=401)
+        return out
+
+    @cached_property
+    def verification(self):
+        """MuJoCo verification of the paper-timing plan."""
+        self._progress("verifying the kinematics in MuJoCo")
+        return verify_kinematics(self.inst, plan_approach(self.inst, timing="paper", samples=201))
+
+    @cached_property
+    def loads(self) -> dict:
+        """Actuator loads by timing law."""
+        self._progress("actuator loads")
+        return {law: actuator_loads(self.inst, p) for law, p in self.plans.items()}
+
+    @cached_property
+    def balance(self):
+        """Counterweight balance over the envelope."""
+        self._progress("counterweight balance")
+        return balance_counterweights(self.inst)
+
+    @cached_property
+    def simulations(self) -> dict:
+        """Closed-loop runs by timing law."""
+        self._progress("simulating the electro-hydraulic closed loop, three timing laws")
+        return {law: simulate_approach(self.inst, plan_approach(self.inst, timing=law, samples=2001))
+                for law in TIMING_LAWS}
+
+    @cached_property
+    def scenario_files(self) -> list[Path]:
+        """The installation's ``[report] scenarios``, resolved against its file."""
+        base = self.source.parent if self.source is not None else Path.cwd()
+        return [(base / f) for f in self.inst.report.scenarios]
+
+    @cached_property
+    def scenarios(self) -> dict:
+        """``name -> RunResult`` of each listed scenario, run on this installation."""
+        from .guidance.run import run_scenario
+        from .guidance.scenario import parse_scenario
+
+        out = {}
+        for f in self.scenario_files:
+            self._progress(f"scenario {f.stem}")
+            sc = parse_scenario(read_toml(f, "scenario"), source=str(f))
+            out[f.stem] = run_scenario(sc, self.inst)
+        return out
+
+
+def _timeline(name: str):
+    def build(d: ReportData):
+        from .plotting import run_timeline_figure
+        return run_timeline_figure(d.scenarios[name], d.inst)
+    return build
+
+
+#: Every fixed figure of the report: ``file name -> (builder, caption)``. Scenario timelines are added per
+#: scenario. ``make docs`` draws the ones the docs show from the paper's case with the same builders.
+FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
+    "envelope.png": (lambda d: envelope_figure(d.inst, d.plans["smooth"]),
+                     "Zones as bands of beta around the riser top, datasheet flange box, stored position, flange and "
+                     "the straight approach with arm snapshots."),
+    "alpha_beta.png": (lambda d: alpha_beta_figure({"straight line": d.plans["paper"]}),
+                       "Fig. 6 equivalent: alpha versus beta along the straight line."),
+    "angles_paper.png": (lambda d: angles_time_figure(d.inst, d.plans["paper"]),
+                         "Fig. 8 equivalent, paper timing: closed form (lines) against the paper's literal Eqs 7-11 "
+                         "(markers)."),
+    "angles_smooth.png": (lambda d: angles_time_figure(d.inst, d.plans["smooth"]),
+                          "Fig. 8 equivalent, smooth timing."),
+    "timing.png": (lambda d: timing_figure(d.plans, d.inst.approach.max_speed),
+                   "Coupler speed for the three timing laws (paper, smooth, optimal)."),
+    "cylinders.png": (lambda d: cylinders_figure(d.plans), "Fig. 9 equivalent: cylinder pin-to-pin lengths."),
+    "voltages.png": (lambda d: voltages_figure(d.plans), "Fig. 10 equivalent: valve voltages."),
+    "verification.png": (lambda d: verification_figure(d.verification),
+                         "Closed form (lines) against MuJoCo (markers), and their differences."),
+    "loads.png": (lambda d: loads_figure(d.loads), "Cylinder forces and working pressures along the approach."),
+    "residual_torque.png": (lambda d: residual_torque_figure(d.balance),
+                            "Residual static torque over the envelope, worst fill case."),
+    "deviation_by_timing.png": (lambda d: timing_comparison_figure(d.simulations),
+                                "Deviation of the simulated coupler from the straight line, by timing law."),
+    "simulation_smooth.png": (lambda d: simulation_figure(d.simulations["smooth"]),
+                              "Smooth timing: deviation, tracking errors, pressures, valve commands, pump."),
+}
+
+
+def figure_builders(data: ReportData) -> dict[str, tuple[Callable[[ReportData], object], str]]:
+    """:data:`FIGURES` plus one timeline per scenario of the installation.
+
+    Parameters
+    ----------
+    data : ReportData
+        The report's data (its scenario list).
+
+    Returns
+    -------
+    dict
+        ``file name -> (builder, caption)``.
+    """
+    figs = dict(FIGURES)
+    for f in data.scenario_files:
+        figs[f"timeline_{f.stem}.png"] = (_timeline(f.stem), f"Timeline of scenario {f.stem}.")
+    return figs
+
+
+def _input_line(source: Path | None) -> str:
+    if source is None:
+        return "input: the built-in paper case (loadarm.config.paper_installation)"
+    digest = hashlib.sha256(source.read_bytes()).hexdigest()
+    return f"input: {source.name} (sha256 {digest[:16]}…)"
+
+
+def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loadarm report",
+                 source: str | Path | None = None, now: datetime | None = None,
+                 progress: Callable[[str], None] | None = None) -> ReportFiles:
+    """Run sizing, envelope, the three timing laws, dynamics, the closed loop and the scenarios; write the report.
+
+    Parameters
+    ----------
+    inst : Installation
+        The installation.
     out_dir : str or Path
         Output directory, created if needed.
     title : str
         Report title.
+    source : str or Path, optional
+        The installation file: named and hashed in the report; ``[report] scenarios`` are relative to it.
+    now : datetime, optional
+        Time stamp printed in the report (default: the current UTC time; injected for reproducible output).
     progress : callable, optional
         Called with a short description before each step (for a progress bar).
 
@@ -129,72 +316,39 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         The files written.
     """
     step = progress or (lambda _msg: None)
+    src = Path(source) if source is not None else None
+    stamp = (now or datetime.now(timezone.utc)).strftime("%Y-%m-%d %H:%M UTC")
+    paper = is_paper_case(inst)
     out = Path(out_dir)
     figdir = out / "figures"
     figdir.mkdir(parents=True, exist_ok=True)
+    d = ReportData(inst, src, step)
 
-    step("sizing the arm (Eqs 1-3)")
-    sizing = size_installation(inst)
-    sz = sizing_summary(inst, sizing)
+    sizing, sz = d.sizing, d.sizing_table
     arm = arm_from_installation(inst)
     corners_sized, corners_conf = sz["corners"], sz["corners_configured_arm"]
-
-    plans: dict[str, Plan] = {}
-    csvs: dict[str, Path] = {}
-    for law in TIMING_LAWS:
-        step(f"planning the approach, {law} timing")
-        plans[law] = plan_approach(inst, timing=law, samples=401)
-        csvs[law] = plans[law].write_csv(out / f"plan_{law}.csv")
-
-    step("verifying the kinematics in MuJoCo")
-    verification = verify_kinematics(inst, plan_approach(inst, timing="paper", samples=201))
-    step("actuator loads and counterweight balance")
-    loads = {law: actuator_loads(inst, p) for law, p in plans.items()}
-    balance = balance_counterweights(inst)
-
-    step("simulating the electro-hydraulic closed loop, three timing laws")
-    sims = {law: simulate_approach(inst, plan_approach(inst, timing=law, samples=2001)) for law in TIMING_LAWS}
-
-    step("running the live-guidance scenarios")
-    from pathlib import Path as _P
-
-    from .guidance.run import run_scenario
-    from .guidance.scenario import load_scenario
-    from .plotting import run_timeline_figure
-
-    scen_dir = _P(__file__).resolve().parents[2] / "examples" / "scenarios"
-    scen_runs = {}
-    if scen_dir.is_dir():
-        for f in sorted(scen_dir.glob("*.toml")):
-            sc, sinst = load_scenario(f)
-            scen_runs[f.stem] = (sc, sinst, run_scenario(sc, sinst))
+    plans = d.plans
+    csvs = {law: p.write_csv(out / f"plan_{law}.csv") for law, p in plans.items()}
+    verification, loads, balance, sims, scen_runs = d.verification, d.loads, d.balance, d.simulations, d.scenarios
 
     step("drawing figures")
-    figs = {
-        "simulation": save(simulation_figure(sims["smooth"]), figdir / "simulation_smooth.png"),
-        "sim_compare": save(timing_comparison_figure(sims), figdir / "deviation_by_timing.png"),
-        "verification": save(verification_figure(verification), figdir / "verification.png"),
-        "loads": save(loads_figure(loads), figdir / "loads.png"),
-        "balance": save(residual_torque_figure(balance), figdir / "residual_torque.png"),
-        "envelope": save(envelope_figure(inst, plans["smooth"]), figdir / "envelope.png"),
-        "alpha_beta": save(alpha_beta_figure({"straight line": plans["paper"]}), figdir / "alpha_beta.png"),
-        "angles_paper": save(angles_time_figure(inst, plans["paper"]), figdir / "angles_paper.png"),
-        "angles_smooth": save(angles_time_figure(inst, plans["smooth"]), figdir / "angles_smooth.png"),
-        "cylinders": save(cylinders_figure(plans), figdir / "cylinders.png"),
-        "voltages": save(voltages_figure(plans), figdir / "voltages.png"),
-        "timing": save(timing_figure(plans, inst.approach.max_speed), figdir / "timing.png"),
-    }
+    builders = figure_builders(d)
+    figs = {name: save(build(d), figdir / name) for name, (build, _caption) in builders.items()}
 
-    for name, (_, sinst, rr) in scen_runs.items():
-        figs[f"timeline_{name}"] = save(run_timeline_figure(rr, sinst), figdir / f"timeline_{name}.png")
+    def img(name: str) -> str:
+        return _img(figs[name], builders[name][1])
 
     step("writing report")
     summary = summary_dict(inst, plans, sz)
+    summary["generated"] = stamp
+    summary["input"] = _input_line(src).removeprefix("input: ")
     summary["verification"] = verification.summary()
     summary["loads"] = {law: ld.summary() for law, ld in loads.items()}
     summary["balance"] = balance.summary()
     summary["simulation"] = {law: r.summary() for law, r in sims.items()}
-    summary["scenarios"] = {name: rr.summary() for name, (_, _, rr) in scen_runs.items()}
+    # wall-clock cycle times depend on the machine and its load: they belong to `loadarm run`, not the report
+    summary["scenarios"] = {name: {k: v for k, v in rr.summary().items() if not k.startswith("cycle_us")}
+                            for name, rr in scen_runs.items()}
     summary_path = out / "summary.json"
     summary_path.write_text(json.dumps(summary, indent=2), encoding="utf-8")
 
@@ -203,8 +357,8 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     notes = []
     if not (box.x_near <= fx <= box.x_far and box.y_low <= fy <= box.y_high):
         notes.append(f"The configured flange ({fx:g}, {fy:g}) m lies outside the datasheet's flange box "
-                     f"x in [{box.x_near:g}, {box.x_far:g}] m, y in [{box.y_low:g}, {box.y_high:g}] m "
-                     "(the paper's example does this too).")
+                     f"x in [{box.x_near:g}, {box.x_far:g}] m, y in [{box.y_low:g}, {box.y_high:g}] m"
+                     + (" (the paper's example does this too)." if paper else "."))
     bad_conf = [c for c in corners_conf if c["zone"] != 1]
     if bad_conf:
         notes.append("With the configured arm (b = {:.3g} m, c = {:.3g} m) these corners are not in zone 1: ".format(
@@ -227,7 +381,18 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         {"pt": "end (flange)", "x": float(p0.x[-1]), "y": float(p0.y[-1]), "a": math.degrees(p0.alpha[-1]),
          "b": math.degrees(p0.beta[-1]), "r1": float(p0.r_ac1[-1]), "r2": float(p0.r_ac2[-1])},
     ]
-    params = parameter_table()
+    params = []
+    for row in parameter_table():
+        section, key = row["key"].split(".", 1)
+        value, unit = _display(getattr(getattr(inst, section), key), row["unit"])
+        default = row["default"]
+        if not default.startswith("required"):
+            info = type(getattr(inst, section)).model_fields[key]
+            default = _display(info.get_default(call_default_factory=True), row["unit"])[0]
+        rng = row["range"].replace(f" {row['unit']}", "") if row["unit"] in _DISPLAY_UNITS else row["range"]
+        if row["unit"] in _DISPLAY_UNITS:
+            rng = f"{rng} {row['unit']}"
+        params.append({**row, "value": value, "unit": unit, "default": default, "range": rng})
     vs = summary["verification"]
     bs = summary["balance"]
     ms = inst.masses
@@ -242,7 +407,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         scen_rows.append({"name": name, "seq": " > ".join(ss["mode_sequence"]), "a1": fmt(ss["alarm1_s"]),
                           "a2": fmt(ss["alarm2_s"]), "rel": fmt(ss["release_s"]),
                           "over": "no" if ss["overstretched_s"] is None else f"at {ss['overstretched_s']:.1f} s",
-                          "beta": ss["max_beta_deg"], "p99": ss["cycle_us_p99"]})
+                          "beta": ss["max_beta_deg"]})
     sim_rows = []
     for law, sm in summary["simulation"].items():
         sim_rows.append({"law": law, "T": sm["plan_duration_s"],
@@ -264,22 +429,22 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
         f"<style>{_CSS}</style></head><body>",
         f"<h1>{html.escape(title)}</h1>",
-        f"<p>Generated by loadarm {__version__}. Source: O. Kavianipour, <i>A geometric approach for automatic "
-        "guidance of marine loading arms</i>. All numbers below are recomputed from the configuration.</p>",
+        f"<p class='meta'>Generated {stamp} by loadarm {__version__}; {html.escape(_input_line(src))}.</p>",
+        "<p>Method: O. Kavianipour, <i>A geometric approach for automatic guidance of marine loading arms</i>, "
+        "with loadarm's extensions. Every number below is computed from this installation.</p>",
         "".join(f"<p class='note'>{html.escape(n)}</p>" for n in notes),
         "<h2>1. Arm sizing (paper Eqs 1-3, Table 1)</h2>",
         f"<p>First-alarm corner |X| = A+B+C+D-C+E = <b>{sizing.corner[0]:.3f} m</b>, |Y| = F+G-H = "
         f"<b>{-sizing.corner[1]:.3f} m</b>; r<sub>al</sub> (Eq. 1) = <b>{sizing.r_alarm:.4f} m</b>. Minimising "
         f"b + c on the cosine-law constraint (Eq. 3) at beta<sub>al</sub> = {inst.alarms.first_deg:g} deg within "
         f"b in {list(inst.sizing.inboard)} m, c in {list(inst.sizing.outboard)} m gives <b>b = {sizing.inboard:.4f} m, "
-        f"c = {sizing.outboard:.4f} m</b> (paper: 12 m and 8.2 m). Active bound: {html.escape(sizing.active_bound)}. "
+        f"c = {sizing.outboard:.4f} m</b>{' (paper: 12 m and 8.2 m)' if paper else ''}. Active bound: {html.escape(sizing.active_bound)}. "
         f"Local minima found: {', '.join(f'({b:.3f}, {c:.3f})' for b, c in sizing.local_minima)}.</p>",
         "<h3>Flange-box corners, sized arm</h3>", _table(corners_sized, corner_cols),
         f"<h3>Flange-box corners, configured arm (b = {arm.b:g} m, c = {arm.c:g} m)</h3>",
         _table(corners_conf, corner_cols),
         "<h2>2. Operating envelope and alarm zones (paper Fig. 4)</h2>",
-        _img(figs["envelope"], "Zones as bands of beta around the riser top, datasheet flange box, stored "
-                               "position, flange and the straight approach with arm snapshots."),
+        img("envelope.png"),
         "<h2>3. Straight-line approach (paper Eqs 4-11, 14)</h2>",
         _table(endpoint_rows, [("pt", "point"), ("x", "x [m]"), ("y", "y [m]"), ("a", "alpha [deg]"),
                                ("b", "beta [deg]"), ("r1", "r_ac1 [m]"), ("r2", "r_ac2 [m]")]),
@@ -290,15 +455,12 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         f"coupler actually moves at {plans['paper'].summary()['peak_path_speed_m_s']:.3f} m/s and starts and stops "
         "with a speed step. The smooth law keeps the path speed at or below the limit and ramps it at "
         f"{inst.approach.max_accel:g} m/s<sup>2</sup>.</p>",
-        _img(figs["alpha_beta"], "Fig. 6 equivalent: alpha versus beta along the straight line."),
-        _img(figs["angles_paper"], "Fig. 8 equivalent, paper timing: closed form (lines) against the paper's "
-                                   "literal Eqs 7-11 (markers)."),
-        _img(figs["angles_smooth"], "Fig. 8 equivalent, smooth timing."),
-        _img(figs["timing"], "Coupler speed for both timing laws."),
+        img("alpha_beta.png"), img("angles_paper.png"), img("angles_smooth.png"), img("timing.png"),
         "<h2>4. Cylinders and valve commands (paper Eqs 12-13, Section 5)</h2>",
-        _img(figs["cylinders"], "Fig. 9 equivalent: cylinder pin-to-pin lengths."),
-        _img(figs["voltages"], f"Fig. 10 equivalent: valve voltages at {inst.actuators.volts_per_metre:g} V/m, "
-                               f"range +/-{inst.actuators.valve_range_V:g} V."),
+        img("cylinders.png"),
+        f"<p>Valve voltages at {inst.actuators.volts_per_metre:g} V/m, range +/-{inst.actuators.valve_range_V:g} V:"
+        "</p>",
+        img("voltages.png"),
         "<p>CSV of every sample: " + ", ".join(f"<a href='{p.name}'>{p.name}</a>" for p in csvs.values())
         + ", and <a href='summary.json'>summary.json</a>.</p>",
         "<h2>5. Multibody verification in MuJoCo (paper Section 4, Fig. 8)</h2>",
@@ -308,7 +470,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         f"Largest differences over {vs['samples']} samples: alpha {vs['max_alpha_diff_deg']:.2e} deg, beta "
         f"{vs['max_beta_diff_deg']:.2e} deg, r_ac1 {vs['max_r_ac1_diff_mm']:.2e} mm, r_ac2 "
         f"{vs['max_r_ac2_diff_mm']:.2e} mm (tolerances 0.01 deg and 0.1 mm).</p>",
-        _img(figs["verification"], "Closed form (lines) against MuJoCo (markers), and their differences."),
+        img("verification.png"),
         "<h2>6. Dynamics, counterweights and actuator sizing</h2>",
         f"<p>Mass model: {html.escape(mass_text)}. Cylinders: bore {inst.cylinders.bore * 1e3:g} mm, rod "
         f"{inst.cylinders.rod * 1e3:g} mm, return {inst.cylinders.return_pressure / 1e5:g} bar, rating "
@@ -321,7 +483,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                {"F": ".1f", "Frms": ".1f", "p": ".1f", "v": ".2f", "q": ".2f"}),
         "<p>The paper law's speed steps at start and stop are impulses (infinite acceleration) and are not in "
         "its forces; the smooth law's ramps are.</p>",
-        _img(figs["loads"], "Cylinder forces and working pressures along the approach."),
+        img("loads.png"),
         f"<p><b>Counterweight balance.</b> Minimising the largest static joint torque over {bs['poses']} poses "
         f"of the operating envelope and fill cases {bs['fills']} (a linear programme): inboard counterweight "
         f"<b>{bs['counterweight_inboard_kg']:.0f} kg</b> at {inst.masses.counterweight_inboard_distance:g} m "
@@ -331,7 +493,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         f"{bs['max_residual_torque_beta_Nm'] / 1e3:.1f} kN m at the elbow; with the configured counterweights "
         f"{bs['configured_max_torque_alpha_Nm'] / 1e3:.1f} and {bs['configured_max_torque_beta_Nm'] / 1e3:.1f} "
         "kN m.</p>",
-        _img(figs["balance"], "Residual static torque over the envelope, worst fill case."),
+        img("residual_torque.png"),
         "<h2>7. Electro-hydraulic closed loop (paper Fig. 11)</h2>",
         "<p>Each cylinder is driven by a PID controller at "
         f"{inst.controller.rate:g} Hz (kp {inst.controller.kp:g} V/m, ki {inst.controller.ki:g} V/(m s), "
@@ -346,19 +508,21 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                           ("p", "peak pressure [bar]"), ("q", "peak pump flow [L/min]"), ("E", "pump energy [kJ]"),
                           ("w", "warnings")],
                {"T": ".2f", "dev": ".1f", "rms": ".1f", "fin": ".2f", "p": ".1f", "q": ".1f", "E": ".0f"}),
-        _img(figs["sim_compare"], "Deviation of the simulated coupler from the straight line, by timing law."),
-        _img(figs["simulation"], "Smooth timing: deviation, tracking errors, pressures, valve commands, pump."),
+        img("deviation_by_timing.png"), img("simulation_smooth.png"),
         "<h2>8. Live guidance to a moving ship (scenarios)</h2>",
-        "<p>Ship, sensor, Kalman estimator, guidance state machine and arm on a simulated clock "
-        "(examples/scenarios/). Alarm 1 (ESD-1), alarm 2 and release (ERS-2) are raised on position and on "
+        "<p>Ship, sensor, Kalman estimator, guidance state machine and arm on a simulated clock, each scenario "
+        f"({html.escape(', '.join(f.name for f in d.scenario_files)) or 'none'}) run on this installation. Alarm 1 (ESD-1), alarm 2 and release (ERS-2) are raised on position and on "
         "drift speed, so that the sequences finish before the arm's limit.</p>",
         _table(scen_rows, [("name", "scenario"), ("seq", "modes"), ("a1", "alarm 1 [s]"), ("a2", "alarm 2 [s]"),
-                           ("rel", "release [s]"), ("over", "overstretched"), ("beta", "max beta [deg]"),
-                           ("p99", "cycle p99 [us]")], {"beta": ".1f", "p99": ".0f"}),
-        "".join(_img(figs[f"timeline_{n}"], f"Timeline of scenario {n}.") for n in scen_runs),
+                           ("rel", "release [s]"), ("over", "overstretched"), ("beta", "max beta [deg]")],
+               {"beta": ".1f"}) if scen_rows else "<p>No scenarios: list them in the installation's "
+                                                  "<code>[report] scenarios</code>.</p>",
+        "".join(img(f"timeline_{n}.png") for n in scen_runs),
         "<h2>9. Parameters</h2>",
-        _table(params, [("key", "key"), ("unit", "unit"), ("default", "default"), ("range", "range"),
-                        ("description", "description"), ("source", "source")]),
+        "<p>The values of this installation, with the documented defaults (pressures in bar, forces in kN, "
+        "flows in L/min; the file itself is in SI units).</p>",
+        _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),
+                        ("range", "valid range"), ("description", "description"), ("source", "source")]),
         "</body></html>",
     ]
     html_path = out / "report.html"

@@ -152,7 +152,7 @@ class ScenarioHead(_S):
     seed: int = Field(1, ge=0, description="random seed (waves, sensor)", json_schema_extra={"unit": "", "source": ""})
     plant: str = Field("hydraulic", pattern="^(hydraulic|kinematic)$",
                        description="arm plant: hydraulic (the two servo drives on the arm's dynamics) or kinematic",
-                       json_schema_extra={"unit": "", "source": "issue 5"})
+                       json_schema_extra={"unit": "", "source": "hydraulic: the realistic default; kinematic for fast studies"})
     installation: str | None = Field(None, description="installation TOML, relative to the scenario file "
                                                        "(default: the paper's case)",
                                      json_schema_extra={"unit": "", "source": ""})

@@ -1,0 +1,152 @@
+"""``make docs``: regenerate everything in the docs that the code produces.
+
+* the figures in ``docs/img`` that the docs show, drawn from the paper's case with the report's own
+  builders (:data:`loadarm.report.FIGURES`), so a figure in the docs is the figure the report draws;
+* the parameter table of ``docs/configuration.md`` and ``examples/full.toml``, from the declarations.
+
+Console blocks are not generated: ``tests/test_docs.py`` runs every one and compares. ``tests/test_docs.py``
+also redraws every figure and compares it with the committed PNG (``--check`` does the same here).
+
+Run ``python -m loadarm.docsgen [--check]`` from the repository root.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+__all__ = ["DOC_FIGURES", "render_doc_figures", "regenerate", "compare_figures"]
+
+#: The figures the docs show (file names in docs/img); the paper's case draws them.
+DOC_FIGURES = ("envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
+               "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
+               "simulation_smooth.png", "timeline_driftoff.png")
+
+#: Root-mean-square difference (0-255 grey levels) tolerated between a committed and a redrawn figure:
+#: anti-aliasing may differ by a pixel across FreeType builds; any change of a curve, label or legend is far
+#: above it (a one-line change of a legend measured 2-6).
+FIGURE_TOLERANCE = 0.5
+
+
+def _paper_data():
+    from .config import load_config, packaged_example
+    from .report import ReportData
+
+    source = packaged_example("paper.toml")
+    return ReportData(load_config(source), source)
+
+
+def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:
+    """Draw the docs' figures from the paper's case into ``dest``.
+
+    Parameters
+    ----------
+    dest : str or Path
+        Output folder.
+    names : sequence of str
+        Which figures (default: all of :data:`DOC_FIGURES`).
+
+    Returns
+    -------
+    dict of str to Path
+        The files written.
+    """
+    from .plotting import save
+    from .report import figure_builders
+
+    data = _paper_data()
+    builders = figure_builders(data)
+    out = {}
+    for name in names:
+        out[name] = save(builders[name][0](data), Path(dest) / name)
+    return out
+
+
+def compare_figures(committed: str | Path, fresh: dict[str, Path], tol: float = FIGURE_TOLERANCE) -> list[str]:
+    """Names of the figures that differ from the committed ones (or are missing), with the RMS difference.
+
+    Parameters
+    ----------
+    committed : str or Path
+        Folder of the committed figures (``docs/img``).
+    fresh : dict of str to Path
+        Freshly drawn figures by name.
+    tol : float
+        RMS tolerance, grey levels.
+
+    Returns
+    -------
+    list of str
+        One line per figure that does not match; empty when all match.
+    """
+    from matplotlib.testing.compare import compare_images
+
+    bad = []
+    for name, path in fresh.items():
+        ref = Path(committed) / name
+        if not ref.exists():
+            bad.append(f"{name}: not committed")
+            continue
+        res = compare_images(str(ref), str(path), tol, in_decorator=True)
+        if res is not None:
+            bad.append(f"{name}: RMS {res['rms']:.2f} > {tol}")
+    return bad
+
+
+def regenerate(root: str | Path = ".") -> list[Path]:
+    """Rewrite the generated parts of the docs under ``root``.
+
+    Parameters
+    ----------
+    root : str or Path
+        Repository root.
+
+    Returns
+    -------
+    list of Path
+        Files written.
+    """
+    from .config import example_toml, parameter_markdown
+
+    root = Path(root)
+    written = list(render_doc_figures(root / "docs" / "img").values())
+    conf = root / "docs" / "configuration.md"
+    text = conf.read_text(encoding="utf-8")
+    a = text.index("| key | unit | default |")
+    b = text.find("\n\n", a)
+    text = text[:a] + parameter_markdown().rstrip("\n") + (text[b:] if b >= 0 else "\n")
+    conf.write_text(text, encoding="utf-8")
+    full = root / "examples" / "full.toml"
+    full.write_text(example_toml(), encoding="utf-8")
+    return [*written, conf, full]
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m loadarm.docsgen [--check]``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        ``["--check"]`` compares instead of writing.
+
+    Returns
+    -------
+    int
+        0 when written (or, with ``--check``, when everything matches), 1 otherwise.
+    """
+    import tempfile
+
+    args = sys.argv[1:] if argv is None else argv
+    if "--check" in args:
+        with tempfile.TemporaryDirectory() as tmp:
+            bad = compare_figures(Path("docs") / "img", render_doc_figures(tmp))
+        for line in bad:
+            print(line)
+        return 1 if bad else 0
+    for p in regenerate("."):
+        print(f"wrote {p}")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

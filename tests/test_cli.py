@@ -1,6 +1,7 @@
 """Command line: outputs, files, and every bad-input path exits 2 with one line."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -109,7 +110,7 @@ BAD = [
     (["plan", "-c", CFG, "--start", "nan,1"], "--start must be finite numbers"),
     (["plan", "-c", CFG, "--start", "4,0,10", "--target", "14,1"], "must both be X,Y or both X,Y,Z"),
     (["plan", "-c", CFG, "--target", "5,12,1"], "beyond the slew limit"),
-    (["plan", "-c", CFG, "--timing", "fast"], "timing must be one of paper, smooth, optimal"),
+    (["plan", "-c", CFG, "--timing", "fast"], "'fast' is not one of 'paper', 'smooth', 'optimal'"),
     (["plan", "-c", CFG, "--samples", "1"], "samples must be an integer in [2, 1000000]"),
     (["plan", "-c", CFG, "--samples", "many"], "--samples"),
     (["plan", "-c", CFG, "--start", "5,10", "--target", "5,2", "--timing", "paper"], "vertical path"),
@@ -201,7 +202,7 @@ def test_plan_optimal_timing(capsys):
 @pytest.mark.parametrize("args,fragment", [
     (["simulate", "-c", CFG, "--fill", "-1"], "--fill must be in [0, 1]"),
     (["simulate", "-c", CFG, "--png", "x.gif"], "--png must name a .png file"),
-    (["simulate", "-c", CFG, "--timing", "bogus"], "timing must be one of paper, smooth, optimal"),
+    (["simulate", "-c", CFG, "--timing", "bogus"], "'bogus' is not one of 'paper', 'smooth', 'optimal', 'all'"),
 ])
 def test_simulate_bad_inputs(capsys, args, fragment):
     code, out, err = run(capsys, *args)
@@ -271,3 +272,92 @@ def test_simulate_all_timing_laws(capsys):
     d = json.loads(out)
     assert set(d) == {"paper", "smooth", "optimal"}
     assert d["paper"]["max_deviation_mm"] > d["smooth"]["max_deviation_mm"]
+
+
+def test_version_and_exit_codes_in_help(capsys):
+    from loadarm import __version__
+
+    code, out, _ = run(capsys, "--version")
+    assert code == 0 and out.strip() == f"loadarm {__version__}"
+    code, out, _ = run(capsys, "--help")
+    assert code == 0 and "0 ok, 1 internal error" in " ".join(out.split()) and "130 interrupted" in out
+
+
+@pytest.mark.parametrize("cmd", ["size", "plan", "envelope", "verify", "balance", "loads", "simulate", "run", "log",
+                                 "mjcf", "demo"])
+def test_every_command_has_an_example_and_lists_its_choices(capsys, monkeypatch, cmd):
+    monkeypatch.setenv("COLUMNS", "200")   # choices are one metavar; keep it on one line
+    code, out, _ = run(capsys, cmd, "--help")
+    text = " ".join(out.replace("│", " ").split())
+    assert code == 0 and f"Example: loadarm {cmd}" in text
+    choices = {"plan": "paper|smooth|optimal", "verify": "paper|smooth|optimal", "loads": "paper|smooth|optimal",
+               "simulate": "paper|smooth|optimal|all", "run": "hydraulic|kinematic",
+               "log": "mode|alarm|command|operator|sensor|sample|info"}
+    if cmd in choices:
+        assert choices[cmd] in text.replace(" ", "")
+
+
+def test_target_help_says_what_two_and_three_numbers_mean(capsys):
+    _, out, _ = run(capsys, "plan", "--help")
+    text = " ".join(out.replace("│", " ").split())
+    assert "X,Y: x out from the riser centre line and height above the jetty deck" in text
+    assert "X,Y,Z: x out, y along the berth, z height" in text
+    code, out, _ = run(capsys, "plan", "-c", CFG, "--target", "14,2,1")
+    assert code == 0 and "(x, y along the berth, height)" in out
+
+
+def test_plan_warns_and_strict_refuses_an_alarm_zone(capsys):
+    """The far-low target puts the elbow past 123 deg: a warning on stderr, exit 0; --strict refuses."""
+    code, out, err = run(capsys, "plan", "-c", CFG, "--target", "16,-2")
+    assert code == 0 and err.startswith("warning: the path enters zone 2 (first alarm, ESD-1)")
+    code, _, err = run(capsys, "plan", "-c", CFG, "--target", "16,-2", "--strict")
+    assert code == 2 and err.startswith("loadarm: error: --strict: the path enters zone 2") and err.count("\n") == 1
+    code, _, err = run(capsys, "plan", "-c", CFG, "--strict")
+    assert code == 0 and err == ""
+
+
+def test_plan_warns_when_a_cylinder_passes_its_end_stop(capsys, tmp_path):
+    cfg = tmp_path / "short.toml"
+    cfg.write_text(PAPER_TOML.read_text() + "\n[cylinders]\nlength_range_2 = [1.1, 1.99]\n")
+    code, _, err = run(capsys, "plan", "-c", str(cfg))
+    assert code == 0 and "cylinder 2 passes its end stop: the path needs it shorter than its retracted length 1.1 m" \
+        in err
+    code, _, err = run(capsys, "plan", "-c", str(cfg), "--strict")
+    assert code == 2 and "cylinder 2 passes its end stop" in err
+
+
+def test_json_floats_have_no_noise(capsys, tmp_path):
+    code, out, _ = run(capsys, "run", "-s", str(PAPER_TOML.parent / "scenarios" / "driftoff.toml"), "--no-db",
+                       "--json", "--plant", "kinematic")
+    assert code == 0
+    assert not re.search(r"\d\.\d*0000000\d|\d\.\d*9999999\d", out), "float noise in JSON"
+    assert json.loads(out)["scenario"] == "drift-off"
+
+
+def test_log_hides_samples_unless_asked_and_says_where_the_png_went(capsys, tmp_path):
+    db = tmp_path / "ev.db"
+    code, _, _ = run(capsys, "run", "-s", str(PAPER_TOML.parent / "scenarios" / "calm.toml"), "--db", str(db),
+                     "--plant", "kinematic")
+    assert code == 0
+    code, out, _ = run(capsys, "log", "--db", str(db), "--json")
+    kinds = {e["kind"] for e in json.loads(out)}
+    assert code == 0 and "sample" not in kinds and "mode" in kinds
+    code, out, _ = run(capsys, "log", "--db", str(db), "--json", "--samples")
+    assert "sample" in {e["kind"] for e in json.loads(out)}
+    png = tmp_path / "t.png"
+    code, out, _ = run(capsys, "log", "--db", str(db), "--png", str(png))
+    assert code == 0 and png.exists() and f"timeline written to {png}" in " ".join(out.split())
+    assert "(samples hidden; --samples)" in out
+
+
+def test_internal_error_is_one_line_exit_1(capsys, monkeypatch):
+    import loadarm.sizing
+
+    def boom(*a, **k):
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(loadarm.sizing, "size_installation", boom)
+    monkeypatch.delenv("LOADARM_DEBUG", raising=False)
+    code, _, err = run(capsys, "size", "-c", CFG)
+    assert code == 1 and err.count("\n") == 1
+    assert err.startswith("loadarm: internal error: ZeroDivisionError: a bug (this is a bug; LOADARM_DEBUG=1")

@@ -1,15 +1,19 @@
-"""Command line: ``loadarm size | plan | envelope | demo``.
+"""Command line: ``loadarm size | plan | envelope | verify | balance | loads | simulate | run | log | mjcf | demo``.
 
 Bad input of any kind (missing file, invalid config, unreachable target,
 malformed option) prints one line on stderr and exits with status 2; there is
-never a Python traceback for a user error.
+never a Python traceback for a user error. Exit codes: 0 ok, 1 internal error
+(a bug: one line, the traceback with ``LOADARM_DEBUG=1``), 2 bad input,
+130 interrupted.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import sys
+from enum import Enum
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -20,10 +24,15 @@ from rich.table import Table
 
 from .config import Installation, load_config, paper_installation
 from .errors import LoadarmError
+from .eventlog import KINDS
 from .geometry import arm_from_installation
 
+EXIT_CODES = "Exit codes: 0 ok, 1 internal error (a bug; LOADARM_DEBUG=1 shows the traceback), 2 bad input, 130 interrupted."
+
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
-                  help="Automatic guidance of marine loading arms (sizing, envelope, straight-line approach).")
+                  help="Automatic guidance of marine loading arms: sizing, envelope, straight-line approach, "
+                       "hydraulics, live guidance, event log, report.",
+                  epilog=EXIT_CODES)
 out = Console(soft_wrap=True)
 err = Console(stderr=True, soft_wrap=True)
 
@@ -33,6 +42,53 @@ JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JS
 
 class UserError(Exception):
     """A CLI-level bad input (exit status 2)."""
+
+
+class Timing(str, Enum):
+    """Timing laws of the approach."""
+
+    paper = "paper"
+    smooth = "smooth"
+    optimal = "optimal"
+
+
+class TimingOrAll(str, Enum):
+    """Timing laws, or all three compared."""
+
+    paper = "paper"
+    smooth = "smooth"
+    optimal = "optimal"
+    all = "all"
+
+
+class PlantKind(str, Enum):
+    """Arm plants of a guidance run."""
+
+    hydraulic = "hydraulic"
+    kinematic = "kinematic"
+
+
+EventKind = Enum("EventKind", {k: k for k in KINDS}, type=str)
+
+
+def _version(value: bool) -> None:
+    if value:
+        from . import __version__
+
+        out.print(f"loadarm {__version__}")
+        raise typer.Exit(0)
+
+
+@app.callback()
+def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                          help="Print the version and exit.")] = False,
+) -> None:
+    """Automatic guidance of marine loading arms: sizing, envelope, straight-line approach, hydraulics, live
+    guidance, event log, report."""
+
+POINT_HELP = ("X,Y: x out from the riser centre line and height above the jetty deck (arm plane); X,Y,Z: x out, "
+              "y along the berth, z height (3D with slew); metres")
 
 
 def _point(text: Optional[str], name: str) -> Optional[tuple[float, ...]]:
@@ -69,16 +125,29 @@ def _progress(transient: bool = False):
                     transient=transient)
 
 
+def _round_floats(obj, digits: int = 12):
+    """Floats to ``digits`` significant digits: 233.14000000000001 prints as 233.14. Twelve digits keep
+    every physical quantity here far below its measurement or model precision (0.1 um on 100 m)."""
+    if isinstance(obj, float):
+        return float(f"{obj:.{digits}g}") if math.isfinite(obj) else obj
+    if isinstance(obj, dict):
+        return {k: _round_floats(v, digits) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_round_floats(v, digits) for v in obj]
+    return obj
+
+
 def _json(obj) -> None:
-    sys.stdout.write(json.dumps(obj, indent=2, allow_nan=False) + "\n")
+    sys.stdout.write(json.dumps(_round_floats(obj), indent=2, allow_nan=False) + "\n")
 
 
 @app.command()
 def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
     """Size the inboard and outboard arms from the datasheet (paper Eqs 1-3) and check every corner.
 
-    The file needs only [datasheet] and [arm] riser ([alarms] and [sizing] have defaults); arm lengths, if
-    given, are checked at the corners as the configured arm.
+    The file needs only [datasheet] and [arm] riser; [alarms] and [sizing] have defaults.
+
+    Arm lengths, if given, are checked at the corners as the configured arm.
 
     Example: loadarm size --config examples/datasheet.toml
     """
@@ -110,19 +179,26 @@ def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
 @app.command()
 def plan(
     config: ConfigOpt,
-    start: Annotated[Optional[str], typer.Option(help="Start X,Y (or X,Y,Z for 3D) in metres (default: stored).")] = None,
-    target: Annotated[Optional[str], typer.Option(help="Target X,Y (or X,Y,Z for 3D) in metres (default: flange).")] = None,
-    timing: Annotated[str, typer.Option(help="Timing law: paper (Eq. 14), smooth (trapezoid) or optimal (toppra).")] = "smooth",
+    start: Annotated[Optional[str], typer.Option(help="Start point (default: the stored position). " + POINT_HELP)] = None,
+    target: Annotated[Optional[str], typer.Option(help="Target point (default: the flange). " + POINT_HELP)] = None,
+    timing: Annotated[Timing, typer.Option(help="Timing law: paper (Eq. 14), smooth (trapezoid), optimal (toppra).")] = Timing.smooth,
     samples: Annotated[int, typer.Option(help="Number of samples, evenly spaced in time.")] = 201,
     as_json: JsonOpt = False,
     csv: Annotated[Optional[Path], typer.Option("--csv", help="Also write every sample to this CSV file.")] = None,
+    strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) a path that enters an alarm zone or "
+                                                          "drives a cylinder past its end stop.")] = False,
 ) -> None:
     """Plan the straight-line approach: joint angles, cylinder lengths, valve voltages and zones.
 
-    Give --start/--target as X,Y,Z for a 3D approach with slew (y along the berth, z up).
-    """
-    from .trajectory import plan_approach, plan_approach_3d
+    Two numbers for --start/--target are (x, height) in the arm plane; three are (x, y along the berth, height).
 
+    Warns when the path enters an alarm zone or a cylinder passes its end stop; --strict refuses such a path.
+
+    Example: loadarm plan --config examples/paper.toml --target 14,1 --timing optimal
+    """
+    from .trajectory import plan_approach, plan_approach_3d, plan_warnings
+
+    timing = timing.value
     inst = load_config(config)
     a, b = _point(start, "--start"), _point(target, "--target")
     dims = {len(v) for v in (a, b) if v is not None}
@@ -130,13 +206,14 @@ def plan(
         raise UserError("--start and --target must both be X,Y or both X,Y,Z")
     if dims == {3}:
         p3 = plan_approach_3d(inst, start=a, target=b, timing=timing, samples=samples)
+        _plan_warnings(plan_warnings(inst, p3), strict)
         recs = p3.records()
         if csv is not None:
             p3.write_csv(csv)
         if as_json:
             _json({**p3.summary(), "samples": recs})
             return
-        t = Table(title=f"3D approach {p3.start} -> {p3.target}, {timing} timing")
+        t = Table(title=f"3D approach (x, y along the berth, height) {p3.start} -> {p3.target}, {timing} timing")
         t.add_column("quantity")
         t.add_column("value")
         s3 = p3.summary()
@@ -149,14 +226,15 @@ def plan(
         out.print(t)
         return
     p = plan_approach(inst, start=a, target=b, timing=timing, samples=samples)
+    _plan_warnings(plan_warnings(inst, p), strict)
     if csv is not None:
         p.write_csv(csv)
     if as_json:
         _json({**p.summary(), "samples": p.records()})
         return
     s = p.summary()
-    t = Table(title=f"approach {tuple(round(v, 3) for v in p.start)} -> {tuple(round(v, 3) for v in p.target)}, "
-                    f"{timing} timing")
+    t = Table(title=f"approach (x, height) {tuple(round(v, 3) for v in p.start)} -> "
+                    f"{tuple(round(v, 3) for v in p.target)}, {timing} timing")
     t.add_column("quantity")
     t.add_column("value")
     t.add_row("duration", f"{s['duration_s']:.2f} s")
@@ -173,12 +251,22 @@ def plan(
         out.print(f"samples written to {csv}")
 
 
+def _plan_warnings(warnings: list[str], strict: bool) -> None:
+    if warnings and strict:
+        raise UserError("--strict: " + "; ".join(warnings))
+    for w in warnings:
+        err.print(f"warning: {w}", markup=False, highlight=False)
+
+
 @app.command()
 def envelope(
     config: ConfigOpt,
     png: Annotated[Path, typer.Option("--png", help="Output PNG file.")],
 ) -> None:
-    """Draw the operating envelope with alarm zones (paper Fig. 4)."""
+    """Draw the operating envelope with alarm zones (paper Fig. 4).
+
+    Example: loadarm envelope --config examples/paper.toml --png out/envelope.png
+    """
     from .plotting import envelope_figure, save
 
     inst = load_config(config)
@@ -190,15 +278,19 @@ def envelope(
 @app.command()
 def verify(
     config: ConfigOpt,
-    timing: Annotated[str, typer.Option(help="Timing law of the approach to verify: paper, smooth or optimal.")] = "paper",
+    timing: Annotated[Timing, typer.Option(help="Timing law of the approach to verify.")] = Timing.paper,
     samples: Annotated[int, typer.Option(help="Number of samples along the approach.")] = 201,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Draw closed form and MuJoCo over each other.")] = None,
 ) -> None:
-    """Verify the closed-form kinematics in MuJoCo (paper Section 4, Fig. 8)."""
+    """Verify the closed-form kinematics in MuJoCo (paper Section 4, Fig. 8).
+
+    Example: loadarm verify --config examples/paper.toml --png out/verification.png
+    """
     from .multibody import verify_kinematics
     from .trajectory import plan_approach
 
+    timing = timing.value
     inst = load_config(config)
     _check_png(png)
     p = plan_approach(inst, timing=timing, samples=samples)
@@ -228,7 +320,10 @@ def balance(
     png: Annotated[Optional[Path], typer.Option("--png", help="Residual torque map.")] = None,
     spacing: Annotated[float, typer.Option(help="Envelope grid step, m.")] = 0.25,
 ) -> None:
-    """Counterweights that minimise the largest static joint torque over the envelope."""
+    """Counterweights that minimise the largest static joint torque over the envelope.
+
+    Example: loadarm balance --config examples/paper.toml --png out/residual_torque.png
+    """
     from .balancing import balance_counterweights
 
     inst = load_config(config)
@@ -256,14 +351,18 @@ def balance(
 @app.command()
 def loads(
     config: ConfigOpt,
-    timing: Annotated[str, typer.Option(help="Timing law: paper, smooth or optimal.")] = "smooth",
+    timing: Annotated[Timing, typer.Option(help="Timing law of the approach.")] = Timing.smooth,
     fill: Annotated[Optional[float], typer.Option(help="Product fill fraction 0..1 (default masses.fill).")] = None,
     as_json: JsonOpt = False,
 ) -> None:
-    """Cylinder forces, pressures, speeds and flows along the approach."""
+    """Cylinder forces, pressures, speeds and flows along the approach.
+
+    Example: loadarm loads --config examples/paper.toml --timing smooth --fill 1
+    """
     from .loads import actuator_loads
     from .trajectory import plan_approach
 
+    timing = timing.value
     inst = load_config(config)
     _check_fill(fill)
     s = actuator_loads(inst, plan_approach(inst, timing=timing, samples=801), fill=fill).summary()
@@ -285,7 +384,7 @@ def loads(
 @app.command()
 def simulate(
     config: ConfigOpt,
-    timing: Annotated[str, typer.Option(help="Timing law: paper, smooth, optimal, or all (compare).")] = "smooth",
+    timing: Annotated[TimingOrAll, typer.Option(help="Timing law, or all three compared.")] = TimingOrAll.smooth,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Deviation, tracking, pressures, valves, pump.")] = None,
     fill: Annotated[Optional[float], typer.Option(help="Product fill fraction 0..1 (default masses.fill).")] = None,
@@ -293,11 +392,14 @@ def simulate(
     """Simulate the electro-hydraulic closed loop (paper Fig. 11) driving the arm along the approach.
 
     --timing all compares the three timing laws in one table.
+
+    Example: loadarm simulate --config examples/paper.toml --timing all
     """
     from .hydraulics.simulate import simulate_approach
     from .timing import TIMING_LAWS
     from .trajectory import plan_approach
 
+    timing = timing.value
     inst = load_config(config)
     _check_png(png)
     _check_fill(fill)
@@ -359,9 +461,12 @@ def run(
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Timeline figure.")] = None,
     realtime: Annotated[bool, typer.Option("--realtime", help="Pace the run with the wall clock.")] = False,
-    plant: Annotated[Optional[str], typer.Option(help="Arm plant: hydraulic or kinematic (default: the scenario's).")] = None,
+    plant: Annotated[Optional[PlantKind], typer.Option(help="Arm plant (default: the scenario's).")] = None,
 ) -> None:
-    """Run a scenario in closed loop: ship, sensor, estimator, guidance controller, arm; log every event."""
+    """Run a scenario in closed loop: ship, sensor, estimator, guidance controller, arm; log every event.
+
+    Example: loadarm run --scenario examples/scenarios/driftoff.toml --db out/events.db --png out/timeline.png
+    """
     from .eventlog import EventLog
     from .guidance.run import run_scenario, wall_clock_pacer
     from .guidance.scenario import load_scenario
@@ -375,7 +480,8 @@ def run(
     try:
         with _progress(transient=True) as prog:
             task = prog.add_task(f"scenario {sc.scenario.name}", total=1.0)
-            res = run_scenario(sc, inst, log=log, progress=lambda f: prog.update(task, completed=f), plant=plant,
+            res = run_scenario(sc, inst, log=log, progress=lambda f: prog.update(task, completed=f),
+                               plant=None if plant is None else plant.value,
                                pace=wall_clock_pacer() if realtime else None)
     finally:
         if log is not None:
@@ -402,18 +508,25 @@ def run(
 def log_cmd(
     db: Annotated[Path, typer.Option("--db", help="SQLite event log.")] = Path("loadarm-events.db"),
     since: Annotated[Optional[float], typer.Option(help="Only events at or after this time, s.")] = None,
-    kind: Annotated[Optional[list[str]], typer.Option(help="Only these kinds (repeatable).")] = None,
+    kind: Annotated[Optional[list[EventKind]], typer.Option(help="Only these kinds (repeatable).")] = None,
     run_id: Annotated[Optional[str], typer.Option("--run", help="Only this run (as printed by loadarm run).")] = None,
+    samples: Annotated[bool, typer.Option("--samples", help="Also list the once-a-second state samples.")] = False,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Replay the samples into a timeline figure.")] = None,
 ) -> None:
-    """Query the event log (and replay it into a timeline)."""
+    """Query the event log (and replay it into a timeline).
+
+    Example: loadarm log --db out/events.db --kind alarm --kind mode
+    """
     from .eventlog import EventLog
 
     _check_png(png)
+    kinds = None if kind is None else [k.value for k in kind]
+    if kinds is None and not samples:
+        kinds = [k.value for k in EventKind if k.value != "sample"]
     log = EventLog.open_existing(db)
     try:
-        events = log.query(since=since, kinds=kind, run=run_id)
+        events = log.query(since=since, kinds=kinds, run=run_id)
         if png is not None:
             _replay_png(png, log.query(since=since, run=run_id))
     finally:
@@ -421,12 +534,14 @@ def log_cmd(
     if as_json:
         _json([e.as_dict() for e in events])
         return
-    t = Table(title=f"{db}: {len(events)} events")
+    t = Table(title=escape(f"{db}: {len(events)} events" + ("" if samples or kind else " (samples hidden; --samples)")))
     for col in ("id", "run", "t [s]", "mode", "kind", "reason"):
         t.add_column(escape(col))
     for e in events:
         t.add_row(str(e.id), escape(e.run), f"{e.t:.2f}", e.state, e.kind, escape(e.reason))
     out.print(t)
+    if png is not None:
+        out.print(f"timeline written to {escape(str(png))}")
 
 
 def _replay_png(png: Path, events) -> None:
@@ -456,7 +571,10 @@ def mjcf(
     config: ConfigOpt,
     kinematic: Annotated[bool, typer.Option(help="Add the mocap target and constraints of the forced motion.")] = False,
 ) -> None:
-    """Print the MuJoCo (MJCF) model of the arm, e.g. to open it in MuJoCo's viewer."""
+    """Print the MuJoCo (MJCF) model of the arm, e.g. to open it in MuJoCo's viewer.
+
+    Example: loadarm mjcf --config examples/paper.toml > arm.xml
+    """
     from .dynamics import mass_model
     from .geometry import mounting_from_installation
     from .multibody import build_mjcf, load_model
@@ -473,7 +591,10 @@ def demo(
     out_dir: Annotated[Path, typer.Option("--out", help="Output directory for report.html, CSV and figures.")] = Path("out"),
     config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the paper's case).")] = None,
 ) -> None:
-    """Run the paper's case end to end and write a self-contained HTML report."""
+    """Run an installation end to end (default: the paper's case) and write a self-contained HTML report.
+
+    Example: loadarm demo --config examples/paper.toml --out out
+    """
     from .config import packaged_example
     from .report import build_report
 
@@ -510,7 +631,7 @@ def main(argv: list[str] | None = None) -> int:
     Returns
     -------
     int
-        0 on success, 2 on bad input.
+        0 ok, 1 internal error, 2 bad input, 130 interrupted.
     """
     args = sys.argv[1:] if argv is None else argv
     try:
@@ -535,8 +656,15 @@ def main(argv: list[str] | None = None) -> int:
         elif name == "Abort":
             _fail("aborted")
             code = 130
-        else:
+        elif os.environ.get("LOADARM_DEBUG"):
             raise
+        else:
+            err.print(f"loadarm: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (this is a "
+                      "bug; LOADARM_DEBUG=1 shows the traceback)", markup=False, highlight=False)
+            code = 1
+    except KeyboardInterrupt:
+        _fail("interrupted")
+        code = 130
     if argv is None:
         sys.exit(code)
     return code

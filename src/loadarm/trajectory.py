@@ -30,7 +30,7 @@ from .dynamics import cylinder_areas
 from .timing import ToppraTiming, make_timing
 
 __all__ = ["Plan", "plan_approach", "optimal_timing", "cylinder_speed_limits", "Plan3D", "plan_approach_3d",
-           "classify_slew", "CHECK_SAMPLES", "MAX_SAMPLES"]
+           "classify_slew", "plan_warnings", "CHECK_SAMPLES", "MAX_SAMPLES"]
 
 #: Samples of the dense grid on which voltage limits are re-checked.
 CHECK_SAMPLES = 4001
@@ -497,3 +497,40 @@ def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: 
     zone = np.maximum(classify_beta(q.beta, alarms), classify_slew(q.phi, inst))
     return Plan3D(timing, path.start, path.end, T, t, p[:, 0], p[:, 1], p[:, 2], q.phi, q.alpha, q.beta, phi_dot,
                   ad, bd, r1, r2, v1, v2, u.u1, u.u2, zone)
+
+
+def plan_warnings(inst: Installation, plan: "Plan | Plan3D") -> list[str]:
+    """What a planned approach does that an operator must know before it runs.
+
+    The planners refuse what cannot be done (out of reach, valve range); this reports what can be done but
+    should not be done silently: a path that enters an alarm zone, and a cylinder that would have to pass
+    its end stop (the cylinder's length range in ``[cylinders]``).
+
+    Parameters
+    ----------
+    inst : Installation
+        Supplies the cylinder length ranges.
+    plan : Plan or Plan3D
+        A planned approach.
+
+    Returns
+    -------
+    list of str
+        One sentence per finding, in time order of first occurrence; empty when the plan is clean.
+    """
+    found: list[tuple[float, str]] = []
+    worst = int(plan.zone.max())
+    if worst > int(Zone.NORMAL):
+        k = int(np.argmax(plan.zone > int(Zone.NORMAL)))
+        found.append((float(plan.t[k]), f"the path enters {Zone(worst).label} (first at t = {plan.t[k]:.2f} s, "
+                                        f"beta {math.degrees(plan.beta[k]):.2f} deg)"))
+    for i, (r, (lo, hi)) in enumerate(((plan.r_ac1, inst.cylinders.length_range_1),
+                                       (plan.r_ac2, inst.cylinders.length_range_2)), start=1):
+        for bad, end, limit, word in ((r < lo, "retracted", lo, "shorter"), (r > hi, "extended", hi, "longer")):
+            if bad.any():
+                k = int(np.argmax(bad))
+                extreme = float(r.min() if word == "shorter" else r.max())
+                found.append((float(plan.t[k]), f"cylinder {i} passes its end stop: the path needs it {word} than its "
+                                                f"{end} length {limit:g} m ({extreme:.4f} m; first at "
+                                                f"t = {plan.t[k]:.2f} s)"))
+    return [msg for _, msg in sorted(found, key=lambda f: f[0])]

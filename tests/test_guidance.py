@@ -61,8 +61,9 @@ def test_driftoff_alarms_in_order_and_releases_before_the_limit(runs):
     ctrl = GuidanceController(inst, sc.guidance)
     k = int(np.searchsorted(r.signals["t"], s["release_complete_s"]))
     assert r.signals["beta"][k] < ctrl.lim.beta[1]
-    # the ESD-1 sequence had its full time before the release started
-    assert s["release_s"] - s["alarm1_s"] >= sc.guidance.esd_time - 1e-9 or s["release_s"] - s["alarm1_s"] > 0
+    # the ESD-1 sequence had its full time before the release started (measured: 11.3 s for esd_time 10 s);
+    # found weak: an 'or ... > 0' branch made this claim unchecked
+    assert s["release_s"] - s["alarm1_s"] >= sc.guidance.esd_time
 
 
 def test_dropout_stops_the_arm_within_one_cycle(runs):

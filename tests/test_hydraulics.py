@@ -251,7 +251,14 @@ def test_optimal_equals_trapezoid_when_only_the_path_limits_bind(inst):
 
 
 def test_plant_parameters_vector_is_complete(inst):
+    """Every slot of the parameter vector has exactly one named index and is filled.
+
+    Found weak: `isfinite` on a zero-initialised vector could not fail. The vector now starts as NaN, and the
+    named indices must cover 0..N_PARAMS-1 once each.
+    """
     from loadarm.hydraulics.simulate import pack_parameters
+    idx = sorted(v for k, v in vars(plant).items() if k.startswith("I_") and isinstance(v, int))
+    assert idx == list(range(plant.N_PARAMS)), "gaps or duplicates among plant.I_* indices"
     P = pack_parameters(inst)
     assert P.shape == (plant.N_PARAMS,) and np.all(np.isfinite(P))
     assert P[plant.I_FELIM] == inst.controller.following_error_limit

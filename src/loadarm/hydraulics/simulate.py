@@ -69,7 +69,7 @@ def pack_parameters(inst: Installation, *, substeps: int | None = None, gains: d
     omega = 2 * math.pi * v.natural_frequency
     Phi, Gam = spool_discretisation(omega, v.damping, h)
     kv = valve_coefficient(v.nominal_flow, v.nominal_pressure_drop)
-    P = np.zeros(plant.N_PARAMS)
+    P = np.full(plant.N_PARAMS, np.nan)   # a slot nobody fills stays NaN and is refused below
     vals = {
         plant.I_A1: mount.a1, plant.I_B1: mount.b1, plant.I_B2: mount.b2, plant.I_C2: mount.c2,
         plant.I_RISER: arm.a, plant.I_BIN: arm.b, plant.I_COUT: arm.c, plant.I_AP: Ap, plant.I_AA: Aa,
@@ -96,8 +96,9 @@ def pack_parameters(inst: Installation, *, substeps: int | None = None, gains: d
     vals.update({plant.I_K11: k.k11, plant.I_K22: k.k22, plant.I_KC: k.k_c, plant.I_GA: k.g_a, plant.I_GAB: k.g_ab})
     for k, val in vals.items():
         P[k] = val
-    if not np.all(np.isfinite(P)):  # pragma: no cover - config validation prevents this
-        raise SimulationError("non-finite simulation parameter")
+    if not np.all(np.isfinite(P)):  # pragma: no cover - config validation and the index test prevent this
+        missing = [int(i) for i in np.flatnonzero(~np.isfinite(P))]
+        raise SimulationError(f"simulation parameter slot(s) {missing} not filled or not finite")
     return P
 
 

@@ -21,7 +21,7 @@ import typing
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
 
 from .errors import ConfigError
 
@@ -454,8 +454,18 @@ class Controller(_Section):
         "model", description="valve feed-forward from the plan: none; nominal (velocity at the valve's rated drop); "
                              "model (steady-state valve-cylinder inverse under the planned force)",
         json_schema_extra={"unit": "1", "source": "velocity feed-forward of the planned motion; model-based inverse is standard practice"})
-    substeps: int = Field(4, ge=1, le=100, description="plant integration steps per control step",
-                          json_schema_extra={"unit": "1", "source": "measured: stable and converged (docs/hydraulics.md)"})
+    substeps: int | Literal["auto"] = Field(
+        "auto", description="plant integration steps per control step; auto: from the stability bound "
+                                          "of the arm on its oil columns and end stops (docs/hydraulics.md)",
+        json_schema_extra={"unit": "1", "source": "stability bound h omega_max <= 0.5 (hydraulics.simulate."
+                                                  "stable_substeps); an integer overrides it"})
+    @field_validator("substeps", mode="before")
+    @classmethod
+    def _substeps(cls, v: Any) -> Any:
+        if v == "auto" or (type(v) is int and 1 <= v <= 100):
+            return v
+        raise ValueError(f"must be \"auto\" or an integer in [1, 100], got {v!r}")
+
     settle_time: float = _param(10.0, unit="s", ge=0, le=600, source="engineering choice",
                                 description="time simulated after the plan ends")
     following_error_limit: float = _param(0.025, unit="m", gt=0, le=10.0,
@@ -784,6 +794,7 @@ _VALIDATOR_RANGES = {
     "cylinders.length_range_2": "0 < retracted < extended <= 50 m",
     "controller.feedforward": "none, nominal or model",
     "report.scenarios": "up to 50 scenario files",
+    "controller.substeps": "auto, or an integer in [1, 100]",
 }
 
 

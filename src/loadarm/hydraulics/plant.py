@@ -71,15 +71,19 @@ def arm_accelerations(P, a, b, ad, bd, ta, tb):
     add, bdd : float
         Joint accelerations, rad/s^2.
     """
-    cb = math.cos(b)
-    sb = math.sin(b)
-    sab = math.sin(a - b)
+    return _accelerations(P, math.sin(a), math.cos(a), math.sin(b), math.cos(b), ad, bd, ta, tb)
+
+
+@njit(cache=True)
+def _accelerations(P, sa, ca, sb, cb, ad, bd, ta, tb):
+    """:func:`arm_accelerations` from the sines and cosines of the joint angles (shared with the geometry)."""
+    sab = sa * cb - ca * sb                      # sin(alpha - beta)
     m11 = P[I_K11] - 2.0 * P[I_KC] * cb
     m12 = -P[I_K22] + P[I_KC] * cb
     m22 = P[I_K22]
     d11 = 2.0 * P[I_KC] * sb
     d12 = -P[I_KC] * sb
-    r1 = ta - (d11 * ad * bd + d12 * bd * bd) + P[I_G] * (P[I_GA] * math.sin(a) + P[I_GAB] * sab)
+    r1 = ta - (d11 * ad * bd + d12 * bd * bd) + P[I_G] * (P[I_GA] * sa + P[I_GAB] * sab)
     r2 = tb + 0.5 * d11 * ad * ad - P[I_G] * P[I_GAB] * sab
     det = m11 * m22 - m12 * m12
     return (m22 * r1 - m12 * r2) / det, (-m12 * r1 + m11 * r2) / det
@@ -87,13 +91,22 @@ def arm_accelerations(P, a, b, ad, bd, ta, tb):
 
 @njit(cache=True)
 def _geometry(P, a, b):
+    """Cylinder lengths and moment arms (paper Eqs 12-13) at ``(alpha, beta)``."""
+    return _geometry_trig(P, math.sin(a), math.cos(a), math.sin(b), math.cos(b))
+
+
+@njit(cache=True)
+def _geometry_trig(P, sa, ca, sb, cb):
+    """:func:`_geometry` from the sines and cosines of the joint angles.
+
+    ``4 cos^2(alpha/2) = 2 (1 + cos alpha)`` and ``4 sin^2(beta/2) = 2 (1 - cos beta)``, so one sine and one
+    cosine per joint serve the geometry and the dynamics of a plant step.
+    """
     a1, b1, b2, c2 = P[I_A1], P[I_B1], P[I_B2], P[I_C2]
-    ch = math.cos(0.5 * a)
-    sh = math.sin(0.5 * b)
-    r1 = math.sqrt((a1 - b1) ** 2 + 4.0 * a1 * b1 * ch * ch)
-    r2 = math.sqrt((c2 - b2) ** 2 + 4.0 * c2 * b2 * sh * sh)
-    h1 = -a1 * b1 * math.sin(a) / r1
-    h2 = b2 * c2 * math.sin(b) / r2
+    r1 = math.sqrt((a1 - b1) ** 2 + 2.0 * a1 * b1 * (1.0 + ca))
+    r2 = math.sqrt((c2 - b2) ** 2 + 2.0 * c2 * b2 * (1.0 - cb))
+    h1 = -a1 * b1 * sa / r1
+    h2 = b2 * c2 * sb / r2
     return r1, r2, h1, h2
 
 
@@ -223,145 +236,174 @@ def control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, p
 
 
 @njit(cache=True)
+def _cylinder_step(P, i, u, xv, vv, pA, pB, r, v, ps, h):
+    """One plant step of drive ``i`` (0 or 1): spool, valve flows, force, chamber pressures, energy terms.
+
+    Everything is passed and returned as scalars, so the compiled loop keeps the state in registers.
+
+    Returns
+    -------
+    tuple
+        ``xv, vv, pA, pB, F, qP, dqP, cav, e_valve, e_tank, e_leak, e_comp, e_fric, e_stop, e_work``: new
+        spool position and speed, new chamber pressures, net force on the piston (N), flow drawn from the
+        supply and its slope, whether a chamber was clamped at 0 bar, and this step's energy terms (J).
+    """
+    # spool: exact discretisation, clipped at its mechanical stops
+    un = u / P[I_UMAX]
+    x_new = P[I_PHI00] * xv + P[I_PHI01] * vv + P[I_GAM0] * un
+    v_new = P[I_PHI10] * xv + P[I_PHI11] * vv + P[I_GAM1] * un
+    if x_new > 1.0:
+        x_new = 1.0
+        v_new = min(v_new, 0.0)
+    elif x_new < -1.0:
+        x_new = -1.0
+        v_new = max(v_new, 0.0)
+    qA, qB, qP, dqA, dqB, dqP, loss = valve_flows(x_new, ps, P[I_PT], pA, pB, P[I_KV], P[I_OVERLAP], P[I_PLAM])
+    fh, fric, stop, VA, VB = _cylinder(P, i, pA, pB, r, v)
+    ql = P[I_CLEAK] * (pA - pB)
+    netA = qA - P[I_AP] * v - ql
+    netB = qB + P[I_AA] * v + ql
+    e_tank = h * P[I_PT] * (-qB if qB < 0.0 else 0.0) + h * P[I_PT] * (-qA if qA < 0.0 else 0.0)
+    e_comp = h * (pA * netA + pB * netB)
+    # linearly implicit pressure update
+    fA = P[I_BETA] / VA * netA
+    jA = P[I_BETA] / VA * (dqA - P[I_CLEAK])
+    fB = P[I_BETA] / VB * netB
+    jB = P[I_BETA] / VB * (dqB - P[I_CLEAK])
+    pA_new = pA + h * fA / (1.0 - h * jA)
+    pB_new = pB + h * fB / (1.0 - h * jB)
+    cav = False
+    if pA_new < 0.0:
+        pA_new = 0.0
+        cav = True
+    if pB_new < 0.0:
+        pB_new = 0.0
+        cav = True
+    return (x_new, v_new, pA_new, pB_new, fh - fric + stop, qP, dqP, cav, h * loss, e_tank, h * ql * (pA - pB),
+            e_comp, h * fric * v, -h * stop * v, h * fh * v)
+
+
+@njit(cache=True)
 def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev, u, status, energy, log, tail):
-    """The closed loop over ``n_steps`` control steps, starting from and updating ``y`` in place."""
+    """The closed loop over ``n_steps`` control steps, starting from and updating ``y`` in place.
+
+    The plant state lives in scalars for the whole loop; the geometry computed for the divergence watch at
+    the end of a control step is the controller's sample at the start of the next.
+    """
     dt = P[I_DT]
     h = P[I_H]
     a, b, ad, bd = y[0], y[1], y[2], y[3]
-    pA = np.array([y[4], y[6]])
-    pB = np.array([y[5], y[7]])
-    xv = np.array([y[8], y[10]])
-    vv = np.array([y[9], y[11]])
+    pA0, pB0, pA1, pB1 = y[4], y[5], y[6], y[7]
+    xv0, vv0, xv1, vv1 = y[8], y[9], y[10], y[11]
     ps = y[12]
-    F = np.zeros(2)
+    F0 = 0.0
+    F1 = 0.0
     qpump = 0.0
     qrel = 0.0
+    e = np.zeros(9)
+    for j in range(9):
+        e[j] = energy[j]
+    e_pump, e_rel, e_valve, e_tank, e_leak, e_comp, e_fric, e_stop, e_work = e[0], e[1], e[2], e[3], e[4], e[5], \
+        e[6], e[7], e[8]
+    cav_time = status[2]
     il = 0
     ps_nom = P[I_PCOMP] - P[I_PBAND]   # supply pressure while the pump delivers (for the feed-forward)
+    r1, r2, h1, h2 = _geometry(P, a, b)
     for k in range(n_steps + 1):
         t = k * dt
         if k == n_steps and not tail:
             break
         # ---- controller (sample, decide, command) ----
-        r1, r2, h1, h2 = _geometry(P, a, b)
         control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, ps_nom)
         if k % log_every == 0:
-            row = log[il]
-            row[0] = t
-            row[1] = a
-            row[2] = b
-            row[3] = ad
-            row[4] = bd
-            row[5] = r1
-            row[6] = r2
-            row[7] = ref[0, k]
-            row[8] = ref[1, k]
-            row[9] = u[0]
-            row[10] = u[1]
-            row[11] = xv[0]
-            row[12] = xv[1]
-            row[13] = pA[0]
-            row[14] = pB[0]
-            row[15] = pA[1]
-            row[16] = pB[1]
-            row[17] = ps
-            row[18] = qpump
-            row[19] = qrel
-            row[20] = F[0]
-            row[21] = F[1]
+            log[il, 0] = t
+            log[il, 1] = a
+            log[il, 2] = b
+            log[il, 3] = ad
+            log[il, 4] = bd
+            log[il, 5] = r1
+            log[il, 6] = r2
+            log[il, 7] = ref[0, k]
+            log[il, 8] = ref[1, k]
+            log[il, 9] = u[0]
+            log[il, 10] = u[1]
+            log[il, 11] = xv0
+            log[il, 12] = xv1
+            log[il, 13] = pA0
+            log[il, 14] = pB0
+            log[il, 15] = pA1
+            log[il, 16] = pB1
+            log[il, 17] = ps
+            log[il, 18] = qpump
+            log[il, 19] = qrel
+            log[il, 20] = F0
+            log[il, 21] = F1
             il += 1
         if k == n_steps:
             break
+        u0 = u[0]
+        u1 = u[1]
         # ---- plant ----
         for _ in range(substeps):
-            r1, r2, h1, h2 = _geometry(P, a, b)
+            sa = math.sin(a)
+            ca = math.cos(a)
+            sb = math.sin(b)
+            cb = math.cos(b)
+            r1, r2, h1, h2 = _geometry_trig(P, sa, ca, sb, cb)
             v0 = h1 * ad
             v1 = h2 * bd
-            qp_total = 0.0
-            dqp_total = 0.0
-            cav = False
-            for i in range(2):
-                # spool: exact discretisation, clipped at its mechanical stops
-                un = u[i] / P[I_UMAX]
-                x_new = P[I_PHI00] * xv[i] + P[I_PHI01] * vv[i] + P[I_GAM0] * un
-                v_new = P[I_PHI10] * xv[i] + P[I_PHI11] * vv[i] + P[I_GAM1] * un
-                if x_new > 1.0:
-                    x_new = 1.0
-                    v_new = min(v_new, 0.0)
-                elif x_new < -1.0:
-                    x_new = -1.0
-                    v_new = max(v_new, 0.0)
-                xv[i] = x_new
-                vv[i] = v_new
-                vi = v0 if i == 0 else v1
-                qA, qB, qP, dqA, dqB, dqP, loss = valve_flows(xv[i], ps, P[I_PT], pA[i], pB[i], P[I_KV],
-                                                               P[I_OVERLAP], P[I_PLAM])
-                fh, fric, stop, VA, VB = _cylinder(P, i, pA[i], pB[i], r1 if i == 0 else r2, vi)
-                F[i] = fh - fric + stop
-                ql = P[I_CLEAK] * (pA[i] - pB[i])
-                netA = qA - P[I_AP] * vi - ql
-                netB = qB + P[I_AA] * vi + ql
-                # energy bookkeeping (J)
-                energy[2] += h * loss
-                energy[3] += h * P[I_PT] * (-qB if qB < 0.0 else 0.0) + h * P[I_PT] * (-qA if qA < 0.0 else 0.0)
-                energy[4] += h * ql * (pA[i] - pB[i])
-                energy[5] += h * (pA[i] * netA + pB[i] * netB)
-                energy[6] += h * fric * vi
-                energy[7] -= h * stop * vi
-                energy[8] += h * fh * vi
-                # linearly implicit pressure update
-                fA = P[I_BETA] / VA * netA
-                jA = P[I_BETA] / VA * (dqA - P[I_CLEAK])
-                fB = P[I_BETA] / VB * netB
-                jB = P[I_BETA] / VB * (dqB - P[I_CLEAK])
-                pA[i] += h * fA / (1.0 - h * jA)
-                pB[i] += h * fB / (1.0 - h * jB)
-                if pA[i] < 0.0:
-                    pA[i] = 0.0
-                    cav = True
-                if pB[i] < 0.0:
-                    pB[i] = 0.0
-                    cav = True
-                qp_total += qP
-                dqp_total += dqP
-            if cav:
-                status[2] += h
+            (xv0, vv0, pA0, pB0, F0, qP0, dqP0, cav0, dv0, dt0, dl0, dc0, df0, ds0, dw0) = _cylinder_step(
+                P, 0, u0, xv0, vv0, pA0, pB0, r1, v0, ps, h)
+            (xv1, vv1, pA1, pB1, F1, qP1, dqP1, cav1, dv1, dt1, dl1, dc1, df1, ds1, dw1) = _cylinder_step(
+                P, 1, u1, xv1, vv1, pA1, pB1, r2, v1, ps, h)
+            e_valve += dv0 + dv1
+            e_tank += dt0 + dt1
+            e_leak += dl0 + dl1
+            e_comp += dc0 + dc1
+            e_fric += df0 + df1
+            e_stop += ds0 + ds1
+            e_work += dw0 + dw1
+            if cav0 or cav1:
+                cav_time += h
+            qp_total = qP0 + qP1
             qpump, dqpump = pump_flow(ps, P[I_QMAX], P[I_PCOMP], P[I_PBAND])
             qrel, dqrel = relief_flow(ps, P[I_QMAX], P[I_PRELIEF], P[I_RBAND])
-            energy[0] += h * ps * qpump
-            energy[1] += h * ps * qrel
-            energy[5] += h * ps * (qpump - qrel - qp_total)
+            e_pump += h * ps * qpump
+            e_rel += h * ps * qrel
+            e_comp += h * ps * (qpump - qrel - qp_total)
             fs = P[I_BETA] / P[I_VSUP] * (qpump - qrel - qp_total)
-            js = P[I_BETA] / P[I_VSUP] * (dqpump - dqrel - dqp_total)
+            js = P[I_BETA] / P[I_VSUP] * (dqpump - dqrel - dqP0 - dqP1)
             ps += h * fs / (1.0 - h * js)
             # arm: semi-implicit Euler with the full mass matrix
-            acc_a, acc_b = arm_accelerations(P, a, b, ad, bd, F[0] * h1, F[1] * h2)
+            acc_a, acc_b = _accelerations(P, sa, ca, sb, cb, ad, bd, F0 * h1, F1 * h2)
             ad += h * acc_a
             bd += h * acc_b
             a += h * ad
             b += h * bd
-        # ---- divergence watch ----
+        # ---- divergence watch (its geometry is the next control step's sample) ----
+        r1, r2, h1, h2 = _geometry(P, a, b)
         code = 0
         if not (math.isfinite(a) and math.isfinite(b) and math.isfinite(ad) and math.isfinite(bd)
-                and math.isfinite(ps) and math.isfinite(pA[0] + pA[1] + pB[0] + pB[1])):
+                and math.isfinite(ps) and math.isfinite(pA0 + pA1 + pB0 + pB1)):
             code = 1
-        elif max(ps, pA[0], pA[1], pB[0], pB[1]) > 10.0 * P[I_PRELIEF]:
+        elif max(ps, pA0, pA1, pB0, pB1) > 10.0 * P[I_PRELIEF]:
             code = 2
         elif abs(ad) > 10.0 or abs(bd) > 10.0:
             code = 3
-        else:
-            r1, r2, h1, h2 = _geometry(P, a, b)
-            if abs(ref[0, k] - r1) > P[I_FELIM] or abs(ref[1, k] - r2) > P[I_FELIM]:
-                code = 4
-            elif max(status[8], status[9]) > 20.0 + 2.0 * (k + 1) * dt:
-                code = 5
+        elif abs(ref[0, k] - r1) > P[I_FELIM] or abs(ref[1, k] - r2) > P[I_FELIM]:
+            code = 4
+        elif max(status[8], status[9]) > 20.0 + 2.0 * (k + 1) * dt:
+            code = 5
         if code:
             status[0] = code
             status[1] = (k + 1) * dt
             break
+    status[2] = cav_time
+    energy[0], energy[1], energy[2], energy[3], energy[4] = e_pump, e_rel, e_valve, e_tank, e_leak
+    energy[5], energy[6], energy[7], energy[8] = e_comp, e_fric, e_stop, e_work
     y[0], y[1], y[2], y[3] = a, b, ad, bd
-    y[4], y[6], y[5], y[7] = pA[0], pA[1], pB[0], pB[1]
-    y[8], y[10], y[9], y[11] = xv[0], xv[1], vv[0], vv[1]
+    y[4], y[6], y[5], y[7] = pA0, pA1, pB0, pB1
+    y[8], y[10], y[9], y[11] = xv0, xv1, vv0, vv1
     y[12] = ps
     return il
 

@@ -25,11 +25,12 @@ import math
 
 import numpy as np
 from numba import njit
+from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from .components import (cylinder_friction, end_stop_force, pump_flow, relief_flow, valve_flows)
 
-__all__ = ["SIGNALS", "ENERGIES", "N_PARAMS", "arm_accelerations", "plant_rhs", "control_step", "simulate_loop",
-           "advance", "fail_reason"]
+__all__ = ["SIGNALS", "ENERGIES", "N_PARAMS", "arm_accelerations", "plant_rhs", "control_step", "encoder",
+           "first_readings", "simulate_loop", "advance", "fail_reason"]
 
 # --- parameter vector layout (one float64 array, so the compiled loop takes few arguments) ---
 (I_A1, I_B1, I_B2, I_C2, I_RISER, I_BIN, I_COUT, I_AP, I_AA, I_BETA, I_V0, I_BVISC, I_FC, I_VS, I_CLEAK,
@@ -103,8 +104,10 @@ def _geometry_trig(P, sa, ca, sb, cb):
     cosine per joint serve the geometry and the dynamics of a plant step.
     """
     a1, b1, b2, c2 = P[I_A1], P[I_B1], P[I_B2], P[I_C2]
-    r1 = math.sqrt((a1 - b1) ** 2 + 2.0 * a1 * b1 * (1.0 + ca))
-    r2 = math.sqrt((c2 - b2) ** 2 + 2.0 * c2 * b2 * (1.0 - cb))
+    d1 = a1 - b1
+    d2 = c2 - b2
+    r1 = math.sqrt(d1 * d1 + 2.0 * a1 * b1 * (1.0 + ca))
+    r2 = math.sqrt(d2 * d2 + 2.0 * c2 * b2 * (1.0 - cb))
     h1 = -a1 * b1 * sa / r1
     h2 = b2 * c2 * sb / r2
     return r1, r2, h1, h2
@@ -176,12 +179,101 @@ def plant_rhs(y, u1, u2, P):
 
 
 @njit(cache=True)
+def encoder(P, r):
+    """Encoder reading of a cylinder length: quantised to ``encoder.resolution``.
+
+    Parameters
+    ----------
+    P : ndarray or tuple
+        Parameter vector.
+    r : float
+        True length, m.
+
+    Returns
+    -------
+    float
+        Reading, m.
+    """
+    return round(r / P[I_RES]) * P[I_RES]
+
+
+@njit(cache=True)
+def first_readings(P, a, b):
+    """Both encoders' readings with the arm at ``(alpha, beta)``: the controller's first "previous" sample.
+
+    Parameters
+    ----------
+    P : ndarray or tuple
+        Parameter vector.
+    a, b : float
+        Joint angles, rad.
+
+    Returns
+    -------
+    tuple of float
+        Readings of cylinders 1 and 2, m.
+    """
+    r1, r2, _, _ = _geometry(P, a, b)
+    return encoder(P, r1), encoder(P, r2)
+
+
+@njit(cache=True)
+def _pid(P, meas, r_ref, v_ref, f_ref, integ, dfilt, prev, ps_nom):
+    """One cylinder's controller cycle on scalars: PID on the encoder reading plus the valve feed-forward.
+
+    Returns
+    -------
+    u, un, integ, dfilt, prev : float
+        Valve command (clipped to the valve range) and unclipped, V; the new integrator, derivative filter and
+        previous reading.
+    """
+    dt = P[I_DT]
+    e = r_ref - meas
+    dm = (meas - prev) / dt
+    dfilt += dt / (P[I_TD] + dt) * (dm - dfilt)
+    ff = 0.0
+    if P[I_FF] == 1.0:      # nominal: flow at the valve's rated drop
+        ff = v_ref * (P[I_KFF_EXT] if v_ref >= 0.0 else P[I_KFF_RET])
+    elif P[I_FF] == 2.0 and v_ref != 0.0:
+        # model-based: steady-state inverse of valve + asymmetric cylinder under the planned force,
+        # from continuity through both lands and the force balance (docs/hydraulics.md)
+        ap3 = P[I_AP] * P[I_AP] * P[I_AP] + P[I_AA] * P[I_AA] * P[I_AA]
+        if v_ref > 0.0:
+            avail = P[I_AP] * ps_nom - P[I_AA] * P[I_PT] - f_ref
+        else:
+            avail = P[I_AA] * ps_nom - P[I_AP] * P[I_PT] + f_ref
+        avail = max(avail, P[I_AP] * P[I_PLAM])
+        ff = v_ref / P[I_KV] * math.sqrt(ap3 / avail) * P[I_UMAX]
+        if P[I_OVERLAP] > 0.0:
+            ff = math.copysign(abs(ff) * (1.0 - P[I_OVERLAP]) + P[I_OVERLAP] * P[I_UMAX], ff)
+    un = ff + P[I_KP] * e + integ - P[I_KD] * dfilt
+    sat = abs(un) >= P[I_UMAX]
+    # anti-windup: integrate unless saturated and the error pushes further into saturation
+    if not (sat and e * un > 0.0):
+        integ = min(max(integ + P[I_KI] * e * dt, -P[I_ILIM]), P[I_ILIM])
+    return min(max(un, -P[I_UMAX]), P[I_UMAX]), un, integ, dfilt, meas
+
+
+@njit(cache=True)
+def _saturation(P, un, sat_time, last_sign, reversals):
+    """Saturation bookkeeping of one valve: time at the rail and rail-to-rail reversals."""
+    if abs(un) >= P[I_UMAX]:
+        sat_time += P[I_DT]
+        sign = 1.0 if un > 0.0 else -1.0
+        if last_sign != 0.0 and sign != last_sign:
+            reversals += 1.0        # a full-scale reversal: rail to rail
+        last_sign = sign
+    return sat_time, last_sign, reversals
+
+
+@njit(cache=True)
 def control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, ps_nom):
     """One controller cycle for both cylinders: sample the encoders, PID + feed-forward, command the valves.
 
     Updates ``integ``, ``dfilt``, ``prev`` (controller state) and ``u`` (valve
     voltages, V) in place, and adds ``1 / rate`` to ``status[3 + i]`` while
-    valve ``i`` is saturated.
+    valve ``i`` is saturated. (The compiled loop calls the same scalar functions
+    with its state in registers; this array form serves the ``solve_ivp`` route.)
 
     Parameters
     ----------
@@ -198,41 +290,12 @@ def control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, p
     ps_nom : float
         Supply pressure assumed by the feed-forward, Pa.
     """
-    dt = P[I_DT]
     for i in range(2):
-        meas = round((r1 if i == 0 else r2) / P[I_RES]) * P[I_RES]
-        e = ref[i, k] - meas
-        dm = (meas - prev[i]) / dt
-        prev[i] = meas
-        dfilt[i] += dt / (P[I_TD] + dt) * (dm - dfilt[i])
-        ff = 0.0
-        vr = vref[i, k]
-        if P[I_FF] == 1.0:      # nominal: flow at the valve's rated drop
-            ff = vr * (P[I_KFF_EXT] if vr >= 0.0 else P[I_KFF_RET])
-        elif P[I_FF] == 2.0 and vr != 0.0:
-            # model-based: steady-state inverse of valve + asymmetric cylinder under the planned force,
-            # from continuity through both lands and the force balance (docs/hydraulics.md)
-            ap3 = P[I_AP] ** 3 + P[I_AA] ** 3
-            if vr > 0.0:
-                avail = P[I_AP] * ps_nom - P[I_AA] * P[I_PT] - fref[i, k]
-            else:
-                avail = P[I_AA] * ps_nom - P[I_AP] * P[I_PT] + fref[i, k]
-            avail = max(avail, P[I_AP] * P[I_PLAM])
-            ff = vr / P[I_KV] * math.sqrt(ap3 / avail) * P[I_UMAX]
-            if P[I_OVERLAP] > 0.0:
-                ff = math.copysign(abs(ff) * (1.0 - P[I_OVERLAP]) + P[I_OVERLAP] * P[I_UMAX], ff)
-        un = ff + P[I_KP] * e + integ[i] - P[I_KD] * dfilt[i]
-        sat = abs(un) >= P[I_UMAX]
-        # anti-windup: integrate unless saturated and the error pushes further into saturation
-        if not (sat and e * un > 0.0):
-            integ[i] = min(max(integ[i] + P[I_KI] * e * dt, -P[I_ILIM]), P[I_ILIM])
-        u[i] = min(max(un, -P[I_UMAX]), P[I_UMAX])
-        if sat:
-            status[3 + i] += dt
-            sign = 1.0 if un > 0.0 else -1.0
-            if status[6 + i] != 0.0 and sign != status[6 + i]:
-                status[8 + i] += 1.0        # a full-scale reversal: rail to rail
-            status[6 + i] = sign
+        meas = encoder(P, r1 if i == 0 else r2)
+        u[i], un, integ[i], dfilt[i], prev[i] = _pid(P, meas, ref[i, k], vref[i, k], fref[i, k], integ[i], dfilt[i],
+                                                    prev[i], ps_nom)
+        status[3 + i], status[6 + i], status[8 + i] = _saturation(P, un, status[3 + i], status[6 + i],
+                                                                  status[8 + i])
 
 
 @njit(cache=True)
@@ -306,6 +369,9 @@ def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev
     e_pump, e_rel, e_valve, e_tank, e_leak, e_comp, e_fric, e_stop, e_work = e[0], e[1], e[2], e[3], e[4], e[5], \
         e[6], e[7], e[8]
     cav_time = status[2]
+    sat0, sat1, sign0, sign1, rev0, rev1 = status[3], status[4], status[6], status[7], status[8], status[9]
+    integ0, integ1, dfilt0, dfilt1, prev0, prev1 = integ[0], integ[1], dfilt[0], dfilt[1], prev[0], prev[1]
+    u0, u1 = u[0], u[1]
     il = 0
     ps_nom = P[I_PCOMP] - P[I_PBAND]   # supply pressure while the pump delivers (for the feed-forward)
     r1, r2, h1, h2 = _geometry(P, a, b)
@@ -313,8 +379,13 @@ def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev
         t = k * dt
         if k == n_steps and not tail:
             break
-        # ---- controller (sample, decide, command) ----
-        control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, ps_nom)
+        # ---- controller (sample, decide, command): the scalar form of control_step ----
+        u0, un0, integ0, dfilt0, prev0 = _pid(P, encoder(P, r1), ref[0, k], vref[0, k], fref[0, k], integ0, dfilt0,
+                                              prev0, ps_nom)
+        u1, un1, integ1, dfilt1, prev1 = _pid(P, encoder(P, r2), ref[1, k], vref[1, k], fref[1, k], integ1, dfilt1,
+                                              prev1, ps_nom)
+        sat0, sign0, rev0 = _saturation(P, un0, sat0, sign0, rev0)
+        sat1, sign1, rev1 = _saturation(P, un1, sat1, sign1, rev1)
         if k % log_every == 0:
             log[il, 0] = t
             log[il, 1] = a
@@ -325,8 +396,8 @@ def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev
             log[il, 6] = r2
             log[il, 7] = ref[0, k]
             log[il, 8] = ref[1, k]
-            log[il, 9] = u[0]
-            log[il, 10] = u[1]
+            log[il, 9] = u0
+            log[il, 10] = u1
             log[il, 11] = xv0
             log[il, 12] = xv1
             log[il, 13] = pA0
@@ -341,8 +412,6 @@ def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev
             il += 1
         if k == n_steps:
             break
-        u0 = u[0]
-        u1 = u[1]
         # ---- plant ----
         for _ in range(substeps):
             sa = math.sin(a)
@@ -392,13 +461,16 @@ def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev
             code = 3
         elif abs(ref[0, k] - r1) > P[I_FELIM] or abs(ref[1, k] - r2) > P[I_FELIM]:
             code = 4
-        elif max(status[8], status[9]) > 20.0 + 2.0 * (k + 1) * dt:
+        elif max(rev0, rev1) > 20.0 + 2.0 * (k + 1) * dt:
             code = 5
         if code:
             status[0] = code
             status[1] = (k + 1) * dt
             break
     status[2] = cav_time
+    status[3], status[4], status[6], status[7], status[8], status[9] = sat0, sat1, sign0, sign1, rev0, rev1
+    integ[0], integ[1], dfilt[0], dfilt[1], prev[0], prev[1] = integ0, integ1, dfilt0, dfilt1, prev0, prev1
+    u[0], u[1] = u0, u1
     energy[0], energy[1], energy[2], energy[3], energy[4] = e_pump, e_rel, e_valve, e_tank, e_leak
     energy[5], energy[6], energy[7], energy[8] = e_comp, e_fric, e_stop, e_work
     y[0], y[1], y[2], y[3] = a, b, ad, bd
@@ -446,10 +518,10 @@ def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
     dfilt = np.zeros(2)
     prev = np.zeros(2)
     u = np.zeros(2)
-    r1, r2, h1, h2 = _geometry(P, y[0], y[1])
-    prev[0] = round(r1 / P[I_RES]) * P[I_RES]
-    prev[1] = round(r2 / P[I_RES]) * P[I_RES]
-    il = _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev, u, status, energy, log, True)
+    prev[0], prev[1] = first_readings(P, y[0], y[1])
+    # the parameters as a fixed-size tuple: passed by value to every helper, no reference counting per call
+    il = _run(to_fixed_tuple(P, N_PARAMS), y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev, u,
+              status, energy, log, True)
     status[5] = il
     return log, energy, status
 
@@ -481,7 +553,8 @@ def advance(P, y, ref, vref, fref, n_steps, substeps, integ, dfilt, prev, u, sta
     """
     energy = np.zeros(9)
     log = np.zeros((1, 22))
-    _run(P, y, ref, vref, fref, n_steps, substeps, n_steps + 1, integ, dfilt, prev, u, status, energy, log, False)
+    _run(to_fixed_tuple(P, N_PARAMS), y, ref, vref, fref, n_steps, substeps, n_steps + 1, integ, dfilt, prev, u, status,
+         energy, log, False)
     return int(status[0])
 
 

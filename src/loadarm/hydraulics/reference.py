@@ -61,9 +61,7 @@ def reference_simulation(inst: Installation, plan: Plan, t_end: float, *, fill: 
     ref, vref, fref = _references(inst, plan, n, fill)
     y = initial_state(inst, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
     integ, dfilt, prev, u, status = np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(10)
-    r1, r2, _, _ = plant._geometry(P, y[0], y[1])
-    prev[0] = round(r1 / P[plant.I_RES]) * P[plant.I_RES]
-    prev[1] = round(r2 / P[plant.I_RES]) * P[plant.I_RES]
+    prev[0], prev[1] = plant.first_readings(P, y[0], y[1])
     ps_nom = P[plant.I_PCOMP] - P[plant.I_PBAND]
     atol = np.array([1e-9, 1e-9, 1e-9, 1e-9] + [1.0] * 4 + [1e-7, 1e-5, 1e-7, 1e-5, 1.0])
     out = {k: np.empty(n + 1) for k in ("t", "alpha", "beta", "alpha_dot", "beta_dot", "pA1", "pB1", "pA2", "pB2",

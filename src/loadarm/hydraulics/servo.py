@@ -56,9 +56,7 @@ class HydraulicArm:
         self.dfilt = np.zeros(2)
         self.u = np.zeros(2)
         self.status = np.zeros(10)
-        r1, r2, _, _ = plant._geometry(self.P, alpha, beta)
-        res = self.P[plant.I_RES]
-        self.prev = np.array([round(r1 / res) * res, round(r2 / res) * res])
+        self.prev = np.array(plant.first_readings(self.P, alpha, beta))
         self.q_ref = np.array([alpha, beta], dtype=float)
 
     @property

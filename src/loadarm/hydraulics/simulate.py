@@ -11,6 +11,7 @@ pump flow and power, and the energy balance.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -38,7 +39,8 @@ class SimulationError(LoadarmError, RuntimeError):
     """The simulation diverged or its parameters make it meaningless."""
 
 
-def stable_substeps(inst: Installation, *, fill: float | None = None) -> int:
+@functools.lru_cache(maxsize=64)
+def stable_substeps(inst: Installation) -> int:
     """Plant steps per control step from a stability bound, not a constant.
 
     The plant step treats the chamber and supply pressures linearly implicitly and the spool exactly, so
@@ -56,10 +58,8 @@ def stable_substeps(inst: Installation, *, fill: float | None = None) -> int:
     Parameters
     ----------
     inst : Installation
-        The installation.
-    fill : float, optional
-        Ignored: the bound is taken for the drained arm, the lightest and so the fastest (kept so that the
-        bound and :func:`pack_parameters` take the same arguments).
+        The installation (the bound is taken for the drained arm, the lightest and so the fastest, whatever
+        the fill; the result is cached per installation).
 
     Returns
     -------
@@ -122,7 +122,7 @@ def pack_parameters(inst: Installation, *, substeps: int | None = None, gains: d
     if unknown:
         raise ValueError(f"unknown gain(s) {sorted(unknown)}; allowed: kp, ki, kd")
     if substeps is None:
-        n_sub = stable_substeps(inst, fill=fill) if c.substeps == "auto" else c.substeps
+        n_sub = stable_substeps(inst) if c.substeps == "auto" else c.substeps
     else:
         n_sub = int(substeps)
     if not (1 <= n_sub <= 1000):

@@ -18,9 +18,6 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
-from rich.console import Console
-from rich.markup import escape
-from rich.table import Table
 
 from .config import Installation, load_config, paper_installation
 from .errors import LoadarmError
@@ -33,8 +30,41 @@ app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_
                   help="Automatic guidance of marine loading arms: sizing, envelope, straight-line approach, "
                        "hydraulics, live guidance, event log, report.",
                   epilog=EXIT_CODES)
-out = Console(soft_wrap=True)
-err = Console(stderr=True, soft_wrap=True)
+class _LazyConsole:
+    """A rich Console created on first use: `plan --json` and other machine-facing paths never import rich."""
+
+    def __init__(self, **kwargs):
+        self._kwargs = kwargs
+        self._console = None
+
+    def get(self):
+        """The real Console (for rich objects that take one, such as a progress bar)."""
+        if self._console is None:
+            from rich.console import Console
+
+            self._console = Console(**self._kwargs)
+        return self._console
+
+    def __getattr__(self, name):
+        return getattr(self.get(), name)
+
+
+def escape(text: str) -> str:
+    """Escape rich markup in user text (rich imported on first use)."""
+    from rich.markup import escape as _escape
+
+    return _escape(text)
+
+
+def Table(*args, **kwargs):  # noqa: N802 - stands in for rich.table.Table
+    """A rich Table (rich imported on first use)."""
+    from rich.table import Table as _Table
+
+    return _Table(*args, **kwargs)
+
+
+out = _LazyConsole(soft_wrap=True)
+err = _LazyConsole(stderr=True, soft_wrap=True)
 
 ConfigOpt = Annotated[Path, typer.Option("--config", "-c", help="Installation TOML file (see examples/paper.toml).")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
@@ -121,7 +151,7 @@ def _progress(transient: bool = False):
     """A progress bar on stderr (rich.progress is imported only by the commands that show one)."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    return Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err,
+    return Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err.get(),
                     transient=transient)
 
 

@@ -74,7 +74,7 @@ def _param(default: Any, *, unit: str, description: str, source: str, gt: float 
 
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
 
 
 _DS = "customer datasheet; example value from paper Table 1"

@@ -262,3 +262,23 @@ def test_plant_parameters_vector_is_complete(inst):
     P = pack_parameters(inst)
     assert P.shape == (plant.N_PARAMS,) and np.all(np.isfinite(P))
     assert P[plant.I_FELIM] == inst.controller.following_error_limit
+
+
+def test_plant_geometry_equals_the_cylinder_lengths_everywhere(inst):
+    """The compiled loop's geometry (one sine and cosine per joint, cancellation-free half angles) against
+    actuators.cylinder_lengths and dynamics.moment_arms, over the whole joint range including the nearly
+    closed pin triangles (alpha -> pi, beta -> 0). Tolerance: 1e-13 m on metre-scale lengths (a few ulps)."""
+    from loadarm.actuators import cylinder_lengths
+    from loadarm.dynamics import moment_arms
+    from loadarm.geometry import mounting_from_installation
+    from loadarm.hydraulics.simulate import pack_parameters
+
+    P = pack_parameters(inst)
+    mount = mounting_from_installation(inst)
+    a = np.concatenate([np.linspace(0.0, np.pi, 400), np.pi - np.logspace(-8, -1, 50)])
+    b = np.concatenate([np.linspace(0.0, np.pi, 400), np.logspace(-8, -1, 50)])
+    r1, r2 = cylinder_lengths(mount, a, b)
+    h1, h2 = moment_arms(mount, a, b)
+    got = np.array([plant._geometry(P, ai, bi) for ai, bi in zip(a, b)])
+    assert np.max(np.abs(got[:, 0] - r1)) < 1e-13 and np.max(np.abs(got[:, 1] - r2)) < 1e-13
+    assert np.max(np.abs(got[:, 2] - h1)) < 1e-12 and np.max(np.abs(got[:, 3] - h2)) < 1e-12

@@ -101,13 +101,16 @@ def _geometry_trig(P, sa, ca, sb, cb):
     """:func:`_geometry` from the sines and cosines of the joint angles.
 
     ``4 cos^2(alpha/2) = 2 (1 + cos alpha)`` and ``4 sin^2(beta/2) = 2 (1 - cos beta)``, so one sine and one
-    cosine per joint serve the geometry and the dynamics of a plant step.
+    cosine per joint serve the geometry and the dynamics of a plant step. Where ``1 +- cos`` would cancel
+    (a triangle of pins nearly closing), it is taken as ``sin^2 / (1 -+ cos)``, which is exact there.
     """
     a1, b1, b2, c2 = P[I_A1], P[I_B1], P[I_B2], P[I_C2]
     d1 = a1 - b1
     d2 = c2 - b2
-    r1 = math.sqrt(d1 * d1 + 2.0 * a1 * b1 * (1.0 + ca))
-    r2 = math.sqrt(d2 * d2 + 2.0 * c2 * b2 * (1.0 - cb))
+    one_plus_ca = 1.0 + ca if ca >= 0.0 else sa * sa / (1.0 - ca)
+    one_minus_cb = 1.0 - cb if cb <= 0.0 else sb * sb / (1.0 + cb)
+    r1 = math.sqrt(d1 * d1 + 2.0 * a1 * b1 * one_plus_ca)
+    r2 = math.sqrt(d2 * d2 + 2.0 * c2 * b2 * one_minus_cb)
     h1 = -a1 * b1 * sa / r1
     h2 = b2 * c2 * sb / r2
     return r1, r2, h1, h2

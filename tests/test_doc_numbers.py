@@ -1,0 +1,94 @@
+"""Numbers the docs cite in prose are the program's numbers.
+
+Console blocks and figures are checked in tests/test_docs.py; this file checks each number written into a
+sentence, by recomputing it and formatting it as the page does. A page that changes its wording or a
+computation that changes its result fails here, and the message says which.
+"""
+
+import math
+
+import pytest
+
+from loadarm.config import load_config
+from loadarm.envelope import alarms_from_installation, zone_radii
+from loadarm.errors import UnreachableError
+from loadarm.geometry import Arm, arm_from_installation
+from loadarm.kinematics import inverse
+from loadarm.sizing import check_corners, size_arm, size_installation
+from loadarm.trajectory import plan_approach
+
+from .conftest import PAPER_TOML, ROOT
+
+
+def doc(name: str) -> str:
+    return " ".join((ROOT / name).read_text(encoding="utf-8").split())
+
+
+def cited(name: str, text: str) -> None:
+    assert text in doc(name), f"{name} should say {text!r} (recomputed); update the page or find the regression"
+
+
+@pytest.fixture(scope="module")
+def paper():
+    return load_config(PAPER_TOML)
+
+
+def test_sizing_page(paper):
+    res = size_installation(paper)
+    cited("docs/sizing.md", f"r_al = sqrt(11.7^2 + 13.5^2) = {res.r_alarm:.4f} m")
+    cited("docs/sizing.md", f"`({res.inboard:g}, {res.outboard:.4f})`")
+    wide = size_arm(7.0, 13.5, 4.7, math.radians(123.0), (8.0, 14.0), (4.0, 12.0))
+    (b1, c1), (b2, c2) = wide.local_minima
+    cited("docs/sizing.md", f"`({b1:g}, {c1:.3f})` and `({b2:.3f}, {c2:g})`")
+    # the other end of the feasible arc of the default box: c on its upper bound
+    cb = math.cos(math.radians(123.0))
+    b_end = 10.0 * cb + math.sqrt(res.r_alarm ** 2 - 100.0 * (1 - cb * cb))
+    cited("docs/sizing.md", f"`({b_end:.3f}, 10)`")
+    corner = check_corners(arm_from_installation(paper), alarms_from_installation(paper), paper)[3]
+    cited("docs/sizing.md", f"`beta = {math.degrees(corner.beta):.2f} deg`")
+    cited("README.md", f"corner is at {math.degrees(corner.beta):.2f} deg")
+    with pytest.raises(Exception) as e:
+        size_arm(7.0, 13.5, 4.7, math.radians(123.0), (4.0, 6.0), (3.0, 5.0))
+    reach = str(e.value).split("reaches only ")[1].split(" m")[0]
+    cited("docs/sizing.md", f"reaches only {reach} m")
+
+
+def test_approach_and_actuator_pages(paper):
+    p = plan_approach(paper, timing="paper", samples=401)
+    s = plan_approach(paper, timing="smooth", samples=401)
+    o = plan_approach(paper, timing="optimal", samples=401)
+    cited("docs/approach.md", f"`(14 - 3.82) / 0.15 = {p.duration:.2f} s`")
+    peak = p.summary()["peak_path_speed_m_s"]
+    cited("docs/approach.md", f"{peak:.3f} m/s on the paper's line, i.e. {round(100 * (peak / 0.15 - 1))} % above")
+    cited("docs/approach.md", f"Paper case: {s.duration:.2f} s")
+    cited("docs/approach.md", f"equals the trapezoid ({o.duration:.2f} s)")
+    cited("docs/actuators.md", f"cylinder 1 shortens from {p.r_ac1[0]:.4f} m to {p.r_ac1[-1]:.4f} m (stroke "
+                               f"{p.r_ac1[0] - p.r_ac1[-1]:.4f} m)")
+    cited("docs/actuators.md", f"lengthens from {p.r_ac2[0]:.4f} m to {p.r_ac2[-1]:.4f} m (stroke "
+                               f"{p.r_ac2[-1] - p.r_ac2[0]:.4f} m)")
+
+
+def test_envelope_and_kinematics_pages(paper):
+    radii = zone_radii(arm_from_installation(paper), alarms_from_installation(paper))
+    cited("docs/envelope.md", "{:.2f}, {:.2f}, {:.2f} m".format(radii["first"], radii["second"], radii["release"]))
+    with pytest.raises(UnreachableError) as e:
+        inverse(Arm(7.0, 12.0, 8.2), 30.0, 0.0)
+    cited("docs/kinematics.md", str(e.value))
+
+
+def test_approach_refusal_message(paper):
+    with pytest.raises(UnreachableError) as e:
+        plan_approach(paper, target=(30.0, 0.0))
+    head = str(e.value).split(": farthest")[0]
+    cited("docs/approach.md", head)
+
+
+def test_guidance_page_driftoff_row():
+    from loadarm.guidance.run import run_scenario
+    from loadarm.guidance.scenario import load_scenario
+
+    sc, inst = load_scenario(ROOT / "examples" / "scenarios" / "driftoff.toml")
+    s = run_scenario(sc, inst).summary()
+    cited("docs/guidance.md", f"ALARM1 {s['alarm1_s']:.1f} s, ALARM2 {s['alarm2_s']:.1f} s, RELEASE "
+                              f"{s['release_s']:.1f} s, released {s['release_complete_s']:.1f} s")
+    cited("README.md", f"alarm1 at {s['alarm1_s']:.2f} s")

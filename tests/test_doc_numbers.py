@@ -92,3 +92,26 @@ def test_guidance_page_driftoff_row():
     cited("docs/guidance.md", f"ALARM1 {s['alarm1_s']:.1f} s, ALARM2 {s['alarm2_s']:.1f} s, RELEASE "
                               f"{s['release_s']:.1f} s, released {s['release_complete_s']:.1f} s")
     cited("README.md", f"alarm1 at {s['alarm1_s']:.2f} s")
+
+
+def test_readme_accuracy_claims(paper):
+    """README step 5 and 6 state upper bounds: the IK round trip (7e-15 m) and MuJoCo's agreement
+    (2e-9 deg, 2e-8 mm). The program must be at least that good."""
+    import numpy as np
+
+    from loadarm.actuators import solve_ik_cylinders
+    from loadarm.geometry import mounting_from_installation
+    from loadarm.kinematics import forward
+    from loadarm.multibody import verify_kinematics
+
+    cited("README.md", "7e-15 m round-trip error")
+    cited("README.md", "match the closed form to 2e-9 deg and 2e-8 mm")
+    arm, mount = arm_from_installation(paper), mounting_from_installation(paper)
+    t = np.linspace(0.0, 1.0, 100_001)
+    x, y = 3.82 + t * (14.0 - 3.82), 10.4 + t * (1.0 - 10.4)
+    alpha, beta, _, _ = solve_ik_cylinders(arm, mount, x, y)
+    xf, yf = forward(arm, alpha, beta)
+    assert float(np.max(np.hypot(xf - x, yf - y))) < 7.5e-15
+    v = verify_kinematics(paper, plan_approach(paper, timing="paper", samples=201)).summary()
+    assert max(v["max_alpha_diff_deg"], v["max_beta_diff_deg"]) < 2.5e-9
+    assert max(v["max_r_ac1_diff_mm"], v["max_r_ac2_diff_mm"]) < 2.5e-8

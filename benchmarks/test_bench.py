@@ -8,7 +8,8 @@ round (the least disturbed by other load), so a ratio compares like with like.
 * closed-form IK with both cylinder lengths: >= 300x the Robotics Toolbox for Python's C++
   Levenberg-Marquardt ``ik_LM`` (peer), at equal or better accuracy;
 * closed-loop hydraulics: >= 100x the same model integrated by ``solve_ivp`` (naive route);
-* ``loadarm plan`` cold start: <= 4.5x ``python -c "import numpy"`` (fixed workload);
+* ``loadarm plan`` cold start: <= 4x ``python -c "import numpy"`` (fixed workload; 4x is about 0.3 s where
+  importing NumPy takes 0.07 s);
 * guidance cycle: median <= 2x and 99th percentile <= 6x those of a fixed control-like workload (a
   4-state Kalman update in NumPy) timed right after it (measured 2026-11-23: 0.95x and 3.8x; the cycle's
   tail is longer because cycles with a sensor reading, a mode change or an event do more work).
@@ -111,7 +112,7 @@ def test_cold_start_cli(results):
     results["loadarm plan cold start, median of 7 [s]"] = float(np.median(plan))
     results["python -c 'import numpy', median of 7 [s]"] = float(np.median(numpy_))
     results["ratio cold start / import numpy"] = ratio
-    assert ratio <= 4.5, f"loadarm plan cold start is {ratio:.2f}x 'import numpy', goal <= 4.5x"
+    assert ratio <= 4.0, f"loadarm plan cold start is {ratio:.2f}x 'import numpy', goal <= 4x"
 
 
 def test_zz_peer_ratio(results):

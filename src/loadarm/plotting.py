@@ -163,20 +163,21 @@ def angles_time_figure(inst: Installation, plan: Plan) -> Figure:
 
 
 def _same_curve(t1, y1, t2, y2) -> bool:
-    """Whether two sampled curves would draw on top of each other (within 0.5 % of their extent)."""
+    """Whether two sampled curves would draw on top of each other (within 2 % of their extent)."""
     t1, y1, t2, y2 = (np.asarray(v, dtype=float) for v in (t1, y1, t2, y2))
     dur = max(float(np.ptp(t1)), float(np.ptp(t2)), 1e-12)
     if abs(t1[0] - t2[0]) > 5e-3 * dur or abs(t1[-1] - t2[-1]) > 5e-3 * dur:
         return False
     span = max(float(np.ptp(y1)), float(np.ptp(y2)), 1e-12)
-    return bool(np.max(np.abs(np.interp(t1, t2, y2) - y1)) <= 5e-3 * span)
+    return bool(np.max(np.abs(np.interp(t1, t2, y2) - y1)) <= 2e-2 * span)
 
 
 def _law_lines(ax, series: dict[str, tuple], quantity: str = "", style: str = "-") -> None:
     """Plot one curve per timing law so that every law stays visible.
 
-    Each law gets its own colour and a line narrower than the one before it, so a curve lying exactly on
-    another still shows; a law whose curve coincides with an earlier one says so in the legend.
+    Each law gets its own colour, a line narrower than the one before it and, after the first, its own
+    hollow marker every twelfth of the curve, so a curve lying on another still shows; a law whose curve
+    coincides with an earlier one says so in the legend.
 
     Parameters
     ----------
@@ -190,12 +191,14 @@ def _law_lines(ax, series: dict[str, tuple], quantity: str = "", style: str = "-
         Line style shared by these curves.
     """
     drawn: list[tuple[str, tuple]] = []
+    markers = ("", "s", "o", "^", "D")
     for i, (law, (t, y)) in enumerate(series.items()):
         same = [name for name, (t0, y0) in drawn if _same_curve(t0, y0, t, y)]
         label = f"{quantity}, {law}" if quantity else law
         if same:
-            label += f" (on top of {same[0]})"
-        ax.plot(t, y, style, color=f"C{list(series).index(law)}", lw=max(3.2 - 1.1 * i, 0.9), label=label)
+            label += f" (on top of {same[0].split(':')[0]})"
+        ax.plot(t, y, style, color=f"C{i}", lw=max(3.2 - 1.1 * i, 0.9), label=label, marker=markers[i % 5],
+                markevery=max(1, len(t) // 12), markersize=6, fillstyle="none", markeredgewidth=1.2)
         drawn.append((law, (t, y)))
 
 

@@ -264,12 +264,12 @@ def test_plant_parameters_vector_is_complete(inst):
     assert P[plant.I_FELIM] == inst.controller.following_error_limit
 
 
-def test_plant_geometry_equals_the_cylinder_lengths_everywhere(inst):
-    """The compiled loop's geometry (one sine and cosine per joint, cancellation-free half angles) against
-    actuators.cylinder_lengths and dynamics.moment_arms, over the whole joint range including the nearly
-    closed pin triangles (alpha -> pi, beta -> 0). Tolerance: 1e-13 m on metre-scale lengths (a few ulps)."""
-    from loadarm.actuators import cylinder_lengths
-    from loadarm.dynamics import moment_arms
+def test_plant_geometry_is_the_vectorised_formula_bit_for_bit(inst):
+    """The 1 kHz plant compiles actuators.pin_geometry itself: given the same sines and cosines it returns the
+    same bits as the NumPy route, over the whole joint range including nearly closed pin triangles
+    (alpha -> pi, beta -> 0). Only the trigonometric inputs may differ between NumPy and libm (<= 1 ulp), so
+    the plant's full _geometry is held to 1e-14 m of actuators.cylinder_lengths / moment_arms."""
+    from loadarm.actuators import cylinder_lengths, moment_arms, pin_lengths, pin_moment_arms
     from loadarm.geometry import mounting_from_installation
     from loadarm.hydraulics.simulate import pack_parameters
 
@@ -277,8 +277,15 @@ def test_plant_geometry_equals_the_cylinder_lengths_everywhere(inst):
     mount = mounting_from_installation(inst)
     a = np.concatenate([np.linspace(0.0, np.pi, 400), np.pi - np.logspace(-8, -1, 50)])
     b = np.concatenate([np.linspace(0.0, np.pi, 400), np.logspace(-8, -1, 50)])
+    trig = (np.cos(0.5 * a), np.sin(0.5 * b), np.sin(a), np.sin(b))
+    m4 = (mount.a1, mount.b1, mount.b2, mount.c2)
+    rr = pin_lengths(*m4, trig[0], trig[1])
+    vec = (*rr, *pin_moment_arms(*m4, trig[2], trig[3], *rr))
+    for k in range(a.size):
+        one = plant.pin_geometry(P, *(float(t[k]) for t in trig))
+        assert one == tuple(float(v[k]) for v in vec), k
     r1, r2 = cylinder_lengths(mount, a, b)
     h1, h2 = moment_arms(mount, a, b)
     got = np.array([plant._geometry(P, ai, bi) for ai, bi in zip(a, b)])
-    assert np.max(np.abs(got[:, 0] - r1)) < 1e-13 and np.max(np.abs(got[:, 1] - r2)) < 1e-13
-    assert np.max(np.abs(got[:, 2] - h1)) < 1e-12 and np.max(np.abs(got[:, 3] - h2)) < 1e-12
+    assert np.max(np.abs(got[:, 0] - r1)) < 1e-14 and np.max(np.abs(got[:, 1] - r2)) < 1e-14
+    assert np.max(np.abs(got[:, 2] - h1)) < 1e-14 and np.max(np.abs(got[:, 3] - h2)) < 1e-14

@@ -24,7 +24,10 @@ from .geometry import Arm, Mounting
 from .kinematics import ROUNDOFF_M, check_reachable
 
 __all__ = [
+    "pin_lengths",
+    "pin_moment_arms",
     "cylinder_lengths",
+    "moment_arms",
     "cylinder_rates",
     "joint_angles_from_cylinders",
     "length_limits",
@@ -40,8 +43,54 @@ __all__ = [
 IK_CHUNK = 16384
 
 
+def pin_lengths(a1, b1, b2, c2, ch, sh):
+    """Eqs 12-13: both cylinders' pin-to-pin lengths from the half angles; the one formula.
+
+    The cancellation-free form ``b^2 + c^2 - 2bc cos(g) = (b - c)^2 + 4bc sin^2(g/2)`` is exact to
+    round-off even for a nearly closed triangle of pins (``1 - cos(pi - alpha) = 2 cos^2(alpha/2)``). Only
+    +, * and a correctly rounded sqrt: NumPy on arrays and numba on scalars (the 1 kHz plant compiles this
+    same function) give the same bits for the same inputs, which a test checks.
+
+    Parameters
+    ----------
+    a1, b1, b2, c2 : float
+        Pin distances (paper Fig. 5), m.
+    ch, sh : float or ndarray
+        ``cos(alpha / 2)`` and ``sin(beta / 2)``.
+
+    Returns
+    -------
+    r1, r2 : float or ndarray
+        Cylinder pin-to-pin lengths, m.
+    """
+    d1 = a1 - b1
+    d2 = c2 - b2
+    return np.sqrt(d1 * d1 + 4.0 * a1 * b1 * (ch * ch)), np.sqrt(d2 * d2 + 4.0 * c2 * b2 * (sh * sh))
+
+
+def pin_moment_arms(a1, b1, b2, c2, sa, sb, r1, r2):
+    """Derivatives of Eqs 12-13: ``d r_ac1 / d alpha = -a1 b1 sin(alpha) / r_ac1``,
+    ``d r_ac2 / d beta = b2 c2 sin(beta) / r_ac2``; the one formula (NumPy and the compiled plant).
+
+    Parameters
+    ----------
+    a1, b1, b2, c2 : float
+        Pin distances, m.
+    sa, sb : float or ndarray
+        ``sin(alpha)`` and ``sin(beta)``.
+    r1, r2 : float or ndarray
+        Cylinder lengths from :func:`pin_lengths`, m.
+
+    Returns
+    -------
+    h1, h2 : float or ndarray
+        Moment arms, m (signed).
+    """
+    return -a1 * b1 * sa / r1, b2 * c2 * sb / r2
+
+
 def cylinder_lengths(mount: Mounting, alpha: np.ndarray | float, beta: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
-    """Pin-to-pin lengths of both cylinders (paper Eqs 12 and 13).
+    """Pin-to-pin lengths of both cylinders (paper Eqs 12 and 13), by :func:`pin_lengths`.
 
     Parameters
     ----------
@@ -57,20 +106,35 @@ def cylinder_lengths(mount: Mounting, alpha: np.ndarray | float, beta: np.ndarra
     """
     alpha = np.asarray(alpha, dtype=float)
     beta = np.asarray(beta, dtype=float)
-    a1, b1, b2, c2 = mount.a1, mount.b1, mount.b2, mount.c2
-    # Eqs 12-13 in the cancellation-free form b^2 + c^2 - 2bc cos(g) = (b - c)^2 + 4bc sin^2(g/2),
-    # exact to round-off even for a nearly closed triangle (g -> 0); 1 - cos(pi - alpha) = 2 cos^2(alpha/2).
-    r1 = np.sqrt((a1 - b1) ** 2 + 4.0 * a1 * b1 * np.cos(0.5 * alpha) ** 2)
-    r2 = np.sqrt((c2 - b2) ** 2 + 4.0 * c2 * b2 * np.sin(0.5 * beta) ** 2)
-    return r1, r2
+    return pin_lengths(mount.a1, mount.b1, mount.b2, mount.c2, np.cos(0.5 * alpha), np.sin(0.5 * beta))
+
+
+def moment_arms(mount: Mounting, alpha, beta) -> tuple[np.ndarray, np.ndarray]:
+    """Exact moment arm of each cylinder about its joint: ``d r_ac / d q``, by :func:`pin_moment_arms`.
+
+    A cylinder pushing with force ``F`` applies the joint torque ``F * d r / d q``.
+
+    Parameters
+    ----------
+    mount : Mounting
+        Pin distances, m.
+    alpha, beta : float or ndarray
+        Joint angles, rad.
+
+    Returns
+    -------
+    h1, h2 : ndarray
+        Moment arms, m (signed).
+    """
+    alpha = np.asarray(alpha, dtype=float)
+    beta = np.asarray(beta, dtype=float)
+    r1, r2 = cylinder_lengths(mount, alpha, beta)
+    return pin_moment_arms(mount.a1, mount.b1, mount.b2, mount.c2, np.sin(alpha), np.sin(beta), r1, r2)
 
 
 def cylinder_rates(mount: Mounting, alpha: np.ndarray, beta: np.ndarray, alpha_dot: np.ndarray,
                    beta_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Cylinder extension speeds from joint rates (time derivative of Eqs 12-13).
-
-    ``d r_ac1/dt = -a1 b1 sin(alpha) alpha_dot / r_ac1`` and
-    ``d r_ac2/dt = b2 c2 sin(beta) beta_dot / r_ac2``.
+    """Cylinder extension speeds from joint rates: the moment arms times the joint rates.
 
     Parameters
     ----------
@@ -86,10 +150,8 @@ def cylinder_rates(mount: Mounting, alpha: np.ndarray, beta: np.ndarray, alpha_d
     v1, v2 : ndarray
         Extension speeds, m/s (positive = extending).
     """
-    r1, r2 = cylinder_lengths(mount, alpha, beta)
-    v1 = -mount.a1 * mount.b1 * np.sin(alpha) * alpha_dot / r1
-    v2 = mount.b2 * mount.c2 * np.sin(beta) * beta_dot / r2
-    return v1, v2
+    h1, h2 = moment_arms(mount, alpha, beta)
+    return h1 * alpha_dot, h2 * beta_dot
 
 
 def length_limits(mount: Mounting) -> dict[str, tuple[float, float]]:

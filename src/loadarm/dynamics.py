@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .config import Installation
+from .actuators import moment_arms  # re-exported: the moment arms are geometry (Eqs 12-13), owned there
 from .geometry import Arm, Mounting, arm_from_installation
 
 __all__ = ["G", "Lump", "MassModel", "mass_model", "joint_torques", "LagrangeConstants", "lagrange_constants",
@@ -252,33 +253,6 @@ def static_torques(model: MassModel, alpha, beta, *, gravity: float = G) -> tupl
         Holding torques, N m.
     """
     return joint_torques(model, alpha, beta, gravity=gravity)
-
-
-def moment_arms(mount: Mounting, alpha, beta) -> tuple[np.ndarray, np.ndarray]:
-    """Exact moment arm of each cylinder about its joint: ``d r_ac / d q``.
-
-    From Eqs 12-13: ``d r_ac1 / d alpha = -a1 b1 sin(alpha) / r_ac1`` and
-    ``d r_ac2 / d beta = b2 c2 sin(beta) / r_ac2``. A cylinder pushing with
-    force ``F`` applies the joint torque ``F * d r / d q``.
-
-    Parameters
-    ----------
-    mount : Mounting
-        Pin distances, m.
-    alpha, beta : float or ndarray
-        Joint angles, rad.
-
-    Returns
-    -------
-    h1, h2 : ndarray
-        Moment arms, m (signed).
-    """
-    from .actuators import cylinder_lengths
-
-    alpha = np.asarray(alpha, dtype=float)
-    beta = np.asarray(beta, dtype=float)
-    r1, r2 = cylinder_lengths(mount, alpha, beta)
-    return -mount.a1 * mount.b1 * np.sin(alpha) / r1, mount.b2 * mount.c2 * np.sin(beta) / r2
 
 
 def cylinder_forces(mount: Mounting, alpha, beta, tau_alpha, tau_beta, *,

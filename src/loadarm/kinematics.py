@@ -25,6 +25,7 @@ from .errors import UnreachableError
 from .geometry import Arm
 
 __all__ = [
+    "jacobian_entries",
     "JointAngles",
     "Elbow",
     "forward",
@@ -295,11 +296,34 @@ def jacobian(arm: Arm, alpha: np.ndarray | float, beta: np.ndarray | float, *,
     alpha, beta = np.broadcast_arrays(np.asarray(alpha, dtype=float), np.asarray(beta, dtype=float))
     phi = alpha - s * beta
     J = np.empty(alpha.shape + (2, 2))
-    J[..., 0, 0] = arm.b * np.cos(alpha) - arm.c * np.cos(phi)
-    J[..., 0, 1] = s * arm.c * np.cos(phi)
-    J[..., 1, 0] = -arm.b * np.sin(alpha) + arm.c * np.sin(phi)
-    J[..., 1, 1] = -s * arm.c * np.sin(phi)
+    J[..., 0, 0], J[..., 0, 1], J[..., 1, 0], J[..., 1, 1] = jacobian_entries(
+        arm.b, arm.c, s, np.cos(alpha), np.sin(alpha), np.cos(phi), np.sin(phi))
     return J
+
+
+def jacobian_entries(b, c, s, ca, sa, cphi, sphi):
+    """The four entries of :func:`jacobian` from the sines and cosines: the one formula.
+
+    :func:`jacobian` calls it on arrays; the guidance controller calls it on floats every cycle (the same
+    +, -, * on the same inputs give the same bits, which a test checks).
+
+    Parameters
+    ----------
+    b, c : float
+        Inboard and outboard lengths, m.
+    s : float
+        Elbow sign (+1 up, -1 down).
+    ca, sa : float or ndarray
+        ``cos(alpha)``, ``sin(alpha)``.
+    cphi, sphi : float or ndarray
+        ``cos(alpha - s beta)``, ``sin(alpha - s beta)``.
+
+    Returns
+    -------
+    dx_da, dx_db, dy_da, dy_db : float or ndarray
+        m/rad.
+    """
+    return b * ca - c * cphi, s * c * cphi, -b * sa + c * sphi, -s * c * sphi
 
 
 def joint_rates(arm: Arm, alpha: np.ndarray, beta: np.ndarray, vx: np.ndarray, vy: np.ndarray, *,

@@ -30,10 +30,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..actuators import joint_angles_from_cylinders
+from ..actuators import joint_angles_from_cylinders, length_limits
 from ..config import Installation
 from ..geometry import Arm, arm_from_installation, mounting_from_installation
-from ..kinematics import ROUNDOFF_M
+from ..kinematics import ROUNDOFF_M, jacobian_entries
 from ..slew import forward3d, inverse3d, reach_mask3d
 from .scenario import Guidance
 from .sensor import Estimate
@@ -177,6 +177,22 @@ class JointLimits:
     beta: tuple[float, float]
     rate: tuple[float, float, float]
 
+    def contains(self, q, tol: float = 0.0) -> bool:
+        """Whether joint angles ``(phi, alpha, beta)`` lie within every range, to ``tol`` rad.
+
+        Parameters
+        ----------
+        q : sequence of float
+            Slew, alpha, beta, rad.
+        tol : float
+            Slack, rad (for positions computed exactly on a limit).
+
+        Returns
+        -------
+        bool
+        """
+        return all(lo - tol <= float(v) <= hi + tol for v, (lo, hi) in zip(q, (self.phi, self.alpha, self.beta)))
+
     @staticmethod
     def from_settings(inst: Installation, g: Guidance) -> "JointLimits":
         """Limits from the installation (cylinder length ranges) and the guidance settings.
@@ -195,10 +211,9 @@ class JointLimits:
         mount = mounting_from_installation(inst)
         cy = inst.cylinders
         # Eq. 12: r_ac1 shrinks as alpha grows; Eq. 13: r_ac2 grows with beta
-        lim1 = (abs(mount.a1 - mount.b1), mount.a1 + mount.b1)
-        lim2 = (abs(mount.b2 - mount.c2), mount.b2 + mount.c2)
-        r1 = np.clip(cy.length_range_1, *lim1)
-        r2 = np.clip(cy.length_range_2, *lim2)
+        geo = length_limits(mount)
+        r1 = np.clip(cy.length_range_1, *geo["r_ac1"])
+        r2 = np.clip(cy.length_range_2, *geo["r_ac2"])
         a_hi, b_lo = joint_angles_from_cylinders(mount, r1[0], r2[0])
         a_lo, b_hi = joint_angles_from_cylinders(mount, r1[1], r2[1])
         slew = math.radians(inst.slew.limit_deg)
@@ -348,20 +363,18 @@ class GuidanceController:
             return f"target needs beta {math.degrees(float(q.beta)):.1f} deg, beyond the first alarm"
         if abs(float(q.phi)) > self.thr.slew_first:
             return f"target needs slew {math.degrees(float(q.phi)):.1f} deg, beyond the slew alarm"
-        if not (self.lim.alpha[0] <= float(q.alpha) <= self.lim.alpha[1]
-                and self.lim.beta[0] <= float(q.beta) <= self.lim.beta[1]):
+        if not self.lim.contains((q.phi, q.alpha, q.beta)):
             return "target is outside the cylinders' strokes"
         return ""
 
     def _jacobian3d(self, phi, alpha, beta) -> np.ndarray:
-        # the planar entries are kinematics.jacobian's (rows rho and z), written with scalar math because this
-        # runs every guidance cycle (the 200 us budget); the jog test checks the result by finite differences
+        # the planar entries (rows rho and z) are kinematics.jacobian_entries on floats: the same formula as
+        # kinematics.jacobian, without NumPy's per-call cost in the guidance cycle
         b, c = self.arm.b, self.arm.c
-        rho = b * math.sin(alpha) - c * math.sin(alpha - beta)
-        drho_da = b * math.cos(alpha) - c * math.cos(alpha - beta)
-        drho_db = c * math.cos(alpha - beta)
-        dz_da = -b * math.sin(alpha) + c * math.sin(alpha - beta)
-        dz_db = -c * math.sin(alpha - beta)
+        sa, ca = math.sin(alpha), math.cos(alpha)
+        sab, cab = math.sin(alpha - beta), math.cos(alpha - beta)
+        rho = b * sa - c * sab
+        drho_da, drho_db, dz_da, dz_db = jacobian_entries(b, c, 1.0, ca, sa, cab, sab)
         cp, sp = math.cos(phi), math.sin(phi)
         return np.array([[-rho * sp, drho_da * cp, drho_db * cp],
                          [rho * cp, drho_da * sp, drho_db * sp],

@@ -237,8 +237,7 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
             if inside:
                 qq = inverse3d(arm, f[0], f[1], f[2])
                 q_new = np.array([float(qq.phi), float(qq.alpha), float(qq.beta)])
-                inside = all(lo - 1e-9 <= v <= hi + 1e-9 for v, (lo, hi) in
-                             zip(q_new, (ctrl.lim.phi, ctrl.lim.alpha, ctrl.lim.beta)))
+                inside = ctrl.lim.contains(q_new, tol=1e-9)
                 if inside:
                     q = q_new
             if not inside and overstretched is None:

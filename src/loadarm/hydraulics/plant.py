@@ -27,6 +27,8 @@ import numpy as np
 from numba import njit
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
+from ..actuators import pin_lengths as _pin_lengths
+from ..actuators import pin_moment_arms as _pin_moment_arms
 from .components import (cylinder_friction, end_stop_force, pump_flow, relief_flow, valve_flows)
 
 __all__ = ["SIGNALS", "ENERGIES", "N_PARAMS", "arm_accelerations", "plant_rhs", "control_step", "encoder",
@@ -90,30 +92,24 @@ def _accelerations(P, sa, ca, sb, cb, ad, bd, ta, tb):
     return (m22 * r1 - m12 * r2) / det, (-m12 * r1 + m11 * r2) / det
 
 
+#: :func:`loadarm.actuators.pin_lengths` and :func:`~loadarm.actuators.pin_moment_arms` (Eqs 12-13 and their
+#: derivatives) compiled for scalars: the very functions the NumPy routes use, so the plant cannot drift.
+pin_lengths = njit(cache=True)(_pin_lengths)
+pin_moment_arms = njit(cache=True)(_pin_moment_arms)
+
+
+@njit(cache=True)
+def pin_geometry(P, ch, sh, sa, sb):
+    """Cylinder lengths and moment arms from the joint angles' (half-angle) sines and cosines."""
+    r1, r2 = pin_lengths(P[I_A1], P[I_B1], P[I_B2], P[I_C2], ch, sh)
+    h1, h2 = pin_moment_arms(P[I_A1], P[I_B1], P[I_B2], P[I_C2], sa, sb, r1, r2)
+    return r1, r2, h1, h2
+
+
 @njit(cache=True)
 def _geometry(P, a, b):
     """Cylinder lengths and moment arms (paper Eqs 12-13) at ``(alpha, beta)``."""
-    return _geometry_trig(P, math.sin(a), math.cos(a), math.sin(b), math.cos(b))
-
-
-@njit(cache=True)
-def _geometry_trig(P, sa, ca, sb, cb):
-    """:func:`_geometry` from the sines and cosines of the joint angles.
-
-    ``4 cos^2(alpha/2) = 2 (1 + cos alpha)`` and ``4 sin^2(beta/2) = 2 (1 - cos beta)``, so one sine and one
-    cosine per joint serve the geometry and the dynamics of a plant step. Where ``1 +- cos`` would cancel
-    (a triangle of pins nearly closing), it is taken as ``sin^2 / (1 -+ cos)``, which is exact there.
-    """
-    a1, b1, b2, c2 = P[I_A1], P[I_B1], P[I_B2], P[I_C2]
-    d1 = a1 - b1
-    d2 = c2 - b2
-    one_plus_ca = 1.0 + ca if ca >= 0.0 else sa * sa / (1.0 - ca)
-    one_minus_cb = 1.0 - cb if cb <= 0.0 else sb * sb / (1.0 + cb)
-    r1 = math.sqrt(d1 * d1 + 2.0 * a1 * b1 * one_plus_ca)
-    r2 = math.sqrt(d2 * d2 + 2.0 * c2 * b2 * one_minus_cb)
-    h1 = -a1 * b1 * sa / r1
-    h2 = b2 * c2 * sb / r2
-    return r1, r2, h1, h2
+    return pin_geometry(P, math.cos(0.5 * a), math.sin(0.5 * b), math.sin(a), math.sin(b))
 
 
 @njit(cache=True)
@@ -421,7 +417,7 @@ def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev
             ca = math.cos(a)
             sb = math.sin(b)
             cb = math.cos(b)
-            r1, r2, h1, h2 = _geometry_trig(P, sa, ca, sb, cb)
+            r1, r2, h1, h2 = pin_geometry(P, math.cos(0.5 * a), math.sin(0.5 * b), sa, sb)
             v0 = h1 * ad
             v1 = h2 * bd
             (xv0, vv0, pA0, pB0, F0, qP0, dqP0, cav0, dv0, dt0, dl0, dc0, df0, ds0, dw0) = _cylinder_step(

@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from loadarm.compiler import compile_model
 from loadarm.actuators import solve_ik_cylinders
 from loadarm.config import paper_installation
 from loadarm.geometry import Arm, Mounting
@@ -89,8 +90,8 @@ def test_peer_rtb_levenberg_marquardt(benchmark, results):
 
 
 def test_plan_call(benchmark, results):
-    inst = paper_installation()
-    plan = benchmark(plan_approach, inst, timing="smooth", samples=201)
+    model = compile_model(paper_installation())
+    plan = benchmark(plan_approach, model, timing="smooth", samples=201)
     results["plan_approach (201 samples) [ms]"] = benchmark.stats.stats.median * 1e3
     assert plan.t.size == 201
 
@@ -130,19 +131,18 @@ def test_zz_peer_ratio(results):
 def _paper_plan_no_settle():
     from loadarm.config import parse_config
 
-    inst = paper_installation()
-    d = inst.model_dump()
+    d = paper_installation().model_dump()
     d["controller"]["settle_time"] = 0.0
-    inst = parse_config(d)
-    return inst, plan_approach(inst, timing="paper", samples=2001)
+    model = compile_model(parse_config(d))
+    return model, plan_approach(model, timing="paper", samples=2001)
 
 
 def test_closed_loop_simulation_speed(benchmark, results):
     from loadarm.hydraulics.simulate import simulate_approach
 
-    inst, plan = _paper_plan_no_settle()
-    simulate_approach(inst, plan)            # compile (cached on disk after the first run)
-    res = benchmark.pedantic(simulate_approach, args=(inst, plan), rounds=7, warmup_rounds=1)
+    model, plan = _paper_plan_no_settle()
+    simulate_approach(model, plan)            # compile (cached on disk after the first run)
+    res = benchmark.pedantic(simulate_approach, args=(model, plan), rounds=7, warmup_rounds=1)
     wall = benchmark.stats.stats.min
     results["closed loop: simulated seconds (paper approach)"] = res.metrics["simulated_s"]
     results["closed loop: wall time [ms]"] = wall * 1e3
@@ -152,12 +152,12 @@ def test_closed_loop_simulation_speed(benchmark, results):
 def test_closed_loop_solve_ivp_naive_route(results):
     from loadarm.hydraulics.reference import reference_simulation
 
-    inst, plan = _paper_plan_no_settle()
+    model, plan = _paper_plan_no_settle()
     t_sim = 3.0
     walls = []
     for _ in range(3):                            # best of three, like the compiled route's best round
         t0 = time.perf_counter()
-        reference_simulation(inst, plan, t_sim)
+        reference_simulation(model, plan, t_sim)
         walls.append(time.perf_counter() - t0)
     wall = min(walls)
     results["solve_ivp route: real-time factor"] = t_sim / wall
@@ -185,8 +185,8 @@ def test_guidance_controller_cycle_p99(results):
     from loadarm.guidance.run import run_scenario
     from loadarm.guidance.scenario import load_scenario
 
-    sc, inst = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
-    r = run_scenario(sc, inst)
+    sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
+    r = run_scenario(sc, model)
     ref = np.empty(r.cycle_us.size)
     for i in range(ref.size):
         t0 = time.perf_counter()
@@ -207,12 +207,12 @@ def test_thirty_minute_scenario_in_seconds(results):
     from loadarm.guidance.run import run_scenario
     from loadarm.guidance.scenario import load_scenario, parse_scenario
 
-    sc, inst = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
+    sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
     d = sc.model_dump()
     d["scenario"]["duration"] = 1800.0
     sc = parse_scenario(d)
     t0 = time.perf_counter()
-    run_scenario(sc, inst)
+    run_scenario(sc, model)
     wall = time.perf_counter() - t0
     results["30-minute Hs 1.5 scenario at 50 Hz [s]"] = wall
     results["30-minute scenario: real-time factor"] = 1800.0 / wall

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, settings
 
+from loadarm.compiler import compile_model
 from loadarm.config import load_config, paper_installation
-from loadarm.geometry import arm_from_installation, mounting_from_installation
 
 settings.register_profile("ci", derandomize=True, deadline=None, max_examples=300,
                           suppress_health_check=[HealthCheck.too_slow])
@@ -26,13 +26,19 @@ def inst():
 
 
 @pytest.fixture(scope="session")
-def arm(inst):
-    return arm_from_installation(inst)
+def model(inst):
+    """The paper's case compiled: what every computation takes."""
+    return compile_model(inst)
 
 
 @pytest.fixture(scope="session")
-def mount(inst):
-    return mounting_from_installation(inst)
+def arm(model):
+    return model.arm
+
+
+@pytest.fixture(scope="session")
+def mount(model):
+    return model.mount
 
 
 @pytest.fixture(scope="session")

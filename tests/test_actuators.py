@@ -139,9 +139,9 @@ def test_fused_solver_refuses_unreachable_and_bad_shapes(arm, mount):
         solve_ik_cylinders(arm, mount, np.array([5.0]), np.array([5.0, 0.0]))
 
 
-def test_coupler_from_encoder_readings_along_the_paper_plan(inst, arm, mount):
+def test_coupler_from_encoder_readings_along_the_paper_plan(model, arm, mount):
     from loadarm.actuators import coupler_from_cylinders
     from loadarm.trajectory import plan_approach
-    p = plan_approach(inst, samples=101)
+    p = plan_approach(model, samples=101)
     x, y = coupler_from_cylinders(arm, mount, p.r_ac1, p.r_ac2)
     assert np.max(np.hypot(x - p.x, y - p.y)) < 1e-9

@@ -9,10 +9,11 @@ import math
 
 import pytest
 
+from loadarm.compiler import compile_model
 from loadarm.config import load_config
-from loadarm.envelope import alarms_from_installation, zone_radii
+from loadarm.envelope import zone_radii
 from loadarm.errors import UnreachableError
-from loadarm.geometry import Arm, arm_from_installation
+from loadarm.geometry import Arm
 from loadarm.kinematics import inverse
 from loadarm.sizing import check_corners, size_arm, size_installation
 from loadarm.trajectory import plan_approach
@@ -44,7 +45,7 @@ def test_sizing_page(paper):
     cb = math.cos(math.radians(123.0))
     b_end = 10.0 * cb + math.sqrt(res.r_alarm ** 2 - 100.0 * (1 - cb * cb))
     cited("docs/sizing.md", f"`({b_end:.3f}, 10)`")
-    corner = check_corners(arm_from_installation(paper), alarms_from_installation(paper), paper)[3]
+    corner = check_corners(compile_model(paper).arm, compile_model(paper).alarms, paper)[3]
     cited("docs/sizing.md", f"`beta = {math.degrees(corner.beta):.2f} deg`")
     cited("README.md", f"corner is at {math.degrees(corner.beta):.2f} deg")
     with pytest.raises(Exception) as e:
@@ -54,9 +55,9 @@ def test_sizing_page(paper):
 
 
 def test_approach_and_actuator_pages(paper):
-    p = plan_approach(paper, timing="paper", samples=401)
-    s = plan_approach(paper, timing="smooth", samples=401)
-    o = plan_approach(paper, timing="optimal", samples=401)
+    p = plan_approach(compile_model(paper), timing="paper", samples=401)
+    s = plan_approach(compile_model(paper), timing="smooth", samples=401)
+    o = plan_approach(compile_model(paper), timing="optimal", samples=401)
     cited("docs/approach.md", f"`(14 - 3.82) / 0.15 = {p.duration:.2f} s`")
     peak = p.summary()["peak_path_speed_m_s"]
     cited("docs/approach.md", f"{peak:.3f} m/s on the paper's line, i.e. {round(100 * (peak / 0.15 - 1))} % above")
@@ -69,7 +70,7 @@ def test_approach_and_actuator_pages(paper):
 
 
 def test_envelope_and_kinematics_pages(paper):
-    radii = zone_radii(arm_from_installation(paper), alarms_from_installation(paper))
+    radii = zone_radii(compile_model(paper).arm, compile_model(paper).alarms)
     cited("docs/envelope.md", "{:.2f}, {:.2f}, {:.2f} m".format(radii["first"], radii["second"], radii["release"]))
     with pytest.raises(UnreachableError) as e:
         inverse(Arm(7.0, 12.0, 8.2), 30.0, 0.0)
@@ -78,7 +79,7 @@ def test_envelope_and_kinematics_pages(paper):
 
 def test_approach_refusal_message(paper):
     with pytest.raises(UnreachableError) as e:
-        plan_approach(paper, target=(30.0, 0.0))
+        plan_approach(compile_model(paper), target=(30.0, 0.0))
     head = str(e.value).split(": farthest")[0]
     cited("docs/approach.md", head)
 
@@ -100,18 +101,17 @@ def test_readme_accuracy_claims(paper):
     import numpy as np
 
     from loadarm.actuators import solve_ik_cylinders
-    from loadarm.geometry import mounting_from_installation
     from loadarm.kinematics import forward
     from loadarm.multibody import verify_kinematics
 
     cited("README.md", "7e-15 m round-trip error")
     cited("README.md", "match the closed form to 2e-9 deg and 2e-8 mm")
-    arm, mount = arm_from_installation(paper), mounting_from_installation(paper)
+    arm, mount = compile_model(paper).arm, compile_model(paper).mount
     t = np.linspace(0.0, 1.0, 100_001)
     x, y = 3.82 + t * (14.0 - 3.82), 10.4 + t * (1.0 - 10.4)
     alpha, beta, _, _ = solve_ik_cylinders(arm, mount, x, y)
     xf, yf = forward(arm, alpha, beta)
     assert float(np.max(np.hypot(xf - x, yf - y))) < 7.5e-15
-    v = verify_kinematics(paper, plan_approach(paper, timing="paper", samples=201)).summary()
+    v = verify_kinematics(compile_model(paper), plan_approach(compile_model(paper), timing="paper", samples=201)).summary()
     assert max(v["max_alpha_diff_deg"], v["max_beta_diff_deg"]) < 2.5e-9
     assert max(v["max_r_ac1_diff_mm"], v["max_r_ac2_diff_mm"]) < 2.5e-8

@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from loadarm.compiler import compile_model
 from loadarm.balancing import balance_counterweights, envelope_grid
 from loadarm.config import parse_config
 from loadarm.dynamics import (G, chamber_pressures, cylinder_areas, cylinder_forces, joint_torques, mass_model,
@@ -45,8 +46,8 @@ def _potential(mm, alpha, beta):
     return sum(G * l.mass * y for l, _, y, _ in _positions(mm, alpha, beta))
 
 
-def test_coupler_lump_sits_at_the_coupler(inst):
-    mm = mass_model(inst)
+def test_coupler_lump_sits_at_the_coupler(model):
+    mm = mass_model(model)
     for l, x, y, _ in _positions(mm, 0.4, 0.9):
         if l.name == "coupler":
             assert (x, y) == pytest.approx(tuple(float(v) for v in forward(mm.arm, 0.4, 0.9)), abs=1e-12)
@@ -55,7 +56,7 @@ def test_coupler_lump_sits_at_the_coupler(inst):
 @given(st.floats(-1.0, 2.5), st.floats(0.05, 3.0), st.sampled_from([0.0, 0.5, 1.0]))
 def test_static_torque_is_the_gradient_of_potential_energy(alpha, beta, fill):
     from loadarm.config import paper_installation
-    mm = mass_model(paper_installation(), fill=fill)
+    mm = mass_model(compile_model(paper_installation()), fill=fill)
     ta, tb = static_torques(mm, alpha, beta)
     h = 1e-6
     dva = (_potential(mm, alpha + h, beta) - _potential(mm, alpha - h, beta)) / (2 * h)
@@ -65,10 +66,10 @@ def test_static_torque_is_the_gradient_of_potential_energy(alpha, beta, fill):
     assert float(tb) == pytest.approx(dvb, abs=1e-7 * scale)
 
 
-def test_power_equals_rate_of_mechanical_energy(inst):
+def test_power_equals_rate_of_mechanical_energy(model):
     """Physical law: tau . qdot = d(T + V)/dt along the smooth approach."""
-    p = plan_approach(inst, timing="smooth", samples=20001)
-    mm = mass_model(inst, fill=1.0)
+    p = plan_approach(model, timing="smooth", samples=20001)
+    mm = mass_model(model, fill=1.0)
     ta, tb = joint_torques(mm, p.alpha, p.beta, p.alpha_dot, p.beta_dot, p.alpha_ddot, p.beta_ddot)
     power = ta * p.alpha_dot + tb * p.beta_dot
     energy = np.zeros_like(p.t)
@@ -92,8 +93,9 @@ def test_power_equals_rate_of_mechanical_energy(inst):
 def test_inverse_dynamics_matches_mujoco(seed):
     from loadarm.config import paper_installation
     inst = paper_installation()
+    model = compile_model(inst)
     rng = np.random.default_rng(seed)
-    mm = mass_model(inst, fill=float(rng.uniform(0, 1)))
+    mm = mass_model(model, fill=float(rng.uniform(0, 1)))
     q = [rng.uniform(-0.5, 2.0, 8), rng.uniform(0.1, 2.8, 8)] + [rng.uniform(-0.3, 0.3, 8) for _ in range(4)]
     mine = joint_torques(mm, *q)
     theirs = inverse_dynamics(mm, Mounting(1, 1, 1.5, 0.5), *q)
@@ -105,9 +107,9 @@ def test_inverse_dynamics_matches_mujoco(seed):
         assert np.all(np.abs(a[big] - b[big]) <= 0.01 * np.abs(b[big]))
 
 
-def test_moment_arms_match_mujoco_tendon_jacobian_and_finite_differences(inst, mount):
+def test_moment_arms_match_mujoco_tendon_jacobian_and_finite_differences(model, mount):
     from loadarm.actuators import cylinder_lengths
-    mm = mass_model(inst)
+    mm = mass_model(model)
     alpha = np.linspace(0.05, 2.5, 12)
     beta = np.linspace(0.1, 2.9, 12)
     h1, h2 = moment_arms(mount, alpha, beta)
@@ -145,8 +147,8 @@ def test_cylinder_areas_validation():
         cylinder_areas(0.1, 0.2)
 
 
-def test_drained_balance_is_exact_and_matches_hand_calculation(inst):
-    res = balance_counterweights(inst, fills=(0.0,))
+def test_drained_balance_is_exact_and_matches_hand_calculation(model, inst):
+    res = balance_counterweights(model, fills=(0.0,))
     ms = inst.masses
     b, c = inst.arm.inboard, inst.arm.outboard
     m_in, m_out = ms.inboard_kg_per_m * b, ms.outboard_kg_per_m * c
@@ -159,15 +161,15 @@ def test_drained_balance_is_exact_and_matches_hand_calculation(inst):
     assert res.max_torque < 1e-3
 
 
-def test_minimax_balance_cannot_be_beaten(inst):
-    res = balance_counterweights(inst, spacing=0.5)
+def test_minimax_balance_cannot_be_beaten(model, inst):
+    res = balance_counterweights(model, spacing=0.5)
     grid = res.grid
     best = res.max_torque
     for d1 in np.linspace(-800, 800, 9):
         for d2 in np.linspace(-800, 800, 9):
             worst = 0.0
             for f in res.fills:
-                mm = mass_model(inst, fill=f).with_counterweights(res.counterweight_inboard_kg + d1,
+                mm = mass_model(model, fill=f).with_counterweights(res.counterweight_inboard_kg + d1,
                                                                  res.counterweight_outboard_kg + d2)
                 ta, tb = static_torques(mm, grid.alpha, grid.beta)
                 worst = max(worst, float(np.abs(ta).max()), float(np.abs(tb).max()))
@@ -177,39 +179,39 @@ def test_minimax_balance_cannot_be_beaten(inst):
     assert round(res.counterweight_outboard_kg, -2) == inst.masses.counterweight_outboard_kg
 
 
-def test_minimax_over_drained_and_full_balances_the_half_full_arm(inst):
+def test_minimax_over_drained_and_full_balances_the_half_full_arm(model):
     # torques are affine in the fill, so the minimax over fills {0, 1} is the exact balance at fill 0.5
-    res = balance_counterweights(inst)
-    half = balance_counterweights(inst, fills=(0.5,))
+    res = balance_counterweights(model)
+    half = balance_counterweights(model, fills=(0.5,))
     assert half.max_torque < 1e-3
     assert res.counterweight_inboard_kg == pytest.approx(half.counterweight_inboard_kg, rel=1e-6)
     assert res.counterweight_outboard_kg == pytest.approx(half.counterweight_outboard_kg, rel=1e-6)
 
 
-def test_envelope_grid_covers_box_and_stays_below_release(inst, arm):
-    g = envelope_grid(inst, spacing=0.5)
+def test_envelope_grid_covers_box_and_stays_below_release(model, inst, arm):
+    g = envelope_grid(model, spacing=0.5)
     assert g.x.size > 100
     assert np.all(g.beta < inst.alarms.release)
     with pytest.raises(ValueError, match="spacing must be > 0"):
-        envelope_grid(inst, spacing=0.0)
+        envelope_grid(model, spacing=0.0)
 
 
-def test_actuator_loads_consistent(inst):
-    p = plan_approach(inst, timing="smooth", samples=401)
-    ld = actuator_loads(inst, p)
+def test_actuator_loads_consistent(model, inst):
+    p = plan_approach(model, timing="smooth", samples=401)
+    ld = actuator_loads(model, p)
     Ap, Aa = cylinder_areas(inst.cylinders.bore, inst.cylinders.rod)
     assert np.allclose(ld.flow1, np.where(p.v_ac1 >= 0, Ap * p.v_ac1, -Aa * p.v_ac1))
     s = ld.summary()
     assert s["cylinder1"]["peak_flow_L_min"] == pytest.approx(np.max(ld.flow1) * 60e3)
     assert s["cylinder2"]["pressure_ok"] is True
     # filling the arm changes the holding torques: the loads must differ
-    full = actuator_loads(inst, p, fill=1.0)
+    full = actuator_loads(model, p, fill=1.0)
     assert not np.allclose(full.force1, ld.force1)
 
 
-def test_mass_model_validation(inst):
+def test_mass_model_validation(model, inst):
     with pytest.raises(ValueError, match=r"fill must be in \[0, 1\]"):
-        mass_model(inst, fill=1.5)
+        mass_model(model, fill=1.5)
     d = inst.model_dump()
     d["cylinders"]["rod"] = 0.2
     with pytest.raises(ValueError, match=r"cylinders.rod \(0.2 m\) must be smaller than cylinders.bore"):

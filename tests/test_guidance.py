@@ -7,6 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from loadarm.compiler import compile_model
 from loadarm.errors import ConfigError
 from loadarm.eventlog import EventLog
 from loadarm.guidance.controller import AlarmThresholds, GuidanceController, Mode, OperatorInput
@@ -50,7 +51,7 @@ def test_hs15_tracks_the_moving_flange_without_false_alarm(runs):
     assert so.sum() > 100 and np.percentile(err, 95) < 0.3
 
 
-def test_driftoff_alarms_in_order_and_releases_before_the_limit(runs):
+def test_driftoff_alarms_in_order_and_releases_before_the_limit(model, runs):
     sc, inst, r = runs["driftoff"]
     s = r.summary()
     assert s["alarm1_s"] < s["alarm2_s"] < s["release_s"] < s["release_complete_s"]
@@ -58,7 +59,7 @@ def test_driftoff_alarms_in_order_and_releases_before_the_limit(runs):
     assert s["mode_sequence"][:8] == ["STORED", "APPROACH", "STANDOFF", "CONNECTED", "ALARM1", "ALARM2", "RELEASE",
                                       "RETURN"]
     # at release completion the arm is still short of its hard limit (stroke end / full stretch)
-    ctrl = GuidanceController(inst, sc.guidance)
+    ctrl = GuidanceController(model, sc.guidance)
     k = int(np.searchsorted(r.signals["t"], s["release_complete_s"]))
     assert r.signals["beta"][k] < ctrl.lim.beta[1]
     # the ESD-1 sequence had its full time before the release started (measured: 11.3 s for esd_time 10 s);
@@ -120,8 +121,8 @@ def test_event_log_of_a_run_replays_its_mode_sequence(tmp_path):
 
 # ---------------------------------------------------------------- controller rules, one by one
 
-def _ctrl(inst):
-    return GuidanceController(inst, Scenario().guidance)
+def _ctrl(model):
+    return GuidanceController(model, Scenario().guidance)
 
 
 def _est(p, healthy=True, v=(0.0, 0.0, 0.0)):
@@ -133,8 +134,8 @@ def _stored_q(ctrl):
     return (float(q.phi), float(q.alpha), float(q.beta))
 
 
-def test_no_motion_without_a_healthy_estimate(inst):
-    c = _ctrl(inst)
+def test_no_motion_without_a_healthy_estimate(model):
+    c = _ctrl(model)
     q = _stored_q(c)
     cmd = c.step(0.0, q, _est((14.0, 0.0, 1.0)), OperatorInput(("start",)))
     assert cmd.mode == Mode.APPROACH
@@ -143,7 +144,7 @@ def test_no_motion_without_a_healthy_estimate(inst):
     cmd = c.step(0.04, q, _est((14.0, 0.0, 1.0), healthy=False))
     assert cmd.mode == Mode.HOLD and cmd.rates == (0.0, 0.0, 0.0)
     # and no start at all without an estimate
-    c2 = _ctrl(inst)
+    c2 = _ctrl(model)
     cmd = c2.step(0.0, q, _est((14.0, 0.0, 1.0), healthy=False), OperatorInput(("start",)))
     assert cmd.mode == Mode.STORED and cmd.rates == (0.0, 0.0, 0.0)
     assert any("approach refused: no fresh flange estimate" in e[1] for e in cmd.events)
@@ -152,17 +153,17 @@ def test_no_motion_without_a_healthy_estimate(inst):
 @pytest.mark.parametrize("flange,why", [((30.0, 0.0, 0.0), "out of the arm's reach"),
                                         ((17.5, 0.0, -4.5), "beyond the first alarm"),
                                         ((10.0, 9.0, 1.0), "beyond the slew alarm")])
-def test_target_outside_the_envelope_is_refused(inst, flange, why):
-    c = _ctrl(inst)
+def test_target_outside_the_envelope_is_refused(model, flange, why):
+    c = _ctrl(model)
     cmd = c.step(0.0, _stored_q(c), _est(flange), OperatorInput(("start",)))
     assert cmd.mode == Mode.STORED and cmd.rates == (0.0, 0.0, 0.0)
     assert any(why in e[1] for e in cmd.events)
 
 
-def test_emergency_stop_from_any_mode(inst):
+def test_emergency_stop_from_any_mode(model):
     for target_mode in (Mode.STORED, Mode.APPROACH, Mode.STANDOFF, Mode.CONNECTED, Mode.RETURN, Mode.MANUAL,
                         Mode.HOLD, Mode.ALARM1):
-        c = _ctrl(inst)
+        c = _ctrl(model)
         c.s.mode = target_mode
         cmd = c.step(1.0, _stored_q(c), _est((14.0, 0.0, 1.0)), OperatorInput(("estop",)))
         assert cmd.mode == Mode.ESTOP and cmd.rates == (0.0, 0.0, 0.0), target_mode
@@ -174,7 +175,7 @@ def test_emergency_stop_from_any_mode(inst):
 @given(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1))
 def test_commands_never_cross_a_joint_or_stroke_limit(u0, u1, u2, w0, w1, w2):
     from loadarm.config import paper_installation
-    c = _ctrl(paper_installation())
+    c = _ctrl(compile_model(paper_installation()))
     lims = (c.lim.phi, c.lim.alpha, c.lim.beta)
     q = tuple(lo + (hi - lo) * (0.5 + 0.5 * u) for (lo, hi), u in zip(lims, (u0, u1, u2)))
     qd = c._limit(q, np.array([w0, w1, w2]) * 10)
@@ -188,7 +189,8 @@ def test_commands_never_cross_a_joint_or_stroke_limit(u0, u1, u2, w0, w1, w2):
 def test_faster_drift_alarms_earlier(v_slow, v_fast):
     from loadarm.config import paper_installation
     inst = paper_installation()
-    thr = AlarmThresholds.from_settings(inst, Scenario().guidance)
+    model = compile_model(inst)
+    thr = AlarmThresholds.from_settings(model, Scenario().guidance)
     v_slow, v_fast = sorted((v_slow, v_fast))
     arm_b, arm_c = inst.arm.inboard, inst.arm.outboard
 
@@ -203,9 +205,9 @@ def test_faster_drift_alarms_earlier(v_slow, v_fast):
     assert first_alarm_beta(v_slow) <= inst.alarms.first + 1e-3       # position alarm still applies
 
 
-def test_alarm_levels_follow_the_sequence_times(inst):
+def test_alarm_levels_follow_the_sequence_times(model, inst):
     g = Scenario().guidance
-    thr = AlarmThresholds.from_settings(inst, g)
+    thr = AlarmThresholds.from_settings(model, g)
     v = 0.2
     r_at = lambda ttl: thr.r_release - v * ttl
     assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin + 1), v, 0.0)[0] == 0
@@ -215,8 +217,8 @@ def test_alarm_levels_follow_the_sequence_times(inst):
     assert thr.level(0.0, math.radians(inst.slew.release_deg), 15.0, 0.0, 0.0)[0] == 3
 
 
-def test_manual_jog_moves_the_coupler_as_commanded(inst):
-    c = _ctrl(inst)
+def test_manual_jog_moves_the_coupler_as_commanded(model, inst):
+    c = _ctrl(model)
     q0 = inverse3d(c.arm, 10.0, 1.0, 4.0)
     q = (float(q0.phi), float(q0.alpha), float(q0.beta))
     c.step(0.0, q, _est((14.0, 0.0, 1.0)), OperatorInput(("manual",)))
@@ -241,7 +243,7 @@ def test_manual_jog_moves_the_coupler_as_commanded(inst):
 
 # ---------------------------------------------------------------- estimator and sea
 
-def test_estimator_tracks_rejects_outliers_and_reports_health():
+def test_estimator_tracks_rejects_outliers_and_reports_health(model):
     rng = np.random.default_rng(0)
     est = FlangeEstimator(noise=0.01, max_age=0.5)
     v = np.array([0.1, -0.05, 0.02])
@@ -306,7 +308,8 @@ def test_scenario_validation(tmp_path):
     with pytest.raises(ConfigError, match=r"guidance.standoff = 0: .*valid range \(0, 10\] m"):
         load_scenario(bad)
     from loadarm.config import parse_config
-    d = load_scenario(SCEN / "calm.toml")[1].model_dump()
+    from loadarm.config import load_config
+    d = load_config(SCEN.parent / "paper.toml").model_dump()
     d["slew"]["first_deg"] = 39.0
     with pytest.raises(ConfigError, match="slew angles must increase"):
         parse_config(d)
@@ -361,11 +364,12 @@ def test_controller_jacobian_is_the_kinematics_jacobian(phi, alpha, beta):
     from loadarm.kinematics import jacobian
     from loadarm.slew import forward3d
 
-    c = _ctrl(paper_installation())
+    c = _ctrl(compile_model(paper_installation()))
     J3 = c._jacobian3d(phi, alpha, beta)
     J2 = jacobian(c.arm, np.float64(alpha), np.float64(beta))
     cp, sp = math.cos(phi), math.sin(phi)
     assert J3[0, 1] == J2[0, 0] * cp and J3[0, 2] == J2[0, 1] * cp
+    assert J3[1, 1] == J2[0, 0] * sp and J3[1, 2] == J2[0, 1] * sp
     assert J3[2, 1] == J2[1, 0] and J3[2, 2] == J2[1, 1]
     h = 1e-6
     for j in range(3):

@@ -19,9 +19,9 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from loadarm.compiler import compile_model
 from loadarm.config import parse_config
 from loadarm.dynamics import cylinder_areas, mass_model, moment_arms, static_torques
-from loadarm.geometry import mounting_from_installation
 from loadarm.hydraulics import plant
 from loadarm.hydraulics.components import (effective_opening, orifice_flow, orifice_slope, pump_flow, relief_flow,
                                            spool_discretisation, valve_coefficient, valve_flows)
@@ -89,10 +89,10 @@ def test_spool_discretisation_is_exact():
         assert x[0] == pytest.approx(exact, abs=1e-12)
 
 
-def test_chamber_pressure_build_up_follows_the_bulk_modulus_law(inst):
+def test_chamber_pressure_build_up_follows_the_bulk_modulus_law(model, inst):
     """Piston held, valve open 20 %: dp/dt = beta/V kv x sqrt(ps - p), solved exactly."""
     ps, p0, x0, spool = 210e5, 50e5, 0.3, 0.2
-    r = cylinder_rig(inst, mass=1e15, duration=0.2, x0=x0, spool=spool, pA0=p0, pB0=0.0, supply=ps,
+    r = cylinder_rig(model, mass=1e15, duration=0.2, x0=x0, spool=spool, pA0=p0, pB0=0.0, supply=ps,
                      overrides={"I_CLEAK": 0.0, "I_FC": 0.0, "I_BVISC": 0.0})
     cy = inst.cylinders
     Ap, _ = cylinder_areas(cy.bore, cy.rod)
@@ -108,7 +108,7 @@ def test_chamber_pressure_build_up_follows_the_bulk_modulus_law(inst):
     assert np.max(np.abs(r["x"] - x0)) < 1e-9          # the piston really was held
 
 
-def test_hydraulic_natural_frequency_matches_the_textbook(inst):
+def test_hydraulic_natural_frequency_matches_the_textbook(model, inst):
     """Closed valve, no friction, no leakage: omega = sqrt(beta (Ap^2/VA + Aa^2/VB) / m)."""
     cy = inst.cylinders
     Ap, Aa = cylinder_areas(cy.bore, cy.rod)
@@ -117,7 +117,7 @@ def test_hydraulic_natural_frequency_matches_the_textbook(inst):
     VA, VB = cy.dead_volume + Ap * x0, cy.dead_volume + Aa * (stroke - x0)
     pB0 = 50e5
     pA0 = pB0 * Aa / Ap                        # force balance at rest
-    r = cylinder_rig(inst, mass=m, duration=3.0, x0=x0, spool=0.0, force=2e3, pA0=pA0, pB0=pB0,
+    r = cylinder_rig(model, mass=m, duration=3.0, x0=x0, spool=0.0, force=2e3, pA0=pA0, pB0=pB0,
                      overrides={"I_CLEAK": 0.0, "I_FC": 0.0, "I_BVISC": 0.0})
     x = r["x"] - np.mean(r["x"])
     crossings = np.flatnonzero(np.diff(np.sign(x)) != 0)
@@ -129,14 +129,14 @@ def test_hydraulic_natural_frequency_matches_the_textbook(inst):
     assert omega_text > math.sqrt(cy.bulk_modulus * Ap ** 2 / (VA * m))
 
 
-def test_static_hold_balances_the_gravity_torques(inst):
+def test_static_hold_balances_the_gravity_torques(model, inst):
     """Start both drives at 50 bar in both chambers; the loop must end holding the static torques."""
     alpha, beta = 0.6, 0.9
-    h = simulate_hold(inst, alpha, beta, 60.0, pressures=(50e5, 50e5, 50e5, 50e5))
+    h = simulate_hold(model, alpha, beta, 60.0, pressures=(50e5, 50e5, 50e5, 50e5))
     cy = inst.cylinders
     Ap, Aa = cylinder_areas(cy.bore, cy.rod)
-    ta, tb = static_torques(mass_model(inst), alpha, beta)
-    h1, h2 = moment_arms(mounting_from_installation(inst), alpha, beta)
+    ta, tb = static_torques(mass_model(model), alpha, beta)
+    h1, h2 = moment_arms(model.mount, alpha, beta)
     for i, (tau, arm) in enumerate(((ta, h1), (tb, h2)), start=1):
         f_need = float(tau / arm)
         f_hyd = h[f"pA{i}"][-1] * Ap - h[f"pB{i}"][-1] * Aa
@@ -145,10 +145,10 @@ def test_static_hold_balances_the_gravity_torques(inst):
     assert abs(h["alpha"][-1] - alpha) < 1e-4 and abs(h["beta"][-1] - beta) < 1e-4
 
 
-def test_hold_from_static_pressures_does_not_move(inst):
+def test_hold_from_static_pressures_does_not_move(model):
     # started with the static holding pressures (the other chamber at return pressure), the arm settles
     # into the loop's stiffness: both cylinders stay within half a millimetre of their reference
-    h = simulate_hold(inst, 0.6, 0.9, 5.0)
+    h = simulate_hold(model, 0.6, 0.9, 5.0)
     for i in (1, 2):
         assert np.max(np.abs(h[f"r{i}"] - h[f"r{i}_ref"])) < 5e-4
 
@@ -157,8 +157,9 @@ def test_hold_from_static_pressures_does_not_move(inst):
 def smooth_run(request):
     from loadarm.config import paper_installation
     inst = paper_installation()
-    plan = plan_approach(inst, timing="smooth", samples=2001)
-    return inst, plan, simulate_approach(inst, plan)
+    model = compile_model(inst)
+    plan = plan_approach(model, timing="smooth", samples=2001)
+    return inst, plan, simulate_approach(model, plan)
 
 
 def test_energy_bookkeeping_closes(smooth_run):
@@ -186,41 +187,41 @@ REFERENCE_TOL = {"alpha": 5e-5, "beta": 5e-5, "pA1": 0.5e5, "pB1": 0.5e5, "pA2":
                  "u1": 0.01, "u2": 0.01}
 
 
-def test_fixed_step_simulator_matches_solve_ivp_reference(smooth_run):
+def test_fixed_step_simulator_matches_solve_ivp_reference(model, smooth_run):
     inst, plan, _ = smooth_run
-    fast = simulate_approach(inst, plan, log_rate=inst.controller.rate)
-    ref = reference_simulation(inst, plan, 3.0)
+    fast = simulate_approach(model, plan, log_rate=inst.controller.rate)
+    ref = reference_simulation(model, plan, 3.0)
     n = ref["t"].size
     assert np.allclose(fast.signals["t"][:n], ref["t"])
     for name, tol in REFERENCE_TOL.items():
         assert np.max(np.abs(fast.signals[name][:n] - ref[name])) < tol, name
 
 
-def test_substeps_converge(smooth_run):
+def test_substeps_converge(model, smooth_run):
     inst, plan, r = smooth_run
-    fine = simulate_approach(inst, plan, substeps=16).summary()
+    fine = simulate_approach(model, plan, substeps=16).summary()
     assert fine["max_deviation_mm"] == pytest.approx(r.summary()["max_deviation_mm"], rel=0.02)
 
 
-def test_paper_timing_deviates_more_than_smooth(smooth_run):
+def test_paper_timing_deviates_more_than_smooth(model, smooth_run):
     inst, _, r = smooth_run
-    paper = simulate_approach(inst, plan_approach(inst, timing="paper", samples=2001)).summary()
+    paper = simulate_approach(model, plan_approach(model, timing="paper", samples=2001)).summary()
     assert paper["max_deviation_mm"] > 2 * r.summary()["max_deviation_mm"]
 
 
 @pytest.mark.parametrize("gains", [{"kp": 1e4}, {"kp": 1e6, "ki": 1e5}])
-def test_unstable_gains_stop_with_a_clear_message(smooth_run, gains):
+def test_unstable_gains_stop_with_a_clear_message(model, smooth_run, gains):
     inst, plan, _ = smooth_run
     with pytest.raises(SimulationError, match=r"simulation stopped at t = .* s: .*check the controller gains"):
-        simulate_approach(inst, plan, gains=gains)
+        simulate_approach(model, plan, gains=gains)
 
 
-def test_bad_simulation_arguments(smooth_run):
+def test_bad_simulation_arguments(model, smooth_run):
     inst, plan, _ = smooth_run
     with pytest.raises(ValueError, match="unknown gain"):
-        simulate_approach(inst, plan, gains={"kq": 1.0})
+        simulate_approach(model, plan, gains={"kq": 1.0})
     with pytest.raises(ValueError, match=r"substeps must be in \[1, 1000\]"):
-        simulate_approach(inst, plan, substeps=0)
+        simulate_approach(model, plan, substeps=0)
     d = inst.model_dump()
     d["pump"]["relief_pressure"] = 100e5
     with pytest.raises(ValueError, match="relief_pressure"):
@@ -230,7 +231,7 @@ def test_bad_simulation_arguments(smooth_run):
 def test_optimal_timing_respects_every_limit_between_grid_points(inst):
     d = inst.model_dump()
     d["approach"]["max_cylinder_accel"] = 0.001      # make the cylinder limits bind
-    tight = parse_config(d)
+    tight = compile_model(parse_config(d))
     p = plan_approach(tight, timing="optimal", samples=20001)
     smooth = plan_approach(tight, timing="smooth", samples=20001)
     dt = p.t[1] - p.t[0]
@@ -243,14 +244,14 @@ def test_optimal_timing_respects_every_limit_between_grid_points(inst):
     assert p.duration > smooth.duration
 
 
-def test_optimal_equals_trapezoid_when_only_the_path_limits_bind(inst):
-    p = plan_approach(inst, timing="optimal", samples=2001)
-    s = plan_approach(inst, timing="smooth", samples=2001)
+def test_optimal_equals_trapezoid_when_only_the_path_limits_bind(model):
+    p = plan_approach(model, timing="optimal", samples=2001)
+    s = plan_approach(model, timing="smooth", samples=2001)
     assert p.duration == pytest.approx(s.duration, rel=2e-3)
     assert p.duration >= s.duration * (1 - 1e-4)      # nothing beats the trapezoid under path limits alone
 
 
-def test_plant_parameters_vector_is_complete(inst):
+def test_plant_parameters_vector_is_complete(model, inst):
     """Every slot of the parameter vector has exactly one named index and is filled.
 
     Found weak: `isfinite` on a zero-initialised vector could not fail. The vector now starts as NaN, and the
@@ -259,22 +260,21 @@ def test_plant_parameters_vector_is_complete(inst):
     from loadarm.hydraulics.simulate import pack_parameters
     idx = sorted(v for k, v in vars(plant).items() if k.startswith("I_") and isinstance(v, int))
     assert idx == list(range(plant.N_PARAMS)), "gaps or duplicates among plant.I_* indices"
-    P = pack_parameters(inst)
+    P = pack_parameters(model)
     assert P.shape == (plant.N_PARAMS,) and np.all(np.isfinite(P))
     assert P[plant.I_FELIM] == inst.controller.following_error_limit
 
 
-def test_plant_geometry_is_the_vectorised_formula_bit_for_bit(inst):
+def test_plant_geometry_is_the_vectorised_formula_bit_for_bit(model):
     """The 1 kHz plant compiles actuators.pin_geometry itself: given the same sines and cosines it returns the
     same bits as the NumPy route, over the whole joint range including nearly closed pin triangles
     (alpha -> pi, beta -> 0). Only the trigonometric inputs may differ between NumPy and libm (<= 1 ulp), so
     the plant's full _geometry is held to 1e-14 m of actuators.cylinder_lengths / moment_arms."""
     from loadarm.actuators import cylinder_lengths, moment_arms, pin_lengths, pin_moment_arms
-    from loadarm.geometry import mounting_from_installation
     from loadarm.hydraulics.simulate import pack_parameters
 
-    P = pack_parameters(inst)
-    mount = mounting_from_installation(inst)
+    P = pack_parameters(model)
+    mount = model.mount
     a = np.concatenate([np.linspace(0.0, np.pi, 400), np.pi - np.logspace(-8, -1, 50)])
     b = np.concatenate([np.linspace(0.0, np.pi, 400), np.logspace(-8, -1, 50)])
     trig = (np.cos(0.5 * a), np.sin(0.5 * b), np.sin(a), np.sin(b))

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from loadarm.compiler import compile_model
 from loadarm.config import parse_config
 from loadarm.dynamics import mass_model
-from loadarm.geometry import arm_from_installation, mounting_from_installation
 from loadarm.multibody import build_mjcf, load_model, verify_kinematics
 from loadarm.trajectory import plan_approach
 
@@ -25,7 +25,7 @@ def _variant(inst, arm=None, mount=None, stored=None, flange=None, masses=None):
         d["approach"]["flange"] = flange
     if masses:
         d["masses"].update(masses)
-    return parse_config(d)
+    return compile_model(parse_config(d))
 
 
 CASES = {
@@ -49,12 +49,12 @@ def test_mujoco_agrees_with_closed_form(inst, name):
     assert s["max_angle_diff_deg"] < 1e-6 and s["max_length_diff_mm"] < 1e-5
 
 
-def test_mjcf_is_self_consistent(inst):
-    xml = build_mjcf(arm_from_installation(inst), mounting_from_installation(inst), mass_model(inst))
+def test_mjcf_is_self_consistent(model):
+    xml = build_mjcf(model.arm, model.mount, mass_model(model))
     m = load_model(xml)
     assert m.njnt == 3 and m.ntendon == 2
     # MuJoCo's total mass equals the mass model's (+ the 1e-6 kg coupler-tip marker)
-    assert float(m.body_mass.sum()) == pytest.approx(mass_model(inst).total_mass + 1e-6, rel=1e-12)
-    kin = load_model(build_mjcf(arm_from_installation(inst), mounting_from_installation(inst), mass_model(inst),
+    assert float(m.body_mass.sum()) == pytest.approx(mass_model(model).total_mass + 1e-6, rel=1e-12)
+    kin = load_model(build_mjcf(model.arm, model.mount, mass_model(model),
                                 kinematic=True))
     assert kin.neq == 2 and kin.nmocap == 1 and np.allclose(kin.opt.gravity, 0)

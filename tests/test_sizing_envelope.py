@@ -7,8 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.envelope import (AlarmAngles, Zone, alarms_from_installation, berth_box, classify_beta,
-                              classify_point, zone_radii)
+from loadarm.envelope import (AlarmAngles, Zone, berth_box, classify_beta, classify_point, zone_radii)
 from loadarm.errors import SizingError
 from loadarm.geometry import Arm
 from loadarm.kinematics import forward
@@ -117,8 +116,8 @@ def test_infeasible_bounds_say_which_reach_is_missing():
         size_arm(7.0, 13.5, 4.7, 0.0, (8.0, 12.0), (4.0, 10.0))
 
 
-def test_corner_table_for_sized_and_configured_arm(inst, arm):
-    alarms = alarms_from_installation(inst)
+def test_corner_table_for_sized_and_configured_arm(model, inst, arm):
+    alarms = model.alarms
     res = size_installation(inst)
     rows = check_corners(Arm(7.0, res.inboard, res.outboard), alarms, inst)
     assert len(rows) == 4
@@ -164,8 +163,8 @@ def test_classify_point_matches_radius_bands(x, y):
         assert z == expect
 
 
-def test_zone_radii_increase_and_match_forward_kinematics(arm, inst):
-    al = alarms_from_installation(inst)
+def test_zone_radii_increase_and_match_forward_kinematics(model, arm):
+    al = model.alarms
     radii = zone_radii(arm, al)
     vals = [radii[k] for k in ("r_min", "first", "second", "release", "r_max")]
     assert vals == sorted(vals)

@@ -5,14 +5,15 @@ import math
 import numpy as np
 import pytest
 
+from loadarm.compiler import compile_model
 from loadarm.config import parse_config
 from loadarm.errors import PathError, UnreachableError, ValveRangeError
 from loadarm.kinematics import forward
 from loadarm.trajectory import plan_approach
 
 
-def test_paper_timing_reproduces_the_paper(inst):
-    p = plan_approach(inst, timing="paper", samples=1001)
+def test_paper_timing_reproduces_the_paper(model):
+    p = plan_approach(model, timing="paper", samples=1001)
     assert round(p.duration, 2) == 67.87
     assert p.x[0] == 3.82 and p.y[0] == 10.40 and p.x[-1] == pytest.approx(14.0) and p.y[-1] == pytest.approx(1.0)
     assert np.allclose(p.vx, 0.15)                                     # Eq. 14: constant horizontal speed
@@ -25,8 +26,8 @@ def test_paper_timing_reproduces_the_paper(inst):
 
 
 @pytest.mark.parametrize("law", ["paper", "smooth"])
-def test_columns_are_mutually_consistent(inst, arm, law):
-    p = plan_approach(inst, timing=law, samples=4001)
+def test_columns_are_mutually_consistent(model, arm, law):
+    p = plan_approach(model, timing=law, samples=4001)
     xf, yf = forward(arm, p.alpha, p.beta)
     assert np.max(np.hypot(xf - p.x, yf - p.y)) < 1e-9
     dt = p.t[1] - p.t[0]
@@ -41,8 +42,8 @@ def test_columns_are_mutually_consistent(inst, arm, law):
     assert np.allclose(p.y, slope * (p.x - p.start[0]) + p.start[1], atol=1e-12)
 
 
-def test_smooth_law_limits_hold_on_samples(inst):
-    p = plan_approach(inst, timing="smooth", samples=20001)
+def test_smooth_law_limits_hold_on_samples(model, inst):
+    p = plan_approach(model, timing="smooth", samples=20001)
     speed = np.hypot(p.vx, p.vy)
     assert speed.max() <= inst.approach.max_speed * (1 + 1e-12)
     acc = np.abs(np.diff(speed)) / np.diff(p.t)
@@ -51,40 +52,40 @@ def test_smooth_law_limits_hold_on_samples(inst):
     assert p.duration == pytest.approx(p.path_length / 0.15 + 0.15 / 0.05)
 
 
-def test_custom_start_and_target(inst):
-    p = plan_approach(inst, start=(6.0, 9.0), target=(12.0, -2.0), samples=11)
+def test_custom_start_and_target(model):
+    p = plan_approach(model, start=(6.0, 9.0), target=(12.0, -2.0), samples=11)
     assert p.x[0] == 6.0 and p.y[-1] == pytest.approx(-2.0)
     assert p.u1[0] != 0            # voltages stay relative to the configured stored pose
 
 
-def test_unreachable_target_is_refused_before_motion(inst):
+def test_unreachable_target_is_refused_before_motion(model):
     with pytest.raises(UnreachableError, match="leaves the reachable workspace"):
-        plan_approach(inst, target=(25.0, 0.0))
+        plan_approach(model, target=(25.0, 0.0))
 
 
 def test_stored_position_unreachable(inst):
     d = inst.model_dump()
     d["approach"]["stored"] = (0.5, 7.5)
-    bad = parse_config(d)
+    bad = compile_model(parse_config(d))
     with pytest.raises(UnreachableError):
         plan_approach(bad, start=(6.0, 9.0))
 
 
 @pytest.mark.parametrize("samples", [1, 0, -5, 2.5, True, 10**7])
-def test_bad_sample_counts(inst, samples):
+def test_bad_sample_counts(model, samples):
     with pytest.raises(PathError, match=r"samples must be an integer in \[2, 1000000\]"):
-        plan_approach(inst, samples=samples)
+        plan_approach(model, samples=samples)
 
 
 def test_valve_range_exceeded_is_an_error_not_a_clip(inst):
     d = inst.model_dump()
     d["actuators"]["volts_per_metre"] = 30.0     # 0.46 m retraction * 30 V/m = -13.8 V beyond -10 V
     with pytest.raises(ValveRangeError, match=r"u1 \(cylinder 1\) would reach -13.783 V at t = 95.37 s"):
-        plan_approach(parse_config(d))
+        plan_approach(compile_model(parse_config(d)))
 
 
-def test_records_and_csv(inst, tmp_path):
-    p = plan_approach(inst, timing="paper", samples=5)
+def test_records_and_csv(model, tmp_path):
+    p = plan_approach(model, timing="paper", samples=5)
     rec = p.records()
     assert len(rec) == 5
     assert list(rec[0]) == ["t_s", "x_m", "y_m", "alpha_deg", "beta_deg", "r_ac1_m", "r_ac2_m", "u1_V", "u2_V", "zone"]
@@ -93,8 +94,8 @@ def test_records_and_csv(inst, tmp_path):
     assert lines[0].startswith("t_s,x_m,y_m") and len(lines) == 6
 
 
-def test_joint_accelerations_match_finite_differences(inst):
-    p = plan_approach(inst, timing="smooth", samples=8001)
+def test_joint_accelerations_match_finite_differences(model):
+    p = plan_approach(model, timing="smooth", samples=8001)
     dt = p.t[1] - p.t[0]
     for vel, acc in ((p.alpha_dot, p.alpha_ddot), (p.beta_dot, p.beta_ddot)):
         fd = np.gradient(vel, dt)
@@ -105,10 +106,10 @@ def test_joint_accelerations_match_finite_differences(inst):
 
 
 @pytest.mark.parametrize("law", ["paper", "smooth", "optimal"])
-def test_3d_plan_in_the_vertical_plane_is_the_2d_plan(inst, law):
+def test_3d_plan_in_the_vertical_plane_is_the_2d_plan(model, law):
     from loadarm.trajectory import plan_approach_3d
-    p2 = plan_approach(inst, timing=law, samples=301)
-    p3 = plan_approach_3d(inst, timing=law, samples=301)
+    p2 = plan_approach(model, timing=law, samples=301)
+    p3 = plan_approach_3d(model, timing=law, samples=301)
     assert p3.duration == p2.duration
     for a, b in ((p2.x, p3.x), (p2.y, p3.z), (p2.alpha, p3.alpha), (p2.beta, p3.beta), (p2.u1, p3.u1),
                  (p2.u2, p3.u2), (p2.zone, p3.zone)):
@@ -116,11 +117,11 @@ def test_3d_plan_in_the_vertical_plane_is_the_2d_plan(inst, law):
     assert np.all(p3.y == 0) and np.all(p3.phi == 0)
 
 
-def test_3d_plan_slews_and_its_rates_are_consistent(inst):
+def test_3d_plan_slews_and_its_rates_are_consistent(model):
     from loadarm.slew import forward3d
     from loadarm.trajectory import plan_approach_3d
-    p = plan_approach_3d(inst, target=(12.0, 6.0, 1.0), samples=8001)
-    x, y, z = forward3d(arm_from(inst), p.phi, p.alpha, p.beta)
+    p = plan_approach_3d(model, target=(12.0, 6.0, 1.0), samples=8001)
+    x, y, z = forward3d(model.arm, p.phi, p.alpha, p.beta)
     assert np.max(np.abs(x - p.x)) < 1e-9 and np.max(np.abs(y - p.y)) < 1e-9 and np.max(np.abs(z - p.z)) < 1e-9
     dt = p.t[1] - p.t[0]
     for pos, vel in ((p.phi, p.phi_dot), (p.alpha, p.alpha_dot), (p.beta, p.beta_dot), (p.r_ac1, p.v_ac1)):
@@ -128,17 +129,12 @@ def test_3d_plan_slews_and_its_rates_are_consistent(inst):
     assert math.degrees(p.phi[-1]) == pytest.approx(math.degrees(math.atan2(6.0, 12.0)))
 
 
-def test_3d_plan_refusals(inst):
+def test_3d_plan_refusals(model):
     from loadarm.errors import PathError
     from loadarm.trajectory import plan_approach_3d
     with pytest.raises(PathError, match="beyond the slew limit"):
-        plan_approach_3d(inst, target=(5.0, 12.0, 1.0))
+        plan_approach_3d(model, target=(5.0, 12.0, 1.0))
     with pytest.raises(UnreachableError, match="leaves the reachable workspace"):
-        plan_approach_3d(inst, target=(18.0, 10.0, 0.0))
+        plan_approach_3d(model, target=(18.0, 10.0, 0.0))
     with pytest.raises(PathError, match="needs \\(x, y, z\\)"):
-        plan_approach_3d(inst, start=(3.82, 10.4), target=(14.0, 1.0))
-
-
-def arm_from(inst):
-    from loadarm.geometry import arm_from_installation
-    return arm_from_installation(inst)
+        plan_approach_3d(model, start=(3.82, 10.4), target=(14.0, 1.0))

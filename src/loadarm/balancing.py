@@ -17,15 +17,17 @@ to ``-t <= tau <= t``), solved exactly and globally by SciPy's HiGHS.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import linprog
 
-from .config import Installation
 from .dynamics import MassModel, mass_model, static_torques
-from .envelope import alarms_from_installation, berth_box
-from .geometry import Arm, arm_from_installation
+from .geometry import Arm
 from .kinematics import inverse, reach_mask
+
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from .model import ArmModel
 
 __all__ = ["EnvelopeGrid", "envelope_grid", "BalanceResult", "balance_counterweights", "max_static_torque"]
 
@@ -48,7 +50,7 @@ class EnvelopeGrid:
     beta: np.ndarray
 
 
-def envelope_grid(inst: Installation, *, arm: Arm | None = None, spacing: float = 0.25) -> EnvelopeGrid:
+def envelope_grid(model: ArmModel, *, arm: Arm | None = None, spacing: float = 0.25) -> EnvelopeGrid:
     """Grid over every coupler position the arm must serve.
 
     The rectangle spanning the stored position, the configured flange and the
@@ -57,7 +59,7 @@ def envelope_grid(inst: Installation, *, arm: Arm | None = None, spacing: float 
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation.
     arm : Arm, optional
         Geometry (default the configured arm).
@@ -70,9 +72,9 @@ def envelope_grid(inst: Installation, *, arm: Arm | None = None, spacing: float 
     """
     if not spacing > 0:
         raise ValueError(f"spacing must be > 0 m, got {spacing!r}")
-    arm = arm or arm_from_installation(inst)
-    box = berth_box(inst.datasheet)
-    pts = np.array([inst.approach.stored, inst.approach.flange, (box.x_near, box.y_low), (box.x_far, box.y_high)])
+    arm = arm or model.arm
+    box = model.berth
+    pts = np.array([model.approach.stored, model.approach.flange, (box.x_near, box.y_low), (box.x_far, box.y_high)])
     x0, y0 = pts.min(axis=0)
     x1, y1 = pts.max(axis=0)
     xs = np.arange(x0, x1 + spacing / 2, spacing)
@@ -81,7 +83,7 @@ def envelope_grid(inst: Installation, *, arm: Arm | None = None, spacing: float 
     ok = reach_mask(arm, X, Y)
     X, Y = X[ok], Y[ok]
     q = inverse(arm, X, Y)
-    keep = q.beta < alarms_from_installation(inst).release
+    keep = q.beta < model.alarms.release
     if not keep.any():
         raise ValueError("no reachable pose below the release angle in the operating envelope")
     return EnvelopeGrid(X[keep], Y[keep], q.alpha[keep], q.beta[keep])
@@ -160,13 +162,13 @@ class BalanceResult:
         }
 
 
-def balance_counterweights(inst: Installation, *, fills: tuple[float, ...] | None = None, spacing: float = 0.25,
+def balance_counterweights(model: ArmModel, *, fills: tuple[float, ...] | None = None, spacing: float = 0.25,
                            max_counterweight_kg: float = 1e6) -> BalanceResult:
     """Counterweight masses that minimise the largest static joint torque over the envelope.
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation (arm, masses, counterweight positions).
     fills : tuple of float, optional
         Fill fractions to balance over; default ``masses.balance_fills``.
@@ -184,11 +186,11 @@ def balance_counterweights(inst: Installation, *, fills: tuple[float, ...] | Non
     RuntimeError
         If the linear programme fails (it cannot for valid input).
     """
-    fills = tuple(inst.masses.balance_fills if fills is None else fills)
-    grid = envelope_grid(inst, spacing=spacing)
-    base_models = [mass_model(inst, fill=f) for f in fills]
-    d1 = inst.masses.counterweight_inboard_distance
-    d2 = inst.masses.counterweight_outboard_distance
+    fills = tuple(model.masses.balance_fills if fills is None else fills)
+    grid = envelope_grid(model, spacing=spacing)
+    base_models = [mass_model(model, fill=f) for f in fills]
+    d1 = model.masses.counterweight_inboard_distance
+    d2 = model.masses.counterweight_outboard_distance
     rows, rhs = [], []
     tau0 = []
     # per-kg torque columns (independent of fill); subtract the zero-counterweight torques

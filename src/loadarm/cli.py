@@ -19,10 +19,9 @@ from typing import Annotated, Optional
 
 import typer
 
-from .config import Installation, load_config, paper_installation
+from .config import Installation, load_config
 from .errors import LoadarmError
 from .eventlog import KINDS
-from .geometry import arm_from_installation
 
 EXIT_CODES = "Exit codes: 0 ok, 1 internal error (a bug; LOADARM_DEBUG=1 shows the traceback), 2 bad input, 130 interrupted."
 
@@ -147,6 +146,13 @@ def _check_fill(fill: Optional[float]) -> None:
         raise UserError(f"--fill must be in [0, 1], got {fill!r}")
 
 
+def _model(config: Path):
+    """Read an installation file and compile it (the CLI is an edge: configuration stops here)."""
+    from .compiler import compile_model
+
+    return compile_model(load_config(config))
+
+
 def _progress(transient: bool = False):
     """A progress bar on stderr (rich.progress is imported only by the commands that show one)."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
@@ -229,14 +235,14 @@ def plan(
     from .trajectory import plan_approach, plan_approach_3d, plan_warnings
 
     timing = timing.value
-    inst = load_config(config)
+    model = _model(config)
     a, b = _point(start, "--start"), _point(target, "--target")
     dims = {len(v) for v in (a, b) if v is not None}
     if len(dims) > 1:
         raise UserError("--start and --target must both be X,Y or both X,Y,Z")
     if dims == {3}:
-        p3 = plan_approach_3d(inst, start=a, target=b, timing=timing, samples=samples)
-        _plan_warnings(plan_warnings(inst, p3), strict)
+        p3 = plan_approach_3d(model, start=a, target=b, timing=timing, samples=samples)
+        _plan_warnings(plan_warnings(model, p3), strict)
         recs = p3.records()
         if csv is not None:
             p3.write_csv(csv)
@@ -255,8 +261,8 @@ def plan(
         t.add_row("worst zone", s3["worst_zone"])
         out.print(t)
         return
-    p = plan_approach(inst, start=a, target=b, timing=timing, samples=samples)
-    _plan_warnings(plan_warnings(inst, p), strict)
+    p = plan_approach(model, start=a, target=b, timing=timing, samples=samples)
+    _plan_warnings(plan_warnings(model, p), strict)
     if csv is not None:
         p.write_csv(csv)
     if as_json:
@@ -299,9 +305,9 @@ def envelope(
     """
     from .plotting import envelope_figure, save
 
-    inst = load_config(config)
+    model = _model(config)
     _check_png(png)
-    save(envelope_figure(inst), png)
+    save(envelope_figure(model), png)
     out.print(f"envelope written to {png}")
 
 
@@ -321,11 +327,11 @@ def verify(
     from .trajectory import plan_approach
 
     timing = timing.value
-    inst = load_config(config)
+    model = _model(config)
     _check_png(png)
-    p = plan_approach(inst, timing=timing, samples=samples)
+    p = plan_approach(model, timing=timing, samples=samples)
     with err.status("stepping the MuJoCo arm along the line"):
-        res = verify_kinematics(inst, p)
+        res = verify_kinematics(model, p)
     if png is not None:
         from .plotting import save, verification_figure
 
@@ -356,11 +362,11 @@ def balance(
     """
     from .balancing import balance_counterweights
 
-    inst = load_config(config)
+    model = _model(config)
     _check_png(png)
     if not (0.01 <= spacing <= 5.0):
         raise UserError(f"--spacing must be in [0.01, 5] m, got {spacing!r}")
-    res = balance_counterweights(inst, spacing=spacing)
+    res = balance_counterweights(model, spacing=spacing)
     if png is not None:
         from .plotting import residual_torque_figure, save
 
@@ -370,8 +376,8 @@ def balance(
         _json(s)
         return
     out.print(f"counterweights: inboard {s['counterweight_inboard_kg']:.0f} kg at "
-              f"{inst.masses.counterweight_inboard_distance:g} m, outboard {s['counterweight_outboard_kg']:.0f} kg at "
-              f"{inst.masses.counterweight_outboard_distance:g} m (fills {s['fills']}, {s['poses']} poses)")
+              f"{model.masses.counterweight_inboard_distance:g} m, outboard {s['counterweight_outboard_kg']:.0f} kg at "
+              f"{model.masses.counterweight_outboard_distance:g} m (fills {s['fills']}, {s['poses']} poses)")
     out.print(f"largest residual static torque {s['max_residual_torque_Nm'] / 1e3:.2f} kN m "
               f"(alpha {s['max_residual_torque_alpha_Nm'] / 1e3:.2f}, beta {s['max_residual_torque_beta_Nm'] / 1e3:.2f}); "
               f"configured counterweights: alpha {s['configured_max_torque_alpha_Nm'] / 1e3:.2f}, "
@@ -393,9 +399,9 @@ def loads(
     from .trajectory import plan_approach
 
     timing = timing.value
-    inst = load_config(config)
+    model = _model(config)
     _check_fill(fill)
-    s = actuator_loads(inst, plan_approach(inst, timing=timing, samples=801), fill=fill).summary()
+    s = actuator_loads(model, plan_approach(model, timing=timing, samples=801), fill=fill).summary()
     if as_json:
         _json(s)
         return
@@ -430,14 +436,14 @@ def simulate(
     from .trajectory import plan_approach
 
     timing = timing.value
-    inst = load_config(config)
+    model = _model(config)
     _check_png(png)
     _check_fill(fill)
     if timing == "all":
         rows = {}
         with err.status("simulating the closed loop for every timing law"):
             for law in TIMING_LAWS:
-                rows[law] = simulate_approach(inst, plan_approach(inst, timing=law, samples=2001), fill=fill).summary()
+                rows[law] = simulate_approach(model, plan_approach(model, timing=law, samples=2001), fill=fill).summary()
         if as_json:
             _json(rows)
             return
@@ -454,9 +460,9 @@ def simulate(
             for w in r["warnings"]:
                 out.print(f"[yellow]warning ({law}):[/] {escape(w)}")
         return
-    plan = plan_approach(inst, timing=timing, samples=2001)
+    plan = plan_approach(model, timing=timing, samples=2001)
     with err.status("simulating the closed loop (first run compiles the simulator)"):
-        res = simulate_approach(inst, plan, fill=fill)
+        res = simulate_approach(model, plan, fill=fill)
     if png is not None:
         from .plotting import save, simulation_figure
 
@@ -501,7 +507,7 @@ def run(
     from .guidance.run import run_scenario, wall_clock_pacer
     from .guidance.scenario import load_scenario
 
-    sc, inst = load_scenario(scenario)
+    sc, model = load_scenario(scenario)
     _check_png(png)
     from datetime import datetime, timezone
 
@@ -510,7 +516,7 @@ def run(
     try:
         with _progress(transient=True) as prog:
             task = prog.add_task(f"scenario {sc.scenario.name}", total=1.0)
-            res = run_scenario(sc, inst, log=log, progress=lambda f: prog.update(task, completed=f),
+            res = run_scenario(sc, model, log=log, progress=lambda f: prog.update(task, completed=f),
                                plant=None if plant is None else plant.value,
                                pace=wall_clock_pacer() if realtime else None)
     finally:
@@ -519,7 +525,7 @@ def run(
     if png is not None:
         from .plotting import run_timeline_figure, save
 
-        save(run_timeline_figure(res, inst), png)
+        save(run_timeline_figure(res, model), png)
     s = res.summary()
     if as_json:
         _json(s)
@@ -606,11 +612,10 @@ def mjcf(
     Example: loadarm mjcf --config examples/paper.toml > arm.xml
     """
     from .dynamics import mass_model
-    from .geometry import mounting_from_installation
     from .multibody import build_mjcf, load_model
 
-    inst = load_config(config)
-    xml = build_mjcf(arm_from_installation(inst), mounting_from_installation(inst), mass_model(inst),
+    model = _model(config)
+    xml = build_mjcf(model.arm, model.mount, mass_model(model),
                      kinematic=kinematic)
     load_model(xml)  # refuse to print a model MuJoCo would not compile
     sys.stdout.write(xml)

@@ -32,12 +32,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .config import Installation
 from .actuators import moment_arms  # re-exported: the moment arms are geometry (Eqs 12-13), owned there
-from .geometry import Arm, Mounting, arm_from_installation
+from .geometry import Arm, Mounting
+
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from .model import ArmModel
 
 __all__ = ["G", "Lump", "MassModel", "mass_model", "joint_torques", "LagrangeConstants", "lagrange_constants",
            "lagrange_torques", "static_torques", "moment_arms",
@@ -135,12 +138,12 @@ def _sphere(m: float, r: float) -> float:
     return 0.4 * m * r * r
 
 
-def mass_model(inst: Installation, *, fill: float | None = None, arm: Arm | None = None) -> MassModel:
+def mass_model(model: ArmModel, *, fill: float | None = None, arm: Arm | None = None) -> MassModel:
     """Build the lumped mass model from ``[masses]``.
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         Validated installation.
     fill : float, optional
         Product fill fraction in [0, 1]; default ``masses.fill``.
@@ -153,8 +156,8 @@ def mass_model(inst: Installation, *, fill: float | None = None, arm: Arm | None
         Pipes as uniform rods (``I = m L^2 / 12``), lumps as solid spheres of
         radius ``masses.lump_radius`` (``I = 2/5 m r^2``).
     """
-    ms = inst.masses
-    arm = arm or arm_from_installation(inst)
+    ms = model.masses
+    arm = arm or model.arm
     f = ms.fill if fill is None else float(fill)
     if not (0.0 <= f <= 1.0):
         raise ValueError(f"fill must be in [0, 1], got {fill!r}")

@@ -22,14 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import Datasheet, Installation
 from .geometry import Arm
 from .kinematics import solve_ik
 
 __all__ = [
     "Zone",
     "AlarmAngles",
-    "alarms_from_installation",
     "classify_beta",
     "classify_point",
     "zone_radii",
@@ -79,23 +77,6 @@ class AlarmAngles:
             raise ValueError(
                 "alarm angles must satisfy 0 < first < second < release < 180 deg, got "
                 + ", ".join(f"{math.degrees(v):.3f}" for v in vals) + " deg")
-
-
-def alarms_from_installation(inst: Installation) -> AlarmAngles:
-    """The :class:`AlarmAngles` of a validated installation.
-
-    Parameters
-    ----------
-    inst : Installation
-        Validated installation.
-
-    Returns
-    -------
-    AlarmAngles
-        Thresholds in radians.
-    """
-    al = inst.alarms
-    return AlarmAngles(al.first, al.second, al.release)
 
 
 def classify_beta(beta: np.ndarray | float, alarms: AlarmAngles) -> np.ndarray:
@@ -203,13 +184,13 @@ class BerthBox:
         ]
 
 
-def berth_box(ds: Datasheet) -> BerthBox:
+def berth_box(ds) -> BerthBox:
     """Flange box implied by a datasheet (paper Table 1).
 
     Parameters
     ----------
-    ds : Datasheet
-        Customer datasheet.
+    ds : datasheet
+        The customer datasheet's distances A to I (the configuration section or the model's record).
 
     Returns
     -------

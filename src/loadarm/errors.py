@@ -9,6 +9,10 @@ command line can print them verbatim (exit status 2) without a traceback.
 from __future__ import annotations
 
 
+__all__ = ["LoadarmError", "ConfigError", "UnreachableError", "PathError", "TimingError", "SizingError",
+           "ActuatorError", "ValveRangeError"]
+
+
 class LoadarmError(Exception):
     """Base class of every error loadarm raises on purpose."""
 

@@ -11,9 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import Installation
 
-__all__ = ["Arm", "Mounting", "arm_from_installation", "mounting_from_installation"]
+__all__ = ["Arm", "Mounting"]
 
 
 def _positive(name: str, value: float, hi: float = 100.0) -> float:
@@ -95,36 +94,3 @@ class Mounting:
     def __post_init__(self) -> None:
         for name in ("a1", "b1", "b2", "c2"):
             object.__setattr__(self, name, _positive(f"mounting distance {name}", getattr(self, name), 20.0))
-
-
-def arm_from_installation(inst: Installation) -> Arm:
-    """The :class:`Arm` of a validated installation.
-
-    Parameters
-    ----------
-    inst : Installation
-        Validated installation.
-
-    Returns
-    -------
-    Arm
-        Riser, inboard and outboard lengths, m.
-    """
-    return Arm(inst.arm.riser, inst.arm.inboard, inst.arm.outboard)
-
-
-def mounting_from_installation(inst: Installation) -> Mounting:
-    """The :class:`Mounting` of a validated installation.
-
-    Parameters
-    ----------
-    inst : Installation
-        Validated installation.
-
-    Returns
-    -------
-    Mounting
-        Cylinder pin distances, m.
-    """
-    act = inst.actuators
-    return Mounting(act.a1, act.b1, act.b2, act.c2)

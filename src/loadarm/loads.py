@@ -11,13 +11,15 @@ annulus area (retracting).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .config import Installation
-from .dynamics import chamber_pressures, cylinder_areas, cylinder_forces, joint_torques, mass_model
-from .geometry import mounting_from_installation
+from .dynamics import chamber_pressures, cylinder_forces, joint_torques, mass_model
 from .trajectory import Plan
+
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from .model import ArmModel
 
 __all__ = ["ActuatorLoads", "actuator_loads"]
 
@@ -79,12 +81,12 @@ class ActuatorLoads:
         return out
 
 
-def actuator_loads(inst: Installation, plan: Plan, *, fill: float | None = None) -> ActuatorLoads:
+def actuator_loads(model: ArmModel, plan: Plan, *, fill: float | None = None) -> ActuatorLoads:
     """Forces, pressures, speeds and flows of both cylinders along a plan.
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         Mass model (``[masses]``), mounting and cylinder sizes (``[cylinders]``).
     plan : Plan
         The approach (with joint rates and accelerations).
@@ -95,13 +97,13 @@ def actuator_loads(inst: Installation, plan: Plan, *, fill: float | None = None)
     -------
     ActuatorLoads
     """
-    mm = mass_model(inst, fill=fill)
-    mount = mounting_from_installation(inst)
-    cyl = inst.cylinders
+    mm = mass_model(model, fill=fill)
+    mount = model.mount
+    cyl = model.cylinders
     ta, tb = joint_torques(mm, plan.alpha, plan.beta, plan.alpha_dot, plan.beta_dot, plan.alpha_ddot,
                            plan.beta_ddot)
     F1, F2 = cylinder_forces(mount, plan.alpha, plan.beta, ta, tb)
-    Ap, Aa = cylinder_areas(cyl.bore, cyl.rod)
+    Ap, Aa = model.cylinder_area
     pressures = []
     for F in (F1, F2):
         pA, pB = chamber_pressures(F, cyl.bore, cyl.rod, cyl.return_pressure)

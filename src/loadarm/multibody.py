@@ -29,16 +29,19 @@ mechanism. :func:`inverse_dynamics` runs ``mj_inverse``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
 from .actuators import cylinder_lengths
-from .config import Installation
 from .dynamics import G, MassModel, mass_model
-from .geometry import Arm, Mounting, arm_from_installation, mounting_from_installation
+from .geometry import Arm, Mounting
 from .kinematics import inverse
 from .trajectory import Plan
+
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from .model import ArmModel
 
 __all__ = ["build_mjcf", "load_model", "VerificationResult", "verify_kinematics", "inverse_dynamics",
            "mujoco_moment_arms"]
@@ -220,7 +223,7 @@ class VerificationResult:
         }
 
 
-def verify_kinematics(inst: Installation, plan: Plan, *, arm: Arm | None = None,
+def verify_kinematics(model: ArmModel, plan: Plan, *, arm: Arm | None = None,
                       mount: Mounting | None = None) -> VerificationResult:
     """Force MuJoCo's arm along a plan's coupler path and compare with the closed form.
 
@@ -232,7 +235,7 @@ def verify_kinematics(inst: Installation, plan: Plan, *, arm: Arm | None = None,
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation (mass model, mounting).
     plan : Plan
         The planned approach; its ``x``, ``y`` are the targets.
@@ -250,9 +253,9 @@ def verify_kinematics(inst: Installation, plan: Plan, *, arm: Arm | None = None,
         cannot be met), naming the sample.
     """
     mujoco = _mujoco()
-    arm = arm or arm_from_installation(inst)
-    mount = mount or mounting_from_installation(inst)
-    model = load_model(build_mjcf(arm, mount, mass_model(inst, arm=arm), kinematic=True))
+    arm = arm or model.arm
+    mount = mount or model.mount
+    model = load_model(build_mjcf(arm, mount, mass_model(model, arm=arm), kinematic=True))
     data = mujoco.MjData(model)
     ja, jb = model.joint("alpha").qposadr[0], model.joint("beta").qposadr[0]
     has_lever = model.njnt == 3

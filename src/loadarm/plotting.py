@@ -7,7 +7,9 @@ appear only here, on axis labels.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -17,11 +19,13 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.patches import Rectangle, Wedge  # noqa: E402
 
-from .config import Installation  # noqa: E402
-from .envelope import alarms_from_installation, berth_box, zone_radii  # noqa: E402
-from .geometry import Arm, arm_from_installation  # noqa: E402
+from .envelope import zone_radii  # noqa: E402
+from .geometry import Arm  # noqa: E402
 from .kinematics import elbow_position, forward, inverse_paper  # noqa: E402
 from .trajectory import Plan  # noqa: E402
+
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from .model import ArmModel
 
 __all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
            "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure", "simulation_figure",
@@ -36,7 +40,7 @@ def _draw_arm(ax, arm: Arm, alpha: float, beta: float, **kw) -> None:
     ax.plot([0, 0, float(ex), float(px)], [0, arm.a, float(ey), float(py)], "-o", ms=3, **kw)
 
 
-def envelope_figure(inst: Installation, plan: Plan | None = None, arm: Arm | None = None) -> Figure:
+def envelope_figure(model: ArmModel, plan: Plan | None = None, arm: Arm | None = None) -> Figure:
     """Operating envelope with alarm zones (paper Fig. 4).
 
     Draws the zones as annular bands around the riser top, the datasheet's
@@ -45,7 +49,7 @@ def envelope_figure(inst: Installation, plan: Plan | None = None, arm: Arm | Non
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation.
     plan : Plan, optional
         An approach to overlay.
@@ -56,17 +60,17 @@ def envelope_figure(inst: Installation, plan: Plan | None = None, arm: Arm | Non
     -------
     Figure
     """
-    arm = arm or arm_from_installation(inst)
-    alarms = alarms_from_installation(inst)
+    arm = arm or model.arm
+    alarms = model.alarms
     radii = zone_radii(arm, alarms)
-    box = berth_box(inst.datasheet)
+    box = model.berth
     fig, ax = plt.subplots(figsize=(11.5, 7.5))
     top = (0.0, arm.a)
     bands = [
-        (radii["r_min"], radii["first"], _ZONE_COLOURS["zone 1"], f"Z1 normal (beta <= {inst.alarms.first_deg:g} deg)"),
-        (radii["first"], radii["second"], _ZONE_COLOURS["zone 2"], f"Z2 first alarm / ESD-1 (> {inst.alarms.first_deg:g} deg)"),
-        (radii["second"], radii["release"], _ZONE_COLOURS["zone 3"], f"Z3 second alarm (> {inst.alarms.second_deg:g} deg)"),
-        (radii["release"], radii["r_max"], _ZONE_COLOURS["release"], f"release / ERS-2 (>= {inst.alarms.release_deg:g} deg)"),
+        (radii["r_min"], radii["first"], _ZONE_COLOURS["zone 1"], f"Z1 normal (beta <= {math.degrees(model.alarms.first):g} deg)"),
+        (radii["first"], radii["second"], _ZONE_COLOURS["zone 2"], f"Z2 first alarm / ESD-1 (> {math.degrees(model.alarms.first):g} deg)"),
+        (radii["second"], radii["release"], _ZONE_COLOURS["zone 3"], f"Z3 second alarm (> {math.degrees(model.alarms.second):g} deg)"),
+        (radii["release"], radii["r_max"], _ZONE_COLOURS["release"], f"release / ERS-2 (>= {math.degrees(model.alarms.release):g} deg)"),
     ]
     for r0, r1, colour, label in bands:
         ax.add_patch(Wedge(top, r1, -120, 90, width=r1 - r0, facecolor=colour, edgecolor="grey", lw=0.5,
@@ -83,8 +87,8 @@ def envelope_figure(inst: Installation, plan: Plan | None = None, arm: Arm | Non
     ax.add_patch(Rectangle((box.x_near, box.y_low), box.x_far - box.x_near, box.y_high - box.y_low, fill=False,
                            ec="tab:blue", lw=1.5, ls="-", label="datasheet flange box", zorder=5))
     ax.plot([0, 0], [0, arm.a], color="k", lw=4, zorder=6, label="riser")
-    sx, sy = inst.approach.stored
-    fx, fy = inst.approach.flange
+    sx, sy = model.approach.stored
+    fx, fy = model.approach.flange
     ax.plot(sx, sy, "s", color="tab:green", ms=8, zorder=7, label=f"stored ({sx:g}, {sy:g})")
     ax.plot(fx, fy, "*", color="tab:red", ms=12, zorder=7, label=f"flange ({fx:g}, {fy:g})")
     if plan is not None:
@@ -127,7 +131,7 @@ def alpha_beta_figure(plans: dict[str, Plan]) -> Figure:
     return fig
 
 
-def angles_time_figure(inst: Installation, plan: Plan) -> Figure:
+def angles_time_figure(model: ArmModel, plan: Plan) -> Figure:
     """Alpha and beta against time, closed form (atan2) and paper Eqs 7-11 literally (paper Fig. 8).
 
     The paper's Fig. 8 overlays ADAMS on its equations; here the literal
@@ -136,7 +140,7 @@ def angles_time_figure(inst: Installation, plan: Plan) -> Figure:
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation (for the arm lengths).
     plan : Plan
         The approach.
@@ -145,7 +149,7 @@ def angles_time_figure(inst: Installation, plan: Plan) -> Figure:
     -------
     Figure
     """
-    arm = arm_from_installation(inst)
+    arm = model.arm
     qp = inverse_paper(arm, plan.x, plan.y)
     fig, ax = plt.subplots(figsize=(7, 4.5))
     ax.plot(plan.t, np.degrees(plan.alpha), label="alpha, closed form")
@@ -539,14 +543,14 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
     return fig
 
 
-def run_timeline_figure(result, inst: Installation) -> Figure:
+def run_timeline_figure(result, model: ArmModel) -> Figure:
     """:func:`timeline_figure` of a guidance run, with its alarms and the installation's beta thresholds.
 
     Parameters
     ----------
     result : loadarm.guidance.run.RunResult
         The run.
-    inst : Installation
+    model : ArmModel
         Its installation (alarm angles).
 
     Returns
@@ -559,5 +563,5 @@ def run_timeline_figure(result, inst: Installation) -> Figure:
     alarms = [(t, reason.split(":")[0]) for t, _, kind, reason, _ in result.events if kind == "alarm"]
     return timeline_figure(s["t"], s["mode"], s["beta"], s["phi"], s["distance"], MODES, alarms=alarms,
                            title=f"Guidance timeline: {result.name}",
-                           beta_thresholds_deg=(inst.alarms.first_deg, inst.alarms.second_deg,
-                                                inst.alarms.release_deg))
+                           beta_thresholds_deg=(math.degrees(model.alarms.first), math.degrees(model.alarms.second),
+                                                math.degrees(model.alarms.release)))

@@ -23,8 +23,8 @@ from pathlib import Path
 
 from . import __version__
 from .config import Installation, paper_installation, parameter_table, read_toml
-from .envelope import alarms_from_installation, berth_box, zone_radii
-from .geometry import arm_from_installation
+from .compiler import compile_model
+from .envelope import berth_box, zone_radii
 from .balancing import balance_counterweights
 from .hydraulics.simulate import simulate_approach
 from .loads import actuator_loads
@@ -69,7 +69,7 @@ def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str]
     return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
 
 
-def summary_dict(inst: Installation, plans: dict[str, Plan], sizing: dict | None = None) -> dict:
+def summary_dict(inst: Installation, plans: dict[str, Plan], sizing: dict | None = None, model=None) -> dict:
     """Every headline number of the report, JSON-friendly.
 
     Parameters
@@ -80,6 +80,8 @@ def summary_dict(inst: Installation, plans: dict[str, Plan], sizing: dict | None
         Plans by timing-law name.
     sizing : dict, optional
         An already computed :func:`loadarm.sizing.sizing_summary`.
+    model : ArmModel, optional
+        The compiled installation (default: compiled here).
 
     Returns
     -------
@@ -87,12 +89,13 @@ def summary_dict(inst: Installation, plans: dict[str, Plan], sizing: dict | None
         Sizing, corner tables, zone radii and plan summaries.
     """
     sz = sizing_summary(inst) if sizing is None else sizing
+    model = compile_model(inst) if model is None else model
     keep = ("inboard_m", "outboard_m", "r_alarm_m", "first_alarm_corner_m", "active_bound", "local_minima_m")
     return {
         "loadarm_version": __version__,
         "sizing": {**{k: sz[k] for k in keep}, "corners_sized_arm": sz["corners"],
                    "corners_configured_arm": sz["corners_configured_arm"]},
-        "zone_radii_m": zone_radii(arm_from_installation(inst), alarms_from_installation(inst)),
+        "zone_radii_m": zone_radii(model.arm, model.alarms),
         "plans": {name: p.summary() for name, p in plans.items()},
     }
 
@@ -164,6 +167,11 @@ class ReportData:
     _progress: Callable[[str], None] = field(default=lambda _msg: None, repr=False)
 
     @cached_property
+    def model(self):
+        """The compiled :class:`~loadarm.model.ArmModel` every computation below takes."""
+        return compile_model(self.inst)
+
+    @cached_property
     def sizing(self):
         """:class:`loadarm.sizing.SizingResult` of the datasheet."""
         self._progress("sizing the arm (Eqs 1-3)")
@@ -180,32 +188,32 @@ class ReportData:
         out = {}
         for law in TIMING_LAWS:
             self._progress(f"planning the approach, {law} timing")
-            out[law] = plan_approach(self.inst, timing=law, samples=401)
+            out[law] = plan_approach(self.model, timing=law, samples=401)
         return out
 
     @cached_property
     def verification(self):
         """MuJoCo verification of the paper-timing plan."""
         self._progress("verifying the kinematics in MuJoCo")
-        return verify_kinematics(self.inst, plan_approach(self.inst, timing="paper", samples=201))
+        return verify_kinematics(self.model, plan_approach(self.model, timing="paper", samples=201))
 
     @cached_property
     def loads(self) -> dict:
         """Actuator loads by timing law."""
         self._progress("actuator loads")
-        return {law: actuator_loads(self.inst, p) for law, p in self.plans.items()}
+        return {law: actuator_loads(self.model, p) for law, p in self.plans.items()}
 
     @cached_property
     def balance(self):
         """Counterweight balance over the envelope."""
         self._progress("counterweight balance")
-        return balance_counterweights(self.inst)
+        return balance_counterweights(self.model)
 
     @cached_property
     def simulations(self) -> dict:
         """Closed-loop runs by timing law."""
         self._progress("simulating the electro-hydraulic closed loop, three timing laws")
-        return {law: simulate_approach(self.inst, plan_approach(self.inst, timing=law, samples=2001))
+        return {law: simulate_approach(self.model, plan_approach(self.model, timing=law, samples=2001))
                 for law in TIMING_LAWS}
 
     @cached_property
@@ -224,31 +232,31 @@ class ReportData:
         for f in self.scenario_files:
             self._progress(f"scenario {f.stem}")
             sc = parse_scenario(read_toml(f, "scenario"), source=str(f))
-            out[f.stem] = run_scenario(sc, self.inst)
+            out[f.stem] = run_scenario(sc, self.model)
         return out
 
 
 def _timeline(name: str):
     def build(d: ReportData):
         from .plotting import run_timeline_figure
-        return run_timeline_figure(d.scenarios[name], d.inst)
+        return run_timeline_figure(d.scenarios[name], d.model)
     return build
 
 
 #: Every fixed figure of the report: ``file name -> (builder, caption)``. Scenario timelines are added per
 #: scenario. ``make docs`` draws the ones the docs show from the paper's case with the same builders.
 FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
-    "envelope.png": (lambda d: envelope_figure(d.inst, d.plans["smooth"]),
+    "envelope.png": (lambda d: envelope_figure(d.model, d.plans["smooth"]),
                      "Zones as bands of beta around the riser top, datasheet flange box, stored position, flange and "
                      "the straight approach with arm snapshots."),
     "alpha_beta.png": (lambda d: alpha_beta_figure({"straight line": d.plans["paper"]}),
                        "Fig. 6 equivalent: alpha versus beta along the straight line."),
-    "angles_paper.png": (lambda d: angles_time_figure(d.inst, d.plans["paper"]),
+    "angles_paper.png": (lambda d: angles_time_figure(d.model, d.plans["paper"]),
                          "Fig. 8 equivalent, paper timing: closed form (lines) against the paper's literal Eqs 7-11 "
                          "(markers)."),
-    "angles_smooth.png": (lambda d: angles_time_figure(d.inst, d.plans["smooth"]),
+    "angles_smooth.png": (lambda d: angles_time_figure(d.model, d.plans["smooth"]),
                           "Fig. 8 equivalent, smooth timing."),
-    "timing.png": (lambda d: timing_figure(d.plans, d.inst.approach.max_speed),
+    "timing.png": (lambda d: timing_figure(d.plans, d.model.approach.max_speed),
                    "Coupler speed for the three timing laws (paper, smooth, optimal)."),
     "cylinders.png": (lambda d: cylinders_figure(d.plans), "Fig. 9 equivalent: cylinder pin-to-pin lengths."),
     "voltages.png": (lambda d: voltages_figure(d.plans), "Fig. 10 equivalent: valve voltages."),
@@ -325,7 +333,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     d = ReportData(inst, src, step)
 
     sizing, sz = d.sizing, d.sizing_table
-    arm = arm_from_installation(inst)
+    arm = d.model.arm
     corners_sized, corners_conf = sz["corners"], sz["corners_configured_arm"]
     plans = d.plans
     csvs = {law: p.write_csv(out / f"plan_{law}.csv") for law, p in plans.items()}
@@ -339,7 +347,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         return _img(figs[name], builders[name][1])
 
     step("writing report")
-    summary = summary_dict(inst, plans, sz)
+    summary = summary_dict(inst, plans, sz, d.model)
     summary["generated"] = stamp
     summary["input"] = _input_line(src).removeprefix("input: ")
     summary["verification"] = verification.summary()

@@ -337,11 +337,10 @@ def sizing_summary(inst, result: SizingResult | None = None) -> dict:
         ``inboard_m, outboard_m, total_m, r_alarm_m, first_alarm_corner_m, beta_alarm_deg, active_bound,
         local_minima_m, constraint_residual_m2, corners`` (sized arm) and ``corners_configured_arm``.
     """
-    from .envelope import alarms_from_installation
-    from .geometry import arm_from_installation
+    from .envelope import AlarmAngles
 
     res = size_installation(inst) if result is None else result
-    alarms = alarms_from_installation(inst)
+    alarms = AlarmAngles(inst.alarms.first, inst.alarms.second, inst.alarms.release)
     sized = Arm(inst.arm.riser, res.inboard, res.outboard)
     return {
         "inboard_m": res.inboard, "outboard_m": res.outboard, "total_m": res.total, "r_alarm_m": res.r_alarm,

@@ -16,20 +16,21 @@ import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .actuators import cylinder_lengths, cylinder_rates, valve_voltages
-from .config import Installation
-from .envelope import Zone, alarms_from_installation, classify_beta
+from .envelope import Zone, classify_beta
 from .errors import PathError
-from .geometry import arm_from_installation, mounting_from_installation
 from .kinematics import check_reachable, inverse, joint_accelerations, joint_rates
 from .path import StraightPath
-from .dynamics import cylinder_areas
 from .timing import ToppraTiming, make_timing
 
-__all__ = ["Plan", "plan_approach", "optimal_timing", "cylinder_speed_limits", "Plan3D", "plan_approach_3d",
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from .model import ArmModel
+
+__all__ = ["Plan", "plan_approach", "optimal_timing", "Plan3D", "plan_approach_3d",
            "classify_slew", "plan_warnings", "CHECK_SAMPLES", "MAX_SAMPLES"]
 
 #: Samples of the dense grid on which voltage limits are re-checked.
@@ -167,51 +168,29 @@ def _planar(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.hypot(p[..., 0], p[..., 1]), p[..., 2]
 
 
-def _stored_lengths(inst: Installation, arm, mount) -> tuple[float, float]:
+def _stored_lengths(model: ArmModel, arm, mount) -> tuple[float, float]:
     """Cylinder lengths in the stored pose (the valve voltages' reference), m."""
-    q = inverse(arm, *inst.approach.stored)
+    q = inverse(arm, *model.approach.stored)
     return tuple(float(v) for v in cylinder_lengths(mount, q.alpha, q.beta))
 
 
-def _check_valve_range(inst: Installation, arm, mount, path: StraightPath, law, stored_len) -> None:
+def _check_valve_range(model: ArmModel, arm, mount, path: StraightPath, law, stored_len) -> None:
     """Re-check the valve range on a dense time grid along the whole path, not only at the output samples."""
     t_chk = np.linspace(0.0, law.duration, CHECK_SAMPLES)
     q_chk = inverse(arm, *_planar(path(law(t_chk, 0))))
     valve_voltages(*cylinder_lengths(mount, q_chk.alpha, q_chk.beta), stored_len,
-                   volts_per_metre=inst.actuators.volts_per_metre, valve_range=inst.actuators.valve_range_V,
+                   volts_per_metre=model.actuators.volts_per_metre, valve_range=model.actuators.valve_range_V,
                    times=t_chk)
 
 
-def cylinder_speed_limits(inst: Installation) -> tuple[float, float]:
-    """Largest extension speed each cylinder can be given, m/s.
-
-    The valve passes at most ``valve.nominal_flow`` at its rated drop and the
-    pump's flow is shared by the two cylinders (half each, a conservative
-    split), so ``v = min(Q_valve, Q_pump / 2) / A_piston``.
-
-    Parameters
-    ----------
-    inst : Installation
-        The installation.
-
-    Returns
-    -------
-    tuple of float
-        Speed limit of cylinder 1 and cylinder 2, m/s.
-    """
-    Ap, _ = cylinder_areas(inst.cylinders.bore, inst.cylinders.rod)
-    v = min(inst.valve.nominal_flow, inst.pump.max_flow / 2.0) / Ap
-    return v, v
-
-
-def optimal_timing(inst: Installation, path: StraightPath) -> ToppraTiming:
+def optimal_timing(model: ArmModel, path: StraightPath) -> ToppraTiming:
     """Time-optimal timing of a straight path under the coupler and cylinder limits (toppra).
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         Limits: ``approach.max_speed``, ``approach.max_accel``,
-        ``approach.max_cylinder_accel`` and :func:`cylinder_speed_limits`.
+        ``approach.max_cylinder_accel`` and the model's ``cylinder_speed_limit``.
     path : StraightPath
         The path (already checked reachable), in the arm plane or in 3D; in
         3D the slew angle is a further channel limited by ``slew.max_rate_deg``.
@@ -220,8 +199,8 @@ def optimal_timing(inst: Installation, path: StraightPath) -> ToppraTiming:
     -------
     ToppraTiming
     """
-    arm = arm_from_installation(inst)
-    mount = mounting_from_installation(inst)
+    arm = model.arm
+    mount = model.mount
 
     def lengths(s):
         q = inverse(arm, *_planar(path(s)))
@@ -231,20 +210,20 @@ def optimal_timing(inst: Installation, path: StraightPath) -> ToppraTiming:
         p = path(s)
         return np.arctan2(p[:, 1], p[:, 0])
 
-    extra = ((slew, math.radians(inst.slew.max_rate_deg), math.radians(5.0)),) if path.dim == 3 else ()
-    a_cyl = inst.approach.max_cylinder_accel
-    return ToppraTiming.build(path.length, lengths, v_max=inst.approach.max_speed, a_max=inst.approach.max_accel,
-                              v_cyl=cylinder_speed_limits(inst), a_cyl=(a_cyl, a_cyl), extra=extra)
+    extra = ((slew, model.slew.max_rate, math.radians(5.0)),) if path.dim == 3 else ()
+    a_cyl = model.approach.max_cylinder_accel
+    return ToppraTiming.build(path.length, lengths, v_max=model.approach.max_speed, a_max=model.approach.max_accel,
+                              v_cyl=model.cylinder_speed_limit, a_cyl=(a_cyl, a_cyl), extra=extra)
 
 
-def plan_approach(inst: Installation, *, start: tuple[float, float] | None = None,
+def plan_approach(model: ArmModel, *, start: tuple[float, float] | None = None,
                   target: tuple[float, float] | None = None, timing: str = "smooth",
                   samples: int = 201) -> Plan:
     """Plan the coupler's straight-line approach (paper Sections 3 and 5).
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         Validated installation.
     start, target : tuple of float, optional
         Path end points ``(x, y)``, m; default the configured stored position
@@ -273,22 +252,22 @@ def plan_approach(inst: Installation, *, start: tuple[float, float] | None = Non
         A voltage beyond the valve range anywhere along the path.
     """
     samples = _check_samples(samples)
-    arm = arm_from_installation(inst)
-    mount = mounting_from_installation(inst)
-    alarms = alarms_from_installation(inst)
-    start = tuple(inst.approach.stored) if start is None else start
-    target = tuple(inst.approach.flange) if target is None else target
+    arm = model.arm
+    mount = model.mount
+    alarms = model.alarms
+    start = tuple(model.approach.stored) if start is None else start
+    target = tuple(model.approach.flange) if target is None else target
     path = StraightPath(start, target)
     path.check_reachable(arm)
-    stored = inst.approach.stored
+    stored = model.approach.stored
     check_reachable(arm, *stored)
     if timing == "optimal":
-        law = optimal_timing(inst, path)
+        law = optimal_timing(model, path)
     else:
-        law = make_timing(timing, path, max_speed=inst.approach.max_speed, max_accel=inst.approach.max_accel)
+        law = make_timing(timing, path, max_speed=model.approach.max_speed, max_accel=model.approach.max_accel)
     T = law.duration
-    stored_len = _stored_lengths(inst, arm, mount)
-    _check_valve_range(inst, arm, mount, path, law, stored_len)
+    stored_len = _stored_lengths(model, arm, mount)
+    _check_valve_range(model, arm, mount, path, law, stored_len)
 
     t = np.linspace(0.0, T, samples)
     s = law(t, 0)
@@ -303,8 +282,8 @@ def plan_approach(inst: Installation, *, start: tuple[float, float] | None = Non
     add, bdd = joint_accelerations(arm, q.alpha, q.beta, ad, bd, tangent[:, 0] * sdd, tangent[:, 1] * sdd)
     r1, r2 = cylinder_lengths(mount, q.alpha, q.beta)
     v1, v2 = cylinder_rates(mount, q.alpha, q.beta, ad, bd)
-    u = valve_voltages(r1, r2, stored_len, volts_per_metre=inst.actuators.volts_per_metre,
-                       valve_range=inst.actuators.valve_range_V, times=t)
+    u = valve_voltages(r1, r2, stored_len, volts_per_metre=model.actuators.volts_per_metre,
+                       valve_range=model.actuators.valve_range_V, times=t)
     zone = classify_beta(q.beta, alarms)
     return Plan(timing=timing, start=path.start, target=path.end, duration=T, t=t, x=p[:, 0], y=p[:, 1],
                 vx=vx, vy=vy, alpha=q.alpha, beta=q.beta, alpha_dot=ad, beta_dot=bd,
@@ -401,26 +380,27 @@ class Plan3D:
         return _write_csv(path, self.records())
 
 
-def classify_slew(phi, inst: Installation) -> np.ndarray:
+def classify_slew(phi, model: ArmModel) -> np.ndarray:
     """Alarm zone of slew angles (1 normal, 2 first, 3 second, 4 release) from ``[slew]``.
 
     Parameters
     ----------
     phi : float or ndarray
         Slew angle, rad.
-    inst : Installation
+    model : ArmModel
         Slew alarm angles.
 
     Returns
     -------
     ndarray of int
     """
-    a = np.degrees(np.abs(np.asarray(phi, dtype=float)))
-    sl = inst.slew
-    return np.select([a >= sl.release_deg, a > sl.second_deg, a > sl.first_deg], [4, 3, 2], 1)
+    a = np.abs(np.asarray(phi, dtype=float))
+    sl = model.slew
+    return np.select([a >= sl.release, a > sl.second, a > sl.first],
+                     [int(Zone.RELEASE), int(Zone.SECOND_ALARM), int(Zone.FIRST_ALARM)], int(Zone.NORMAL))
 
 
-def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: tuple | None = None,
+def plan_approach_3d(model: ArmModel, *, start: tuple | None = None, target: tuple | None = None,
                      timing: str = "smooth", samples: int = 201) -> Plan3D:
     """Plan a straight-line approach in 3D: the coupler on a line, the arm slewing as it goes.
 
@@ -429,7 +409,7 @@ def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: 
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         Arm, mounting, limits, slew settings.
     start, target : tuple of 3 float, optional
         ``(x, y, z)``, m; default the stored position and the flange at ``y = 0``.
@@ -451,18 +431,18 @@ def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: 
     samples = _check_samples(samples)
     from .slew import inverse3d
 
-    arm = arm_from_installation(inst)
-    mount = mounting_from_installation(inst)
-    alarms = alarms_from_installation(inst)
-    sx, sz = inst.approach.stored
-    fx, fz = inst.approach.flange
+    arm = model.arm
+    mount = model.mount
+    alarms = model.alarms
+    sx, sz = model.approach.stored
+    fx, fz = model.approach.flange
     start = (sx, 0.0, sz) if start is None else tuple(start)
     target = (fx, 0.0, fz) if target is None else tuple(target)
     path = StraightPath(start, target)
     if path.dim != 3:
         raise PathError("plan_approach_3d needs (x, y, z) end points")
     path.check_reachable(arm)
-    lim = math.radians(inst.slew.limit_deg)
+    lim = model.slew.limit
     s_chk = np.linspace(0.0, path.length, CHECK_SAMPLES)
     p_chk = path(s_chk)
     rho_chk, _ = _planar(p_chk)
@@ -472,14 +452,14 @@ def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: 
     if np.max(np.abs(phi_chk)) > lim:
         i = int(np.argmax(np.abs(phi_chk)))
         raise PathError(f"the path needs a slew of {math.degrees(phi_chk[i]):.1f} deg at "
-                        f"({', '.join(f'{v:.2f}' for v in p_chk[i])}) m, beyond the slew limit +/-{inst.slew.limit_deg:g} deg")
+                        f"({', '.join(f'{v:.2f}' for v in p_chk[i])}) m, beyond the slew limit +/-{math.degrees(model.slew.limit):g} deg")
     if timing == "optimal":
-        law = optimal_timing(inst, path)
+        law = optimal_timing(model, path)
     else:
-        law = make_timing(timing, path, max_speed=inst.approach.max_speed, max_accel=inst.approach.max_accel)
+        law = make_timing(timing, path, max_speed=model.approach.max_speed, max_accel=model.approach.max_accel)
     T = law.duration
-    stored_len = _stored_lengths(inst, arm, mount)
-    _check_valve_range(inst, arm, mount, path, law, stored_len)
+    stored_len = _stored_lengths(model, arm, mount)
+    _check_valve_range(model, arm, mount, path, law, stored_len)
     t = np.linspace(0.0, T, samples)
     s, sd = law(t, 0), law(t, 1)
     p = path(s)
@@ -492,14 +472,14 @@ def plan_approach_3d(inst: Installation, *, start: tuple | None = None, target: 
     ad, bd = joint_rates(arm, q.alpha, q.beta, rho_dot, v[:, 2])
     r1, r2 = cylinder_lengths(mount, q.alpha, q.beta)
     v1, v2 = cylinder_rates(mount, q.alpha, q.beta, ad, bd)
-    u = valve_voltages(r1, r2, stored_len, volts_per_metre=inst.actuators.volts_per_metre,
-                       valve_range=inst.actuators.valve_range_V, times=t)
-    zone = np.maximum(classify_beta(q.beta, alarms), classify_slew(q.phi, inst))
+    u = valve_voltages(r1, r2, stored_len, volts_per_metre=model.actuators.volts_per_metre,
+                       valve_range=model.actuators.valve_range_V, times=t)
+    zone = np.maximum(classify_beta(q.beta, alarms), classify_slew(q.phi, model))
     return Plan3D(timing, path.start, path.end, T, t, p[:, 0], p[:, 1], p[:, 2], q.phi, q.alpha, q.beta, phi_dot,
                   ad, bd, r1, r2, v1, v2, u.u1, u.u2, zone)
 
 
-def plan_warnings(inst: Installation, plan: "Plan | Plan3D") -> list[str]:
+def plan_warnings(model: ArmModel, plan: "Plan | Plan3D") -> list[str]:
     """What a planned approach does that an operator must know before it runs.
 
     The planners refuse what cannot be done (out of reach, valve range); this reports what can be done but
@@ -508,7 +488,7 @@ def plan_warnings(inst: Installation, plan: "Plan | Plan3D") -> list[str]:
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         Supplies the cylinder length ranges.
     plan : Plan or Plan3D
         A planned approach.
@@ -524,8 +504,8 @@ def plan_warnings(inst: Installation, plan: "Plan | Plan3D") -> list[str]:
         k = int(np.argmax(plan.zone > int(Zone.NORMAL)))
         found.append((float(plan.t[k]), f"the path enters {Zone(worst).label} (first at t = {plan.t[k]:.2f} s, "
                                         f"beta {math.degrees(plan.beta[k]):.2f} deg)"))
-    for i, (r, (lo, hi)) in enumerate(((plan.r_ac1, inst.cylinders.length_range_1),
-                                       (plan.r_ac2, inst.cylinders.length_range_2)), start=1):
+    for i, (r, (lo, hi)) in enumerate(((plan.r_ac1, model.cylinders.length_range_1),
+                                       (plan.r_ac2, model.cylinders.length_range_2)), start=1):
         for bad, end, limit, word in ((r < lo, "retracted", lo, "shorter"), (r > hi, "extended", hi, "longer")):
             if bad.any():
                 k = int(np.argmax(bad))

@@ -27,18 +27,20 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..actuators import joint_angles_from_cylinders, length_limits
-from ..config import Installation
-from ..geometry import Arm, arm_from_installation, mounting_from_installation
+from ..geometry import Arm
 from ..kinematics import ROUNDOFF_M, jacobian_entries
 from ..slew import forward3d, inverse3d, reach_mask3d
 from .scenario import Guidance
 from .sensor import Estimate
 
-__all__ = ["Mode", "AlarmThresholds", "JointLimits", "Command", "OperatorInput", "GuidanceController"]
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from ..model import ArmModel
+
+__all__ = ["Mode", "AlarmThresholds", "Command", "OperatorInput", "GuidanceController"]
 
 
 class Mode(str, enum.Enum):
@@ -98,31 +100,29 @@ class AlarmThresholds:
     t_release: float
 
     @staticmethod
-    def from_settings(inst: Installation, g: Guidance, limits: "JointLimits | None" = None) -> "AlarmThresholds":
-        """Thresholds from the installation's alarm angles and the guidance sequence times.
+    def from_settings(model: ArmModel, g: Guidance) -> "AlarmThresholds":
+        """Thresholds from the model's alarm angles and joint limits and the guidance sequence times.
 
         Parameters
         ----------
-        inst : Installation
-            Alarm angles and arm.
+        model : ArmModel
+            Alarm angles, slew limits, joint limits and arm.
         g : Guidance
-            Sequence times and margin (slew angles come from ``inst.slew``).
-        limits : JointLimits, optional
-            Already computed joint limits (default: computed here).
+            Sequence times and margin.
 
         Returns
         -------
         AlarmThresholds
         """
-        arm = arm_from_installation(inst)
-        al = inst.alarms
+        arm = model.arm
+        al = model.alarms
         # the hard limit is the fully stretched arm or the end of cylinder 2's stroke, whichever comes first
-        beta_stop = (limits or JointLimits.from_settings(inst, g)).beta[1]
+        beta_stop = model.joint_limits.beta[1]
         return AlarmThresholds(
             beta_first=al.first, beta_second=al.second, beta_release=al.release,
             r_release=float(arm.radius_at_beta(al.release)), r_max=float(arm.radius_at_beta(min(beta_stop, math.pi))),
-            slew_first=math.radians(inst.slew.first_deg), slew_second=math.radians(inst.slew.second_deg),
-            slew_release=math.radians(inst.slew.release_deg), slew_limit=math.radians(inst.slew.limit_deg),
+            slew_first=model.slew.first, slew_second=model.slew.second,
+            slew_release=model.slew.release, slew_limit=model.slew.limit,
             t_alarm1=g.esd_time + g.ers_time + g.margin, t_alarm2=g.ers_time + g.margin,
             t_release=g.ers_time + g.margin)
 
@@ -166,64 +166,6 @@ class AlarmThresholds:
         if min(ttl_r, ttl_phi) <= self.t_alarm1:
             return 1, f"drift would reach the release angle in {min(ttl_r, ttl_phi):.1f} s"
         return 0, ""
-
-
-@dataclass(frozen=True, slots=True)
-class JointLimits:
-    """Joint ranges (rad) from the slew limit and the cylinder strokes, and joint rate limits (rad/s)."""
-
-    phi: tuple[float, float]
-    alpha: tuple[float, float]
-    beta: tuple[float, float]
-    rate: tuple[float, float, float]
-
-    def contains(self, q, tol: float = 0.0) -> bool:
-        """Whether joint angles ``(phi, alpha, beta)`` lie within every range, to ``tol`` rad.
-
-        Parameters
-        ----------
-        q : sequence of float
-            Slew, alpha, beta, rad.
-        tol : float
-            Slack, rad (for positions computed exactly on a limit).
-
-        Returns
-        -------
-        bool
-        """
-        return all(lo - tol <= float(v) <= hi + tol for v, (lo, hi) in zip(q, (self.phi, self.alpha, self.beta)))
-
-    @staticmethod
-    def from_settings(inst: Installation, g: Guidance) -> "JointLimits":
-        """Limits from the installation (cylinder length ranges) and the guidance settings.
-
-        Parameters
-        ----------
-        inst : Installation
-            Cylinder length ranges and mounting.
-        g : Guidance
-            Guidance settings (the slew limit and rate come from ``inst.slew``).
-
-        Returns
-        -------
-        JointLimits
-        """
-        mount = mounting_from_installation(inst)
-        cy = inst.cylinders
-        # Eq. 12: r_ac1 shrinks as alpha grows; Eq. 13: r_ac2 grows with beta
-        geo = length_limits(mount)
-        r1 = np.clip(cy.length_range_1, *geo["r_ac1"])
-        r2 = np.clip(cy.length_range_2, *geo["r_ac2"])
-        a_hi, b_lo = joint_angles_from_cylinders(mount, r1[0], r2[0])
-        a_lo, b_hi = joint_angles_from_cylinders(mount, r1[1], r2[1])
-        slew = math.radians(inst.slew.limit_deg)
-        from ..trajectory import cylinder_speed_limits
-        v1, v2 = cylinder_speed_limits(inst)
-        # joint rate bound from the cylinder speed over the largest moment arm (a1 b1 / r etc. <= min(a1, b1))
-        rate_a = v1 / max(min(mount.a1, mount.b1), 1e-6)
-        rate_b = v2 / max(min(mount.b2, mount.c2), 1e-6)
-        return JointLimits((-slew, slew), (float(a_lo), float(a_hi)), (float(b_lo), float(b_hi)),
-                           (math.radians(inst.slew.max_rate_deg), rate_a, rate_b))
 
 
 @dataclass(frozen=True, slots=True)
@@ -294,20 +236,20 @@ class GuidanceController:
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         Arm, alarms, approach limits, stored position (2D, taken at y = 0).
     g : Guidance
         Guidance settings.
     """
 
-    def __init__(self, inst: Installation, g: Guidance):
-        self.arm: Arm = arm_from_installation(inst)
+    def __init__(self, model: ArmModel, g: Guidance):
+        self.arm: Arm = model.arm
         self.g = g
-        self.lim = JointLimits.from_settings(inst, g)
-        self.thr = AlarmThresholds.from_settings(inst, g, self.lim)
-        self.v_max = inst.approach.max_speed
-        self.a_max = inst.approach.max_accel
-        sx, sz = inst.approach.stored
+        self.lim = model.joint_limits
+        self.thr = AlarmThresholds.from_settings(model, g)
+        self.v_max = model.approach.max_speed
+        self.a_max = model.approach.max_accel
+        sx, sz = model.approach.stored
         self.stored = np.array([sx, 0.0, sz])
         self.dt_nominal = 1.0 / g.rate
         self.s = _State()

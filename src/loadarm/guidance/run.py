@@ -19,17 +19,19 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..config import Installation
 from ..eventlog import EventLog
-from ..geometry import arm_from_installation
 from ..slew import forward3d, inverse3d, reach_mask3d
 from .controller import GuidanceController, Mode, OperatorInput
 from .scenario import Scenario
 from .sensor import FlangeEstimator, sensor_readings
 from .ship import flange_motion
+
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from ..model import ArmModel
 
 __all__ = ["RunResult", "run_scenario", "wall_clock_pacer", "MODES"]
 
@@ -118,7 +120,7 @@ class RunResult:
         }
 
 
-def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = None, sample_every: float = 1.0,
+def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
                  progress: Callable[[float], None] | None = None, plant: str | None = None,
                  pace: Callable[[float], None] | None = None) -> RunResult:
     """Run a scenario in closed loop on a simulated clock.
@@ -127,7 +129,7 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
     ----------
     sc : Scenario
         The scenario.
-    inst : Installation
+    model : ArmModel
         The arm.
     log : EventLog, optional
         Durable event log; every event is committed as it happens, plus a
@@ -149,12 +151,12 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
     -------
     RunResult
     """
-    arm = arm_from_installation(inst)
+    arm = model.arm
     g = sc.guidance
     plant = sc.scenario.plant if plant is None else plant
     if plant not in ("hydraulic", "kinematic"):
         raise ValueError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
-    ctrl = GuidanceController(inst, g)
+    ctrl = GuidanceController(model, g)
     motion = flange_motion(sc)
     readings = sensor_readings(sc, motion)
     est = FlangeEstimator(noise=sc.sensor.noise, max_age=g.max_estimate_age)
@@ -169,7 +171,7 @@ def run_scenario(sc: Scenario, inst: Installation, *, log: EventLog | None = Non
         from ..hydraulics.servo import HydraulicArm
         from ..hydraulics.simulate import SimulationError
 
-        servo = HydraulicArm(inst, q[1], q[2])
+        servo = HydraulicArm(model, q[1], q[2])
     servo_fault = False
     was_connected = False
     sig = {k: np.full(n, np.nan) for k in ("t", "mode", "phi", "alpha", "beta", "x", "y", "z", "fx", "fy", "fz",

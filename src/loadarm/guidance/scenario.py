@@ -8,12 +8,16 @@ default and source, like the installation's (:mod:`loadarm.config`).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ..config import Installation, _format_validation_error, _param, load_config, paper_installation, read_toml
+from ..config import _format_validation_error, _param, load_config, paper_installation, read_toml
 from ..errors import ConfigError
+
+if TYPE_CHECKING:
+    from ..model import ArmModel
 
 __all__ = ["Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Scenario", "load_scenario",
            "parse_scenario"]
@@ -196,8 +200,8 @@ def parse_scenario(data: dict, *, source: str = "<scenario>") -> Scenario:
         raise ConfigError(msg) from None
 
 
-def load_scenario(path: str | Path) -> tuple[Scenario, Installation]:
-    """Read a scenario file and the installation it names.
+def load_scenario(path: str | Path) -> tuple[Scenario, "ArmModel"]:
+    """Read a scenario file and the installation it names, compiled (scenario loading is an edge).
 
     Parameters
     ----------
@@ -207,7 +211,8 @@ def load_scenario(path: str | Path) -> tuple[Scenario, Installation]:
     Returns
     -------
     scenario : Scenario
-    installation : Installation
+    model : ArmModel
+        The named installation (default: the paper's case), compiled.
 
     Raises
     ------
@@ -216,5 +221,7 @@ def load_scenario(path: str | Path) -> tuple[Scenario, Installation]:
     """
     p = Path(path)
     sc = parse_scenario(read_toml(p, "scenario"), source=str(p))
+    from ..compiler import compile_model
+
     inst = paper_installation() if sc.scenario.installation is None else load_config(p.parent / sc.scenario.installation)
-    return sc, inst
+    return sc, compile_model(inst)

@@ -13,26 +13,29 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
 from scipy.integrate import solve_ivp
 
-from ..config import Installation
 from ..trajectory import Plan
 from . import plant
 from .components import cylinder_friction, end_stop_force, valve_flows
 
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from ..model import ArmModel
+
 __all__ = ["reference_simulation", "cylinder_rig"]
 
 
-def reference_simulation(inst: Installation, plan: Plan, t_end: float, *, fill: float | None = None,
+def reference_simulation(model: ArmModel, plan: Plan, t_end: float, *, fill: float | None = None,
                          method: str = "LSODA", rtol: float = 1e-8) -> dict:
     """Closed loop with the plant integrated by ``solve_ivp`` between control samples.
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation.
     plan : Plan
         The approach.
@@ -55,11 +58,11 @@ def reference_simulation(inst: Installation, plan: Plan, t_end: float, *, fill: 
 
     if not t_end > 0:
         raise ValueError(f"t_end must be > 0 s, got {t_end!r}")
-    P = pack_parameters(inst, fill=fill)
+    P = pack_parameters(model, fill=fill)
     dt = P[plant.I_DT]
     n = int(round(t_end / dt))
-    ref, vref, fref = _references(inst, plan, n, fill)
-    y = initial_state(inst, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
+    ref, vref, fref = _references(model, plan, n, fill)
+    y = initial_state(model, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
     integ, dfilt, prev, u, status = np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(10)
     prev[0], prev[1] = plant.first_readings(P, y[0], y[1])
     ps_nom = P[plant.I_PCOMP] - P[plant.I_PBAND]
@@ -112,14 +115,14 @@ def _rig_loop(P, mass, x0, pA0, pB0, spool, f_ext, ps, n, h):
     return out
 
 
-def cylinder_rig(inst: Installation, *, mass: float, duration: float, x0: float, spool: float = 0.0,
+def cylinder_rig(model: ArmModel, *, mass: float, duration: float, x0: float, spool: float = 0.0,
                  force: float = 0.0, pA0: float | None = None, pB0: float | None = None, supply: float | None = None,
                  step: float | None = None, overrides: dict | None = None) -> dict:
     """One drive (valve + cylinder 1's geometry) moving a free mass, integrated like the simulator.
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         Valve and cylinder parameters.
     mass : float
         Moving mass, kg.
@@ -148,11 +151,11 @@ def cylinder_rig(inst: Installation, *, mass: float, duration: float, x0: float,
     """
     from .simulate import pack_parameters
 
-    P = pack_parameters(inst)
+    P = pack_parameters(model)
     for key, val in (overrides or {}).items():
         P[getattr(plant, key)] = val
     h = P[plant.I_H] if step is None else float(step)
-    ps = inst.pump.compensator_pressure if supply is None else float(supply)
+    ps = model.pump.compensator_pressure if supply is None else float(supply)
     pA0 = ps / 2 if pA0 is None else pA0
     pB0 = ps / 2 if pB0 is None else pB0
     n = int(math.ceil(duration / h))

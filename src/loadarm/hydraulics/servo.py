@@ -13,13 +13,16 @@ rate. The slew drive is not hydraulic here (kinematic, rate-limited).
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..config import Installation
 from ..dynamics import G, lagrange_constants, mass_model
 from . import plant
 from .simulate import SimulationError, initial_state, pack_parameters
+
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from ..model import ArmModel
 
 __all__ = ["HydraulicArm"]
 
@@ -29,16 +32,16 @@ class HydraulicArm:
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation (hydraulics, controller, masses).
     alpha, beta : float
         Starting pose, rad (held by its static pressures).
     """
 
-    def __init__(self, inst: Installation, alpha: float, beta: float):
-        self.inst = inst
-        self.P = pack_parameters(inst)
-        self.k = lagrange_constants(mass_model(inst))
+    def __init__(self, model: ArmModel, alpha: float, beta: float):
+        self.model = model
+        self.P = pack_parameters(model)
+        self.k = lagrange_constants(mass_model(model))
         self.dt = float(self.P[plant.I_DT])
         self.substeps = int(round(self.P[plant.I_DT] / self.P[plant.I_H]))
         self.reset(alpha, beta)
@@ -51,7 +54,7 @@ class HydraulicArm:
         alpha, beta : float
             Pose, rad.
         """
-        self.y = initial_state(self.inst, alpha, beta)
+        self.y = initial_state(self.model, alpha, beta)
         self.integ = np.zeros(2)
         self.dfilt = np.zeros(2)
         self.u = np.zeros(2)

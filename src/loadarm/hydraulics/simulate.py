@@ -14,18 +14,20 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..config import Installation
-from ..dynamics import (G, chamber_pressures, cylinder_areas, lagrange_constants, mass_model, moment_arms,
+from ..dynamics import (G, chamber_pressures, lagrange_constants, mass_model, moment_arms,
                         static_torques)
 from ..errors import LoadarmError
-from ..geometry import arm_from_installation, mounting_from_installation
 from ..kinematics import forward
 from ..trajectory import Plan
 from . import plant
 from .components import spool_discretisation, valve_coefficient
+
+if TYPE_CHECKING:  # the model is only ever received, never built, here
+    from ..model import ArmModel
 
 __all__ = ["SimulationError", "SimulationResult", "pack_parameters", "initial_state", "simulate_approach",
            "simulate_hold", "stable_substeps"]
@@ -40,7 +42,7 @@ class SimulationError(LoadarmError, RuntimeError):
 
 
 @functools.lru_cache(maxsize=64)
-def stable_substeps(inst: Installation) -> int:
+def stable_substeps(model: ArmModel) -> int:
     """Plant steps per control step from a stability bound, not a constant.
 
     The plant step treats the chamber and supply pressures linearly implicitly and the spool exactly, so
@@ -57,7 +59,7 @@ def stable_substeps(inst: Installation) -> int:
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation (the bound is taken for the drained arm, the lightest and so the fastest, whatever
         the fill; the result is cached per installation).
 
@@ -66,12 +68,12 @@ def stable_substeps(inst: Installation) -> int:
     int
         Substeps, at least 1.
     """
-    cy, c = inst.cylinders, inst.controller
-    mount = mounting_from_installation(inst)
-    Ap, Aa = cylinder_areas(cy.bore, cy.rod)
+    cy, c = model.cylinders, model.controller
+    mount = model.mount
+    Ap, Aa = model.cylinder_area
     k_oil = cy.bulk_modulus * (Ap * Ap + Aa * Aa) / cy.dead_volume
     kk = k_oil + cy.end_stop_stiffness
-    lc = lagrange_constants(mass_model(inst, fill=0.0))       # drained: the lightest arm has the fastest modes
+    lc = lagrange_constants(mass_model(model, fill=0.0))       # drained: the lightest arm has the fastest modes
     a, b = np.meshgrid(np.linspace(0.0, math.pi, 181), np.linspace(0.02, math.pi - 0.02, 181))
     h1, h2 = moment_arms(mount, a, b)
     cb = np.cos(b)
@@ -90,20 +92,20 @@ def stable_substeps(inst: Installation) -> int:
     damp = float(c_piston * max((h1 * h1 * i11).max(), (h2 * h2 * i22).max()))
     # pressure build-up through a fully open land at rest (the laminar slope kv / sqrt(p_lam) is the orifice
     # law's steepest): integrated linearly implicitly, so always stable, but accurate only for h lambda_p small
-    v = inst.valve
+    v = model.valve
     lam_p = cy.bulk_modulus / cy.dead_volume * valve_coefficient(v.nominal_flow, v.nominal_pressure_drop) \
         / math.sqrt(v.laminar_pressure)
     h_max = min(STEP_FACTOR / omega, STEP_FACTOR / lam_p, 1.0 / damp if damp > 0 else math.inf)
     return max(1, math.ceil((1.0 / c.rate) / h_max - 1e-9))
 
 
-def pack_parameters(inst: Installation, *, substeps: int | None = None, gains: dict | None = None,
+def pack_parameters(model: ArmModel, *, substeps: int | None = None, gains: dict | None = None,
                     fill: float | None = None) -> np.ndarray:
     """The compiled simulator's parameter vector, in SI units.
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation.
     substeps : int, optional
         Plant steps per control step (default ``controller.substeps``).
@@ -116,22 +118,22 @@ def pack_parameters(inst: Installation, *, substeps: int | None = None, gains: d
     -------
     ndarray, shape (plant.N_PARAMS,)
     """
-    c, p, v, cy, enc, act = inst.controller, inst.pump, inst.valve, inst.cylinders, inst.encoder, inst.actuators
+    c, p, v, cy, enc, act = model.controller, model.pump, model.valve, model.cylinders, model.encoder, model.actuators
     gains = dict(gains or {})
     unknown = set(gains) - {"kp", "ki", "kd"}
     if unknown:
         raise ValueError(f"unknown gain(s) {sorted(unknown)}; allowed: kp, ki, kd")
     if substeps is None:
-        n_sub = stable_substeps(inst) if c.substeps == "auto" else c.substeps
+        n_sub = stable_substeps(model) if c.substeps == "auto" else c.substeps
     else:
         n_sub = int(substeps)
     if not (1 <= n_sub <= 1000):
         raise ValueError(f"substeps must be in [1, 1000], got {substeps!r}")
     dt = 1.0 / c.rate
     h = dt / n_sub
-    arm = arm_from_installation(inst)
-    mount = mounting_from_installation(inst)
-    Ap, Aa = cylinder_areas(cy.bore, cy.rod)
+    arm = model.arm
+    mount = model.mount
+    Ap, Aa = model.cylinder_area
     omega = 2 * math.pi * v.natural_frequency
     Phi, Gam = spool_discretisation(omega, v.damping, h)
     kv = valve_coefficient(v.nominal_flow, v.nominal_pressure_drop)
@@ -157,7 +159,7 @@ def pack_parameters(inst: Installation, *, substeps: int | None = None, gains: d
         plant.I_PHI11: Phi[1, 1], plant.I_GAM0: Gam[0], plant.I_GAM1: Gam[1], plant.I_DT: dt, plant.I_H: h,
         plant.I_OMEGA2: omega ** 2, plant.I_TWOZW: 2 * v.damping * omega,
     }
-    k = lagrange_constants(mass_model(inst, fill=fill))
+    k = lagrange_constants(mass_model(model, fill=fill))
     vals[plant.I_FELIM] = c.following_error_limit
     vals.update({plant.I_K11: k.k11, plant.I_K22: k.k22, plant.I_KC: k.k_c, plant.I_GA: k.g_a, plant.I_GAB: k.g_ab})
     for k, val in vals.items():
@@ -168,7 +170,7 @@ def pack_parameters(inst: Installation, *, substeps: int | None = None, gains: d
     return P
 
 
-def initial_state(inst: Installation, alpha: float, beta: float, *, fill: float | None = None) -> np.ndarray:
+def initial_state(model: ArmModel, alpha: float, beta: float, *, fill: float | None = None) -> np.ndarray:
     """Arm at rest at ``(alpha, beta)``, held by its cylinders, spools centred, supply at the compensator.
 
     Each cylinder's chamber pressures are those that produce the static
@@ -176,7 +178,7 @@ def initial_state(inst: Installation, alpha: float, beta: float, *, fill: float 
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation.
     alpha, beta : float
         Joint angles, rad.
@@ -187,10 +189,10 @@ def initial_state(inst: Installation, alpha: float, beta: float, *, fill: float 
     -------
     ndarray, shape (13,)
     """
-    mm = mass_model(inst, fill=fill)
+    mm = mass_model(model, fill=fill)
     ta, tb = static_torques(mm, alpha, beta)
-    h1, h2 = (float(v) for v in moment_arms(mounting_from_installation(inst), alpha, beta))
-    cy = inst.cylinders
+    h1, h2 = (float(v) for v in moment_arms(model.mount, alpha, beta))
+    cy = model.cylinders
     y = np.zeros(13)
     y[0], y[1] = alpha, beta
     for i, (tau, h) in enumerate(((ta, h1), (tb, h2))):
@@ -198,7 +200,7 @@ def initial_state(inst: Installation, alpha: float, beta: float, *, fill: float 
             raise SimulationError(f"cylinder {i + 1} has no moment arm in the start pose (it cannot hold the arm)")
         pA, pB = chamber_pressures(float(tau) / h, cy.bore, cy.rod, cy.return_pressure)
         y[4 + 2 * i], y[5 + 2 * i] = float(pA), float(pB)
-    y[12] = inst.pump.compensator_pressure
+    y[12] = model.pump.compensator_pressure
     return y
 
 
@@ -236,9 +238,9 @@ class SimulationResult:
         return dict(self.metrics)
 
 
-def _mech_energy(inst, fill, a, b, ad, bd):
+def _mech_energy(model, fill, a, b, ad, bd):
     """Kinetic plus potential energy of the arm, J (from the mass model, independent of the loop)."""
-    mm = mass_model(inst, fill=fill)
+    mm = mass_model(model, fill=fill)
     arm = mm.arm
     ey = arm.a + arm.b * math.cos(a)
     exd, eyd = arm.b * math.cos(a) * ad, -arm.b * math.sin(a) * ad
@@ -258,28 +260,28 @@ def _mech_energy(inst, fill, a, b, ad, bd):
     return e
 
 
-def _references(inst: Installation, plan: Plan, n_steps: int, fill: float | None):
+def _references(model: ArmModel, plan: Plan, n_steps: int, fill: float | None):
     """Cylinder length, speed and force references at every control step (held after the plan ends)."""
     from ..loads import actuator_loads
 
-    dt = 1.0 / inst.controller.rate
+    dt = 1.0 / model.controller.rate
     tk = np.arange(n_steps + 1) * dt
     tp = np.minimum(tk, plan.duration)
     ref = np.vstack([np.interp(tp, plan.t, plan.r_ac1), np.interp(tp, plan.t, plan.r_ac2)])
     vref = np.vstack([np.interp(tp, plan.t, plan.v_ac1), np.interp(tp, plan.t, plan.v_ac2)])
     vref[:, tk > plan.duration] = 0.0
-    ld = actuator_loads(inst, plan, fill=fill)
+    ld = actuator_loads(model, plan, fill=fill)
     fref = np.vstack([np.interp(tp, plan.t, ld.force1), np.interp(tp, plan.t, ld.force2)])
     return ref, vref, fref
 
 
-def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = None, substeps: int | None = None,
+def simulate_approach(model: ArmModel, plan: Plan, *, fill: float | None = None, substeps: int | None = None,
                       gains: dict | None = None, log_rate: float = 100.0) -> SimulationResult:
     """Simulate the electro-hydraulic closed loop driving the arm along a plan.
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         Arm, masses, cylinders, pump, valve, encoder and controller.
     plan : Plan
         The approach (its cylinder lengths and speeds are the references).
@@ -303,13 +305,13 @@ def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = No
         message names the time and the signal, and no NaN-filled result is
         returned.
     """
-    c = inst.controller
-    P = pack_parameters(inst, substeps=substeps, gains=gains, fill=fill)
+    c = model.controller
+    P = pack_parameters(model, substeps=substeps, gains=gains, fill=fill)
     dt = P[plant.I_DT]
     n_plan = int(math.ceil(plan.duration / dt))
     n_steps = n_plan + int(round(c.settle_time / dt))
-    ref, vref, fref = _references(inst, plan, n_steps, fill)
-    y0 = initial_state(inst, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
+    ref, vref, fref = _references(model, plan, n_steps, fill)
+    y0 = initial_state(model, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
     log_every = max(1, int(round(c.rate / log_rate)))
     log, energy, status = plant.simulate_loop(P, ref, vref, fref, y0, n_steps,
                                               int(P[plant.I_DT] / P[plant.I_H] + 0.5), log_every)
@@ -320,7 +322,7 @@ def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = No
             "sizes, or raise controller.substeps")
     n = int(status[5])
     sig = {name: log[:n, j].copy() for j, name in enumerate(plant.SIGNALS)}
-    arm = arm_from_installation(inst)
+    arm = model.arm
     x, y = forward(arm, sig["alpha"], sig["beta"])
     # deviation from the planned straight line (signed, left of the direction of travel positive)
     (x0, y0p), (x1, y1) = plan.start, plan.target
@@ -334,8 +336,8 @@ def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = No
     e2 = sig["r2"] - sig["r2_ref"]
     ps = sig["ps"]
     p_pump = ps * sig["q_pump"]
-    e_mech = (_mech_energy(inst, fill, sig["alpha"][-1], sig["beta"][-1], sig["alpha_dot"][-1], sig["beta_dot"][-1])
-              - _mech_energy(inst, fill, *y0[:4]))
+    e_mech = (_mech_energy(model, fill, sig["alpha"][-1], sig["beta"][-1], sig["alpha_dot"][-1], sig["beta_dot"][-1])
+              - _mech_energy(model, fill, *y0[:4]))
     en = dict(zip(plant.ENERGIES, (float(v) for v in energy)))
     en["mechanical"] = e_mech
     spent = (en["relief"] + en["valve"] + en["tank"] + en["leakage"] + en["compression"] + en["friction"]
@@ -370,8 +372,8 @@ def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = No
             warnings.append(f"valve {i + 1} saturated for {status[3 + i]:.2f} s")
     if status[2] > 0:
         warnings.append(f"a chamber reached 0 bar (cavitation risk) for {status[2]:.2f} s")
-    if pmax > inst.cylinders.max_pressure:
-        warnings.append(f"chamber pressure {pmax / 1e5:.1f} bar above the {inst.cylinders.max_pressure / 1e5:g} bar rating")
+    if pmax > model.cylinders.max_pressure:
+        warnings.append(f"chamber pressure {pmax / 1e5:.1f} bar above the {model.cylinders.max_pressure / 1e5:g} bar rating")
     if metrics["max_relief_flow_L_min"] > 0:
         warnings.append("the relief valve opened")
     if arrival is None:
@@ -380,13 +382,13 @@ def simulate_approach(inst: Installation, plan: Plan, *, fill: float | None = No
     return SimulationResult(plan.timing, sig, x, y, dev, en, metrics)
 
 
-def simulate_hold(inst: Installation, alpha: float, beta: float, duration: float, *, pressures: tuple | None = None,
+def simulate_hold(model: ArmModel, alpha: float, beta: float, duration: float, *, pressures: tuple | None = None,
                   fill: float | None = None, log_rate: float = 100.0) -> dict:
     """Closed loop told to hold the arm still at ``(alpha, beta)``.
 
     Parameters
     ----------
-    inst : Installation
+    model : ArmModel
         The installation.
     alpha, beta : float
         Pose, rad.
@@ -410,19 +412,19 @@ def simulate_hold(inst: Installation, alpha: float, beta: float, duration: float
     SimulationError
         On divergence.
     """
-    P = pack_parameters(inst, fill=fill)
+    P = pack_parameters(model, fill=fill)
     dt = P[plant.I_DT]
     n = int(round(duration / dt))
-    y0 = initial_state(inst, alpha, beta, fill=fill)
+    y0 = initial_state(model, alpha, beta, fill=fill)
     if pressures is not None:
         y0[4:8] = pressures
     r1, r2, _, _ = plant._geometry(P, alpha, beta)
     ref = np.vstack([np.full(n + 1, r1), np.full(n + 1, r2)])
-    mm = mass_model(inst, fill=fill)
+    mm = mass_model(model, fill=fill)
     ta, tb = static_torques(mm, alpha, beta)
     _, _, h1, h2 = plant._geometry(P, alpha, beta)
     fref = np.vstack([np.full(n + 1, float(ta) / h1), np.full(n + 1, float(tb) / h2)])
-    log_every = max(1, int(round(inst.controller.rate / log_rate)))
+    log_every = max(1, int(round(model.controller.rate / log_rate)))
     log, _, status = plant.simulate_loop(P, ref, np.zeros_like(ref), fref, y0, n,
                                          int(P[plant.I_DT] / P[plant.I_H] + 0.5), log_every)
     if status[0] != 0:

@@ -1,0 +1,93 @@
+"""Compile a validated installation into the :class:`~loadarm.model.ArmModel` (the edge between files and maths).
+
+Only the edges (CLI, report, scenario loading, docs) call :func:`compile_model`; everything downstream takes
+the model. The parameter records are generated from the declarations in :mod:`loadarm.config` (same section
+and key names), so each parameter is still declared exactly once, with its unit, range and source, there.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import make_dataclass
+from typing import Any
+
+from pydantic import BaseModel
+
+from .actuators import joint_angles_from_cylinders, length_limits
+from .config import Installation
+from .dynamics import cylinder_areas
+from .envelope import AlarmAngles, berth_box
+from .geometry import Arm, Mounting
+from .model import ArmModel, JointLimits, SlewLimits
+
+__all__ = ["compile_model", "RECORD_SECTIONS"]
+
+#: Configuration sections carried into the model as plain records (the others become typed objects:
+#: ``arm`` -> :class:`~loadarm.geometry.Arm`, ``alarms`` -> :class:`~loadarm.envelope.AlarmAngles`,
+#: ``slew`` -> :class:`~loadarm.model.SlewLimits`; ``sizing`` and ``report`` are read at the edge only).
+RECORD_SECTIONS = ("datasheet", "actuators", "approach", "masses", "cylinders", "pump", "valve", "encoder",
+                   "controller")
+
+
+def _record_type(section: type[BaseModel]) -> type:
+    """A frozen, slotted dataclass with the section's keys (the declarations stay in the config model)."""
+    rec = make_dataclass(f"{section.__name__}Params", [(name, Any) for name in section.model_fields],
+                         frozen=True, slots=True)
+    rec.__doc__ = (f"The ``[{section.__name__.lower()}]`` parameters as plain values, SI units "
+                   f"(declared in :class:`loadarm.config.{section.__name__}`).")
+    return rec
+
+
+_RECORD_TYPES = {name: _record_type(Installation.model_fields[name].annotation) for name in RECORD_SECTIONS}
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, (list, tuple)):
+        return tuple(_plain(v) for v in value)
+    return value
+
+
+def _record(name: str, section: BaseModel) -> Any:
+    return _RECORD_TYPES[name](**{k: _plain(getattr(section, k)) for k in type(section).model_fields})
+
+
+def _joint_limits(mount: Mounting, cylinders, slew: SlewLimits, v_max: tuple[float, float]) -> JointLimits:
+    geo = length_limits(mount)
+    # Eq. 12: r_ac1 shrinks as alpha grows; Eq. 13: r_ac2 grows with beta
+    r1 = [min(max(v, geo["r_ac1"][0]), geo["r_ac1"][1]) for v in cylinders.length_range_1]
+    r2 = [min(max(v, geo["r_ac2"][0]), geo["r_ac2"][1]) for v in cylinders.length_range_2]
+    a_hi, b_lo = joint_angles_from_cylinders(mount, r1[0], r2[0])
+    a_lo, b_hi = joint_angles_from_cylinders(mount, r1[1], r2[1])
+    # joint rate bound from the cylinder speed over the largest moment arm (a1 b1 / r etc. <= min(a1, b1))
+    rate_a = v_max[0] / max(min(mount.a1, mount.b1), 1e-6)
+    rate_b = v_max[1] / max(min(mount.b2, mount.c2), 1e-6)
+    return JointLimits((-slew.limit, slew.limit), (float(a_lo), float(a_hi)), (float(b_lo), float(b_hi)),
+                       (slew.max_rate, rate_a, rate_b))
+
+
+def compile_model(inst: Installation) -> ArmModel:
+    """Compile a validated installation into the model every stage takes.
+
+    Parameters
+    ----------
+    inst : Installation
+        A validated installation (:func:`loadarm.config.load_config`).
+
+    Returns
+    -------
+    ArmModel
+        The immutable model.
+    """
+    arm = Arm(inst.arm.riser, inst.arm.inboard, inst.arm.outboard)
+    a = inst.actuators
+    mount = Mounting(a.a1, a.b1, a.b2, a.c2)
+    al = inst.alarms
+    sl = inst.slew
+    slew = SlewLimits(math.radians(sl.limit_deg), math.radians(sl.first_deg), math.radians(sl.second_deg),
+                      math.radians(sl.release_deg), math.radians(sl.max_rate_deg))
+    area = cylinder_areas(inst.cylinders.bore, inst.cylinders.rod)
+    v = min(inst.valve.nominal_flow, inst.pump.max_flow / 2.0) / area[0]
+    records = {name: _record(name, getattr(inst, name)) for name in RECORD_SECTIONS}
+    return ArmModel(arm=arm, mount=mount, alarms=AlarmAngles(al.first, al.second, al.release), slew=slew,
+                    berth=berth_box(inst.datasheet), joint_limits=_joint_limits(mount, inst.cylinders, slew, (v, v)),
+                    cylinder_area=(float(area[0]), float(area[1])), cylinder_speed_limit=(v, v), **records)

@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from loadarm.compiler import compile_model
 from loadarm.errors import ConfigError
 from loadarm.eventlog import EventLog
-from loadarm.guidance.controller import AlarmThresholds, GuidanceController, Mode, OperatorInput
+from loadarm.guidance.controller import (AlarmThresholds, Cycle, GuidanceController, GuidanceState, Mode,
+                                         OperatorInput)
 from loadarm.guidance.run import MODES, run_scenario
 from loadarm.guidance.scenario import Scenario, load_scenario, parse_scenario
 from loadarm.guidance.sensor import Estimate, FlangeEstimator
@@ -163,8 +164,7 @@ def test_target_outside_the_envelope_is_refused(model, flange, why):
 def test_emergency_stop_from_any_mode(model):
     for target_mode in (Mode.STORED, Mode.APPROACH, Mode.STANDOFF, Mode.CONNECTED, Mode.RETURN, Mode.MANUAL,
                         Mode.HOLD, Mode.ALARM1):
-        c = _ctrl(model)
-        c.s.mode = target_mode
+        c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=target_mode))
         cmd = c.step(1.0, _stored_q(c), _est((14.0, 0.0, 1.0)), OperatorInput(("estop",)))
         assert cmd.mode == Mode.ESTOP and cmd.rates == (0.0, 0.0, 0.0), target_mode
         cmd = c.step(1.02, _stored_q(c), _est((14.0, 0.0, 1.0)))
@@ -378,3 +378,77 @@ def test_controller_jacobian_is_the_kinematics_jacobian(phi, alpha, beta):
         plus = np.array([float(v) for v in forward3d(c.arm, *(np.array([phi, alpha, beta]) + dq))])
         minus = np.array([float(v) for v in forward3d(c.arm, *(np.array([phi, alpha, beta]) - dq))])
         assert np.allclose((plus - minus) / (2 * h), J3[:, j], atol=1e-7)
+
+
+# ---- the controller as a table of rules: each rule on its own, then the dispatcher ------------------------
+
+def _cycle(ctrl, now=1.0, q=None, est=None, actions=()):
+    q = _stored_q(ctrl) if q is None else q
+    return Cycle(now, tuple(q), est or _est((14.0, 0.0, 1.0)), OperatorInput(tuple(actions)), frozenset(actions),
+                 ctrl.dt_nominal)
+
+
+def _attached_ctrl(model, mode=Mode.CONNECTED):
+    return GuidanceController(model, Scenario().guidance, GuidanceState(mode=mode))
+
+
+def test_rule_emergency_stop_keeps_the_mode_to_resume(model):
+    c = _attached_ctrl(model, Mode.ALARM1)
+    c.rule_emergency_stop(_cycle(c))
+    assert c.state.mode == Mode.ALARM1                       # no E-stop pressed: nothing happens
+    c.rule_emergency_stop(_cycle(c, actions=("estop",)))
+    assert c.state.mode == Mode.ESTOP and c.state.resume == Mode.ALARM1
+    assert c.state.events[-1][0] == "mode"
+
+
+def test_rule_alarm_escalation_steps_through_every_stage_and_commands_esd_and_ers(model):
+    c = _attached_ctrl(model)
+    q_release = (0.0, 1.0, c.thr.beta_release + 0.01)        # beyond the release angle at once
+    c.rule_alarm_escalation(_cycle(c, q=q_release))
+    kinds = [(k, r.split(":")[0]) for k, r, _ in c.state.events]
+    assert [r for k, r in kinds if k == "alarm"] == ["ALARM1", "ALARM2", "RELEASE"]
+    assert any(r.startswith("ESD-1") for k, r in kinds if k == "command")
+    assert any(r.startswith("ERS-2") for k, r in kinds if k == "command")
+    assert c.state.mode == Mode.RELEASE and c.state.esd_since == 1.0 and c.state.release_since == 1.0
+    # not attached: the rule does nothing
+    d = _ctrl(model)
+    d.rule_alarm_escalation(_cycle(d, q=q_release))
+    assert d.state.mode == Mode.STORED and not d.state.events
+
+
+def test_rule_alarm_escalation_during_an_emergency_stop_updates_the_mode_to_resume(model):
+    c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=Mode.ESTOP, resume=Mode.CONNECTED))
+    c.rule_alarm_escalation(_cycle(c, q=(0.0, 1.0, c.thr.beta_first + 0.01)))
+    assert c.state.mode == Mode.ESTOP and c.state.resume == Mode.ALARM1 and c.state.esd_since == 1.0
+
+
+def test_rule_fresh_estimate_enters_hold_in_the_cycle_it_goes_stale(model):
+    c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=Mode.APPROACH))
+    assert c.rule_fresh_estimate(_cycle(c)) and c.state.mode == Mode.APPROACH
+    assert not c.rule_fresh_estimate(_cycle(c, est=_est((14.0, 0.0, 1.0), healthy=False)))
+    assert c.state.mode == Mode.HOLD and "flange estimate lost" in c.state.events[-1][1]
+
+
+def test_rule_target_in_envelope_refuses_and_returns(model):
+    c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=Mode.APPROACH))
+    assert c.rule_target_in_envelope(_cycle(c), np.array([12.0, 0.0, 2.0]))
+    assert not c.rule_target_in_envelope(_cycle(c), np.array([40.0, 0.0, 0.0]))
+    assert c.state.mode == Mode.RETURN and "out of the arm's reach" in c.state.events[-1][1]
+
+
+@pytest.mark.parametrize("mode", list(Mode))
+def test_rule_no_motion_when_held_or_attached(model, mode):
+    c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=mode))
+    out = c.rule_no_motion_when_held_or_attached((0.01, 0.02, 0.03))
+    held = mode in (Mode.ESTOP, Mode.HOLD, Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)
+    assert np.all(out == 0.0) if held else np.array_equal(out, [0.01, 0.02, 0.03])
+
+
+def test_step_is_a_dispatcher_over_named_rules_and_one_handler_per_mode(model):
+    import inspect
+
+    c = _ctrl(model)
+    assert c.SAFETY_RULES == ("rule_emergency_stop", "rule_alarm_escalation")
+    assert set(c.HANDLERS) == set(Mode) and all(callable(getattr(c, h)) for h in c.HANDLERS.values())
+    src = inspect.getsource(GuidanceController.step)
+    assert src.count("if ") == 0 and "for rule in self.SAFETY_RULES" in src

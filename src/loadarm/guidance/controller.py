@@ -40,7 +40,7 @@ from .sensor import Estimate
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["Mode", "AlarmThresholds", "Command", "OperatorInput", "GuidanceController"]
+__all__ = ["Mode", "AlarmThresholds", "Command", "OperatorInput", "Cycle", "GuidanceState", "GuidanceController"]
 
 
 class Mode(str, enum.Enum):
@@ -214,8 +214,61 @@ class Command:
     events: tuple = ()
 
 
+@dataclass(frozen=True, slots=True)
+class Cycle:
+    """One cycle's inputs, as the rules and handlers see them.
+
+    Attributes
+    ----------
+    now : float
+        Time, s.
+    q : tuple of float
+        Measured joint angles (slew, alpha, beta), rad.
+    est : Estimate
+        Flange estimate.
+    op : OperatorInput
+        Operator inputs.
+    acts : frozenset of str
+        The operator's actions.
+    dt : float
+        Nominal cycle period, s.
+    """
+
+    now: float
+    q: tuple
+    est: Estimate
+    op: OperatorInput
+    acts: frozenset
+    dt: float
+
+
 @dataclass
-class _State:
+class GuidanceState:
+    """The controller's mutable state (like MuJoCo's ``MjData`` beside the model): everything that changes from
+    one cycle to the next. Build one to start a controller in a given mode (tests, a restart after a fault).
+
+    Attributes
+    ----------
+    mode : Mode
+        Current mode.
+    entered : float
+        Time the mode was entered, s.
+    speed : float
+        Cartesian speed command along the approach, m/s.
+    v_r, v_phi : float
+        Filtered outward speed (m/s) and slew rate (rad/s) of the attached coupler.
+    last_r, last_phi, last_t : float or None
+        Previous sample of the drift filter.
+    refused : str
+        Reason of the last refusal (so it is logged once).
+    esd_since, release_since : float or None
+        Time ESD-1 / ERS-2 was commanded.
+    resume : Mode
+        Mode to resume after an emergency stop (or a pending approach).
+    events : list
+        Events of the current cycle.
+    """
+
     mode: Mode = Mode.STORED
     entered: float = 0.0
     speed: float = 0.0                 # current Cartesian speed command along the approach, m/s
@@ -240,9 +293,18 @@ class GuidanceController:
         Arm, alarms, approach limits, stored position (2D, taken at y = 0).
     g : Guidance
         Guidance settings.
+    state : GuidanceState, optional
+        Start in this state (default: stored, no alarm).
+
+    Notes
+    -----
+    :meth:`step` is a dispatcher: the operator's actions are logged, the safety rules of :attr:`SAFETY_RULES`
+    run in that fixed order (each a named method, tested on its own), the handler of the resulting mode
+    (:attr:`HANDLERS`) computes the rate command, and :meth:`rule_no_motion_when_held_or_attached` has the last
+    word on it.
     """
 
-    def __init__(self, model: ArmModel, g: Guidance):
+    def __init__(self, model: ArmModel, g: Guidance, state: "GuidanceState | None" = None):
         self.arm: Arm = model.arm
         self.g = g
         self.lim = model.joint_limits
@@ -252,19 +314,19 @@ class GuidanceController:
         sx, sz = model.approach.stored
         self.stored = np.array([sx, 0.0, sz])
         self.dt_nominal = 1.0 / g.rate
-        self.s = _State()
+        self.state = GuidanceState() if state is None else state
 
     # ---------------------------------------------------------------- helpers
     def _event(self, kind: str, reason: str, **data) -> None:
-        self.s.events.append((kind, reason, data))
+        self.state.events.append((kind, reason, data))
 
     def _go(self, now: float, mode: Mode, reason: str) -> None:
-        if mode != self.s.mode:
-            self._event("mode", f"{self.s.mode.value} -> {mode.value}: {reason}", previous=self.s.mode.value,
+        if mode != self.state.mode:
+            self._event("mode", f"{self.state.mode.value} -> {mode.value}: {reason}", previous=self.state.mode.value,
                         mode=mode.value)
-            self.s.mode = mode
-            self.s.entered = now
-            self.s.speed = 0.0
+            self.state.mode = mode
+            self.state.entered = now
+            self.state.speed = 0.0
 
     def standoff_point(self, flange: np.ndarray) -> np.ndarray:
         """Point ``standoff`` metres from the flange, horizontally towards the riser.
@@ -353,15 +415,15 @@ class GuidanceController:
         dist = float(np.linalg.norm(d))
         # accelerate at a_max, never faster than v_max, and slow down to arrive at rest relative to the target
         v_allow = min(self.v_max, math.sqrt(2.0 * self.a_max * max(dist - ROUNDOFF_M, 0.0)))
-        self.s.speed = min(v_allow, self.s.speed + self.a_max * dt)
-        v = (d / dist * self.s.speed if dist > 1e-9 else np.zeros(3)) + v_target
+        self.state.speed = min(v_allow, self.state.speed + self.a_max * dt)
+        v = (d / dist * self.state.speed if dist > 1e-9 else np.zeros(3)) + v_target
         return self._rates_for_velocity(q, v)
 
     def _monitor(self, now: float, q) -> tuple[int, str]:
         p = np.array([float(v) for v in forward3d(self.arm, *q)])
         rho = math.hypot(p[0], p[1])
         r = math.hypot(rho, p[2] - self.arm.a)
-        s = self.s
+        s = self.state
         if s.last_t is not None and now > s.last_t:
             dt = now - s.last_t
             k = dt / (self.g.drift_filter + dt)
@@ -389,137 +451,231 @@ class GuidanceController:
         -------
         Command
         """
-        s = self.s
-        s.events = []
-        q = tuple(float(v) for v in q)
-        dt = self.dt_nominal
-        zero = np.zeros(3)
-        rates = zero
+        cyc = Cycle(now, tuple(float(v) for v in q), est, op, frozenset(op.actions), self.dt_nominal)
+        self.state.events = []
         for action in op.actions:
             self._event("operator", action)
-        acts = set(op.actions)
-
-        # emergency stop: from any mode, in this very cycle
-        if "estop" in acts and s.mode != Mode.ESTOP:
-            s.resume = s.mode
-            self._go(now, Mode.ESTOP, "emergency stop pressed")
-        connected = s.mode in CONNECTED_MODES or (s.mode == Mode.ESTOP and s.resume in CONNECTED_MODES)
-
-        # monitoring runs whenever the coupler is attached, whatever the mode (release is a safety function)
-        level, why = (0, "")
-        if connected:
-            level, why = self._monitor(now, q)
-            order = {Mode.CONNECTED: 0, Mode.ALARM1: 1, Mode.ALARM2: 2, Mode.RELEASE: 3}
-            current = order.get(s.mode if s.mode != Mode.ESTOP else s.resume, 0)
-            if level > current:
-                new = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)[level]
-                for lv in range(current + 1, level + 1):
-                    m = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)[lv]
-                    self._event("alarm", f"{m.value}: {why}", level=lv, beta_deg=math.degrees(q[2]),
-                                slew_deg=math.degrees(q[0]), v_r=s.v_r)
-                if level >= 1 and s.esd_since is None:
-                    s.esd_since = now
-                    self._event("command", "ESD-1: stop transfer pumps, close ERS valves")
-                if level >= 3 and s.release_since is None:
-                    s.release_since = now
-                    self._event("command", "ERS-2: release the coupler")
-                if s.mode == Mode.ESTOP:
-                    s.resume = new
-                else:
-                    self._go(now, new, why)
-
-        mode = s.mode
-        if mode == Mode.ESTOP:
-            if "reset" in acts:
-                back = s.resume if s.resume in CONNECTED_MODES else Mode.RETURN
-                self._go(now, back, "operator reset after emergency stop")
-            rates = zero
-        elif mode == Mode.MANUAL:
-            if "auto" in acts:
-                self._go(now, Mode.RETURN, "operator back to automatic")
-            else:
-                v = np.array(op.jog, dtype=float)
-                n = float(np.linalg.norm(v))
-                if n > self.g.jog_speed:
-                    v *= self.g.jog_speed / n
-                p = np.array([float(x) for x in forward3d(self.arm, *q)])
-                nxt = p + v * dt
-                top = np.array([0.0, 0.0, self.arm.a])
-                outward = (np.linalg.norm(nxt - top) > np.linalg.norm(p - top)
-                           or abs(math.atan2(nxt[1], nxt[0])) > abs(math.atan2(p[1], p[0])))
-                why_not = self.target_ok(nxt) if n > 0 else ""
-                if why_not and outward:
-                    rates = zero     # refuse a jog that leaves the envelope; moving back in is allowed
-                    if self.s.refused != "jog":
-                        self._event("info", f"jog refused: {why_not}")
-                        self.s.refused = "jog"
-                else:
-                    self.s.refused = ""
-                    rates = self._rates_for_velocity(q, v)
-        elif mode == Mode.STORED:
-            if "manual" in acts:
-                self._go(now, Mode.MANUAL, "operator took manual control")
-            elif "start" in acts or s.resume == Mode.APPROACH and s.refused:
-                if not est.healthy:
-                    self._refuse(f"no fresh flange estimate ({est.reason})")
-                else:
-                    why_not = self.target_ok(self.standoff_point(np.array(est.position)))
-                    if why_not:
-                        self._refuse(why_not)
-                    else:
-                        s.refused = ""
-                        self._go(now, Mode.APPROACH, "operator started the approach")
-        elif mode in (Mode.APPROACH, Mode.STANDOFF, Mode.HOLD):
-            if "manual" in acts:
-                self._go(now, Mode.MANUAL, "operator took manual control")
-            elif not est.healthy:
-                if mode != Mode.HOLD:
-                    self._go(now, Mode.HOLD, f"flange estimate lost: {est.reason}; motion stopped")
-                rates = zero
-            else:
-                target = self.standoff_point(np.array(est.position))
-                why_not = self.target_ok(target)
-                if why_not:
-                    self._go(now, Mode.RETURN, f"target refused: {why_not}")
-                    rates = zero
-                else:
-                    if mode == Mode.HOLD:
-                        self._go(now, Mode.APPROACH, "flange estimate healthy again")
-                    p = np.array([float(x) for x in forward3d(self.arm, *q)])
-                    dist = float(np.linalg.norm(target - p))
-                    if s.mode == Mode.APPROACH and dist <= self.g.arrive_tolerance:
-                        self._go(now, Mode.STANDOFF, f"at the standoff point ({dist * 1e3:.0f} mm)")
-                    if s.mode == Mode.STANDOFF and "connect" in acts:
-                        self._go(now, Mode.CONNECTED, "operator connected the coupler")
-                        self._event("command", "actuators released: the arm follows the ship")
-                        s.last_t = None
-                        s.v_r = s.v_phi = 0.0
-                        rates = zero
-                    else:
-                        rates = self._move_towards(now, q, target, np.array(est.velocity), dt)
-        elif mode in CONNECTED_MODES:
-            rates = zero            # actuators free: the ship moves the arm
-            if mode == Mode.CONNECTED and "disconnect" in acts:
-                self._go(now, Mode.RETURN, "operator disconnected the coupler")
-            if s.release_since is not None and now - s.release_since >= self.g.ers_time:
-                self._event("command", "ERS-2 release complete: coupler free")
-                self._go(now, Mode.RETURN, "released; returning to stored")
-                s.esd_since = s.release_since = None
-        elif mode == Mode.RETURN:
-            p = np.array([float(x) for x in forward3d(self.arm, *q)])
-            if float(np.linalg.norm(self.stored - p)) <= self.g.arrive_tolerance:
-                self._go(now, Mode.STORED, "arm stored")
-                s.resume = Mode.STORED
-            else:
-                rates = self._move_towards(now, q, self.stored, zero, dt)
-        if s.mode in (Mode.ESTOP, Mode.HOLD) or s.mode in CONNECTED_MODES:
-            rates = zero
-        connected = s.mode in CONNECTED_MODES or (s.mode == Mode.ESTOP and s.resume in CONNECTED_MODES)
-        return Command(s.mode, tuple(float(v) for v in rates), connected, s.esd_since is not None,
+        for rule in self.SAFETY_RULES:
+            getattr(self, rule)(cyc)
+        rates = getattr(self, self.HANDLERS[self.state.mode])(cyc)
+        rates = self.rule_no_motion_when_held_or_attached(rates)
+        s = self.state
+        return Command(s.mode, tuple(float(v) for v in rates), self.attached(), s.esd_since is not None,
                        s.release_since is not None, tuple(s.events))
 
+    def attached(self) -> bool:
+        """Whether the coupler is on the flange (a connected mode, or an emergency stop taken from one).
+
+        Returns
+        -------
+        bool
+        """
+        s = self.state
+        return s.mode in CONNECTED_MODES or (s.mode == Mode.ESTOP and s.resume in CONNECTED_MODES)
+
+    # ---------------------------------------------------------------- safety rules, in this order
+    #: Named rules run every cycle before the mode handler, in this order.
+    SAFETY_RULES = ("rule_emergency_stop", "rule_alarm_escalation")
+
+    def rule_emergency_stop(self, cyc: "Cycle") -> None:
+        """E-stop from any mode, in this very cycle (the mode to resume is kept).
+
+        Parameters
+        ----------
+        cyc : Cycle
+            This cycle's inputs.
+        """
+        if "estop" in cyc.acts and self.state.mode != Mode.ESTOP:
+            self.state.resume = self.state.mode
+            self._go(cyc.now, Mode.ESTOP, "emergency stop pressed")
+
+    def rule_alarm_escalation(self, cyc: "Cycle") -> None:
+        """While attached, whatever the mode: raise the alarm level on angle and drift speed, one stage at a time,
+        commanding ESD-1 at the first alarm and ERS-2 at release.
+
+        Parameters
+        ----------
+        cyc : Cycle
+            This cycle's inputs.
+        """
+        if not self.attached():
+            return
+        s, now, q = self.state, cyc.now, cyc.q
+        level, why = self._monitor(now, q)
+        order = {Mode.CONNECTED: 0, Mode.ALARM1: 1, Mode.ALARM2: 2, Mode.RELEASE: 3}
+        current = order.get(s.mode if s.mode != Mode.ESTOP else s.resume, 0)
+        if level <= current:
+            return
+        new = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)[level]
+        for lv in range(current + 1, level + 1):
+            m = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)[lv]
+            self._event("alarm", f"{m.value}: {why}", level=lv, beta_deg=math.degrees(q[2]),
+                        slew_deg=math.degrees(q[0]), v_r=s.v_r)
+        if level >= 1 and s.esd_since is None:
+            s.esd_since = now
+            self._event("command", "ESD-1: stop transfer pumps, close ERS valves")
+        if level >= 3 and s.release_since is None:
+            s.release_since = now
+            self._event("command", "ERS-2: release the coupler")
+        if s.mode == Mode.ESTOP:
+            s.resume = new
+        else:
+            self._go(now, new, why)
+
+    def rule_fresh_estimate(self, cyc: "Cycle") -> bool:
+        """No motion without a fresh, healthy flange estimate: the cycle that sees it stale enters HOLD.
+
+        Parameters
+        ----------
+        cyc : Cycle
+            This cycle's inputs.
+
+        Returns
+        -------
+        bool
+            True when the estimate may be used.
+        """
+        if cyc.est.healthy:
+            return True
+        if self.state.mode != Mode.HOLD:
+            self._go(cyc.now, Mode.HOLD, f"flange estimate lost: {cyc.est.reason}; motion stopped")
+        return False
+
+    def rule_target_in_envelope(self, cyc: "Cycle", target: np.ndarray) -> bool:
+        """A target outside the envelope (unreachable, beyond the first alarm or the slew alarm, outside the
+        strokes) is refused: the arm returns to stored.
+
+        Parameters
+        ----------
+        cyc : Cycle
+            This cycle's inputs.
+        target : ndarray, shape (3,)
+            The point the arm would move to, m.
+
+        Returns
+        -------
+        bool
+            True when the target may be approached.
+        """
+        why_not = self.target_ok(target)
+        if why_not:
+            self._go(cyc.now, Mode.RETURN, f"target refused: {why_not}")
+            return False
+        return True
+
+    def rule_no_motion_when_held_or_attached(self, rates) -> np.ndarray:
+        """Zero rates in ESTOP and HOLD, and while attached (the actuators are free; the ship moves the arm).
+
+        Parameters
+        ----------
+        rates : array_like
+            The handler's command, rad/s.
+
+        Returns
+        -------
+        ndarray
+            The command actually sent.
+        """
+        if self.state.mode in (Mode.ESTOP, Mode.HOLD) or self.state.mode in CONNECTED_MODES:
+            return np.zeros(3)
+        return np.asarray(rates, dtype=float)
+
+    # ---------------------------------------------------------------- one handler per mode
+    #: The handler of each mode.
+    HANDLERS = {Mode.ESTOP: "_on_estop", Mode.MANUAL: "_on_manual", Mode.STORED: "_on_stored",
+                Mode.APPROACH: "_on_moving", Mode.STANDOFF: "_on_moving", Mode.HOLD: "_on_moving",
+                Mode.CONNECTED: "_on_attached", Mode.ALARM1: "_on_attached", Mode.ALARM2: "_on_attached",
+                Mode.RELEASE: "_on_attached", Mode.RETURN: "_on_return"}
+
+    def _on_estop(self, cyc: "Cycle") -> np.ndarray:
+        if "reset" in cyc.acts:
+            back = self.state.resume if self.state.resume in CONNECTED_MODES else Mode.RETURN
+            self._go(cyc.now, back, "operator reset after emergency stop")
+        return np.zeros(3)
+
+    def _on_manual(self, cyc: "Cycle") -> np.ndarray:
+        if "auto" in cyc.acts:
+            self._go(cyc.now, Mode.RETURN, "operator back to automatic")
+            return np.zeros(3)
+        q = cyc.q
+        v = np.array(cyc.op.jog, dtype=float)
+        n = float(np.linalg.norm(v))
+        if n > self.g.jog_speed:
+            v *= self.g.jog_speed / n
+        p = np.array([float(x) for x in forward3d(self.arm, *q)])
+        nxt = p + v * cyc.dt
+        top = np.array([0.0, 0.0, self.arm.a])
+        outward = (np.linalg.norm(nxt - top) > np.linalg.norm(p - top)
+                   or abs(math.atan2(nxt[1], nxt[0])) > abs(math.atan2(p[1], p[0])))
+        why_not = self.target_ok(nxt) if n > 0 else ""
+        if why_not and outward:
+            if self.state.refused != "jog":          # refuse a jog that leaves the envelope; moving back in is allowed
+                self._event("info", f"jog refused: {why_not}")
+                self.state.refused = "jog"
+            return np.zeros(3)
+        self.state.refused = ""
+        return self._rates_for_velocity(q, v)
+
+    def _on_stored(self, cyc: "Cycle") -> np.ndarray:
+        s, est = self.state, cyc.est
+        if "manual" in cyc.acts:
+            self._go(cyc.now, Mode.MANUAL, "operator took manual control")
+        elif "start" in cyc.acts or s.resume == Mode.APPROACH and s.refused:
+            if not est.healthy:
+                self._refuse(f"no fresh flange estimate ({est.reason})")
+            else:
+                why_not = self.target_ok(self.standoff_point(np.array(est.position)))
+                if why_not:
+                    self._refuse(why_not)
+                else:
+                    s.refused = ""
+                    self._go(cyc.now, Mode.APPROACH, "operator started the approach")
+        return np.zeros(3)
+
+    def _on_moving(self, cyc: "Cycle") -> np.ndarray:
+        s, now, est, q = self.state, cyc.now, cyc.est, cyc.q
+        if "manual" in cyc.acts:
+            self._go(now, Mode.MANUAL, "operator took manual control")
+            return np.zeros(3)
+        if not self.rule_fresh_estimate(cyc):
+            return np.zeros(3)
+        target = self.standoff_point(np.array(est.position))
+        if not self.rule_target_in_envelope(cyc, target):
+            return np.zeros(3)
+        if s.mode == Mode.HOLD:
+            self._go(now, Mode.APPROACH, "flange estimate healthy again")
+        p = np.array([float(x) for x in forward3d(self.arm, *q)])
+        dist = float(np.linalg.norm(target - p))
+        if s.mode == Mode.APPROACH and dist <= self.g.arrive_tolerance:
+            self._go(now, Mode.STANDOFF, f"at the standoff point ({dist * 1e3:.0f} mm)")
+        if s.mode == Mode.STANDOFF and "connect" in cyc.acts:
+            self._go(now, Mode.CONNECTED, "operator connected the coupler")
+            self._event("command", "actuators released: the arm follows the ship")
+            s.last_t = None
+            s.v_r = s.v_phi = 0.0
+            return np.zeros(3)
+        return self._move_towards(now, q, target, np.array(est.velocity), cyc.dt)
+
+    def _on_attached(self, cyc: "Cycle") -> np.ndarray:
+        s, now = self.state, cyc.now
+        if s.mode == Mode.CONNECTED and "disconnect" in cyc.acts:
+            self._go(now, Mode.RETURN, "operator disconnected the coupler")
+        if s.release_since is not None and now - s.release_since >= self.g.ers_time:
+            self._event("command", "ERS-2 release complete: coupler free")
+            self._go(now, Mode.RETURN, "released; returning to stored")
+            s.esd_since = s.release_since = None
+        return np.zeros(3)            # actuators free: the ship moves the arm
+
+    def _on_return(self, cyc: "Cycle") -> np.ndarray:
+        p = np.array([float(x) for x in forward3d(self.arm, *cyc.q)])
+        if float(np.linalg.norm(self.stored - p)) <= self.g.arrive_tolerance:
+            self._go(cyc.now, Mode.STORED, "arm stored")
+            self.state.resume = Mode.STORED
+            return np.zeros(3)
+        return self._move_towards(cyc.now, cyc.q, self.stored, np.zeros(3), cyc.dt)
+
     def _refuse(self, why: str) -> None:
-        if why != self.s.refused:
+        if why != self.state.refused:
             self._event("info", f"approach refused: {why}")
-            self.s.refused = why
-            self.s.resume = Mode.APPROACH
+            self.state.refused = why
+            self.state.resume = Mode.APPROACH

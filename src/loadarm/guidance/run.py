@@ -199,14 +199,14 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
             z = readings.xyz[ir]
             ok = est.update(float(readings.t_meas[ir]), (float(z[0]), float(z[1]), float(z[2])))
             if not ok:
-                emit(now, ctrl.s.mode.value, "sensor", "reading rejected as an outlier",
+                emit(now, ctrl.state.mode.value, "sensor", "reading rejected as an outlier",
                      {"reading": [float(v) for v in z]})
             ir += 1
         e = est.estimate(now)
         actions = []
         if op.start <= now < op.start + dt:
             actions.append("start")
-        if ctrl.s.mode == Mode.STANDOFF:
+        if ctrl.state.mode == Mode.STANDOFF:
             standoff_since = now if standoff_since is None else standoff_since
             if now - standoff_since >= op.connect_after:
                 actions.append("connect")
@@ -218,7 +218,7 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
             actions.append("estop")
         if op.reset_at is not None and op.reset_at <= now < op.reset_at + dt:
             actions.append("reset")
-        if servo_fault and ctrl.s.mode != Mode.ESTOP:
+        if servo_fault and ctrl.state.mode != Mode.ESTOP:
             actions.append("estop")
         jog = (0.0, 0.0, 0.0)
         for t_on, t_off, vx, vy, vz in op.jog:

@@ -31,7 +31,7 @@ def test_size_json(capsys):
 
 def test_size_table(capsys):
     code, out, _ = run(capsys, "size", "-c", CFG)
-    assert code == 0 and "b = 12.0000 m" in out and "zone 1" in out
+    assert code == 0 and "b = 12.0000 m" in out and "normal" in out
 
 
 def test_size_from_the_datasheet_alone(capsys, tmp_path):
@@ -309,9 +309,10 @@ def test_target_help_says_what_two_and_three_numbers_mean(capsys):
 def test_plan_warns_and_strict_refuses_an_alarm_zone(capsys):
     """The far-low target puts the elbow past 123 deg: a warning on stderr, exit 0; --strict refuses."""
     code, out, err = run(capsys, "plan", "-c", CFG, "--target", "16,-2")
-    assert code == 0 and err.startswith("warning: the path enters zone 2 (first alarm, ESD-1)")
+    assert code == 0 and err.startswith("warning: the path enters the first alarm (ESD-1) zone")
     code, _, err = run(capsys, "plan", "-c", CFG, "--target", "16,-2", "--strict")
-    assert code == 2 and err.startswith("loadarm: error: --strict: the path enters zone 2") and err.count("\n") == 1
+    assert code == 2 and err.startswith("loadarm: error: --strict: the path enters the first alarm") and \
+        err.count("\n") == 1
     code, _, err = run(capsys, "plan", "-c", CFG, "--strict")
     assert code == 0 and err == ""
 

@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from loadarm.compiler import compile_model
 from loadarm.errors import ConfigError
 from loadarm.eventlog import EventLog
-from loadarm.guidance.controller import (AlarmThresholds, Cycle, GuidanceController, GuidanceState, Mode,
+from loadarm.alarms import AlarmThresholds, Severity
+from loadarm.guidance.controller import (Cycle, GuidanceController, GuidanceState, Mode,
                                          OperatorInput)
 from loadarm.guidance.run import MODES, run_scenario
 from loadarm.guidance.scenario import Scenario, load_scenario, parse_scenario
@@ -210,11 +211,11 @@ def test_alarm_levels_follow_the_sequence_times(model, inst):
     thr = AlarmThresholds.from_settings(model, g)
     v = 0.2
     r_at = lambda ttl: thr.r_release - v * ttl
-    assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin + 1), v, 0.0)[0] == 0
-    assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin - 0.1), v, 0.0)[0] == 1
-    assert thr.level(1.0, 0.0, r_at(g.ers_time + g.margin - 0.1), v, 0.0)[0] == 2
-    assert thr.level(inst.alarms.release, 0.0, 15.0, 0.0, 0.0)[0] == 3
-    assert thr.level(0.0, math.radians(inst.slew.release_deg), 15.0, 0.0, 0.0)[0] == 3
+    assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin + 1), v, 0.0)[0] == Severity.NORMAL
+    assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin - 0.1), v, 0.0)[0] == Severity.ESD1
+    assert thr.level(1.0, 0.0, r_at(g.ers_time + g.margin - 0.1), v, 0.0)[0] == Severity.SECOND
+    assert thr.level(inst.alarms.release, 0.0, 15.0, 0.0, 0.0)[0] == Severity.RELEASE
+    assert thr.level(0.0, math.radians(inst.slew.release_deg), 15.0, 0.0, 0.0)[0] == Severity.RELEASE
 
 
 def test_manual_jog_moves_the_coupler_as_commanded(model, inst):

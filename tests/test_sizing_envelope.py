@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.envelope import (AlarmAngles, Zone, berth_box, classify_beta, classify_point, zone_radii)
+from loadarm.alarms import UNREACHABLE, AlarmAngles, Severity, beta_severity, severity_label, slew_severity
+from loadarm.envelope import berth_box, classify_point, zone_radii
 from loadarm.errors import SizingError
 from loadarm.geometry import Arm
 from loadarm.kinematics import forward
@@ -121,13 +122,13 @@ def test_corner_table_for_sized_and_configured_arm(model, inst, arm):
     res = size_installation(inst)
     rows = check_corners(Arm(7.0, res.inboard, res.outboard), alarms, inst)
     assert len(rows) == 4
-    assert all(r.zone == Zone.NORMAL for r in rows)           # sized arm serves the whole berth
+    assert all(r.zone == Severity.NORMAL for r in rows)           # sized arm serves the whole berth
     far_low = rows[3]
     assert math.degrees(far_low.beta) == pytest.approx(123.0, abs=1e-9)
     conf = check_corners(arm, alarms, inst)
-    assert conf[3].zone == Zone.FIRST_ALARM                   # c = 8.2 < 8.2242: corner just past 123 deg
+    assert conf[3].zone == Severity.ESD1                   # c = 8.2 < 8.2242: corner just past 123 deg
     tiny = check_corners(Arm(7.0, 5.0, 4.0), alarms, inst)
-    assert any(r.zone == Zone.UNREACHABLE and math.isnan(r.beta) for r in tiny)
+    assert any(r.zone == UNREACHABLE and math.isnan(r.beta) for r in tiny)
 
 
 def test_berth_box(inst):
@@ -137,11 +138,26 @@ def test_berth_box(inst):
     assert (box.htl, box.ltl) == pytest.approx((-3.8, -6.2))
 
 
-def test_classify_beta_boundaries():
+def test_beta_severity_boundaries():
     al = AlarmAngles(*np.radians([123.0, 143.0, 150.0]))
     deg = np.array([0.0, 122.9, 123.0, 123.1, 143.0, 143.1, 149.9, 150.0, 170.0, np.nan])
-    z = classify_beta(np.radians(deg), al)
-    assert z.tolist() == [1, 1, 1, 2, 2, 3, 3, 4, 4, 0]
+    z = beta_severity(np.radians(deg), al)
+    N, E, S, R = (int(v) for v in (Severity.NORMAL, Severity.ESD1, Severity.SECOND, Severity.RELEASE))
+    assert z.tolist() == [N, N, N, E, E, S, S, R, R, UNREACHABLE]
+
+
+def test_one_severity_type_orders_every_stage():
+    """One ordered type for envelope, slew, controller, log and report (found: three encodings)."""
+    assert list(Severity) == sorted(Severity) and [s.name for s in Severity] == [
+        "NORMAL", "PRE_ALARM", "ESD1", "SECOND", "RELEASE"]
+    assert UNREACHABLE < min(Severity) and severity_label(UNREACHABLE) == "unreachable"
+    from loadarm.model import SlewLimits
+    sl = SlewLimits(*np.radians([40.0, 30.0, 34.0, 37.0, 2.0]))
+    assert slew_severity(np.radians([0.0, -30.5, 35.0, -37.0]), sl).tolist() == [
+        Severity.NORMAL, Severity.ESD1, Severity.SECOND, Severity.RELEASE]
+    from loadarm.guidance.controller import MODE_OF_SEVERITY, Mode
+    assert [MODE_OF_SEVERITY[s] for s in (Severity.NORMAL, Severity.ESD1, Severity.SECOND, Severity.RELEASE)] == [
+        Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE]
 
 
 def test_alarm_angles_validated():
@@ -157,9 +173,10 @@ def test_classify_point_matches_radius_bands(x, y):
     r = math.hypot(x, y - 7.0)
     z = int(classify_point(arm, al, x, y))
     if r > radii["r_max"] + 1e-9 or r < radii["r_min"] - 1e-9:
-        assert z == Zone.UNREACHABLE
+        assert z == UNREACHABLE
     elif abs(r - radii["first"]) > 1e-6 and abs(r - radii["second"]) > 1e-6 and abs(r - radii["release"]) > 1e-6:
-        expect = 1 + (r > radii["first"]) + (r > radii["second"]) + (r > radii["release"])
+        expect = (Severity.NORMAL, Severity.ESD1, Severity.SECOND, Severity.RELEASE)[
+            (r > radii["first"]) + (r > radii["second"]) + (r > radii["release"])]
         assert z == expect
 
 

@@ -16,7 +16,8 @@ from pydantic import BaseModel
 from .actuators import joint_angles_from_cylinders, length_limits
 from .config import Installation
 from .dynamics import cylinder_areas
-from .envelope import AlarmAngles, berth_box
+from .alarms import AlarmAngles
+from .envelope import berth_box
 from .geometry import Arm, Mounting
 from .model import ArmModel, JointLimits, SlewLimits
 

@@ -1,10 +1,10 @@
 """Operating envelope and alarm zones (paper Section 2, Fig. 4).
 
-The zones are bands of the elbow angle ``beta``: zone 1 (normal) up to the
-first-alarm angle, zone 2 (first-stage alarm, ESD-1: stop transfer pumps,
-close the ERS valves) up to the second-alarm angle, zone 3 (second-stage
-alarm) up to the release angle, and release (ERS-2: the coupler lets go) at or
-beyond it. Because ``r = sqrt(b^2 + c^2 - 2bc cos(beta))`` (Eq. 6) grows with
+The zones are bands of the elbow angle ``beta``, valued in the one severity
+type :class:`loadarm.alarms.Severity`: normal up to the first-alarm angle, the
+first alarm (ESD-1: stop transfer pumps, close the ERS valves) up to the
+second-alarm angle, the second alarm up to the release angle, and release
+(ERS-2: the coupler lets go) at or beyond it. Because ``r = sqrt(b^2 + c^2 - 2bc cos(beta))`` (Eq. 6) grows with
 ``beta``, each band is an annulus around the riser top.
 
 The datasheet (paper Table 1) fixes where the ship's flange can be: between
@@ -16,94 +16,24 @@ heights measured up from the jetty deck.
 
 from __future__ import annotations
 
-import enum
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from .alarms import AlarmAngles, beta_severity
 from .geometry import Arm
 from .kinematics import solve_ik
 
 __all__ = [
-    "Zone",
-    "AlarmAngles",
-    "classify_beta",
     "classify_point",
     "zone_radii",
     "BerthBox",
     "berth_box",
-    "BETA_TOL_RAD",
 ]
-
-#: Angular tolerance (rad) when comparing beta with a threshold: 1e-9 rad is
-#: 2e-8 m at the tip of a 20 m arm, so a point computed exactly on a boundary
-#: (like the sized arm's first-alarm corner) stays in the lower zone.
-BETA_TOL_RAD = 1e-9
-
-
-class Zone(enum.IntEnum):
-    """Alarm zone of a coupler position; ``UNREACHABLE`` lies outside the annulus."""
-
-    UNREACHABLE = 0
-    NORMAL = 1
-    FIRST_ALARM = 2
-    SECOND_ALARM = 3
-    RELEASE = 4
-
-    @property
-    def label(self) -> str:
-        """Short human label, as used in tables and the report."""
-        return {
-            Zone.UNREACHABLE: "unreachable",
-            Zone.NORMAL: "zone 1 (normal)",
-            Zone.FIRST_ALARM: "zone 2 (first alarm, ESD-1)",
-            Zone.SECOND_ALARM: "zone 3 (second alarm)",
-            Zone.RELEASE: "release (ERS-2)",
-        }[self]
-
-
-@dataclass(frozen=True, slots=True)
-class AlarmAngles:
-    """Alarm thresholds on ``beta``, rad, strictly increasing in (0, pi)."""
-
-    first: float
-    second: float
-    release: float
-
-    def __post_init__(self) -> None:
-        vals = (self.first, self.second, self.release)
-        if not all(math.isfinite(v) for v in vals) or not (0 < self.first < self.second < self.release < math.pi):
-            raise ValueError(
-                "alarm angles must satisfy 0 < first < second < release < 180 deg, got "
-                + ", ".join(f"{math.degrees(v):.3f}" for v in vals) + " deg")
-
-
-def classify_beta(beta: np.ndarray | float, alarms: AlarmAngles) -> np.ndarray:
-    """Zone of each elbow angle.
-
-    Parameters
-    ----------
-    beta : float or ndarray
-        Inboard-outboard angle, rad; NaN means unreachable.
-    alarms : AlarmAngles
-        Thresholds.
-
-    Returns
-    -------
-    ndarray of int
-        :class:`Zone` values, shape of ``beta``.
-    """
-    beta = np.asarray(beta, dtype=float)
-    edges = np.array([alarms.first + BETA_TOL_RAD, alarms.second + BETA_TOL_RAD, alarms.release - BETA_TOL_RAD])
-    # side='left': beta == first -> zone 1; beta >= release -> release
-    z = np.searchsorted(edges, beta, side="left") + 1
-    z = np.where(beta >= alarms.release - BETA_TOL_RAD, int(Zone.RELEASE), z)
-    return np.where(np.isnan(beta), int(Zone.UNREACHABLE), z).astype(int)
 
 
 def classify_point(arm: Arm, alarms: AlarmAngles, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
-    """Zone of each coupler position (``UNREACHABLE`` outside the annulus).
+    """Severity of each coupler position (:data:`loadarm.alarms.UNREACHABLE` outside the annulus).
 
     Parameters
     ----------
@@ -117,9 +47,9 @@ def classify_point(arm: Arm, alarms: AlarmAngles, x: np.ndarray | float, y: np.n
     Returns
     -------
     ndarray of int
-        :class:`Zone` values, broadcast shape of ``x`` and ``y``.
+        :class:`loadarm.alarms.Severity` values, broadcast shape of ``x`` and ``y``.
     """
-    return classify_beta(solve_ik(arm, x, y).beta, alarms)     # NaN beta (unreachable) -> Zone.UNREACHABLE
+    return beta_severity(solve_ik(arm, x, y).beta, alarms)     # NaN beta (unreachable) -> UNREACHABLE
 
 
 def zone_radii(arm: Arm, alarms: AlarmAngles) -> dict[str, float]:

@@ -13,7 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from .envelope import AlarmAngles, BerthBox
+from .alarms import AlarmAngles
+from .envelope import BerthBox
 from .geometry import Arm, Mounting
 
 __all__ = ["ArmModel", "SlewLimits", "JointLimits"]

@@ -19,6 +19,7 @@ import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.patches import Rectangle, Wedge  # noqa: E402
 
+from .alarms import Severity  # noqa: E402
 from .envelope import zone_radii  # noqa: E402
 from .geometry import Arm  # noqa: E402
 from .kinematics import elbow_position, forward, inverse_paper  # noqa: E402
@@ -31,7 +32,8 @@ __all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylind
            "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure", "simulation_figure",
            "timing_comparison_figure", "timeline_figure", "run_timeline_figure", "save"]
 
-_ZONE_COLOURS = {"zone 1": "#cfe8cf", "zone 2": "#ffe08a", "zone 3": "#ffb366", "release": "#ff7f7f"}
+_SEVERITY_COLOURS = {Severity.NORMAL: "#cfe8cf", Severity.ESD1: "#ffe08a", Severity.SECOND: "#ffb366",
+                     Severity.RELEASE: "#ff7f7f"}
 
 
 def _draw_arm(ax, arm: Arm, alpha: float, beta: float, **kw) -> None:
@@ -67,14 +69,14 @@ def envelope_figure(model: ArmModel, plan: Plan | None = None, arm: Arm | None =
     fig, ax = plt.subplots(figsize=(11.5, 7.5))
     top = (0.0, arm.a)
     bands = [
-        (radii["r_min"], radii["first"], _ZONE_COLOURS["zone 1"], f"Z1 normal (beta <= {math.degrees(model.alarms.first):g} deg)"),
-        (radii["first"], radii["second"], _ZONE_COLOURS["zone 2"], f"Z2 first alarm / ESD-1 (> {math.degrees(model.alarms.first):g} deg)"),
-        (radii["second"], radii["release"], _ZONE_COLOURS["zone 3"], f"Z3 second alarm (> {math.degrees(model.alarms.second):g} deg)"),
-        (radii["release"], radii["r_max"], _ZONE_COLOURS["release"], f"release / ERS-2 (>= {math.degrees(model.alarms.release):g} deg)"),
+        (radii["r_min"], radii["first"], Severity.NORMAL, f"<= {math.degrees(model.alarms.first):g} deg"),
+        (radii["first"], radii["second"], Severity.ESD1, f"> {math.degrees(model.alarms.first):g} deg"),
+        (radii["second"], radii["release"], Severity.SECOND, f"> {math.degrees(model.alarms.second):g} deg"),
+        (radii["release"], radii["r_max"], Severity.RELEASE, f">= {math.degrees(model.alarms.release):g} deg"),
     ]
-    for r0, r1, colour, label in bands:
-        ax.add_patch(Wedge(top, r1, -120, 90, width=r1 - r0, facecolor=colour, edgecolor="grey", lw=0.5,
-                           label=label, alpha=0.9))
+    for r0, r1, sev, cond in bands:
+        ax.add_patch(Wedge(top, r1, -120, 90, width=r1 - r0, facecolor=_SEVERITY_COLOURS[sev], edgecolor="grey",
+                           lw=0.5, label=f"{sev.label} (beta {cond})", alpha=0.9))
     # jetty deck, face, berthing line, tides
     xmax = max(radii["r_max"] + 1.0, box.x_far + 2.0)
     ymin = min(box.y_low, box.ltl) - 3.0

@@ -23,6 +23,7 @@ from pathlib import Path
 
 from . import __version__
 from .config import Installation, paper_installation, parameter_table, read_toml
+from .alarms import Severity
 from .compiler import compile_model
 from .envelope import berth_box, zone_radii
 from .balancing import balance_counterweights
@@ -367,9 +368,9 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         notes.append(f"The configured flange ({fx:g}, {fy:g}) m lies outside the datasheet's flange box "
                      f"x in [{box.x_near:g}, {box.x_far:g}] m, y in [{box.y_low:g}, {box.y_high:g}] m"
                      + (" (the paper's example does this too)." if paper else "."))
-    bad_conf = [c for c in corners_conf if c["zone"] != 1]
+    bad_conf = [c for c in corners_conf if c["zone"] != int(Severity.NORMAL)]
     if bad_conf:
-        notes.append("With the configured arm (b = {:.3g} m, c = {:.3g} m) these corners are not in zone 1: ".format(
+        notes.append("With the configured arm (b = {:.3g} m, c = {:.3g} m) these corners are not in the normal zone: ".format(
             arm.b, arm.c) + "; ".join(f"{c['corner']}: {c['zone_label']}" for c in bad_conf) + ".")
 
     plan_rows = []

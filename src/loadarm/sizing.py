@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .envelope import AlarmAngles, Zone, berth_box, classify_beta
+from .alarms import UNREACHABLE, AlarmAngles, beta_severity, severity_label
+from .envelope import berth_box
 from .errors import SizingError
 from .geometry import Arm
 from .kinematics import inverse, reach_mask
@@ -46,7 +47,7 @@ class CornerCheck:
         Distance from the riser top, m.
     alpha, beta : float
         Joint angles, rad (NaN if unreachable).
-    zone : Zone
+    zone : int
         Alarm zone.
     """
 
@@ -56,7 +57,7 @@ class CornerCheck:
     r: float
     alpha: float
     beta: float
-    zone: Zone
+    zone: int
 
     def as_dict(self) -> dict:
         """JSON-friendly row (degrees at the edge)."""
@@ -64,7 +65,7 @@ class CornerCheck:
             "corner": self.name, "x_m": self.x, "y_m": self.y, "r_m": self.r,
             "alpha_deg": None if math.isnan(self.alpha) else math.degrees(self.alpha),
             "beta_deg": None if math.isnan(self.beta) else math.degrees(self.beta),
-            "zone": int(self.zone), "zone_label": self.zone.label,
+            "zone": int(self.zone), "zone_label": severity_label(self.zone),
         }
 
 
@@ -295,10 +296,10 @@ def check_corners(arm: Arm, alarms: AlarmAngles, inst) -> list[CornerCheck]:
         if reach_mask(arm, x, y):
             q = inverse(arm, x, y)
             alpha, beta = float(q.alpha), float(q.beta)
-            zone = Zone(int(classify_beta(beta, alarms)))
+            zone = int(beta_severity(beta, alarms))
         else:
             alpha = beta = float("nan")
-            zone = Zone.UNREACHABLE
+            zone = UNREACHABLE
         out.append(CornerCheck(name, x, y, r, alpha, beta, zone))
     return out
 
@@ -337,8 +338,6 @@ def sizing_summary(inst, result: SizingResult | None = None) -> dict:
         ``inboard_m, outboard_m, total_m, r_alarm_m, first_alarm_corner_m, beta_alarm_deg, active_bound,
         local_minima_m, constraint_residual_m2, corners`` (sized arm) and ``corners_configured_arm``.
     """
-    from .envelope import AlarmAngles
-
     res = size_installation(inst) if result is None else result
     alarms = AlarmAngles(inst.alarms.first, inst.alarms.second, inst.alarms.release)
     sized = Arm(inst.arm.riser, res.inboard, res.outboard)

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .actuators import cylinder_lengths, cylinder_rates, valve_voltages
-from .envelope import Zone, classify_beta
+from .alarms import Severity, beta_severity, severity_label, slew_severity
 from .errors import PathError
 from .kinematics import check_reachable, inverse, joint_accelerations, joint_rates
 from .path import StraightPath
@@ -31,7 +31,7 @@ if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
 
 __all__ = ["Plan", "plan_approach", "optimal_timing", "Plan3D", "plan_approach_3d",
-           "classify_slew", "plan_warnings", "CHECK_SAMPLES", "MAX_SAMPLES"]
+           "plan_warnings", "CHECK_SAMPLES", "MAX_SAMPLES"]
 
 #: Samples of the dense grid on which voltage limits are re-checked.
 CHECK_SAMPLES = 4001
@@ -65,7 +65,7 @@ class Plan:
     u1, u2 : ndarray
         Valve voltages, V.
     zone : ndarray of int
-        Alarm zone per sample (:class:`loadarm.envelope.Zone`).
+        Alarm severity per sample (:class:`loadarm.alarms.Severity`).
     stored_lengths : tuple of float
         Cylinder lengths in the stored pose, m (voltage reference).
     """
@@ -116,7 +116,7 @@ class Plan:
             "peak_cylinder_speed_m_s": [float(np.abs(self.v_ac1).max()), float(np.abs(self.v_ac2).max())],
             "u1_range_V": [float(self.u1.min()), float(self.u1.max())],
             "u2_range_V": [float(self.u2.min()), float(self.u2.max())],
-            "worst_zone": Zone(int(self.zone.max())).label,
+            "worst_zone": severity_label(int(self.zone.max())),
         }
 
     def records(self) -> list[dict]:
@@ -284,7 +284,7 @@ def plan_approach(model: ArmModel, *, start: tuple[float, float] | None = None,
     v1, v2 = cylinder_rates(mount, q.alpha, q.beta, ad, bd)
     u = valve_voltages(r1, r2, stored_len, volts_per_metre=model.actuators.volts_per_metre,
                        valve_range=model.actuators.valve_range_V, times=t)
-    zone = classify_beta(q.beta, alarms)
+    zone = beta_severity(q.beta, alarms)
     return Plan(timing=timing, start=path.start, target=path.end, duration=T, t=t, x=p[:, 0], y=p[:, 1],
                 vx=vx, vy=vy, alpha=q.alpha, beta=q.beta, alpha_dot=ad, beta_dot=bd,
                 alpha_ddot=add, beta_ddot=bdd, r_ac1=r1, r_ac2=r2,
@@ -352,7 +352,7 @@ class Plan3D:
             "beta_range_deg": [float(np.degrees(self.beta.min())), float(np.degrees(self.beta.max()))],
             "u1_range_V": [float(self.u1.min()), float(self.u1.max())],
             "u2_range_V": [float(self.u2.min()), float(self.u2.max())],
-            "worst_zone": Zone(int(self.zone.max())).label,
+            "worst_zone": severity_label(int(self.zone.max())),
         }
 
     def records(self) -> list[dict]:
@@ -378,26 +378,6 @@ class Plan3D:
             The file written.
         """
         return _write_csv(path, self.records())
-
-
-def classify_slew(phi, model: ArmModel) -> np.ndarray:
-    """Alarm zone of slew angles (1 normal, 2 first, 3 second, 4 release) from ``[slew]``.
-
-    Parameters
-    ----------
-    phi : float or ndarray
-        Slew angle, rad.
-    model : ArmModel
-        Slew alarm angles.
-
-    Returns
-    -------
-    ndarray of int
-    """
-    a = np.abs(np.asarray(phi, dtype=float))
-    sl = model.slew
-    return np.select([a >= sl.release, a > sl.second, a > sl.first],
-                     [int(Zone.RELEASE), int(Zone.SECOND_ALARM), int(Zone.FIRST_ALARM)], int(Zone.NORMAL))
 
 
 def plan_approach_3d(model: ArmModel, *, start: tuple | None = None, target: tuple | None = None,
@@ -474,7 +454,7 @@ def plan_approach_3d(model: ArmModel, *, start: tuple | None = None, target: tup
     v1, v2 = cylinder_rates(mount, q.alpha, q.beta, ad, bd)
     u = valve_voltages(r1, r2, stored_len, volts_per_metre=model.actuators.volts_per_metre,
                        valve_range=model.actuators.valve_range_V, times=t)
-    zone = np.maximum(classify_beta(q.beta, alarms), classify_slew(q.phi, model))
+    zone = np.maximum(beta_severity(q.beta, alarms), slew_severity(q.phi, model.slew))
     return Plan3D(timing, path.start, path.end, T, t, p[:, 0], p[:, 1], p[:, 2], q.phi, q.alpha, q.beta, phi_dot,
                   ad, bd, r1, r2, v1, v2, u.u1, u.u2, zone)
 
@@ -500,9 +480,9 @@ def plan_warnings(model: ArmModel, plan: "Plan | Plan3D") -> list[str]:
     """
     found: list[tuple[float, str]] = []
     worst = int(plan.zone.max())
-    if worst > int(Zone.NORMAL):
-        k = int(np.argmax(plan.zone > int(Zone.NORMAL)))
-        found.append((float(plan.t[k]), f"the path enters {Zone(worst).label} (first at t = {plan.t[k]:.2f} s, "
+    if worst > int(Severity.NORMAL):
+        k = int(np.argmax(plan.zone > int(Severity.NORMAL)))
+        found.append((float(plan.t[k]), f"the path enters the {severity_label(worst)} zone (first at t = {plan.t[k]:.2f} s, "
                                         f"beta {math.degrees(plan.beta[k]):.2f} deg)"))
     for i, (r, (lo, hi)) in enumerate(((plan.r_ac1, model.cylinders.length_range_1),
                                        (plan.r_ac2, model.cylinders.length_range_2)), start=1):

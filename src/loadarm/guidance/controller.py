@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..alarms import AlarmThresholds, Severity
 from ..geometry import Arm
 from ..kinematics import ROUNDOFF_M, jacobian_entries
 from ..slew import forward3d, inverse3d, reach_mask3d
@@ -40,7 +41,7 @@ from .sensor import Estimate
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["Mode", "AlarmThresholds", "Command", "OperatorInput", "Cycle", "GuidanceState", "GuidanceController"]
+__all__ = ["Mode", "Command", "OperatorInput", "Cycle", "GuidanceState", "GuidanceController"]
 
 
 class Mode(str, enum.Enum):
@@ -61,111 +62,12 @@ class Mode(str, enum.Enum):
 
 #: Modes in which the coupler is attached to the flange.
 CONNECTED_MODES = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)
-
-
-@dataclass(frozen=True, slots=True)
-class AlarmThresholds:
-    """Alarm and release conditions, on position and on drift speed.
-
-    Position: the elbow angle ``beta`` against the configured first/second/
-    release angles, the slew angle against its own three.
-
-    Speed: with ``r`` the coupler's distance from the riser top and ``v_r``
-    its filtered outward speed (the drift; waves average out), the time left
-    before the release radius is ``T_rel = (r_release - r) / v_r``. The ESD-1
-    sequence must finish and the release must still complete before the arm
-    gets there, so
-
-    * ALARM1 when ``T_rel <= t_esd + t_ers + margin``,
-    * ALARM2 when ``T_rel <= t_ers + margin``,
-    * RELEASE when ``(r_max - r) / v_r <= t_ers + margin`` (the release must be
-      complete before the arm is fully stretched or cylinder 2 bottoms out:
-      ``r_max`` is the radius at the smaller of 180 deg and the stroke's end),
-
-    and the same on the slew angle with its rate. A faster drift therefore
-    raises the alarms earlier, at smaller angles.
-    """
-
-    beta_first: float
-    beta_second: float
-    beta_release: float
-    r_release: float
-    r_max: float
-    slew_first: float
-    slew_second: float
-    slew_release: float
-    slew_limit: float
-    t_alarm1: float
-    t_alarm2: float
-    t_release: float
-
-    @staticmethod
-    def from_settings(model: ArmModel, g: Guidance) -> "AlarmThresholds":
-        """Thresholds from the model's alarm angles and joint limits and the guidance sequence times.
-
-        Parameters
-        ----------
-        model : ArmModel
-            Alarm angles, slew limits, joint limits and arm.
-        g : Guidance
-            Sequence times and margin.
-
-        Returns
-        -------
-        AlarmThresholds
-        """
-        arm = model.arm
-        al = model.alarms
-        # the hard limit is the fully stretched arm or the end of cylinder 2's stroke, whichever comes first
-        beta_stop = model.joint_limits.beta[1]
-        return AlarmThresholds(
-            beta_first=al.first, beta_second=al.second, beta_release=al.release,
-            r_release=float(arm.radius_at_beta(al.release)), r_max=float(arm.radius_at_beta(min(beta_stop, math.pi))),
-            slew_first=model.slew.first, slew_second=model.slew.second,
-            slew_release=model.slew.release, slew_limit=model.slew.limit,
-            t_alarm1=g.esd_time + g.ers_time + g.margin, t_alarm2=g.ers_time + g.margin,
-            t_release=g.ers_time + g.margin)
-
-    def level(self, beta: float, phi: float, r: float, v_r: float, v_phi: float) -> tuple[int, str]:
-        """Alarm level 0-3 (none, first, second, release) and its cause.
-
-        Parameters
-        ----------
-        beta, phi : float
-            Elbow and slew angles, rad.
-        r : float
-            Distance of the coupler from the riser top, m.
-        v_r : float
-            Filtered outward speed, m/s.
-        v_phi : float
-            Filtered slew rate, rad/s.
-
-        Returns
-        -------
-        level : int
-        reason : str
-        """
-        a_phi = abs(phi)
-        w_phi = v_phi if phi >= 0 else -v_phi   # rate away from the centre line
-        ttl_r = (self.r_release - r) / v_r if v_r > 1e-6 else math.inf
-        ttl_max = (self.r_max - r) / v_r if v_r > 1e-6 else math.inf
-        ttl_phi = (self.slew_release - a_phi) / w_phi if w_phi > 1e-6 else math.inf
-        ttl_phimax = (self.slew_limit - a_phi) / w_phi if w_phi > 1e-6 else math.inf
-        if beta >= self.beta_release:
-            return 3, f"beta {math.degrees(beta):.1f} deg reached the release angle"
-        if a_phi >= self.slew_release:
-            return 3, f"slew {math.degrees(phi):.1f} deg reached the release angle"
-        if min(ttl_max, ttl_phimax) <= self.t_release:
-            return 3, f"drift would reach the arm's limit in {min(ttl_max, ttl_phimax):.1f} s"
-        if beta > self.beta_second or a_phi > self.slew_second:
-            return 2, f"beta {math.degrees(beta):.1f} deg / slew {math.degrees(phi):.1f} deg beyond the second alarm"
-        if min(ttl_r, ttl_phi) <= self.t_alarm2:
-            return 2, f"drift would reach the release angle in {min(ttl_r, ttl_phi):.1f} s"
-        if beta > self.beta_first or a_phi > self.slew_first:
-            return 1, f"beta {math.degrees(beta):.1f} deg / slew {math.degrees(phi):.1f} deg beyond the first alarm"
-        if min(ttl_r, ttl_phi) <= self.t_alarm1:
-            return 1, f"drift would reach the release angle in {min(ttl_r, ttl_phi):.1f} s"
-        return 0, ""
+#: The connected mode that each severity puts the controller in, and back.
+MODE_OF_SEVERITY = {Severity.NORMAL: Mode.CONNECTED, Severity.ESD1: Mode.ALARM1, Severity.SECOND: Mode.ALARM2,
+                    Severity.RELEASE: Mode.RELEASE}
+SEVERITY_OF_MODE = {m: sev for sev, m in MODE_OF_SEVERITY.items()}
+#: The stages the connected-mode monitoring raises, in order.
+ALARM_STAGES = (Severity.ESD1, Severity.SECOND, Severity.RELEASE)
 
 
 @dataclass(frozen=True, slots=True)
@@ -502,21 +404,21 @@ class GuidanceController:
             return
         s, now, q = self.state, cyc.now, cyc.q
         level, why = self._monitor(now, q)
-        order = {Mode.CONNECTED: 0, Mode.ALARM1: 1, Mode.ALARM2: 2, Mode.RELEASE: 3}
-        current = order.get(s.mode if s.mode != Mode.ESTOP else s.resume, 0)
+        current = SEVERITY_OF_MODE.get(s.mode if s.mode != Mode.ESTOP else s.resume, Severity.NORMAL)
         if level <= current:
             return
-        new = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)[level]
-        for lv in range(current + 1, level + 1):
-            m = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)[lv]
-            self._event("alarm", f"{m.value}: {why}", level=lv, beta_deg=math.degrees(q[2]),
-                        slew_deg=math.degrees(q[0]), v_r=s.v_r)
-        if level >= 1 and s.esd_since is None:
+        for stage in ALARM_STAGES:               # one event per stage passed, in order
+            if current < stage <= level:
+                self._event("alarm", f"{MODE_OF_SEVERITY[stage].value}: {why}", severity=int(stage),
+                            severity_label=stage.label, beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]),
+                            v_r=s.v_r)
+        if level >= Severity.ESD1 and s.esd_since is None:
             s.esd_since = now
             self._event("command", "ESD-1: stop transfer pumps, close ERS valves")
-        if level >= 3 and s.release_since is None:
+        if level >= Severity.RELEASE and s.release_since is None:
             s.release_since = now
             self._event("command", "ERS-2: release the coupler")
+        new = MODE_OF_SEVERITY[level]
         if s.mode == Mode.ESTOP:
             s.resume = new
         else:

@@ -25,7 +25,8 @@ import numpy as np
 
 from ..eventlog import EventLog
 from ..slew import forward3d, inverse3d, reach_mask3d
-from .controller import GuidanceController, Mode, OperatorInput
+from ..alarms import Severity
+from .controller import SEVERITY_OF_MODE, GuidanceController, Mode, OperatorInput
 from .scenario import Scenario
 from .sensor import FlangeEstimator, sensor_readings
 from .ship import flange_motion
@@ -75,7 +76,7 @@ class RunResult:
         Scenario name.
     signals : dict of str to ndarray
         ``t, mode (index into MODES), phi, alpha, beta, x, y, z, fx, fy, fz, ex, ey, ez, healthy, distance,
-        level`` at every guidance cycle.
+        severity`` (:class:`loadarm.alarms.Severity` of the connected mode) at every guidance cycle.
     events : list of tuple
         ``(t, mode, kind, reason, data)`` in order.
     overstretched_at : float or None
@@ -175,7 +176,7 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     servo_fault = False
     was_connected = False
     sig = {k: np.full(n, np.nan) for k in ("t", "mode", "phi", "alpha", "beta", "x", "y", "z", "fx", "fy", "fz",
-                                            "ex", "ey", "ez", "healthy", "distance", "level")}
+                                            "ex", "ey", "ez", "healthy", "distance", "severity")}
     events: list = []
     cycle = np.empty(n)
     ir = 0
@@ -275,7 +276,7 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
         sig["ex"][k], sig["ey"][k], sig["ez"][k] = e.position
         sig["healthy"][k] = 1.0 if e.healthy else 0.0
         sig["distance"][k] = math.dist((float(p[0]), float(p[1]), float(p[2])), f)
-        sig["level"][k] = {Mode.ALARM1: 1, Mode.ALARM2: 2, Mode.RELEASE: 3}.get(cmd.mode, 0)
+        sig["severity"][k] = int(SEVERITY_OF_MODE.get(cmd.mode, Severity.NORMAL))
         if log is not None and now >= next_sample:
             log.append(now, cmd.mode.value, "sample", "state sample", phi=float(q[0]), alpha=float(q[1]),
                        beta=float(q[2]), distance=float(sig["distance"][k]), healthy=bool(e.healthy),

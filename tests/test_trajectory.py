@@ -138,3 +138,32 @@ def test_3d_plan_refusals(model):
         plan_approach_3d(model, target=(18.0, 10.0, 0.0))
     with pytest.raises(PathError, match="needs \\(x, y, z\\)"):
         plan_approach_3d(model, start=(3.82, 10.4), target=(14.0, 1.0))
+
+
+def test_results_are_data_with_summary_to_dict_and_plot(model):
+    """Every result type offers summary() (a dict that knows its metrics), to_dict() (plain JSON) and plot()."""
+    import json
+
+    from matplotlib.figure import Figure
+
+    from loadarm.balancing import balance_counterweights
+    from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
+    from loadarm.loads import actuator_loads
+    from loadarm.multibody import verify_kinematics
+    from loadarm.results import Summary
+
+    plan = plan_approach(model, timing="smooth", samples=101)
+    sim = simulate_approach(model, plan_approach(model, timing="smooth", samples=2001))
+    results = [plan, actuator_loads(model, plan), balance_counterweights(model, spacing=1.0),
+               verify_kinematics(model, plan_approach(model, timing="paper", samples=21)), sim]
+    for r in results:
+        s = r.summary()
+        assert isinstance(s, Summary) and isinstance(s, dict)
+        d = r.to_dict()
+        assert type(d) is dict and json.loads(json.dumps(d)) == json.loads(json.dumps(dict(s)))
+        assert isinstance(r.plot(), Figure)
+    # metric names are declared once and every declared one is produced
+    assert {m.key for m in SIMULATION_METRICS} <= set(sim.summary())
+    rows = dict(sim.summary().rows())
+    assert rows["max deviation from the line"].endswith(" mm") and rows["arrival within the tolerance"] != "n/a"
+    assert "max deviation from the line" in str(sim.summary())

@@ -25,6 +25,7 @@ from scipy.optimize import linprog
 from .dynamics import MassModel, mass_model, static_torques
 from .geometry import Arm
 from .kinematics import inverse, reach_mask
+from .results import Result
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
@@ -109,7 +110,7 @@ def max_static_torque(model: MassModel, grid: EnvelopeGrid) -> tuple[float, floa
 
 
 @dataclass(frozen=True)
-class BalanceResult:
+class BalanceResult(Result):
     """Minimax counterweights and the residual torque they leave.
 
     Attributes
@@ -145,7 +146,7 @@ class BalanceResult:
     residual_alpha: np.ndarray
     residual_beta: np.ndarray
 
-    def summary(self) -> dict:
+    def _values(self) -> dict:
         """Headline numbers, JSON-friendly."""
         return {
             "counterweight_inboard_kg": self.counterweight_inboard_kg,
@@ -160,6 +161,11 @@ class BalanceResult:
             "fills": list(self.fills),
             "poses": int(self.grid.x.size),
         }
+
+    def _figure(self):
+        from .plotting import residual_torque_figure
+
+        return residual_torque_figure(self)
 
 
 def balance_counterweights(model: ArmModel, *, fills: tuple[float, ...] | None = None, spacing: float = 0.25,

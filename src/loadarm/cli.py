@@ -431,8 +431,11 @@ def simulate(
 
     Example: loadarm simulate --config examples/paper.toml --timing all
     """
-    from .hydraulics.simulate import simulate_approach
+    from .hydraulics.simulate import SIMULATION_METRICS, simulate_approach
     from .timing import TIMING_LAWS
+
+    COMPARE_KEYS = ("timing", "plan_duration_s", "arrival_time_s", "max_deviation_mm", "rms_deviation_mm",
+                    "final_position_error_mm", "max_chamber_pressure_bar")
     from .trajectory import plan_approach
 
     timing = timing.value
@@ -448,13 +451,11 @@ def simulate(
             _json(rows)
             return
         t = Table(title="timing laws compared (closed loop)")
-        for col in ("timing", "T [s]", "arrive [s]", "dev max [mm]", "dev RMS [mm]", "final [mm]", "p max [bar]"):
-            t.add_column(escape(col))
+        cols = [m for m in SIMULATION_METRICS if m.key in COMPARE_KEYS]
+        for m in cols:
+            t.add_column(escape(m.header))
         for law, r in rows.items():
-            arr = "never" if r["arrival_time_s"] is None else f"{r['arrival_time_s']:.2f}"
-            t.add_row(law, f"{r['plan_duration_s']:.2f}", arr, f"{r['max_deviation_mm']:.1f}",
-                      f"{r['rms_deviation_mm']:.1f}", f"{r['final_position_error_mm']:.2f}",
-                      f"{r['max_chamber_pressure_bar']:.1f}")
+            t.add_row(*(m.format(r[m.key], unit=False) for m in cols))
         out.print(t)
         for law, r in rows.items():
             for w in r["warnings"]:
@@ -474,16 +475,8 @@ def simulate(
     t = Table(title=f"closed-loop approach, {timing} timing")
     t.add_column("quantity")
     t.add_column("value")
-    arr = "never" if s["arrival_time_s"] is None else f"{s['arrival_time_s']:.2f} s"
-    t.add_row("plan duration / arrival", f"{s['plan_duration_s']:.2f} s / {arr} (within {s['arrival_tolerance_mm']:g} mm)")
-    t.add_row("final position error", f"{s['final_position_error_mm']:.2f} mm")
-    t.add_row("deviation from the line", f"max {s['max_deviation_mm']:.1f} mm, RMS {s['rms_deviation_mm']:.1f} mm")
-    t.add_row("cylinder tracking error (max)", "{:.2f} / {:.2f} mm".format(*s["max_tracking_error_mm"]))
-    t.add_row("max chamber pressure", f"{s['max_chamber_pressure_bar']:.1f} bar")
-    t.add_row("valve saturation", "{:.2f} / {:.2f} s".format(*s["valve_saturation_s"]))
-    t.add_row("pump flow (peak / mean)", f"{s['peak_pump_flow_L_min']:.1f} / {s['mean_pump_flow_L_min']:.1f} L/min")
-    t.add_row("pump power (peak) / energy", f"{s['peak_pump_power_kW']:.2f} kW / {s['pump_energy_kJ']:.0f} kJ")
-    t.add_row("energy balance error", f"{s['energy_balance_error_pct']:.3f} %")
+    for label, text in s.rows():
+        t.add_row(escape(label), escape(text))
     out.print(t)
     for w in s["warnings"]:
         out.print(f"[yellow]warning:[/] {escape(w)}")

@@ -17,6 +17,7 @@ import numpy as np
 
 from .dynamics import chamber_pressures, cylinder_forces, joint_torques, mass_model
 from .trajectory import Plan
+from .results import Result
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
@@ -25,7 +26,7 @@ __all__ = ["ActuatorLoads", "actuator_loads"]
 
 
 @dataclass(frozen=True)
-class ActuatorLoads:
+class ActuatorLoads(Result):
     """Loads of both cylinders along a plan; arrays have shape ``(n,)``.
 
     Attributes
@@ -59,7 +60,7 @@ class ActuatorLoads:
     flow2: np.ndarray
     max_pressure: float
 
-    def summary(self) -> dict:
+    def _values(self) -> dict:
         """Peak and RMS values per cylinder, JSON-friendly (bar and L/min at the edge too)."""
         out = {}
         for i, (F, p, v, q) in enumerate(((self.force1, self.pressure1, self.speed1, self.flow1),
@@ -79,6 +80,11 @@ class ActuatorLoads:
         out["peak_torque_beta_Nm"] = float(np.max(np.abs(self.tau_beta)))
         out["max_pressure_bar"] = self.max_pressure / 1e5
         return out
+
+    def _figure(self):
+        from .plotting import loads_figure
+
+        return loads_figure({"approach": self})
 
 
 def actuator_loads(model: ArmModel, plan: Plan, *, fill: float | None = None) -> ActuatorLoads:

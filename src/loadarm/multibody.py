@@ -39,6 +39,7 @@ from .dynamics import G, MassModel, mass_model
 from .geometry import Arm, Mounting
 from .kinematics import inverse
 from .trajectory import Plan
+from .results import Result
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
@@ -179,7 +180,7 @@ def load_model(xml: str):
 
 
 @dataclass(frozen=True)
-class VerificationResult:
+class VerificationResult(Result):
     """Closed form against MuJoCo, sample by sample.
 
     Arrays have shape ``(n,)``; angles in rad, lengths in m.
@@ -209,7 +210,7 @@ class VerificationResult:
         """Largest cylinder-length difference, mm."""
         return float(1e3 * max(np.max(np.abs(self.r1_mj - self.r1_cf)), np.max(np.abs(self.r2_mj - self.r2_cf))))
 
-    def summary(self) -> dict:
+    def _values(self) -> dict:
         """Headline differences, JSON-friendly."""
         return {
             "samples": int(self.t.size),
@@ -221,6 +222,11 @@ class VerificationResult:
             "max_angle_diff_deg": self.max_angle_error_deg,
             "max_length_diff_mm": self.max_length_error_mm,
         }
+
+    def _figure(self):
+        from .plotting import verification_figure
+
+        return verification_figure(self)
 
 
 def verify_kinematics(model: ArmModel, plan: Plan, *, arm: Arm | None = None,

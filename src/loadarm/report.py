@@ -15,6 +15,7 @@ import hashlib
 import html
 import json
 import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -27,7 +28,7 @@ from .alarms import Severity
 from .compiler import compile_model
 from .envelope import berth_box, zone_radii
 from .balancing import balance_counterweights
-from .hydraulics.simulate import simulate_approach
+from .hydraulics.simulate import SIMULATION_METRICS, simulate_approach
 from .loads import actuator_loads
 from .multibody import verify_kinematics
 from .plotting import (alpha_beta_figure, angles_time_figure, cylinders_figure, envelope_figure, loads_figure,
@@ -50,6 +51,9 @@ class ReportFiles:
     figures: dict[str, Path]
 
 
+_NUMBER = re.compile(r"[+-]?\d+(\.\d*)?([eE][+-]?\d+)?( / [+-]?\d+(\.\d*)?)?")
+
+
 def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str] | None = None) -> str:
     fmt = fmt or {}
     head = "".join(f"<th>{html.escape(title)}</th>" for _, title in columns)
@@ -58,7 +62,8 @@ def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str]
         cells = []
         for key, _ in columns:
             v = row.get(key)
-            numeric = isinstance(v, (int, float)) and not isinstance(v, bool)
+            numeric = (isinstance(v, (int, float)) and not isinstance(v, bool)) or (
+                isinstance(v, str) and _NUMBER.fullmatch(v) is not None)
             if isinstance(v, float):
                 s = "n/a" if math.isnan(v) else format(v, fmt.get(key, ".3f"))
             elif v is None:
@@ -134,6 +139,10 @@ def is_paper_case(inst: Installation) -> bool:
     """
     return inst.model_dump(exclude={"report"}) == paper_installation().model_dump(exclude={"report"})
 
+
+#: Closed-loop metrics the report's table shows (declared once in hydraulics.simulate.SIMULATION_METRICS).
+_REPORT_SIM_KEYS = ("timing", "plan_duration_s", "arrival_time_s", "max_deviation_mm", "rms_deviation_mm",
+                    "final_position_error_mm", "max_chamber_pressure_bar", "peak_pump_flow_L_min", "pump_energy_kJ")
 
 #: Display units for the parameter table: SI value times factor.
 _DISPLAY_UNITS = {"Pa": ("bar", 1e-5), "N": ("kN", 1e-3), "m^3/s": ("L/min", 6e4)}
@@ -417,14 +426,9 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                           "a2": fmt(ss["alarm2_s"]), "rel": fmt(ss["release_s"]),
                           "over": "no" if ss["overstretched_s"] is None else f"at {ss['overstretched_s']:.1f} s",
                           "beta": ss["max_beta_deg"]})
-    sim_rows = []
-    for law, sm in summary["simulation"].items():
-        sim_rows.append({"law": law, "T": sm["plan_duration_s"],
-                         "arr": "never" if sm["arrival_time_s"] is None else f"{sm['arrival_time_s']:.2f}",
-                         "dev": sm["max_deviation_mm"], "rms": sm["rms_deviation_mm"],
-                         "fin": sm["final_position_error_mm"], "p": sm["max_chamber_pressure_bar"],
-                         "q": sm["peak_pump_flow_L_min"], "E": sm["pump_energy_kJ"],
-                         "w": "; ".join(sm["warnings"]) or "none"})
+    sim_cols = [m for m in SIMULATION_METRICS if m.key in _REPORT_SIM_KEYS]
+    sim_rows = [{**{m.key: m.format(sm.get(m.key), unit=False) for m in sim_cols},
+                 "warnings": "; ".join(sm["warnings"]) or "none"} for sm in summary["simulation"].values()]
     load_rows = []
     for law, ld in summary["loads"].items():
         for i in (1, 2):
@@ -512,11 +516,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         f"({inst.pump.max_flow * 60e3:.0f} L/min, {inst.pump.compensator_pressure / 1e5:g} bar), with a "
         f"{inst.encoder.resolution * 1e6:g} um encoder; both drives act on the arm's real dynamics. "
         f"Each run continues {inst.controller.settle_time:g} s after the plan ends.</p>",
-        _table(sim_rows, [("law", "timing law"), ("T", "plan duration [s]"), ("arr", "arrival [s]"),
-                          ("dev", "max deviation [mm]"), ("rms", "RMS deviation [mm]"), ("fin", "final error [mm]"),
-                          ("p", "peak pressure [bar]"), ("q", "peak pump flow [L/min]"), ("E", "pump energy [kJ]"),
-                          ("w", "warnings")],
-               {"T": ".2f", "dev": ".1f", "rms": ".1f", "fin": ".2f", "p": ".1f", "q": ".1f", "E": ".0f"}),
+        _table(sim_rows, [(m.key, m.header) for m in sim_cols] + [("warnings", "warnings")]),
         img("deviation_by_timing.png"), img("simulation_smooth.png"),
         "<h2>8. Live guidance to a moving ship (scenarios)</h2>",
         "<p>Ship, sensor, Kalman estimator, guidance state machine and arm on a simulated clock, each scenario "

@@ -26,6 +26,7 @@ from .errors import PathError
 from .kinematics import check_reachable, inverse, joint_accelerations, joint_rates
 from .path import StraightPath
 from .timing import ToppraTiming, make_timing
+from .results import Result
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
@@ -42,7 +43,7 @@ _FIELDS = ("t_s", "x_m", "y_m", "alpha_deg", "beta_deg", "r_ac1_m", "r_ac2_m", "
 
 
 @dataclass(frozen=True)
-class Plan:
+class Plan(Result):
     """A timed straight-line approach, sampled. Arrays have shape ``(n,)``.
 
     Attributes
@@ -99,7 +100,7 @@ class Plan:
         """Straight-line length, m."""
         return math.hypot(self.target[0] - self.start[0], self.target[1] - self.start[1])
 
-    def summary(self) -> dict:
+    def _values(self) -> dict:
         """Headline numbers, JSON-friendly (degrees at the edge)."""
         speed = np.hypot(self.vx, self.vy)
         return {
@@ -119,6 +120,11 @@ class Plan:
             "worst_zone": severity_label(int(self.zone.max())),
         }
 
+
+    def _figure(self):
+        from .plotting import cylinders_figure
+
+        return cylinders_figure({self.timing: self})
     def records(self) -> list[dict]:
         """One dict per sample with the keys ``t_s, x_m, y_m, alpha_deg, beta_deg,
         r_ac1_m, r_ac2_m, u1_V, u2_V, zone``."""

@@ -21,6 +21,7 @@ import numpy as np
 from ..dynamics import (G, chamber_pressures, lagrange_constants, mass_model, moment_arms,
                         static_torques)
 from ..errors import LoadarmError
+from ..results import Metric, Result
 from ..kinematics import forward
 from ..trajectory import Plan
 from . import plant
@@ -29,7 +30,7 @@ from .components import spool_discretisation, valve_coefficient
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["SimulationError", "SimulationResult", "pack_parameters", "initial_state", "simulate_approach",
+__all__ = ["SIMULATION_METRICS", "SimulationError", "SimulationResult", "pack_parameters", "initial_state", "simulate_approach",
            "simulate_hold", "stable_substeps"]
 
 #: Largest ``h * omega`` allowed for the explicit (semi-implicit Euler) part of the plant step. Symplectic
@@ -204,8 +205,29 @@ def initial_state(model: ArmModel, alpha: float, beta: float, *, fill: float | N
     return y
 
 
+#: The headline numbers of a closed-loop run, declared once: the CLI, the report and the JSON use these.
+SIMULATION_METRICS = (
+    Metric("timing", "timing law", short="timing"),
+    Metric("plan_duration_s", "plan duration", "s", ".2f", short="T"),
+    Metric("arrival_time_s", "arrival within the tolerance", "s", ".2f", short="arrive", none="never"),
+    Metric("arrival_tolerance_mm", "arrival tolerance", "mm", "g"),
+    Metric("final_position_error_mm", "final position error", "mm", ".2f", short="final"),
+    Metric("max_deviation_mm", "max deviation from the line", "mm", ".1f", short="dev max"),
+    Metric("rms_deviation_mm", "RMS deviation from the line", "mm", ".1f", short="dev RMS"),
+    Metric("max_tracking_error_mm", "cylinder tracking error (max, 1 / 2)", "mm", ".2f"),
+    Metric("max_chamber_pressure_bar", "max chamber pressure", "bar", ".1f", short="p max"),
+    Metric("min_supply_pressure_bar", "min supply pressure", "bar", ".1f"),
+    Metric("valve_saturation_s", "valve saturation (1 / 2)", "s", ".2f"),
+    Metric("peak_pump_flow_L_min", "peak pump flow", "L/min", ".1f", short="pump peak"),
+    Metric("mean_pump_flow_L_min", "mean pump flow", "L/min", ".1f"),
+    Metric("peak_pump_power_kW", "peak pump power", "kW", ".2f"),
+    Metric("pump_energy_kJ", "pump energy", "kJ", ".0f", short="energy"),
+    Metric("energy_balance_error_pct", "energy balance error", "%", ".3f"),
+)
+
+
 @dataclass(frozen=True)
-class SimulationResult:
+class SimulationResult(Result):
     """Logged signals and the headline numbers of one closed-loop run.
 
     Attributes
@@ -233,9 +255,15 @@ class SimulationResult:
     energy: dict
     metrics: dict
 
-    def summary(self) -> dict:
-        """Headline numbers, JSON-friendly (mm, bar, L/min, kW at the edge)."""
+    METRICS = SIMULATION_METRICS
+
+    def _values(self) -> dict:
         return dict(self.metrics)
+
+    def _figure(self):
+        from ..plotting import simulation_figure
+
+        return simulation_figure(self)
 
 
 def _mech_energy(model, fill, a, b, ad, bd):

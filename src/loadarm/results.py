@@ -1,0 +1,143 @@
+"""Results as data: every computation returns a typed result with ``summary()``, ``to_dict()`` and ``plot()``.
+
+Modelled on python-control's response objects: the numbers live on the result, the command line and the
+report both print them from the same :class:`Metric` declarations (key with its unit, label, format), and
+``plot()`` draws the same figure everywhere. A metric's name is defined once, on its result type.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = ["Metric", "Summary", "Result"]
+
+
+@dataclass(frozen=True, slots=True)
+class Metric:
+    """One headline number of a result type.
+
+    Attributes
+    ----------
+    key : str
+        JSON key, ending in its unit (``max_deviation_mm``).
+    label : str
+        Human label for tables.
+    unit : str
+        Display unit (``mm``, ``bar``...); empty for counts and text.
+    fmt : str
+        Format of one value (``.1f``).
+    short : str
+        Column header for compact tables (default: the label).
+    none : str
+        Text shown for a missing value (``never``, ``n/a``).
+    """
+
+    key: str
+    label: str
+    unit: str = ""
+    fmt: str = ".3g"
+    short: str = ""
+    none: str = "n/a"
+
+    @property
+    def header(self) -> str:
+        """Compact column header with the unit, ``dev max [mm]``."""
+        name = self.short or self.label
+        return f"{name} [{self.unit}]" if self.unit else name
+
+    def format(self, value: Any, *, unit: bool = True) -> str:
+        """The value as text, with its unit.
+
+        Parameters
+        ----------
+        value : float, sequence of float, str or None
+            A value of this metric (a pair prints as ``a / b``).
+        unit : bool
+            Append the unit.
+
+        Returns
+        -------
+        str
+        """
+        if value is None:
+            return self.none
+        if isinstance(value, (list, tuple)):
+            text = " / ".join(format(v, self.fmt) for v in value)
+        elif isinstance(value, (int, float)) and not isinstance(value, bool):
+            text = format(value, self.fmt)
+        else:
+            text = str(value)
+        return f"{text} {self.unit}" if unit and self.unit and value is not None else text
+
+
+class Summary(dict):
+    """Headline numbers of a result: a JSON-friendly dict (keys carry their units) that knows its metrics.
+
+    Parameters
+    ----------
+    values : dict
+        Key to value.
+    metrics : tuple of Metric
+        The declared metrics, in display order.
+    """
+
+    def __init__(self, values: dict, metrics: tuple[Metric, ...]):
+        super().__init__(values)
+        self.metrics = metrics
+
+    def rows(self) -> list[tuple[str, str]]:
+        """``(label, value with unit)`` for every declared metric present, in order.
+
+        Returns
+        -------
+        list of tuple of str
+        """
+        return [(m.label, m.format(self.get(m.key))) for m in self.metrics if m.key in self]
+
+    def __str__(self) -> str:
+        rows = self.rows()
+        width = max((len(label) for label, _ in rows), default=0)
+        return "\n".join(f"{label:<{width}}  {text}" for label, text in rows)
+
+
+class Result:
+    """Mixin of the result types: ``summary()``, ``to_dict()``, ``plot()``.
+
+    A subclass declares ``METRICS`` and implements ``_values()`` (the headline numbers) and ``_figure()``.
+    """
+
+    METRICS: tuple[Metric, ...] = ()
+
+    def _values(self) -> dict:  # pragma: no cover - every result implements it
+        raise NotImplementedError
+
+    def summary(self) -> Summary:
+        """Headline numbers with their units and labels (a dict, JSON-friendly).
+
+        Returns
+        -------
+        Summary
+        """
+        return Summary(self._values(), self.METRICS)
+
+    def to_dict(self) -> dict:
+        """Everything JSON needs: the headline numbers as a plain dict.
+
+        Returns
+        -------
+        dict
+        """
+        return dict(self._values())
+
+    def plot(self):
+        """The result's figure (the one the report and the command line draw).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        return self._figure()
+
+    def _figure(self):  # pragma: no cover - every result implements it
+        raise NotImplementedError

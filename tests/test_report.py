@@ -75,3 +75,39 @@ def test_paper_case_keeps_its_comparison(tmp_path):
     files = build_report(parse_config(d), tmp_path, source=PAPER_TOML)
     html = files.html.read_text()
     assert "(paper: 12 m and 8.2 m)" in html and "No scenarios" in html
+
+
+def test_report_html_is_a_template_that_escapes_user_text(own_report, tmp_path):
+    """The HTML layer is an autoescaped Jinja2 template: a file name or title cannot inject markup."""
+    from loadarm.report import _template
+
+    files, html, _ = own_report
+    assert _template().environment.autoescape("report.html.j2") is True
+    assert html.startswith("<!doctype html>") and html.count("<h2>") == 9
+    text = _template().render(**{**_render_minimal(), "title": "<script>alert(1)</script>"})
+    assert "<script>alert(1)</script>" not in text and "&lt;script&gt;alert(1)&lt;/script&gt;" in text
+
+
+def _render_minimal():
+    """Smallest context the template needs (to test escaping without running the pipeline)."""
+    from types import SimpleNamespace as NS
+
+    empty = {"headers": [], "rows": []}
+    fig = {"uri": "data:,", "caption": "c"}
+    inst = load_config(PAPER_TOML)
+    return dict(css="", stamp="now", version="0", input_line="in", notes=["<b>note</b>"],
+                sizing=NS(corner=(1.0, -1.0), r_alarm=1.0, inboard=1.0, outboard=1.0, active_bound="x"), inst=inst,
+                paper=False, arm=NS(b=1.0, c=1.0), tables={k: empty for k in (
+                    "corners_sized", "corners_configured", "endpoints", "plans", "loads", "simulation", "scenarios",
+                    "parameters")},
+                figures={k: fig for k in ("envelope.png", "alpha_beta.png", "angles_paper.png", "angles_smooth.png",
+                                          "timing.png", "cylinders.png", "voltages.png", "verification.png",
+                                          "loads.png", "residual_torque.png", "deviation_by_timing.png",
+                                          "simulation_smooth.png")},
+                local_minima="", paper_peak_speed=0.2, csv_names=[], vs=NS(samples=1, max_alpha_diff_deg=0.0,
+                max_beta_diff_deg=0.0, max_r_ac1_diff_mm=0.0, max_r_ac2_diff_mm=0.0),
+                bs=NS(poses=1, fills=[0.0], counterweight_inboard_kg=1.0, moment_inboard_kgm=1.0,
+                      counterweight_outboard_kg=1.0, moment_outboard_kgm=1.0, max_residual_torque_alpha_Nm=1.0,
+                      max_residual_torque_beta_Nm=1.0, configured_max_torque_alpha_Nm=1.0,
+                      configured_max_torque_beta_Nm=1.0),
+                mass_text="m", scenario_files="", timelines=[])

@@ -11,8 +11,8 @@ for the paper's case, the scenarios are the installation's own ``[report] scenar
 from __future__ import annotations
 
 import base64
+import functools
 import hashlib
-import html
 import json
 import math
 import re
@@ -54,10 +54,10 @@ class ReportFiles:
 _NUMBER = re.compile(r"[+-]?\d+(\.\d*)?([eE][+-]?\d+)?( / [+-]?\d+(\.\d*)?)?")
 
 
-def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str] | None = None) -> str:
+def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str] | None = None) -> dict:
+    """A table for the template: headers, and rows of ``(text, numeric)`` cells (numbers right-aligned)."""
     fmt = fmt or {}
-    head = "".join(f"<th>{html.escape(title)}</th>" for _, title in columns)
-    body = []
+    out = []
     for row in rows:
         cells = []
         for key, _ in columns:
@@ -65,14 +65,14 @@ def _table(rows: list[dict], columns: list[tuple[str, str]], fmt: dict[str, str]
             numeric = (isinstance(v, (int, float)) and not isinstance(v, bool)) or (
                 isinstance(v, str) and _NUMBER.fullmatch(v) is not None)
             if isinstance(v, float):
-                s = "n/a" if math.isnan(v) else format(v, fmt.get(key, ".3f"))
+                text = "n/a" if math.isnan(v) else format(v, fmt.get(key, ".3f"))
             elif v is None:
-                s = "n/a"
+                text = "n/a"
             else:
-                s = str(v)
-            cells.append(f"<td class='num'>{html.escape(s)}</td>" if numeric else f"<td>{html.escape(s)}</td>")
-        body.append("<tr>" + "".join(cells) + "</tr>")
-    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+                text = str(v)
+            cells.append((text, numeric))
+        out.append(cells)
+    return {"headers": [title for _, title in columns], "rows": out}
 
 
 def summary_dict(inst: Installation, plans: dict[str, Plan], sizing: dict | None = None, model=None) -> dict:
@@ -118,10 +118,10 @@ code{background:#f4f4f4;padding:0 .2em}
 """
 
 
-def _img(path: Path, caption: str) -> str:
+def _figure(path: Path, caption: str) -> dict:
+    """A figure for the template: its PNG as a data URI (the report is one mailable file) and its caption."""
     data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+    return {"uri": f"data:image/png;base64,{data}", "caption": caption}
 
 
 def is_paper_case(inst: Installation) -> bool:
@@ -301,6 +301,16 @@ def figure_builders(data: ReportData) -> dict[str, tuple[Callable[[ReportData], 
     return figs
 
 
+@functools.cache
+def _template():
+    """The report's HTML template (package data), autoescaped."""
+    from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+
+    env = Environment(loader=PackageLoader("loadarm", "templates"), autoescape=select_autoescape(["html", "j2"]),
+                      undefined=StrictUndefined, keep_trailing_newline=True)
+    return env.get_template("report.html.j2")
+
+
 def _input_line(source: Path | None) -> str:
     if source is None:
         return "input: the built-in paper case (loadarm.config.paper_installation)"
@@ -352,9 +362,6 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     step("drawing figures")
     builders = figure_builders(d)
     figs = {name: save(build(d), figdir / name) for name, (build, _caption) in builders.items()}
-
-    def img(name: str) -> str:
-        return _img(figs[name], builders[name][1])
 
     step("writing report")
     summary = summary_dict(inst, plans, sz, d.model)
@@ -438,102 +445,34 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                               "ok": "yes" if c["pressure_ok"] else "NO"})
     corner_cols = [("corner", "corner"), ("x_m", "x [m]"), ("y_m", "y [m]"), ("r_m", "r [m]"),
                    ("alpha_deg", "alpha [deg]"), ("beta_deg", "beta [deg]"), ("zone_label", "zone")]
-    parts = [
-        f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
-        f"<style>{_CSS}</style></head><body>",
-        f"<h1>{html.escape(title)}</h1>",
-        f"<p class='meta'>Generated {stamp} by loadarm {__version__}; {html.escape(_input_line(src))}.</p>",
-        "<p>Method: O. Kavianipour, <i>A geometric approach for automatic guidance of marine loading arms</i>, "
-        "with loadarm's extensions. Every number below is computed from this installation.</p>",
-        "".join(f"<p class='note'>{html.escape(n)}</p>" for n in notes),
-        "<h2>1. Arm sizing (paper Eqs 1-3, Table 1)</h2>",
-        f"<p>First-alarm corner |X| = A+B+C+D-C+E = <b>{sizing.corner[0]:.3f} m</b>, |Y| = F+G-H = "
-        f"<b>{-sizing.corner[1]:.3f} m</b>; r<sub>al</sub> (Eq. 1) = <b>{sizing.r_alarm:.4f} m</b>. Minimising "
-        f"b + c on the cosine-law constraint (Eq. 3) at beta<sub>al</sub> = {inst.alarms.first_deg:g} deg within "
-        f"b in {list(inst.sizing.inboard)} m, c in {list(inst.sizing.outboard)} m gives <b>b = {sizing.inboard:.4f} m, "
-        f"c = {sizing.outboard:.4f} m</b>{' (paper: 12 m and 8.2 m)' if paper else ''}. Active bound: {html.escape(sizing.active_bound)}. "
-        f"Local minima found: {', '.join(f'({b:.3f}, {c:.3f})' for b, c in sizing.local_minima)}.</p>",
-        "<h3>Flange-box corners, sized arm</h3>", _table(corners_sized, corner_cols),
-        f"<h3>Flange-box corners, configured arm (b = {arm.b:g} m, c = {arm.c:g} m)</h3>",
-        _table(corners_conf, corner_cols),
-        "<h2>2. Operating envelope and alarm zones (paper Fig. 4)</h2>",
-        img("envelope.png"),
-        "<h2>3. Straight-line approach (paper Eqs 4-11, 14)</h2>",
-        _table(endpoint_rows, [("pt", "point"), ("x", "x [m]"), ("y", "y [m]"), ("a", "alpha [deg]"),
-                               ("b", "beta [deg]"), ("r1", "r_ac1 [m]"), ("r2", "r_ac2 [m]")]),
-        _table(plan_rows, [("law", "timing law"), ("duration", "duration [s]"), ("vmax", "peak path speed [m/s]"),
-                           ("s1", "stroke 1 [m]"), ("s2", "stroke 2 [m]"), ("u1", "u1 [V]"), ("u2", "u2 [V]"),
-                           ("zone", "worst zone")], {"duration": ".2f", "vmax": ".4f"}),
-        f"<p>The paper's law (Eq. 14) runs x at {inst.approach.max_speed:g} m/s, so on this sloping path the "
-        f"coupler actually moves at {plans['paper'].summary()['peak_path_speed_m_s']:.3f} m/s and starts and stops "
-        "with a speed step. The smooth law keeps the path speed at or below the limit and ramps it at "
-        f"{inst.approach.max_accel:g} m/s<sup>2</sup>.</p>",
-        img("alpha_beta.png"), img("angles_paper.png"), img("angles_smooth.png"), img("timing.png"),
-        "<h2>4. Cylinders and valve commands (paper Eqs 12-13, Section 5)</h2>",
-        img("cylinders.png"),
-        f"<p>Valve voltages at {inst.actuators.volts_per_metre:g} V/m, range +/-{inst.actuators.valve_range_V:g} V:"
-        "</p>",
-        img("voltages.png"),
-        "<p>CSV of every sample: " + ", ".join(f"<a href='{p.name}'>{p.name}</a>" for p in csvs.values())
-        + ", and <a href='summary.json'>summary.json</a>.</p>",
-        "<h2>5. Multibody verification in MuJoCo (paper Section 4, Fig. 8)</h2>",
-        f"<p>The arm is rebuilt in MuJoCo from the same configuration (hinges, pantograph lever, pin sites, "
-        f"the cylinders as spatial tendons), its coupler is forced along the straight line by a mocap target and "
-        f"a connect constraint, and alpha, beta and the cylinder lengths are read from the simulated mechanism. "
-        f"Largest differences over {vs['samples']} samples: alpha {vs['max_alpha_diff_deg']:.2e} deg, beta "
-        f"{vs['max_beta_diff_deg']:.2e} deg, r_ac1 {vs['max_r_ac1_diff_mm']:.2e} mm, r_ac2 "
-        f"{vs['max_r_ac2_diff_mm']:.2e} mm (tolerances 0.01 deg and 0.1 mm).</p>",
-        img("verification.png"),
-        "<h2>6. Dynamics, counterweights and actuator sizing</h2>",
-        f"<p>Mass model: {html.escape(mass_text)}. Cylinders: bore {inst.cylinders.bore * 1e3:g} mm, rod "
-        f"{inst.cylinders.rod * 1e3:g} mm, return {inst.cylinders.return_pressure / 1e5:g} bar, rating "
-        f"{inst.cylinders.max_pressure / 1e5:g} bar. Joint torques from loadarm's rigid-body equations "
-        "(checked against MuJoCo's mj_inverse in the tests), cylinder forces through the exact moment arms of "
-        "Eqs 12-13.</p>",
-        _table(load_rows, [("law", "timing law"), ("cyl", "cylinder"), ("F", "peak force [kN]"),
-                           ("Frms", "RMS force [kN]"), ("p", "peak pressure [bar]"), ("v", "peak speed [mm/s]"),
-                           ("q", "peak flow [L/min]"), ("ok", "within rating")],
-               {"F": ".1f", "Frms": ".1f", "p": ".1f", "v": ".2f", "q": ".2f"}),
-        "<p>The paper law's speed steps at start and stop are impulses (infinite acceleration) and are not in "
-        "its forces; the smooth law's ramps are.</p>",
-        img("loads.png"),
-        f"<p><b>Counterweight balance.</b> Minimising the largest static joint torque over {bs['poses']} poses "
-        f"of the operating envelope and fill cases {bs['fills']} (a linear programme): inboard counterweight "
-        f"<b>{bs['counterweight_inboard_kg']:.0f} kg</b> at {inst.masses.counterweight_inboard_distance:g} m "
-        f"(moment {bs['moment_inboard_kgm']:.0f} kg m), outboard <b>{bs['counterweight_outboard_kg']:.0f} kg</b> at "
-        f"{inst.masses.counterweight_outboard_distance:g} m (moment {bs['moment_outboard_kgm']:.0f} kg m). "
-        f"Largest residual torque {bs['max_residual_torque_alpha_Nm'] / 1e3:.1f} kN m at the inboard joint and "
-        f"{bs['max_residual_torque_beta_Nm'] / 1e3:.1f} kN m at the elbow; with the configured counterweights "
-        f"{bs['configured_max_torque_alpha_Nm'] / 1e3:.1f} and {bs['configured_max_torque_beta_Nm'] / 1e3:.1f} "
-        "kN m.</p>",
-        img("residual_torque.png"),
-        "<h2>7. Electro-hydraulic closed loop (paper Fig. 11)</h2>",
-        "<p>Each cylinder is driven by a PID controller at "
-        f"{inst.controller.rate:g} Hz (kp {inst.controller.kp:g} V/m, ki {inst.controller.ki:g} V/(m s), "
-        f"{inst.controller.feedforward} feed-forward) through a 4/3-way proportional valve "
-        f"({inst.valve.nominal_flow * 60e3:.0f} L/min at {inst.valve.nominal_pressure_drop / 1e5:g} bar, "
-        f"{inst.valve.natural_frequency:g} Hz) from a pressure-compensated pump "
-        f"({inst.pump.max_flow * 60e3:.0f} L/min, {inst.pump.compensator_pressure / 1e5:g} bar), with a "
-        f"{inst.encoder.resolution * 1e6:g} um encoder; both drives act on the arm's real dynamics. "
-        f"Each run continues {inst.controller.settle_time:g} s after the plan ends.</p>",
-        _table(sim_rows, [(m.key, m.header) for m in sim_cols] + [("warnings", "warnings")]),
-        img("deviation_by_timing.png"), img("simulation_smooth.png"),
-        "<h2>8. Live guidance to a moving ship (scenarios)</h2>",
-        "<p>Ship, sensor, Kalman estimator, guidance state machine and arm on a simulated clock, each scenario "
-        f"({html.escape(', '.join(f.name for f in d.scenario_files)) or 'none'}) run on this installation. Alarm 1 (ESD-1), alarm 2 and release (ERS-2) are raised on position and on "
-        "drift speed, so that the sequences finish before the arm's limit.</p>",
-        _table(scen_rows, [("name", "scenario"), ("seq", "modes"), ("a1", "alarm 1 [s]"), ("a2", "alarm 2 [s]"),
-                           ("rel", "release [s]"), ("over", "overstretched"), ("beta", "max beta [deg]")],
-               {"beta": ".1f"}) if scen_rows else "<p>No scenarios: list them in the installation's "
-                                                  "<code>[report] scenarios</code>.</p>",
-        "".join(img(f"timeline_{n}.png") for n in scen_runs),
-        "<h2>9. Parameters</h2>",
-        "<p>The values of this installation, with the documented defaults (pressures in bar, forces in kN, "
-        "flows in L/min; the file itself is in SI units).</p>",
-        _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),
-                        ("range", "valid range"), ("description", "description"), ("source", "source")]),
-        "</body></html>",
-    ]
+    tables = {
+        "corners_sized": _table(corners_sized, corner_cols),
+        "corners_configured": _table(corners_conf, corner_cols),
+        "endpoints": _table(endpoint_rows, [("pt", "point"), ("x", "x [m]"), ("y", "y [m]"), ("a", "alpha [deg]"),
+                                            ("b", "beta [deg]"), ("r1", "r_ac1 [m]"), ("r2", "r_ac2 [m]")]),
+        "plans": _table(plan_rows, [("law", "timing law"), ("duration", "duration [s]"),
+                                    ("vmax", "peak path speed [m/s]"), ("s1", "stroke 1 [m]"), ("s2", "stroke 2 [m]"),
+                                    ("u1", "u1 [V]"), ("u2", "u2 [V]"), ("zone", "worst zone")],
+                        {"duration": ".2f", "vmax": ".4f"}),
+        "loads": _table(load_rows, [("law", "timing law"), ("cyl", "cylinder"), ("F", "peak force [kN]"),
+                                    ("Frms", "RMS force [kN]"), ("p", "peak pressure [bar]"),
+                                    ("v", "peak speed [mm/s]"), ("q", "peak flow [L/min]"), ("ok", "within rating")],
+                        {"F": ".1f", "Frms": ".1f", "p": ".1f", "v": ".2f", "q": ".2f"}),
+        "simulation": _table(sim_rows, [(m.key, m.header) for m in sim_cols] + [("warnings", "warnings")]),
+        "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes"), ("a1", "alarm 1 [s]"),
+                                        ("a2", "alarm 2 [s]"), ("rel", "release [s]"), ("over", "overstretched"),
+                                        ("beta", "max beta [deg]")], {"beta": ".1f"}),
+        "parameters": _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),
+                                      ("range", "valid range"), ("description", "description"), ("source", "source")]),
+    }
+    figure_data = {name: _figure(path, builders[name][1]) for name, path in figs.items()}
+    text = _template().render(
+        title=title, css=_CSS, stamp=stamp, version=__version__, input_line=_input_line(src), notes=notes,
+        sizing=sizing, inst=inst, paper=paper, arm=arm, tables=tables, figures=figure_data,
+        local_minima=", ".join(f"({b:.3f}, {c:.3f})" for b, c in sizing.local_minima),
+        paper_peak_speed=plans["paper"].summary()["peak_path_speed_m_s"], csv_names=[p.name for p in csvs.values()],
+        vs=vs, bs=bs, mass_text=mass_text, scenario_files=", ".join(f.name for f in d.scenario_files),
+        timelines=[f"timeline_{n}.png" for n in scen_runs])
     html_path = out / "report.html"
-    html_path.write_text("\n".join(parts), encoding="utf-8")
+    html_path.write_text(text, encoding="utf-8")
     return ReportFiles(html=html_path, summary=summary_path, csv=csvs, figures=figs)

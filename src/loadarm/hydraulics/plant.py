@@ -31,8 +31,9 @@ from ..actuators import pin_lengths as _pin_lengths
 from ..actuators import pin_moment_arms as _pin_moment_arms
 from .components import (cylinder_friction, end_stop_force, pump_flow, relief_flow, valve_flows)
 
-__all__ = ["SIGNALS", "ENERGIES", "N_PARAMS", "arm_accelerations", "plant_rhs", "control_step", "encoder",
-           "first_readings", "simulate_loop", "advance", "fail_reason"]
+__all__ = ["SIGNALS", "ENERGIES", "N_PARAMS", "N_CTRL", "N_STATE", "ServoState", "arm_accelerations", "plant_rhs",
+           "control_step", "controller_at_rest", "encoder", "first_readings", "simulate_loop", "advance",
+           "fail_reason"]
 
 # --- parameter vector layout (one float64 array, so the compiled loop takes few arguments) ---
 (I_A1, I_B1, I_B2, I_C2, I_RISER, I_BIN, I_COUT, I_AP, I_AA, I_BETA, I_V0, I_BVISC, I_FC, I_VS, I_CLEAK,
@@ -41,6 +42,13 @@ __all__ = ["SIGNALS", "ENERGIES", "N_PARAMS", "arm_accelerations", "plant_rhs", 
  I_PHI00, I_PHI01, I_PHI10, I_PHI11, I_GAM0, I_GAM1, I_DT, I_H, I_OMEGA2, I_TWOZW,
  I_K11, I_K22, I_KC, I_GA, I_GAB, I_FELIM) = range(58)
 N_PARAMS = 58
+
+# --- controller state vector: PID states, valve commands and the run's status, one float64 array ---
+(C_INTEG1, C_INTEG2, C_DFILT1, C_DFILT2, C_PREV1, C_PREV2, C_U1, C_U2,
+ C_FAIL, C_FAIL_T, C_CAV, C_SAT1, C_SAT2, C_NLOG, C_SIGN1, C_SIGN2, C_REV1, C_REV2) = range(18)
+N_CTRL = 18
+#: Plant state length: ``alpha, beta, alpha', beta', pA1, pB1, pA2, pB2, xv1, vv1, xv2, vv2, ps``.
+N_STATE = 13
 
 #: Logged signals, in column order.
 SIGNALS = ("t", "alpha", "beta", "alpha_dot", "beta_dot", "r1", "r2", "r1_ref", "r2_ref", "u1", "u2", "xv1", "xv2",
@@ -266,12 +274,11 @@ def _saturation(P, un, sat_time, last_sign, reversals):
 
 
 @njit(cache=True)
-def control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, ps_nom):
+def control_step(P, k, r1, r2, ref, vref, fref, c, ps_nom):
     """One controller cycle for both cylinders: sample the encoders, PID + feed-forward, command the valves.
 
-    Updates ``integ``, ``dfilt``, ``prev`` (controller state) and ``u`` (valve
-    voltages, V) in place, and adds ``1 / rate`` to ``status[3 + i]`` while
-    valve ``i`` is saturated. (The compiled loop calls the same scalar functions
+    Updates the controller state vector ``c`` in place (PID states, valve
+    voltages, saturation time and reversals; layout ``C_*``). (The compiled loop calls the same scalar functions
     with its state in registers; this array form serves the ``solve_ivp`` route.)
 
     Parameters
@@ -284,17 +291,17 @@ def control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, p
         True cylinder lengths, m (quantised here by the encoder).
     ref, vref, fref : ndarray, shape (2, n)
         Length (m), speed (m/s) and force (N) references.
-    integ, dfilt, prev, u, status : ndarray
+    c : ndarray, shape (N_CTRL,)
         Controller state and outputs (modified in place).
     ps_nom : float
         Supply pressure assumed by the feed-forward, Pa.
     """
     for i in range(2):
         meas = encoder(P, r1 if i == 0 else r2)
-        u[i], un, integ[i], dfilt[i], prev[i] = _pid(P, meas, ref[i, k], vref[i, k], fref[i, k], integ[i], dfilt[i],
-                                                    prev[i], ps_nom)
-        status[3 + i], status[6 + i], status[8 + i] = _saturation(P, un, status[3 + i], status[6 + i],
-                                                                  status[8 + i])
+        c[C_U1 + i], un, c[C_INTEG1 + i], c[C_DFILT1 + i], c[C_PREV1 + i] = _pid(
+            P, meas, ref[i, k], vref[i, k], fref[i, k], c[C_INTEG1 + i], c[C_DFILT1 + i], c[C_PREV1 + i], ps_nom)
+        c[C_SAT1 + i], c[C_SIGN1 + i], c[C_REV1 + i] = _saturation(P, un, c[C_SAT1 + i], c[C_SIGN1 + i],
+                                                                   c[C_REV1 + i])
 
 
 @njit(cache=True)
@@ -346,7 +353,7 @@ def _cylinder_step(P, i, u, xv, vv, pA, pB, r, v, ps, h):
 
 
 @njit(cache=True)
-def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev, u, status, energy, log, tail):
+def _run(P, y, c, ref, vref, fref, n_steps, substeps, log_every, energy, log, tail):
     """The closed loop over ``n_steps`` control steps, starting from and updating ``y`` in place.
 
     The plant state lives in scalars for the whole loop; the geometry computed for the divergence watch at
@@ -367,10 +374,11 @@ def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev
         e[j] = energy[j]
     e_pump, e_rel, e_valve, e_tank, e_leak, e_comp, e_fric, e_stop, e_work = e[0], e[1], e[2], e[3], e[4], e[5], \
         e[6], e[7], e[8]
-    cav_time = status[2]
-    sat0, sat1, sign0, sign1, rev0, rev1 = status[3], status[4], status[6], status[7], status[8], status[9]
-    integ0, integ1, dfilt0, dfilt1, prev0, prev1 = integ[0], integ[1], dfilt[0], dfilt[1], prev[0], prev[1]
-    u0, u1 = u[0], u[1]
+    cav_time = c[C_CAV]
+    sat0, sat1, sign0, sign1, rev0, rev1 = c[C_SAT1], c[C_SAT2], c[C_SIGN1], c[C_SIGN2], c[C_REV1], c[C_REV2]
+    integ0, integ1, dfilt0, dfilt1, prev0, prev1 = c[C_INTEG1], c[C_INTEG2], c[C_DFILT1], c[C_DFILT2], c[C_PREV1], \
+        c[C_PREV2]
+    u0, u1 = c[C_U1], c[C_U2]
     il = 0
     ps_nom = P[I_PCOMP] - P[I_PBAND]   # supply pressure while the pump delivers (for the feed-forward)
     r1, r2, h1, h2 = _geometry(P, a, b)
@@ -463,13 +471,14 @@ def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev
         elif max(rev0, rev1) > 20.0 + 2.0 * (k + 1) * dt:
             code = 5
         if code:
-            status[0] = code
-            status[1] = (k + 1) * dt
+            c[C_FAIL] = code
+            c[C_FAIL_T] = (k + 1) * dt
             break
-    status[2] = cav_time
-    status[3], status[4], status[6], status[7], status[8], status[9] = sat0, sat1, sign0, sign1, rev0, rev1
-    integ[0], integ[1], dfilt[0], dfilt[1], prev[0], prev[1] = integ0, integ1, dfilt0, dfilt1, prev0, prev1
-    u[0], u[1] = u0, u1
+    c[C_CAV] = cav_time
+    c[C_SAT1], c[C_SAT2], c[C_SIGN1], c[C_SIGN2], c[C_REV1], c[C_REV2] = sat0, sat1, sign0, sign1, rev0, rev1
+    c[C_INTEG1], c[C_INTEG2], c[C_DFILT1], c[C_DFILT2], c[C_PREV1], c[C_PREV2] = integ0, integ1, dfilt0, dfilt1, \
+        prev0, prev1
+    c[C_U1], c[C_U2] = u0, u1
     energy[0], energy[1], energy[2], energy[3], energy[4] = e_pump, e_rel, e_valve, e_tank, e_leak
     energy[5], energy[6], energy[7], energy[8] = e_comp, e_fric, e_stop, e_work
     y[0], y[1], y[2], y[3] = a, b, ad, bd
@@ -477,6 +486,27 @@ def _run(P, y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev
     y[8], y[10], y[9], y[11] = xv0, xv1, vv0, vv1
     y[12] = ps
     return il
+
+
+@njit(cache=True)
+def controller_at_rest(P, y):
+    """A fresh controller state vector for a plant at rest in state ``y``: PID cleared, valves centred, the
+    encoders' first readings as the previous sample.
+
+    Parameters
+    ----------
+    P : ndarray
+        Parameter vector.
+    y : ndarray, shape (N_STATE,)
+        Plant state.
+
+    Returns
+    -------
+    ndarray, shape (N_CTRL,)
+    """
+    c = np.zeros(N_CTRL)
+    c[C_PREV1], c[C_PREV2] = first_readings(P, y[0], y[1])
+    return c
 
 
 @njit(cache=True)
@@ -491,7 +521,7 @@ def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
         Cylinder length references (m) and their rates (m/s) at each control step.
     fref : ndarray, shape (2, n_steps + 1)
         Planned cylinder forces (N), for the model-based feed-forward.
-    y0 : ndarray, shape (13,)
+    y0 : ndarray, shape (N_STATE,)
         Initial state.
     n_steps : int
         Control steps.
@@ -504,46 +534,39 @@ def simulate_loop(P, ref, vref, fref, y0, n_steps, substeps, log_every):
     -------
     log : ndarray, shape (n_log, len(SIGNALS))
     energy : ndarray, shape (len(ENERGIES),)
-    status : ndarray of float, shape (10,)
-        ``[fail_code, fail_time, cavitation_time, saturated_time_1, saturated_time_2, n_logged,
-        last_saturation_sign_1, last_saturation_sign_2, reversals_1, reversals_2]``.
+    c : ndarray, shape (N_CTRL,)
+        The controller state at the end: ``c[C_FAIL]`` failure code, ``c[C_FAIL_T]`` its time,
+        ``c[C_CAV]`` cavitation time, ``c[C_SAT1]``, ``c[C_SAT2]`` saturated times, ``c[C_NLOG]`` rows
+        logged, ``c[C_REV1]``, ``c[C_REV2]`` rail-to-rail reversals.
     """
     n_log = n_steps // log_every + 1
     log = np.full((n_log, 22), np.nan)
     energy = np.zeros(9)
-    status = np.zeros(10)
     y = y0.copy()
-    integ = np.zeros(2)
-    dfilt = np.zeros(2)
-    prev = np.zeros(2)
-    u = np.zeros(2)
-    prev[0], prev[1] = first_readings(P, y[0], y[1])
+    c = controller_at_rest(P, y)
     # the parameters as a fixed-size tuple: passed by value to every helper, no reference counting per call
-    il = _run(to_fixed_tuple(P, N_PARAMS), y, ref, vref, fref, n_steps, substeps, log_every, integ, dfilt, prev, u,
-              status, energy, log, True)
-    status[5] = il
-    return log, energy, status
+    il = _run(to_fixed_tuple(P, N_PARAMS), y, c, ref, vref, fref, n_steps, substeps, log_every, energy, log, True)
+    c[C_NLOG] = il
+    return log, energy, c
 
 
 @njit(cache=True)
-def advance(P, y, ref, vref, fref, n_steps, substeps, integ, dfilt, prev, u, status):
-    """Run the closed loop for ``n_steps`` control steps from state ``y``, updating it in place.
-
-    The stateful form used by the live-guidance runs: plant state ``y`` and
-    controller state ``integ, dfilt, prev, u, status`` persist between calls.
+def advance(P, y, c, ref, vref, fref, n_steps, substeps):
+    """Run the closed loop for ``n_steps`` control steps from plant state ``y`` and controller state ``c``,
+    updating both in place (the stateful form of the live-guidance runs: see :class:`ServoState`).
 
     Parameters
     ----------
     P : ndarray
         Parameter vector.
-    y : ndarray, shape (13,)
+    y : ndarray, shape (N_STATE,)
         Plant state (updated).
+    c : ndarray, shape (N_CTRL,)
+        Controller state (updated).
     ref, vref, fref : ndarray, shape (2, n_steps + 1)
         References for this stretch.
     n_steps, substeps : int
         Control steps and plant steps per control step.
-    integ, dfilt, prev, u, status : ndarray
-        Controller state (updated).
 
     Returns
     -------
@@ -552,9 +575,62 @@ def advance(P, y, ref, vref, fref, n_steps, substeps, integ, dfilt, prev, u, sta
     """
     energy = np.zeros(9)
     log = np.zeros((1, 22))
-    _run(to_fixed_tuple(P, N_PARAMS), y, ref, vref, fref, n_steps, substeps, n_steps + 1, integ, dfilt, prev, u, status,
-         energy, log, False)
-    return int(status[0])
+    _run(to_fixed_tuple(P, N_PARAMS), y, c, ref, vref, fref, n_steps, substeps, n_steps + 1, energy, log, False)
+    return int(c[C_FAIL])
+
+
+class ServoState:
+    """The mutable state of the two servo drives between calls (like MuJoCo's ``MjData``).
+
+    Parameters
+    ----------
+    y : ndarray, shape (N_STATE,)
+        Plant state: ``alpha, beta, alpha', beta', pA1, pB1, pA2, pB2, xv1, vv1, xv2, vv2, ps``.
+    c : ndarray, shape (N_CTRL,)
+        Controller state (layout ``C_*``).
+    """
+
+    __slots__ = ("y", "c")
+
+    def __init__(self, y: np.ndarray, c: np.ndarray):
+        self.y = np.asarray(y, dtype=float)
+        self.c = np.asarray(c, dtype=float)
+        if self.y.shape != (N_STATE,) or self.c.shape != (N_CTRL,):
+            raise ValueError(f"ServoState needs y of shape ({N_STATE},) and c of shape ({N_CTRL},), "
+                             f"got {self.y.shape} and {self.c.shape}")
+
+    @classmethod
+    def at_rest(cls, P, y0: np.ndarray) -> "ServoState":
+        """A plant at rest in ``y0`` with a fresh controller.
+
+        Parameters
+        ----------
+        P : ndarray
+            Parameter vector.
+        y0 : ndarray, shape (N_STATE,)
+            Plant state.
+
+        Returns
+        -------
+        ServoState
+        """
+        y = np.array(y0, dtype=float)
+        return cls(y, controller_at_rest(P, y))
+
+    @property
+    def joints(self) -> tuple[float, float]:
+        """Alpha and beta, rad."""
+        return float(self.y[0]), float(self.y[1])
+
+    @property
+    def valve_commands(self) -> tuple[float, float]:
+        """Last valve voltages, V."""
+        return float(self.c[C_U1]), float(self.c[C_U2])
+
+    @property
+    def failure(self) -> int:
+        """Failure code of the last run (0 = none)."""
+        return int(self.c[C_FAIL])
 
 
 def fail_reason(code: int) -> str:
@@ -563,7 +639,7 @@ def fail_reason(code: int) -> str:
     Parameters
     ----------
     code : int
-        ``status[0]``.
+        The controller state's ``c[C_FAIL]``.
 
     Returns
     -------

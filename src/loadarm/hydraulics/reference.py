@@ -63,21 +63,20 @@ def reference_simulation(model: ArmModel, plan: Plan, t_end: float, *, fill: flo
     n = int(round(t_end / dt))
     ref, vref, fref = _references(model, plan, n, fill)
     y = initial_state(model, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
-    integ, dfilt, prev, u, status = np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(2), np.zeros(10)
-    prev[0], prev[1] = plant.first_readings(P, y[0], y[1])
+    c = plant.controller_at_rest(P, y)
     ps_nom = P[plant.I_PCOMP] - P[plant.I_PBAND]
     atol = np.array([1e-9, 1e-9, 1e-9, 1e-9] + [1.0] * 4 + [1e-7, 1e-5, 1e-7, 1e-5, 1.0])
     out = {k: np.empty(n + 1) for k in ("t", "alpha", "beta", "alpha_dot", "beta_dot", "pA1", "pB1", "pA2", "pB2",
                                           "ps", "u1", "u2")}
     for k in range(n + 1):
         r1, r2, _, _ = plant._geometry(P, y[0], y[1])
-        plant.control_step(P, k, r1, r2, ref, vref, fref, integ, dfilt, prev, u, status, ps_nom)
+        plant.control_step(P, k, r1, r2, ref, vref, fref, c, ps_nom)
         for name, val in zip(("t", "alpha", "beta", "alpha_dot", "beta_dot", "pA1", "pB1", "pA2", "pB2", "ps",
-                              "u1", "u2"), (k * dt, *y[:8], y[12], u[0], u[1])):
+                              "u1", "u2"), (k * dt, *y[:8], y[12], c[plant.C_U1], c[plant.C_U2])):
             out[name][k] = val
         if k == n:
             break
-        u1, u2 = float(u[0]), float(u[1])
+        u1, u2 = float(c[plant.C_U1]), float(c[plant.C_U2])
         sol = solve_ivp(lambda _t, yy, u1=u1, u2=u2: plant.plant_rhs(yy, u1, u2, P), (k * dt, (k + 1) * dt), y, method=method,
                         rtol=rtol, atol=atol)
         if not sol.success:  # pragma: no cover

@@ -54,18 +54,13 @@ class HydraulicArm:
         alpha, beta : float
             Pose, rad.
         """
-        self.y = initial_state(self.model, alpha, beta)
-        self.integ = np.zeros(2)
-        self.dfilt = np.zeros(2)
-        self.u = np.zeros(2)
-        self.status = np.zeros(10)
-        self.prev = np.array(plant.first_readings(self.P, alpha, beta))
+        self.state = plant.ServoState.at_rest(self.P, initial_state(self.model, alpha, beta))
         self.q_ref = np.array([alpha, beta], dtype=float)
 
     @property
     def joints(self) -> tuple[float, float]:
         """Current alpha and beta, rad."""
-        return float(self.y[0]), float(self.y[1])
+        return self.state.joints
 
     def step(self, duration: float, rates: tuple[float, float]) -> tuple[float, float]:
         """Drive the arm for ``duration`` seconds along the commanded joint rates.
@@ -97,8 +92,7 @@ class HydraulicArm:
         ref = np.linspace(e0[0:2], e1[0:2], n + 1).T.copy()
         vref = np.linspace(e0[2:4], e1[2:4], n + 1).T.copy()
         fref = np.linspace(e0[4:6], e1[4:6], n + 1).T.copy()
-        code = plant.advance(self.P, self.y, ref, vref, fref, n, self.substeps, self.integ, self.dfilt, self.prev,
-                             self.u, self.status)
+        code = plant.advance(self.P, self.state.y, self.state.c, ref, vref, fref, n, self.substeps)
         if code:
             raise SimulationError(f"hydraulic servo stopped: {plant.fail_reason(code)}")
         self.q_ref = np.array([a1, b1])

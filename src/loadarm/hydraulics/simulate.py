@@ -341,14 +341,14 @@ def simulate_approach(model: ArmModel, plan: Plan, *, fill: float | None = None,
     ref, vref, fref = _references(model, plan, n_steps, fill)
     y0 = initial_state(model, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
     log_every = max(1, int(round(c.rate / log_rate)))
-    log, energy, status = plant.simulate_loop(P, ref, vref, fref, y0, n_steps,
+    log, energy, c_end = plant.simulate_loop(P, ref, vref, fref, y0, n_steps,
                                               int(P[plant.I_DT] / P[plant.I_H] + 0.5), log_every)
-    if status[0] != 0:
+    if c_end[plant.C_FAIL] != 0:
         raise SimulationError(
-            f"simulation stopped at t = {status[1]:.3f} s: {plant.fail_reason(int(status[0]))}; the loop is unstable "
+            f"simulation stopped at t = {c_end[plant.C_FAIL_T]:.3f} s: {plant.fail_reason(int(c_end[plant.C_FAIL]))}; the loop is unstable "
             "or cannot follow the plan: check the controller gains (kp, ki, kd), the valve, pump and cylinder "
             "sizes, or raise controller.substeps")
-    n = int(status[5])
+    n = int(c_end[plant.C_NLOG])
     sig = {name: log[:n, j].copy() for j, name in enumerate(plant.SIGNALS)}
     arm = model.arm
     x, y = forward(arm, sig["alpha"], sig["beta"])
@@ -385,8 +385,8 @@ def simulate_approach(model: ArmModel, plan: Plan, *, fill: float | None = None,
         "rms_tracking_error_mm": [float(np.sqrt(np.mean(e1 ** 2)) * 1e3), float(np.sqrt(np.mean(e2 ** 2)) * 1e3)],
         "max_chamber_pressure_bar": pmax / 1e5,
         "min_supply_pressure_bar": float(np.min(ps)) / 1e5,
-        "valve_saturation_s": [float(status[3]), float(status[4])],
-        "cavitation_s": float(status[2]),
+        "valve_saturation_s": [float(c_end[plant.C_SAT1]), float(c_end[plant.C_SAT2])],
+        "cavitation_s": float(c_end[plant.C_CAV]),
         "peak_pump_flow_L_min": float(np.max(sig["q_pump"])) * 60e3,
         "mean_pump_flow_L_min": float(np.mean(sig["q_pump"])) * 60e3,
         "peak_pump_power_kW": float(np.max(p_pump)) / 1e3,
@@ -396,10 +396,10 @@ def simulate_approach(model: ArmModel, plan: Plan, *, fill: float | None = None,
     }
     warnings = []
     for i in (0, 1):
-        if status[3 + i] > 0:
-            warnings.append(f"valve {i + 1} saturated for {status[3 + i]:.2f} s")
-    if status[2] > 0:
-        warnings.append(f"a chamber reached 0 bar (cavitation risk) for {status[2]:.2f} s")
+        if c_end[plant.C_SAT1 + i] > 0:
+            warnings.append(f"valve {i + 1} saturated for {c_end[plant.C_SAT1 + i]:.2f} s")
+    if c_end[plant.C_CAV] > 0:
+        warnings.append(f"a chamber reached 0 bar (cavitation risk) for {c_end[plant.C_CAV]:.2f} s")
     if pmax > model.cylinders.max_pressure:
         warnings.append(f"chamber pressure {pmax / 1e5:.1f} bar above the {model.cylinders.max_pressure / 1e5:g} bar rating")
     if metrics["max_relief_flow_L_min"] > 0:
@@ -453,9 +453,10 @@ def simulate_hold(model: ArmModel, alpha: float, beta: float, duration: float, *
     _, _, h1, h2 = plant._geometry(P, alpha, beta)
     fref = np.vstack([np.full(n + 1, float(ta) / h1), np.full(n + 1, float(tb) / h2)])
     log_every = max(1, int(round(model.controller.rate / log_rate)))
-    log, _, status = plant.simulate_loop(P, ref, np.zeros_like(ref), fref, y0, n,
+    log, _, c_end = plant.simulate_loop(P, ref, np.zeros_like(ref), fref, y0, n,
                                          int(P[plant.I_DT] / P[plant.I_H] + 0.5), log_every)
-    if status[0] != 0:
-        raise SimulationError(f"hold simulation diverged at t = {status[1]:.3f} s ({plant.fail_reason(int(status[0]))})")
-    m = int(status[5])
+    if c_end[plant.C_FAIL] != 0:
+        raise SimulationError(f"hold simulation diverged at t = {c_end[plant.C_FAIL_T]:.3f} s "
+                              f"({plant.fail_reason(int(c_end[plant.C_FAIL]))})")
+    m = int(c_end[plant.C_NLOG])
     return {name: log[:m, j].copy() for j, name in enumerate(plant.SIGNALS)}

@@ -453,3 +453,42 @@ def test_step_is_a_dispatcher_over_named_rules_and_one_handler_per_mode(model):
     assert set(c.HANDLERS) == set(Mode) and all(callable(getattr(c, h)) for h in c.HANDLERS.values())
     src = inspect.getsource(GuidanceController.step)
     assert src.count("if ") == 0 and "for rule in self.SAFETY_RULES" in src
+
+
+def test_scripted_operator_presses_on_cue():
+    """run_scenario's stages are testable alone: the operator script fires each action in one cycle."""
+    from types import SimpleNamespace as NS
+
+    from loadarm.guidance.run import ScriptedOperator
+
+    op = NS(start=1.0, connect_after=2.0, disconnect_at=None, estop_at=5.0, reset_at=None,
+            jog=((7.0, 8.0, 0.1, 0.0, 0.0),))
+    s = ScriptedOperator(op, 0.02)
+    assert s.inputs(1.0, Mode.STORED, False).actions == ("start",)
+    assert s.inputs(1.02, Mode.APPROACH, False).actions == ()
+    assert s.inputs(3.0, Mode.STANDOFF, False).actions == ()           # waits connect_after at the standoff
+    assert s.inputs(5.0, Mode.STANDOFF, False).actions == ("connect", "estop")
+    assert s.inputs(6.0, Mode.ESTOP, True).actions == ()               # a fault does not re-press in ESTOP
+    assert s.inputs(6.0, Mode.CONNECTED, True).actions == ("estop",)
+    inp = s.inputs(7.0, Mode.STORED, False)
+    assert inp.actions == ("manual",) and inp.jog == (0.1, 0.0, 0.0)
+    assert s.inputs(8.0, Mode.MANUAL, False).actions == ("auto",)
+
+
+def test_arm_plant_follows_the_flange_and_reports_overstretch(model):
+    from loadarm.guidance.controller import Command
+    from loadarm.guidance.run import ArmPlant
+
+    seen = []
+    c = _ctrl(model)
+    q0 = np.array(_stored_q(c))
+    ap = ArmPlant(model, q0, "kinematic", lambda *a: seen.append(a))
+    attached = Command(Mode.CONNECTED, (0.0, 0.0, 0.0), True, False, False, ())
+    q = ap.step(1.0, 0.02, attached, np.array([12.0, 0.0, 2.0]))
+    assert np.allclose(forward3d(c.arm, *q), (12.0, 0.0, 2.0))
+    ap.step(2.0, 0.02, attached, np.array([40.0, 0.0, 0.0]))       # beyond reach: the arm stays, alarm once
+    ap.step(2.02, 0.02, attached, np.array([41.0, 0.0, 0.0]))
+    assert ap.overstretched == 2.0 and len(seen) == 1 and "OVERSTRETCHED" in seen[0][3]
+    free = Command(Mode.RETURN, (0.01, 0.0, 0.0), False, False, False, ())
+    q1 = ap.step(3.0, 0.5, free, np.zeros(3))
+    assert q1[0] == pytest.approx(q[0] + 0.005)

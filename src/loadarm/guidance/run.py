@@ -34,7 +34,7 @@ from .ship import flange_motion
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["RunResult", "run_scenario", "wall_clock_pacer", "MODES"]
+__all__ = ["RunResult", "run_scenario", "ScriptedOperator", "ArmPlant", "wall_clock_pacer", "MODES"]
 
 
 def wall_clock_pacer(speedup: float = 1.0) -> Callable[[float], None]:
@@ -121,6 +121,156 @@ class RunResult:
         }
 
 
+class ScriptedOperator:
+    """The scenario's operator: presses start, connect, disconnect, E-stop, reset and the joystick on cue.
+
+    Parameters
+    ----------
+    op : Operator
+        The scenario's ``[operator]`` section.
+    dt : float
+        Guidance cycle, s (an action fires in the one cycle that contains its time).
+    """
+
+    def __init__(self, op, dt: float):
+        self.op = op
+        self.dt = dt
+        self.standoff_since: float | None = None
+
+    def _now_is(self, t: float | None, now: float) -> bool:
+        return t is not None and t <= now < t + self.dt
+
+    def inputs(self, now: float, mode: Mode, servo_fault: bool) -> OperatorInput:
+        """The operator's actions and joystick this cycle.
+
+        Parameters
+        ----------
+        now : float
+            Time, s.
+        mode : Mode
+            The controller's mode (the operator connects after waiting at the standoff).
+        servo_fault : bool
+            A servo fault was reported (the operator presses the E-stop).
+
+        Returns
+        -------
+        OperatorInput
+        """
+        op, actions = self.op, []
+        if self._now_is(op.start, now):
+            actions.append("start")
+        if mode == Mode.STANDOFF:
+            self.standoff_since = now if self.standoff_since is None else self.standoff_since
+            if now - self.standoff_since >= op.connect_after:
+                actions.append("connect")
+        else:
+            self.standoff_since = None
+        for name, t in (("disconnect", op.disconnect_at), ("estop", op.estop_at), ("reset", op.reset_at)):
+            if self._now_is(t, now):
+                actions.append(name)
+        if servo_fault and mode != Mode.ESTOP:
+            actions.append("estop")
+        jog = (0.0, 0.0, 0.0)
+        for t_on, t_off, vx, vy, vz in op.jog:
+            if self._now_is(t_on, now):
+                actions.append("manual")
+            if self._now_is(t_off, now):
+                actions.append("auto")
+            if t_on <= now < t_off:
+                jog = (vx, vy, vz)
+        return OperatorInput(tuple(actions), jog)
+
+
+class ArmPlant:
+    """The arm between guidance cycles: attached, it follows the flange; free, it follows the rate command
+    through ideal joints (``kinematic``) or the two electro-hydraulic servo drives (``hydraulic``).
+
+    Parameters
+    ----------
+    model : ArmModel
+        The arm.
+    q : ndarray, shape (3,)
+        Starting joint angles (slew, alpha, beta), rad.
+    kind : {'hydraulic', 'kinematic'}
+        Plant.
+    emit : callable
+        ``emit(t, mode, kind, reason, data)`` for the plant's own events (overstretch, servo fault).
+    """
+
+    def __init__(self, model: ArmModel, q: np.ndarray, kind: str, emit: Callable):
+        self.arm, self.lim = model.arm, model.joint_limits
+        self.q = np.asarray(q, dtype=float)
+        self.emit = emit
+        self.servo = None
+        if kind == "hydraulic":
+            from ..hydraulics.servo import HydraulicArm
+
+            self.servo = HydraulicArm(model, self.q[1], self.q[2])
+        self.servo_fault = False
+        self.was_connected = False
+        self.overstretched: float | None = None
+
+    def step(self, now: float, dt: float, cmd, f: np.ndarray) -> np.ndarray:
+        """Advance one guidance cycle.
+
+        Parameters
+        ----------
+        now, dt : float
+            Time and cycle, s.
+        cmd : Command
+            The controller's command this cycle.
+        f : ndarray, shape (3,)
+            The flange position, m.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+            Joint angles after the cycle, rad.
+        """
+        if cmd.connected:
+            self._follow_flange(now, cmd, f)
+        else:
+            self._drive(now, dt, cmd)
+        self.was_connected = cmd.connected
+        return self.q
+
+    def _follow_flange(self, now: float, cmd, f: np.ndarray) -> None:
+        arm = self.arm
+        inside = bool(reach_mask3d(arm, f[0], f[1], f[2]))
+        if inside:
+            qq = inverse3d(arm, f[0], f[1], f[2])
+            q_new = np.array([float(qq.phi), float(qq.alpha), float(qq.beta)])
+            inside = self.lim.contains(q_new, tol=1e-9)
+            if inside:
+                self.q = q_new
+        if not inside and self.overstretched is None:
+            self.overstretched = now
+            self.emit(now, cmd.mode.value, "alarm", "ARM OVERSTRETCHED: the attached flange is beyond the arm's "
+                      "reach or a joint / cylinder stroke limit", {"flange": [float(v) for v in f]})
+
+    def _drive(self, now: float, dt: float, cmd) -> None:
+        lim, q = self.lim, self.q
+        lo = (lim.phi[0], lim.alpha[0], lim.beta[0])
+        hi = (lim.phi[1], lim.alpha[1], lim.beta[1])
+        if self.servo is None:
+            self.q = np.minimum(np.maximum(q + np.array(cmd.rates) * dt, lo), hi)
+            return
+        from ..hydraulics.simulate import SimulationError
+
+        if self.was_connected:        # released: the drives take the arm over where the flange left it
+            self.servo.reset(q[1], q[2])
+        phi = min(max(q[0] + cmd.rates[0] * dt, lo[0]), hi[0])
+        try:
+            a_new, b_new = self.servo.step(dt, (cmd.rates[1], cmd.rates[2]))
+        except SimulationError as exc:
+            if not self.servo_fault:
+                self.emit(now, cmd.mode.value, "alarm", f"hydraulic servo fault: {exc}", {})
+            self.servo_fault = True
+            self.servo.reset(q[1], q[2])
+            a_new, b_new = q[1], q[2]
+        self.q = np.array([phi, a_new, b_new])
+
+
 def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
                  progress: Callable[[float], None] | None = None, plant: str | None = None,
                  pace: Callable[[float], None] | None = None) -> RunResult:
@@ -152,7 +302,6 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     -------
     RunResult
     """
-    arm = model.arm
     g = sc.guidance
     plant = sc.scenario.plant if plant is None else plant
     if plant not in ("hydraulic", "kinematic"):
@@ -165,108 +314,61 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     n = int(math.floor(sc.scenario.duration / dt)) + 1
     tt = np.arange(n) * dt
     flange = motion.position(tt)
-    q0 = inverse3d(arm, *ctrl.stored)
-    q = np.array([float(q0.phi), float(q0.alpha), float(q0.beta)])
-    servo = None
-    if plant == "hydraulic":
-        from ..hydraulics.servo import HydraulicArm
-        from ..hydraulics.simulate import SimulationError
-
-        servo = HydraulicArm(model, q[1], q[2])
-    servo_fault = False
-    was_connected = False
-    sig = {k: np.full(n, np.nan) for k in ("t", "mode", "phi", "alpha", "beta", "x", "y", "z", "fx", "fy", "fz",
-                                            "ex", "ey", "ez", "healthy", "distance", "severity")}
+    q0 = inverse3d(model.arm, *ctrl.stored)
     events: list = []
-    cycle = np.empty(n)
-    ir = 0
-    op = sc.operator
-    standoff_since = None
-    overstretched = None
-    next_sample = 0.0
-    report_every = max(1, n // 50)
 
     def emit(t, mode, kind, reason, data):
         events.append((t, mode, kind, reason, data))
         if log is not None:
             log.append(t, mode, kind, reason, **data)
 
+    arm_plant = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, emit)
+    operator = ScriptedOperator(sc.operator, dt)
+    rec = _Recorder(n, log, sample_every)
+    cycle = np.empty(n)
+    ir = 0
+    report_every = max(1, n // 50)
     for k in range(n):
         now = tt[k]
         if pace is not None:
             pace(now)
         t0 = time.perf_counter()
-        while ir < readings.t_arrive.size and readings.t_arrive[ir] <= now:
-            z = readings.xyz[ir]
-            ok = est.update(float(readings.t_meas[ir]), (float(z[0]), float(z[1]), float(z[2])))
-            if not ok:
-                emit(now, ctrl.state.mode.value, "sensor", "reading rejected as an outlier",
-                     {"reading": [float(v) for v in z]})
-            ir += 1
+        ir = _feed_sensor(readings, est, ir, now, lambda z: emit(
+            now, ctrl.state.mode.value, "sensor", "reading rejected as an outlier", {"reading": [float(v) for v in z]}))
         e = est.estimate(now)
-        actions = []
-        if op.start <= now < op.start + dt:
-            actions.append("start")
-        if ctrl.state.mode == Mode.STANDOFF:
-            standoff_since = now if standoff_since is None else standoff_since
-            if now - standoff_since >= op.connect_after:
-                actions.append("connect")
-        else:
-            standoff_since = None
-        if op.disconnect_at is not None and op.disconnect_at <= now < op.disconnect_at + dt:
-            actions.append("disconnect")
-        if op.estop_at is not None and op.estop_at <= now < op.estop_at + dt:
-            actions.append("estop")
-        if op.reset_at is not None and op.reset_at <= now < op.reset_at + dt:
-            actions.append("reset")
-        if servo_fault and ctrl.state.mode != Mode.ESTOP:
-            actions.append("estop")
-        jog = (0.0, 0.0, 0.0)
-        for t_on, t_off, vx, vy, vz in op.jog:
-            if t_on <= now < t_on + dt:
-                actions.append("manual")
-            if t_off <= now < t_off + dt:
-                actions.append("auto")
-            if t_on <= now < t_off:
-                jog = (vx, vy, vz)
-        cmd = ctrl.step(now, q, e, OperatorInput(tuple(actions), jog))
+        cmd = ctrl.step(now, arm_plant.q, e, operator.inputs(now, ctrl.state.mode, arm_plant.servo_fault))
         cycle[k] = (time.perf_counter() - t0) * 1e6
         for kind, reason, data in cmd.events:
             emit(now, cmd.mode.value, kind, reason, data)
-        # ---- plant ----
-        f = flange[k]
-        if cmd.connected:
-            inside = bool(reach_mask3d(arm, f[0], f[1], f[2]))
-            if inside:
-                qq = inverse3d(arm, f[0], f[1], f[2])
-                q_new = np.array([float(qq.phi), float(qq.alpha), float(qq.beta)])
-                inside = ctrl.lim.contains(q_new, tol=1e-9)
-                if inside:
-                    q = q_new
-            if not inside and overstretched is None:
-                overstretched = now
-                emit(now, cmd.mode.value, "alarm", "ARM OVERSTRETCHED: the attached flange is beyond the arm's reach "
-                     "or a joint / cylinder stroke limit", {"flange": [float(v) for v in f]})
-        else:
-            lo = (ctrl.lim.phi[0], ctrl.lim.alpha[0], ctrl.lim.beta[0])
-            hi = (ctrl.lim.phi[1], ctrl.lim.alpha[1], ctrl.lim.beta[1])
-            if servo is None:
-                q = q + np.array(cmd.rates) * dt
-                q = np.minimum(np.maximum(q, lo), hi)
-            else:
-                if was_connected:        # released: the drives take the arm over where the flange left it
-                    servo.reset(q[1], q[2])
-                phi = min(max(q[0] + cmd.rates[0] * dt, lo[0]), hi[0])
-                try:
-                    a_new, b_new = servo.step(dt, (cmd.rates[1], cmd.rates[2]))
-                except SimulationError as exc:
-                    if not servo_fault:
-                        emit(now, cmd.mode.value, "alarm", f"hydraulic servo fault: {exc}", {})
-                    servo_fault = True
-                    servo.reset(q[1], q[2])
-                    a_new, b_new = q[1], q[2]
-                q = np.array([phi, a_new, b_new])
-        was_connected = cmd.connected
+        q = arm_plant.step(now, dt, cmd, flange[k])
+        rec.record(k, now, cmd, q, flange[k], e, model.arm)
+        if progress is not None and k % report_every == 0:
+            progress(k / n)
+    if progress is not None:
+        progress(1.0)
+    return RunResult(sc.scenario.name, rec.sig, events, arm_plant.overstretched, cycle)
+
+
+def _feed_sensor(readings, est: FlangeEstimator, ir: int, now: float, rejected: Callable) -> int:
+    """Give the estimator every reading that has arrived by ``now``; report the rejected ones."""
+    while ir < readings.t_arrive.size and readings.t_arrive[ir] <= now:
+        z = readings.xyz[ir]
+        if not est.update(float(readings.t_meas[ir]), (float(z[0]), float(z[1]), float(z[2]))):
+            rejected(z)
+        ir += 1
+    return ir
+
+
+class _Recorder:
+    """The run's signals at every cycle, and a replay sample in the event log every ``sample_every`` s."""
+
+    def __init__(self, n: int, log: EventLog | None, sample_every: float):
+        self.sig = {k: np.full(n, np.nan) for k in ("t", "mode", "phi", "alpha", "beta", "x", "y", "z", "fx", "fy",
+                                                     "fz", "ex", "ey", "ez", "healthy", "distance", "severity")}
+        self.log, self.sample_every, self.next_sample = log, sample_every, 0.0
+
+    def record(self, k: int, now: float, cmd, q: np.ndarray, f: np.ndarray, e, arm) -> None:
+        sig = self.sig
         p = forward3d(arm, *q)
         sig["t"][k] = now
         sig["mode"][k] = MODES.index(cmd.mode.value)
@@ -277,13 +379,8 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
         sig["healthy"][k] = 1.0 if e.healthy else 0.0
         sig["distance"][k] = math.dist((float(p[0]), float(p[1]), float(p[2])), f)
         sig["severity"][k] = int(SEVERITY_OF_MODE.get(cmd.mode, Severity.NORMAL))
-        if log is not None and now >= next_sample:
-            log.append(now, cmd.mode.value, "sample", "state sample", phi=float(q[0]), alpha=float(q[1]),
-                       beta=float(q[2]), distance=float(sig["distance"][k]), healthy=bool(e.healthy),
-                       connected=bool(cmd.connected))
-            next_sample += sample_every
-        if progress is not None and k % report_every == 0:
-            progress(k / n)
-    if progress is not None:
-        progress(1.0)
-    return RunResult(sc.scenario.name, sig, events, overstretched, cycle)
+        if self.log is not None and now >= self.next_sample:
+            self.log.append(now, cmd.mode.value, "sample", "state sample", phi=float(q[0]), alpha=float(q[1]),
+                            beta=float(q[2]), distance=float(sig["distance"][k]), healthy=bool(e.healthy),
+                            connected=bool(cmd.connected))
+            self.next_sample += self.sample_every

@@ -11,6 +11,8 @@ from loadarm.errors import PathError, UnreachableError, ValveRangeError
 from loadarm.kinematics import forward
 from loadarm.trajectory import plan_approach
 
+from .conftest import ROOT
+
 
 def test_paper_timing_reproduces_the_paper(model):
     p = plan_approach(model, timing="paper", samples=1001)
@@ -154,8 +156,14 @@ def test_results_are_data_with_summary_to_dict_and_plot(model):
 
     plan = plan_approach(model, timing="smooth", samples=101)
     sim = simulate_approach(model, plan_approach(model, timing="smooth", samples=2001))
+    from loadarm.guidance.run import run_scenario
+    from loadarm.guidance.scenario import load_scenario
+
+    sc, smodel = load_scenario(ROOT / "examples" / "scenarios" / "calm.toml")
+    sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"duration": 20.0, "plant": "kinematic"})})
     results = [plan, actuator_loads(model, plan), balance_counterweights(model, spacing=1.0),
-               verify_kinematics(model, plan_approach(model, timing="paper", samples=21)), sim]
+               verify_kinematics(model, plan_approach(model, timing="paper", samples=21)), sim,
+               run_scenario(sc, smodel)]
     for r in results:
         s = r.summary()
         assert isinstance(s, Summary) and isinstance(s, dict)

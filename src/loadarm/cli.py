@@ -273,15 +273,8 @@ def plan(
                     f"{tuple(round(v, 3) for v in p.target)}, {timing} timing")
     t.add_column("quantity")
     t.add_column("value")
-    t.add_row("duration", f"{s['duration_s']:.2f} s")
-    t.add_row("path length", f"{s['path_length_m']:.3f} m")
-    t.add_row("peak path speed", f"{s['peak_path_speed_m_s']:.4f} m/s")
-    t.add_row("alpha", "{:.2f} .. {:.2f} deg".format(*s["alpha_range_deg"]))
-    t.add_row("beta", "{:.2f} .. {:.2f} deg".format(*s["beta_range_deg"]))
-    t.add_row("stroke r_ac1 / r_ac2", f"{s['stroke_ac1_m']:.4f} / {s['stroke_ac2_m']:.4f} m")
-    t.add_row("u1", "{:+.3f} .. {:+.3f} V".format(*s["u1_range_V"]))
-    t.add_row("u2", "{:+.3f} .. {:+.3f} V".format(*s["u2_range_V"]))
-    t.add_row("worst zone", s["worst_zone"])
+    for label, text in s.rows():
+        t.add_row(escape(label), escape(text))
     out.print(t)
     if csv is not None:
         out.print(f"samples written to {csv}")

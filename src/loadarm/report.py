@@ -28,6 +28,7 @@ from .alarms import Severity
 from .compiler import compile_model
 from .envelope import berth_box, zone_radii
 from .balancing import balance_counterweights
+from .guidance.run import RUN_METRICS
 from .hydraulics.simulate import SIMULATION_METRICS, simulate_approach
 from .loads import actuator_loads
 from .multibody import verify_kinematics
@@ -143,6 +144,9 @@ def is_paper_case(inst: Installation) -> bool:
 #: Closed-loop metrics the report's table shows (declared once in hydraulics.simulate.SIMULATION_METRICS).
 _REPORT_SIM_KEYS = ("timing", "plan_duration_s", "arrival_time_s", "max_deviation_mm", "rms_deviation_mm",
                     "final_position_error_mm", "max_chamber_pressure_bar", "peak_pump_flow_L_min", "pump_energy_kJ")
+
+#: Guidance-run metrics the report's scenario table shows (declared once in guidance.run.RUN_METRICS).
+_REPORT_RUN_KEYS = ("alarm1_s", "alarm2_s", "release_s", "release_complete_s", "overstretched_s", "max_beta_deg")
 
 #: Display units for the parameter table: SI value times factor.
 _DISPLAY_UNITS = {"Pa": ("bar", 1e-5), "N": ("kN", 1e-3), "m^3/s": ("L/min", 6e4)}
@@ -426,13 +430,10 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                  f"coupler {ms.coupler_kg:g} kg, counterweights {ms.counterweight_inboard_kg:g} kg at "
                  f"{ms.counterweight_inboard_distance:g} m and {ms.counterweight_outboard_kg:g} kg at "
                  f"{ms.counterweight_outboard_distance:g} m")
-    scen_rows = []
-    for name, ss in summary["scenarios"].items():
-        fmt = lambda v: "-" if v is None else f"{v:.1f}"  # noqa: E731
-        scen_rows.append({"name": name, "seq": " > ".join(ss["mode_sequence"]), "a1": fmt(ss["alarm1_s"]),
-                          "a2": fmt(ss["alarm2_s"]), "rel": fmt(ss["release_s"]),
-                          "over": "no" if ss["overstretched_s"] is None else f"at {ss['overstretched_s']:.1f} s",
-                          "beta": ss["max_beta_deg"]})
+    scen_cols = [m for m in RUN_METRICS if m.key in _REPORT_RUN_KEYS]
+    scen_rows = [{"name": name, "seq": " > ".join(ss["mode_sequence"]),
+                  **{m.key: m.format(ss.get(m.key), unit=False) for m in scen_cols}}
+                 for name, ss in summary["scenarios"].items()]
     sim_cols = [m for m in SIMULATION_METRICS if m.key in _REPORT_SIM_KEYS]
     sim_rows = [{**{m.key: m.format(sm.get(m.key), unit=False) for m in sim_cols},
                  "warnings": "; ".join(sm["warnings"]) or "none"} for sm in summary["simulation"].values()]
@@ -459,9 +460,8 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                                     ("v", "peak speed [mm/s]"), ("q", "peak flow [L/min]"), ("ok", "within rating")],
                         {"F": ".1f", "Frms": ".1f", "p": ".1f", "v": ".2f", "q": ".2f"}),
         "simulation": _table(sim_rows, [(m.key, m.header) for m in sim_cols] + [("warnings", "warnings")]),
-        "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes"), ("a1", "alarm 1 [s]"),
-                                        ("a2", "alarm 2 [s]"), ("rel", "release [s]"), ("over", "overstretched"),
-                                        ("beta", "max beta [deg]")], {"beta": ".1f"}),
+        "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes")]
+                            + [(m.key, m.header) for m in scen_cols]),
         "parameters": _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),
                                       ("range", "valid range"), ("description", "description"), ("source", "source")]),
     }

@@ -31,6 +31,8 @@ class Metric:
         Column header for compact tables (default: the label).
     none : str
         Text shown for a missing value (``never``, ``n/a``).
+    sep : str
+        Separator of a pair of values (``" / "``; ``" .. "`` for a range).
     """
 
     key: str
@@ -39,6 +41,7 @@ class Metric:
     fmt: str = ".3g"
     short: str = ""
     none: str = "n/a"
+    sep: str = " / "
 
     @property
     def header(self) -> str:
@@ -63,7 +66,7 @@ class Metric:
         if value is None:
             return self.none
         if isinstance(value, (list, tuple)):
-            text = " / ".join(format(v, self.fmt) for v in value)
+            text = self.sep.join(format(v, self.fmt) for v in value)
         elif isinstance(value, (int, float)) and not isinstance(value, bool):
             text = format(value, self.fmt)
         else:

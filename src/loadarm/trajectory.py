@@ -26,12 +26,12 @@ from .errors import PathError
 from .kinematics import check_reachable, inverse, joint_accelerations, joint_rates
 from .path import StraightPath
 from .timing import ToppraTiming, make_timing
-from .results import Result
+from .results import Metric, Result
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
 
-__all__ = ["Plan", "plan_approach", "optimal_timing", "Plan3D", "plan_approach_3d",
+__all__ = ["PLAN_METRICS", "Plan", "plan_approach", "optimal_timing", "Plan3D", "plan_approach_3d",
            "plan_warnings", "CHECK_SAMPLES", "MAX_SAMPLES"]
 
 #: Samples of the dense grid on which voltage limits are re-checked.
@@ -40,6 +40,21 @@ CHECK_SAMPLES = 4001
 MAX_SAMPLES = 1_000_000
 
 _FIELDS = ("t_s", "x_m", "y_m", "alpha_deg", "beta_deg", "r_ac1_m", "r_ac2_m", "u1_V", "u2_V", "zone")
+
+
+#: The headline numbers of a planned approach, declared once (CLI table, JSON, report).
+PLAN_METRICS = (
+    Metric("duration_s", "duration", "s", ".2f"),
+    Metric("path_length_m", "path length", "m", ".3f"),
+    Metric("peak_path_speed_m_s", "peak path speed", "m/s", ".4f"),
+    Metric("alpha_range_deg", "alpha", "deg", ".2f", sep=" .. "),
+    Metric("beta_range_deg", "beta", "deg", ".2f", sep=" .. "),
+    Metric("stroke_ac1_m", "stroke r_ac1", "m", ".4f"),
+    Metric("stroke_ac2_m", "stroke r_ac2", "m", ".4f"),
+    Metric("u1_range_V", "u1", "V", "+.3f", sep=" .. "),
+    Metric("u2_range_V", "u2", "V", "+.3f", sep=" .. "),
+    Metric("worst_zone", "worst zone"),
+)
 
 
 @dataclass(frozen=True)
@@ -99,6 +114,8 @@ class Plan(Result):
     def path_length(self) -> float:
         """Straight-line length, m."""
         return math.hypot(self.target[0] - self.start[0], self.target[1] - self.start[1])
+
+    METRICS = PLAN_METRICS
 
     def _values(self) -> dict:
         """Headline numbers, JSON-friendly (degrees at the edge)."""

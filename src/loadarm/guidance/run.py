@@ -26,6 +26,7 @@ import numpy as np
 from ..eventlog import EventLog
 from ..slew import forward3d, inverse3d, reach_mask3d
 from ..alarms import Severity
+from ..results import Metric, Result
 from .controller import SEVERITY_OF_MODE, GuidanceController, Mode, OperatorInput
 from .scenario import Scenario
 from .sensor import FlangeEstimator, sensor_readings
@@ -34,7 +35,7 @@ from .ship import flange_motion
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["RunResult", "run_scenario", "ScriptedOperator", "ArmPlant", "wall_clock_pacer", "MODES"]
+__all__ = ["RUN_METRICS", "RunResult", "run_scenario", "ScriptedOperator", "ArmPlant", "wall_clock_pacer", "MODES"]
 
 
 def wall_clock_pacer(speedup: float = 1.0) -> Callable[[float], None]:
@@ -66,8 +67,24 @@ def wall_clock_pacer(speedup: float = 1.0) -> Callable[[float], None]:
 MODES = tuple(m.value for m in Mode)
 
 
+#: The headline numbers of a guidance run, declared once.
+RUN_METRICS = (
+    Metric("scenario", "scenario"),
+    Metric("duration_s", "simulated", "s", ".1f"),
+    Metric("final_mode", "final mode"),
+    Metric("alarm1_s", "first alarm (ESD-1)", "s", ".2f", none="-"),
+    Metric("alarm2_s", "second alarm", "s", ".2f", none="-"),
+    Metric("release_s", "release (ERS-2)", "s", ".2f", none="-"),
+    Metric("release_complete_s", "release complete", "s", ".2f", none="-"),
+    Metric("overstretched_s", "overstretched", "s", ".2f", none="no"),
+    Metric("max_beta_deg", "max beta", "deg", ".1f"),
+    Metric("max_abs_slew_deg", "max |slew|", "deg", ".1f"),
+    Metric("events", "events", "", "d"),
+)
+
+
 @dataclass(frozen=True)
-class RunResult:
+class RunResult(Result):
     """Signals and events of one run.
 
     Attributes
@@ -83,6 +100,8 @@ class RunResult:
         First time the attached arm could not reach the flange, s.
     cycle_us : ndarray
         Wall time of each controller cycle (estimate + decide), microseconds.
+    beta_thresholds_deg : tuple of float
+        The run's first, second and release angles (for the timeline figure).
     """
 
     name: str
@@ -90,6 +109,9 @@ class RunResult:
     events: list
     overstretched_at: float | None
     cycle_us: np.ndarray = field(repr=False)
+    beta_thresholds_deg: tuple = ()
+
+    METRICS = RUN_METRICS
 
     def first(self, kind: str, contains: str = "") -> float | None:
         """Time of the first event of a kind whose reason contains a text, s (None if none)."""
@@ -98,7 +120,12 @@ class RunResult:
                 return t
         return None
 
-    def summary(self) -> dict:
+    def _figure(self):
+        from ..plotting import run_timeline_figure
+
+        return run_timeline_figure(self)
+
+    def _values(self) -> dict:
         """Headline numbers, JSON-friendly."""
         s = self.signals
         modes = [MODES[int(i)] for i in s["mode"]]
@@ -346,7 +373,9 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
             progress(k / n)
     if progress is not None:
         progress(1.0)
-    return RunResult(sc.scenario.name, rec.sig, events, arm_plant.overstretched, cycle)
+    al = model.alarms
+    return RunResult(sc.scenario.name, rec.sig, events, arm_plant.overstretched, cycle,
+                     tuple(math.degrees(a) for a in (al.first, al.second, al.release)))
 
 
 def _feed_sensor(readings, est: FlangeEstimator, ir: int, now: float, rejected: Callable) -> int:

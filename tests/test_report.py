@@ -111,3 +111,20 @@ def _render_minimal():
                       max_residual_torque_beta_Nm=1.0, configured_max_torque_alpha_Nm=1.0,
                       configured_max_torque_beta_Nm=1.0),
                 mass_text="m", scenario_files="", timelines=[])
+
+
+def test_the_report_plans_each_timing_law_once(monkeypatch, tmp_path):
+    """Found: build_report planned seven times. Now one plan per law serves every section."""
+    import loadarm.report as rep
+    from loadarm.compiler import compile_model
+    from loadarm.config import parse_config
+
+    calls = []
+    real = rep.plan_approach
+    monkeypatch.setattr(rep, "plan_approach", lambda *a, **k: calls.append(k.get("timing")) or real(*a, **k))
+    d = load_config(PAPER_TOML).model_dump()
+    d["report"]["scenarios"] = []
+    data = rep.ReportData(parse_config(d), PAPER_TOML)
+    data.plans, data.verification, data.simulations, data.loads
+    assert sorted(calls) == ["optimal", "paper", "smooth"]
+    assert data.model == compile_model(parse_config(d))

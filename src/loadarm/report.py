@@ -164,6 +164,11 @@ def _display(value, unit: str) -> tuple[str, str]:
     return one(value), disp
 
 
+#: Samples of each timing law's plan: one plan per law serves the tables, the CSV, the figures, the MuJoCo check
+#: and the closed loop (whose references need this density).
+PLAN_SAMPLES = 2001
+
+
 @dataclass
 class ReportData:
     """Everything the report shows, computed once on first use.
@@ -202,14 +207,14 @@ class ReportData:
         out = {}
         for law in TIMING_LAWS:
             self._progress(f"planning the approach, {law} timing")
-            out[law] = plan_approach(self.model, timing=law, samples=401)
+            out[law] = plan_approach(self.model, timing=law, samples=PLAN_SAMPLES)
         return out
 
     @cached_property
     def verification(self):
         """MuJoCo verification of the paper-timing plan."""
         self._progress("verifying the kinematics in MuJoCo")
-        return verify_kinematics(self.model, plan_approach(self.model, timing="paper", samples=201))
+        return verify_kinematics(self.model, self.plans["paper"])
 
     @cached_property
     def loads(self) -> dict:
@@ -227,8 +232,7 @@ class ReportData:
     def simulations(self) -> dict:
         """Closed-loop runs by timing law."""
         self._progress("simulating the electro-hydraulic closed loop, three timing laws")
-        return {law: simulate_approach(self.model, plan_approach(self.model, timing=law, samples=2001))
-                for law in TIMING_LAWS}
+        return {law: simulate_approach(self.model, plan) for law, plan in self.plans.items()}
 
     @cached_property
     def scenario_files(self) -> list[Path]:

@@ -100,7 +100,7 @@ def _render_minimal():
                 paper=False, arm=NS(b=1.0, c=1.0), tables={k: empty for k in (
                     "corners_sized", "corners_configured", "endpoints", "plans", "loads", "simulation", "scenarios",
                     "parameters")},
-                figures={k: fig for k in ("envelope.png", "alpha_beta.png", "angles_paper.png", "angles_smooth.png",
+                figures={k: fig for k in ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "angles_smooth.png",
                                           "timing.png", "cylinders.png", "voltages.png", "verification.png",
                                           "loads.png", "residual_torque.png", "deviation_by_timing.png",
                                           "simulation_smooth.png")},

@@ -161,9 +161,13 @@ def test_results_are_data_with_summary_to_dict_and_plot(model):
 
     sc, smodel = load_scenario(ROOT / "examples" / "scenarios" / "calm.toml")
     sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"duration": 20.0, "plant": "kinematic"})})
+    from loadarm.sizing import size_arm
+    from loadarm.trajectory import plan_approach_3d
+
     results = [plan, actuator_loads(model, plan), balance_counterweights(model, spacing=1.0),
                verify_kinematics(model, plan_approach(model, timing="paper", samples=21)), sim,
-               run_scenario(sc, smodel)]
+               run_scenario(sc, smodel), size_arm(7.0, 13.5, 4.7, math.radians(123.0), (8.0, 14.0), (4.0, 12.0)),
+               plan_approach_3d(model, target=(14.0, 2.0, 1.0), samples=51)]
     for r in results:
         s = r.summary()
         assert isinstance(s, Summary) and isinstance(s, dict)

@@ -252,13 +252,8 @@ def plan(
         t = Table(title=f"3D approach (x, y along the berth, height) {p3.start} -> {p3.target}, {timing} timing")
         t.add_column("quantity")
         t.add_column("value")
-        s3 = p3.summary()
-        t.add_row("duration", f"{s3['duration_s']:.2f} s")
-        t.add_row("slew", "{:.2f} .. {:.2f} deg".format(*s3["slew_range_deg"]))
-        t.add_row("peak slew rate", f"{s3['peak_slew_rate_deg_s']:.3f} deg/s")
-        t.add_row("alpha", "{:.2f} .. {:.2f} deg".format(*s3["alpha_range_deg"]))
-        t.add_row("beta", "{:.2f} .. {:.2f} deg".format(*s3["beta_range_deg"]))
-        t.add_row("worst zone", s3["worst_zone"])
+        for label, text in p3.summary().rows():
+            t.add_row(escape(label), escape(text))
         out.print(t)
         return
     p = plan_approach(model, start=a, target=b, timing=timing, samples=samples)

@@ -18,7 +18,7 @@ from pathlib import Path
 __all__ = ["DOC_FIGURES", "render_doc_figures", "regenerate", "compare_figures"]
 
 #: The figures the docs show (file names in docs/img); the paper's case draws them.
-DOC_FIGURES = ("envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
+DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
                "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
                "simulation_smooth.png", "timeline_driftoff.png")
 

@@ -545,6 +545,75 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
     return fig
 
 
+def sizing_figure(result) -> Figure:
+    """Paper Eq. 3 in the ``(b, c)`` plane: the first-alarm ellipse, the bounds, the local minima, the optimum.
+
+    Shows why the optimum sits on a bound: ``b + c`` (dotted lines) is largest at ``b = c`` along the ellipse.
+
+    Parameters
+    ----------
+    result : loadarm.sizing.SizingResult
+        A sizing.
+
+    Returns
+    -------
+    Figure
+    """
+    fig, ax = plt.subplots(figsize=(6.5, 6))
+    psi = np.linspace(0.0, math.pi / 2, 721)
+    rho = result.r_alarm / np.sqrt(1.0 - np.sin(2 * psi) * math.cos(result.beta_alarm))
+    ax.plot(rho * np.cos(psi), rho * np.sin(psi), color="C0", label="Eq. 2 at the first-alarm angle")
+    if result.bounds:
+        (blo, bhi), (clo, chi) = result.bounds
+        ax.add_patch(Rectangle((blo, clo), bhi - blo, chi - clo, fill=False, ec="k", lw=1.2, label="bounds"))
+    top = float(np.max(rho)) * 1.05
+    for total in sorted({round(b + c, 6) for b, c in result.local_minima} | {round(2 * top, 6)})[:4]:
+        ax.plot([0, total], [total, 0], ":", color="grey", lw=0.8)
+    for b, c in result.local_minima:
+        ax.plot(b, c, "o", mfc="none", color="C1", ms=8)
+    ax.plot([], [], "o", mfc="none", color="C1", label="local minima (b + c dotted)")
+    ax.plot(result.inboard, result.outboard, "*", color="C3", ms=14,
+            label=f"optimum b = {result.inboard:.4f}, c = {result.outboard:.4f} m")
+    ax.set_xlim(0, top)
+    ax.set_ylim(0, top)
+    ax.set_aspect("equal")
+    ax.set_xlabel("inboard b [m]")
+    ax.set_ylabel("outboard c [m]")
+    ax.set_title(f"Arm sizing (Eq. 3): r_al = {result.r_alarm:.3f} m at {math.degrees(result.beta_alarm):g} deg")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    return fig
+
+
+def plan3d_figure(plan) -> Figure:
+    """A 3D approach against time: slew and joint angles, and both cylinder lengths.
+
+    Parameters
+    ----------
+    plan : loadarm.trajectory.Plan3D
+        The plan.
+
+    Returns
+    -------
+    Figure
+    """
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2))
+    for name, v in (("slew", plan.phi), ("alpha", plan.alpha), ("beta", plan.beta)):
+        ax1.plot(plan.t, np.degrees(v), label=name)
+    ax1.set_ylabel("angle [deg]")
+    ax2.plot(plan.t, plan.r_ac1, label="r_ac1")
+    ax2.plot(plan.t, plan.r_ac2, "--", label="r_ac2")
+    ax2.set_ylabel("cylinder length [m]")
+    for ax in (ax1, ax2):
+        ax.set_xlabel("t [s]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"3D approach {plan.start} -> {plan.target}, {plan.timing} timing")
+    fig.tight_layout()
+    return fig
+
+
 def run_timeline_figure(result, model: "ArmModel | None" = None) -> Figure:
     """:func:`timeline_figure` of a guidance run, with its alarms and beta thresholds.
 

@@ -264,6 +264,8 @@ def _timeline(name: str):
 #: Every fixed figure of the report: ``file name -> (builder, caption)``. Scenario timelines are added per
 #: scenario. ``make docs`` draws the ones the docs show from the paper's case with the same builders.
 FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
+    "sizing.png": (lambda d: d.sizing.plot(),
+                   "Eq. 3 in the (b, c) plane: the first-alarm ellipse, the bounds, the local minima and the optimum."),
     "envelope.png": (lambda d: envelope_figure(d.model, d.plans["smooth"]),
                      "Zones as bands of beta around the riser top, datasheet flange box, stored position, flange and "
                      "the straight approach with arm snapshots."),

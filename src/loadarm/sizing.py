@@ -27,9 +27,10 @@ from .alarms import UNREACHABLE, AlarmAngles, beta_severity, severity_label
 from .envelope import berth_box
 from .errors import SizingError
 from .geometry import Arm
+from .results import Metric, Result
 from .kinematics import inverse, reach_mask
 
-__all__ = ["SizingResult", "CornerCheck", "first_alarm_corner", "alarm_radius", "size_arm", "check_corners",
+__all__ = ["SIZING_METRICS", "SizingResult", "CornerCheck", "first_alarm_corner", "alarm_radius", "size_arm", "check_corners",
            "size_installation", "sizing_summary"]
 
 
@@ -69,8 +70,20 @@ class CornerCheck:
         }
 
 
-@dataclass(frozen=True, slots=True)
-class SizingResult:
+#: The headline numbers of a sizing, declared once.
+SIZING_METRICS = (
+    Metric("inboard_m", "inboard arm b", "m", ".4f"),
+    Metric("outboard_m", "outboard arm c", "m", ".4f"),
+    Metric("total_m", "b + c", "m", ".4f"),
+    Metric("r_alarm_m", "first-alarm radius r_al", "m", ".4f"),
+    Metric("beta_alarm_deg", "first-alarm angle", "deg", "g"),
+    Metric("active_bound", "active bound"),
+    Metric("constraint_residual_m2", "constraint residual", "m^2", ".1e"),
+)
+
+
+@dataclass(frozen=True)
+class SizingResult(Result):
     """Solution of paper Eq. 3.
 
     Attributes
@@ -89,7 +102,11 @@ class SizingResult:
         Every local minimum ``(b, c)`` found on the feasible arc, best first.
     constraint_residual : float
         ``|b^2 + c^2 - 2bc cos(beta_al) - r_al^2|`` at the optimum, m^2.
+    bounds : tuple of tuple of float
+        The ``(low, high)`` bounds of ``b`` and ``c`` searched, m.
     """
+
+    METRICS = SIZING_METRICS
 
     inboard: float
     outboard: float
@@ -99,11 +116,24 @@ class SizingResult:
     active_bound: str
     local_minima: list[tuple[float, float]] = field(default_factory=list)
     constraint_residual: float = 0.0
+    bounds: tuple = ()
 
     @property
     def total(self) -> float:
         """``b + c``, m."""
         return self.inboard + self.outboard
+
+    def _values(self) -> dict:
+        return {"inboard_m": self.inboard, "outboard_m": self.outboard, "total_m": self.total,
+                "r_alarm_m": self.r_alarm, "first_alarm_corner_m": list(self.corner),
+                "beta_alarm_deg": math.degrees(self.beta_alarm), "active_bound": self.active_bound,
+                "local_minima_m": [list(m) for m in self.local_minima],
+                "constraint_residual_m2": float(self.constraint_residual)}
+
+    def _figure(self):
+        from .plotting import sizing_figure
+
+        return sizing_figure(self)
 
 
 def first_alarm_corner(inst_or_ds) -> tuple[float, float]:
@@ -269,7 +299,8 @@ def size_arm(riser: float, X: float, Y: float, beta_alarm: float, inboard_bounds
             active.append(f"sizing.{name} lower bound ({lo:g} m)")
     return SizingResult(inboard=b, outboard=c, r_alarm=r_al, corner=(X, -abs(Y)), beta_alarm=beta_alarm,
                         active_bound=", ".join(active), local_minima=minima,
-                        constraint_residual=abs(b * b + c * c - 2.0 * b * c * cb - r_al * r_al))
+                        constraint_residual=abs(b * b + c * c - 2.0 * b * c * cb - r_al * r_al),
+                        bounds=((blo, bhi), (clo, chi)))
 
 
 def check_corners(arm: Arm, alarms: AlarmAngles, inst) -> list[CornerCheck]:
@@ -342,10 +373,7 @@ def sizing_summary(inst, result: SizingResult | None = None) -> dict:
     alarms = AlarmAngles(inst.alarms.first, inst.alarms.second, inst.alarms.release)
     sized = Arm(inst.arm.riser, res.inboard, res.outboard)
     return {
-        "inboard_m": res.inboard, "outboard_m": res.outboard, "total_m": res.total, "r_alarm_m": res.r_alarm,
-        "first_alarm_corner_m": list(res.corner), "beta_alarm_deg": math.degrees(res.beta_alarm),
-        "active_bound": res.active_bound, "local_minima_m": [list(m) for m in res.local_minima],
-        "constraint_residual_m2": float(res.constraint_residual),
+        **res.to_dict(),
         "corners": [c.as_dict() for c in check_corners(sized, alarms, inst)],
         "corners_configured_arm": None if inst.arm.inboard is None else [
             c.as_dict() for c in check_corners(Arm(inst.arm.riser, inst.arm.inboard, inst.arm.outboard), alarms, inst)],

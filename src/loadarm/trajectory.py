@@ -31,7 +31,7 @@ from .results import Metric, Result
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
 
-__all__ = ["PLAN_METRICS", "Plan", "plan_approach", "optimal_timing", "Plan3D", "plan_approach_3d",
+__all__ = ["PLAN_METRICS", "PLAN3D_METRICS", "Plan", "plan_approach", "optimal_timing", "Plan3D", "plan_approach_3d",
            "plan_warnings", "CHECK_SAMPLES", "MAX_SAMPLES"]
 
 #: Samples of the dense grid on which voltage limits are re-checked.
@@ -314,8 +314,19 @@ def plan_approach(model: ArmModel, *, start: tuple[float, float] | None = None,
                 v_ac1=v1, v_ac2=v2, u1=u.u1, u2=u.u2, zone=zone, stored_lengths=stored_len)
 
 
+#: The headline numbers of a 3D approach, declared once.
+PLAN3D_METRICS = (
+    Metric("duration_s", "duration", "s", ".2f"),
+    Metric("slew_range_deg", "slew", "deg", ".2f", sep=" .. "),
+    Metric("peak_slew_rate_deg_s", "peak slew rate", "deg/s", ".3f"),
+    Metric("alpha_range_deg", "alpha", "deg", ".2f", sep=" .. "),
+    Metric("beta_range_deg", "beta", "deg", ".2f", sep=" .. "),
+    Metric("worst_zone", "worst zone"),
+)
+
+
 @dataclass(frozen=True)
-class Plan3D:
+class Plan3D(Result):
     """A timed straight-line approach in 3D (slew plus the planar arm), sampled; arrays ``(n,)``.
 
     Attributes
@@ -364,7 +375,14 @@ class Plan3D:
     u2: np.ndarray
     zone: np.ndarray
 
-    def summary(self) -> dict:
+    METRICS = PLAN3D_METRICS
+
+    def _figure(self):
+        from .plotting import plan3d_figure
+
+        return plan3d_figure(self)
+
+    def _values(self) -> dict:
         """Headline numbers, JSON-friendly (degrees at the edge)."""
         return {
             "timing": self.timing, "start_m": list(self.start), "target_m": list(self.target),

@@ -393,15 +393,17 @@ def loads(
     if as_json:
         _json(s)
         return
+    from .loads import CYLINDER_LOAD_METRICS
+
     t = Table(title=f"actuator loads, {timing} timing")
-    for col in ("cylinder", "peak force [kN]", "RMS force [kN]", "peak pressure [bar]", "peak speed [mm/s]",
-                "peak flow [L/min]"):
+    for col in ("cylinder", *(m.header for m in CYLINDER_LOAD_METRICS)):
         t.add_column(escape(col))
     for i in (1, 2):
         c = s[f"cylinder{i}"]
-        t.add_row(str(i), f"{c['peak_force_N'] / 1e3:.1f}", f"{c['rms_force_N'] / 1e3:.1f}",
-                  f"{c['peak_pressure_bar']:.1f}" + ("" if c["pressure_ok"] else " (over rating)"),
-                  f"{c['peak_speed_m_s'] * 1e3:.2f}", f"{c['peak_flow_L_min']:.2f}")
+        cells = [m.format(c[m.key], unit=False) for m in CYLINDER_LOAD_METRICS]
+        if not c["pressure_ok"]:
+            cells[2] += " (over rating)"
+        t.add_row(str(i), *cells)
     out.print(t)
 
 

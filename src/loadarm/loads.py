@@ -17,12 +17,22 @@ import numpy as np
 
 from .dynamics import chamber_pressures, cylinder_forces, joint_torques, mass_model
 from .trajectory import Plan
-from .results import Result
+from .results import Metric, Result
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
 
-__all__ = ["ActuatorLoads", "actuator_loads"]
+__all__ = ["CYLINDER_LOAD_METRICS", "ActuatorLoads", "actuator_loads"]
+
+
+#: Per-cylinder load metrics, declared once (the CLI and the report print each cylinder's row from them).
+CYLINDER_LOAD_METRICS = (
+    Metric("peak_force_N", "peak force", "kN", ".1f", scale=1e-3),
+    Metric("rms_force_N", "RMS force", "kN", ".1f", scale=1e-3),
+    Metric("peak_pressure_bar", "peak pressure", "bar", ".1f"),
+    Metric("peak_speed_m_s", "peak speed", "mm/s", ".2f", scale=1e3),
+    Metric("peak_flow_L_min", "peak flow", "L/min", ".2f"),
+)
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ from .compiler import compile_model
 from .envelope import berth_box, zone_radii
 from .balancing import balance_counterweights
 from .guidance.run import RUN_METRICS
+from .loads import CYLINDER_LOAD_METRICS
 from .hydraulics.simulate import SIMULATION_METRICS, simulate_approach
 from .loads import actuator_loads
 from .multibody import verify_kinematics
@@ -443,13 +444,10 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     sim_cols = [m for m in SIMULATION_METRICS if m.key in _REPORT_SIM_KEYS]
     sim_rows = [{**{m.key: m.format(sm.get(m.key), unit=False) for m in sim_cols},
                  "warnings": "; ".join(sm["warnings"]) or "none"} for sm in summary["simulation"].values()]
-    load_rows = []
-    for law, ld in summary["loads"].items():
-        for i in (1, 2):
-            c = ld[f"cylinder{i}"]
-            load_rows.append({"law": law, "cyl": str(i), "F": c["peak_force_N"] / 1e3, "Frms": c["rms_force_N"] / 1e3,
-                              "p": c["peak_pressure_bar"], "v": c["peak_speed_m_s"] * 1e3, "q": c["peak_flow_L_min"],
-                              "ok": "yes" if c["pressure_ok"] else "NO"})
+    load_rows = [{"law": law, "cyl": str(i), **{m.key: m.format(ld[f"cylinder{i}"][m.key], unit=False)
+                                                for m in CYLINDER_LOAD_METRICS},
+                  "ok": "yes" if ld[f"cylinder{i}"]["pressure_ok"] else "NO"}
+                 for law, ld in summary["loads"].items() for i in (1, 2)]
     corner_cols = [("corner", "corner"), ("x_m", "x [m]"), ("y_m", "y [m]"), ("r_m", "r [m]"),
                    ("alpha_deg", "alpha [deg]"), ("beta_deg", "beta [deg]"), ("zone_label", "zone")]
     tables = {
@@ -461,10 +459,8 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                                     ("vmax", "peak path speed [m/s]"), ("s1", "stroke 1 [m]"), ("s2", "stroke 2 [m]"),
                                     ("u1", "u1 [V]"), ("u2", "u2 [V]"), ("zone", "worst zone")],
                         {"duration": ".2f", "vmax": ".4f"}),
-        "loads": _table(load_rows, [("law", "timing law"), ("cyl", "cylinder"), ("F", "peak force [kN]"),
-                                    ("Frms", "RMS force [kN]"), ("p", "peak pressure [bar]"),
-                                    ("v", "peak speed [mm/s]"), ("q", "peak flow [L/min]"), ("ok", "within rating")],
-                        {"F": ".1f", "Frms": ".1f", "p": ".1f", "v": ".2f", "q": ".2f"}),
+        "loads": _table(load_rows, [("law", "timing law"), ("cyl", "cylinder")]
+                        + [(m.key, m.header) for m in CYLINDER_LOAD_METRICS] + [("ok", "within rating")]),
         "simulation": _table(sim_rows, [(m.key, m.header) for m in sim_cols] + [("warnings", "warnings")]),
         "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes")]
                             + [(m.key, m.header) for m in scen_cols]),

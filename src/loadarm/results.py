@@ -33,6 +33,8 @@ class Metric:
         Text shown for a missing value (``never``, ``n/a``).
     sep : str
         Separator of a pair of values (``" / "``; ``" .. "`` for a range).
+    scale : float
+        Display factor from the stored SI value to ``unit`` (1e-3 to show newtons as kN).
     """
 
     key: str
@@ -42,6 +44,7 @@ class Metric:
     short: str = ""
     none: str = "n/a"
     sep: str = " / "
+    scale: float = 1.0
 
     @property
     def header(self) -> str:
@@ -66,9 +69,9 @@ class Metric:
         if value is None:
             return self.none
         if isinstance(value, (list, tuple)):
-            text = self.sep.join(format(v, self.fmt) for v in value)
+            text = self.sep.join(format(v * self.scale, self.fmt) for v in value)
         elif isinstance(value, (int, float)) and not isinstance(value, bool):
-            text = format(value, self.fmt)
+            text = format(value * self.scale, self.fmt)
         else:
             text = str(value)
         return f"{text} {self.unit}" if unit and self.unit and value is not None else text

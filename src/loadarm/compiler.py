@@ -7,6 +7,7 @@ and key names), so each parameter is still declared exactly once, with its unit,
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import make_dataclass
 from typing import Any
@@ -15,7 +16,7 @@ from pydantic import BaseModel
 
 from .actuators import joint_angles_from_cylinders, length_limits
 from .config import Installation
-from .dynamics import cylinder_areas
+from .dynamics import cylinder_areas, lagrange_constants, mass_model
 from .alarms import AlarmAngles
 from .envelope import berth_box
 from .geometry import Arm, Mounting
@@ -89,6 +90,12 @@ def compile_model(inst: Installation) -> ArmModel:
     area = cylinder_areas(inst.cylinders.bore, inst.cylinders.rod)
     v = min(inst.valve.nominal_flow, inst.pump.max_flow / 2.0) / area[0]
     records = {name: _record(name, getattr(inst, name)) for name in RECORD_SECTIONS}
-    return ArmModel(arm=arm, mount=mount, alarms=AlarmAngles(al.first, al.second, al.release), slew=slew,
+    base = ArmModel(arm=arm, mount=mount, alarms=AlarmAngles(al.first, al.second, al.release), slew=slew,
                     berth=berth_box(inst.datasheet), joint_limits=_joint_limits(mount, inst.cylinders, slew, (v, v)),
                     cylinder_area=(float(area[0]), float(area[1])), cylinder_speed_limit=(v, v), **records)
+    # the fill-dependent and hydraulic parts, derived once from the model itself
+    from .hydraulics.simulate import pack_parameters
+
+    mass = mass_model(base)
+    return dataclasses.replace(base, mass=mass, lagrange=lagrange_constants(mass),
+                               hydraulics=tuple(float(x) for x in pack_parameters(base)))

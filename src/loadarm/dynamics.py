@@ -156,6 +156,8 @@ def mass_model(model: ArmModel, *, fill: float | None = None, arm: Arm | None = 
         Pipes as uniform rods (``I = m L^2 / 12``), lumps as solid spheres of
         radius ``masses.lump_radius`` (``I = 2/5 m r^2``).
     """
+    if fill is None and arm is None and getattr(model, "mass", None) is not None:
+        return model.mass                      # compiled once with the model
     ms = model.masses
     arm = arm or model.arm
     f = ms.fill if fill is None else float(fill)

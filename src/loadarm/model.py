@@ -81,6 +81,13 @@ class ArmModel:
         Largest extension speed of each cylinder, m/s (valve or half the pump, over the piston area).
     datasheet, actuators, approach, masses, cylinders, pump, valve, encoder, controller : record
         The parameter groups as plain frozen records, SI units, keys as in the configuration.
+    mass : MassModel
+        The arm's lumps at the configured product fill.
+    lagrange : LagrangeConstants
+        Its Lagrangian constants.
+    hydraulics : tuple of float
+        The compiled closed loop's parameter vector at the configured fill and integration step, indexed by
+        the names ``I_*`` of :mod:`loadarm.hydraulics.plant` (``np.asarray`` it for the compiled loop).
     """
 
     arm: Arm
@@ -100,5 +107,8 @@ class ArmModel:
     valve: Any
     encoder: Any
     controller: Any
+    mass: Any = None
+    lagrange: Any = None
+    hydraulics: tuple = ()
 
 

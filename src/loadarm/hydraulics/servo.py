@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..dynamics import G, lagrange_constants, mass_model
+from ..dynamics import G
 from . import plant
 from .simulate import SimulationError, initial_state, pack_parameters
 
@@ -41,7 +41,7 @@ class HydraulicArm:
     def __init__(self, model: ArmModel, alpha: float, beta: float):
         self.model = model
         self.P = pack_parameters(model)
-        self.k = lagrange_constants(mass_model(model))
+        self.k = model.lagrange
         self.dt = float(self.P[plant.I_DT])
         self.substeps = int(round(self.P[plant.I_DT] / self.P[plant.I_H]))
         self.reset(alpha, beta)

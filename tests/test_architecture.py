@@ -43,3 +43,15 @@ def test_the_installation_becomes_maths_objects_in_one_place():
     hits = sorted(str(p.relative_to(SRC)) for p in SRC.rglob("*.py") if "Arm(inst." in p.read_text(encoding="utf-8"))
     assert hits == ["compiler.py", "sizing.py"]
     assert not [p for p in SRC.rglob("*.py") if "_from_installation(" in p.read_text(encoding="utf-8")]
+
+
+def test_planning_never_imports_the_simulator():
+    """Found: compiling the model imported numba (the closed loop), adding ~0.2 s to `loadarm plan`'s start."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from loadarm.cli import main; main(['plan', '-c', 'examples/paper.toml', '--json']); "
+            "sys.stderr.write(','.join(m for m in ('numba', 'scipy', 'matplotlib', 'mujoco', 'toppra') "
+            "if m in sys.modules))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=SRC.parents[1])
+    assert r.returncode == 0 and r.stderr.strip() == "", r.stderr

@@ -93,9 +93,7 @@ def compile_model(inst: Installation) -> ArmModel:
     base = ArmModel(arm=arm, mount=mount, alarms=AlarmAngles(al.first, al.second, al.release), slew=slew,
                     berth=berth_box(inst.datasheet), joint_limits=_joint_limits(mount, inst.cylinders, slew, (v, v)),
                     cylinder_area=(float(area[0]), float(area[1])), cylinder_speed_limit=(v, v), **records)
-    # the fill-dependent and hydraulic parts, derived once from the model itself
-    from .hydraulics.simulate import pack_parameters
-
+    # the mass model at the configured fill, derived once from the model itself (the hydraulic parameter vector
+    # is packed by hydraulics.simulate.pack_parameters, so that compiling never imports numba: cold start)
     mass = mass_model(base)
-    return dataclasses.replace(base, mass=mass, lagrange=lagrange_constants(mass),
-                               hydraulics=tuple(float(x) for x in pack_parameters(base)))
+    return dataclasses.replace(base, mass=mass, lagrange=lagrange_constants(mass))

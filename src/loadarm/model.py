@@ -85,9 +85,6 @@ class ArmModel:
         The arm's lumps at the configured product fill.
     lagrange : LagrangeConstants
         Its Lagrangian constants.
-    hydraulics : tuple of float
-        The compiled closed loop's parameter vector at the configured fill and integration step, indexed by
-        the names ``I_*`` of :mod:`loadarm.hydraulics.plant` (``np.asarray`` it for the compiled loop).
     """
 
     arm: Arm
@@ -109,6 +106,5 @@ class ArmModel:
     controller: Any
     mass: Any = None
     lagrange: Any = None
-    hydraulics: tuple = ()
 
 

@@ -118,10 +118,7 @@ def pack_parameters(model: ArmModel, *, substeps: int | None = None, gains: dict
     Returns
     -------
     ndarray, shape (plant.N_PARAMS,)
-        With no override, the vector compiled with the model (``model.hydraulics``).
     """
-    if substeps is None and gains is None and fill is None and model.hydraulics:
-        return np.array(model.hydraulics)          # compiled once with the model
     c, p, v, cy, enc, act = model.controller, model.pump, model.valve, model.cylinders, model.encoder, model.actuators
     gains = dict(gains or {})
     unknown = set(gains) - {"kp", "ki", "kd"}

@@ -15,9 +15,9 @@ from typing import Any
 from pydantic import BaseModel
 
 from .actuators import joint_angles_from_cylinders, length_limits
+from .alarms import AlarmAngles
 from .config import Installation
 from .dynamics import cylinder_areas, lagrange_constants, mass_model
-from .alarms import AlarmAngles
 from .envelope import berth_box
 from .geometry import Arm, Mounting
 from .model import ArmModel, JointLimits, SlewLimits
@@ -25,7 +25,7 @@ from .model import ArmModel, JointLimits, SlewLimits
 __all__ = ["compile_model", "RECORD_SECTIONS"]
 
 #: Configuration sections carried into the model as plain records (the others become typed objects:
-#: ``arm`` -> :class:`~loadarm.geometry.Arm`, ``alarms`` -> :class:`~loadarm.envelope.AlarmAngles`,
+#: ``arm`` -> :class:`~loadarm.geometry.Arm`, ``alarms`` -> :class:`~loadarm.alarms.AlarmAngles`,
 #: ``slew`` -> :class:`~loadarm.model.SlewLimits`; ``sizing`` and ``report`` are read at the edge only).
 RECORD_SECTIONS = ("datasheet", "actuators", "approach", "masses", "cylinders", "pump", "valve", "encoder",
                    "controller")

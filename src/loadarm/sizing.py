@@ -49,7 +49,7 @@ class CornerCheck:
     alpha, beta : float
         Joint angles, rad (NaN if unreachable).
     zone : int
-        Alarm zone.
+        :class:`loadarm.alarms.Severity` value, or :data:`loadarm.alarms.UNREACHABLE`.
     """
 
     name: str
@@ -304,7 +304,7 @@ def size_arm(riser: float, X: float, Y: float, beta_alarm: float, inboard_bounds
 
 
 def check_corners(arm: Arm, alarms: AlarmAngles, inst) -> list[CornerCheck]:
-    """Zone and joint angles at each corner of the datasheet's flange box.
+    """Alarm severity and joint angles at each corner of the datasheet's flange box.
 
     Parameters
     ----------

@@ -399,7 +399,8 @@ def test_rule_emergency_stop_keeps_the_mode_to_resume(model):
     assert c.state.mode == Mode.ALARM1                       # no E-stop pressed: nothing happens
     c.rule_emergency_stop(_cycle(c, actions=("estop",)))
     assert c.state.mode == Mode.ESTOP and c.state.resume == Mode.ALARM1
-    assert c.state.events[-1][0] == "mode"
+    assert [k for k, _, _ in c.state.events] == ["mode", "command"]      # connected: the E-stop initiates ESD-1
+    assert c.state.events[1][1].startswith("ESD-1") and c.state.esd_since == 1.0
 
 
 def test_rule_alarm_escalation_steps_through_every_stage_and_commands_esd_and_ers(model):
@@ -449,7 +450,7 @@ def test_step_is_a_dispatcher_over_named_rules_and_one_handler_per_mode(model):
     import inspect
 
     c = _ctrl(model)
-    assert c.SAFETY_RULES == ("rule_emergency_stop", "rule_alarm_escalation")
+    assert c.SAFETY_RULES == ("rule_emergency_stop", "rule_alarm_escalation", "rule_emergency_release_sequence")
     assert set(c.HANDLERS) == set(Mode) and all(callable(getattr(c, h)) for h in c.HANDLERS.values())
     src = inspect.getsource(GuidanceController.step)
     assert src.count("if ") == 0 and "for rule in self.SAFETY_RULES" in src
@@ -492,3 +493,55 @@ def test_arm_plant_follows_the_flange_and_reports_overstretch(model):
     free = Command(Mode.RETURN, (0.01, 0.0, 0.0), False, False, False, ())
     q1 = ap.step(3.0, 0.5, free, np.zeros(3))
     assert q1[0] == pytest.approx(q[0] + 0.005)
+
+
+# ---- the emergency release sequence (issue "connected-mode safety chain", first part) -------------------
+
+def _release_run(model, esd_time, estop_at=None, until=60.0):
+    """Attached arm held beyond the release angle from t = 0; returns the events (t, kind, reason)."""
+    g = Scenario().guidance.model_copy(update={"esd_time": esd_time})
+    c = GuidanceController(model, g, GuidanceState(mode=Mode.CONNECTED))
+    q = (0.0, 1.0, c.thr.beta_release + 0.01)
+    out = []
+    for k in range(int(until / 0.02)):
+        now = k * 0.02
+        acts = ("estop",) if estop_at is not None and abs(now - estop_at) < 1e-9 else ()
+        cmd = c.step(now, q, _est((14.0, 0.0, 1.0)), OperatorInput(acts))
+        out += [(now, kind, reason) for kind, reason, _ in cmd.events]
+    return c, out
+
+
+def _first(events, text):
+    return next(t for t, _, r in events if text in r)
+
+
+@pytest.mark.parametrize("esd_time", [10.0, 30.0])
+def test_the_coupler_never_opens_before_the_ers_valves_are_confirmed_closed(model, esd_time):
+    """Found: the release was a 3 s timer started at the release angle; with esd_time = 30 s the coupler opened
+    before ESD-1 had closed the valves, on live product."""
+    c, ev = _release_run(model, esd_time)
+    g = c.g
+    t_esd, t_closed = _first(ev, "ESD-1"), _first(ev, "confirmed closed (limit switches)")
+    t_open, t_free = _first(ev, "coupler opening"), _first(ev, "release complete")
+    assert t_esd == 0.0 and t_closed == pytest.approx(esd_time, abs=0.021)
+    assert t_open >= t_closed and t_free == pytest.approx(t_open + g.ers_time, abs=0.021)
+    assert [k for t, k, r in ev if "limit switches" in r] == ["interlock"]
+
+
+def test_an_emergency_stop_never_blocks_the_release(model):
+    """Found: an E-stop pressed during a drift-off stopped the emergency release; the arm overstretched attached."""
+    c, ev = _release_run(model, 10.0, estop_at=2.0)
+    assert _first(ev, "emergency stop") == pytest.approx(2.0)
+    assert _first(ev, "release complete") == pytest.approx(10.0 + c.g.ers_time, abs=0.021)
+    assert c.state.mode == Mode.ESTOP and c.state.resume == Mode.RETURN and not c.attached()
+    cmd = c.step(100.0, (0.0, 1.0, 1.0), _est((14.0, 0.0, 1.0)), OperatorInput(("reset",)))
+    assert cmd.mode == Mode.RETURN
+
+
+def test_estop_during_a_driftoff_releases_before_the_limit():
+    """The stock drift-off with the E-stop pressed at 220 s and 236 s (found: 15 of 15 runs overstretched)."""
+    sc, model = load_scenario(SCEN / "driftoff.toml")
+    for t in (220.0, 236.0):
+        s = sc.model_copy(update={"operator": sc.operator.model_copy(update={"estop_at": t})})
+        r = run_scenario(s, model, plant="kinematic").summary()
+        assert r["release_complete_s"] is not None and r["overstretched_s"] is None, (t, r)

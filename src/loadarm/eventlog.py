@@ -25,7 +25,7 @@ from .errors import LoadarmError
 __all__ = ["Event", "EventLog", "EventLogError", "KINDS"]
 
 #: Event kinds.
-KINDS = ("mode", "alarm", "command", "operator", "sensor", "sample", "info")
+KINDS = ("mode", "alarm", "command", "interlock", "operator", "sensor", "sample", "info")
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS events (

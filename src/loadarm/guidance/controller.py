@@ -164,7 +164,11 @@ class GuidanceState:
     refused : str
         Reason of the last refusal (so it is logged once).
     esd_since, release_since : float or None
-        Time ESD-1 / ERS-2 was commanded.
+        Time ESD-1 was commanded / the release (ERS-2) was requested.
+    valves_closed_at : float or None
+        Time the ERS valves were confirmed closed (the interlock the coupler waits for).
+    release_started_at : float or None
+        Time the coupler began to open (never before ``valves_closed_at``).
     resume : Mode
         Mode to resume after an emergency stop (or a pending approach).
     events : list
@@ -182,6 +186,8 @@ class GuidanceState:
     refused: str = ""
     esd_since: float | None = None
     release_since: float | None = None
+    valves_closed_at: float | None = None
+    release_started_at: float | None = None
     resume: Mode = Mode.APPROACH
     events: list = field(default_factory=list)
 
@@ -377,7 +383,7 @@ class GuidanceController:
 
     # ---------------------------------------------------------------- safety rules, in this order
     #: Named rules run every cycle before the mode handler, in this order.
-    SAFETY_RULES = ("rule_emergency_stop", "rule_alarm_escalation")
+    SAFETY_RULES = ("rule_emergency_stop", "rule_alarm_escalation", "rule_emergency_release_sequence")
 
     def rule_emergency_stop(self, cyc: "Cycle") -> None:
         """E-stop from any mode, in this very cycle (the mode to resume is kept).
@@ -390,6 +396,8 @@ class GuidanceController:
         if "estop" in cyc.acts and self.state.mode != Mode.ESTOP:
             self.state.resume = self.state.mode
             self._go(cyc.now, Mode.ESTOP, "emergency stop pressed")
+            if self.attached():                  # connected: the E-stop also initiates ESD-1
+                self._command_esd1(cyc.now, "emergency stop while connected")
 
     def rule_alarm_escalation(self, cyc: "Cycle") -> None:
         """While attached, whatever the mode: raise the alarm level on angle and drift speed, one stage at a time,
@@ -412,17 +420,53 @@ class GuidanceController:
                 self._event("alarm", f"{MODE_OF_SEVERITY[stage].value}: {why}", severity=int(stage),
                             severity_label=stage.label, beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]),
                             v_r=s.v_r)
-        if level >= Severity.ESD1 and s.esd_since is None:
-            s.esd_since = now
-            self._event("command", "ESD-1: stop transfer pumps, close ERS valves")
+        if level >= Severity.ESD1:
+            self._command_esd1(now, why)
         if level >= Severity.RELEASE and s.release_since is None:
             s.release_since = now
-            self._event("command", "ERS-2: release the coupler")
+            self._event("command", "ERS-2 requested: release the coupler once the ERS valves are confirmed closed")
         new = MODE_OF_SEVERITY[level]
         if s.mode == Mode.ESTOP:
             s.resume = new
         else:
             self._go(now, new, why)
+
+    def _command_esd1(self, now: float, why: str) -> None:
+        if self.state.esd_since is None:
+            self.state.esd_since = now
+            self._event("command", f"ESD-1: stop transfer pumps, close ERS valves ({why})")
+
+    def rule_emergency_release_sequence(self, cyc: "Cycle") -> None:
+        """The ESD-1 -> ERS valves closed -> ERS-2 sequence, in any mode while attached (an E-stop stops the
+        drives, never the release).
+
+        The ESD-1 sequence, ERS valves included, completes within ``esd_time``; their limit switches confirm
+        it then (an event of its own). The coupler opens only after that confirmation, and is free
+        ``ers_time`` after it began to open.
+
+        Parameters
+        ----------
+        cyc : Cycle
+            This cycle's inputs.
+        """
+        s, now = self.state, cyc.now
+        if not self.attached() or s.esd_since is None:
+            return
+        if s.valves_closed_at is None and now - s.esd_since >= self.g.esd_time:
+            s.valves_closed_at = now
+            self._event("interlock", "ERS valves confirmed closed (limit switches): the coupler may open")
+        if s.release_since is None or s.valves_closed_at is None:
+            return
+        if s.release_started_at is None:
+            s.release_started_at = now
+            self._event("command", "ERS-2: coupler opening (ERS valves confirmed closed)")
+        if now - s.release_started_at >= self.g.ers_time:
+            self._event("command", "ERS-2 release complete: coupler free")
+            s.esd_since = s.release_since = s.valves_closed_at = s.release_started_at = None
+            if s.mode == Mode.ESTOP:
+                s.resume = Mode.RETURN           # drives stay stopped until the operator resets
+            else:
+                self._go(now, Mode.RETURN, "released; returning to stored")
 
     def rule_fresh_estimate(self, cyc: "Cycle") -> bool:
         """No motion without a fresh, healthy flange estimate: the cycle that sees it stale enters HOLD.
@@ -562,10 +606,6 @@ class GuidanceController:
         s, now = self.state, cyc.now
         if s.mode == Mode.CONNECTED and "disconnect" in cyc.acts:
             self._go(now, Mode.RETURN, "operator disconnected the coupler")
-        if s.release_since is not None and now - s.release_since >= self.g.ers_time:
-            self._event("command", "ERS-2 release complete: coupler free")
-            self._go(now, Mode.RETURN, "released; returning to stored")
-            s.esd_since = s.release_since = None
         return np.zeros(3)            # actuators free: the ship moves the arm
 
     def _on_return(self, cyc: "Cycle") -> np.ndarray:

@@ -136,7 +136,8 @@ class Guidance(_S):
                                      description="an estimate older than this is not fresh: motion stops")
     esd_time: float = _param(10.0, unit="s", gt=0, le=120,
                              source="ESD-1: stop transfer pumps, close ERS valves (OCIMF: valves in about 5-10 s)",
-                             description="duration of the ESD-1 sequence")
+                             description="duration of the ESD-1 sequence; the ERS valves are confirmed closed at its "
+                                         "end, and only then may the coupler open")
     ers_time: float = _param(3.0, unit="s", gt=0, le=60, source="ERS-2: release of the coupler (a few seconds)",
                              description="duration of the ERS-2 release")
     margin: float = _param(2.0, unit="s", ge=0, le=60, source="engineering margin",

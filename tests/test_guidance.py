@@ -545,3 +545,23 @@ def test_estop_during_a_driftoff_releases_before_the_limit():
         s = sc.model_copy(update={"operator": sc.operator.model_copy(update={"estop_at": t})})
         r = run_scenario(s, model, plant="kinematic").summary()
         assert r["release_complete_s"] is not None and r["overstretched_s"] is None, (t, r)
+
+
+def test_a_refused_start_is_forgotten(model):
+    """Found: a start refused at 1 s (flange out of reach) stayed armed and the approach began by itself when
+    the flange came into reach, logged as 'operator started the approach'; the refusal, whose reason carries
+    changing numbers, was logged every cycle."""
+    c = _ctrl(model)
+    q = _stored_q(c)
+    events = []
+    cmd = c.step(1.0, q, _est((40.0, 0.0, 1.0)), OperatorInput(("start",)))
+    events += cmd.events
+    assert cmd.mode == Mode.STORED and any("approach refused" in e[1] for e in cmd.events)
+    for k in range(1, 200):                                   # the ship comes in; nobody presses anything
+        cmd = c.step(1.0 + 0.02 * k, q, _est((40.0 - 0.2 * k, 0.0, 1.0)))
+        events += cmd.events
+        assert cmd.mode == Mode.STORED
+    assert sum("approach refused" in e[1] for e in events) == 1
+    assert not any("started the approach" in e[1] for e in events)
+    cmd = c.step(10.0, q, _est((14.0, 0.0, 1.0)), OperatorInput(("start",)))
+    assert cmd.mode == Mode.APPROACH                          # a fresh action starts it

@@ -566,7 +566,7 @@ class GuidanceController:
         s, est = self.state, cyc.est
         if "manual" in cyc.acts:
             self._go(cyc.now, Mode.MANUAL, "operator took manual control")
-        elif "start" in cyc.acts or s.resume == Mode.APPROACH and s.refused:
+        elif "start" in cyc.acts:               # only a fresh operator action starts anything
             if not est.healthy:
                 self._refuse(f"no fresh flange estimate ({est.reason})")
             else:
@@ -617,7 +617,6 @@ class GuidanceController:
         return self._move_towards(cyc.now, cyc.q, self.stored, np.zeros(3), cyc.dt)
 
     def _refuse(self, why: str) -> None:
-        if why != self.state.refused:
-            self._event("info", f"approach refused: {why}")
-            self.state.refused = why
-            self.state.resume = Mode.APPROACH
+        """A refused command is logged once and forgotten: nothing starts later without a new action."""
+        self._event("info", f"approach refused: {why}")
+        self.state.refused = why

@@ -565,3 +565,22 @@ def test_a_refused_start_is_forgotten(model):
     assert not any("started the approach" in e[1] for e in events)
     cmd = c.step(10.0, q, _est((14.0, 0.0, 1.0)), OperatorInput(("start",)))
     assert cmd.mode == Mode.APPROACH                          # a fresh action starts it
+
+
+def test_a_blind_drift_filter_and_an_unreachable_release_angle_are_refused(tmp_path):
+    """Found: drift_filter = 600 s was accepted (the speed alarm blind); release_deg = 175 beyond cylinder 2's
+    stroke end (167 deg) was not cross-checked."""
+    from loadarm.compiler import compile_model
+    from loadarm.config import load_config
+    from loadarm.errors import ConfigError
+
+    bad = tmp_path / "slow.toml"
+    bad.write_text("[guidance]\ndrift_filter = 600\n")
+    with pytest.raises(ConfigError, match=r"drift_filter = 600 s is slower than the sequence it protects .* 15 s"):
+        load_scenario(bad)
+    text = (SCEN.parent / "paper.toml").read_text().replace("release_deg = 150.0", "release_deg = 175.0")
+    cfg = tmp_path / "rel.toml"
+    cfg.write_text(text)
+    inst = load_config(cfg)                                   # valid on its own ...
+    with pytest.raises(ConfigError, match=r"release_deg = 175 deg lies beyond .* stroke ends at beta = 166.8 deg"):
+        compile_model(inst)                                   # ... but not for this arm

@@ -19,6 +19,7 @@ from .alarms import AlarmAngles
 from .config import Installation
 from .dynamics import cylinder_areas, lagrange_constants, mass_model
 from .envelope import berth_box
+from .errors import ConfigError
 from .geometry import Arm, Mounting
 from .model import ArmModel, JointLimits, SlewLimits
 
@@ -89,9 +90,15 @@ def compile_model(inst: Installation) -> ArmModel:
                       math.radians(sl.release_deg), math.radians(sl.max_rate_deg))
     area = cylinder_areas(inst.cylinders.bore, inst.cylinders.rod)
     v = min(inst.valve.nominal_flow, inst.pump.max_flow / 2.0) / area[0]
+    joint_limits = _joint_limits(mount, inst.cylinders, slew, (v, v))
+    if al.release > joint_limits.beta[1]:
+        raise ConfigError(
+            f"alarms.release_deg = {al.release_deg:g} deg lies beyond the arm's limit: cylinder 2's stroke ends at "
+            f"beta = {math.degrees(joint_limits.beta[1]):.1f} deg, so the release could never fire; set it below "
+            "that (with room for the release sequence)")
     records = {name: _record(name, getattr(inst, name)) for name in RECORD_SECTIONS}
     base = ArmModel(arm=arm, mount=mount, alarms=AlarmAngles(al.first, al.second, al.release), slew=slew,
-                    berth=berth_box(inst.datasheet), joint_limits=_joint_limits(mount, inst.cylinders, slew, (v, v)),
+                    berth=berth_box(inst.datasheet), joint_limits=joint_limits,
                     cylinder_area=(float(area[0]), float(area[1])), cylinder_speed_limit=(v, v), **records)
     # the mass model at the configured fill, derived once from the model itself (the hydraulic parameter vector
     # is packed by hydraulics.simulate.pack_parameters, so that compiling never imports numba: cold start)

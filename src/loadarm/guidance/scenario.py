@@ -148,6 +148,16 @@ class Guidance(_S):
     jog_speed: float = _param(0.15, unit="m/s", gt=0, le=1, source="same as the approach speed limit",
                               description="coupler speed at full joystick deflection")
 
+    @model_validator(mode="after")
+    def _filter_follows_the_sequence(self) -> "Guidance":
+        lead = self.esd_time + self.ers_time + self.margin
+        if self.drift_filter > lead:
+            raise ValueError(
+                f"guidance.drift_filter = {self.drift_filter:g} s is slower than the sequence it protects "
+                f"(esd_time + ers_time + margin = {lead:g} s): a drift would reach the limit before the speed alarm "
+                f"saw it; use at most {lead:g} s")
+        return self
+
 
 class ScenarioHead(_S):
     """Name, length and seed of the run."""

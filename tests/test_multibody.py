@@ -13,7 +13,7 @@ ANGLE_TOL_DEG = 0.01
 LENGTH_TOL_MM = 0.1
 
 
-def _variant(inst, arm=None, mount=None, stored=None, flange=None, masses=None):
+def _variant(inst, arm=None, mount=None, stored=None, flange=None, masses=None, cylinders=None):
     d = inst.model_dump()
     if arm:
         d["arm"].update(dict(zip(("riser", "inboard", "outboard"), arm)))
@@ -25,13 +25,17 @@ def _variant(inst, arm=None, mount=None, stored=None, flange=None, masses=None):
         d["approach"]["flange"] = flange
     if masses:
         d["masses"].update(masses)
+    if cylinders:
+        d["cylinders"].update(cylinders)
     return compile_model(parse_config(d))
 
 
 CASES = {
     "paper": {},
     "short arm": dict(arm=(5.0, 9.0, 6.5), mount=(0.8, 1.2, 1.0, 0.6), stored=(3.0, 8.0), flange=(10.0, -1.0)),
-    "long arm": dict(arm=(9.0, 16.0, 12.0), mount=(1.5, 1.5, 2.0, 0.8), stored=(4.5, 13.0), flange=(20.0, 0.0)),
+    # its own cylinder 2 stroke: with the default one the release angle would lie past the stroke end (refused)
+    "long arm": dict(arm=(9.0, 16.0, 12.0), mount=(1.5, 1.5, 2.0, 0.8), stored=(4.5, 13.0), flange=(20.0, 0.0),
+                     cylinders={"length_range_2": (1.3, 2.8)}),
     "above riser top": dict(stored=(3.82, 10.4), flange=(16.0, 12.0)),
     "no pantograph": dict(masses={"counterweight_outboard_kg": 0.0}),
 }

@@ -8,10 +8,13 @@ Estimator: a constant-velocity Kalman filter per axis (position and velocity,
 white-acceleration process noise). Readings are applied at the instant they
 describe (latency compensated by prediction). An innovation whose
 Mahalanobis distance exceeds the 99.9 % chi-square bound for 3 degrees of
-freedom is rejected as an outlier; after three rejections in a row the filter
-re-initialises on the reading (it had lost track). It reports its own health:
-the estimate is *fresh* only if a reading was accepted within
-``max_estimate_age`` and the position uncertainty is small.
+freedom is rejected as an outlier. The filter restarts only on agreeing
+readings: three rejected readings in a row that form a consistent cluster (a
+lone outlier, or a burst of scattered ones, never becomes the track), and a
+restarted estimate is unhealthy until five more readings were accepted. It
+reports its own health: the estimate is *fresh* only if a reading was accepted
+within ``max_estimate_age``, the position uncertainty is small and it is not
+converging after a restart.
 """
 
 from __future__ import annotations
@@ -127,8 +130,17 @@ class FlangeEstimator:
         Position uncertainty above which the estimate is not trusted, m.
     """
 
+    #: Readings in a row that must agree before the filter restarts on them, and accepted readings a restarted
+    #: estimate needs before it is healthy again.
+    REINIT_CLUSTER = 3
+    CONVERGE_READINGS = 5
+    #: Fastest plausible flange motion between two readings, m/s (a moored ship: well below 1 m/s).
+    MAX_FLANGE_SPEED = 1.0
+
     def __init__(self, *, noise: float, accel_psd: float = 0.1, max_age: float = 0.5, max_sigma: float = 0.25):
         self.r = max(noise, 1e-3) ** 2
+        self.pending: list = []          # the rejected readings in a row, (t, z)
+        self.converging = 0              # accepted readings still needed after a restart
         self.q = accel_psd
         self.max_age = max_age
         self.max_sigma = max_sigma
@@ -139,6 +151,7 @@ class FlangeEstimator:
         self.rejected_in_row = 0
         self.accepted = 0
         self.rejected = 0
+        self.restarts = 0
 
     def _init(self, t: float, z) -> None:
         self.t = t
@@ -192,8 +205,14 @@ class FlangeEstimator:
         if d2 > CHI2_3DOF_999:
             self.rejected += 1
             self.rejected_in_row += 1
-            if self.rejected_in_row >= 3:     # lost track: start again from the readings
+            self.pending = (self.pending + [(t_meas, tuple(z))])[-self.REINIT_CLUSTER:]
+            if len(self.pending) == self.REINIT_CLUSTER and self._agree(self.pending):
+                # lost track and the last readings agree with each other: restart on the newest, and do not
+                # trust it until it has converged (a single outlier can never become the track)
                 self._init(t_meas, z)
+                self.pending = []
+                self.converging = self.CONVERGE_READINGS
+                self.restarts += 1
                 return True
             return False
         for i in range(3):
@@ -207,7 +226,20 @@ class FlangeEstimator:
         self.x, self.P, self.t = x, P, t_meas
         self.last_accept = t_meas
         self.rejected_in_row = 0
+        self.pending = []
+        self.converging = max(self.converging - 1, 0)
         self.accepted += 1
+        return True
+
+    def _agree(self, readings) -> bool:
+        """Whether rejected readings form a consistent cluster: every pair closer than six noise sigmas plus
+        the distance the flange can travel between them."""
+        for i in range(len(readings)):
+            for j in range(i):
+                (ti, zi), (tj, zj) = readings[i], readings[j]
+                allowed = 6.0 * math.sqrt(2.0 * self.r) + self.MAX_FLANGE_SPEED * abs(ti - tj)
+                if math.dist(zi, zj) > allowed:
+                    return False
         return True
 
     def estimate(self, now: float) -> Estimate:
@@ -232,4 +264,7 @@ class FlangeEstimator:
             reason = f"no accepted reading for {age:.2f} s (limit {self.max_age:g} s)"
         elif sigma > self.max_sigma:
             reason = f"position uncertainty {sigma:.3f} m above {self.max_sigma:g} m"
+        elif self.converging:
+            reason = (f"restarted on new readings, converging ({self.CONVERGE_READINGS - self.converging} of "
+                      f"{self.CONVERGE_READINGS} readings)")
         return Estimate(now, (x[0], x[2], x[4]), (x[1], x[3], x[5]), sigma, age, reason == "", reason)

@@ -14,6 +14,8 @@ write (UTC, ISO 8601), for audits.
 from __future__ import annotations
 
 import json
+import math
+import re
 import sqlite3
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -22,7 +24,7 @@ from typing import Any, Iterable
 
 from .errors import LoadarmError
 
-__all__ = ["Event", "EventLog", "EventLogError", "KINDS"]
+__all__ = ["Event", "EventLog", "EventLogError", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS"]
 
 #: Event kinds.
 KINDS = ("mode", "alarm", "command", "interlock", "operator", "sensor", "sample", "info")
@@ -215,3 +217,58 @@ class EventLog:
         except sqlite3.DatabaseError as exc:  # pragma: no cover
             raise EventLogError(f"{p}: not an event log ({exc})") from None
         return log
+
+
+#: Kinds whose repeats are rate-limited; safety events (mode, alarm, command, interlock, operator) never are.
+RATE_LIMITED_KINDS = ("info", "sensor")
+
+_NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
+
+
+class RateLimiter:
+    """Let the first of a run of alike events through, then one line with the count per window.
+
+    Two events are alike when their kind and their reason with every number blanked out are the same (a
+    refusal that names a changing distance is one event repeated). Only :data:`RATE_LIMITED_KINDS` are
+    limited, so a fault cannot flood the log with fsync'd lines while no alarm or command is ever dropped.
+
+    Parameters
+    ----------
+    window : float
+        Seconds after an alike event was let through during which its repeats are only counted.
+    """
+
+    def __init__(self, window: float = 10.0):
+        if not (window > 0 and math.isfinite(window)):
+            raise ValueError(f"window must be a positive number of seconds, got {window!r}")
+        self.window = window
+        self._open: dict = {}            # key -> [time let through, suppressed count]
+
+    def admit(self, t: float, kind: str, reason: str) -> tuple[bool, int]:
+        """Whether to write this event, and how many alike events were suppressed before it.
+
+        Parameters
+        ----------
+        t : float
+            Event time, s.
+        kind, reason : str
+            The event.
+
+        Returns
+        -------
+        write : bool
+            Write it.
+        suppressed : int
+            Alike events counted since the last one written (to say so in this one).
+        """
+        if kind not in RATE_LIMITED_KINDS:
+            return True, 0
+        key = (kind, _NUMBER.sub("#", reason))
+        slot = self._open.get(key)
+        if slot is None or t - slot[0] >= self.window:
+            suppressed = 0 if slot is None else slot[1]
+            self._open[key] = [t, 0]
+            return True, suppressed
+        slot[1] += 1
+        return False, 0
+

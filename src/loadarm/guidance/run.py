@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..eventlog import EventLog
+from ..eventlog import EventLog, RateLimiter
 from ..slew import forward3d, inverse3d, reach_mask3d
 from ..alarms import Severity
 from ..results import Metric, Result
@@ -344,7 +344,14 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     q0 = inverse3d(model.arm, *ctrl.stored)
     events: list = []
 
+    limiter = RateLimiter()
+
     def emit(t, mode, kind, reason, data):
+        write, suppressed = limiter.admit(t, kind, reason)
+        if not write:
+            return
+        if suppressed:
+            reason = f"{reason} (and {suppressed} alike in the last {limiter.window:g} s)"
         events.append((t, mode, kind, reason, data))
         if log is not None:
             log.append(t, mode, kind, reason, **data)

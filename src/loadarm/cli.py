@@ -506,9 +506,9 @@ def run(
         if log is not None:
             log.close()
     if png is not None:
-        from .plotting import run_timeline_figure, save
+        from .plotting import save
 
-        save(run_timeline_figure(res, model), png)
+        save(res.plot(), png)
     s = res.summary()
     if as_json:
         _json(s)

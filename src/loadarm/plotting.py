@@ -614,15 +614,13 @@ def plan3d_figure(plan) -> Figure:
     return fig
 
 
-def run_timeline_figure(result, model: "ArmModel | None" = None) -> Figure:
+def run_timeline_figure(result) -> Figure:
     """:func:`timeline_figure` of a guidance run, with its alarms and beta thresholds.
 
     Parameters
     ----------
     result : loadarm.guidance.run.RunResult
         The run (it carries its own thresholds).
-    model : ArmModel, optional
-        Overrides the thresholds with this model's alarm angles.
 
     Returns
     -------
@@ -633,7 +631,5 @@ def run_timeline_figure(result, model: "ArmModel | None" = None) -> Figure:
     s = result.signals
     alarms = [(t, reason.split(":")[0]) for t, _, kind, reason, _ in result.events if kind == "alarm"]
     thr = result.beta_thresholds_deg
-    if model is not None:
-        thr = tuple(math.degrees(a) for a in (model.alarms.first, model.alarms.second, model.alarms.release))
     return timeline_figure(s["t"], s["mode"], s["beta"], s["phi"], s["distance"], MODES, alarms=alarms,
                            title=f"Guidance timeline: {result.name}", beta_thresholds_deg=thr or None)

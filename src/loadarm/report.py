@@ -28,7 +28,7 @@ from .alarms import Severity
 from .compiler import compile_model
 from .envelope import berth_box, zone_radii
 from .balancing import balance_counterweights
-from .guidance.run import RUN_METRICS
+from .guidance.run import RUN_METRICS, run_scenario
 from .loads import CYLINDER_LOAD_METRICS
 from .hydraulics.simulate import SIMULATION_METRICS, simulate_approach
 from .loads import actuator_loads
@@ -204,7 +204,7 @@ class ReportData:
 
     @cached_property
     def plans(self) -> dict[str, Plan]:
-        """One 401-sample plan per timing law."""
+        """One plan per timing law (``PLAN_SAMPLES`` samples), shared by every section."""
         out = {}
         for law in TIMING_LAWS:
             self._progress(f"planning the approach, {law} timing")
@@ -244,7 +244,6 @@ class ReportData:
     @cached_property
     def scenarios(self) -> dict:
         """``name -> RunResult`` of each listed scenario, run on this installation."""
-        from .guidance.run import run_scenario
         from .guidance.scenario import parse_scenario
 
         out = {}
@@ -256,10 +255,7 @@ class ReportData:
 
 
 def _timeline(name: str):
-    def build(d: ReportData):
-        from .plotting import run_timeline_figure
-        return run_timeline_figure(d.scenarios[name], d.model)
-    return build
+    return lambda d: d.scenarios[name].plot()      # the run carries its own thresholds
 
 
 #: Every fixed figure of the report: ``file name -> (builder, caption)``. Scenario timelines are added per
@@ -425,10 +421,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         if not default.startswith("required"):
             info = type(getattr(inst, section)).model_fields[key]
             default = _display(info.get_default(call_default_factory=True), row["unit"])[0]
-        rng = row["range"].replace(f" {row['unit']}", "") if row["unit"] in _DISPLAY_UNITS else row["range"]
-        if row["unit"] in _DISPLAY_UNITS:
-            rng = f"{rng} {row['unit']}"
-        params.append({**row, "value": value, "unit": unit, "default": default, "range": rng})
+        params.append({**row, "value": value, "unit": unit, "default": default})
     vs = summary["verification"]
     bs = summary["balance"]
     ms = inst.masses

@@ -162,7 +162,7 @@ class GuidanceState:
     last_r, last_phi, last_t : float or None
         Previous sample of the drift filter.
     refused : str
-        Reason of the last refusal (so it is logged once).
+        ``"jog"`` while a jog out of the envelope is being refused (so the refusal is logged once).
     esd_since, release_since : float or None
         Time ESD-1 was commanded / the release (ERS-2) was requested.
     valves_closed_at : float or None
@@ -563,7 +563,7 @@ class GuidanceController:
         return self._rates_for_velocity(q, v)
 
     def _on_stored(self, cyc: "Cycle") -> np.ndarray:
-        s, est = self.state, cyc.est
+        est = cyc.est
         if "manual" in cyc.acts:
             self._go(cyc.now, Mode.MANUAL, "operator took manual control")
         elif "start" in cyc.acts:               # only a fresh operator action starts anything
@@ -574,7 +574,6 @@ class GuidanceController:
                 if why_not:
                     self._refuse(why_not)
                 else:
-                    s.refused = ""
                     self._go(cyc.now, Mode.APPROACH, "operator started the approach")
         return np.zeros(3)
 
@@ -619,4 +618,3 @@ class GuidanceController:
     def _refuse(self, why: str) -> None:
         """A refused command is logged once and forgotten: nothing starts later without a new action."""
         self._event("info", f"approach refused: {why}")
-        self.state.refused = why

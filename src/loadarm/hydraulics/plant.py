@@ -369,11 +369,8 @@ def _run(P, y, c, ref, vref, fref, n_steps, substeps, log_every, energy, log, ta
     F1 = 0.0
     qpump = 0.0
     qrel = 0.0
-    e = np.zeros(9)
-    for j in range(9):
-        e[j] = energy[j]
-    e_pump, e_rel, e_valve, e_tank, e_leak, e_comp, e_fric, e_stop, e_work = e[0], e[1], e[2], e[3], e[4], e[5], \
-        e[6], e[7], e[8]
+    e_pump, e_rel, e_valve, e_tank, e_leak = energy[0], energy[1], energy[2], energy[3], energy[4]
+    e_comp, e_fric, e_stop, e_work = energy[5], energy[6], energy[7], energy[8]
     cav_time = c[C_CAV]
     sat0, sat1, sign0, sign1, rev0, rev1 = c[C_SAT1], c[C_SAT2], c[C_SIGN1], c[C_SIGN2], c[C_REV1], c[C_REV2]
     integ0, integ1, dfilt0, dfilt1, prev0, prev1 = c[C_INTEG1], c[C_INTEG2], c[C_DFILT1], c[C_DFILT2], c[C_PREV1], \

@@ -292,7 +292,7 @@ def test_every_command_has_an_example_and_lists_its_choices(capsys, monkeypatch,
     assert code == 0 and f"Example: loadarm {cmd}" in text
     choices = {"plan": "paper|smooth|optimal", "verify": "paper|smooth|optimal", "loads": "paper|smooth|optimal",
                "simulate": "paper|smooth|optimal|all", "run": "hydraulic|kinematic",
-               "log": "mode|alarm|command|interlock|operator|sensor|sample|info"}
+               "log": "mode|alarm|alarm_state|command|interlock|operator|sensor|sample|info"}
     if cmd in choices:
         assert choices[cmd] in text.replace(" ", "")
 

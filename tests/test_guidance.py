@@ -64,9 +64,12 @@ def test_driftoff_alarms_in_order_and_releases_before_the_limit(model, runs):
     ctrl = GuidanceController(model, sc.guidance)
     k = int(np.searchsorted(r.signals["t"], s["release_complete_s"]))
     assert r.signals["beta"][k] < ctrl.lim.beta[1]
-    # the ESD-1 sequence had its full time before the release started (measured: 11.3 s for esd_time 10 s);
-    # found weak: an 'or ... > 0' branch made this claim unchecked
-    assert s["release_s"] - s["alarm1_s"] >= sc.guidance.esd_time
+    # the coupler opened only after the ERS valves were confirmed closed, ers_valve_time after ESD-1, and was
+    # free before the flange reached the face (found weak: an 'or ... > 0' branch made a claim like this unchecked)
+    seq = inst.sequence
+    assert s["valves_confirmed_s"] == pytest.approx(s["alarm1_s"] + seq.ers_valve_time, abs=0.021)
+    assert s["coupler_opening_s"] >= s["valves_confirmed_s"]
+    assert s["release_margin_s"] > 0 and s["limit_face"] == "beta_max"
 
 
 def test_dropout_stops_the_arm_within_one_cycle(runs):
@@ -186,36 +189,118 @@ def test_commands_never_cross_a_joint_or_stroke_limit(u0, u1, u2, w0, w1, w2):
         assert abs(qd[i]) <= c.lim.rate[i] * (1 + 1e-12)
 
 
+def _fed_monitor(model, p0, v, a, window=60.0, t_end=None):
+    """An EnvelopeMonitor fed a noiseless drift p0 + v t + a t^2 / 2 for one full window."""
+    from loadarm.guidance.monitor import EnvelopeMonitor
+
+    mon = EnvelopeMonitor(model, window)
+    t_end = window if t_end is None else t_end
+    p0, v, a = (np.asarray(x, dtype=float) for x in (p0, v, a))
+    for k in range(int(round(t_end / 0.1)) + 1):
+        t = k * 0.1
+        mon.observe(t, p0 + v * t + 0.5 * a * t * t)
+    return mon, p0 + v * t_end + 0.5 * a * t_end ** 2
+
+
+def _crossing_time(model, p, v, a, horizon):
+    """Independent route: bisection on the faces along the quadratic path."""
+    from loadarm.faces import face_margins, first_face
+
+    def out(t):
+        q = p + v * t + 0.5 * a * t * t
+        return bool(first_face(face_margins(model, q[0], q[1], q[2]))[0])
+
+    if not out(horizon):
+        return math.inf
+    lo, hi = 0.0, horizon
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if out(mid) else (mid, hi)
+    return hi
+
+
+@settings(max_examples=examples(25), deadline=None)
+@given(st.floats(0.16, 0.6), st.floats(0.0, 0.02), st.floats(-40, 40))
+def test_the_measured_drift_forecast_matches_the_crossing_time(model, speed, accel, direction_deg):
+    """A noiseless drift faster than the design drift (so the measured route, not the floor, decides): the
+    least-squares fit is exact for constant acceleration, so the forecast is the true crossing time, early by
+    at most one prediction step (0.5 s) and never late."""
+    ang = math.radians(direction_deg)
+    d = np.array([math.cos(ang), math.sin(ang), 0.0])
+    p0 = np.array([11.0, 0.0, 1.0])
+    mon, p = _fed_monitor(model, p0, speed * d, accel * d)
+    v_now = speed * d + accel * d * 60.0
+    f = mon.time_to_limit(p, 40.0)
+    truth = _crossing_time(model, p, v_now, accel * d, 40.0)
+    est = mon.fit.estimate()
+    assert np.allclose(est.v, v_now, atol=1e-9) and np.allclose(est.a, accel * d, atol=1e-9)
+    if math.isinf(truth):
+        assert f.time >= _crossing_time(model, p, np.zeros(3), np.zeros(3), 1.0) or f.route == "design drift"
+    else:
+        assert f.time <= truth + 1e-9
+        assert f.route == "design drift" or truth - f.time <= mon.step + 1e-9
+
+
+@settings(max_examples=examples(25), deadline=None)
 @given(st.floats(0.02, 0.5), st.floats(0.02, 0.5))
-def test_faster_drift_alarms_earlier(v_slow, v_fast):
-    from loadarm.config import paper_installation
-    inst = paper_installation()
-    model = compile_model(inst)
-    thr = AlarmThresholds.from_settings(model, Scenario().guidance)
+def test_faster_drift_alarms_earlier(model, v_slow, v_fast):
+    """The faster of two drifts from the same point is forecast to reach the face no later."""
     v_slow, v_fast = sorted((v_slow, v_fast))
-    arm_b, arm_c = inst.arm.inboard, inst.arm.outboard
-
-    def first_alarm_beta(v):
-        for beta in np.linspace(1.2, math.pi - 0.01, 2000):
-            r = math.sqrt(arm_b ** 2 + arm_c ** 2 - 2 * arm_b * arm_c * math.cos(beta))
-            if thr.level(beta, 0.0, r, v, 0.0)[0] >= 1:
-                return beta
-        return math.pi
-
-    assert first_alarm_beta(v_fast) <= first_alarm_beta(v_slow) + 1e-12
-    assert first_alarm_beta(v_slow) <= inst.alarms.first + 1e-3       # position alarm still applies
+    d = np.array([1.0, 0.0, 0.0])
+    p0 = np.array([10.0, 0.0, 1.0])
+    slow, ps = _fed_monitor(model, p0, v_slow * d, np.zeros(3))
+    fast, pf = _fed_monitor(model, p0, v_fast * d, np.zeros(3))
+    assert fast.time_to_limit(pf, 60.0).time <= slow.time_to_limit(ps, 60.0).time + 1e-9
 
 
-def test_alarm_levels_follow_the_sequence_times(model, inst):
-    g = Scenario().guidance
-    thr = AlarmThresholds.from_settings(model, g)
-    v = 0.2
-    r_at = lambda ttl: thr.r_release - v * ttl
-    assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin + 1), v, 0.0)[0] == Severity.NORMAL
-    assert thr.level(1.0, 0.0, r_at(g.esd_time + g.ers_time + g.margin - 0.1), v, 0.0)[0] == Severity.ESD1
-    assert thr.level(1.0, 0.0, r_at(g.ers_time + g.margin - 0.1), v, 0.0)[0] == Severity.SECOND
-    assert thr.level(inst.alarms.release, 0.0, 15.0, 0.0, 0.0)[0] == Severity.RELEASE
-    assert thr.level(0.0, math.radians(inst.slew.release_deg), 15.0, 0.0, 0.0)[0] == Severity.RELEASE
+def test_the_design_floor_needs_no_history(model):
+    """Right after the connection (no fitted drift yet) the design break-out from where the flange is sets the
+    time to the limit: checked against the break-out distance along the worst horizontal direction."""
+    from loadarm.faces import breakout_distance
+    from loadarm.guidance.monitor import EnvelopeMonitor
+
+    mon = EnvelopeMonitor(model, 60.0)
+    p = np.array([13.0, 0.0, 1.0])
+    f = mon.time_to_limit(p, 60.0)
+    assert f.route == "design drift" and f.face == "beta_max"
+    dd = model.design_drift
+    tt = np.arange(0, 60.5, 0.5)
+    straight = _crossing_time(model, p, np.zeros(3), np.zeros(3), 0.0)   # inside now
+    assert straight == math.inf
+    # along +x the break-out reaches the face at the first t with p + D(t) e_x outside
+    from loadarm.faces import face_margins, first_face
+    outside = [bool(first_face(face_margins(model, 13.0 + breakout_distance(t, dd.speed, dd.acceleration), 0.0,
+                                            1.0))[0]) for t in tt]
+    t_x = tt[outside.index(True) - 1]
+    assert f.time <= t_x                                   # the worst of eight directions is no later than +x
+
+
+def test_stage_leads_follow_the_sequence_times(model):
+    from loadarm.guidance.monitor import stage_leads
+
+    q = model.sequence
+    full = stage_leads(q)
+    assert full[Severity.RELEASE] == q.ers_valve_time + q.erc_release_time + q.margin
+    assert full[Severity.SECOND] == full[Severity.RELEASE] + q.margin
+    assert full[Severity.ESD1] == max(q.esd_time, q.ers_valve_time) + q.erc_release_time + q.margin
+    assert Severity.PRE_ALARM not in full                 # no pre-alarm unless configured
+    half = stage_leads(q, valves_left=4.0)
+    assert half[Severity.RELEASE] == 4.0 + q.erc_release_time + q.margin
+    closed = stage_leads(q, valves_left=0.0, release_left=1.0)
+    assert closed[Severity.RELEASE] == 1.0 + q.margin
+    import dataclasses
+    pre = stage_leads(dataclasses.replace(q, pre_alarm_lead=20.0))
+    assert pre[Severity.PRE_ALARM] == full[Severity.ESD1] + 20.0
+
+
+def test_position_alarms_follow_the_customer_angles(model, inst):
+    thr = AlarmThresholds.from_model(model)
+    assert thr.level(1.0, 0.0)[0] == Severity.NORMAL
+    assert thr.level(inst.alarms.first + 0.01, 0.0)[0] == Severity.ESD1
+    assert thr.level(inst.alarms.second + 0.01, 0.0)[0] == Severity.SECOND
+    assert thr.level(inst.alarms.release, 0.0)[0] == Severity.RELEASE
+    assert thr.level(0.0, -math.radians(inst.slew.release_deg))[0] == Severity.RELEASE
+    assert thr.level(0.0, math.radians(inst.slew.first_deg) + 0.01)[0] == Severity.ESD1
 
 
 def test_manual_jog_moves_the_coupler_as_commanded(model, inst):
@@ -442,7 +527,7 @@ def test_rule_target_in_envelope_refuses_and_returns(model):
 def test_rule_no_motion_when_held_or_attached(model, mode):
     c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=mode))
     out = c.rule_no_motion_when_held_or_attached((0.01, 0.02, 0.03))
-    held = mode in (Mode.ESTOP, Mode.HOLD, Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)
+    held = mode in (Mode.ESTOP, Mode.HOLD, Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE, Mode.DISCONNECT)
     assert np.all(out == 0.0) if held else np.array_equal(out, [0.01, 0.02, 0.03])
 
 
@@ -450,7 +535,8 @@ def test_step_is_a_dispatcher_over_named_rules_and_one_handler_per_mode(model):
     import inspect
 
     c = _ctrl(model)
-    assert c.SAFETY_RULES == ("rule_emergency_stop", "rule_alarm_escalation", "rule_emergency_release_sequence")
+    assert c.SAFETY_RULES == ("rule_emergency_stop", "rule_manual_emergency", "rule_alarm_escalation",
+                              "rule_emergency_release_sequence", "rule_annunciate")
     assert set(c.HANDLERS) == set(Mode) and all(callable(getattr(c, h)) for h in c.HANDLERS.values())
     src = inspect.getsource(GuidanceController.step)
     assert src.count("if ") == 0 and "for rule in self.SAFETY_RULES" in src
@@ -484,30 +570,47 @@ def test_arm_plant_follows_the_flange_and_reports_overstretch(model):
     c = _ctrl(model)
     q0 = np.array(_stored_q(c))
     ap = ArmPlant(model, q0, "kinematic", lambda *a: seen.append(a))
-    attached = Command(Mode.CONNECTED, (0.0, 0.0, 0.0), True, False, False, ())
+    attached = Command(Mode.CONNECTED, (0.0, 0.0, 0.0), True, False, False)
     q = ap.step(1.0, 0.02, attached, np.array([12.0, 0.0, 2.0]))
     assert np.allclose(forward3d(c.arm, *q), (12.0, 0.0, 2.0))
     ap.step(2.0, 0.02, attached, np.array([40.0, 0.0, 0.0]))       # beyond reach: the arm stays, alarm once
     ap.step(2.02, 0.02, attached, np.array([41.0, 0.0, 0.0]))
     assert ap.overstretched == 2.0 and len(seen) == 1 and "OVERSTRETCHED" in seen[0][3]
-    free = Command(Mode.RETURN, (0.01, 0.0, 0.0), False, False, False, ())
+    free = Command(Mode.RETURN, (0.01, 0.0, 0.0), False, False, False)
     q1 = ap.step(3.0, 0.5, free, np.zeros(3))
     assert q1[0] == pytest.approx(q[0] + 0.005)
 
 
 # ---- the emergency release sequence (issue "connected-mode safety chain", first part) -------------------
 
-def _release_run(model, esd_time, estop_at=None, until=60.0):
-    """Attached arm held beyond the release angle from t = 0; returns the events (t, kind, reason)."""
-    g = Scenario().guidance.model_copy(update={"esd_time": esd_time})
-    c = GuidanceController(model, g, GuidanceState(mode=Mode.CONNECTED))
-    q = (0.0, 1.0, c.thr.beta_release + 0.01)
+def _with_sequence(model, **times):
+    import dataclasses
+
+    return dataclasses.replace(model, sequence=dataclasses.replace(model.sequence, **times))
+
+
+def _release_run(model, ers_valve_time=10.0, estop_at=None, until=60.0, actions=None, stuck=False, q=None):
+    """Attached arm held beyond the release angle from t = 0 (or at ``q``), with the ERS valves of the plant;
+    returns the controller and the events (t, kind, reason)."""
+    from loadarm.guidance.controller import PlantFeedback
+    from loadarm.guidance.run import ErsValves
+
+    m = _with_sequence(model, ers_valve_time=ers_valve_time)
+    c = GuidanceController(m, Scenario().guidance, GuidanceState(mode=Mode.CONNECTED))
+    q = (0.0, 1.0, c.thr.beta_release + 0.01) if q is None else q      # or a function of time
+    valves = ErsValves(ers_valve_time, stuck=stuck)
+    fb = PlantFeedback()
+    actions = dict(actions or {})
+    if estop_at is not None:
+        actions[estop_at] = ("estop",)
     out = []
     for k in range(int(until / 0.02)):
-        now = k * 0.02
-        acts = ("estop",) if estop_at is not None and abs(now - estop_at) < 1e-9 else ()
-        cmd = c.step(now, q, _est((14.0, 0.0, 1.0)), OperatorInput(acts))
+        now = round(k * 0.02, 9)
+        qq = q(now) if callable(q) else q
+        cmd = c.step(now, qq, _est((14.0, 0.0, 1.0)), OperatorInput(actions.get(now, ())), fb)
         out += [(now, kind, reason) for kind, reason, _ in cmd.events]
+        fb = PlantFeedback(ers_valves_closed=valves.step(now, cmd.close_ers_valves))
+        assert not cmd.coupler_open or c.state.valves_closed_at is not None or not c.attached()
     return c, out
 
 
@@ -515,27 +618,85 @@ def _first(events, text):
     return next(t for t, _, r in events if text in r)
 
 
-@pytest.mark.parametrize("esd_time", [10.0, 30.0])
-def test_the_coupler_never_opens_before_the_ers_valves_are_confirmed_closed(model, esd_time):
-    """Found: the release was a 3 s timer started at the release angle; with esd_time = 30 s the coupler opened
-    before ESD-1 had closed the valves, on live product."""
-    c, ev = _release_run(model, esd_time)
-    g = c.g
+@pytest.mark.parametrize("ers_valve_time", [5.0, 10.0, 30.0])
+def test_the_coupler_never_opens_before_the_ers_valves_are_confirmed_closed(model, ers_valve_time):
+    """Found: the release was a 3 s timer started at the release angle; with a 30 s ESD-1 the coupler opened
+    before the valves had closed, on live product. Now the plant's limit switches decide."""
+    c, ev = _release_run(model, ers_valve_time)
+    q = c.seq
     t_esd, t_closed = _first(ev, "ESD-1"), _first(ev, "confirmed closed (limit switches)")
     t_open, t_free = _first(ev, "coupler opening"), _first(ev, "release complete")
-    assert t_esd == 0.0 and t_closed == pytest.approx(esd_time, abs=0.021)
-    assert t_open >= t_closed and t_free == pytest.approx(t_open + g.ers_time, abs=0.021)
+    assert t_esd == 0.0 and t_closed == pytest.approx(ers_valve_time, abs=0.021)
+    assert t_open >= t_closed and t_free == pytest.approx(t_open + q.erc_release_time, abs=0.021)
     assert [k for t, k, r in ev if "limit switches" in r] == ["interlock"]
+
+
+def test_a_valve_that_never_confirms_is_a_fault_and_the_coupler_stays_closed(model):
+    c, ev = _release_run(model, 10.0, stuck=True, until=40.0)
+    t_fault = _first(ev, "ERS VALVE FAULT")
+    assert t_fault == pytest.approx(10.0 + c.seq.ers_valve_timeout, abs=0.041)
+    assert [k for t, k, r in ev if "ERS VALVE FAULT" in r] == ["alarm"]           # once
+    assert not any("coupler opening" in r for _, _, r in ev) and c.attached()
+    assert c.state.alarms["ERS_VALVE_FAULT"].value == "unacknowledged"
 
 
 def test_an_emergency_stop_never_blocks_the_release(model):
     """Found: an E-stop pressed during a drift-off stopped the emergency release; the arm overstretched attached."""
     c, ev = _release_run(model, 10.0, estop_at=2.0)
     assert _first(ev, "emergency stop") == pytest.approx(2.0)
-    assert _first(ev, "release complete") == pytest.approx(10.0 + c.g.ers_time, abs=0.021)
+    assert _first(ev, "release complete") == pytest.approx(10.0 + c.seq.erc_release_time, abs=0.021)
     assert c.state.mode == Mode.ESTOP and c.state.resume == Mode.RETURN and not c.attached()
     cmd = c.step(100.0, (0.0, 1.0, 1.0), _est((14.0, 0.0, 1.0)), OperatorInput(("reset",)))
     assert cmd.mode == Mode.RETURN
+
+
+def test_manual_ers_needs_its_confirmation_and_manual_esd_works_from_estop(model):
+    q_ok = tuple(float(v) for v in inverse3d(model.arm, 13.0, 0.0, 1.0))
+    # armed and never confirmed: nothing is released
+    c, ev = _release_run(model, q=q_ok, actions={1.0: ("ers",)}, until=30.0)
+    assert any("manual ERS armed" in r for _, _, r in ev) and not any("ERS-2" in r for _, _, r in ev)
+    # confirmed too late: refused
+    c, ev = _release_run(model, q=q_ok, actions={1.0: ("ers",), 12.0: ("ers_confirm",)}, until=30.0)
+    assert any("ERS confirmation refused" in r for _, _, r in ev) and not any("ERS-2" in r for _, _, r in ev)
+    # confirmed in time: ESD-1 at once, the coupler opens after the valves, the arm leaves
+    c, ev = _release_run(model, q=q_ok, actions={1.0: ("ers",), 3.0: ("ers_confirm",)}, until=30.0)
+    assert _first(ev, "ESD-1") == 3.0 and _first(ev, "coupler opening") >= 3.0 + 10.0 - 0.021
+    assert _first(ev, "release complete") < 30.0
+    # E-stop first, then a manual ESD-1: the ESD-1 still runs
+    c, ev = _release_run(model, q=q_ok, actions={1.0: ("estop",), 2.0: ("esd",)}, until=15.0)
+    assert _first(ev, "ESD-1") == 1.0 and _first(ev, "confirmed closed") == pytest.approx(11.0, abs=0.021)
+
+
+def test_esd_reset_needs_the_condition_cleared_and_the_alarms_acknowledged(model):
+    """ISA-18.2: beyond the first alarm for 5 s, then back; the reset is refused while the condition is present
+    and until the alarm is acknowledged, then takes the arm from ALARM1 back to CONNECTED."""
+    q_ok = tuple(float(v) for v in inverse3d(model.arm, 13.0, 0.0, 1.0))
+    q_far = (q_ok[0], q_ok[1], model.alarms.first + 0.02)
+    c, ev = _release_run(model, q=lambda t: q_far if t < 5.0 else q_ok,
+                         actions={2.0: ("reset",), 8.0: ("reset",), 12.0: ("ack",), 13.0: ("reset",)}, until=20.0)
+    refused = [(t, r) for t, _, r in ev if "reset refused" in r]
+    assert [t for t, _ in refused] == [2.0, 8.0]
+    assert "still present" in refused[0][1] and "ESD1 returned to normal, unacknowledged" not in refused[0][1]
+    assert "ESD1 unacknowledged" in refused[1][1]                  # cleared, within the off-delay, not acked
+    assert _first(ev, "ESD-1 reset") == 13.0 and c.state.mode == Mode.CONNECTED
+    assert c.state.esd_since is None and c.alarms_clear()
+    states = [(t, r) for t, k, r in ev if k == "alarm_state" and r.startswith("ESD1")]
+    assert states == [(0.0, "ESD1: unacknowledged"), (pytest.approx(10.0, abs=0.021),
+                                                      "ESD1: returned to normal, unacknowledged"),
+                      (12.0, "ESD1: normal")]
+
+
+def test_controlled_disconnection_closes_drains_unclamps_and_lifts_off(model):
+    q_ok = tuple(float(v) for v in inverse3d(model.arm, 13.0, 0.0, 1.0))
+    c, ev = _release_run(model, q=q_ok, actions={1.0: ("disconnect",)}, until=60.0)
+    seq = c.seq
+    t_closed = _first(ev, "confirmed closed")
+    assert t_closed == pytest.approx(1.0 + seq.ers_valve_time, abs=0.021)
+    assert _first(ev, "draining") == t_closed
+    assert _first(ev, "unclamping") == pytest.approx(t_closed + seq.drain_time, abs=0.021)
+    assert _first(ev, "lifting off") == pytest.approx(t_closed + seq.drain_time + seq.unclamp_time, abs=0.021)
+    assert c.state.mode == Mode.RETURN and c.state.lift_target[2] == pytest.approx(1.0 + seq.lift_off)
+    assert not any(k == "alarm" for _, k, _ in ev)
 
 
 def test_estop_during_a_driftoff_releases_before_the_limit():
@@ -568,15 +729,16 @@ def test_a_refused_start_is_forgotten(model):
 
 
 def test_a_blind_drift_filter_and_an_unreachable_release_angle_are_refused(tmp_path):
-    """Found: drift_filter = 600 s was accepted (the speed alarm blind); release_deg = 175 beyond cylinder 2's
+    """Found: drift_filter = 600 s was accepted (the speed alarm blind; now the drift fit's window); release_deg = 175 beyond cylinder 2's
     stroke end (167 deg) was not cross-checked."""
     from loadarm.compiler import compile_model
     from loadarm.config import load_config
     from loadarm.errors import ConfigError
 
     bad = tmp_path / "slow.toml"
-    bad.write_text("[guidance]\ndrift_filter = 600\n")
-    with pytest.raises(ConfigError, match=r"drift_filter = 600 s is slower than the sequence it protects .* 15 s"):
+    bad.write_text("[guidance]\ndrift_window = 600\n")
+    with pytest.raises(ConfigError, match=r"drift_window = 600 s is too slow for the sequence it protects .* "
+                                          r"valid range \(5, 70\] s"):
         load_scenario(bad)
     text = (SCEN.parent / "paper.toml").read_text().replace("release_deg = 150.0", "release_deg = 175.0")
     cfg = tmp_path / "rel.toml"

@@ -6,8 +6,10 @@ second alarm, release (ERS-2: the coupler lets go). A coupler position outside t
 severity: classifications mark it :data:`UNREACHABLE`.
 
 * :func:`beta_severity` and :func:`slew_severity`: position (angles) against the configured thresholds;
-* :class:`AlarmThresholds`: position and drift speed of the attached coupler (the guidance controller's
-  connected-mode monitoring).
+* :class:`AlarmThresholds`: the customer's position alarms of the attached coupler (the static half of the
+  guidance controller's connected-mode monitoring);
+* :class:`AlarmState` and :func:`next_alarm_state`: ISA-18.2 states (unacknowledged, acknowledged,
+  returned to normal) of each annunciated alarm.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Severity", "UNREACHABLE", "severity_label", "AlarmAngles", "beta_severity", "slew_severity",
-           "AlarmThresholds", "BETA_TOL_RAD"]
+           "AlarmThresholds", "AlarmState", "next_alarm_state", "BETA_TOL_RAD"]
 
 #: Angular tolerance (rad) when comparing beta with a threshold: 1e-9 rad is
 #: 2e-8 m at the tip of a 20 m arm, so a point computed exactly on a boundary
@@ -126,80 +128,45 @@ def slew_severity(phi, slew) -> np.ndarray:
 
 @dataclass(frozen=True, slots=True)
 class AlarmThresholds:
-    """Alarm and release conditions, on position and on drift speed.
+    """The customer's position alarms of the attached coupler: the elbow angle ``beta`` against the first,
+    second and release angles, the slew angle against its own three, either side.
 
-    Position: the elbow angle ``beta`` against the configured first/second/
-    release angles, the slew angle against its own three.
-
-    Speed: with ``r`` the coupler's distance from the riser top and ``v_r``
-    its filtered outward speed (the drift; waves average out), the time left
-    before the release radius is ``T_rel = (r_release - r) / v_r``. The ESD-1
-    sequence must finish and the release must still complete before the arm
-    gets there, so
-
-    * ALARM1 when ``T_rel <= t_esd + t_ers + margin``,
-    * ALARM2 when ``T_rel <= t_ers + margin``,
-    * RELEASE when ``(r_max - r) / v_r <= t_ers + margin`` (the release must be
-      complete before the arm is fully stretched or cylinder 2 bottoms out:
-      ``r_max`` is the radius at the smaller of 180 deg and the stroke's end),
-
-    and the same on the slew angle with its rate. A faster drift therefore
-    raises the alarms earlier, at smaller angles.
+    These are the static half of the connected-mode alarms; the dynamic half (time to the nearest face of the
+    envelope from the measured and the design drift, against the sequence still to run) is
+    :class:`loadarm.guidance.monitor.EnvelopeMonitor`. The controller raises whichever is more severe.
     """
 
     beta_first: float
     beta_second: float
     beta_release: float
-    r_release: float
-    r_max: float
     slew_first: float
     slew_second: float
     slew_release: float
-    slew_limit: float
-    t_alarm1: float
-    t_alarm2: float
-    t_release: float
 
     @staticmethod
-    def from_settings(model, g) -> "AlarmThresholds":
-        """Thresholds from the model's alarm angles and joint limits and the guidance sequence times.
+    def from_model(model) -> "AlarmThresholds":
+        """Thresholds from the model's alarm angles and slew alarms.
 
         Parameters
         ----------
         model : ArmModel
-            Alarm angles, slew limits, joint limits and arm.
-        g : Guidance
-            Sequence times and margin (``esd_time``, ``ers_time``, ``margin``).
+            Alarm angles and slew limits.
 
         Returns
         -------
         AlarmThresholds
         """
-        arm = model.arm
         al = model.alarms
-        # the hard limit is the fully stretched arm or the end of cylinder 2's stroke, whichever comes first
-        beta_stop = model.joint_limits.beta[1]
-        return AlarmThresholds(
-            beta_first=al.first, beta_second=al.second, beta_release=al.release,
-            r_release=float(arm.radius_at_beta(al.release)), r_max=float(arm.radius_at_beta(min(beta_stop, math.pi))),
-            slew_first=model.slew.first, slew_second=model.slew.second,
-            slew_release=model.slew.release, slew_limit=model.slew.limit,
-            t_alarm1=g.esd_time + g.ers_time + g.margin, t_alarm2=g.ers_time + g.margin,
-            t_release=g.ers_time + g.margin)
+        return AlarmThresholds(al.first, al.second, al.release, model.slew.first, model.slew.second,
+                               model.slew.release)
 
-    def level(self, beta: float, phi: float, r: float, v_r: float, v_phi: float) -> tuple[Severity, str]:
-        """Severity of the attached coupler and its cause (position or drift).
+    def level(self, beta: float, phi: float) -> tuple[Severity, str]:
+        """Severity of the attached coupler's position and its cause.
 
         Parameters
         ----------
         beta, phi : float
             Elbow and slew angles, rad.
-        r : float
-            Distance of the coupler from the riser top, m.
-        v_r : float
-            Filtered outward speed, m/s.
-        v_phi : float
-            Filtered slew rate, rad/s.
 
         Returns
         -------
@@ -208,23 +175,53 @@ class AlarmThresholds:
         reason : str
         """
         a_phi = abs(phi)
-        w_phi = v_phi if phi >= 0 else -v_phi   # rate away from the centre line
-        ttl_r = (self.r_release - r) / v_r if v_r > 1e-6 else math.inf
-        ttl_max = (self.r_max - r) / v_r if v_r > 1e-6 else math.inf
-        ttl_phi = (self.slew_release - a_phi) / w_phi if w_phi > 1e-6 else math.inf
-        ttl_phimax = (self.slew_limit - a_phi) / w_phi if w_phi > 1e-6 else math.inf
-        if beta >= self.beta_release:
-            return Severity.RELEASE, f"beta {math.degrees(beta):.1f} deg reached the release angle"
-        if a_phi >= self.slew_release:
-            return Severity.RELEASE, f"slew {math.degrees(phi):.1f} deg reached the release angle"
-        if min(ttl_max, ttl_phimax) <= self.t_release:
-            return Severity.RELEASE, f"drift would reach the arm's limit in {min(ttl_max, ttl_phimax):.1f} s"
+        where = f"beta {math.degrees(beta):.1f} deg, slew {math.degrees(phi):.1f} deg"
+        if beta >= self.beta_release or a_phi >= self.slew_release:
+            return Severity.RELEASE, f"{where}: at the release angle"
         if beta > self.beta_second or a_phi > self.slew_second:
-            return Severity.SECOND, f"beta {math.degrees(beta):.1f} deg / slew {math.degrees(phi):.1f} deg beyond the second alarm"
-        if min(ttl_r, ttl_phi) <= self.t_alarm2:
-            return Severity.SECOND, f"drift would reach the release angle in {min(ttl_r, ttl_phi):.1f} s"
+            return Severity.SECOND, f"{where}: beyond the second alarm"
         if beta > self.beta_first or a_phi > self.slew_first:
-            return Severity.ESD1, f"beta {math.degrees(beta):.1f} deg / slew {math.degrees(phi):.1f} deg beyond the first alarm"
-        if min(ttl_r, ttl_phi) <= self.t_alarm1:
-            return Severity.ESD1, f"drift would reach the release angle in {min(ttl_r, ttl_phi):.1f} s"
+            return Severity.ESD1, f"{where}: beyond the first alarm"
         return Severity.NORMAL, ""
+
+
+class AlarmState(str, enum.Enum):
+    """ISA-18.2 alarm states of one annunciated alarm."""
+
+    NORMAL = "normal"
+    UNACKED = "unacknowledged"
+    ACKED = "acknowledged"
+    RTN_UNACKED = "returned to normal, unacknowledged"
+
+
+def next_alarm_state(state: AlarmState, active: bool, acknowledge: bool) -> AlarmState:
+    """ISA-18.2 state transition of one alarm (no shelving, suppression or latching).
+
+    Parameters
+    ----------
+    state : AlarmState
+        State before.
+    active : bool
+        Whether the alarm condition is present now.
+    acknowledge : bool
+        Whether the operator acknowledged this cycle.
+
+    Returns
+    -------
+    AlarmState
+        ``NORMAL -> UNACKED`` when the condition appears; ``UNACKED -> ACKED`` on acknowledgement;
+        ``UNACKED -> RTN_UNACKED`` when it clears first; ``ACKED -> NORMAL`` when it clears;
+        ``RTN_UNACKED -> NORMAL`` on acknowledgement (``-> UNACKED`` if it comes back).
+    """
+    if state == AlarmState.NORMAL:
+        return AlarmState.UNACKED if active else state
+    if state == AlarmState.UNACKED:
+        if acknowledge:
+            return AlarmState.ACKED if active else AlarmState.NORMAL
+        return state if active else AlarmState.RTN_UNACKED
+    if state == AlarmState.ACKED:
+        return state if active else AlarmState.NORMAL
+    # returned to normal, unacknowledged
+    if active:
+        return AlarmState.UNACKED
+    return AlarmState.NORMAL if acknowledge else state

@@ -29,19 +29,19 @@ __all__ = ["compile_model", "RECORD_SECTIONS"]
 #: ``arm`` -> :class:`~loadarm.geometry.Arm`, ``alarms`` -> :class:`~loadarm.alarms.AlarmAngles`,
 #: ``slew`` -> :class:`~loadarm.model.SlewLimits`; ``sizing`` and ``report`` are read at the edge only).
 RECORD_SECTIONS = ("datasheet", "actuators", "approach", "masses", "cylinders", "pump", "valve", "encoder",
-                   "controller")
+                   "controller", "sequence", "design_drift")
 
 
-def _record_type(section: type[BaseModel]) -> type:
+def _record_type(key: str, section: type[BaseModel]) -> type:
     """A frozen, slotted dataclass with the section's keys (the declarations stay in the config model)."""
     rec = make_dataclass(f"{section.__name__}Params", [(name, Any) for name in section.model_fields],
                          frozen=True, slots=True)
-    rec.__doc__ = (f"The ``[{section.__name__.lower()}]`` parameters as plain values, SI units "
+    rec.__doc__ = (f"The ``[{key}]`` parameters as plain values, SI units "
                    f"(declared in :class:`loadarm.config.{section.__name__}`).")
     return rec
 
 
-_RECORD_TYPES = {name: _record_type(Installation.model_fields[name].annotation) for name in RECORD_SECTIONS}
+_RECORD_TYPES = {name: _record_type(name, Installation.model_fields[name].annotation) for name in RECORD_SECTIONS}
 
 
 def _plain(value: Any) -> Any:

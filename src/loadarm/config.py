@@ -40,6 +40,8 @@ __all__ = [
     "Encoder",
     "Controller",
     "Report",
+    "Sequence",
+    "DesignDrift",
     "Installation",
     "packaged_example",
     "SizingArm",
@@ -484,6 +486,57 @@ class Report(_Section):
         json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case lists the examples)"})
 
 
+class Sequence(_Section):
+    """The emergency shutdown and release sequence of the berth (ESD-1 -> ERS valves closed -> ERS-2), seconds.
+
+    The connected-mode alarms are set from these times (see docs/guidance.md): the first alarm (ESD-1) must
+    leave ``max(esd_time, ers_valve_time) + erc_release_time + margin`` before any limit of the arm, the
+    release (ERS-2) ``ers_valve_time`` still to run + ``erc_release_time + margin``.
+    """
+
+    esd_time: float = _param(30.0, unit="s", gt=0, le=60,
+                             source="IGC Code 18.10 / SIGTTO ESD guidance: ship's ESD valves closed within 30 s",
+                             description="ESD-1: transfer pumps stopped and the ESD valves of ship and shore closed "
+                                         "within this time")
+    ers_valve_time: float = _param(10.0, unit="s", gt=0, le=60,
+                                   source="ERS double-block valves (supplier's figure, typically 5-10 s); EN 1474-1 / "
+                                          "ISO 16904: closed before the coupling releases",
+                                   description="from ESD-1 until the ERS valves' limit switches confirm them closed")
+    ers_valve_timeout: float = _param(5.0, unit="s", gt=0, le=60, source="engineering choice: half the closing time",
+                                      description="ERS valves not confirmed closed this long after ers_valve_time: "
+                                                  "valve fault alarm (the coupler stays closed)")
+    erc_release_time: float = _param(3.0, unit="s", gt=0, le=30,
+                                     source="powered emergency release coupling (PERC): a few seconds",
+                                     description="ERS-2: from the release command to the coupler free")
+    margin: float = _param(2.0, unit="s", ge=0, le=60, source="engineering margin",
+                           description="time margin added to every stage's lead time")
+    pre_alarm_lead: float = _param(0.0, unit="s", ge=0, le=600, source="optional (0 = no pre-alarm)",
+                                   description="the pre-alarm (warning only) fires this long before ESD-1 would")
+    drain_time: float = _param(30.0, unit="s", gt=0, le=3600,
+                               source="terminal's procedure (gravity drain or nitrogen purge of the outboard arm)",
+                               description="controlled disconnection: draining the arm after the ERS valves close")
+    unclamp_time: float = _param(10.0, unit="s", gt=0, le=120, source="hydraulic QC/DC coupler clamps",
+                                 description="controlled disconnection: opening the coupler's clamps")
+    lift_off: float = _param(0.5, unit="m", gt=0, le=5, source="clear of the ship's flange before moving away",
+                             description="controlled disconnection: the coupler first rises this far")
+
+
+class DesignDrift(_Section):
+    """The berth's design drift (Lanquetin's combined method): a floor under the speed alarms, and what
+    ``loadarm check`` proves the alarms absorb. OCIMF leaves the values to the owner, per berth."""
+
+    speed: float = _param(0.15, unit="m/s", gt=0, le=2,
+                          source="owner's per-berth choice; the paper's example drift speed",
+                          description="design drift speed of the ship, horizontal, any direction")
+    acceleration: float = _param(0.01, unit="m/s^2", gt=0, le=1,
+                                 source="owner's per-berth choice (break-out after a mooring failure); "
+                                        "engineering estimate",
+                                 description="design break-out acceleration up to the design speed")
+    vertical_speed: float = _param(0.005, unit="m/s", ge=0, le=0.5,
+                                   source="tide (about 2 m/h) plus loading, with margin",
+                                   description="design vertical speed of the flange")
+
+
 class Installation(_Section):
     """One marine loading arm at one berth: everything loadarm needs to plan."""
 
@@ -500,6 +553,8 @@ class Installation(_Section):
     valve: Valve = Field(default_factory=Valve)
     encoder: Encoder = Field(default_factory=Encoder)
     controller: Controller = Field(default_factory=Controller)
+    sequence: Sequence = Field(default_factory=Sequence)
+    design_drift: DesignDrift = Field(default_factory=DesignDrift)
     report: Report = Field(default_factory=Report)
 
 

@@ -27,7 +27,7 @@ from .errors import LoadarmError
 __all__ = ["Event", "EventLog", "EventLogError", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS"]
 
 #: Event kinds.
-KINDS = ("mode", "alarm", "command", "interlock", "operator", "sensor", "sample", "info")
+KINDS = ("mode", "alarm", "alarm_state", "command", "interlock", "operator", "sensor", "sample", "info")
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS events (

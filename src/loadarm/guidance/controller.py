@@ -3,6 +3,8 @@
 Modes::
 
     STORED -> APPROACH -> STANDOFF -> CONNECTED -> ALARM1 (ESD-1) -> ALARM2 -> RELEASE (ERS-2) -> RETURN -> STORED
+    CONNECTED -> DISCONNECT (close ERS valves, drain, unclamp) -> RETURN (lift off first)
+    ALARM1 / ALARM2 -> CONNECTED (condition cleared, alarms acknowledged, operator reset)
     HOLD (estimate lost while moving), MANUAL (joystick jog), ESTOP (from any mode)
 
 The controller is pure logic on an injected clock: :meth:`GuidanceController.step`
@@ -19,7 +21,12 @@ Safety rules (each tested):
 * emergency stop from any mode: zero rates in the same cycle;
 * joint and stroke limits: a command that would cross a limit within the next
   cycle is cut to stop at it;
-* alarms on drift speed as well as position (see :class:`AlarmThresholds`).
+* while attached: the customer's position alarms (:class:`~loadarm.alarms.AlarmThresholds`) and the time to
+  the nearest face of the envelope from the measured and the design drift
+  (:class:`~loadarm.guidance.monitor.EnvelopeMonitor`) against the sequence still to run, whichever is more
+  severe;
+* the coupler opens only after the plant confirms the ERS valves closed (limit switches); a valve that does
+  not confirm in time is a fault alarm and the coupler stays closed.
 """
 
 from __future__ import annotations
@@ -31,17 +38,20 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..alarms import AlarmThresholds, Severity
+from ..errors import ConfigError
+from ..alarms import AlarmState, AlarmThresholds, Severity, next_alarm_state
 from ..geometry import Arm
 from ..kinematics import ROUNDOFF_M, jacobian_entries
 from ..slew import forward3d, inverse3d, reach_mask3d
+from .monitor import EnvelopeMonitor, LimitForecast, stage_leads
 from .scenario import Guidance
 from .sensor import Estimate
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["Mode", "Command", "OperatorInput", "Cycle", "GuidanceState", "GuidanceController"]
+__all__ = ["Mode", "Command", "OperatorInput", "PlantFeedback", "Cycle", "GuidanceState", "GuidanceController",
+           "ANNUNCIATED", "ERS_CONFIRM_WINDOW", "ALARM_OFF_DELAY"]
 
 
 class Mode(str, enum.Enum):
@@ -56,18 +66,27 @@ class Mode(str, enum.Enum):
     ALARM2 = "ALARM2"
     RELEASE = "RELEASE"
     RETURN = "RETURN"
+    DISCONNECT = "DISCONNECT"
     MANUAL = "MANUAL"
     ESTOP = "ESTOP"
 
 
 #: Modes in which the coupler is attached to the flange.
-CONNECTED_MODES = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE)
+CONNECTED_MODES = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE, Mode.DISCONNECT)
 #: The connected mode that each severity puts the controller in, and back.
 MODE_OF_SEVERITY = {Severity.NORMAL: Mode.CONNECTED, Severity.ESD1: Mode.ALARM1, Severity.SECOND: Mode.ALARM2,
                     Severity.RELEASE: Mode.RELEASE}
 SEVERITY_OF_MODE = {m: sev for sev, m in MODE_OF_SEVERITY.items()}
+MODE_OF_SEVERITY[Severity.PRE_ALARM] = Mode.CONNECTED       # a warning only: the mode stays
 #: The stages the connected-mode monitoring raises, in order.
-ALARM_STAGES = (Severity.ESD1, Severity.SECOND, Severity.RELEASE)
+ALARM_STAGES = (Severity.PRE_ALARM, Severity.ESD1, Severity.SECOND, Severity.RELEASE)
+#: The annunciated alarms (ISA-18.2 states each): the stages and the ERS valve fault.
+ANNUNCIATED = ("PRE_ALARM", "ESD1", "SECOND", "RELEASE", "ERS_VALVE_FAULT")
+#: A manual ERS must be confirmed within this time, s.
+ERS_CONFIRM_WINDOW = 10.0
+#: An alarm condition counts as cleared only after staying clear this long, s (ISA-18.2 off-delay: no
+#: chattering from waves near a threshold).
+ALARM_OFF_DELAY = 5.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -77,14 +96,28 @@ class OperatorInput:
     Attributes
     ----------
     actions : tuple of str
-        Any of ``start``, ``connect``, ``disconnect``, ``estop``, ``reset``,
-        ``manual``, ``auto``.
+        Any of ``start``, ``connect``, ``disconnect`` (controlled), ``estop``, ``reset``, ``manual``, ``auto``,
+        ``esd`` (manual ESD-1), ``ers`` then ``ers_confirm`` (manual emergency release, confirmed within
+        :data:`ERS_CONFIRM_WINDOW`), ``ack`` (acknowledge every alarm).
     jog : tuple of float
         Joystick: requested coupler velocity in MANUAL mode, m/s (x, y, z).
     """
 
     actions: tuple[str, ...] = ()
     jog: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class PlantFeedback:
+    """What the plant reports back each cycle (the PLC's inputs, not the controller's guesses).
+
+    Attributes
+    ----------
+    ers_valves_closed : bool
+        Both ERS valves' closed limit switches are made.
+    """
+
+    ers_valves_closed: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,7 +136,15 @@ class Command:
     esd : bool
         ESD-1 active (transfer pumps stopped, ERS valves closing).
     release : bool
-        ERS-2 release in progress or done.
+        ERS-2 release requested (the coupler opens once the ERS valves are confirmed closed).
+    close_ers_valves : bool
+        The ERS valves are commanded closed (ESD-1 or a controlled disconnection).
+    coupler_open : bool
+        The coupler is opening or open (never before the ERS valves were confirmed closed).
+    level : Severity
+        Connected-mode alarm level this cycle (``NORMAL`` when not attached).
+    time_to_limit : float
+        Forecast time to the nearest face of the envelope, s (``inf`` when none is in sight or not attached).
     events : tuple of (kind, reason, data)
         Events of this cycle, for the event log.
     """
@@ -113,6 +154,10 @@ class Command:
     connected: bool
     esd: bool
     release: bool
+    close_ers_valves: bool = False
+    coupler_open: bool = False
+    level: Severity = Severity.NORMAL
+    time_to_limit: float = math.inf
     events: tuple = ()
 
 
@@ -134,6 +179,8 @@ class Cycle:
         The operator's actions.
     dt : float
         Nominal cycle period, s.
+    fb : PlantFeedback
+        The plant's feedback.
     """
 
     now: float
@@ -142,6 +189,7 @@ class Cycle:
     op: OperatorInput
     acts: frozenset
     dt: float
+    fb: PlantFeedback = PlantFeedback()
 
 
 @dataclass
@@ -157,37 +205,66 @@ class GuidanceState:
         Time the mode was entered, s.
     speed : float
         Cartesian speed command along the approach, m/s.
-    v_r, v_phi : float
-        Filtered outward speed (m/s) and slew rate (rad/s) of the attached coupler.
-    last_r, last_phi, last_t : float or None
-        Previous sample of the drift filter.
     refused : str
         ``"jog"`` while a jog out of the envelope is being refused (so the refusal is logged once).
-    esd_since, release_since : float or None
-        Time ESD-1 was commanded / the release (ERS-2) was requested.
+    esd_since : float or None
+        Time ESD-1 was commanded.
+    valves_cmd_since : float or None
+        Time the ERS valves were commanded closed (ESD-1 or a controlled disconnection).
     valves_closed_at : float or None
-        Time the ERS valves were confirmed closed (the interlock the coupler waits for).
+        Time the plant confirmed the ERS valves closed (the interlock the coupler waits for).
+    valve_fault : bool
+        The ERS valves did not confirm in time (fault alarm; the coupler stays closed).
+    release_since : float or None
+        Time the release (ERS-2) was requested.
     release_started_at : float or None
         Time the coupler began to open (never before ``valves_closed_at``).
+    raised : Severity
+        Highest stage raised since the connection (or the last reset).
+    level : Severity
+        Connected-mode level of the last cycle.
+    forecast : LimitForecast or None
+        The latest time-to-limit forecast.
+    next_forecast : float
+        Time of the next forecast, s.
+    ers_armed_at : float or None
+        A manual ERS waiting for its confirmation since this time.
+    disconnect_phase : str
+        Controlled disconnection: ``"valves"``, ``"drain"``, ``"unclamp"`` or ``""``.
+    phase_since : float
+        Time the disconnection phase began, s.
+    lift_target : ndarray or None
+        After a controlled disconnection, the point straight above the flange to lift to first.
+    alarms : dict of str to AlarmState
+        ISA-18.2 state of each annunciated alarm.
+    last_active : dict of str to float
+        Last time each alarm's condition was present (for the off-delay).
     resume : Mode
-        Mode to resume after an emergency stop (or a pending approach).
+        Mode to resume after an emergency stop.
     events : list
         Events of the current cycle.
     """
 
     mode: Mode = Mode.STORED
     entered: float = 0.0
-    speed: float = 0.0                 # current Cartesian speed command along the approach, m/s
-    v_r: float = 0.0                   # filtered outward speed, m/s
-    v_phi: float = 0.0                 # filtered slew rate, rad/s
-    last_r: float | None = None
-    last_phi: float | None = None
-    last_t: float | None = None
+    speed: float = 0.0
     refused: str = ""
     esd_since: float | None = None
-    release_since: float | None = None
+    valves_cmd_since: float | None = None
     valves_closed_at: float | None = None
+    valve_fault: bool = False
+    release_since: float | None = None
     release_started_at: float | None = None
+    raised: Severity = Severity.NORMAL
+    level: Severity = Severity.NORMAL
+    forecast: LimitForecast | None = None
+    next_forecast: float = -math.inf
+    ers_armed_at: float | None = None
+    disconnect_phase: str = ""
+    phase_since: float = 0.0
+    lift_target: np.ndarray | None = None
+    alarms: dict = field(default_factory=lambda: {tag: AlarmState.NORMAL for tag in ANNUNCIATED})
+    last_active: dict = field(default_factory=lambda: {tag: -math.inf for tag in ANNUNCIATED})
     resume: Mode = Mode.APPROACH
     events: list = field(default_factory=list)
 
@@ -216,7 +293,13 @@ class GuidanceController:
         self.arm: Arm = model.arm
         self.g = g
         self.lim = model.joint_limits
-        self.thr = AlarmThresholds.from_settings(model, g)
+        self.thr = AlarmThresholds.from_model(model)
+        self.seq = model.sequence
+        lead = max(self.seq.esd_time, self.seq.ers_valve_time) + self.seq.erc_release_time + self.seq.margin
+        if g.drift_window > 2 * lead:
+            raise ConfigError(f"guidance.drift_window = {g.drift_window:g} s is longer than twice the first alarm's "
+                              f"lead ({lead:g} s); valid range (5, {2 * lead:g}] s")
+        self.monitor = EnvelopeMonitor(model, g.drift_window)
         self.v_max = model.approach.max_speed
         self.a_max = model.approach.max_accel
         sx, sz = model.approach.stored
@@ -327,21 +410,9 @@ class GuidanceController:
         v = (d / dist * self.state.speed if dist > 1e-9 else np.zeros(3)) + v_target
         return self._rates_for_velocity(q, v)
 
-    def _monitor(self, now: float, q) -> tuple[int, str]:
-        p = np.array([float(v) for v in forward3d(self.arm, *q)])
-        rho = math.hypot(p[0], p[1])
-        r = math.hypot(rho, p[2] - self.arm.a)
-        s = self.state
-        if s.last_t is not None and now > s.last_t:
-            dt = now - s.last_t
-            k = dt / (self.g.drift_filter + dt)
-            s.v_r += k * ((r - s.last_r) / dt - s.v_r)
-            s.v_phi += k * ((q[0] - s.last_phi) / dt - s.v_phi)
-        s.last_r, s.last_phi, s.last_t = r, q[0], now
-        return self.thr.level(q[2], q[0], r, s.v_r, s.v_phi)
-
     # ---------------------------------------------------------------- the cycle
-    def step(self, now: float, q, est: Estimate, op: OperatorInput = OperatorInput()) -> Command:
+    def step(self, now: float, q, est: Estimate, op: OperatorInput = OperatorInput(),
+             fb: PlantFeedback = PlantFeedback()) -> Command:
         """One guidance cycle: decide the mode and the joint-rate command.
 
         Parameters
@@ -354,22 +425,31 @@ class GuidanceController:
             Flange estimate at ``now``.
         op : OperatorInput
             Operator actions and joystick.
+        fb : PlantFeedback
+            The plant's feedback (ERS valve limit switches).
 
         Returns
         -------
         Command
         """
-        cyc = Cycle(now, tuple(float(v) for v in q), est, op, frozenset(op.actions), self.dt_nominal)
+        cyc = Cycle(now, tuple(float(v) for v in q), est, op, frozenset(op.actions), self.dt_nominal, fb)
         self.state.events = []
         for action in op.actions:
             self._event("operator", action)
         for rule in self.SAFETY_RULES:
             getattr(self, rule)(cyc)
         rates = getattr(self, self.HANDLERS[self.state.mode])(cyc)
-        rates = self.rule_no_motion_when_held_or_attached(rates)
+        return self._command(self.rule_no_motion_when_held_or_attached(rates))
+
+    def _command(self, rates) -> Command:
+        """This cycle's command from the state and the final rates."""
         s = self.state
-        return Command(s.mode, tuple(float(v) for v in rates), self.attached(), s.esd_since is not None,
-                       s.release_since is not None, tuple(s.events))
+        attached = self.attached()
+        ttl = s.forecast.time if (attached and s.forecast is not None) else math.inf
+        return Command(s.mode, tuple(float(v) for v in rates), attached, s.esd_since is not None,
+                       s.release_since is not None, s.valves_cmd_since is not None,
+                       s.release_started_at is not None, s.level if attached else Severity.NORMAL, ttl,
+                       tuple(s.events))
 
     def attached(self) -> bool:
         """Whether the coupler is on the flange (a connected mode, or an emergency stop taken from one).
@@ -383,10 +463,12 @@ class GuidanceController:
 
     # ---------------------------------------------------------------- safety rules, in this order
     #: Named rules run every cycle before the mode handler, in this order.
-    SAFETY_RULES = ("rule_emergency_stop", "rule_alarm_escalation", "rule_emergency_release_sequence")
+    SAFETY_RULES = ("rule_emergency_stop", "rule_manual_emergency", "rule_alarm_escalation",
+                    "rule_emergency_release_sequence", "rule_annunciate")
 
     def rule_emergency_stop(self, cyc: "Cycle") -> None:
-        """E-stop from any mode, in this very cycle (the mode to resume is kept).
+        """E-stop from any mode, in this very cycle (the mode to resume is kept). It stops the drives; when
+        connected it also initiates ESD-1, and the release stays armed on its own thresholds.
 
         Parameters
         ----------
@@ -399,50 +481,171 @@ class GuidanceController:
             if self.attached():                  # connected: the E-stop also initiates ESD-1
                 self._command_esd1(cyc.now, "emergency stop while connected")
 
-    def rule_alarm_escalation(self, cyc: "Cycle") -> None:
-        """While attached, whatever the mode: raise the alarm level on angle and drift speed, one stage at a time,
-        commanding ESD-1 at the first alarm and ERS-2 at release.
+    def rule_manual_emergency(self, cyc: "Cycle") -> None:
+        """Manual ESD-1 and manual ERS (armed, then confirmed within :data:`ERS_CONFIRM_WINDOW`) from any
+        connected state, E-stop included.
 
         Parameters
         ----------
         cyc : Cycle
             This cycle's inputs.
         """
-        if not self.attached():
+        s, now, acts = self.state, cyc.now, cyc.acts
+        if not acts & {"esd", "ers", "ers_confirm"}:
             return
-        s, now, q = self.state, cyc.now, cyc.q
-        level, why = self._monitor(now, q)
-        current = SEVERITY_OF_MODE.get(s.mode if s.mode != Mode.ESTOP else s.resume, Severity.NORMAL)
-        if level <= current:
+        if not self.attached():
+            for a in sorted(acts & {"esd", "ers", "ers_confirm"}):
+                self._event("info", f"{a} refused: the coupler is not connected")
+            return
+        if "esd" in acts:
+            self._command_esd1(now, "manual ESD-1 by the operator")
+            self._raise(now, cyc.q, Severity.ESD1, "manual ESD-1 by the operator")
+        if "ers" in acts and s.release_since is None:
+            s.ers_armed_at = now
+            self._event("info", f"manual ERS armed: confirm within {ERS_CONFIRM_WINDOW:g} s")
+        if "ers_confirm" in acts:
+            if s.ers_armed_at is not None and now - s.ers_armed_at <= ERS_CONFIRM_WINDOW:
+                s.ers_armed_at = None
+                self._command_esd1(now, "manual ERS by the operator")
+                self._raise(now, cyc.q, Severity.RELEASE, "manual ERS confirmed by the operator")
+            elif s.release_since is None:
+                self._event("info", "ERS confirmation refused: no manual ERS armed in the last "
+                                    f"{ERS_CONFIRM_WINDOW:g} s")
+        if s.ers_armed_at is not None and now - s.ers_armed_at > ERS_CONFIRM_WINDOW:
+            s.ers_armed_at = None
+
+    def _leads(self, now: float) -> dict:
+        s, q = self.state, self.seq
+        valves_left = None
+        if s.valves_closed_at is not None:
+            valves_left = 0.0
+        elif s.valves_cmd_since is not None:
+            valves_left = s.valves_cmd_since + q.ers_valve_time - now
+        release_left = None if s.release_started_at is None else s.release_started_at + q.erc_release_time - now
+        return stage_leads(q, valves_left=valves_left, release_left=release_left)
+
+    def _connected_level(self, now: float, q) -> tuple[Severity, str]:
+        """Position alarms and time to the nearest face (measured and design drift), the more severe."""
+        s = self.state
+        p = tuple(float(v) for v in forward3d(self.arm, *q))
+        self.monitor.observe(now, p)
+        level, why = self.thr.level(q[2], q[0])
+        leads = self._leads(now)
+        if now >= s.next_forecast or s.forecast is None:
+            s.forecast = self.monitor.time_to_limit(p, max(leads.values()))
+            s.next_forecast = now + self.monitor.fit.period
+        f = s.forecast
+        for stage in sorted(leads, reverse=True):
+            if f.time <= leads[stage]:
+                if stage > level:
+                    level, why = stage, (f"{f.route}: {f.face} face in {f.time:.1f} s, the {stage.label} needs "
+                                         f"{leads[stage]:.1f} s")
+                break
+        return level, why
+
+    def _raise(self, now: float, q, level: Severity, why: str) -> None:
+        """Raise the connected-mode stage to ``level`` (one alarm event per stage passed), commanding ESD-1 at
+        the first alarm and requesting ERS-2 at release."""
+        s = self.state
+        if level <= s.raised:
             return
         for stage in ALARM_STAGES:               # one event per stage passed, in order
-            if current < stage <= level:
-                self._event("alarm", f"{MODE_OF_SEVERITY[stage].value}: {why}", severity=int(stage),
-                            severity_label=stage.label, beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]),
-                            v_r=s.v_r)
+            if stage == Severity.PRE_ALARM and self.seq.pre_alarm_lead <= 0:
+                continue                         # no pre-alarm configured
+            if s.raised < stage <= level:
+                name = "PRE-ALARM" if stage == Severity.PRE_ALARM else MODE_OF_SEVERITY[stage].value
+                self._event("alarm", f"{name}: {why}", severity=int(stage), severity_label=stage.label,
+                            beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]))
+        s.raised = level
         if level >= Severity.ESD1:
             self._command_esd1(now, why)
         if level >= Severity.RELEASE and s.release_since is None:
             s.release_since = now
             self._event("command", "ERS-2 requested: release the coupler once the ERS valves are confirmed closed")
         new = MODE_OF_SEVERITY[level]
+        if new == Mode.CONNECTED:                # the pre-alarm is a warning: the mode stays
+            return
         if s.mode == Mode.ESTOP:
             s.resume = new
         else:
             self._go(now, new, why)
 
+    def rule_alarm_escalation(self, cyc: "Cycle") -> None:
+        """While attached, whatever the mode: raise the alarm stage on position (the customer's angles) and on
+        the time to the nearest face against the sequence still to run, one stage at a time.
+
+        Parameters
+        ----------
+        cyc : Cycle
+            This cycle's inputs.
+        """
+        s = self.state
+        if not self.attached():
+            s.level = Severity.NORMAL
+            return
+        s.level, why = self._connected_level(cyc.now, cyc.q)
+        self._raise(cyc.now, cyc.q, s.level, why)
+
     def _command_esd1(self, now: float, why: str) -> None:
-        if self.state.esd_since is None:
-            self.state.esd_since = now
-            self._event("command", f"ESD-1: stop transfer pumps, close ERS valves ({why})")
+        s = self.state
+        if s.esd_since is None:
+            s.esd_since = now
+            self._event("command", f"ESD-1: stop transfer pumps, close ESD and ERS valves ({why})")
+        if s.valves_cmd_since is None:
+            s.valves_cmd_since = now
 
     def rule_emergency_release_sequence(self, cyc: "Cycle") -> None:
-        """The ESD-1 -> ERS valves closed -> ERS-2 sequence, in any mode while attached (an E-stop stops the
-        drives, never the release).
+        """ERS valves confirmed closed (the plant's limit switches) -> ERS-2, in any mode while attached (an
+        E-stop stops the drives, never the release).
 
-        The ESD-1 sequence, ERS valves included, completes within ``esd_time``; their limit switches confirm
-        it then (an event of its own). The coupler opens only after that confirmation, and is free
-        ``ers_time`` after it began to open.
+        The confirmation is an event of its own; a valve not confirmed ``ers_valve_timeout`` after its
+        closing time is a fault alarm, and the coupler stays closed. The coupler opens only after the
+        confirmation and is free ``erc_release_time`` after it began to open.
+
+        Parameters
+        ----------
+        cyc : Cycle
+            This cycle's inputs.
+        """
+        s, now, q = self.state, cyc.now, self.seq
+        if not self.attached() or s.valves_cmd_since is None:
+            return
+        if s.valves_closed_at is None:
+            if cyc.fb.ers_valves_closed:
+                s.valves_closed_at = now
+                s.valve_fault = False
+                self._event("interlock", "ERS valves confirmed closed (limit switches): the coupler may open",
+                            after_s=now - s.valves_cmd_since)
+            elif not s.valve_fault and now - s.valves_cmd_since > q.ers_valve_time + q.ers_valve_timeout:
+                s.valve_fault = True
+                self._event("alarm", f"ERS VALVE FAULT: not confirmed closed {now - s.valves_cmd_since:.1f} s after "
+                                     "the command; the coupler stays closed (product may be live)",
+                            severity=int(Severity.RELEASE), severity_label="fault")
+        if s.release_since is None or s.valves_closed_at is None:
+            return
+        if s.release_started_at is None:
+            s.release_started_at = now
+            self._event("command", "ERS-2: coupler opening (ERS valves confirmed closed)")
+        if now - s.release_started_at >= q.erc_release_time:
+            self._event("command", "ERS-2 release complete: coupler free")
+            self._detach()
+            if s.mode == Mode.ESTOP:
+                s.resume = Mode.RETURN           # drives stay stopped until the operator resets
+            else:
+                self._go(now, Mode.RETURN, "released; returning to stored")
+
+    def _detach(self) -> None:
+        s = self.state
+        s.esd_since = s.release_since = s.valves_cmd_since = s.valves_closed_at = s.release_started_at = None
+        s.valve_fault = False
+        s.raised = Severity.NORMAL
+        s.forecast = None
+        s.disconnect_phase = ""
+        s.ers_armed_at = None
+
+    def rule_annunciate(self, cyc: "Cycle") -> None:
+        """ISA-18.2 states of the annunciated alarms: a condition clears after :data:`ALARM_OFF_DELAY` s clear;
+        ``ack`` acknowledges every alarm; each change of state is logged.
 
         Parameters
         ----------
@@ -450,23 +653,29 @@ class GuidanceController:
             This cycle's inputs.
         """
         s, now = self.state, cyc.now
-        if not self.attached() or s.esd_since is None:
-            return
-        if s.valves_closed_at is None and now - s.esd_since >= self.g.esd_time:
-            s.valves_closed_at = now
-            self._event("interlock", "ERS valves confirmed closed (limit switches): the coupler may open")
-        if s.release_since is None or s.valves_closed_at is None:
-            return
-        if s.release_started_at is None:
-            s.release_started_at = now
-            self._event("command", "ERS-2: coupler opening (ERS valves confirmed closed)")
-        if now - s.release_started_at >= self.g.ers_time:
-            self._event("command", "ERS-2 release complete: coupler free")
-            s.esd_since = s.release_since = s.valves_closed_at = s.release_started_at = None
-            if s.mode == Mode.ESTOP:
-                s.resume = Mode.RETURN           # drives stay stopped until the operator resets
-            else:
-                self._go(now, Mode.RETURN, "released; returning to stored")
+        level = s.level if self.attached() else Severity.NORMAL
+        present = {"PRE_ALARM": level >= Severity.PRE_ALARM and self.seq.pre_alarm_lead > 0, "ESD1": level >= Severity.ESD1,
+                   "SECOND": level >= Severity.SECOND, "RELEASE": level >= Severity.RELEASE,
+                   "ERS_VALVE_FAULT": s.valve_fault}
+        ack = "ack" in cyc.acts
+        for tag in ANNUNCIATED:
+            if present[tag]:
+                s.last_active[tag] = now
+            active = now - s.last_active[tag] < ALARM_OFF_DELAY
+            new = next_alarm_state(s.alarms[tag], active, ack)
+            if new != s.alarms[tag]:
+                self._event("alarm_state", f"{tag}: {new.value}", tag=tag, alarm_state=new.value,
+                            previous=s.alarms[tag].value)
+                s.alarms[tag] = new
+
+    def alarms_clear(self) -> bool:
+        """Whether every annunciated alarm is back to normal (cleared and acknowledged).
+
+        Returns
+        -------
+        bool
+        """
+        return all(v == AlarmState.NORMAL for v in self.state.alarms.values())
 
     def rule_fresh_estimate(self, cyc: "Cycle") -> bool:
         """No motion without a fresh, healthy flange estimate: the cycle that sees it stale enters HOLD.
@@ -531,7 +740,7 @@ class GuidanceController:
     HANDLERS = {Mode.ESTOP: "_on_estop", Mode.MANUAL: "_on_manual", Mode.STORED: "_on_stored",
                 Mode.APPROACH: "_on_moving", Mode.STANDOFF: "_on_moving", Mode.HOLD: "_on_moving",
                 Mode.CONNECTED: "_on_attached", Mode.ALARM1: "_on_attached", Mode.ALARM2: "_on_attached",
-                Mode.RELEASE: "_on_attached", Mode.RETURN: "_on_return"}
+                Mode.RELEASE: "_on_attached", Mode.DISCONNECT: "_on_disconnect", Mode.RETURN: "_on_return"}
 
     def _on_estop(self, cyc: "Cycle") -> np.ndarray:
         if "reset" in cyc.acts:
@@ -596,22 +805,74 @@ class GuidanceController:
         if s.mode == Mode.STANDOFF and "connect" in cyc.acts:
             self._go(now, Mode.CONNECTED, "operator connected the coupler")
             self._event("command", "actuators released: the arm follows the ship")
-            s.last_t = None
-            s.v_r = s.v_phi = 0.0
+            self.monitor.reset()
+            s.forecast, s.next_forecast, s.raised, s.level = None, -math.inf, Severity.NORMAL, Severity.NORMAL
             return np.zeros(3)
         return self._move_towards(now, q, target, np.array(est.velocity), cyc.dt)
 
     def _on_attached(self, cyc: "Cycle") -> np.ndarray:
         s, now = self.state, cyc.now
-        if s.mode == Mode.CONNECTED and "disconnect" in cyc.acts:
-            self._go(now, Mode.RETURN, "operator disconnected the coupler")
+        if "disconnect" in cyc.acts:
+            if s.mode == Mode.CONNECTED and s.esd_since is None:
+                self._go(now, Mode.DISCONNECT, "operator started a controlled disconnection: closing the ERS valves")
+                s.valves_cmd_since = now
+                s.disconnect_phase, s.phase_since = "valves", now
+                self._event("command", "close the ERS valves (controlled disconnection)")
+            else:
+                self._event("info", f"disconnection refused in {s.mode.value}: reset the alarm first or use the ERS")
+        if "reset" in cyc.acts and s.mode in (Mode.ALARM1, Mode.ALARM2):
+            self._reset_esd(now)
         return np.zeros(3)            # actuators free: the ship moves the arm
 
+    def _reset_esd(self, now: float) -> None:
+        """ESD-1 back to CONNECTED: only once the condition has cleared and every alarm is acknowledged."""
+        s = self.state
+        why_not = ""
+        if s.release_since is not None:
+            why_not = "the release (ERS-2) has been requested"
+        elif s.level > Severity.NORMAL:
+            why_not = f"the condition is still present ({s.level.label})"
+        elif not self.alarms_clear():
+            why_not = "alarms not yet cleared and acknowledged: " + ", ".join(
+                f"{k} {v.value}" for k, v in s.alarms.items() if v != AlarmState.NORMAL)
+        if why_not:
+            self._event("info", f"reset refused: {why_not}")
+            return
+        s.esd_since = s.valves_cmd_since = s.valves_closed_at = None
+        s.valve_fault = False
+        s.raised = Severity.NORMAL
+        self._event("command", "ESD-1 reset: ERS valves reopen; the transfer may restart")
+        self._go(now, Mode.CONNECTED, "operator reset after the alarm cleared")
+
+    def _on_disconnect(self, cyc: "Cycle") -> np.ndarray:
+        """Controlled disconnection: ERS valves confirmed closed -> drain -> unclamp -> lift off (RETURN)."""
+        s, now, q = self.state, cyc.now, self.seq
+        if s.disconnect_phase == "valves" and s.valves_closed_at is not None:
+            s.disconnect_phase, s.phase_since = "drain", now
+            self._event("command", "draining the arm")
+        elif s.disconnect_phase == "drain" and now - s.phase_since >= q.drain_time:
+            s.disconnect_phase, s.phase_since = "unclamp", now
+            self._event("command", "arm drained: unclamping the coupler")
+        elif s.disconnect_phase == "unclamp" and now - s.phase_since >= q.unclamp_time:
+            p = np.array([float(x) for x in forward3d(self.arm, *cyc.q)])
+            self._event("command", "coupler unclamped: lifting off the flange")
+            self._detach()
+            s.lift_target = p + np.array([0.0, 0.0, q.lift_off])
+            self._go(now, Mode.RETURN, "disconnected; lifting off, then returning to stored")
+        return np.zeros(3)
+
     def _on_return(self, cyc: "Cycle") -> np.ndarray:
+        s = self.state
         p = np.array([float(x) for x in forward3d(self.arm, *cyc.q)])
+        if s.lift_target is not None:
+            if float(np.linalg.norm(s.lift_target - p)) <= self.g.arrive_tolerance:
+                s.lift_target = None
+                s.speed = 0.0
+            else:
+                return self._move_towards(cyc.now, cyc.q, s.lift_target, np.zeros(3), cyc.dt)
         if float(np.linalg.norm(self.stored - p)) <= self.g.arrive_tolerance:
             self._go(cyc.now, Mode.STORED, "arm stored")
-            self.state.resume = Mode.STORED
+            s.resume = Mode.STORED
             return np.zeros(3)
         return self._move_towards(cyc.now, cyc.q, self.stored, np.zeros(3), cyc.dt)
 

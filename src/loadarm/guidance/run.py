@@ -24,10 +24,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..eventlog import EventLog, RateLimiter
+from ..faces import FACES, face_margins, first_face
 from ..slew import forward3d, inverse3d, reach_mask3d
 from ..alarms import Severity
 from ..results import Metric, Result
-from .controller import SEVERITY_OF_MODE, GuidanceController, Mode, OperatorInput
+from .controller import SEVERITY_OF_MODE, GuidanceController, Mode, OperatorInput, PlantFeedback
 from .scenario import Scenario
 from .sensor import FlangeEstimator, sensor_readings
 from .ship import flange_motion
@@ -35,7 +36,12 @@ from .ship import flange_motion
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["RUN_METRICS", "RunResult", "run_scenario", "ScriptedOperator", "ArmPlant", "wall_clock_pacer", "MODES"]
+__all__ = ["RUN_METRICS", "RunResult", "run_scenario", "ScriptedOperator", "ArmPlant", "ErsValves", "wall_clock_pacer",
+           "MODES", "MANIFOLD_CLEARANCE"]
+
+#: Distance the coupler must put between itself and the ship's flange after a release, m (clear of the
+#: manifold's spool piece and the ship's rail).
+MANIFOLD_CLEARANCE = 1.0
 
 
 def wall_clock_pacer(speedup: float = 1.0) -> Callable[[float], None]:
@@ -77,6 +83,8 @@ RUN_METRICS = (
     Metric("release_s", "release (ERS-2)", "s", ".2f", none="-"),
     Metric("release_complete_s", "release complete", "s", ".2f", none="-"),
     Metric("overstretched_s", "overstretched", "s", ".2f", none="no"),
+    Metric("release_margin_s", "release margin to the limit", "s", ".2f", none="-"),
+    Metric("cleared_s", "coupler clear of the manifold", "s", ".2f", none="-"),
     Metric("max_beta_deg", "max beta", "deg", ".1f"),
     Metric("max_abs_slew_deg", "max |slew|", "deg", ".1f"),
     Metric("events", "events", "", "d"),
@@ -93,7 +101,9 @@ class RunResult(Result):
         Scenario name.
     signals : dict of str to ndarray
         ``t, mode (index into MODES), phi, alpha, beta, x, y, z, fx, fy, fz, ex, ey, ez, healthy, distance,
-        severity`` (:class:`loadarm.alarms.Severity` of the connected mode) at every guidance cycle.
+        severity`` (:class:`loadarm.alarms.Severity` of the connected mode), ``level`` (connected-mode alarm
+        level), ``ttl`` (forecast time to the nearest face, s; NaN when none in sight), ``connected`` at every
+        guidance cycle.
     events : list of tuple
         ``(t, mode, kind, reason, data)`` in order.
     overstretched_at : float or None
@@ -102,6 +112,11 @@ class RunResult(Result):
         Wall time of each controller cycle (estimate + decide), microseconds.
     beta_thresholds_deg : tuple of float
         The run's first, second and release angles (for the timeline figure).
+    limit_at : float or None
+        First time after the connection the true flange lies past a face of the arm's envelope (where an
+        arm still attached would be overstretched), s.
+    limit_face : str
+        That face (:data:`loadarm.faces.FACES`).
     """
 
     name: str
@@ -110,6 +125,8 @@ class RunResult(Result):
     overstretched_at: float | None
     cycle_us: np.ndarray = field(repr=False)
     beta_thresholds_deg: tuple = ()
+    limit_at: float | None = None
+    limit_face: str = ""
 
     METRICS = RUN_METRICS
 
@@ -119,6 +136,33 @@ class RunResult(Result):
             if k == kind and contains in reason:
                 return t
         return None
+
+    def release_margin(self) -> float | None:
+        """Time from the release complete to the flange's first crossing of a face, s (None without a
+        release, or when the flange never reaches a face in the run).
+
+        Returns
+        -------
+        float or None
+        """
+        t_rel = self.first("command", "release complete")
+        if t_rel is None or self.limit_at is None:
+            return None
+        return self.limit_at - t_rel
+
+    def cleared_at(self) -> float | None:
+        """First time after the release the coupler is :data:`MANIFOLD_CLEARANCE` from the flange, s.
+
+        Returns
+        -------
+        float or None
+        """
+        t_rel = self.first("command", "release complete")
+        if t_rel is None:
+            return None
+        s = self.signals
+        ok = np.flatnonzero((s["t"] >= t_rel) & (s["distance"] >= MANIFOLD_CLEARANCE))
+        return float(s["t"][ok[0]]) if ok.size else None
 
     def _figure(self):
         from ..plotting import run_timeline_figure
@@ -140,6 +184,12 @@ class RunResult(Result):
             "release_s": self.first("alarm", "RELEASE"),
             "release_complete_s": self.first("command", "release complete"),
             "overstretched_s": self.overstretched_at,
+            "limit_s": self.limit_at,
+            "limit_face": self.limit_face,
+            "release_margin_s": self.release_margin(),
+            "valves_confirmed_s": self.first("interlock", "ERS valves confirmed closed"),
+            "coupler_opening_s": self.first("command", "coupler opening"),
+            "cleared_s": self.cleared_at(),
             "max_beta_deg": float(np.degrees(np.nanmax(s["beta"]))),
             "max_abs_slew_deg": float(np.degrees(np.nanmax(np.abs(s["phi"])))),
             "events": len(self.events),
@@ -298,6 +348,47 @@ class ArmPlant:
         self.q = np.array([phi, a_new, b_new])
 
 
+class ErsValves:
+    """The ERS double-block valves and their closed limit switches (plant side).
+
+    Parameters
+    ----------
+    closing_time : float
+        From the close command to both limit switches made, s (the installation's ``ers_valve_time``).
+    stuck : bool
+        Fault: the valves never confirm closed.
+    delay : float
+        Fault: extra closing time, s.
+    """
+
+    def __init__(self, closing_time: float, *, stuck: bool = False, delay: float = 0.0):
+        self.closing_time = closing_time + delay
+        self.stuck = stuck
+        self.since: float | None = None
+
+    def step(self, now: float, close: bool) -> bool:
+        """Advance to ``now`` under the command; report the limit switches.
+
+        Parameters
+        ----------
+        now : float
+            Time, s.
+        close : bool
+            Close command this cycle (False reopens them).
+
+        Returns
+        -------
+        bool
+            Closed and confirmed.
+        """
+        if not close:
+            self.since = None
+            return False
+        if self.since is None:
+            self.since = now
+        return (not self.stuck) and now - self.since >= self.closing_time - 1e-9
+
+
 def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
                  progress: Callable[[float], None] | None = None, plant: str | None = None,
                  pace: Callable[[float], None] | None = None) -> RunResult:
@@ -357,6 +448,8 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
             log.append(t, mode, kind, reason, **data)
 
     arm_plant = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, emit)
+    valves = ErsValves(model.sequence.ers_valve_time, stuck=sc.faults.ers_valve_stuck, delay=sc.faults.ers_valve_delay)
+    fb = PlantFeedback()
     operator = ScriptedOperator(sc.operator, dt)
     rec = _Recorder(n, log, sample_every)
     cycle = np.empty(n)
@@ -370,10 +463,11 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
         ir = _feed_sensor(readings, est, ir, now, lambda z: emit(
             now, ctrl.state.mode.value, "sensor", "reading rejected as an outlier", {"reading": [float(v) for v in z]}))
         e = est.estimate(now)
-        cmd = ctrl.step(now, arm_plant.q, e, operator.inputs(now, ctrl.state.mode, arm_plant.servo_fault))
+        cmd = ctrl.step(now, arm_plant.q, e, operator.inputs(now, ctrl.state.mode, arm_plant.servo_fault), fb)
         cycle[k] = (time.perf_counter() - t0) * 1e6
         for kind, reason, data in cmd.events:
             emit(now, cmd.mode.value, kind, reason, data)
+        fb = PlantFeedback(ers_valves_closed=valves.step(now, cmd.close_ers_valves))
         q = arm_plant.step(now, dt, cmd, flange[k])
         rec.record(k, now, cmd, q, flange[k], e, model.arm)
         if progress is not None and k % report_every == 0:
@@ -381,8 +475,22 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     if progress is not None:
         progress(1.0)
     al = model.alarms
+    limit_at, limit_face = _first_limit(model, rec.sig, flange)
     return RunResult(sc.scenario.name, rec.sig, events, arm_plant.overstretched, cycle,
-                     tuple(math.degrees(a) for a in (al.first, al.second, al.release)))
+                     tuple(math.degrees(a) for a in (al.first, al.second, al.release)), limit_at, limit_face)
+
+
+def _first_limit(model: ArmModel, sig: dict, flange: np.ndarray) -> tuple[float | None, str]:
+    """First time after the first connection the true flange is past a face of the envelope."""
+    conn = np.flatnonzero(sig["connected"] > 0)
+    if conn.size == 0:
+        return None, ""
+    k0 = int(conn[0])
+    outside, face = first_face(face_margins(model, flange[k0:, 0], flange[k0:, 1], flange[k0:, 2]))
+    hit = np.flatnonzero(outside)
+    if hit.size == 0:
+        return None, ""
+    return float(sig["t"][k0 + hit[0]]), FACES[int(face[hit[0]])]
 
 
 def _feed_sensor(readings, est: FlangeEstimator, ir: int, now: float, rejected: Callable) -> int:
@@ -400,7 +508,8 @@ class _Recorder:
 
     def __init__(self, n: int, log: EventLog | None, sample_every: float):
         self.sig = {k: np.full(n, np.nan) for k in ("t", "mode", "phi", "alpha", "beta", "x", "y", "z", "fx", "fy",
-                                                     "fz", "ex", "ey", "ez", "healthy", "distance", "severity")}
+                                                     "fz", "ex", "ey", "ez", "healthy", "distance", "severity",
+                                                     "level", "ttl", "connected")}
         self.log, self.sample_every, self.next_sample = log, sample_every, 0.0
 
     def record(self, k: int, now: float, cmd, q: np.ndarray, f: np.ndarray, e, arm) -> None:
@@ -415,6 +524,9 @@ class _Recorder:
         sig["healthy"][k] = 1.0 if e.healthy else 0.0
         sig["distance"][k] = math.dist((float(p[0]), float(p[1]), float(p[2])), f)
         sig["severity"][k] = int(SEVERITY_OF_MODE.get(cmd.mode, Severity.NORMAL))
+        sig["level"][k] = int(cmd.level)
+        sig["ttl"][k] = cmd.time_to_limit if math.isfinite(cmd.time_to_limit) else np.nan
+        sig["connected"][k] = 1.0 if cmd.connected else 0.0
         if self.log is not None and now >= self.next_sample:
             self.log.append(now, cmd.mode.value, "sample", "state sample", phi=float(q[0]), alpha=float(q[1]),
                             beta=float(q[2]), distance=float(sig["distance"][k]), healthy=bool(e.healthy),

@@ -19,8 +19,8 @@ from ..errors import ConfigError
 if TYPE_CHECKING:
     from ..model import ArmModel
 
-__all__ = ["Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Scenario", "load_scenario",
-           "parse_scenario"]
+__all__ = ["Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
+           "parse_scenario", "check_scenario"]
 
 
 class _S(BaseModel):
@@ -134,29 +134,25 @@ class Guidance(_S):
                                      description="distance to the standoff point counted as arrived")
     max_estimate_age: float = _param(0.5, unit="s", gt=0, le=10, source="5 sensor periods at 10 Hz",
                                      description="an estimate older than this is not fresh: motion stops")
-    esd_time: float = _param(10.0, unit="s", gt=0, le=120,
-                             source="ESD-1: stop transfer pumps, close ERS valves (OCIMF: valves in about 5-10 s)",
-                             description="duration of the ESD-1 sequence; the ERS valves are confirmed closed at its "
-                                         "end, and only then may the coupler open")
-    ers_time: float = _param(3.0, unit="s", gt=0, le=60, source="ERS-2: release of the coupler (a few seconds)",
-                             description="duration of the ERS-2 release")
-    margin: float = _param(2.0, unit="s", ge=0, le=60, source="engineering margin",
-                           description="time margin added to the sequence times")
-    drift_filter: float = _param(10.0, unit="s", gt=0, le=600,
-                                 source="averages out wave motion (periods 5-15 s) but follows a drift",
-                                 description="time constant of the drift-speed filter used by the speed alarms")
+    drift_window: float = _param(60.0, unit="s", gt=5, le=600,
+                                 source="averages out waves and swell up to about 30 s periods (Hs 1.5 m: fitted "
+                                        "speed within 0.01 m/s); at most twice the first alarm's lead",
+                                 description="window of the constant-acceleration drift fit behind the time-to-limit "
+                                             "alarms")
     jog_speed: float = _param(0.15, unit="m/s", gt=0, le=1, source="same as the approach speed limit",
                               description="coupler speed at full joystick deflection")
 
-    @model_validator(mode="after")
-    def _filter_follows_the_sequence(self) -> "Guidance":
-        lead = self.esd_time + self.ers_time + self.margin
-        if self.drift_filter > lead:
-            raise ValueError(
-                f"guidance.drift_filter = {self.drift_filter:g} s is slower than the sequence it protects "
-                f"(esd_time + ers_time + margin = {lead:g} s): a drift would reach the limit before the speed alarm "
-                f"saw it; use at most {lead:g} s")
-        return self
+
+class Faults(_S):
+    """Faults injected into the run (plant side), to prove the safety chain."""
+
+    ers_valve_stuck: bool = Field(False, description="the ERS valves never confirm closed (limit switches)",
+                                  json_schema_extra={"unit": "", "source": "fault injection"})
+    ers_valve_delay: float = _param(0.0, unit="s", ge=0, le=600, source="fault injection (0 = none)",
+                                    description="extra closing time of the ERS valves beyond ers_valve_time")
+    hpu_trip_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+                                       description="time the hydraulic power unit trips: the drives stop, the "
+                                                   "ERS runs on its accumulator")
 
 
 class ScenarioHead(_S):
@@ -183,6 +179,7 @@ class Scenario(_S):
     sensor: Sensor = Field(default_factory=Sensor)
     operator: Operator = Field(default_factory=Operator)
     guidance: Guidance = Field(default_factory=Guidance)
+    faults: Faults = Field(default_factory=Faults)
 
 
 def parse_scenario(data: dict, *, source: str = "<scenario>") -> Scenario:
@@ -235,4 +232,34 @@ def load_scenario(path: str | Path) -> tuple[Scenario, "ArmModel"]:
     from ..compiler import compile_model
 
     inst = paper_installation() if sc.scenario.installation is None else load_config(p.parent / sc.scenario.installation)
-    return sc, compile_model(inst)
+    model = compile_model(inst)
+    check_scenario(sc, model, source=str(p))
+    return sc, model
+
+
+def check_scenario(sc: Scenario, model: "ArmModel", *, source: str = "<scenario>") -> None:
+    """Cross-checks between a scenario and the installation it runs on.
+
+    Parameters
+    ----------
+    sc : Scenario
+        The scenario.
+    model : ArmModel
+        The installation, compiled.
+    source : str
+        Name for messages.
+
+    Raises
+    ------
+    ConfigError
+        The drift window is longer than twice the first alarm's lead (a drift would reach the limit before the
+        time-to-limit alarm had fitted it; the design-drift floor covers only drifts within the design).
+    """
+    q = model.sequence
+    lead = max(q.esd_time, q.ers_valve_time) + q.erc_release_time + q.margin
+    w = sc.guidance.drift_window
+    if w > 2 * lead:
+        raise ConfigError(
+            f"{source}: guidance.drift_window = {w:g} s is too slow for the sequence it protects (at most twice the "
+            f"first alarm's lead, max(esd_time, ers_valve_time) + erc_release_time + margin = {lead:g} s): a drift "
+            f"would reach the limit before the fit saw it; valid range (5, {2 * lead:g}] s")

@@ -1,0 +1,106 @@
+"""The faces of the attached arm's envelope: where a coupler on the ship's flange stops being safe.
+
+While the coupler is on the flange the ship moves the arm. It is overstretched when the flange leaves the
+arm's reach or drives a joint past its range: the elbow angle ``beta`` past cylinder 2's stroke end (or the
+fully stretched arm) or below its retracted end (the coupler pushed towards the jetty), the inboard angle
+``alpha`` past either end of cylinder 1's stroke (the flange too high or too low), or the slew past its limit
+either way. :func:`face_margins` measures every face at once, vectorised, in the face's own coordinate; the
+guidance monitor, the design check (:mod:`loadarm.check`) and the run's overstretch detection all use it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .slew import inverse3d
+
+__all__ = ["FACES", "FACE_LABELS", "face_margins", "first_face", "breakout_distance"]
+
+#: The faces, in the order of the last axis of :func:`face_margins`.
+FACES = ("beta_max", "beta_min", "alpha_max", "alpha_min", "slew_pos", "slew_neg")
+#: What each face means on the jetty.
+FACE_LABELS = {
+    "beta_max": "arm stretched (beta at cylinder 2's extended end)",
+    "beta_min": "arm folded (beta at cylinder 2's retracted end, coupler towards the jetty)",
+    "alpha_max": "inboard arm up (alpha at cylinder 1's end: flange too high)",
+    "alpha_min": "inboard arm down (alpha at cylinder 1's other end: flange too low)",
+    "slew_pos": "slew at its limit (+y, along the berth)",
+    "slew_neg": "slew at its limit (-y, along the berth)",
+}
+
+
+def face_margins(model, x, y, z) -> np.ndarray:
+    """Signed margin of coupler positions to every face, in the face's own coordinate (rad).
+
+    Parameters
+    ----------
+    model : ArmModel
+        Arm and joint limits.
+    x, y, z : float or ndarray
+        Coupler positions, m (broadcast together).
+
+    Returns
+    -------
+    ndarray, shape ``broadcast + (6,)``
+        Margins in the order of :data:`FACES`: positive inside, zero on the face, negative past it. A position
+        out of the arm's reach is ``-inf`` on the ``beta_max`` face (beyond the stretched arm) or on the
+        ``beta_min`` face (inside the folded arm), and ``+inf`` on the others.
+    """
+    arm, lim = model.arm, model.joint_limits
+    q = inverse3d(arm, x, y, z, check=False)
+    phi, alpha, beta = (np.asarray(v, dtype=float) for v in (q.phi, q.alpha, q.beta))
+    out = np.stack([lim.beta[1] - beta, beta - lim.beta[0], lim.alpha[1] - alpha, alpha - lim.alpha[0],
+                    lim.phi[1] - phi, phi - lim.phi[0]], axis=-1)
+    bad = np.isnan(beta)
+    if np.any(bad):
+        r = np.hypot(np.hypot(x, y), np.asarray(z, dtype=float) - arm.a)
+        r = np.broadcast_to(r, bad.shape)
+        far = bad & (r >= 0.5 * (arm.r_min + arm.r_max))
+        out[bad] = np.inf
+        out[far, 0] = -np.inf
+        out[bad & ~far, 1] = -np.inf
+    return out
+
+
+def first_face(margins: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Whether each position is past a face, and which (the one it is farthest past).
+
+    Parameters
+    ----------
+    margins : ndarray, shape ``(..., 6)``
+        From :func:`face_margins`.
+
+    Returns
+    -------
+    outside : ndarray of bool, shape ``(...)``
+    face : ndarray of int, shape ``(...)``
+        Index into :data:`FACES` of the smallest margin.
+    """
+    face = np.argmin(margins, axis=-1)
+    return np.take_along_axis(margins, face[..., None], axis=-1)[..., 0] < 0, face
+
+
+def breakout_distance(t, speed: float, accel: float) -> np.ndarray:
+    """Distance a ship covers in time ``t`` breaking out from rest at ``accel`` up to ``speed``.
+
+    Parameters
+    ----------
+    t : float or ndarray
+        Time since the break-out, s (>= 0).
+    speed : float
+        Drift speed reached, m/s (>= 0).
+    accel : float
+        Break-out acceleration, m/s^2 (> 0; ``inf`` for a ship already at speed).
+
+    Returns
+    -------
+    ndarray
+        ``a t^2 / 2`` until ``t = speed / accel``, then ``speed t - speed^2 / (2 accel)``, m.
+    """
+    t = np.asarray(t, dtype=float)
+    if math.isinf(accel):
+        return speed * t
+    t_acc = speed / accel
+    return np.where(t < t_acc, 0.5 * accel * t * t, speed * t - 0.5 * speed * t_acc)

@@ -1,4 +1,5 @@
-"""Command line: ``loadarm size | plan | envelope | verify | balance | loads | simulate | run | log | mjcf | demo``.
+"""Command line: ``loadarm size | plan | envelope | check | verify | balance | loads | simulate | run | campaign | log |
+mjcf | demo``.
 
 Bad input of any kind (missing file, invalid config, unreachable target,
 malformed option) prints one line on stderr and exits with status 2; there is
@@ -521,6 +522,80 @@ def run(
               f"; controller cycle median {s['cycle_us_median']:.0f} us, p99 {s['cycle_us_p99']:.0f} us")
     if log is not None:
         out.print(f"  events logged to {db} (run {run_id})")
+
+
+@app.command()
+def check(
+    config: ConfigOpt,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Figure: distance needed against available, per "
+                                                              "direction.")] = None,
+) -> None:
+    """Design check before operation: the largest drift each direction absorbs, from the alarm angles, the
+    sequence times and the arm's limits; refuses (exit 2) an installation whose alarms cannot absorb its own
+    design drift.
+
+    Example: loadarm check --config examples/paper.toml --png out/check.png
+    """
+    from .check import design_check
+
+    _check_png(png)
+    res = design_check(_model(config))
+    if png is not None:
+        from .plotting import save
+
+        save(res.plot(), png)
+    if as_json:
+        _json(res.to_dict())
+    else:
+        s = res.summary()
+        out.print(str(s), markup=False, highlight=False)
+        t = Table("direction", "first face", "available m", "alarm at m", "needed m", "absorbs m/s")
+        for r in res.rows:
+            t.add_row(r.direction, r.face or "-", f"{r.available:.2f}", f"{r.alarm_at:.2f}", f"{r.needed:.2f}",
+                      f"{r.max_speed:.3f}")
+        out.print(t)
+    if not res.ok:
+        raise UserError(f"{config}: refused: " + "; ".join(res.problems))
+
+
+@app.command()
+def campaign(
+    scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML (see examples/scenarios/).")],
+    seeds: Annotated[int, typer.Option("--seeds", "-n", help="Number of runs (seeds 0..N-1).")] = 100,
+    vary: Annotated[Optional[list[str]], typer.Option(
+        "--vary", help="key=lo:hi drawn uniformly per run (repeatable); scenario keys like drift.speed, "
+                       "installation keys like installation.sequence.margin.")] = None,
+    first_seed: Annotated[int, typer.Option("--first-seed", help="First seed.")] = 0,
+    workers: Annotated[Optional[int], typer.Option("--workers", help="Processes (default: every core).")] = None,
+    plant: Annotated[Optional[PlantKind], typer.Option(help="Arm plant (default: the scenario's).")] = None,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Histogram of the release margins.")] = None,
+) -> None:
+    """Run a scenario over many seeds and parameter draws on every core: overstretches, releases before the ERS
+    valves closed, false and missed alarms, and the distribution of release margins.
+
+    Example: loadarm campaign --scenario examples/scenarios/driftoff.toml --seeds 200 --vary drift.speed=0.05:0.3
+    """
+    from .guidance.campaign import parse_vary, run_campaign
+
+    _check_png(png)
+    if workers is not None and workers < 1:
+        raise UserError(f"--workers must be at least 1, got {workers}")
+    varied = [parse_vary(v) for v in vary or ()]
+    with _progress() as prog:
+        task = prog.add_task(f"campaign {scenario.name}", total=seeds)
+        res = run_campaign(scenario, seeds, vary=varied, first_seed=first_seed, workers=workers,
+                           plant=None if plant is None else plant.value,
+                           progress=lambda done, total: prog.update(task, completed=done))
+    if png is not None:
+        from .plotting import save
+
+        save(res.plot(), png)
+    if as_json:
+        _json(res.to_dict())
+        return
+    out.print(str(res.summary()), markup=False, highlight=False)
 
 
 @app.command("log")

@@ -30,7 +30,7 @@ if TYPE_CHECKING:  # the model is only ever received, never built, here
 
 __all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
            "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure", "simulation_figure",
-           "timing_comparison_figure", "timeline_figure", "run_timeline_figure", "save"]
+           "timing_comparison_figure", "timeline_figure", "run_timeline_figure", "check_figure", "save"]
 
 _SEVERITY_COLOURS = {Severity.NORMAL: "#cfe8cf", Severity.ESD1: "#ffe08a", Severity.SECOND: "#ffb366",
                      Severity.RELEASE: "#ff7f7f"}
@@ -486,7 +486,7 @@ def timing_comparison_figure(results: dict) -> Figure:
 
 
 def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: str = "Guidance timeline",
-                    beta_thresholds_deg=None) -> Figure:
+                    beta_thresholds_deg=None, ttl=None) -> Figure:
     """Timeline of a guidance run: mode, elbow and slew angles, distance to the flange, alarms.
 
     Works from a run's signals or from the samples replayed out of the event log.
@@ -509,12 +509,17 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
         Figure title.
     beta_thresholds_deg : sequence of float, optional
         First, second and release angles to draw.
+    ttl : ndarray, optional
+        Forecast time to the nearest face of the envelope while connected, s (NaN: none in sight); adds a
+        panel.
 
     Returns
     -------
     Figure
     """
-    fig, ax = plt.subplots(4, 1, figsize=(11, 9), sharex=True, gridspec_kw={"height_ratios": [1.3, 1, 1, 1]})
+    n = 4 if ttl is None else 5
+    fig, ax = plt.subplots(n, 1, figsize=(11, 9 + 2 * (n - 4)), sharex=True,
+                           gridspec_kw={"height_ratios": [1.3] + [1] * (n - 1)})
     ax[0].step(t, mode, where="post")
     ax[0].set_yticks(range(len(modes)))
     ax[0].set_yticklabels(modes, fontsize=7)
@@ -528,7 +533,11 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
     ax[2].set_ylabel("slew [deg]")
     ax[3].plot(t, distance)
     ax[3].set_ylabel("coupler to flange [m]")
-    ax[3].set_xlabel("t [s]")
+    if ttl is not None:
+        ax[4].plot(t, ttl, color="0.2")
+        ax[4].set_ylabel("time to a face [s]")
+        ax[4].set_ylim(bottom=0)
+    ax[-1].set_xlabel("t [s]")
     # Alarm times as vertical lines, each named in the legend (labels written on the plot overlapped when
     # two alarms came seconds apart).
     styles = ("-", "--", "-.", ":")
@@ -631,5 +640,53 @@ def run_timeline_figure(result) -> Figure:
     s = result.signals
     alarms = [(t, reason.split(":")[0]) for t, _, kind, reason, _ in result.events if kind == "alarm"]
     thr = result.beta_thresholds_deg
+    ttl = s.get("ttl")
     return timeline_figure(s["t"], s["mode"], s["beta"], s["phi"], s["distance"], MODES, alarms=alarms,
-                           title=f"Guidance timeline: {result.name}", beta_thresholds_deg=thr or None)
+                           title=f"Guidance timeline: {result.name}", beta_thresholds_deg=thr or None,
+                           ttl=ttl if ttl is not None and np.any(np.isfinite(ttl)) else None)
+
+
+def check_figure(result) -> Figure:
+    """The design check: per drift direction, the distance to the first face against the distance the design
+    drift needs during the first alarm's lead, and where the first alarm fires.
+
+    Parameters
+    ----------
+    result : loadarm.check.CheckResult
+        The check.
+
+    Returns
+    -------
+    Figure
+    """
+    rows = result.rows
+    fig, ax = plt.subplots(figsize=(9, 0.6 * len(rows) + 1.8))
+    y = np.arange(len(rows))[::-1]
+    for yi, r in zip(y, rows):
+        bad = not r.ok
+        ax.barh(yi, r.available, color="#ff7f7f" if bad else "0.82", edgecolor="0.3", height=0.6)
+        start = max(r.available - r.needed, 0.0)
+        ax.barh(yi, r.available - start, left=start, color="none", edgecolor="0.15", hatch="///", height=0.6)
+        ax.plot([r.alarm_at] * 2, [yi - 0.35, yi + 0.35], color="0.1", lw=2)
+        if r.angle_alarm is not None:
+            ax.plot(r.angle_alarm, yi, marker="v", color="0.1", ms=7)
+        ax.text(r.available + 0.1, yi, f"{r.face or 'none'}  ({r.max_speed:.2f} m/s absorbed)", va="center",
+                fontsize=8)
+    ax.set_yticks(y)
+    ax.set_yticklabels([r.direction for r in rows], fontsize=8)
+    ax.set_xlabel("distance from the nominal flange [m]")
+    from matplotlib.patches import Patch
+    from matplotlib.lines import Line2D
+
+    ax.legend(handles=[Patch(facecolor="0.82", edgecolor="0.3", label="available: to the first face"),
+                       Patch(facecolor="none", edgecolor="0.15", hatch="///",
+                             label=f"needed: design drift during the {result.esd_lead:g} s first-alarm lead"),
+                       Line2D([], [], color="0.1", lw=2, label="first alarm fires at the latest"),
+                       Line2D([], [], color="0.1", marker="v", ls="none", label="customer's first-alarm angle")],
+              fontsize=7, loc="lower right")
+    ax.set_xlim(0, max(r.available for r in rows) * 1.45)
+    ax.set_title(f"Design check: {'pass' if result.ok else 'REFUSED'} "
+                 f"(design drift {result.design_speed:g} m/s, {result.design_accel:g} m/s^2)")
+    ax.grid(axis="x", alpha=0.3)
+    fig.tight_layout()
+    return fig

@@ -52,6 +52,10 @@ class Metric:
         name = self.short or self.label
         return f"{name} [{self.unit}]" if self.unit else name
 
+    def _scaled(self, value):
+        # counts keep their type (an int times 1.0 would be a float that the "d" format refuses)
+        return value if self.scale == 1 else value * self.scale
+
     def format(self, value: Any, *, unit: bool = True) -> str:
         """The value as text, with its unit.
 
@@ -69,9 +73,9 @@ class Metric:
         if value is None:
             return self.none
         if isinstance(value, (list, tuple)):
-            text = self.sep.join(format(v * self.scale, self.fmt) for v in value)
+            text = self.sep.join(format(self._scaled(v), self.fmt) for v in value)
         elif isinstance(value, (int, float)) and not isinstance(value, bool):
-            text = format(value * self.scale, self.fmt)
+            text = format(self._scaled(value), self.fmt)
         else:
             text = str(value)
         return f"{text} {self.unit}" if unit and self.unit and value is not None else text

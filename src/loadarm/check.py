@@ -18,8 +18,10 @@ down) and finds, per direction:
 
 These are guarantees of the floor alone: a faster drift that the monitor measures raises the alarm earlier
 still. The installation is refused when the nominal flange is already in alarm in some direction (its alarm
-settings cannot absorb its own design drift there) or when the design drift speed exceeds ``max_speed`` in
-some direction; :func:`loadarm.compiler.compile_model` already refuses a release angle past a stroke end.
+settings cannot absorb its own design drift there), when the design drift speed exceeds ``max_speed`` in
+some direction, or when the ERS accumulator cannot close the ERS valves and release the coupler after an HPU
+trip (:func:`accumulator_usable_volume`); :func:`loadarm.compiler.compile_model` already refuses a release
+angle past a stroke end.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from .results import Metric, Result
 from .slew import inverse3d
 
 __all__ = ["DIRECTIONS", "DirectionCheck", "CheckResult", "CHECK_METRICS", "design_check", "esd_lead",
-           "release_lead"]
+           "release_lead", "accumulator_usable_volume"]
 
 #: Directions a ship can drift, as (name, unit vector, horizontal).
 DIRECTIONS = (
@@ -80,6 +82,30 @@ def release_lead(seq) -> float:
         ``ers_valve_time + erc_release_time + margin``.
     """
     return seq.ers_valve_time + seq.erc_release_time + seq.margin
+
+
+def accumulator_usable_volume(volume: float, precharge: float, charged: float, minimum: float,
+                              n: float = 1.4) -> float:
+    """Oil an accumulator delivers from its charged pressure down to the minimum working pressure, m^3.
+
+    The gas is charged slowly (isothermal: ``V1 = V0 p0 / p1``) and discharged fast (polytropic:
+    ``V2 = V1 (p1 / p2)^(1/n)``); the oil delivered is ``V2 - V1``.
+
+    Parameters
+    ----------
+    volume : float
+        Gas volume at precharge, m^3.
+    precharge, charged, minimum : float
+        Precharge, charged and minimum working pressures, Pa (``precharge < minimum < charged``).
+    n : float
+        Polytropic index of the discharge.
+
+    Returns
+    -------
+    float
+    """
+    v1 = volume * precharge / charged
+    return v1 * (charged / minimum) ** (1.0 / n) - v1
 
 
 @dataclass(frozen=True, slots=True)
@@ -132,6 +158,8 @@ CHECK_METRICS = (
     Metric("design_speed", "design drift speed", "m/s", ".3f"),
     Metric("design_accel", "design break-out acceleration", "m/s^2", ".3f"),
     Metric("min_max_speed", "largest drift absorbed in every direction", "m/s", ".3f"),
+    Metric("accumulator_usable_l", "ERS accumulator, usable oil", "L", ".2f", scale=1e3),
+    Metric("accumulator_needed_l", "ERS accumulator, needed (with safety factor)", "L", ".2f", scale=1e3),
 )
 
 
@@ -151,6 +179,9 @@ class CheckResult(Result):
         The berth's design drift.
     problems : tuple of str
         Why the installation is refused (empty when it passes).
+    accumulator_usable, accumulator_needed : float
+        Oil the ERS accumulator delivers after an HPU trip, and what the ERS needs with its safety factor,
+        m^3.
     """
 
     flange: tuple
@@ -161,6 +192,8 @@ class CheckResult(Result):
     design_accel: float
     design_vertical_speed: float
     problems: tuple
+    accumulator_usable: float = math.nan
+    accumulator_needed: float = math.nan
 
     METRICS = CHECK_METRICS
 
@@ -179,6 +212,8 @@ class CheckResult(Result):
             "design_accel": self.design_accel,
             "design_vertical_speed": self.design_vertical_speed,
             "min_max_speed": min(r.max_speed for r in self.rows),
+            "accumulator_usable_l": self.accumulator_usable,
+            "accumulator_needed_l": self.accumulator_needed,
             "directions": [{"direction": r.direction, "face": r.face, "available_m": r.available,
                             "angle_alarm_m": r.angle_alarm, "needed_m": r.needed, "alarm_at_m": r.alarm_at,
                             "max_speed": r.max_speed,
@@ -276,5 +311,13 @@ def design_check(model) -> CheckResult:
         elif max_speed < design:
             problems.append(f"{name}: the alarms absorb {max_speed:.3f} m/s, below the design drift "
                             f"{design:.3f} m/s")
+    acc = model.accumulator
+    usable = accumulator_usable_volume(acc.volume, acc.precharge, acc.charged_pressure, acc.min_pressure,
+                                       acc.polytropic_index)
+    needed = acc.required_volume * acc.safety_factor
+    if usable < needed:
+        problems.append(f"the ERS accumulator delivers {usable * 1e3:.2f} L from {acc.charged_pressure / 1e5:g} to "
+                        f"{acc.min_pressure / 1e5:g} bar, the ERS needs {needed * 1e3:.2f} L with its safety factor: "
+                        "after an HPU trip the release could not complete")
     return CheckResult(tuple(float(v) for v in p0), tuple(rows), L1, Lr, dd.speed, dd.acceleration,
-                       dd.vertical_speed, tuple(problems))
+                       dd.vertical_speed, tuple(problems), usable, needed)

@@ -42,6 +42,7 @@ __all__ = [
     "Report",
     "Sequence",
     "DesignDrift",
+    "Accumulator",
     "Installation",
     "packaged_example",
     "SizingArm",
@@ -537,6 +538,38 @@ class DesignDrift(_Section):
                                    description="design vertical speed of the flange")
 
 
+class Accumulator(_Section):
+    """The ERS accumulator: it closes the ERS valves and releases the coupler when the HPU has tripped."""
+
+    volume: float = _param(10.0e-3, unit="m^3", gt=0, le=1, source="10 L bladder accumulator (supplier's size)",
+                           description="gas volume at precharge (nominal size)")
+    precharge: float = _param(90.0e5, unit="Pa", gt=0, le=500e5,
+                              source="about 0.9 x the minimum working pressure (usual bladder practice)",
+                              description="gas precharge pressure")
+    charged_pressure: float = _param(200.0e5, unit="Pa", gt=0, le=500e5, source="HPU pressure that charges it",
+                                     description="pressure when charged (before the HPU trips)")
+    min_pressure: float = _param(100.0e5, unit="Pa", gt=0, le=500e5,
+                                 source="lowest pressure at which the PERC and the ERS valve actuators still work",
+                                 description="minimum working pressure")
+    required_volume: float = _param(1.5e-3, unit="m^3", gt=0, le=1,
+                                    source="ERS valve actuators (about 1 L) plus the PERC's release stroke "
+                                           "(about 0.5 L): supplier's figures",
+                                    description="oil the ERS valves and the coupler's release need")
+    safety_factor: float = _param(1.5, unit="1", ge=1, le=10, source="engineering margin",
+                                  description="usable volume must be at least this times the required volume")
+    polytropic_index: float = _param(1.4, unit="1", ge=1, le=1.67,
+                                     source="adiabatic nitrogen (a fast discharge, seconds)",
+                                     description="gas expansion exponent during the discharge")
+
+    @model_validator(mode="after")
+    def _pressures(self) -> "Accumulator":
+        if not (self.precharge < self.min_pressure < self.charged_pressure):
+            raise ValueError(
+                f"accumulator pressures must satisfy precharge ({self.precharge:g}) < min_pressure "
+                f"({self.min_pressure:g}) < charged_pressure ({self.charged_pressure:g}) Pa")
+        return self
+
+
 class Installation(_Section):
     """One marine loading arm at one berth: everything loadarm needs to plan."""
 
@@ -555,6 +588,7 @@ class Installation(_Section):
     controller: Controller = Field(default_factory=Controller)
     sequence: Sequence = Field(default_factory=Sequence)
     design_drift: DesignDrift = Field(default_factory=DesignDrift)
+    accumulator: Accumulator = Field(default_factory=Accumulator)
     report: Report = Field(default_factory=Report)
 
 

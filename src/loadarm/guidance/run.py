@@ -271,20 +271,36 @@ class ArmPlant:
     kind : {'hydraulic', 'kinematic'}
         Plant.
     emit : callable
-        ``emit(t, mode, kind, reason, data)`` for the plant's own events (overstretch, servo fault).
+        ``emit(t, mode, kind, reason, data)`` for the plant's own events (overstretch, servo fault, HPU trip).
+    hpu_trip_at : float, optional
+        Time the hydraulic power unit trips: from then on the drives cannot move the arm (the ERS valves and
+        the coupler's release run on their accumulator, see :func:`loadarm.check.accumulator_check`).
+
+    Notes
+    -----
+    When the drives take the arm over after an emergency release, they start from its real state: the pose and
+    joint rates it had on the flange, and the product still in it (fill 1: trapped between the closed ERS
+    valves). After a controlled disconnection the arm has been drained (the configured fill).
     """
 
-    def __init__(self, model: ArmModel, q: np.ndarray, kind: str, emit: Callable):
+    def __init__(self, model: ArmModel, q: np.ndarray, kind: str, emit: Callable, *,
+                 hpu_trip_at: float | None = None):
         self.arm, self.lim = model.arm, model.joint_limits
         self.q = np.asarray(q, dtype=float)
+        self.attached_rates = np.zeros(3)
         self.emit = emit
         self.servo = None
+        self.servo_full = None
         if kind == "hydraulic":
             from ..hydraulics.servo import HydraulicArm
 
             self.servo = HydraulicArm(model, self.q[1], self.q[2])
+            self.servo_full = HydraulicArm(model, self.q[1], self.q[2], fill=1.0)
         self.servo_fault = False
         self.was_connected = False
+        self.was_released = False
+        self.hpu_trip_at = hpu_trip_at
+        self.hpu_tripped = False
         self.overstretched: float | None = None
 
     def step(self, now: float, dt: float, cmd, f: np.ndarray) -> np.ndarray:
@@ -304,11 +320,20 @@ class ArmPlant:
         ndarray, shape (3,)
             Joint angles after the cycle, rad.
         """
+        if self.hpu_trip_at is not None and now >= self.hpu_trip_at and not self.hpu_tripped:
+            self.hpu_tripped = True
+            self.emit(now, cmd.mode.value, "alarm", "HPU trip: the drives have no pressure; the ERS valves and the "
+                      "coupler's release run on the accumulator", {})
         if cmd.connected:
+            q_before = self.q.copy()
             self._follow_flange(now, cmd, f)
+            self.attached_rates = (self.q - q_before) / dt
+        elif self.hpu_tripped:
+            pass                          # no pressure: the arm stays where it is (brakes / load-holding valves)
         else:
             self._drive(now, dt, cmd)
         self.was_connected = cmd.connected
+        self.was_released = cmd.release if cmd.connected else self.was_released
         return self.q
 
     def _follow_flange(self, now: float, cmd, f: np.ndarray) -> None:
@@ -334,8 +359,10 @@ class ArmPlant:
             return
         from ..hydraulics.simulate import SimulationError
 
-        if self.was_connected:        # released: the drives take the arm over where the flange left it
-            self.servo.reset(q[1], q[2])
+        if self.was_connected:        # released: the drives take the arm over from its real state
+            if self.was_released:     # emergency release: moving with the ship, full of product
+                self.servo = self.servo_full
+            self.servo.reset(q[1], q[2], float(self.attached_rates[1]), float(self.attached_rates[2]))
         phi = min(max(q[0] + cmd.rates[0] * dt, lo[0]), hi[0])
         try:
             a_new, b_new = self.servo.step(dt, (cmd.rates[1], cmd.rates[2]))
@@ -447,7 +474,8 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
         if log is not None:
             log.append(t, mode, kind, reason, **data)
 
-    arm_plant = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, emit)
+    arm_plant = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, emit,
+                         hpu_trip_at=sc.faults.hpu_trip_at)
     valves = ErsValves(model.sequence.ers_valve_time, stuck=sc.faults.ers_valve_stuck, delay=sc.faults.ers_valve_delay)
     fb = PlantFeedback()
     operator = ScriptedOperator(sc.operator, dt)

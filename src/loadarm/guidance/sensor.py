@@ -27,10 +27,20 @@ import numpy as np
 from .scenario import Scenario
 from .ship import FlangeMotion
 
-__all__ = ["Readings", "sensor_readings", "Estimate", "FlangeEstimator", "CHI2_3DOF_999"]
+__all__ = ["Readings", "sensor_readings", "Estimate", "FlangeEstimator", "CHI2_3DOF_999", "NIS_WINDOW",
+           "NIS_MEAN_999", "REJECT_WINDOW", "MAX_REJECT_RATE"]
 
 #: 99.9 % quantile of the chi-square distribution with 3 degrees of freedom.
 CHI2_3DOF_999 = 16.266
+#: Accepted readings over which the innovations' consistency (NIS) is averaged.
+NIS_WINDOW = 20
+#: Readings over which the rejection rate is watched, and the rate above which the estimate is not trusted (a
+#: second target or a flood of outliers: the track may be the wrong one).
+REJECT_WINDOW = 20
+MAX_REJECT_RATE = 0.3
+#: 99.9 % quantile of the mean of NIS_WINDOW chi-square(3) values: chi2.ppf(0.999, 60) / 20 (tested against
+#: SciPy). A filter whose model explains the readings averages 3; above this bound it does not.
+NIS_MEAN_999 = 4.9803
 
 
 @dataclass(frozen=True)
@@ -134,7 +144,9 @@ class FlangeEstimator:
     #: estimate needs before it is healthy again.
     REINIT_CLUSTER = 3
     CONVERGE_READINGS = 5
-    #: Fastest plausible flange motion between two readings, m/s (a moored ship: well below 1 m/s).
+    #: Fastest plausible flange motion between two readings, m/s (a moored ship: well below 1 m/s). A cluster of
+    #: readings farther from the track than the flange could have moved since the last accepted reading is a
+    #: second target (another flange, a reflection), never a restart.
     MAX_FLANGE_SPEED = 1.0
 
     def __init__(self, *, noise: float, accel_psd: float = 0.1, max_age: float = 0.5, max_sigma: float = 0.25):
@@ -152,6 +164,8 @@ class FlangeEstimator:
         self.accepted = 0
         self.rejected = 0
         self.restarts = 0
+        self.nis: list[float] = []       # NIS of the last NIS_WINDOW accepted readings
+        self.outcomes: list[bool] = []   # accepted (True) / rejected of the last REJECT_WINDOW readings
 
     def _init(self, t: float, z) -> None:
         self.t = t
@@ -159,6 +173,7 @@ class FlangeEstimator:
         self.P = [(self.r, 0.0, 1.0)] * 3
         self.last_accept = t
         self.rejected_in_row = 0
+        self.nis = []
 
     def _predict(self, dt: float):
         q = self.q
@@ -191,22 +206,32 @@ class FlangeEstimator:
         bool
             True if accepted, False if rejected as an outlier (or stale).
         """
-        if self.t is None:
+        if self.t is None:                 # acquisition: like a restart, trusted only once it has converged
             self._init(t_meas, z)
+            self.converging = self.CONVERGE_READINGS
             self.accepted += 1
+            self.outcomes = [True]
             return True
         if t_meas < self.t:          # out-of-order reading: ignore
             return False
+        ok = self._update(t_meas, z)
+        self.outcomes = (self.outcomes + [ok])[-REJECT_WINDOW:]
+        return ok
+
+    def _update(self, t_meas: float, z) -> bool:
         x, P = self._predict(t_meas - self.t)
         d2 = 0.0
         for i in range(3):
             nu = z[i] - x[2 * i]
             d2 += nu * nu / (P[i][0] + self.r)
-        if d2 > CHI2_3DOF_999:
+        # gate: statistically consistent with the track, and where the flange could physically have got to since
+        # the last accepted reading (the covariance grows during a gap; the flange's speed does not)
+        if d2 > CHI2_3DOF_999 or not self._reachable(t_meas, z):
             self.rejected += 1
             self.rejected_in_row += 1
             self.pending = (self.pending + [(t_meas, tuple(z))])[-self.REINIT_CLUSTER:]
-            if len(self.pending) == self.REINIT_CLUSTER and self._agree(self.pending):
+            if (len(self.pending) == self.REINIT_CLUSTER and self._agree(self.pending)
+                    and self._reachable(t_meas, z)):
                 # lost track and the last readings agree with each other: restart on the newest, and do not
                 # trust it until it has converged (a single outlier can never become the track)
                 self._init(t_meas, z)
@@ -223,6 +248,9 @@ class FlangeEstimator:
             x[2 * i] += k0 * nu
             x[2 * i + 1] += k1 * nu
             P[i] = ((1 - k0) * a, (1 - k0) * b, c - k1 * b)
+        self.nis = (self.nis + [d2])[-NIS_WINDOW:]
+        if t_meas - self.last_accept > self.max_age:    # re-acquired after a gap: converge before trusting it
+            self.converging = max(self.converging, self.CONVERGE_READINGS)
         self.x, self.P, self.t = x, P, t_meas
         self.last_accept = t_meas
         self.rejected_in_row = 0
@@ -241,6 +269,21 @@ class FlangeEstimator:
                 if math.dist(zi, zj) > allowed:
                     return False
         return True
+
+    def _reachable(self, t: float, z) -> bool:
+        """Whether the flange could have moved from the track's last accepted position to ``z`` by ``t``."""
+        last = (self.x[0], self.x[2], self.x[4])
+        allowed = 6.0 * math.sqrt(2.0 * self.r) + self.MAX_FLANGE_SPEED * max(t - self.last_accept, 0.0)
+        return math.dist(last, z) <= allowed
+
+    def nis_mean(self) -> float:
+        """Mean normalised innovation squared of the last :data:`NIS_WINDOW` accepted readings (NaN before).
+
+        Returns
+        -------
+        float
+        """
+        return sum(self.nis) / len(self.nis) if len(self.nis) == NIS_WINDOW else math.nan
 
     def estimate(self, now: float) -> Estimate:
         """The estimate at ``now`` (predicted from the last reading), with its health.
@@ -267,4 +310,10 @@ class FlangeEstimator:
         elif self.converging:
             reason = (f"restarted on new readings, converging ({self.CONVERGE_READINGS - self.converging} of "
                       f"{self.CONVERGE_READINGS} readings)")
+        elif self.outcomes.count(False) > MAX_REJECT_RATE * REJECT_WINDOW:
+            reason = (f"{self.outcomes.count(False)} of the last {len(self.outcomes)} readings rejected (a second "
+                      f"target or a flood of outliers): the track may be the wrong one")
+        elif self.nis_mean() > NIS_MEAN_999:
+            reason = (f"innovations inconsistent: mean NIS {self.nis_mean():.2f} over the last {NIS_WINDOW} "
+                      f"readings, above {NIS_MEAN_999:g} (the filter does not explain the readings)")
         return Estimate(now, (x[0], x[2], x[4]), (x[1], x[3], x[5]), sigma, age, reason == "", reason)

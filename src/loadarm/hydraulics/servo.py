@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..dynamics import G
+from ..dynamics import G, lagrange_constants, mass_model
 from . import plant
 from .simulate import SimulationError, initial_state, pack_parameters
 
@@ -36,25 +36,34 @@ class HydraulicArm:
         The installation (hydraulics, controller, masses).
     alpha, beta : float
         Starting pose, rad (held by its static pressures).
+    fill : float, optional
+        Product fill of the arm (default ``masses.fill``; 1 after an emergency release, the product trapped
+        between the closed ERS valves).
     """
 
-    def __init__(self, model: ArmModel, alpha: float, beta: float):
+    def __init__(self, model: ArmModel, alpha: float, beta: float, *, fill: float | None = None):
         self.model = model
-        self.P = pack_parameters(model)
-        self.k = model.lagrange
+        self.fill = fill
+        self.P = pack_parameters(model, fill=fill)
+        self.k = model.lagrange if fill is None else lagrange_constants(mass_model(model, fill=fill))
         self.dt = float(self.P[plant.I_DT])
         self.substeps = int(round(self.P[plant.I_DT] / self.P[plant.I_H]))
         self.reset(alpha, beta)
 
-    def reset(self, alpha: float, beta: float) -> None:
-        """Put the arm at rest at a pose, held by the static pressures; clear the controllers.
+    def reset(self, alpha: float, beta: float, alpha_rate: float = 0.0, beta_rate: float = 0.0) -> None:
+        """Put the arm at a pose, held by the static pressures, moving at the given joint rates (the arm's real
+        state when the drives take it over, e.g. at a release); clear the controllers.
 
         Parameters
         ----------
         alpha, beta : float
             Pose, rad.
+        alpha_rate, beta_rate : float
+            Joint rates, rad/s.
         """
-        self.state = plant.ServoState.at_rest(self.P, initial_state(self.model, alpha, beta))
+        y = initial_state(self.model, alpha, beta, fill=self.fill)
+        y[2], y[3] = alpha_rate, beta_rate
+        self.state = plant.ServoState.at_rest(self.P, y)
         self.q_ref = np.array([alpha, beta], dtype=float)
 
     @property

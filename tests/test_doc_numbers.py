@@ -88,11 +88,37 @@ def test_guidance_page_driftoff_row():
     from loadarm.guidance.run import run_scenario
     from loadarm.guidance.scenario import load_scenario
 
+    import numpy as np
+
     sc, inst = load_scenario(ROOT / "examples" / "scenarios" / "driftoff.toml")
-    s = run_scenario(sc, inst).summary()
+    r = run_scenario(sc, inst)
+    s = r.summary()
+    k = int(np.searchsorted(r.signals["t"], s["release_complete_s"]))
     cited("docs/guidance.md", f"ALARM1 {s['alarm1_s']:.1f} s, ALARM2 {s['alarm2_s']:.1f} s, RELEASE "
-                              f"{s['release_s']:.1f} s, released {s['release_complete_s']:.1f} s")
+                              f"{s['release_s']:.1f} s, released {s['release_complete_s']:.1f} s at beta "
+                              f"{np.degrees(r.signals['beta'][k]):.0f} deg, {s['release_margin_s']:.1f} s before "
+                              f"the flange reaches the stretched-arm face (ERS valves confirmed at "
+                              f"{s['valves_confirmed_s']:.1f} s)")
+    cited("docs/guidance.md", f"the coupler 1 m clear of the flange at {s['cleared_s']:.1f} s")
     cited("README.md", f"alarm1 at {s['alarm1_s']:.2f} s")
+
+
+def test_guidance_page_worked_example_and_check_numbers(paper):
+    """docs/guidance.md section 6's worked example and section 6's accumulator numbers, recomputed."""
+    from loadarm.check import design_check
+
+    c = design_check(compile_model(paper))
+    off = c.rows[0]
+    assert off.direction.startswith("off the berth")
+    cited("docs/guidance.md", f"is {off.available:.2f} m from the stretched-arm face along +x")
+    cited("docs/guidance.md", f"= {off.needed:.2f} m during the ESD-1 lead of {c.esd_lead:.0f} s")
+    cited("docs/guidance.md", f"fires ESD-1 at {off.alarm_at:.2f} m out, before the customer's 123 deg first "
+                              f"alarm (at {off.angle_alarm:.2f} m)")
+    cited("docs/guidance.md", f"absorbs drifts up to {off.needed:.2f} / {c.release_lead:.0f} = {off.max_speed:.3f} m/s")
+    cited("docs/guidance.md", f"the smallest margin is downwards, {min(r.max_speed for r in c.rows):.3f} m/s")
+    assert min(c.rows, key=lambda r: r.max_speed).direction.startswith("down")
+    cited("docs/guidance.md", f"(paper case: {c.accumulator_usable * 1e3:.2f} L usable against "
+                              f"{c.accumulator_needed * 1e3:.2f} L needed)")
 
 
 def test_readme_accuracy_claims(paper):

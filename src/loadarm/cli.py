@@ -693,7 +693,7 @@ def demo(
 
     source = config if config is not None else packaged_example("paper.toml")
     inst: Installation = load_config(source)
-    steps = 12 + len(inst.report.scenarios)
+    steps = 13 + len(inst.report.scenarios)
     with _progress() as prog:
         task = prog.add_task("starting", total=steps)
 

@@ -535,7 +535,7 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
     ax[3].set_ylabel("coupler to flange [m]")
     if ttl is not None:
         ax[4].plot(t, ttl, color="0.2")
-        ax[4].set_ylabel("time to a face [s]")
+        ax[4].set_ylabel("time to a face [s]\n(within the forecast horizon)", fontsize=8)
         ax[4].set_ylim(bottom=0)
     ax[-1].set_xlabel("t [s]")
     # Alarm times as vertical lines, each named in the legend (labels written on the plot overlapped when

@@ -147,7 +147,8 @@ _REPORT_SIM_KEYS = ("timing", "plan_duration_s", "arrival_time_s", "max_deviatio
                     "final_position_error_mm", "max_chamber_pressure_bar", "peak_pump_flow_L_min", "pump_energy_kJ")
 
 #: Guidance-run metrics the report's scenario table shows (declared once in guidance.run.RUN_METRICS).
-_REPORT_RUN_KEYS = ("alarm1_s", "alarm2_s", "release_s", "release_complete_s", "overstretched_s", "max_beta_deg")
+_REPORT_RUN_KEYS = ("alarm1_s", "alarm2_s", "release_s", "release_complete_s", "release_margin_s", "overstretched_s",
+                    "max_beta_deg")
 
 #: Display units for the parameter table: SI value times factor.
 _DISPLAY_UNITS = {"Pa": ("bar", 1e-5), "N": ("kN", 1e-3), "m^3/s": ("L/min", 6e4)}
@@ -236,6 +237,14 @@ class ReportData:
         return {law: simulate_approach(self.model, plan) for law, plan in self.plans.items()}
 
     @cached_property
+    def check(self):
+        """:func:`loadarm.check.design_check` of the installation."""
+        from .check import design_check
+
+        self._progress("design check: drift absorbed per direction")
+        return design_check(self.model)
+
+    @cached_property
     def scenario_files(self) -> list[Path]:
         """The installation's ``[report] scenarios``, resolved against its file."""
         base = self.source.parent if self.source is not None else Path.cwd()
@@ -286,6 +295,10 @@ FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
                                 "Deviation of the simulated coupler from the straight line, by timing law."),
     "simulation_smooth.png": (lambda d: simulation_figure(d.simulations["smooth"]),
                               "Smooth timing: deviation, tracking errors, pressures, valve commands, pump."),
+    "check.png": (lambda d: d.check.plot(),
+                  "Design check: per drift direction, the distance to the first face of the envelope (grey), the "
+                  "design drift's distance during the first alarm's lead (hatched), where the first alarm fires at "
+                  "the latest (bar) and the customer's first-alarm angle (triangle)."),
 }
 
 
@@ -365,6 +378,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     plans = d.plans
     csvs = {law: p.write_csv(out / f"plan_{law}.csv") for law, p in plans.items()}
     verification, loads, balance, sims, scen_runs = d.verification, d.loads, d.balance, d.simulations, d.scenarios
+    check = d.check
 
     step("drawing figures")
     builders = figure_builders(d)
@@ -378,6 +392,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     summary["loads"] = {law: ld.summary() for law, ld in loads.items()}
     summary["balance"] = balance.summary()
     summary["simulation"] = {law: r.summary() for law, r in sims.items()}
+    summary["check"] = check.to_dict()
     # wall-clock cycle times depend on the machine and its load: they belong to `loadarm run`, not the report
     summary["scenarios"] = {name: {k: v for k, v in rr.summary().items() if not k.startswith("cycle_us")}
                             for name, rr in scen_runs.items()}
@@ -455,6 +470,12 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         "loads": _table(load_rows, [("law", "timing law"), ("cyl", "cylinder")]
                         + [(m.key, m.header) for m in CYLINDER_LOAD_METRICS] + [("ok", "within rating")]),
         "simulation": _table(sim_rows, [(m.key, m.header) for m in sim_cols] + [("warnings", "warnings")]),
+        "check": _table([{"dir": r.direction, "face": r.face or "-", "avail": r.available, "alarm": r.alarm_at,
+                          "needed": r.needed, "vmax": r.max_speed, "ok": "yes" if r.ok else "NO"} for r in check.rows],
+                        [("dir", "direction"), ("face", "first face"), ("avail", "available [m]"),
+                         ("alarm", "first alarm at [m]"), ("needed", "design drift needs [m]"),
+                         ("vmax", "absorbs [m/s]"), ("ok", "ok")],
+                        {"avail": ".2f", "alarm": ".2f", "needed": ".2f", "vmax": ".3f"}),
         "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes")]
                             + [(m.key, m.header) for m in scen_cols]),
         "parameters": _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),
@@ -467,7 +488,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         local_minima=", ".join(f"({b:.3f}, {c:.3f})" for b, c in sizing.local_minima),
         paper_peak_speed=plans["paper"].summary()["peak_path_speed_m_s"], csv_names=[p.name for p in csvs.values()],
         vs=vs, bs=bs, mass_text=mass_text, scenario_files=", ".join(f.name for f in d.scenario_files),
-        timelines=[f"timeline_{n}.png" for n in scen_runs])
+        timelines=[f"timeline_{n}.png" for n in scen_runs], check=check, seq=d.model.sequence)
     html_path = out / "report.html"
     html_path.write_text(text, encoding="utf-8")
     return ReportFiles(html=html_path, summary=summary_path, csv=csvs, figures=figs)

@@ -532,7 +532,7 @@ class GuidanceController:
         level, why = self.thr.level(q[2], q[0])
         leads = self._leads(now)
         if now >= s.next_forecast or s.forecast is None:
-            s.forecast = self.monitor.time_to_limit(p, max(leads.values()))
+            s.forecast = self.monitor.time_to_limit(p, max(leads.values()), alarmed=s.esd_since is not None)
             s.next_forecast = now + self.monitor.fit.period
         f = s.forecast
         for stage in sorted(leads, reverse=True):

@@ -149,19 +149,33 @@ class DriftFit:
         self.count += 1
         return True
 
-    def estimate(self) -> DriftEstimate | None:
-        """The fit over the full window, or None until the window is full.
+    def estimate(self, min_samples: int | None = None) -> DriftEstimate | None:
+        """The fit over the full window, or over the samples there are if at least ``min_samples``.
+
+        Parameters
+        ----------
+        min_samples : int, optional
+            Accept a partial window of at least this many samples (default: only a full window). Its standard
+            deviations are those of the shorter fit, so they are larger.
 
         Returns
         -------
         DriftEstimate or None
         """
-        if self.count < self.n:
+        m = min(self.count, self.n)
+        if m < (self.n if min_samples is None else max(min_samples, 8)):
             return None
-        c = self.pinv @ self.buf                     # (3, 3): rows p, v, a; columns x, y, z
-        res = self.buf - self.X @ c
-        s = np.sqrt(np.sum(res * res, axis=0) / (self.n - 3))
-        sd = self.correlation * s[None, :] * np.sqrt(np.diag(self.cov_unit))[:, None]
+        if m == self.n:
+            X, pinv, cov = self.X, self.pinv, self.cov_unit
+        else:
+            X = self.X[-m:]
+            pinv = np.linalg.pinv(X)
+            cov = np.linalg.inv(X.T @ X)
+        y = self.buf[-m:]
+        c = pinv @ y                                 # (3, 3): rows p, v, a; columns x, y, z
+        res = y - X @ c
+        s = np.sqrt(np.sum(res * res, axis=0) / (m - 3))
+        sd = self.correlation * s[None, :] * np.sqrt(np.diag(cov))[:, None]
         return DriftEstimate(c[0], c[1], c[2], sd[0], sd[1], sd[2], np.max(np.abs(res), axis=0))
 
 
@@ -203,6 +217,9 @@ class EnvelopeMonitor:
         one step).
     """
 
+    #: History the measured route needs once ESD-1 is active, s.
+    ALARMED_MIN_HISTORY = 10.0
+
     def __init__(self, model, window: float, k_sigma: float = 2.0, step: float = 0.5):
         self.model = model
         self.fit = DriftFit(window)
@@ -240,7 +257,7 @@ class EnvelopeMonitor:
         k = int(np.flatnonzero(outside[i])[0])
         return float(tau[max(i - 1, 0)]), FACES[int(face[i, k])]
 
-    def time_to_limit(self, p_now, horizon: float) -> LimitForecast:
+    def time_to_limit(self, p_now, horizon: float, *, alarmed: bool = False) -> LimitForecast:
         """Earliest time the flange could cross a face within ``horizon`` seconds.
 
         Parameters
@@ -249,13 +266,18 @@ class EnvelopeMonitor:
             Flange position now, m.
         horizon : float
             How far ahead to look, s (the longest stage lead).
+        alarmed : bool
+            ESD-1 is already active: the measured route then fits whatever history there is (at least
+            :attr:`ALARMED_MIN_HISTORY` s), so that a drift faster than the design one, which started soon after
+            the connection, still gets its release in time. Before ESD-1 only a full window counts (no false
+            alarm from a short, wave-dominated fit).
 
         Returns
         -------
         LimitForecast
         """
         tau = np.arange(0.0, horizon + self.step, self.step)
-        est = self.fit.estimate()
+        est = self.fit.estimate(int(round(self.ALARMED_MIN_HISTORY / self.fit.period)) if alarmed else None)
         base = np.asarray(p_now, dtype=float) if est is None else est.p
         # design drift: a break-out from where the flange is, every horizontal direction, and vertically
         d_h = breakout_distance(tau, self.dd.speed, self.dd.acceleration)

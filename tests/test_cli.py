@@ -283,15 +283,15 @@ def test_version_and_exit_codes_in_help(capsys):
     assert code == 0 and "0 ok, 1 internal error" in " ".join(out.split()) and "130 interrupted" in out
 
 
-@pytest.mark.parametrize("cmd", ["size", "plan", "envelope", "verify", "balance", "loads", "simulate", "run", "log",
-                                 "mjcf", "demo"])
+@pytest.mark.parametrize("cmd", ["size", "plan", "envelope", "check", "verify", "balance", "loads", "simulate", "run",
+                                 "campaign", "log", "mjcf", "demo"])
 def test_every_command_has_an_example_and_lists_its_choices(capsys, monkeypatch, cmd):
     monkeypatch.setenv("COLUMNS", "200")   # choices are one metavar; keep it on one line
     code, out, _ = run(capsys, cmd, "--help")
     text = " ".join(out.replace("│", " ").split())
     assert code == 0 and f"Example: loadarm {cmd}" in text
     choices = {"plan": "paper|smooth|optimal", "verify": "paper|smooth|optimal", "loads": "paper|smooth|optimal",
-               "simulate": "paper|smooth|optimal|all", "run": "hydraulic|kinematic",
+               "simulate": "paper|smooth|optimal|all", "run": "hydraulic|kinematic", "campaign": "hydraulic|kinematic",
                "log": "mode|alarm|alarm_state|command|interlock|operator|sensor|sample|info"}
     if cmd in choices:
         assert choices[cmd] in text.replace(" ", "")

@@ -8,8 +8,8 @@ gives the wave excursion and the fit's uncertainty. From it :meth:`EnvelopeMonit
 when the flange would first cross a face of the arm's envelope (:mod:`loadarm.faces`), two ways, and keeps the
 earlier:
 
-* **measured drift**: the fitted drift extrapolated, widened by the wave excursion and ``k`` standard
-  deviations of the fit (velocity and acceleration);
+* **measured drift**: the fitted drift extrapolated (a decelerating drift stops at its vertex), widened by the
+  wave excursion and ``k`` standard deviations of the fit's position and velocity;
 * **design drift** (Lanquetin): from where the flange is, a break-out at the berth's design acceleration up to
   its design speed in every horizontal direction, and the design vertical speed up and down. This is the
   floor under the speed alarm: it needs no measurement history, so it covers the first seconds after the
@@ -213,18 +213,22 @@ class EnvelopeMonitor:
     k_sigma : float
         Standard deviations of the fit added to the prediction (2: about 97.5 % one-sided).
     step : float
-        Time step of the prediction, s (a face is reported at the last step before it: conservative by up to
-        one step).
+        Time step of the coarse scan of the prediction, s.
+    resolution : float
+        The crossing is then bisected to this, s, and reported at the last time found inside: early by up to
+        ``resolution``, never late (within the scan: a face crossed and left between two scan steps is missed,
+        which 1 s steps at drift speeds below 1 m/s make a centimetre-scale effect).
     """
 
     #: History the measured route needs once ESD-1 is active, s.
     ALARMED_MIN_HISTORY = 10.0
 
-    def __init__(self, model, window: float, k_sigma: float = 2.0, step: float = 0.5):
+    def __init__(self, model, window: float, k_sigma: float = 2.0, step: float = 1.0, resolution: float = 0.0625):
         self.model = model
         self.fit = DriftFit(window)
         self.k = k_sigma
         self.step = step
+        self.resolution = resolution
         dd = model.design_drift
         ang = np.arange(8) * (math.pi / 4)
         self.dirs_h = np.stack([np.cos(ang), np.sin(ang), np.zeros(8)], axis=1)
@@ -246,16 +250,33 @@ class EnvelopeMonitor:
         """
         self.fit.push(t, p)
 
-    def _first_crossing(self, pts: np.ndarray, tau: np.ndarray) -> tuple[float, str]:
-        """First time index at which any of the points (T, K, 3) lies past a face."""
+    def _outside(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m = face_margins(self.model, pts[..., 0], pts[..., 1], pts[..., 2])
-        outside, face = first_face(m)
+        return first_face(m)
+
+    def _first_crossing(self, points, horizon: float) -> tuple[float, str]:
+        """First time any of ``points(tau)`` (shape (T, K, 3) for times ``tau``) lies past a face: a coarse scan
+        at :attr:`step`, then bisection to :attr:`resolution`; the last time found inside is returned."""
+        tau = np.arange(0.0, horizon + self.step, self.step)
+        outside, face = self._outside(points(tau))
         rows = np.flatnonzero(outside.any(axis=1))
         if rows.size == 0:
             return math.inf, ""
         i = int(rows[0])
         k = int(np.flatnonzero(outside[i])[0])
-        return float(tau[max(i - 1, 0)]), FACES[int(face[i, k])]
+        hit_face = FACES[int(face[i, k])]
+        if i == 0:
+            return 0.0, hit_face
+        lo, hi = float(tau[i - 1]), float(tau[i])
+        while hi - lo > self.resolution + 1e-12:
+            mid = 0.5 * (lo + hi)
+            out, f = self._outside(points(np.array([mid])))
+            if out.any():
+                hi = mid
+                hit_face = FACES[int(f[0, int(np.flatnonzero(out[0])[0])])]
+            else:
+                lo = mid
+        return lo, hit_face
 
     def time_to_limit(self, p_now, horizon: float, *, alarmed: bool = False) -> LimitForecast:
         """Earliest time the flange could cross a face within ``horizon`` seconds.
@@ -276,19 +297,40 @@ class EnvelopeMonitor:
         -------
         LimitForecast
         """
-        tau = np.arange(0.0, horizon + self.step, self.step)
         est = self.fit.estimate(int(round(self.ALARMED_MIN_HISTORY / self.fit.period)) if alarmed else None)
         base = np.asarray(p_now, dtype=float) if est is None else est.p
         # design drift: a break-out from where the flange is, every horizontal direction, and vertically
-        d_h = breakout_distance(tau, self.dd.speed, self.dd.acceleration)
-        d_v = self.dd.vertical_speed * tau
-        pts = np.concatenate([base + d_h[:, None, None] * self.dirs_h[None],
-                              base + d_v[:, None, None] * np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])[None]],
-                             axis=1)
-        t_design, f_design = self._first_crossing(pts, tau)
+        dd = self.dd
+        dirs_v = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
+
+        def design(tau):
+            d_h = breakout_distance(tau, dd.speed, dd.acceleration)
+            d_v = dd.vertical_speed * tau
+            return np.concatenate([base + d_h[:, None, None] * self.dirs_h[None],
+                                   base + d_v[:, None, None] * dirs_v[None]], axis=1)
+
+        t_design, f_design = self._first_crossing(design, horizon)
         best = LimitForecast(t_design, f_design, "design drift" if f_design else "")
         if est is None:
             return best
+        # measured drift: the fit extrapolated (its acceleration only where it is significant: an acceleration
+        # too small to tell from the waves is the design floor's to cover, from rest), widened by the wave
+        # excursion and k standard deviations of the position and velocity
+        a = np.where(np.abs(est.a) > self.k * est.sigma_a, est.a, 0.0)
+        # a decelerating drift stops: no parabola coming back out after the vertex
+        t_stop = np.where(est.v * a < 0, -est.v / np.where(a == 0, 1.0, a), np.inf)
+
+        def measured(tau):
+            t = np.minimum(tau[:, None], t_stop)
+            centre = est.p + est.v * t + 0.5 * a * t * t
+            t = tau[:, None]
+            half = est.wave + self.k * (est.sigma_p + est.sigma_v * t)
+            return centre[:, None, :] + half[:, None, :] * _CORNERS[None]
+
+        t_meas, f_meas = self._first_crossing(measured, min(horizon, t_design))
+        if f_meas and t_meas < best.time:
+            best = LimitForecast(t_meas, f_meas, "measured drift")
+        return best
         # measured drift: the fit extrapolated (its acceleration only where it is significant: an acceleration
         # too small to tell from the waves is the design floor's to cover, from rest), widened by the wave
         # excursion and k standard deviations of the position and velocity

@@ -40,8 +40,9 @@ __all__ = ["RUN_METRICS", "RunResult", "run_scenario", "ScriptedOperator", "ArmP
            "MODES", "MANIFOLD_CLEARANCE"]
 
 #: Distance the coupler must put between itself and the ship's flange after a release, m (clear of the
-#: manifold's spool piece and the ship's rail).
+#: manifold's spool piece and the ship's rail), and the time it has to do so, s.
 MANIFOLD_CLEARANCE = 1.0
+CLEARANCE_TIME = 30.0
 
 
 def wall_clock_pacer(speedup: float = 1.0) -> Callable[[float], None]:
@@ -480,6 +481,7 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     fb = PlantFeedback()
     operator = ScriptedOperator(sc.operator, dt)
     rec = _Recorder(n, log, sample_every)
+    clearance = _ClearanceWatch(emit)
     cycle = np.empty(n)
     ir = 0
     report_every = max(1, n // 50)
@@ -498,6 +500,7 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
         fb = PlantFeedback(ers_valves_closed=valves.step(now, cmd.close_ers_valves))
         q = arm_plant.step(now, dt, cmd, flange[k])
         rec.record(k, now, cmd, q, flange[k], e, model.arm)
+        clearance.watch(now, cmd, rec.sig["distance"][k])
         if progress is not None and k % report_every == 0:
             progress(k / n)
     if progress is not None:
@@ -529,6 +532,30 @@ def _feed_sensor(readings, est: FlangeEstimator, ir: int, now: float, rejected: 
             rejected(z)
         ir += 1
     return ir
+
+
+class _ClearanceWatch:
+    """After a release the coupler must be :data:`MANIFOLD_CLEARANCE` from the flange within
+    :data:`CLEARANCE_TIME`; otherwise an alarm (the arm may strike the ship's manifold)."""
+
+    def __init__(self, emit: Callable):
+        self.emit = emit
+        self.released_at: float | None = None
+        self.done = False
+        self.was_connected = False
+
+    def watch(self, now: float, cmd, distance: float) -> None:
+        if self.was_connected and not cmd.connected:      # released or unclamped this cycle
+            self.released_at, self.done = now, False
+        self.was_connected = cmd.connected
+        if self.released_at is None or self.done:
+            return
+        if distance >= MANIFOLD_CLEARANCE:
+            self.done = True
+        elif now - self.released_at > CLEARANCE_TIME:
+            self.done = True
+            self.emit(now, cmd.mode.value, "alarm", f"coupler not clear of the ship's manifold {CLEARANCE_TIME:g} s "
+                      f"after the release ({distance:.2f} m from the flange, {MANIFOLD_CLEARANCE:g} m needed)", {})
 
 
 class _Recorder:

@@ -12,7 +12,8 @@ round (the least disturbed by other load), so a ratio compares like with like.
   importing NumPy takes 0.07 s);
 * guidance cycle: median <= 2x and 99th percentile <= 6x those of a fixed control-like workload (a
   4-state Kalman update in NumPy) timed right after it (measured 2026-11-23: 0.95x and 3.8x; the cycle's
-  tail is longer because cycles with a sensor reading, a mode change or an event do more work).
+  tail is longer because cycles with a sensor reading, a mode change or an event do more work);
+* campaigns: runs per second on every core >= 1.4x one process (same runs, same run; skipped on one core).
 """
 
 import math
@@ -216,3 +217,31 @@ def test_thirty_minute_scenario_in_seconds(results):
     wall = time.perf_counter() - t0
     results["30-minute Hs 1.5 scenario at 50 Hz [s]"] = wall
     results["30-minute scenario: real-time factor"] = 1800.0 / wall
+
+
+def test_campaign_throughput_on_every_core(results, tmp_path):
+    """`loadarm campaign` spreads runs over a process pool: its throughput against the same runs in one process."""
+    from loadarm.guidance.campaign import run_campaign
+
+    workers = os.cpu_count() or 1
+    if workers < 2:
+        pytest.skip("one core: nothing to compare")
+    text = (ROOT / "examples" / "scenarios" / "driftoff.toml").read_text()
+    text = text.replace('installation = "../paper.toml"',
+                        f'installation = "{(ROOT / "examples" / "paper.toml").as_posix()}"')
+    text = text.replace("duration = 320.0", 'duration = 260.0\nplant = "kinematic"').replace("start = 200.0",
+                                                                                           "start = 160.0")
+    sc = tmp_path / "short.toml"
+    sc.write_text(text)
+    n = 2 * workers
+    t0 = time.perf_counter()
+    serial = run_campaign(sc, n, workers=1)
+    t_serial = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    parallel = run_campaign(sc, n, workers=workers)
+    t_parallel = time.perf_counter() - t0
+    assert serial.to_dict() == parallel.to_dict()                   # the same verdicts, whatever the pool
+    results["campaign runs per second, one process"] = n / t_serial
+    results[f"campaign runs per second, {workers} processes"] = n / t_parallel
+    results["campaign speed-up, every core / one process"] = t_serial / t_parallel
+    assert t_serial / t_parallel >= 1.4, f"campaign only {t_serial / t_parallel:.2f}x one process on {workers} cores"

@@ -143,7 +143,7 @@ def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
 def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -> list[CampaignRun]:
     """Worker: run a batch of (seed, draws) of one scenario file."""
     from ..compiler import compile_model
-    from ..config import load_config, paper_installation, parse_config, read_toml
+    from ..config import paper_installation, parse_config, read_toml
     from .run import run_scenario
     from .scenario import check_scenario, parse_scenario
 

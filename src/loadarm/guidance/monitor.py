@@ -254,29 +254,31 @@ class EnvelopeMonitor:
         m = face_margins(self.model, pts[..., 0], pts[..., 1], pts[..., 2])
         return first_face(m)
 
-    def _first_crossing(self, points, horizon: float) -> tuple[float, str]:
+    def _first_crossing(self, points, horizon: float) -> tuple[float, str, int]:
         """First time any of ``points(tau)`` (shape (T, K, 3) for times ``tau``) lies past a face: a coarse scan
-        at :attr:`step`, then bisection to :attr:`resolution`; the last time found inside is returned."""
+        at :attr:`step`, then bisection to :attr:`resolution`; returns the last time found inside, the face and
+        the index of the point that crossed it (``inf, "", -1`` if none within the horizon)."""
         tau = np.arange(0.0, horizon + self.step, self.step)
         outside, face = self._outside(points(tau))
         rows = np.flatnonzero(outside.any(axis=1))
         if rows.size == 0:
-            return math.inf, ""
+            return math.inf, "", -1
         i = int(rows[0])
         k = int(np.flatnonzero(outside[i])[0])
-        hit_face = FACES[int(face[i, k])]
+        hit = (FACES[int(face[i, k])], k)
         if i == 0:
-            return 0.0, hit_face
+            return 0.0, hit[0], hit[1]
         lo, hi = float(tau[i - 1]), float(tau[i])
         while hi - lo > self.resolution + 1e-12:
             mid = 0.5 * (lo + hi)
             out, f = self._outside(points(np.array([mid])))
             if out.any():
                 hi = mid
-                hit_face = FACES[int(f[0, int(np.flatnonzero(out[0])[0])])]
+                k = int(np.flatnonzero(out[0])[0])
+                hit = (FACES[int(f[0, k])], k)
             else:
                 lo = mid
-        return lo, hit_face
+        return lo, hit[0], hit[1]
 
     def time_to_limit(self, p_now, horizon: float, *, alarmed: bool = False) -> LimitForecast:
         """Earliest time the flange could cross a face within ``horizon`` seconds.
@@ -299,47 +301,35 @@ class EnvelopeMonitor:
         """
         est = self.fit.estimate(int(round(self.ALARMED_MIN_HISTORY / self.fit.period)) if alarmed else None)
         base = np.asarray(p_now, dtype=float) if est is None else est.p
-        # design drift: a break-out from where the flange is, every horizontal direction, and vertically
         dd = self.dd
         dirs_v = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
 
         def design(tau):
+            # a break-out from where the flange is, every horizontal direction, and vertically
             d_h = breakout_distance(tau, dd.speed, dd.acceleration)
             d_v = dd.vertical_speed * tau
             return np.concatenate([base + d_h[:, None, None] * self.dirs_h[None],
                                    base + d_v[:, None, None] * dirs_v[None]], axis=1)
 
-        t_design, f_design = self._first_crossing(design, horizon)
-        best = LimitForecast(t_design, f_design, "design drift" if f_design else "")
+        n_design = self.dirs_h.shape[0] + 2
         if est is None:
-            return best
-        # measured drift: the fit extrapolated (its acceleration only where it is significant: an acceleration
-        # too small to tell from the waves is the design floor's to cover, from rest), widened by the wave
-        # excursion and k standard deviations of the position and velocity
-        a = np.where(np.abs(est.a) > self.k * est.sigma_a, est.a, 0.0)
-        # a decelerating drift stops: no parabola coming back out after the vertex
-        t_stop = np.where(est.v * a < 0, -est.v / np.where(a == 0, 1.0, a), np.inf)
+            points = design
+        else:
+            # measured drift: the fit extrapolated (its acceleration only where it is significant: an
+            # acceleration too small to tell from the waves is the design floor's to cover, from rest), a
+            # decelerating drift stopping at its vertex, widened by the wave excursion and k standard deviations
+            # of the position and velocity
+            a = np.where(np.abs(est.a) > self.k * est.sigma_a, est.a, 0.0)
+            t_stop = np.where(est.v * a < 0, -est.v / np.where(a == 0, 1.0, a), np.inf)
 
-        def measured(tau):
-            t = np.minimum(tau[:, None], t_stop)
-            centre = est.p + est.v * t + 0.5 * a * t * t
-            t = tau[:, None]
-            half = est.wave + self.k * (est.sigma_p + est.sigma_v * t)
-            return centre[:, None, :] + half[:, None, :] * _CORNERS[None]
+            def points(tau):
+                t = np.minimum(tau[:, None], t_stop)
+                centre = est.p + est.v * t + 0.5 * a * t * t
+                half = est.wave + self.k * (est.sigma_p + est.sigma_v * tau[:, None])
+                measured = centre[:, None, :] + half[:, None, :] * _CORNERS[None]
+                return np.concatenate([design(tau), measured], axis=1)      # one evaluation for both routes
 
-        t_meas, f_meas = self._first_crossing(measured, min(horizon, t_design))
-        if f_meas and t_meas < best.time:
-            best = LimitForecast(t_meas, f_meas, "measured drift")
-        return best
-        # measured drift: the fit extrapolated (its acceleration only where it is significant: an acceleration
-        # too small to tell from the waves is the design floor's to cover, from rest), widened by the wave
-        # excursion and k standard deviations of the position and velocity
-        a = np.where(np.abs(est.a) > self.k * est.sigma_a, est.a, 0.0)
-        t = tau[:, None]
-        centre = est.p + est.v * t + 0.5 * a * t * t
-        half = est.wave + self.k * (est.sigma_p + est.sigma_v * t)
-        pts = centre[:, None, :] + half[:, None, :] * _CORNERS[None]
-        t_meas, f_meas = self._first_crossing(pts, tau)
-        if t_meas < best.time:
-            best = LimitForecast(t_meas, f_meas, "measured drift")
-        return best
+        t, face, k = self._first_crossing(points, horizon)
+        if not face:
+            return LimitForecast(math.inf, "", "")
+        return LimitForecast(t, face, "design drift" if k < n_design else "measured drift")

@@ -140,35 +140,59 @@ def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
         limit_face=v["limit_face"])
 
 
-def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -> list[CampaignRun]:
-    """Worker: run a batch of (seed, draws) of one scenario file."""
-    from ..compiler import compile_model
-    from ..config import paper_installation, parse_config, read_toml
-    from .run import run_scenario
-    from .scenario import check_scenario, parse_scenario
+class _Draw:
+    """The scenario file and its installation, read once; :meth:`build` applies one run's seed and draws."""
 
-    path = Path(scenario)
-    raw = read_toml(path, "scenario")
-    inst_file = raw.get("scenario", {}).get("installation")
-    inst_path = None if inst_file is None else path.parent / inst_file
-    inst_raw = None if inst_path is None else read_toml(inst_path)
-    results = []
-    for seed, draws in jobs:
-        sc_data = _deep_copy(raw)
-        inst_data = None if inst_raw is None else _deep_copy(inst_raw)
+    def __init__(self, scenario: str):
+        from ..config import paper_installation, read_toml
+
+        self.scenario = scenario
+        path = Path(scenario)
+        self.raw = read_toml(path, "scenario")
+        inst_file = self.raw.get("scenario", {}).get("installation")
+        self.inst_source = "installation" if inst_file is None else str(path.parent / inst_file)
+        self.inst_raw = paper_installation().model_dump() if inst_file is None else read_toml(path.parent / inst_file)
+
+    def check_keys(self, draws: dict) -> None:
+        """Every varied key names an existing numeric parameter."""
+        from ..config import parse_config
+        from .scenario import Scenario
+
+        inst_full = parse_config(self.inst_raw, source=self.inst_source).model_dump()
+        for key in draws:
+            if key.startswith("installation."):
+                _check_key(key.removeprefix("installation."), inst_full, self.inst_source)
+            else:
+                _check_key(key, Scenario().model_dump(), self.scenario)
+
+    def build(self, seed: int | None, draws: dict):
+        """The scenario and the compiled installation of one run (validated and cross-checked)."""
+        from ..compiler import compile_model
+        from ..config import parse_config
+        from .scenario import check_scenario, parse_scenario
+
+        sc_data, inst_data = _deep_copy(self.raw), _deep_copy(self.inst_raw)
         for key, value in draws.items():
             if key.startswith("installation."):
-                if inst_data is None:
-                    inst_data = paper_installation().model_dump()
-                _set(inst_data, key.removeprefix("installation."), value, str(inst_path or "installation"))
+                _set(inst_data, key.removeprefix("installation."), value, self.inst_source)
             else:
-                _set(sc_data, key, value, scenario)
-        _set(sc_data, "scenario.seed", seed, scenario)
-        sc = parse_scenario(sc_data, source=scenario)
-        inst = (paper_installation() if inst_data is None
-                else parse_config(inst_data, source=str(inst_path or "installation")))
-        model = compile_model(inst)
-        check_scenario(sc, model, source=scenario)
+                _set(sc_data, key, value, self.scenario)
+        if seed is not None:
+            _set(sc_data, "scenario.seed", seed, self.scenario)
+        sc = parse_scenario(sc_data, source=self.scenario)
+        model = compile_model(parse_config(inst_data, source=self.inst_source))
+        check_scenario(sc, model, source=self.scenario)
+        return sc, model
+
+
+def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -> list[CampaignRun]:
+    """Worker: run a batch of (seed, draws) of one scenario file."""
+    from .run import run_scenario
+
+    draw = _Draw(scenario)
+    results = []
+    for seed, draws in jobs:
+        sc, model = draw.build(seed, draws)
         res = run_scenario(sc, model, plant=plant)
         results.append(_judge(seed, draws, res._values()))
     return results
@@ -323,36 +347,12 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
 
 
 def _validate(scenario: str, job: tuple[int, dict], plant: str | None) -> None:
-    """Refuse bad input before forking: parse the scenario with the first draw (no run)."""
-    from ..compiler import compile_model
-    from ..config import paper_installation, parse_config, read_toml
-    from .scenario import check_scenario, parse_scenario
-
-    path = Path(scenario)
-    raw = read_toml(path, "scenario")
-    inst_file = raw.get("scenario", {}).get("installation")
-    inst_path = None if inst_file is None else path.parent / inst_file
-    inst_data = paper_installation().model_dump() if inst_path is None else read_toml(inst_path)
-    inst_full = parse_config(inst_data, source=str(inst_path or "installation")).model_dump()
-    sc_data = _deep_copy(raw)
-    for key, value in job[1].items():
-        if key.startswith("installation."):
-            _check_key(key.removeprefix("installation."), inst_full, str(inst_path or "installation"))
-            _set(inst_data, key.removeprefix("installation."), value, str(inst_path or "installation"))
-        else:
-            _check_key(key, _scenario_defaults(), scenario)
-            _set(sc_data, key, value, scenario)
-    sc = parse_scenario(sc_data, source=scenario)
-    model = compile_model(parse_config(inst_data, source=str(inst_path or "installation")))
-    check_scenario(sc, model, source=scenario)
+    """Refuse bad input before forking: the keys, then the scenario with the first draw (no run)."""
     if plant not in (None, "hydraulic", "kinematic"):
         raise ConfigError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
-
-
-def _scenario_defaults() -> dict:
-    from .scenario import Scenario
-
-    return Scenario().model_dump()
+    draw = _Draw(scenario)
+    draw.check_keys(job[1])
+    draw.build(job[0], job[1])
 
 
 def _check_key(dotted: str, reference: dict, source: str) -> None:

@@ -38,6 +38,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..check import esd_lead
 from ..errors import ConfigError
 from ..alarms import AlarmState, AlarmThresholds, Severity, next_alarm_state
 from ..geometry import Arm
@@ -295,7 +296,7 @@ class GuidanceController:
         self.lim = model.joint_limits
         self.thr = AlarmThresholds.from_model(model)
         self.seq = model.sequence
-        lead = max(self.seq.esd_time, self.seq.ers_valve_time) + self.seq.erc_release_time + self.seq.margin
+        lead = esd_lead(self.seq)
         if g.drift_window > 2 * lead:
             raise ConfigError(f"guidance.drift_window = {g.drift_window:g} s is longer than twice the first alarm's "
                               f"lead ({lead:g} s); valid range (5, {2 * lead:g}] s")

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..alarms import Severity
+from ..check import esd_lead
 from ..faces import FACES, breakout_distance, face_margins, first_face
 
 __all__ = ["stage_leads", "DriftEstimate", "DriftFit", "LimitForecast", "EnvelopeMonitor"]
@@ -56,8 +57,7 @@ def stage_leads(seq, *, valves_left: float | None = None, release_left: float | 
     v = seq.ers_valve_time if valves_left is None else max(valves_left, 0.0)
     r = seq.erc_release_time if release_left is None else max(release_left, 0.0)
     release = v + r + seq.margin
-    leads = {Severity.RELEASE: release, Severity.SECOND: release + seq.margin,
-             Severity.ESD1: max(seq.esd_time, seq.ers_valve_time) + seq.erc_release_time + seq.margin}
+    leads = {Severity.RELEASE: release, Severity.SECOND: release + seq.margin, Severity.ESD1: esd_lead(seq)}
     leads[Severity.ESD1] = max(leads[Severity.ESD1], leads[Severity.SECOND])
     if seq.pre_alarm_lead > 0:
         leads[Severity.PRE_ALARM] = leads[Severity.ESD1] + seq.pre_alarm_lead

@@ -255,8 +255,9 @@ def check_scenario(sc: Scenario, model: "ArmModel", *, source: str = "<scenario>
         The drift window is longer than twice the first alarm's lead (a drift would reach the limit before the
         time-to-limit alarm had fitted it; the design-drift floor covers only drifts within the design).
     """
-    q = model.sequence
-    lead = max(q.esd_time, q.ers_valve_time) + q.erc_release_time + q.margin
+    from ..check import esd_lead
+
+    lead = esd_lead(model.sequence)
     w = sc.guidance.drift_window
     if w > 2 * lead:
         raise ConfigError(

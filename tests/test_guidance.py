@@ -554,8 +554,8 @@ def test_scripted_operator_presses_on_cue():
 
     from loadarm.guidance.run import ScriptedOperator
 
-    op = NS(start=1.0, connect_after=2.0, disconnect_at=None, estop_at=5.0, reset_at=None,
-            jog=((7.0, 8.0, 0.1, 0.0, 0.0),))
+    op = NS(start=1.0, connect_after=2.0, disconnect_at=None, estop_at=5.0, reset_at=None, ack_at=None, esd_at=None,
+            ers_at=None, ers_confirm_after=2.0, jog=((7.0, 8.0, 0.1, 0.0, 0.0),))
     s = ScriptedOperator(op, 0.02)
     assert s.inputs(1.0, Mode.STORED, False).actions == ("start",)
     assert s.inputs(1.02, Mode.APPROACH, False).actions == ()
@@ -906,3 +906,20 @@ def test_a_coupler_that_does_not_clear_the_manifold_raises_an_alarm():
     for k in range(1, 2000):
         w.watch(0.02 * k, Command(Mode.RETURN, (0, 0, 0), False, False, False), 0.05 * k)
     assert not ok
+
+
+def test_a_scripted_manual_ers_releases_the_calm_ship_after_the_valves_close():
+    """The operator's manual ERS from the scenario file: armed at 150 s, confirmed 2 s later; ESD-1 at once, the
+    coupler opens only after the ERS valves' limit switches, then the arm returns."""
+    sc, model = load_scenario(SCEN / "calm.toml")
+    sc = sc.model_copy(update={"operator": sc.operator.model_copy(update={"ers_at": 150.0, "ack_at": 200.0}),
+                               "scenario": sc.scenario.model_copy(update={"plant": "kinematic",
+                                                                          "duration": 210.0})})
+    r = run_scenario(sc, model)
+    v = r.to_dict()
+    assert r.first("info", "manual ERS armed") == 150.0 and r.first("command", "ESD-1") == 152.0
+    assert v["valves_confirmed_s"] == pytest.approx(152.0 + model.sequence.ers_valve_time, abs=0.021)
+    assert v["coupler_opening_s"] >= v["valves_confirmed_s"] and v["overstretched_s"] is None
+    assert v["mode_sequence"][-2:] == ["RELEASE", "RETURN"] and r.first("operator", "ack") == 200.0
+    # the stages are logged with their cause; an operator's action is not an alarm condition: nothing annunciated
+    assert all("manual ERS" in e[3] for e in r.events if e[2] == "alarm") and r.first("alarm_state") is None

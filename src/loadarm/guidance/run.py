@@ -200,7 +200,8 @@ class RunResult(Result):
 
 
 class ScriptedOperator:
-    """The scenario's operator: presses start, connect, disconnect, E-stop, reset and the joystick on cue.
+    """The scenario's operator: presses start, connect, disconnect, E-stop, reset, acknowledge, manual ESD-1,
+    manual ERS (and its confirmation) and the joystick on cue.
 
     Parameters
     ----------
@@ -243,7 +244,9 @@ class ScriptedOperator:
                 actions.append("connect")
         else:
             self.standoff_since = None
-        for name, t in (("disconnect", op.disconnect_at), ("estop", op.estop_at), ("reset", op.reset_at)):
+        confirm = (None if op.ers_at is None or op.ers_confirm_after is None else op.ers_at + op.ers_confirm_after)
+        for name, t in (("disconnect", op.disconnect_at), ("estop", op.estop_at), ("reset", op.reset_at),
+                        ("ack", op.ack_at), ("esd", op.esd_at), ("ers", op.ers_at), ("ers_confirm", confirm)):
             if self._now_is(t, now):
                 actions.append(name)
         if servo_fault and mode != Mode.ESTOP:

@@ -109,6 +109,15 @@ class Operator(_S):
                                     description="time the emergency stop is pressed (omit for none)")
     reset_at: float | None = _param(None, unit="s", ge=0, source="none by default",
                                     description="time the operator resets after an emergency stop (omit for none)")
+    ack_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+                                  description="time the operator acknowledges the alarms (omit for none)")
+    esd_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+                                  description="time the operator presses the manual ESD-1 (omit for none)")
+    ers_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+                                  description="time the operator arms the manual ERS; it is confirmed "
+                                              "ers_confirm_after later (omit for none)")
+    ers_confirm_after: float | None = _param(2.0, unit="s", ge=0, source="operator's reaction (omit: never confirmed)",
+                                             description="delay from arming the manual ERS to confirming it")
     jog: tuple[tuple[float, float, float, float, float], ...] = _param(
         (), unit="s, m/s", source="none by default",
         description="manual jog segments [start, end, vx, vy, vz]: the operator takes manual control at start, "

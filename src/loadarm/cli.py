@@ -518,6 +518,13 @@ def run(
     for key in ("alarm1_s", "alarm2_s", "release_s", "release_complete_s", "overstretched_s"):
         if s[key] is not None:
             out.print(f"  {key[:-2].replace('_', ' ')} at {s[key]:.2f} s")
+    if s["valves_confirmed_s"] is not None:
+        out.print(f"  ERS valves confirmed closed at {s['valves_confirmed_s']:.2f} s"
+                  + ("" if s["coupler_opening_s"] is None else f", coupler opening at {s['coupler_opening_s']:.2f} s"))
+    if s["release_margin_s"] is not None:
+        out.print(f"  release complete {s['release_margin_s']:.2f} s before the flange reached the "
+                  f"{s['limit_face']} face" + ("" if s["cleared_s"] is None
+                                               else f"; coupler clear of the manifold at {s['cleared_s']:.2f} s"))
     out.print(f"  max beta {s['max_beta_deg']:.1f} deg, max |slew| {s['max_abs_slew_deg']:.1f} deg, {s['events']} events"
               f"; controller cycle median {s['cycle_us_median']:.0f} us, p99 {s['cycle_us_p99']:.0f} us")
     if log is not None:

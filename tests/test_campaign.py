@@ -58,14 +58,14 @@ def test_a_campaign_is_repeatable_and_draws_within_the_ranges(tmp_path):
     sc = _short_driftoff(tmp_path)
     vary = [parse_vary("drift.speed=0.1:0.25"), parse_vary("installation.sequence.margin=1:3")]
     seen = []
-    a = run_campaign(sc, 2, vary=vary, workers=1, progress=lambda d, n: seen.append((d, n)))
-    b = run_campaign(sc, 2, vary=vary, workers=1)
-    assert a.to_dict() == b.to_dict() and seen[-1] == (2, 2)
+    a = run_campaign(sc, 1, vary=vary, workers=1, first_seed=3, progress=lambda d, n: seen.append((d, n)))
+    b = run_campaign(sc, 1, vary=vary, workers=1, first_seed=3)
+    assert a.to_dict() == b.to_dict() and seen[-1] == (1, 1)
     for r in a.runs:
         assert 0.1 <= r.draws["drift.speed"] <= 0.25 and 1 <= r.draws["installation.sequence.margin"] <= 3
         assert not (r.overstretched or r.opened_on_live_product or r.missed_alarm)
     s = a.summary()
-    assert s["runs"] == 2 and s["overstretches"] == 0 and s["margin_min_s"] > 0
+    assert s["runs"] == 1 and s["overstretches"] == 0 and s["margin_min_s"] > 0
     assert "release margin, min" in str(s)
 
 

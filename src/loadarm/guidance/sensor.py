@@ -28,7 +28,8 @@ from .scenario import Scenario
 from .ship import FlangeMotion
 
 __all__ = ["Readings", "sensor_readings", "Estimate", "FlangeEstimator", "CHI2_3DOF_999", "NIS_WINDOW",
-           "NIS_MEAN_999", "REJECT_WINDOW", "MAX_REJECT_RATE"]
+           "NIS_MEAN_999", "REJECT_WINDOW", "MAX_REJECT_RATE",
+           "AMBIGUITY_SPAN", "AMBIGUITY_HOLD"]
 
 #: 99.9 % quantile of the chi-square distribution with 3 degrees of freedom.
 CHI2_3DOF_999 = 16.266
@@ -38,6 +39,10 @@ NIS_WINDOW = 20
 #: second target or a flood of outliers: the track may be the wrong one).
 REJECT_WINDOW = 20
 MAX_REJECT_RATE = 0.3
+#: Rejected readings that agree with each other within this time (s) are a second target (three of them: two
+#: neighbours of the newest); the estimate is then untrusted for AMBIGUITY_HOLD s.
+AMBIGUITY_SPAN = 1.0
+AMBIGUITY_HOLD = 5.0
 #: 99.9 % quantile of the mean of NIS_WINDOW chi-square(3) values: chi2.ppf(0.999, 60) / 20 (tested against
 #: SciPy). A filter whose model explains the readings averages 3; above this bound it does not.
 NIS_MEAN_999 = 4.9803
@@ -166,6 +171,8 @@ class FlangeEstimator:
         self.restarts = 0
         self.nis: list[float] = []       # NIS of the last NIS_WINDOW accepted readings
         self.outcomes: list[bool] = []   # accepted (True) / rejected of the last REJECT_WINDOW readings
+        self.recent_rejected: list = []  # (t, z) of the rejected readings of the last AMBIGUITY_SPAN s
+        self.ambiguous_until = -math.inf
 
     def _init(self, t: float, z) -> None:
         self.t = t
@@ -227,6 +234,9 @@ class FlangeEstimator:
         # gate: statistically consistent with the track, and where the flange could physically have got to since
         # the last accepted reading (the covariance grows during a gap; the flange's speed does not)
         if d2 > CHI2_3DOF_999 or not self._reachable(t_meas, z):
+            spread = math.sqrt(max(P[i][0] for i in range(3)) + self.r)
+            if math.dist(z, (x[0], x[2], x[4])) > 10.0 * spread:     # far off the track, not just noisy
+                self._watch_second_target(t_meas, z)
             self.rejected += 1
             self.rejected_in_row += 1
             self.pending = (self.pending + [(t_meas, tuple(z))])[-self.REINIT_CLUSTER:]
@@ -270,6 +280,15 @@ class FlangeEstimator:
                     return False
         return True
 
+    def _watch_second_target(self, t: float, z) -> None:
+        """Rejected readings that agree with each other are a second target, not outliers: untrust the track."""
+        self.recent_rejected = [(ti, zi) for ti, zi in self.recent_rejected if t - ti <= AMBIGUITY_SPAN]
+        near = sum(1 for ti, zi in self.recent_rejected
+                   if math.dist(zi, z) <= 6.0 * math.sqrt(2.0 * self.r) + self.MAX_FLANGE_SPEED * (t - ti))
+        self.recent_rejected.append((t, tuple(z)))
+        if near >= 2:
+            self.ambiguous_until = t + AMBIGUITY_HOLD
+
     def _reachable(self, t: float, z) -> bool:
         """Whether the flange could have moved from the track's last accepted position to ``z`` by ``t``."""
         last = (self.x[0], self.x[2], self.x[4])
@@ -310,6 +329,9 @@ class FlangeEstimator:
         elif self.converging:
             reason = (f"restarted on new readings, converging ({self.CONVERGE_READINGS - self.converging} of "
                       f"{self.CONVERGE_READINGS} readings)")
+        elif now < self.ambiguous_until:
+            reason = ("a second target: rejected readings agree with each other (another flange or a reflection); "
+                      "the track may be the wrong one")
         elif self.outcomes.count(False) > MAX_REJECT_RATE * REJECT_WINDOW:
             reason = (f"{self.outcomes.count(False)} of the last {len(self.outcomes)} readings rejected (a second "
                       f"target or a flood of outliers): the track may be the wrong one")

@@ -83,9 +83,10 @@ def test_report_html_is_a_template_that_escapes_user_text(own_report, tmp_path):
 
     files, html, _ = own_report
     assert _template().environment.autoescape("report.html.j2") is True
-    assert html.startswith("<!doctype html>") and html.count("<h2>") == 9
+    assert html.startswith("<!doctype html>") and html.count("<h2>") == 10
     text = _template().render(**{**_render_minimal(), "title": "<script>alert(1)</script>"})
     assert "<script>alert(1)</script>" not in text and "&lt;script&gt;alert(1)&lt;/script&gt;" in text
+    assert "<i>bad</i>" not in text and "&lt;i&gt;bad&lt;/i&gt;" in text           # the check's reasons too
 
 
 def _render_minimal():
@@ -99,18 +100,22 @@ def _render_minimal():
                 sizing=NS(corner=(1.0, -1.0), r_alarm=1.0, inboard=1.0, outboard=1.0, active_bound="x"), inst=inst,
                 paper=False, arm=NS(b=1.0, c=1.0), tables={k: empty for k in (
                     "corners_sized", "corners_configured", "endpoints", "plans", "loads", "simulation", "scenarios",
-                    "parameters")},
+                    "parameters", "check")},
                 figures={k: fig for k in ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "angles_smooth.png",
                                           "timing.png", "cylinders.png", "voltages.png", "verification.png",
                                           "loads.png", "residual_torque.png", "deviation_by_timing.png",
-                                          "simulation_smooth.png")},
+                                          "simulation_smooth.png", "check.png")},
                 local_minima="", paper_peak_speed=0.2, csv_names=[], vs=NS(samples=1, max_alpha_diff_deg=0.0,
                 max_beta_diff_deg=0.0, max_r_ac1_diff_mm=0.0, max_r_ac2_diff_mm=0.0),
                 bs=NS(poses=1, fills=[0.0], counterweight_inboard_kg=1.0, moment_inboard_kgm=1.0,
                       counterweight_outboard_kg=1.0, moment_outboard_kgm=1.0, max_residual_torque_alpha_Nm=1.0,
                       max_residual_torque_beta_Nm=1.0, configured_max_torque_alpha_Nm=1.0,
                       configured_max_torque_beta_Nm=1.0),
-                mass_text="m", scenario_files="", timelines=[])
+                mass_text="m", scenario_files="", timelines=[],
+                check=NS(esd_lead=1.0, release_lead=1.0, design_speed=0.1, design_accel=0.01,
+                         design_vertical_speed=0.0, ok=False, problems=["<i>bad</i>"], accumulator_usable=1e-3,
+                         accumulator_needed=1e-3),
+                seq=NS(esd_time=1.0, ers_valve_time=1.0, erc_release_time=1.0, margin=1.0))
 
 
 def test_the_report_plans_each_timing_law_once(monkeypatch, tmp_path):

@@ -175,14 +175,17 @@ class AlarmThresholds:
         reason : str
         """
         a_phi = abs(phi)
-        where = f"beta {math.degrees(beta):.1f} deg, slew {math.degrees(phi):.1f} deg"
         if beta >= self.beta_release or a_phi >= self.slew_release:
-            return Severity.RELEASE, f"{where}: at the release angle"
+            return Severity.RELEASE, f"{_where(beta, phi)}: at the release angle"
         if beta > self.beta_second or a_phi > self.slew_second:
-            return Severity.SECOND, f"{where}: beyond the second alarm"
+            return Severity.SECOND, f"{_where(beta, phi)}: beyond the second alarm"
         if beta > self.beta_first or a_phi > self.slew_first:
-            return Severity.ESD1, f"{where}: beyond the first alarm"
+            return Severity.ESD1, f"{_where(beta, phi)}: beyond the first alarm"
         return Severity.NORMAL, ""
+
+
+def _where(beta: float, phi: float) -> str:
+    return f"beta {math.degrees(beta):.1f} deg, slew {math.degrees(phi):.1f} deg"
 
 
 class AlarmState(str, enum.Enum):

@@ -226,6 +226,8 @@ class GuidanceState:
         Connected-mode level of the last cycle.
     forecast : LimitForecast or None
         The latest time-to-limit forecast.
+    leads : dict of Severity to float
+        The stage leads it was compared with (:func:`loadarm.guidance.monitor.stage_leads`), s.
     next_forecast : float
         Time of the next forecast, s.
     ers_armed_at : float or None
@@ -240,6 +242,8 @@ class GuidanceState:
         ISA-18.2 state of each annunciated alarm.
     last_active : dict of str to float
         Last time each alarm's condition was present (for the off-delay).
+    quiet : bool
+        Every annunciated alarm is normal (the annunciator's fast path).
     resume : Mode
         Mode to resume after an emergency stop.
     events : list
@@ -259,6 +263,7 @@ class GuidanceState:
     raised: Severity = Severity.NORMAL
     level: Severity = Severity.NORMAL
     forecast: LimitForecast | None = None
+    leads: dict = field(default_factory=dict)
     next_forecast: float = -math.inf
     ers_armed_at: float | None = None
     disconnect_phase: str = ""
@@ -266,6 +271,7 @@ class GuidanceState:
     lift_target: np.ndarray | None = None
     alarms: dict = field(default_factory=lambda: {tag: AlarmState.NORMAL for tag in ANNUNCIATED})
     last_active: dict = field(default_factory=lambda: {tag: -math.inf for tag in ANNUNCIATED})
+    quiet: bool = True
     resume: Mode = Mode.APPROACH
     events: list = field(default_factory=list)
 
@@ -528,20 +534,27 @@ class GuidanceController:
     def _connected_level(self, now: float, q) -> tuple[Severity, str]:
         """Position alarms and time to the nearest face (measured and design drift), the more severe."""
         s = self.state
-        p = tuple(float(v) for v in forward3d(self.arm, *q))
-        self.monitor.observe(now, p)
+        alarmed = s.esd_since is not None
+        mon = self.monitor
+        if mon.fit.due(now):                    # a new sample: refit now, forecast in a later cycle (cycle time)
+            mon.observe(now, tuple(float(v) for v in forward3d(self.arm, *q)))
+            mon.refit(alarmed)
+        elif now >= s.next_forecast:
+            s.forecast = None
         level, why = self.thr.level(q[2], q[0])
-        leads = self._leads(now)
-        if now >= s.next_forecast or s.forecast is None:
-            s.forecast = self.monitor.time_to_limit(p, max(leads.values()), alarmed=s.esd_since is not None)
-            s.next_forecast = now + self.monitor.fit.period
+        if s.forecast is None:
+            s.leads = self._leads(now)
+            p = tuple(float(v) for v in forward3d(self.arm, *q))
+            s.forecast = mon.time_to_limit(p, max(s.leads.values()), alarmed=alarmed, now=now)
+            s.next_forecast = now + mon.fit.period
         f = s.forecast
-        for stage in sorted(leads, reverse=True):
-            if f.time <= leads[stage]:
-                if stage > level:
-                    level, why = stage, (f"{f.route}: {f.face} face in {f.time:.1f} s, the {stage.label} needs "
-                                         f"{leads[stage]:.1f} s")
-                break
+        if math.isfinite(f.time):
+            for stage in sorted(s.leads, reverse=True):
+                if f.time <= s.leads[stage]:
+                    if stage > level:
+                        level, why = stage, (f"{f.route}: {f.face} face in {f.time:.1f} s, the {stage.label} "
+                                             f"needs {s.leads[stage]:.1f} s")
+                    break
         return level, why
 
     def _raise(self, now: float, q, level: Severity, why: str) -> None:
@@ -655,6 +668,8 @@ class GuidanceController:
         """
         s, now = self.state, cyc.now
         level = s.level if self.attached() else Severity.NORMAL
+        if level == Severity.NORMAL and not s.valve_fault and "ack" not in cyc.acts and s.quiet:
+            return                               # nothing present, nothing to acknowledge, all normal: fast path
         present = {"PRE_ALARM": level >= Severity.PRE_ALARM and self.seq.pre_alarm_lead > 0, "ESD1": level >= Severity.ESD1,
                    "SECOND": level >= Severity.SECOND, "RELEASE": level >= Severity.RELEASE,
                    "ERS_VALVE_FAULT": s.valve_fault}
@@ -668,6 +683,7 @@ class GuidanceController:
                 self._event("alarm_state", f"{tag}: {new.value}", tag=tag, alarm_state=new.value,
                             previous=s.alarms[tag].value)
                 s.alarms[tag] = new
+        s.quiet = all(v == AlarmState.NORMAL for v in s.alarms.values())
 
     def alarms_clear(self) -> bool:
         """Whether every annunciated alarm is back to normal (cleared and acknowledged).

@@ -118,11 +118,27 @@ class DriftFit:
         self.buf = np.zeros((self.n, 3))
         self.count = 0
         self.next_t: float | None = None
+        self.t_last = math.nan
 
     def reset(self) -> None:
         """Forget every sample (a new connection)."""
         self.count = 0
         self.next_t = None
+        self.t_last = math.nan
+
+    def due(self, t: float) -> bool:
+        """Whether :meth:`push` would keep a sample at ``t`` (so the caller computes the position only then).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        bool
+        """
+        return self.next_t is None or t >= self.next_t - 1e-9
 
     def push(self, t: float, p) -> bool:
         """Offer a position; it is kept if a sampling period has passed since the last kept one.
@@ -139,7 +155,7 @@ class DriftFit:
         bool
             True when the sample was kept.
         """
-        if self.next_t is not None and t < self.next_t - 1e-9:
+        if not self.due(t):
             return False
         self.next_t = t + self.period if self.next_t is None else self.next_t + self.period
         if self.next_t <= t:                    # a gap in the samples: restart the grid here
@@ -147,6 +163,7 @@ class DriftFit:
         self.buf[:-1] = self.buf[1:]
         self.buf[-1] = p
         self.count += 1
+        self.t_last = t
         return True
 
     def estimate(self, min_samples: int | None = None) -> DriftEstimate | None:
@@ -217,13 +234,13 @@ class EnvelopeMonitor:
     resolution : float
         The crossing is then bisected to this, s, and reported at the last time found inside: early by up to
         ``resolution``, never late (within the scan: a face crossed and left between two scan steps is missed,
-        which 1 s steps at drift speeds below 1 m/s make a centimetre-scale effect).
+        which 2 s steps at drift speeds below 1 m/s make a decimetre-scale corner effect).
     """
 
     #: History the measured route needs once ESD-1 is active, s.
     ALARMED_MIN_HISTORY = 10.0
 
-    def __init__(self, model, window: float, k_sigma: float = 2.0, step: float = 1.0, resolution: float = 0.0625):
+    def __init__(self, model, window: float, k_sigma: float = 2.0, step: float = 2.0, resolution: float = 0.0625):
         self.model = model
         self.fit = DriftFit(window)
         self.k = k_sigma
@@ -233,12 +250,16 @@ class EnvelopeMonitor:
         ang = np.arange(8) * (math.pi / 4)
         self.dirs_h = np.stack([np.cos(ang), np.sin(ang), np.zeros(8)], axis=1)
         self.dd = dd
+        self.est: DriftEstimate | None = None
+        self.est_t = math.nan
+        self.est_alarmed = False
 
     def reset(self) -> None:
         """A new connection: forget the drift history."""
         self.fit.reset()
+        self.est, self.est_t, self.est_alarmed = None, math.nan, False
 
-    def observe(self, t: float, p) -> None:
+    def observe(self, t: float, p) -> bool:
         """Feed the attached flange position (from the encoders).
 
         Parameters
@@ -247,8 +268,33 @@ class EnvelopeMonitor:
             Time, s.
         p : sequence of float
             Coupler (= flange) position, m.
+
+        Returns
+        -------
+        bool
+            True when the sample was kept (one per fit period): time to :meth:`refit`.
         """
-        self.fit.push(t, p)
+        return self.fit.push(t, p)
+
+    def refit(self, alarmed: bool = False) -> DriftEstimate | None:
+        """Fit the drift now and keep it for the forecasts until the next refit (the guidance cycle does the
+        fit and the forecast in different cycles, so that neither cycle does both).
+
+        Parameters
+        ----------
+        alarmed : bool
+            ESD-1 is active (see :meth:`time_to_limit`).
+
+        Returns
+        -------
+        DriftEstimate or None
+        """
+        if alarmed:
+            est = self.fit.estimate(int(round(self.ALARMED_MIN_HISTORY / self.fit.period)))
+        else:
+            est = self.fit.estimate()
+        self.est, self.est_t, self.est_alarmed = est, self.fit.t_last, alarmed
+        return est
 
     def _outside(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         m = face_margins(self.model, pts[..., 0], pts[..., 1], pts[..., 2])
@@ -280,7 +326,7 @@ class EnvelopeMonitor:
                 lo = mid
         return lo, hit[0], hit[1]
 
-    def time_to_limit(self, p_now, horizon: float, *, alarmed: bool = False) -> LimitForecast:
+    def time_to_limit(self, p_now, horizon: float, *, alarmed: bool = False, now: float | None = None) -> LimitForecast:
         """Earliest time the flange could cross a face within ``horizon`` seconds.
 
         Parameters
@@ -294,13 +340,19 @@ class EnvelopeMonitor:
             :attr:`ALARMED_MIN_HISTORY` s), so that a drift faster than the design one, which started soon after
             the connection, still gets its release in time. Before ESD-1 only a full window counts (no false
             alarm from a short, wave-dominated fit).
+        now : float, optional
+            Time, s: use the fit of the last :meth:`refit` (made for the same ``alarmed``), extrapolated from the
+            time of its newest sample to ``now``. Without it the drift is fitted here.
 
         Returns
         -------
         LimitForecast
         """
-        est = self.fit.estimate(int(round(self.ALARMED_MIN_HISTORY / self.fit.period)) if alarmed else None)
-        base = np.asarray(p_now, dtype=float) if est is None else est.p
+        if now is None or alarmed != self.est_alarmed or (self.est is None and self.fit.count):
+            self.refit(alarmed)
+        est = self.est
+        age = 0.0 if (now is None or est is None) else max(now - self.est_t, 0.0)
+        base = np.asarray(p_now, dtype=float) if est is None else est.p + est.v * age
         dd = self.dd
         dirs_v = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
 
@@ -323,9 +375,9 @@ class EnvelopeMonitor:
             t_stop = np.where(est.v * a < 0, -est.v / np.where(a == 0, 1.0, a), np.inf)
 
             def points(tau):
-                t = np.minimum(tau[:, None], t_stop)
+                t = np.minimum(tau[:, None] + age, t_stop)             # from the fit's newest sample
                 centre = est.p + est.v * t + 0.5 * a * t * t
-                half = est.wave + self.k * (est.sigma_p + est.sigma_v * tau[:, None])
+                half = est.wave + self.k * (est.sigma_p + est.sigma_v * (tau[:, None] + age))
                 measured = centre[:, None, :] + half[:, None, :] * _CORNERS[None]
                 return np.concatenate([design(tau), measured], axis=1)      # one evaluation for both routes
 

@@ -489,7 +489,7 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     ir = 0
     report_every = max(1, n // 50)
     for k in range(n):
-        now = tt[k]
+        now = float(tt[k])           # a Python float: numpy scalars make every scalar operation slower
         if pace is not None:
             pace(now)
         t0 = time.perf_counter()

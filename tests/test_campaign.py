@@ -32,7 +32,7 @@ def test_parse_vary_refuses_malformed_ranges():
 
 def test_judge_counts_each_failure_on_its_own():
     base = dict(coupler_opening_s=100.0, valves_confirmed_s=99.0, limit_s=110.0, release_complete_s=103.0,
-                alarm1_s=89.0, overstretched_s=None, release_margin_s=7.0, limit_face="beta_max")
+                alarm1_s=89.0, overstretched_s=None, release_margin_s=7.0, limit_face="beta_max", duration_s=120.0)
     ok = _judge(1, {}, base)
     assert not (ok.overstretched or ok.opened_on_live_product or ok.false_alarm or ok.missed_alarm)
     assert _judge(1, {}, {**base, "coupler_opening_s": 98.0}).opened_on_live_product
@@ -40,6 +40,9 @@ def test_judge_counts_each_failure_on_its_own():
     assert _judge(1, {}, {**base, "release_complete_s": 111.0}).missed_alarm
     assert _judge(1, {}, {**base, "release_complete_s": None, "coupler_opening_s": None}).missed_alarm
     assert _judge(1, {}, {**base, "limit_s": None}).false_alarm
+    # the run ended before the face (a slow drift): neither false nor missed, whatever the release had done
+    late = _judge(1, {}, {**base, "limit_s": 130.0, "release_complete_s": None, "coupler_opening_s": None})
+    assert not (late.false_alarm or late.missed_alarm)
     assert _judge(1, {}, {**base, "overstretched_s": 111.0}).overstretched
 
 

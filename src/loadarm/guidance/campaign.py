@@ -9,8 +9,9 @@ Every run is judged on what matters at the jetty:
 
 * **overstretch**: the attached arm was driven past a face of its envelope (the failure the alarms exist for);
 * **opened on live product**: the coupler began to open before the ERS valves were confirmed closed;
-* **false alarm**: the first alarm (ESD-1) or worse was raised in a run where the flange never reached a face;
-* **missed alarm**: the flange reached a face and the release had not completed before it;
+* **false alarm**: the first alarm (ESD-1) or worse was raised in a run where the flange never reaches a face
+  (in the run, or on its own trajectory up to 10 minutes after it);
+* **missed alarm**: the flange reached a face in the run and the release had not completed before it;
 * **release margin**: from the release complete to the flange's crossing of the face, s.
 
 Runs go to a process pool in batches (a task costs about a millisecond; a run seconds), with a progress
@@ -135,7 +136,7 @@ def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
         overstretched=v["overstretched_s"] is not None,
         opened_on_live_product=bool(opened is not None and (confirmed is None or opened < confirmed)),
         false_alarm=bool(alarm1 is not None and limit is None),
-        missed_alarm=bool(limit is not None and (done is None or done > limit)),
+        missed_alarm=bool(limit is not None and limit <= v["duration_s"] and (done is None or done > limit)),
         alarm1_s=alarm1, release_complete_s=done, limit_s=limit, release_margin_s=v["release_margin_s"],
         limit_face=v["limit_face"])
 

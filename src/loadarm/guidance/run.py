@@ -115,7 +115,8 @@ class RunResult(Result):
         The run's first, second and release angles (for the timeline figure).
     limit_at : float or None
         First time after the connection the true flange lies past a face of the arm's envelope (where an
-        arm still attached would be overstretched), s.
+        arm still attached would be overstretched), s: in the run or on the flange's trajectory up to
+        ``LIMIT_LOOKAHEAD`` s after it.
     limit_face : str
         That face (:data:`loadarm.faces.FACES`).
     """
@@ -509,22 +510,35 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     if progress is not None:
         progress(1.0)
     al = model.alarms
-    limit_at, limit_face = _first_limit(model, rec.sig, flange)
+    limit_at, limit_face = _first_limit(model, rec.sig, flange, motion)
     return RunResult(sc.scenario.name, rec.sig, events, arm_plant.overstretched, cycle,
                      tuple(math.degrees(a) for a in (al.first, al.second, al.release)), limit_at, limit_face)
 
 
-def _first_limit(model: ArmModel, sig: dict, flange: np.ndarray) -> tuple[float | None, str]:
-    """First time after the first connection the true flange is past a face of the envelope."""
+#: How far past the end of a run the flange's own trajectory is followed to find the face it would reach, s.
+LIMIT_LOOKAHEAD = 600.0
+
+
+def _first_limit(model: ArmModel, sig: dict, flange: np.ndarray, motion) -> tuple[float | None, str]:
+    """First time after the first connection the true flange is past a face of the envelope: in the run, or on
+    the flange's own trajectory up to :data:`LIMIT_LOOKAHEAD` s after it (a slow drift whose alarm came before
+    the run ended still reaches its face)."""
     conn = np.flatnonzero(sig["connected"] > 0)
     if conn.size == 0:
         return None, ""
     k0 = int(conn[0])
     outside, face = first_face(face_margins(model, flange[k0:, 0], flange[k0:, 1], flange[k0:, 2]))
     hit = np.flatnonzero(outside)
+    if hit.size:
+        return float(sig["t"][k0 + hit[0]]), FACES[int(face[hit[0]])]
+    t_end = float(sig["t"][-1])
+    tt = t_end + np.arange(1, int(LIMIT_LOOKAHEAD / 0.1) + 1) * 0.1
+    p = motion.position(tt)
+    outside, face = first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2]))
+    hit = np.flatnonzero(outside)
     if hit.size == 0:
         return None, ""
-    return float(sig["t"][k0 + hit[0]]), FACES[int(face[hit[0]])]
+    return float(tt[hit[0]]), FACES[int(face[hit[0]])]
 
 
 def _feed_sensor(readings, est: FlangeEstimator, ir: int, now: float, rejected: Callable) -> int:

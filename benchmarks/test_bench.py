@@ -11,8 +11,9 @@ round (the least disturbed by other load), so a ratio compares like with like.
 * ``loadarm plan`` cold start: <= 4x ``python -c "import numpy"`` (fixed workload; 4x is about 0.3 s where
   importing NumPy takes 0.07 s);
 * guidance cycle: median <= 2x and 99th percentile <= 6x those of a fixed control-like workload (a
-  4-state Kalman update in NumPy) timed right after it (measured 2026-11-23: 0.95x and 3.8x; the cycle's
-  tail is longer because cycles with a sensor reading, a mode change or an event do more work);
+  4-state Kalman update in NumPy) timed right after it (measured 2026-11-23 with the connected-mode monitor:
+  1.1x and 4.4x; the cycle's tail is longer because cycles with a sensor reading, a drift fit, a forecast of the
+  faces, a mode change or an event do more work);
 * campaigns: runs per second on every core >= 1.4x one process (same runs, same run; skipped on one core).
 """
 

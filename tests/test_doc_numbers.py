@@ -151,7 +151,7 @@ def test_campaign_tables_hold_on_a_fresh_sample():
 
     page = doc("docs/guidance.md")
     assert "| `driftoff.toml` (drift 0.15 m/s at 10 deg, Hs 0.5 m; hydraulic) | 1000 | 0 | 0 | 0 | 0 | 1000 |" in page
-    assert "| `hs15.toml` (Hs 1.5 m, outliers; hydraulic) | 200 | 0 | 0 | 0 | 0 | 0 |" in page
+    assert "| `hs15.toml` (Hs 1.5 m, outliers; hydraulic) | 1000 | 0 | 0 | 0 | 0 | 0 |" in page
     drift = run_campaign(ROOT / "examples" / "scenarios" / "driftoff.toml", 6, first_seed=5000, workers=2)
     s = drift.summary()
     assert (s["overstretches"], s["opened_on_live_product"], s["missed_alarms"], s["false_alarms"]) == (0, 0, 0, 0)

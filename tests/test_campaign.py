@@ -133,7 +133,9 @@ def test_within_the_design_envelope_the_release_completes_after_the_valves_and_b
     """Issue 10, item 8, on the closed loop: drift speed, acceleration, direction, start time, sequence times, sea
     state, an E-stop at any time after the drift starts, and seeds. Within what `loadarm check` guarantees
     (horizontal drift up to the speed it says is absorbed), the coupler opens only after the ERS valves are
-    confirmed closed, and the release completes before the flange reaches any face."""
+    confirmed closed, and the release completes before the flange reaches any face (a slow drift whose face lies
+    beyond the end of the run is judged on what happened in it: found by the thorough profile once the run's
+    face could lie beyond its end)."""
     sc, model = load_scenario(SCEN / "driftoff.toml")
     model = dataclasses.replace(model, sequence=dataclasses.replace(model.sequence, ers_valve_time=ers_valve_time,
                                                                     erc_release_time=erc))
@@ -153,6 +155,6 @@ def test_within_the_design_envelope_the_release_completes_after_the_valves_and_b
     assert v["overstretched_s"] is None, v
     if v["coupler_opening_s"] is not None:
         assert v["valves_confirmed_s"] is not None and v["coupler_opening_s"] >= v["valves_confirmed_s"]
-    if v["limit_s"] is not None:
+    if v["limit_s"] is not None and v["limit_s"] <= v["duration_s"]:     # the face inside the run
         assert v["release_complete_s"] is not None and v["release_complete_s"] < v["limit_s"], v
         assert v["release_margin_s"] > 0 and math.isfinite(v["release_margin_s"])

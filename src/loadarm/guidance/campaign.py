@@ -20,6 +20,7 @@ callback for the bar.
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 from collections.abc import Callable, Sequence
@@ -172,7 +173,7 @@ class _Draw:
         from ..config import parse_config
         from .scenario import check_scenario, parse_scenario
 
-        sc_data, inst_data = _deep_copy(self.raw), _deep_copy(self.inst_raw)
+        sc_data, inst_data = copy.deepcopy(self.raw), copy.deepcopy(self.inst_raw)
         for key, value in draws.items():
             if key.startswith("installation."):
                 _set(inst_data, key.removeprefix("installation."), value, self.inst_source)
@@ -197,14 +198,6 @@ def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -
         res = run_scenario(sc, model, plant=plant)
         results.append(_judge(seed, draws, res._values()))
     return results
-
-
-def _deep_copy(d):
-    if isinstance(d, dict):
-        return {k: _deep_copy(v) for k, v in d.items()}
-    if isinstance(d, list):
-        return [_deep_copy(v) for v in d]
-    return d
 
 
 #: The headline numbers of a campaign, declared once.

@@ -38,14 +38,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..check import esd_lead
-from ..errors import ConfigError
 from ..alarms import AlarmState, AlarmThresholds, Severity, next_alarm_state
 from ..geometry import Arm
 from ..kinematics import ROUNDOFF_M, jacobian_entries
 from ..slew import forward3d, inverse3d, reach_mask3d
 from .monitor import EnvelopeMonitor, LimitForecast, stage_leads
-from .scenario import Guidance
+from .scenario import Guidance, check_drift_window
 from .sensor import Estimate
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
@@ -302,10 +300,7 @@ class GuidanceController:
         self.lim = model.joint_limits
         self.thr = AlarmThresholds.from_model(model)
         self.seq = model.sequence
-        lead = esd_lead(self.seq)
-        if g.drift_window > 2 * lead:
-            raise ConfigError(f"guidance.drift_window = {g.drift_window:g} s is longer than twice the first alarm's "
-                              f"lead ({lead:g} s); valid range (5, {2 * lead:g}] s")
+        check_drift_window(g, self.seq, source="guidance settings")
         self.monitor = EnvelopeMonitor(model, g.drift_window)
         self.v_max = model.approach.max_speed
         self.a_max = model.approach.max_accel

@@ -13,6 +13,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from ..check import esd_lead
 from ..config import _format_validation_error, _param, load_config, paper_installation, read_toml
 from ..errors import ConfigError
 
@@ -20,7 +21,7 @@ if TYPE_CHECKING:
     from ..model import ArmModel
 
 __all__ = ["Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
-           "parse_scenario", "check_scenario"]
+           "parse_scenario", "check_scenario", "check_drift_window"]
 
 
 class _S(BaseModel):
@@ -261,13 +262,31 @@ def check_scenario(sc: Scenario, model: "ArmModel", *, source: str = "<scenario>
     Raises
     ------
     ConfigError
-        The drift window is longer than twice the first alarm's lead (a drift would reach the limit before the
-        time-to-limit alarm had fitted it; the design-drift floor covers only drifts within the design).
+        The drift window is too long for the sequence (:func:`check_drift_window`).
     """
-    from ..check import esd_lead
+    check_drift_window(sc.guidance, model.sequence, source=source)
 
-    lead = esd_lead(model.sequence)
-    w = sc.guidance.drift_window
+
+def check_drift_window(g: Guidance, seq, *, source: str = "<guidance>") -> None:
+    """The drift fit's window must be at most twice the first alarm's lead.
+
+    Parameters
+    ----------
+    g : Guidance
+        Guidance settings (``drift_window``).
+    seq : record
+        The installation's ``[sequence]``.
+    source : str
+        Name for messages.
+
+    Raises
+    ------
+    ConfigError
+        A drift would reach the limit before the time-to-limit alarm had fitted it (the design-drift floor
+        covers only drifts within the design).
+    """
+    lead = esd_lead(seq)
+    w = g.drift_window
     if w > 2 * lead:
         raise ConfigError(
             f"{source}: guidance.drift_window = {w:g} s is too slow for the sequence it protects (at most twice the "

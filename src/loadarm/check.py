@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .alarms import UNREACHABLE, Severity, beta_severity, slew_severity
 from .faces import FACE_LABELS, FACES, breakout_distance, face_margins, first_face
 from .results import Metric, Result
 from .slew import inverse3d
@@ -264,15 +265,14 @@ def design_check(model) -> CheckResult:
     fx, fz = model.approach.flange
     p0 = np.array([fx, 0.0, fz], dtype=float)
     L1, Lr = esd_lead(seq), release_lead(seq)
-    al, sl = model.alarms, model.slew
 
     def past_face(pts):
         return first_face(face_margins(model, pts[:, 0], pts[:, 1], pts[:, 2]))[0]
 
-    def in_first_alarm(pts):
+    def in_first_alarm(pts):               # the customer's position alarms, as the envelope and monitor classify
         q = inverse3d(model.arm, pts[:, 0], pts[:, 1], pts[:, 2], check=False)
-        beta, phi = np.asarray(q.beta), np.asarray(q.phi)
-        return np.isnan(beta) | (beta > al.first) | (np.abs(phi) > sl.first)
+        sev = beta_severity(q.beta, model.alarms)
+        return (sev == UNREACHABLE) | (np.maximum(sev, slew_severity(q.phi, model.slew)) >= Severity.ESD1)
 
     rows, problems = [], []
     for name, vec, horizontal in DIRECTIONS:

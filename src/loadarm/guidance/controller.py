@@ -531,15 +531,18 @@ class GuidanceController:
         s = self.state
         alarmed = s.esd_since is not None
         mon = self.monitor
+        p = None                                # the position, computed only in a cycle that needs it
         if mon.fit.due(now):                    # a new sample: refit now, forecast in a later cycle (cycle time)
-            mon.observe(now, tuple(float(v) for v in forward3d(self.arm, *q)))
+            p = tuple(float(v) for v in forward3d(self.arm, *q))
+            mon.observe(now, p)
             mon.refit(alarmed)
         elif now >= s.next_forecast:
             s.forecast = None
         level, why = self.thr.level(q[2], q[0])
         if s.forecast is None:
             s.leads = self._leads(now)
-            p = tuple(float(v) for v in forward3d(self.arm, *q))
+            if p is None:
+                p = tuple(float(v) for v in forward3d(self.arm, *q))
             s.forecast = mon.time_to_limit(p, max(s.leads.values()), alarmed=alarmed, now=now)
             s.next_forecast = now + mon.fit.period
         f = s.forecast

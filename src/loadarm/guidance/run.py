@@ -141,7 +141,7 @@ class RunResult(Result):
 
     def release_margin(self) -> float | None:
         """Time from the release complete to the flange's first crossing of a face, s (None without a
-        release, or when the flange never reaches a face in the run).
+        release, or when the flange reaches no face in the run nor in the look-ahead after it).
 
         Returns
         -------
@@ -527,13 +527,10 @@ def _first_limit(model: ArmModel, sig: dict, flange: np.ndarray, motion) -> tupl
     if conn.size == 0:
         return None, ""
     k0 = int(conn[0])
-    outside, face = first_face(face_margins(model, flange[k0:, 0], flange[k0:, 1], flange[k0:, 2]))
-    hit = np.flatnonzero(outside)
-    if hit.size:
-        return float(sig["t"][k0 + hit[0]]), FACES[int(face[hit[0]])]
     t_end = float(sig["t"][-1])
-    tt = t_end + np.arange(1, int(LIMIT_LOOKAHEAD / 0.1) + 1) * 0.1
-    p = motion.position(tt)
+    after = t_end + np.arange(1, int(LIMIT_LOOKAHEAD / 0.1) + 1) * 0.1
+    tt = np.concatenate([sig["t"][k0:], after])
+    p = np.concatenate([flange[k0:], motion.position(after)])
     outside, face = first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2]))
     hit = np.flatnonzero(outside)
     if hit.size == 0:

@@ -275,8 +275,7 @@ class FlangeEstimator:
         for i in range(len(readings)):
             for j in range(i):
                 (ti, zi), (tj, zj) = readings[i], readings[j]
-                allowed = 6.0 * math.sqrt(2.0 * self.r) + self.MAX_FLANGE_SPEED * abs(ti - tj)
-                if math.dist(zi, zj) > allowed:
+                if math.dist(zi, zj) > self._allowed(abs(ti - tj)):
                     return False
         return True
 
@@ -284,16 +283,19 @@ class FlangeEstimator:
         """Rejected readings that agree with each other are a second target, not outliers: untrust the track."""
         self.recent_rejected = [(ti, zi) for ti, zi in self.recent_rejected if t - ti <= AMBIGUITY_SPAN]
         near = sum(1 for ti, zi in self.recent_rejected
-                   if math.dist(zi, z) <= 6.0 * math.sqrt(2.0 * self.r) + self.MAX_FLANGE_SPEED * (t - ti))
+                   if math.dist(zi, z) <= self._allowed(t - ti))
         self.recent_rejected.append((t, tuple(z)))
         if near >= 2:
             self.ambiguous_until = t + AMBIGUITY_HOLD
 
     def _reachable(self, t: float, z) -> bool:
         """Whether the flange could have moved from the track's last accepted position to ``z`` by ``t``."""
-        last = (self.x[0], self.x[2], self.x[4])
-        allowed = 6.0 * math.sqrt(2.0 * self.r) + self.MAX_FLANGE_SPEED * max(t - self.last_accept, 0.0)
-        return math.dist(last, z) <= allowed
+        return math.dist((self.x[0], self.x[2], self.x[4]), z) <= self._allowed(max(t - self.last_accept, 0.0))
+
+    def _allowed(self, dt: float) -> float:
+        """How far apart two readings of one flange ``dt`` seconds apart can be: six noise sigmas of their
+        difference plus what the flange can travel, m."""
+        return 6.0 * math.sqrt(2.0 * self.r) + self.MAX_FLANGE_SPEED * dt
 
     def nis_mean(self) -> float:
         """Mean normalised innovation squared of the last :data:`NIS_WINDOW` accepted readings (NaN before).

@@ -32,8 +32,10 @@ def test_parse_vary_refuses_malformed_ranges():
 
 def test_judge_counts_each_failure_on_its_own():
     base = dict(coupler_opening_s=100.0, valves_confirmed_s=99.0, limit_s=110.0, release_complete_s=103.0,
-                alarm1_s=89.0, overstretched_s=None, release_margin_s=7.0, limit_face="beta_max", duration_s=120.0)
+                alarm1_s=89.0, overstretched_s=None, release_margin_s=7.0, limit_face="beta_max", duration_s=120.0,
+                connected_s=80.0)
     ok = _judge(1, {}, base)
+    assert ok.connected_s == 80.0
     assert not (ok.overstretched or ok.opened_on_live_product or ok.false_alarm or ok.missed_alarm)
     assert _judge(1, {}, {**base, "coupler_opening_s": 98.0}).opened_on_live_product
     assert _judge(1, {}, {**base, "valves_confirmed_s": None}).opened_on_live_product
@@ -69,6 +71,10 @@ def test_a_campaign_is_repeatable_and_draws_within_the_ranges(tmp_path):
         assert not (r.overstretched or r.opened_on_live_product or r.missed_alarm)
     s = a.summary()
     assert s["runs"] == 1 and s["overstretches"] == 0 and s["margin_min_s"] > 0
+    # exposure: connected from the connection to the release (independent route: the event times of one run)
+    r = a.runs[0]
+    assert s["connected_runs"] == 1 and s["connected_h"] == pytest.approx(r.connected_s / 3600.0)
+    assert r.alarm1_s < r.release_complete_s and 60.0 < r.connected_s < r.release_complete_s
     assert "release margin, min" in str(s)
 
 
@@ -98,21 +104,27 @@ def test_the_stock_driftoff_seeds_that_overstretched_now_release_in_time(seed):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("accel", [0.01, pytest.param(0.5, marks=pytest.mark.xfail(
-    strict=True, reason="open (issue 10): a velocity step to 0.3 m/s is seen about 1.7 s late by the 60 s drift "
-                        "fit; seeds 3 and 4 of 10 overstretch by 0.14-0.16 s"))])
+@pytest.mark.parametrize("accel", [0.01, 0.5])
 def test_a_drift_of_0_3_m_s_no_longer_overstretches(accel):
     """Found: 0.3 m/s (the top of the range the scenario's drift documents) overstretched 1 run in 10 at
     0.01 m/s^2 and 3 in 10 at 0.5 m/s^2. 0.3 m/s is beyond this berth's design drift (0.15 m/s; `loadarm check`
-    says 0.275 m/s is absorbed off the berth). At 0.01 m/s^2 no run overstretches now; at 0.5 m/s^2 (a velocity
-    step, 0.6 s to full speed) 2 of 10 still do, by 0.14-0.16 s: still open, kept as a strict xfail."""
+    says 0.275 m/s is absorbed off the berth). At 0.5 m/s^2 (a velocity step, 0.6 s to full speed) 2 of 10 still
+    overstretched by 0.14-0.16 s once the 0.01 m/s^2 case passed: the 60 s drift fit saw the step 1.7 s late. The
+    velocity-step test (DriftFit.step_estimate) sees it within seconds; the margins are quoted in docs/guidance.md."""
     sc, model = load_scenario(SCEN / "driftoff.toml")
+    margins = []
     for seed in range(10):
         s = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"seed": seed, "plant": "kinematic"}),
                                   "drift": sc.drift.model_copy(update={"speed": 0.3, "acceleration": accel})})
         v = run_scenario(s, model).to_dict()
         assert v["overstretched_s"] is None and v["release_margin_s"] > 0, (seed, v)
         assert v["coupler_opening_s"] >= v["valves_confirmed_s"]
+        margins.append(v["release_margin_s"])
+    if accel == 0.5:                             # the step is seen within seconds: the sequence's own margin holds
+        assert min(margins) >= model.sequence.margin, margins
+        from .test_doc_numbers import cited
+
+        cited("docs/guidance.md", f"released on 10 of 10 seeds with {min(margins):.1f}-{max(margins):.1f} s to spare")
 
 
 @pytest.mark.slow

@@ -12,7 +12,8 @@ Every run is judged on what matters at the jetty:
 * **false alarm**: the first alarm (ESD-1) or worse was raised in a run where the flange never reaches a face
   (in the run, or on its own trajectory up to 10 minutes after it);
 * **missed alarm**: the flange reached a face in the run and the release had not completed before it;
-* **release margin**: from the release complete to the flange's crossing of the face, s.
+* **release margin**: from the release complete to the flange's crossing of the face, s;
+* **exposure**: the runs that connected and the time connected (what a count of false alarms is out of).
 
 Runs go to a process pool in batches (a task costs about a millisecond; a run seconds), with a progress
 callback for the bar.
@@ -113,6 +114,8 @@ class CampaignRun:
         ``limit_s - release_complete_s``.
     limit_face : str
         The face crossed.
+    connected_s : float
+        Time the coupler was on the flange, s (the exposure a false-alarm count is out of).
     """
 
     seed: int
@@ -126,6 +129,7 @@ class CampaignRun:
     limit_s: float | None
     release_margin_s: float | None
     limit_face: str
+    connected_s: float = 0.0
 
 
 def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
@@ -139,7 +143,7 @@ def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
         false_alarm=bool(alarm1 is not None and limit is None),
         missed_alarm=bool(limit is not None and limit <= v["duration_s"] and (done is None or done > limit)),
         alarm1_s=alarm1, release_complete_s=done, limit_s=limit, release_margin_s=v["release_margin_s"],
-        limit_face=v["limit_face"])
+        limit_face=v["limit_face"], connected_s=v["connected_s"])
 
 
 class _Draw:
@@ -204,6 +208,8 @@ def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -
 CAMPAIGN_METRICS = (
     Metric("scenario", "scenario"),
     Metric("runs", "runs", "", "d"),
+    Metric("connected_runs", "runs that connected", "", "d"),
+    Metric("connected_h", "time connected, all runs", "h", ".1f"),
     Metric("overstretches", "overstretches", "", "d"),
     Metric("opened_on_live_product", "coupler opened before the ERS valves closed", "", "d"),
     Metric("false_alarms", "false alarms (ESD-1 without reaching a face)", "", "d"),
@@ -249,6 +255,8 @@ class CampaignResult(Result):
         return {
             "scenario": self.scenario,
             "runs": len(runs),
+            "connected_runs": sum(r.connected_s > 0 for r in runs),
+            "connected_h": sum(r.connected_s for r in runs) / 3600.0,
             "varied": [f"{v.key}={v.lo:g}:{v.hi:g}" for v in self.varied],
             "overstretches": sum(r.overstretched for r in runs),
             "opened_on_live_product": sum(r.opened_on_live_product for r in runs),

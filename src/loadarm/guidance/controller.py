@@ -42,7 +42,7 @@ from ..alarms import AlarmState, AlarmThresholds, Severity, next_alarm_state
 from ..geometry import Arm
 from ..kinematics import ROUNDOFF_M, jacobian_entries
 from ..slew import forward3d, inverse3d, reach_mask3d
-from .monitor import EnvelopeMonitor, LimitForecast, stage_leads
+from .monitor import FIT_PERIOD, EnvelopeMonitor, LimitForecast, stage_leads
 from .scenario import Guidance, check_drift_window
 from .sensor import Estimate
 
@@ -301,12 +301,18 @@ class GuidanceController:
         self.thr = AlarmThresholds.from_model(model)
         self.seq = model.sequence
         check_drift_window(g, self.seq, source="guidance settings")
-        self.monitor = EnvelopeMonitor(model, g.drift_window)
+        # the drift fit samples every whole number of cycles, about 0.2 s apart (every cycle when slower), so that
+        # its time base is exact at any guidance rate
+        per_sample = max(1, math.ceil(FIT_PERIOD * g.rate - 1e-9))
+        self.monitor = EnvelopeMonitor(model, g.drift_window, period=per_sample / g.rate)
         self.v_max = model.approach.max_speed
         self.a_max = model.approach.max_accel
         sx, sz = model.approach.stored
         self.stored = np.array([sx, 0.0, sz])
         self.dt_nominal = 1.0 / g.rate
+        # the drift fit, the velocity-step test and the forecast go to three different cycles when the guidance
+        # runs at least three cycles per fit sample; slower, all three run in the sample's cycle
+        self.spread = per_sample >= 3
         self.state = GuidanceState() if state is None else state
 
     # ---------------------------------------------------------------- helpers
@@ -532,10 +538,14 @@ class GuidanceController:
         alarmed = s.esd_since is not None
         mon = self.monitor
         p = None                                # the position, computed only in a cycle that needs it
-        if mon.fit.due(now):                    # a new sample: refit now, forecast in a later cycle (cycle time)
-            p = tuple(float(v) for v in forward3d(self.arm, *q))
+        if mon.fit.due(now):                    # a new sample: refit now; spread, the step test and the
+            p = tuple(float(v) for v in forward3d(self.arm, *q))      # forecast in later cycles (cycle time)
             mon.observe(now, p)
-            mon.refit(alarmed)
+            mon.refit(alarmed, step=not self.spread)
+            if not self.spread:
+                s.forecast = None
+        elif mon.step_pending:
+            mon.test_step()
         elif now >= s.next_forecast:
             s.forecast = None
         level, why = self.thr.level(q[2], q[0])

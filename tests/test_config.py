@@ -58,7 +58,7 @@ def test_missing_section():
     ("datasheet", "B", -1.0, "valid range [0, 100] m"),
     ("actuators", "a1", 50.0, "valid range (0, 20] m"),
     ("actuators", "valve_range_V", 0.0, "valid range (0, 24] V"),
-    ("approach", "max_speed", -0.1, "valid range (0, 2] m/s"),
+    ("approach", "max_speed", -0.1, "valid range [0.01, 2] m/s"),
     ("alarms", "first_deg", 200.0, "valid range (0, 180) deg"),
 ])
 def test_out_of_range_names_key_value_and_range(section, key, value, rng):
@@ -130,7 +130,7 @@ def test_file_errors(tmp_path):
     bad.write_text("[arm\nriser = 7")
     with pytest.raises(ConfigError, match="not valid TOML"):
         load_config(bad)
-    with pytest.raises(ConfigError, match="cannot read"):
+    with pytest.raises(ConfigError, match="must be a regular file, this is a directory"):
         load_config(tmp_path)
 
 
@@ -163,11 +163,15 @@ def test_every_parameter_declares_unit_range_and_source():
 def test_non_finite_points_rejected():
     d = _data()
     d["approach"]["flange"] = [float("nan"), 1.0]
-    with pytest.raises(ConfigError, match=r"approach.flange must be two finite coordinates"):
+    with pytest.raises(ConfigError, match=r"approach.flange.0 = nan: Input should be a finite number"):
         parse_config(d)
     d = _data()
     d["approach"]["stored"] = [float("inf"), 1.0]
-    with pytest.raises(ConfigError, match=r"approach.stored must be two finite"):
+    with pytest.raises(ConfigError, match=r"approach.stored.0 = inf: Input should be a finite number"):
+        parse_config(d)
+    d = _data()
+    d["approach"]["stored"] = [1500.0, 1.0]
+    with pytest.raises(ConfigError, match=r"approach.stored must be two finite coordinates within"):
         parse_config(d)
 
 

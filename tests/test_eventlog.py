@@ -88,3 +88,35 @@ def test_rate_limiter_counts_alike_events_and_never_drops_safety_events():
     assert lim.admit(0.0, "info", "something else")[0]    # a different event is its own key
     with pytest.raises(ValueError, match="window"):
         RateLimiter(window=0.0)
+
+
+def test_an_older_loadarm_log_is_migrated_and_a_newer_one_refused(tmp_path):
+    """Schema 1 (the events table alone, before the identity) is read as it is and migrated by a writer; a log of a
+    newer schema is refused, naming both versions; a new log carries the application id and version."""
+    import sqlite3
+
+    from loadarm.eventlog import APPLICATION_ID, SCHEMA_VERSION
+
+    old = tmp_path / "v1.db"
+    con = sqlite3.connect(old)
+    con.executescript("CREATE TABLE events (id INTEGER PRIMARY KEY AUTOINCREMENT, run TEXT NOT NULL, t REAL NOT NULL, "
+                      "wall TEXT NOT NULL, state TEXT NOT NULL, kind TEXT NOT NULL, reason TEXT NOT NULL, "
+                      "data TEXT NOT NULL DEFAULT '{}'); INSERT INTO events (run, t, wall, state, kind, reason) "
+                      "VALUES ('r', 1.0, 'w', 'STORED', 'mode', 'old');")
+    con.commit()
+    con.close()
+    with EventLog.open_existing(old) as log:
+        assert log.version == 1 and [e.reason for e in log.query()] == ["old"]
+    with EventLog(old, run="new") as log:
+        assert log.version == SCHEMA_VERSION
+        log.append(2.0, "STORED", "info", "new")
+    con = sqlite3.connect(old)
+    assert con.execute("PRAGMA application_id").fetchone()[0] == APPLICATION_ID
+    con.execute("UPDATE loadarm_meta SET value = '99' WHERE key = 'schema_version'")
+    con.commit()
+    con.close()
+    with pytest.raises(EventLogError, match=f"schema 99, written by a newer loadarm; this one reads schema "
+                                            f"{SCHEMA_VERSION}"):
+        EventLog.open_existing(old)
+    with pytest.raises(EventLogError, match="schema 99"):
+        EventLog(old)

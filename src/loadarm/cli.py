@@ -63,11 +63,16 @@ def Table(*args, **kwargs):  # noqa: N802 - stands in for rich.table.Table
     return _Table(*args, **kwargs)
 
 
-out = _LazyConsole(soft_wrap=True)
-err = _LazyConsole(stderr=True, soft_wrap=True)
+# Markup off: user strings (scenario names, paths, log reasons) are printed as they are, never parsed ("[/x]" in a
+# path once raised rich's MarkupError, "[link=...]" changed what was printed). The few styled lines opt in with
+# markup=True and escape what they interpolate.
+out = _LazyConsole(soft_wrap=True, markup=False, highlight=False)
+err = _LazyConsole(stderr=True, soft_wrap=True, markup=False, highlight=False)
 
 ConfigOpt = Annotated[Path, typer.Option("--config", "-c", help="Installation TOML file (see examples/paper.toml).")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
+ForceOpt = Annotated[bool, typer.Option("--force", help="Replace existing output files that loadarm did not write "
+                                                        "(its own are replaced without it).")]
 
 
 class UserError(Exception):
@@ -142,6 +147,14 @@ def _check_png(png: Optional[Path]) -> None:
         raise UserError(f"--png must name a .png file, got {str(png)!r}")
 
 
+def _outputs(outputs: dict, inputs=(), force: bool = False, appended=()) -> None:
+    """Check the output files before any work (:func:`loadarm.files.guard_outputs`), and a PNG's suffix."""
+    from .files import guard_outputs
+
+    _check_png(outputs.get("--png"))
+    guard_outputs(outputs, [Path(i) for i in inputs if i is not None], force=force, appended=appended)
+
+
 def _check_fill(fill: Optional[float]) -> None:
     if fill is not None and not (0.0 <= fill <= 1.0):
         raise UserError(f"--fill must be in [0, 1], got {fill!r}")
@@ -151,15 +164,15 @@ def _model(config: Path):
     """Read an installation file and compile it (the CLI is an edge: configuration stops here)."""
     from .compiler import compile_model
 
-    return compile_model(load_config(config))
+    return compile_model(load_config(config), source=str(config))
 
 
 def _progress(transient: bool = False):
     """A progress bar on stderr (rich.progress is imported only by the commands that show one)."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    return Progress(TextColumn("[bold]{task.description}"), BarColumn(), TimeElapsedColumn(), console=err.get(),
-                    transient=transient)
+    return Progress(TextColumn("{task.description}", style="bold", markup=False), BarColumn(), TimeElapsedColumn(),
+                    console=err.get(), transient=transient)
 
 
 def _round_floats(obj, digits: int = 12):
@@ -198,7 +211,8 @@ def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
     if as_json:
         _json(data)
         return
-    out.print(f"[bold]Sized arm[/]: b = {res.inboard:.4f} m, c = {res.outboard:.4f} m (b + c = {res.total:.4f} m)")
+    out.print(f"[bold]Sized arm[/]: b = {res.inboard:.4f} m, c = {res.outboard:.4f} m (b + c = {res.total:.4f} m)",
+              markup=True)
     out.print(f"first-alarm corner ({res.corner[0]:.3f}, {res.corner[1]:.3f}) m, r_al = {res.r_alarm:.4f} m; "
               f"active bound: {res.active_bound}")
     for title, rows in (("corners, sized arm", corners), ("corners, configured arm", corners_conf)):
@@ -206,7 +220,7 @@ def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
             continue
         t = Table(title=title)
         for col in ("corner", "x [m]", "y [m]", "beta [deg]", "zone"):
-            t.add_column(escape(col))
+            t.add_column(col)
         for r in rows:
             beta = "n/a" if r["beta_deg"] is None else f"{r['beta_deg']:.2f}"
             t.add_row(r["corner"], f"{r['x_m']:.2f}", f"{r['y_m']:.2f}", beta, r["zone_label"])
@@ -224,6 +238,7 @@ def plan(
     csv: Annotated[Optional[Path], typer.Option("--csv", help="Also write every sample to this CSV file.")] = None,
     strict: Annotated[bool, typer.Option("--strict", help="Refuse (exit 2) a path that enters an alarm zone or "
                                                           "drives a cylinder past its end stop.")] = False,
+    force: ForceOpt = False,
 ) -> None:
     """Plan the straight-line approach: joint angles, cylinder lengths, valve voltages and zones.
 
@@ -236,6 +251,7 @@ def plan(
     from .trajectory import plan_approach, plan_approach_3d, plan_warnings
 
     timing = timing.value
+    _outputs({"--csv": csv}, [config], force)
     model = _model(config)
     a, b = _point(start, "--start"), _point(target, "--target")
     dims = {len(v) for v in (a, b) if v is not None}
@@ -254,7 +270,7 @@ def plan(
         t.add_column("quantity")
         t.add_column("value")
         for label, text in p3.summary().rows():
-            t.add_row(escape(label), escape(text))
+            t.add_row(label, text)
         out.print(t)
         return
     p = plan_approach(model, start=a, target=b, timing=timing, samples=samples)
@@ -270,7 +286,7 @@ def plan(
     t.add_column("quantity")
     t.add_column("value")
     for label, text in s.rows():
-        t.add_row(escape(label), escape(text))
+        t.add_row(label, text)
     out.print(t)
     if csv is not None:
         out.print(f"samples written to {csv}")
@@ -280,13 +296,14 @@ def _plan_warnings(warnings: list[str], strict: bool) -> None:
     if warnings and strict:
         raise UserError("--strict: " + "; ".join(warnings))
     for w in warnings:
-        err.print(f"warning: {w}", markup=False, highlight=False)
+        err.print(f"warning: {w}")
 
 
 @app.command()
 def envelope(
     config: ConfigOpt,
     png: Annotated[Path, typer.Option("--png", help="Output PNG file.")],
+    force: ForceOpt = False,
 ) -> None:
     """Draw the operating envelope with alarm zones (paper Fig. 4).
 
@@ -294,8 +311,8 @@ def envelope(
     """
     from .plotting import envelope_figure, save
 
+    _outputs({"--png": png}, [config], force)
     model = _model(config)
-    _check_png(png)
     save(envelope_figure(model), png)
     out.print(f"envelope written to {png}")
 
@@ -307,6 +324,7 @@ def verify(
     samples: Annotated[int, typer.Option(help="Number of samples along the approach.")] = 201,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Draw closed form and MuJoCo over each other.")] = None,
+    force: ForceOpt = False,
 ) -> None:
     """Verify the closed-form kinematics in MuJoCo (paper Section 4, Fig. 8).
 
@@ -316,8 +334,8 @@ def verify(
     from .trajectory import plan_approach
 
     timing = timing.value
+    _outputs({"--png": png}, [config], force)
     model = _model(config)
-    _check_png(png)
     p = plan_approach(model, timing=timing, samples=samples)
     with err.status("stepping the MuJoCo arm along the line"):
         res = verify_kinematics(model, p)
@@ -344,6 +362,7 @@ def balance(
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Residual torque map.")] = None,
     spacing: Annotated[float, typer.Option(help="Envelope grid step, m.")] = 0.25,
+    force: ForceOpt = False,
 ) -> None:
     """Counterweights that minimise the largest static joint torque over the envelope.
 
@@ -351,8 +370,8 @@ def balance(
     """
     from .balancing import balance_counterweights
 
+    _outputs({"--png": png}, [config], force)
     model = _model(config)
-    _check_png(png)
     if not (0.01 <= spacing <= 5.0):
         raise UserError(f"--spacing must be in [0.01, 5] m, got {spacing!r}")
     res = balance_counterweights(model, spacing=spacing)
@@ -398,7 +417,7 @@ def loads(
 
     t = Table(title=f"actuator loads, {timing} timing")
     for col in ("cylinder", *(m.header for m in CYLINDER_LOAD_METRICS)):
-        t.add_column(escape(col))
+        t.add_column(col)
     for i in (1, 2):
         c = s[f"cylinder{i}"]
         cells = [m.format(c[m.key], unit=False) for m in CYLINDER_LOAD_METRICS]
@@ -415,6 +434,7 @@ def simulate(
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Deviation, tracking, pressures, valves, pump.")] = None,
     fill: Annotated[Optional[float], typer.Option(help="Product fill fraction 0..1 (default masses.fill).")] = None,
+    force: ForceOpt = False,
 ) -> None:
     """Simulate the electro-hydraulic closed loop (paper Fig. 11) driving the arm along the approach.
 
@@ -430,8 +450,8 @@ def simulate(
     from .trajectory import plan_approach
 
     timing = timing.value
+    _outputs({"--png": png}, [config], force)
     model = _model(config)
-    _check_png(png)
     _check_fill(fill)
     if timing == "all":
         rows = {}
@@ -444,13 +464,13 @@ def simulate(
         t = Table(title="timing laws compared (closed loop)")
         cols = [m for m in SIMULATION_METRICS if m.key in COMPARE_KEYS]
         for m in cols:
-            t.add_column(escape(m.header))
+            t.add_column(m.header)
         for law, r in rows.items():
             t.add_row(*(m.format(r[m.key], unit=False) for m in cols))
         out.print(t)
         for law, r in rows.items():
             for w in r["warnings"]:
-                out.print(f"[yellow]warning ({law}):[/] {escape(w)}")
+                out.print(f"[yellow]warning ({law}):[/] {escape(w)}", markup=True)
         return
     plan = plan_approach(model, timing=timing, samples=2001)
     with err.status("simulating the closed loop (first run compiles the simulator)"):
@@ -467,10 +487,10 @@ def simulate(
     t.add_column("quantity")
     t.add_column("value")
     for label, text in s.rows():
-        t.add_row(escape(label), escape(text))
+        t.add_row(label, text)
     out.print(t)
     for w in s["warnings"]:
-        out.print(f"[yellow]warning:[/] {escape(w)}")
+        out.print(f"[yellow]warning:[/] {escape(w)}", markup=True)
 
 
 @app.command()
@@ -482,6 +502,7 @@ def run(
     png: Annotated[Optional[Path], typer.Option("--png", help="Timeline figure.")] = None,
     realtime: Annotated[bool, typer.Option("--realtime", help="Pace the run with the wall clock.")] = False,
     plant: Annotated[Optional[PlantKind], typer.Option(help="Arm plant (default: the scenario's).")] = None,
+    force: ForceOpt = False,
 ) -> None:
     """Run a scenario in closed loop: ship, sensor, estimator, guidance controller, arm; log every event.
 
@@ -491,8 +512,11 @@ def run(
     from .guidance.run import run_scenario, wall_clock_pacer
     from .guidance.scenario import load_scenario
 
+    if not no_db and str(db) == ":memory:":
+        raise UserError("--db :memory: would throw the events away; name a file, or give --no-db to run without a log")
     sc, model = load_scenario(scenario)
-    _check_png(png)
+    inst_file = None if sc.scenario.installation is None else scenario.parent / sc.scenario.installation
+    _outputs({"--png": png, "--db": None if no_db else db}, [scenario, inst_file], force, appended=("--db",))
     from datetime import datetime, timezone
 
     run_id = f"{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
@@ -537,6 +561,7 @@ def check(
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Figure: distance needed against available, per "
                                                               "direction.")] = None,
+    force: ForceOpt = False,
 ) -> None:
     """Design check before operation: the largest drift each direction absorbs, from the alarm angles, the
     sequence times and the arm's limits; refuses (exit 2) an installation whose alarms cannot absorb its own
@@ -546,7 +571,7 @@ def check(
     """
     from .check import design_check
 
-    _check_png(png)
+    _outputs({"--png": png}, [config], force)
     res = design_check(_model(config))
     if png is not None:
         from .plotting import save
@@ -556,7 +581,7 @@ def check(
         _json(res.to_dict())
     else:
         s = res.summary()
-        out.print(str(s), markup=False, highlight=False)
+        out.print(str(s))
         t = Table("direction", "first face", "available m", "alarm at m", "needed m", "absorbs m/s")
         for r in res.rows:
             t.add_row(r.direction, r.face or "-", f"{r.available:.2f}", f"{r.alarm_at:.2f}", f"{r.needed:.2f}",
@@ -578,6 +603,7 @@ def campaign(
     plant: Annotated[Optional[PlantKind], typer.Option(help="Arm plant (default: the scenario's).")] = None,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Histogram of the release margins.")] = None,
+    force: ForceOpt = False,
 ) -> None:
     """Run a scenario over many seeds and parameter draws on every core: overstretches, releases before the ERS
     valves closed, false and missed alarms, and the distribution of release margins.
@@ -586,7 +612,7 @@ def campaign(
     """
     from .guidance.campaign import parse_vary, run_campaign
 
-    _check_png(png)
+    _outputs({"--png": png}, [scenario], force)
     if workers is not None and workers < 1:
         raise UserError(f"--workers must be at least 1, got {workers}")
     varied = [parse_vary(v) for v in vary or ()]
@@ -602,7 +628,7 @@ def campaign(
     if as_json:
         _json(res.to_dict())
         return
-    out.print(str(res.summary()), markup=False, highlight=False)
+    out.print(str(res.summary()))
 
 
 @app.command("log")
@@ -614,6 +640,7 @@ def log_cmd(
     samples: Annotated[bool, typer.Option("--samples", help="Also list the once-a-second state samples.")] = False,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Replay the samples into a timeline figure.")] = None,
+    force: ForceOpt = False,
 ) -> None:
     """Query the event log (and replay it into a timeline).
 
@@ -621,7 +648,9 @@ def log_cmd(
     """
     from .eventlog import EventLog
 
-    _check_png(png)
+    _outputs({"--png": png}, [db], force)
+    if since is not None and not math.isfinite(since):
+        raise UserError(f"--since must be a finite time in s, got {since!r}")
     kinds = None if kind is None else [k.value for k in kind]
     if kinds is None and not samples:
         kinds = [k.value for k in EventKind if k.value != "sample"]
@@ -635,14 +664,14 @@ def log_cmd(
     if as_json:
         _json([e.as_dict() for e in events])
         return
-    t = Table(title=escape(f"{db}: {len(events)} events" + ("" if samples or kind else " (samples hidden; --samples)")))
+    t = Table(title=f"{db}: {len(events)} events" + ("" if samples or kind else " (samples hidden; --samples)"))
     for col in ("id", "run", "t [s]", "mode", "kind", "reason"):
-        t.add_column(escape(col))
+        t.add_column(col)
     for e in events:
-        t.add_row(str(e.id), escape(e.run), f"{e.t:.2f}", e.state, e.kind, escape(e.reason))
+        t.add_row(str(e.id), e.run, f"{e.t:.2f}", e.state, e.kind, e.reason)
     out.print(t)
     if png is not None:
-        out.print(f"timeline written to {escape(str(png))}")
+        out.print(f"timeline written to {str(png)}")
 
 
 def _replay_png(png: Path, events) -> None:
@@ -657,11 +686,18 @@ def _replay_png(png: Path, events) -> None:
     last_run = samples[-1].run            # several runs in one log: replay the latest (or choose with --run)
     events = [e for e in events if e.run == last_run]
     samples = [e for e in samples if e.run == last_run]
+    for e in samples:                   # a damaged or hand-edited sample is named, not trusted (found: KeyError)
+        if e.state not in MODES:
+            raise UserError(f"event id {e.id}: state {e.state!r} is not a guidance mode ({', '.join(MODES)})")
+        for key in ("beta", "phi", "distance"):
+            v = e.data.get(key)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise UserError(f"event id {e.id}: a sample needs a finite number '{key}', got {v!r}")
     t = np.array([e.t for e in samples])
     mode = np.array([MODES.index(e.state) for e in samples])
-    beta = np.array([e.data["beta"] for e in samples])
-    phi = np.array([e.data["phi"] for e in samples])
-    dist = np.array([e.data["distance"] for e in samples])
+    beta = np.array([e.data["beta"] for e in samples], dtype=float)
+    phi = np.array([e.data["phi"] for e in samples], dtype=float)
+    dist = np.array([e.data["distance"] for e in samples], dtype=float)
     alarms = [(e.t, e.reason.split(":")[0]) for e in events if e.kind == "alarm"]
     save(timeline_figure(t, mode, beta, phi, dist, MODES, alarms=alarms,
                          title=f"Guidance timeline of {last_run} (replayed from the log)"), png)
@@ -690,6 +726,7 @@ def mjcf(
 def demo(
     out_dir: Annotated[Path, typer.Option("--out", help="Output directory for report.html, CSV and figures.")] = Path("out"),
     config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the paper's case).")] = None,
+    force: ForceOpt = False,
 ) -> None:
     """Run an installation end to end (default: the paper's case) and write a self-contained HTML report.
 
@@ -700,6 +737,11 @@ def demo(
 
     source = config if config is not None else packaged_example("paper.toml")
     inst: Installation = load_config(source)
+    from .files import guard_outputs
+    from .report import report_outputs
+
+    outputs, scenario_files = report_outputs(inst, out_dir, source)         # refused before any work or bar
+    guard_outputs([("--out", p) for p in outputs], [source, *scenario_files], force=force)
     steps = 13 + len(inst.report.scenarios)
     with _progress() as prog:
         task = prog.add_task("starting", total=steps)
@@ -708,7 +750,7 @@ def demo(
             prog.update(task, description=msg, advance=1)
 
         files = build_report(inst, out_dir, title="loadarm: the paper's case end to end" if config is None
-                             else f"loadarm report: {config.name}", source=source, progress=step)
+                             else f"loadarm report: {config.name}", source=source, progress=step, force=force)
         prog.update(task, description="done", completed=steps)
     out.print(f"report: {files.html}")
     out.print(f"summary: {files.summary}")
@@ -717,7 +759,7 @@ def demo(
 
 
 def _fail(message: str) -> None:
-    err.print(f"loadarm: error: {' '.join(message.split())}", highlight=False, markup=False, soft_wrap=True)
+    err.print(f"loadarm: error: {' '.join(message.split())}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -760,7 +802,7 @@ def main(argv: list[str] | None = None) -> int:
             raise
         else:
             err.print(f"loadarm: internal error: {type(exc).__name__}: {' '.join(str(exc).split())} (this is a "
-                      "bug; LOADARM_DEBUG=1 shows the traceback)", markup=False, highlight=False)
+                      "bug; LOADARM_DEBUG=1 shows the traceback)")
             code = 1
     except KeyboardInterrupt:
         _fail("interrupted")

@@ -23,7 +23,7 @@ from .errors import ConfigError
 from .geometry import Arm, Mounting
 from .model import ArmModel, JointLimits, SlewLimits
 
-__all__ = ["compile_model", "RECORD_SECTIONS"]
+__all__ = ["compile_model", "RECORD_SECTIONS", "MIN_STROKE"]
 
 #: Configuration sections carried into the model as plain records (the others become typed objects:
 #: ``arm`` -> :class:`~loadarm.geometry.Arm`, ``alarms`` -> :class:`~loadarm.alarms.AlarmAngles`,
@@ -54,11 +54,25 @@ def _record(name: str, section: BaseModel) -> Any:
     return _RECORD_TYPES[name](**{k: _plain(getattr(section, k)) for k in type(section).model_fields})
 
 
+#: Smallest usable cylinder stroke, m: less cannot swing a loading arm through its envelope (found: a pin at
+#: ``actuators.a1 = 1e-12`` m made a zero-stroke cylinder that compiled without a word).
+MIN_STROKE = 0.05
+
+
 def _joint_limits(mount: Mounting, cylinders, slew: SlewLimits, v_max: tuple[float, float]) -> JointLimits:
     geo = length_limits(mount)
-    # Eq. 12: r_ac1 shrinks as alpha grows; Eq. 13: r_ac2 grows with beta
+    # Eq. 12: r_ac1 shrinks as alpha grows; Eq. 13: r_ac2 grows with beta. A cylinder cannot be shorter or
+    # longer than its pin triangle allows (flat), so its length range is cut to that.
     r1 = [min(max(v, geo["r_ac1"][0]), geo["r_ac1"][1]) for v in cylinders.length_range_1]
     r2 = [min(max(v, geo["r_ac2"][0]), geo["r_ac2"][1]) for v in cylinders.length_range_2]
+    for i, r, pins in ((1, r1, "a1 = {0.a1:g} m, b1 = {0.b1:g} m"), (2, r2, "b2 = {0.b2:g} m, c2 = {0.c2:g} m")):
+        if r[1] - r[0] < MIN_STROKE:
+            given = getattr(cylinders, f"length_range_{i}")
+            lo, hi = geo[f"r_ac{i}"]
+            raise ConfigError(
+                f"cylinder {i} has a usable stroke of {max(r[1] - r[0], 0.0):.3g} m: cylinders.length_range_{i} = "
+                f"[{given[0]:g}, {given[1]:g}] m within the [{lo:.3g}, {hi:.3g}] m its pins allow (actuators."
+                f"{pins.format(mount)}); at least {MIN_STROKE:g} m is needed")
     a_hi, b_lo = joint_angles_from_cylinders(mount, r1[0], r2[0])
     a_lo, b_hi = joint_angles_from_cylinders(mount, r1[1], r2[1])
     # joint rate bound from the cylinder speed over the largest moment arm (a1 b1 / r etc. <= min(a1, b1))
@@ -68,19 +82,36 @@ def _joint_limits(mount: Mounting, cylinders, slew: SlewLimits, v_max: tuple[flo
                        (slew.max_rate, rate_a, rate_b))
 
 
-def compile_model(inst: Installation) -> ArmModel:
+def compile_model(inst: Installation, *, source: str | None = None) -> ArmModel:
     """Compile a validated installation into the model every stage takes.
 
     Parameters
     ----------
     inst : Installation
         A validated installation (:func:`loadarm.config.load_config`).
+    source : str, optional
+        The file it came from, to name in the messages of the cross-checks.
 
     Returns
     -------
     ArmModel
         The immutable model.
+
+    Raises
+    ------
+    ConfigError
+        A cross-check between sections fails (a cylinder without a usable stroke, a release angle beyond the
+        stroke end); one line, starting with ``source``.
     """
+    try:
+        return _compile(inst)
+    except ConfigError as exc:
+        if source is None:
+            raise
+        raise ConfigError(f"{source}: {exc}") from None
+
+
+def _compile(inst: Installation) -> ArmModel:
     arm = Arm(inst.arm.riser, inst.arm.inboard, inst.arm.outboard)
     a = inst.actuators
     mount = Mounting(a.a1, a.b1, a.b2, a.c2)

@@ -24,6 +24,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
 
 from .errors import ConfigError
+from .files import check_depth, read_input
 
 __all__ = [
     "Datasheet",
@@ -48,6 +49,7 @@ __all__ = [
     "SizingArm",
     "sizing_case_model",
     "read_toml",
+    "toml_values",
     "load_config",
     "load_sizing_case",
     "parse_config",
@@ -77,7 +79,29 @@ def _param(default: Any, *, unit: str, description: str, source: str, gt: float 
 
 
 class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True)
+    # strict: no coercion ("12" or true is not a length; an integer is accepted where a float is declared),
+    # no NaN or infinity (TOML has both literals)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True, strict=True, allow_inf_nan=False)
+
+
+def toml_values(data: Any) -> Any:
+    """TOML arrays as tuples (the parameters' declared type), everything else as it is, so that the strict
+    models accept them. The depth is bounded by :func:`loadarm.files.check_depth`.
+
+    Parameters
+    ----------
+    data : Any
+        Parsed TOML.
+
+    Returns
+    -------
+    Any
+    """
+    if isinstance(data, dict):
+        return {k: toml_values(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return tuple(toml_values(v) for v in data)
+    return data
 
 
 _DS = "customer datasheet; example value from paper Table 1"
@@ -214,15 +238,15 @@ class Approach(_Section):
                                          description="coupler stored position (X0, Y0), from the riser base")
     flange: tuple[float, float] = _param(_REQUIRED, unit="m", paper=(14.0, 1.0), source="paper Section 3",
                                          description="ship flange position (Xf, Yf), from the riser base")
-    max_speed: float = _param(0.15, unit="m/s", gt=0, le=2.0,
+    max_speed: float = _param(0.15, unit="m/s", ge=0.01, le=2.0,
                               source="paper Eq. 14 (0.15 m/s, attributed to OCIMF)",
                               description="coupler speed limit (horizontal for the paper law, along the path "
                                           "for the smooth law)")
-    max_accel: float = _param(0.05, unit="m/s^2", gt=0, le=5.0,
+    max_accel: float = _param(0.05, unit="m/s^2", ge=0.001, le=5.0,
                               source="engineering choice: reaches 0.15 m/s in 3 s, well below what the "
                                      "cylinders of a 20 m arm deliver",
                               description="coupler acceleration limit of the smooth and optimal timing laws")
-    max_cylinder_accel: float = _param(0.01, unit="m/s^2", gt=0, le=5.0,
+    max_cylinder_accel: float = _param(0.01, unit="m/s^2", ge=0.0005, le=5.0,
                                        source="engineering choice: a cylinder reaches its peak approach speed "
                                               "(about 10 mm/s) in 1 s",
                                        description="cylinder acceleration limit of the optimal timing law")
@@ -667,7 +691,7 @@ def _format_validation_error(err: ValidationError, source: str, root: type[BaseM
             what += f"; allowed keys: {', '.join(model.model_fields)}"
     elif etype == "value_error":
         msg = str(e.get("ctx", {}).get("error", e.get("msg", "")))
-        what = msg if not loc else f"{key}: {msg}"
+        what = msg if not loc or msg.startswith(key) else f"{key}: {msg}"
     else:
         what = f"{key} = {e.get('input')!r}: {e.get('msg', 'invalid')}"
         if rng:
@@ -699,7 +723,7 @@ def parse_config(data: dict[str, Any], *, source: str = "<config>") -> Installat
         One line naming the key, the value given and the valid range.
     """
     try:
-        return Installation.model_validate(data)
+        return Installation.model_validate(toml_values(data))
     except ValidationError as err:
         raise ConfigError(_format_validation_error(err, source)) from None
 
@@ -722,19 +746,19 @@ def read_toml(path: str | Path, what: str = "config") -> dict[str, Any]:
     Raises
     ------
     ConfigError
-        If the file is missing, unreadable or not valid TOML.
+        If the file is missing, not a regular file, larger than :data:`loadarm.files.MAX_INPUT_BYTES`,
+        unreadable, not valid TOML, or nested deeper than :data:`loadarm.files.MAX_DEPTH`.
     """
     p = Path(path)
+    text = read_input(p, what)
     try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: {what} file not found") from None
-    except (IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{p}: cannot read {what} file ({exc.__class__.__name__})") from None
-    try:
-        return tomllib.loads(text)
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{p}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{p}: not valid TOML: values nested too deeply") from None
+    check_depth(data, str(p))
+    return data
 
 
 def load_config(path: str | Path) -> Installation:
@@ -824,7 +848,7 @@ def load_sizing_case(path: str | Path) -> Any:
         One line naming the file, the key, the value and the valid range.
     """
     try:
-        return sizing_case_model().model_validate(read_toml(path))
+        return sizing_case_model().model_validate(toml_values(read_toml(path)))
     except ValidationError as err:
         raise ConfigError(_format_validation_error(err, str(path), sizing_case_model())) from None
 

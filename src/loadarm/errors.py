@@ -9,8 +9,8 @@ command line can print them verbatim (exit status 2) without a traceback.
 from __future__ import annotations
 
 
-__all__ = ["LoadarmError", "ConfigError", "UnreachableError", "PathError", "TimingError", "SizingError",
-           "ActuatorError", "ValveRangeError"]
+__all__ = ["LoadarmError", "ConfigError", "OutputError", "EventLogError", "UnreachableError", "PathError",
+           "TimingError", "SizingError", "ActuatorError", "ValveRangeError"]
 
 
 class LoadarmError(Exception):
@@ -19,6 +19,16 @@ class LoadarmError(Exception):
 
 class ConfigError(LoadarmError, ValueError):
     """A configuration file is missing, malformed, or holds an invalid value."""
+
+
+class OutputError(LoadarmError):
+    """An output file would destroy something: an input of the same command, a file loadarm did not write
+    (without ``--force``), or a directory or special file."""
+
+
+class EventLogError(LoadarmError, ValueError):
+    """An event-log database is not loadarm's, is corrupt, is of a newer schema, or cannot be written; or an
+    event is malformed."""
 
 
 class UnreachableError(LoadarmError, ValueError):

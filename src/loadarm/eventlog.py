@@ -9,25 +9,43 @@ faster.
 Times: ``t`` is the controller's clock (seconds, from the injected clock, so
 a simulated run logs simulated time); ``wall`` is the wall-clock time of the
 write (UTC, ISO 8601), for audits.
+
+A loadarm log says so: ``PRAGMA application_id`` is :data:`APPLICATION_ID` and the table ``loadarm_meta``
+holds the :data:`SCHEMA_VERSION`. A writer (:class:`EventLog`) creates a new log in an empty or missing file,
+migrates a log of an older loadarm (schema 1: the ``events`` table alone, no identity) and refuses anything
+else: a foreign SQLite file (even one with its own ``events`` table), a corrupt file, a log of a newer schema,
+a file it cannot write (checked before the run starts). A reader (:meth:`EventLog.open_existing`) opens the
+file read-only (``mode=ro``), so a query never changes it, not even its journal mode.
 """
 
 from __future__ import annotations
 
 import json
 import math
+import os
 import re
 import sqlite3
+import stat
+import urllib.parse
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Iterable
 
-from .errors import LoadarmError
+from .errors import EventLogError
 
-__all__ = ["Event", "EventLog", "EventLogError", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS"]
+__all__ = ["Event", "EventLog", "EventLogError", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS", "APPLICATION_ID",
+           "SCHEMA_VERSION"]
 
 #: Event kinds.
 KINDS = ("mode", "alarm", "alarm_state", "command", "interlock", "operator", "sensor", "sample", "info")
+
+#: ``PRAGMA application_id`` of a loadarm log ("LARM").
+APPLICATION_ID = 0x4C41524D
+#: Schema of the logs this loadarm writes: 1 was the ``events`` table alone (before the identity), 2 adds it.
+SCHEMA_VERSION = 2
+
+_COLUMNS = ("id", "run", "t", "wall", "state", "kind", "reason", "data")
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS events (
@@ -41,11 +59,34 @@ CREATE TABLE IF NOT EXISTS events (
     data   TEXT    NOT NULL DEFAULT '{}'
 );
 CREATE INDEX IF NOT EXISTS events_t ON events (run, t);
+CREATE TABLE IF NOT EXISTS loadarm_meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
 
 
-class EventLogError(LoadarmError, ValueError):
-    """The event log cannot be opened or an event is malformed."""
+def _identify(db: sqlite3.Connection, name: str) -> int:
+    """The schema version of an open database: 0 for an empty one, 1 for an old loadarm log, else its
+    ``loadarm_meta`` version; :class:`EventLogError` for anything that is not a loadarm log."""
+    app = db.execute("PRAGMA application_id").fetchone()[0]
+    tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+    tables.discard("sqlite_sequence")
+    if app == APPLICATION_ID:
+        try:
+            row = db.execute("SELECT value FROM loadarm_meta WHERE key = 'schema_version'").fetchone()
+            version = int(row[0])
+        except (sqlite3.DatabaseError, TypeError, ValueError):
+            raise EventLogError(f"{name}: a loadarm event log without a readable schema version (damaged)") from None
+        if version > SCHEMA_VERSION:
+            raise EventLogError(f"{name}: an event log of schema {version}, written by a newer loadarm; this one "
+                                f"reads schema {SCHEMA_VERSION} and older")
+        return version
+    if app != 0:
+        raise EventLogError(f"{name}: not a loadarm event log (SQLite application_id {app:#x})")
+    if not tables:
+        return 0
+    cols = tuple(r[1] for r in db.execute("PRAGMA table_info(events)")) if "events" in tables else ()
+    if tables == {"events"} and cols == _COLUMNS:
+        return 1
+    raise EventLogError(f"{name}: not a loadarm event log (it holds the tables {', '.join(sorted(tables))})")
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,27 +134,64 @@ class EventLog:
     Parameters
     ----------
     path : str or Path
-        Database file (created with its directory); ``":memory:"`` for tests.
+        Database file (created with its directory); ``":memory:"`` for tests (the command line refuses it).
     run : str
         Identifier written with every event of this writer.
     synchronous : {'FULL', 'NORMAL'}
         SQLite durability level.
+
+    Raises
+    ------
+    EventLogError
+        The file is not a regular file, not a loadarm log, corrupt, of a newer schema, or not writable.
     """
 
-    def __init__(self, path: str | Path, *, run: str = "run", synchronous: str = "FULL"):
+    def __init__(self, path: str | Path, *, run: str = "run", synchronous: str = "FULL", _readonly: bool = False):
         if synchronous not in ("FULL", "NORMAL"):
             raise EventLogError(f"synchronous must be FULL or NORMAL, got {synchronous!r}")
         self.path = str(path)
         self.run = run
-        if self.path != ":memory:":
-            Path(self.path).parent.mkdir(parents=True, exist_ok=True)
+        self.readonly = _readonly
+        memory = self.path == ":memory:"
+        if not memory:
+            _check_file(Path(self.path), must_exist=_readonly)
+            if not _readonly:
+                Path(self.path).parent.mkdir(parents=True, exist_ok=True)
         try:
-            self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
+            if _readonly:
+                uri = f"file:{urllib.parse.quote(os.path.abspath(self.path))}?mode=ro"
+                self._db = sqlite3.connect(uri, uri=True, isolation_level=None, check_same_thread=False)
+            else:
+                self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
+            self.version = _identify(self._db, self.path)
+            if _readonly:
+                if self.version == 0:
+                    raise EventLogError(f"{self.path}: an empty database, not an event log")
+                return
+            self._db.execute("BEGIN IMMEDIATE")          # fails now, not mid-run, if the file cannot be written
+            self._db.execute("COMMIT")
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute(f"PRAGMA synchronous={synchronous}")
-            self._db.executescript(_SCHEMA)
+            if self.version < SCHEMA_VERSION:            # a new log, or an older loadarm's: make it this schema
+                self._db.executescript("BEGIN IMMEDIATE;" + _SCHEMA
+                                       + f"PRAGMA application_id = {APPLICATION_ID};"
+                                       + "INSERT OR REPLACE INTO loadarm_meta VALUES ('schema_version', "
+                                       + f"'{SCHEMA_VERSION}'); COMMIT;")
+                self.version = SCHEMA_VERSION
+        except EventLogError:
+            self._close_quietly()
+            raise
         except sqlite3.DatabaseError as exc:
-            raise EventLogError(f"{self.path}: cannot open event log ({exc})") from None
+            self._close_quietly()
+            raise EventLogError(f"{self.path}: cannot open event log ({_sqlite_reason(exc)})") from None
+
+    def _close_quietly(self) -> None:
+        db = getattr(self, "_db", None)
+        if db is not None:
+            try:
+                db.close()
+            except sqlite3.Error:
+                pass
 
     def append(self, t: float, state: str, kind: str, reason: str, **data: Any) -> int:
         """Write one event and commit it before returning.
@@ -138,10 +216,15 @@ class EventLog:
         """
         if kind not in KINDS:
             raise EventLogError(f"event kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        if self.readonly:
+            raise EventLogError(f"{self.path}: opened read-only")
         wall = datetime.now(timezone.utc).isoformat(timespec="microseconds")
-        cur = self._db.execute(
-            "INSERT INTO events (run, t, wall, state, kind, reason, data) VALUES (?, ?, ?, ?, ?, ?, ?)",
-            (self.run, float(t), wall, state, kind, reason, json.dumps(data, default=float)))
+        try:
+            cur = self._db.execute(
+                "INSERT INTO events (run, t, wall, state, kind, reason, data) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                (self.run, float(t), wall, state, kind, reason, json.dumps(data, default=float)))
+        except sqlite3.DatabaseError as exc:               # disk full, file removed or damaged under us
+            raise EventLogError(f"{self.path}: cannot write event ({_sqlite_reason(exc)})") from None
         return int(cur.lastrowid)
 
     def query(self, *, since: float | None = None, kinds: Iterable[str] | None = None,
@@ -177,8 +260,32 @@ class EventLog:
             sql += " AND run = ?"
             args.append(run)
         sql += " ORDER BY id"
-        return [Event(r[0], r[1], r[2], r[3], r[4], r[5], r[6], json.loads(r[7]))
-                for r in self._db.execute(sql, args)]
+        try:
+            rows = self._db.execute(sql, args).fetchall()
+        except sqlite3.DatabaseError as exc:
+            raise EventLogError(f"{self.path}: cannot read the event log ({_sqlite_reason(exc)})") from None
+        return [self._event(r) for r in rows]
+
+    def _event(self, r: tuple) -> Event:
+        """One row as an Event, every field checked (a damaged or hand-edited row is named, not trusted)."""
+        ident, run, t, wall, state, kind, reason, data = r
+        problem = None
+        if not all(isinstance(v, str) for v in (run, wall, state, kind, reason)):
+            problem = "a text column holds another type"
+        elif not isinstance(t, (int, float)) or not math.isfinite(t):
+            problem = f"t = {t!r} is not a finite number"
+        elif kind not in KINDS:
+            problem = f"kind {kind!r} is not one of {', '.join(KINDS)}"
+        else:
+            try:
+                data = json.loads(data) if isinstance(data, str) else None
+            except ValueError:
+                data = None
+            if not isinstance(data, dict):
+                problem = "data is not a JSON object"
+        if problem:
+            raise EventLogError(f"{self.path}: event id {ident}: {problem}")
+        return Event(int(ident), run, float(t), wall, state, kind, reason, data)
 
     def close(self) -> None:
         """Close the database."""
@@ -192,7 +299,7 @@ class EventLog:
 
     @staticmethod
     def open_existing(path: str | Path) -> "EventLog":
-        """Open a log that must already exist (for queries).
+        """Open a log that must already exist, read-only (for queries: the file is never changed).
 
         Parameters
         ----------
@@ -206,17 +313,28 @@ class EventLog:
         Raises
         ------
         EventLogError
-            If the file does not exist or is not an event log.
+            If the file does not exist, is empty, or is not a loadarm event log.
         """
-        p = Path(path)
-        if not p.is_file():
-            raise EventLogError(f"{p}: no such event log")
-        log = EventLog(p)
-        try:
-            log._db.execute("SELECT count(*) FROM events").fetchone()
-        except sqlite3.DatabaseError as exc:  # pragma: no cover
-            raise EventLogError(f"{p}: not an event log ({exc})") from None
-        return log
+        return EventLog(path, _readonly=True)
+
+
+def _sqlite_reason(exc: sqlite3.Error) -> str:
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
+def _check_file(p: Path, *, must_exist: bool) -> None:
+    """A log must be a regular file (a FIFO or a device would block or mislead SQLite)."""
+    try:
+        st = os.stat(p)
+    except FileNotFoundError:
+        if must_exist:
+            raise EventLogError(f"{p}: no such event log") from None
+        return
+    except OSError as exc:
+        raise EventLogError(f"{p}: cannot open event log ({exc.__class__.__name__})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise EventLogError(f"{p}: an event log must be a regular file")
 
 
 #: Kinds whose repeats are rate-limited; safety events (mode, alarm, command, interlock, operator) never are.

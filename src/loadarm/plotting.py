@@ -290,7 +290,8 @@ def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
     fig : Figure
         The figure.
     path : str or Path
-        Output file; parent directories are created.
+        Output file; parent directories are created; written atomically (:func:`loadarm.files.atomic_open`)
+        with loadarm's mark in the PNG's ``Software`` text.
     dpi : int
         Resolution.
 
@@ -299,10 +300,15 @@ def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
     Path
         The file written.
     """
+    from . import __version__
+    from .files import SIGNATURE, atomic_open
+
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(p, dpi=dpi)
-    plt.close(fig)
+    try:
+        with atomic_open(p, "wb") as fh:          # a reader never sees half a PNG; the mark tells it is loadarm's
+            fig.savefig(fh, dpi=dpi, format="png", metadata={"Software": f"{SIGNATURE} {__version__}"})
+    finally:
+        plt.close(fig)
     return p
 
 

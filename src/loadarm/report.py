@@ -24,6 +24,7 @@ from pathlib import Path
 
 from . import __version__
 from .config import Installation, paper_installation, parameter_table, read_toml
+from .files import SIGNATURE, atomic_write, guard_outputs
 from .alarms import Severity
 from .compiler import compile_model
 from .envelope import berth_box, zone_radii
@@ -338,9 +339,31 @@ def _input_line(source: Path | None) -> str:
     return f"input: {source.name} (sha256 {digest[:16]}…)"
 
 
+def report_outputs(inst: Installation, out_dir: str | Path,
+                   source: str | Path | None = None) -> tuple[list[Path], list[Path]]:
+    """Every file :func:`build_report` writes, known before anything is computed, and the scenario files it reads.
+
+    Parameters
+    ----------
+    inst : Installation
+    out_dir : str or Path
+    source : str or Path, optional
+        The installation file (its ``[report] scenarios`` are relative to it).
+
+    Returns
+    -------
+    outputs, scenario_inputs : list of Path
+    """
+    out = Path(out_dir)
+    base = Path(source).parent if source is not None else Path.cwd()
+    names = list(FIGURES) + [f"timeline_{Path(f).stem}.png" for f in inst.report.scenarios]
+    return ([out / "report.html", out / "summary.json"] + [out / f"plan_{law}.csv" for law in TIMING_LAWS]
+            + [out / "figures" / n for n in names]), [base / f for f in inst.report.scenarios]
+
+
 def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loadarm report",
                  source: str | Path | None = None, now: datetime | None = None,
-                 progress: Callable[[str], None] | None = None) -> ReportFiles:
+                 progress: Callable[[str], None] | None = None, force: bool = False) -> ReportFiles:
     """Run sizing, envelope, the three timing laws, dynamics, the closed loop and the scenarios; write the report.
 
     Parameters
@@ -357,12 +380,22 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         Time stamp printed in the report (default: the current UTC time; injected for reproducible output).
     progress : callable, optional
         Called with a short description before each step (for a progress bar).
+    force : bool
+        Replace existing files of the same names that loadarm did not write (:func:`loadarm.files.guard_outputs`).
 
     Returns
     -------
     ReportFiles
-        The files written.
+        The files written (each atomically).
+
+    Raises
+    ------
+    OutputError
+        Before anything is computed: an output would replace an input or a file loadarm did not write.
     """
+    outputs, scenario_files = report_outputs(inst, out_dir, source)
+    guard_outputs([("--out", p) for p in outputs], [*scenario_files, *([Path(source)] if source is not None else [])],
+                  force=force)
     step = progress or (lambda _msg: None)
     src = Path(source) if source is not None else None
     stamp = (now or datetime.now(timezone.utc)).strftime("%Y-%m-%d %H:%M UTC")
@@ -385,7 +418,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     figs = {name: save(build(d), figdir / name) for name, (build, _caption) in builders.items()}
 
     step("writing report")
-    summary = summary_dict(inst, plans, sz, d.model)
+    summary = {"generator": f"{SIGNATURE} {__version__}", **summary_dict(inst, plans, sz, d.model)}
     summary["generated"] = stamp
     summary["input"] = _input_line(src).removeprefix("input: ")
     summary["verification"] = verification.summary()
@@ -396,8 +429,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     # wall-clock cycle times depend on the machine and its load: they belong to `loadarm run`, not the report
     summary["scenarios"] = {name: {k: v for k, v in rr.summary().items() if not k.startswith("cycle_us")}
                             for name, rr in scen_runs.items()}
-    summary_path = out / "summary.json"
-    summary_path.write_text(json.dumps(summary, indent=2), encoding="utf-8")
+    summary_path = atomic_write(out / "summary.json", json.dumps(summary, indent=2))
 
     box = berth_box(inst.datasheet)
     fx, fy = inst.approach.flange
@@ -489,6 +521,5 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         paper_peak_speed=plans["paper"].summary()["peak_path_speed_m_s"], csv_names=[p.name for p in csvs.values()],
         vs=vs, bs=bs, mass_text=mass_text, scenario_files=", ".join(f.name for f in d.scenario_files),
         timelines=[f"timeline_{n}.png" for n in scen_runs], check=check, seq=d.model.sequence)
-    html_path = out / "report.html"
-    html_path.write_text(text, encoding="utf-8")
+    html_path = atomic_write(out / "report.html", text)
     return ReportFiles(html=html_path, summary=summary_path, csv=csvs, figures=figs)

@@ -168,10 +168,11 @@ class Plan(Result):
 
 
 def _write_csv(path: str | Path, records: list[dict]) -> Path:
-    """Write records (dicts with the same keys) as CSV, creating parent directories."""
+    """Write records (dicts with the same keys) as CSV, atomically, creating parent directories."""
+    from .files import atomic_open
+
     p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    with p.open("w", newline="", encoding="utf-8") as fh:
+    with atomic_open(p, "w", newline="", encoding="utf-8") as fh:
         w = csv.DictWriter(fh, fieldnames=list(records[0]))
         w.writeheader()
         w.writerows(records)

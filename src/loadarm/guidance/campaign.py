@@ -186,7 +186,7 @@ class _Draw:
         if seed is not None:
             _set(sc_data, "scenario.seed", seed, self.scenario)
         sc = parse_scenario(sc_data, source=self.scenario)
-        model = compile_model(parse_config(inst_data, source=self.inst_source))
+        model = compile_model(parse_config(inst_data, source=self.inst_source), source=self.inst_source)
         check_scenario(sc, model, source=self.scenario)
         return sc, model
 

@@ -29,7 +29,7 @@ from ..slew import forward3d, inverse3d, reach_mask3d
 from ..alarms import Severity
 from ..results import Metric, Result
 from .controller import SEVERITY_OF_MODE, GuidanceController, Mode, OperatorInput, PlantFeedback
-from .scenario import Scenario
+from .scenario import Scenario, check_run_size
 from .sensor import FlangeEstimator, sensor_readings
 from .ship import flange_motion
 
@@ -458,6 +458,7 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     plant = sc.scenario.plant if plant is None else plant
     if plant not in ("hydraulic", "kinematic"):
         raise ValueError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
+    check_run_size(sc)
     ctrl = GuidanceController(model, g)
     motion = flange_motion(sc)
     readings = sensor_readings(sc, motion)

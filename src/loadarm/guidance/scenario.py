@@ -14,18 +14,18 @@ from pathlib import Path
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from ..check import esd_lead
-from ..config import _format_validation_error, _param, load_config, paper_installation, read_toml
+from ..config import _format_validation_error, _param, load_config, paper_installation, read_toml, toml_values
 from ..errors import ConfigError
 
 if TYPE_CHECKING:
     from ..model import ArmModel
 
 __all__ = ["Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
-           "parse_scenario", "check_scenario", "check_drift_window"]
+           "parse_scenario", "check_scenario", "check_drift_window", "check_run_size", "run_memory", "MAX_RUN_MEMORY"]
 
 
 class _S(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
 
 class Ship(_S):
@@ -92,6 +92,13 @@ class Sensor(_S):
                                         description="probability that one measurement is lost")
     dropouts: tuple[tuple[float, float], ...] = _param((), unit="s", source="none by default",
                                                        description="windows [start, end] with no measurement at all")
+
+    @model_validator(mode="after")
+    def _dropout_windows(self) -> "Sensor":
+        for w in self.dropouts:            # found: [[48, 40]] was silently ignored
+            if not 0 <= w[0] < w[1]:
+                raise ValueError(f"sensor.dropouts windows must be [start, end] with 0 <= start < end, got {list(w)}")
+        return self
     outlier_probability: float = _param(0.0, unit="1", ge=0, lt=1, source="none by default",
                                         description="probability that a measurement is an outlier")
     outlier_size: float = _param(2.0, unit="m", gt=0, le=100, source="a reflection off the wrong target",
@@ -212,7 +219,7 @@ def parse_scenario(data: dict, *, source: str = "<scenario>") -> Scenario:
         One line naming the key and the valid range.
     """
     try:
-        return Scenario.model_validate(data)
+        return Scenario.model_validate(toml_values(data))
     except ValidationError as err:
         msg = _format_validation_error(err, source, Scenario)
         raise ConfigError(msg) from None
@@ -241,8 +248,9 @@ def load_scenario(path: str | Path) -> tuple[Scenario, "ArmModel"]:
     sc = parse_scenario(read_toml(p, "scenario"), source=str(p))
     from ..compiler import compile_model
 
-    inst = paper_installation() if sc.scenario.installation is None else load_config(p.parent / sc.scenario.installation)
-    model = compile_model(inst)
+    inst_path = None if sc.scenario.installation is None else p.parent / sc.scenario.installation
+    inst = paper_installation() if inst_path is None else load_config(inst_path)
+    model = compile_model(inst, source=str(p if inst_path is None else inst_path))
     check_scenario(sc, model, source=str(p))
     return sc, model
 
@@ -262,9 +270,59 @@ def check_scenario(sc: Scenario, model: "ArmModel", *, source: str = "<scenario>
     Raises
     ------
     ConfigError
-        The drift window is too long for the sequence (:func:`check_drift_window`).
+        The drift window is too long for the sequence (:func:`check_drift_window`), or the run would need more
+        memory than :data:`MAX_RUN_MEMORY` (:func:`check_run_size`).
     """
     check_drift_window(sc.guidance, model.sequence, source=source)
+    check_run_size(sc, source=source)
+
+
+#: The most memory a run may take, bytes: a day at 50 Hz needs about 1 GB.
+MAX_RUN_MEMORY = 2 * 1024 ** 3
+#: Float64 values a run keeps per guidance cycle (its 20 recorded signals, the true flange, the time axis and the
+#: cycle time: 25) and per sensor reading (two times, the position, the outlier flag, the mask and the noise: 10),
+#: with room (tests/test_hostile.py measures the growth with tracemalloc).
+RUN_FLOATS_PER_CYCLE = 28
+RUN_FLOATS_PER_READING = 12
+
+
+def run_memory(sc: Scenario) -> int:
+    """Memory a run of the scenario needs, bytes (what grows with its duration and rates).
+
+    Parameters
+    ----------
+    sc : Scenario
+
+    Returns
+    -------
+    int
+    """
+    cycles = math.floor(sc.scenario.duration * sc.guidance.rate) + 1
+    readings = math.ceil(sc.scenario.duration * sc.sensor.rate)
+    return 8 * (cycles * RUN_FLOATS_PER_CYCLE + readings * RUN_FLOATS_PER_READING)
+
+
+def check_run_size(sc: Scenario, *, source: str = "<scenario>") -> None:
+    """Refuse a run that would need more than :data:`MAX_RUN_MEMORY` before anything is allocated.
+
+    Parameters
+    ----------
+    sc : Scenario
+    source : str
+        Name for messages.
+
+    Raises
+    ------
+    ConfigError
+        With the figure and the limit (found: in-range scenarios needing 20-58 GB ended in a MemoryError or an
+        OOM kill).
+    """
+    need = run_memory(sc)
+    if need > MAX_RUN_MEMORY:
+        raise ConfigError(
+            f"{source}: scenario.duration = {sc.scenario.duration:g} s at guidance.rate = {sc.guidance.rate:g} Hz "
+            f"and sensor.rate = {sc.sensor.rate:g} Hz needs about {need / 1024 ** 3:.1f} GB, more than the "
+            f"{MAX_RUN_MEMORY / 1024 ** 3:g} GB a run may take: shorten the run or lower the rates")
 
 
 def check_drift_window(g: Guidance, seq, *, source: str = "<guidance>") -> None:

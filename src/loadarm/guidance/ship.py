@@ -59,6 +59,10 @@ def jonswap(w: np.ndarray, hs: float, tp: float, gamma: float = 3.3) -> np.ndarr
     return scale * shape(w)
 
 
+#: Elements of the phase array evaluated at once by :meth:`FlangeMotion.position` (8 MB of float64).
+WAVE_CHUNK = 1 << 20
+
+
 @dataclass(frozen=True)
 class FlangeMotion:
     """The true flange trajectory of a scenario (vectorised, deterministic for a seed).
@@ -104,10 +108,18 @@ class FlangeMotion:
     def _waves(self, t: np.ndarray, order: int) -> np.ndarray:
         if self.w.size == 0:
             return np.zeros(t.shape + (3,))
-        arg = t[..., None, None] * self.w + self.phase          # (..., 3, n)
-        if order == 0:
-            return np.sum(self.amp * np.cos(arg), axis=-1)
-        return np.sum(-self.amp * self.w * np.sin(arg), axis=-1)
+        # in chunks: the (times, 3, components) phase array of a day at 1 kHz would need tens of gigabytes
+        # (found: an OOM kill); each row's sum is the same whatever the chunk, so the result is too
+        flat = t.reshape(-1)
+        out = np.empty((flat.size, 3))
+        step = max(1, WAVE_CHUNK // (3 * self.w.size))
+        for i in range(0, flat.size, step):
+            arg = flat[i:i + step, None, None] * self.w + self.phase          # (chunk, 3, n)
+            if order == 0:
+                out[i:i + step] = np.sum(self.amp * np.cos(arg), axis=-1)
+            else:
+                out[i:i + step] = np.sum(-self.amp * self.w * np.sin(arg), axis=-1)
+        return out.reshape(t.shape + (3,))
 
 
 def flange_motion(sc: Scenario) -> FlangeMotion:

@@ -1,0 +1,268 @@
+"""The file edges: every input read through one size-limited reader, every output written atomically.
+
+Inputs (:func:`read_input`): regular files only (a FIFO, ``/dev/zero`` or a directory is refused before it is
+opened, so nothing can hang), at most :data:`MAX_INPUT_BYTES`, UTF-8; parsed TOML nested at most
+:data:`MAX_DEPTH` levels (:func:`check_depth`).
+
+Outputs (:func:`atomic_write`, :func:`guard_outputs`): written to a temporary file in the same directory,
+flushed to disk and renamed over the target, so a reader sees the old file or the new one, never half of one,
+and a crash leaves no partial output. Before a command computes anything, :func:`guard_outputs` refuses an
+output that is one of the command's inputs, two outputs that are one file, and an existing file that loadarm
+did not write (:func:`written_by_loadarm`) unless ``force``: loadarm overwrites its own outputs (so ``make demo``
+can run again), never a file it cannot recognise as its own.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import stat
+import tempfile
+from collections.abc import Iterable, Iterator, Mapping
+from pathlib import Path
+from typing import IO, Any
+
+from .errors import ConfigError, OutputError
+
+__all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "read_input", "check_depth",
+           "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs"]
+
+#: Largest input file read, bytes. An installation or scenario file is a few kilobytes.
+MAX_INPUT_BYTES = 1 << 20
+#: Deepest nesting of tables and arrays accepted in a TOML input (the deepest loadarm uses is 3).
+MAX_DEPTH = 32
+#: What loadarm writes into each output it makes (PNG text chunk, HTML meta, JSON key), to recognise it later.
+SIGNATURE = "loadarm"
+
+_KINDS = ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"),
+          (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def _kind(mode: int) -> str:
+    for test, name in _KINDS:
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def read_input(path: str | Path, what: str = "config", *, limit: int = MAX_INPUT_BYTES) -> str:
+    """Read a text input: a regular file of at most ``limit`` bytes, UTF-8.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What it is, for messages ("config", "scenario").
+    limit : int
+        Largest size accepted, bytes.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ConfigError
+        Missing, not a regular file (checked before opening: a FIFO or a device cannot block the read), too
+        large, unreadable or not UTF-8; one line naming the file.
+    """
+    p = Path(path)
+    try:
+        st = os.stat(p)
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: {what} file not found") from None
+    except (OSError, ValueError) as exc:
+        raise ConfigError(f"{p}: cannot read {what} file ({exc.__class__.__name__})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise ConfigError(f"{p}: {what} file must be a regular file, this is {_kind(st.st_mode)}")
+    if st.st_size > limit:
+        raise ConfigError(f"{p}: {what} file is {st.st_size} bytes; at most {limit} bytes are read")
+    try:
+        with open(p, "rb") as fh:
+            data = fh.read(limit + 1)
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read {what} file ({exc.__class__.__name__})") from None
+    if len(data) > limit:                              # grew since the stat
+        raise ConfigError(f"{p}: {what} file is larger than {limit} bytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{p}: {what} file is not UTF-8 text (byte {exc.start})") from None
+
+
+def check_depth(obj: Any, source: str, limit: int = MAX_DEPTH) -> None:
+    """Refuse a parsed document nested deeper than ``limit`` (iteratively: no recursion to exhaust).
+
+    Parameters
+    ----------
+    obj : Any
+        Parsed TOML (dicts, lists, scalars).
+    source : str
+        File name for the message.
+    limit : int
+        Deepest nesting accepted.
+
+    Raises
+    ------
+    ConfigError
+    """
+    stack = [(obj, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if depth > limit:
+            raise ConfigError(f"{source}: values nested more than {limit} levels deep; at most {limit} are accepted")
+        if isinstance(node, dict):
+            stack.extend((v, depth + 1) for v in node.values())
+        elif isinstance(node, list):
+            stack.extend((v, depth + 1) for v in node)
+
+
+@contextlib.contextmanager
+def atomic_open(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
+    """Open a temporary file next to ``path``; on a clean exit flush it to disk and rename it over ``path``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The target; parent directories are created.
+    mode : {'w', 'wb'}
+        Text or binary.
+    **kwargs
+        Passed to :func:`open` (``encoding``, ``newline``).
+
+    Yields
+    ------
+    file object
+    """
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+    try:
+        with os.fdopen(fd, mode, **kwargs) as fh:
+            yield fh
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, p)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def atomic_write(path: str | Path, data: str | bytes) -> Path:
+    """Write text (UTF-8) or bytes to ``path`` atomically (:func:`atomic_open`).
+
+    Parameters
+    ----------
+    path : str or Path
+    data : str or bytes
+
+    Returns
+    -------
+    Path
+    """
+    if isinstance(data, bytes):
+        with atomic_open(path, "wb") as fh:
+            fh.write(data)
+    else:
+        with atomic_open(path, "w", encoding="utf-8", newline="") as fh:
+            fh.write(data)
+    return Path(path)
+
+
+#: How loadarm's CSV outputs begin (the plan's samples, 2D and 3D).
+_CSV_HEADERS = (b"t_s,x_m,y_m,alpha_deg,", b"t_s,x_m,y_m,z_m,slew_deg,alpha_deg,")
+_PNG = b"\x89PNG\r\n\x1a\n"
+#: The HTML report's mark, in its head.
+HTML_MARK = f'<meta name="generator" content="{SIGNATURE}'
+#: The JSON summary's first key.
+JSON_MARK = f'{{\n  "generator": "{SIGNATURE}'
+
+
+def written_by_loadarm(path: str | Path) -> bool:
+    """Whether an existing file carries loadarm's mark, by its format: a PNG with a ``Software`` text chunk
+    starting with :data:`SIGNATURE`, an HTML file with :data:`HTML_MARK` in its head, a JSON file whose first
+    key is loadarm's ``generator`` (:data:`JSON_MARK`), or a CSV with one of loadarm's headers. A text that
+    merely mentions loadarm is not loadarm's.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16)
+    except OSError:
+        return False
+    if head.startswith(_PNG):
+        return b"Software\x00" + SIGNATURE.encode() in head
+    if head[:15].lower() == b"<!doctype html>":
+        return HTML_MARK.encode() in head[:4096]
+    if head.startswith(b"{"):
+        return head.startswith(JSON_MARK.encode())
+    return head.startswith(_CSV_HEADERS)
+
+
+def _same(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def guard_outputs(outputs: Mapping[str, Path | None] | Iterable[tuple[str, Path | None]], inputs: Iterable[Path] = (),
+                  *, force: bool = False, appended: Iterable[str] = ()) -> None:
+    """Refuse outputs that would destroy something, before any work is done.
+
+    Parameters
+    ----------
+    outputs : mapping or iterable of (str, Path or None)
+        Option name (for the message) and output file; None for an output not asked for.
+    inputs : iterable of Path
+        The command's input files.
+    force : bool
+        Overwrite an existing file loadarm did not write.
+    appended : iterable of str
+        Options whose file is appended to, not replaced (the event log, which identifies itself): only the
+        same-file checks apply to them.
+
+    Raises
+    ------
+    OutputError
+        An output is an input of the same command, two outputs are one file, an output is a directory or a
+        special file, or an existing file is not loadarm's and ``force`` is off.
+    """
+    pairs = outputs.items() if isinstance(outputs, Mapping) else outputs
+    given = [(k, Path(v)) for k, v in pairs if v is not None]
+    ins = [Path(i) for i in inputs]
+    appends = set(appended)
+    seen: dict[Path, str] = {}
+    for name, p in given:
+        key = Path(os.path.abspath(p))
+        if key in seen:
+            raise OutputError(f"{name} {p} and {seen[key]} name the same file")
+        seen[key] = name
+        for i in ins:
+            if key == Path(os.path.abspath(i)) or _same(p, i):
+                raise OutputError(f"{name} {p} is an input of this command ({i}); choose another output file")
+        if name not in appends and os.path.lexists(p):
+            try:
+                st = os.stat(p)
+            except OSError as exc:
+                raise OutputError(f"{name} {p}: cannot be replaced ({exc.__class__.__name__})") from None
+            if not stat.S_ISREG(st.st_mode):
+                raise OutputError(f"{name} {p} is {_kind(st.st_mode)}, not a file loadarm can replace")
+            if not force and not written_by_loadarm(p):
+                raise OutputError(f"{name} {p} exists and was not written by loadarm; --force replaces it")

@@ -120,3 +120,70 @@ def test_an_older_loadarm_log_is_migrated_and_a_newer_one_refused(tmp_path):
         EventLog.open_existing(old)
     with pytest.raises(EventLogError, match="schema 99"):
         EventLog(old)
+
+
+CONCURRENT = textwrap.dedent("""
+    import sys
+    from loadarm.eventlog import EventLog
+    with EventLog(sys.argv[1], run=sys.argv[2], synchronous="NORMAL") as log:
+        for i in range(int(sys.argv[3])):
+            log.append(float(i), "CONNECTED", "info", f"{sys.argv[2]} {i}")
+""")
+
+
+def test_concurrent_writers_lose_nothing(tmp_path):
+    """Two processes append to one log at once (WAL; SQLite serialises the writers): every event of both is
+    there once, in each writer's order."""
+    db = tmp_path / "shared.db"
+    EventLog(db).close()
+    procs = [subprocess.Popen([sys.executable, "-c", CONCURRENT, str(db), name, "300"]) for name in ("a", "b")]
+    assert all(p.wait(timeout=120) == 0 for p in procs)
+    with EventLog.open_existing(db) as log:
+        for name in ("a", "b"):
+            reasons = [e.reason for e in log.query(run=name)]
+            assert reasons == [f"{name} {i}" for i in range(300)]
+
+
+FULL_DISK = textwrap.dedent("""
+    import resource, signal, sys
+    from loadarm.cli import main
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)          # a write past the limit fails with EFBIG instead
+    limit = int(sys.argv[1])
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+    sys.exit(main(sys.argv[2:]))
+""")
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGXFSZ"), reason="needs RLIMIT_FSIZE (POSIX)")
+def test_a_full_disk_stops_the_run_with_one_line_and_keeps_what_was_committed(tmp_path):
+    """A disk that fills up mid-run (simulated with RLIMIT_FSIZE: every file write past 200 kB fails): exit 2
+    with one line naming the log, and every event committed before it is readable."""
+    from .conftest import ROOT
+
+    db = tmp_path / "full.db"
+    scen = ROOT / "examples" / "scenarios" / "hs15.toml"
+    r = subprocess.run([sys.executable, "-c", FULL_DISK, str(200_000), "run", "-s", str(scen), "--db", str(db),
+                        "--plant", "kinematic"], capture_output=True, text=True, timeout=300)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and lines[-1].startswith("loadarm: error: ") and str(db) in lines[-1], r.stderr
+    with EventLog.open_existing(db) as log:
+        events = log.query()
+    assert len(events) >= 5 and events[0].kind == "sample"       # the WAL holds them: a page per commit
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGXFSZ"), reason="needs RLIMIT_FSIZE (POSIX)")
+def test_a_full_disk_leaves_the_old_output_and_no_temporary(tmp_path):
+    """An output that cannot be written completely (the disk fills while the PNG is written) leaves the
+    previous file as it was and no temporary file: exit 2, one line."""
+    from .conftest import PAPER_TOML
+
+    png = tmp_path / "envelope.png"
+    ok = subprocess.run([sys.executable, "-m", "loadarm.cli", "envelope", "-c", str(PAPER_TOML), "--png", str(png)],
+                        capture_output=True, text=True, timeout=300)
+    assert ok.returncode == 0, ok.stderr
+    before = png.read_bytes()
+    r = subprocess.run([sys.executable, "-c", FULL_DISK, str(20_000), "envelope", "-c", str(PAPER_TOML),
+                        "--png", str(png)], capture_output=True, text=True, timeout=300)
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("loadarm: error: "), r.stderr
+    assert png.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["envelope.png"]

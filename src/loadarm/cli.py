@@ -188,7 +188,11 @@ def _round_floats(obj, digits: int = 12):
 
 
 def _json(obj) -> None:
-    sys.stdout.write(json.dumps(_round_floats(obj), indent=2, allow_nan=False) + "\n")
+    try:
+        text = json.dumps(_round_floats(obj), indent=2, allow_nan=False)
+    except ValueError as exc:                 # a NaN or infinity in a result is a bug, not bad input: exit 1
+        raise RuntimeError(f"a result is not a finite number ({exc})") from None
+    sys.stdout.write(text + "\n")
 
 
 @app.command()

@@ -204,3 +204,47 @@ def test_foreign_and_damaged_sqlite_files_as_event_logs(capsys, fuzz_dir, tables
     before = f.read_bytes()
     check(capsys, "log", "--db", f, "--json", "--samples")
     assert f.read_bytes() == before
+
+
+HEAVY = {"envelope": ("--png", "fig.png"), "loads": ("--json",), "mjcf": (), "balance": ("--json", "--spacing", "1.0"),
+         "simulate": ("--json",), "verify": ("--json", "--samples", "21")}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", sorted(HEAVY))
+def test_every_other_command_on_mutated_installations(capsys, fuzz_dir, command):
+    """The commands whose valid runs take a second or more, fewer cases each (slow: CI runs them)."""
+
+    @settings(max_examples=examples(6), **SETTINGS)
+    @given(data=mutated(PAPER))
+    def inner(data):
+        f = fuzz_dir / "inst.toml"
+        f.write_text(_toml(data), encoding="utf-8")
+        args = [a if a != "fig.png" else fuzz_dir / a for a in HEAVY[command]]
+        check(capsys, command, "-c", f, *args)
+
+    inner()
+
+
+@pytest.mark.slow
+def test_campaign_and_demo_on_hostile_files(capsys, fuzz_dir):
+    """`campaign` (one seed, in this process) on mutated scenarios; `demo` on random bytes and broken text (its
+    valid run is the whole report, which `make demo` exercises)."""
+
+    @settings(max_examples=examples(6), **SETTINGS)
+    @given(data=mutated(SCENARIO))
+    def campaign(data):
+        f = fuzz_dir / "scen.toml"
+        f.write_text(_toml(_short(data)), encoding="utf-8")
+        check(capsys, "campaign", "-s", f, "--seeds", "1", "--workers", "1", "--json")
+
+    @settings(max_examples=examples(6), **SETTINGS)
+    @given(blob=st.binary(max_size=512) | broken_text(PAPER_TOML.read_text()).map(lambda t: t.encode("utf-8",
+                                                                                                     "surrogatepass")))
+    def demo(blob):
+        f = fuzz_dir / "demo.toml"
+        f.write_bytes(blob)
+        check(capsys, "demo", "-c", f, "--out", fuzz_dir / "out")
+
+    campaign()
+    demo()

@@ -340,6 +340,7 @@ def test_a_velocity_step_is_seen_within_seconds_and_never_forecast_late(model, s
     assert found is not None and found - 200.0 <= 3.5
 
 
+@pytest.mark.slow
 def test_waves_alone_make_no_velocity_step():
     """The step threshold against the statistic on waves alone (the shipped seas, 10 seeds each; 600 s at
     Hs 1.5 m, the 200 s before the drift at Hs 0.5 m): the largest value must stay below the threshold with a

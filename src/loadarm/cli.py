@@ -167,12 +167,14 @@ def _model(config: Path):
     return compile_model(load_config(config), source=str(config))
 
 
-def _progress(transient: bool = False):
-    """A progress bar on stderr (rich.progress is imported only by the commands that show one)."""
+def _progress():
+    """A progress bar on stderr (rich.progress is imported only by the commands that show one). Transient: it
+    leaves nothing behind, so a refusal mid-way is still the one line on stderr (found by the fuzz suite: a
+    bad scenario in a campaign printed the bar's last state above the error)."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     return Progress(TextColumn("{task.description}", style="bold", markup=False), BarColumn(), TimeElapsedColumn(),
-                    console=err.get(), transient=transient)
+                    console=err.get(), transient=True)
 
 
 def _round_floats(obj, digits: int = 12):
@@ -526,7 +528,7 @@ def run(
     run_id = f"{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
     log = None if no_db else EventLog(db, run=run_id)
     try:
-        with _progress(transient=True) as prog:
+        with _progress() as prog:
             task = prog.add_task(f"scenario {sc.scenario.name}", total=1.0)
             res = run_scenario(sc, model, log=log, progress=lambda f: prog.update(task, completed=f),
                                plant=None if plant is None else plant.value,
@@ -614,12 +616,14 @@ def campaign(
 
     Example: loadarm campaign --scenario examples/scenarios/driftoff.toml --seeds 200 --vary drift.speed=0.05:0.3
     """
-    from .guidance.campaign import parse_vary, run_campaign
+    from .guidance.campaign import check_campaign, parse_vary, run_campaign
 
     _outputs({"--png": png}, [scenario], force)
     if workers is not None and workers < 1:
         raise UserError(f"--workers must be at least 1, got {workers}")
     varied = [parse_vary(v) for v in vary or ()]
+    check_campaign(scenario, seeds, vary=varied, first_seed=first_seed,       # refused before the bar starts
+                   plant=None if plant is None else plant.value)
     with _progress() as prog:
         task = prog.add_task(f"campaign {scenario.name}", total=seeds)
         res = run_campaign(scenario, seeds, vary=varied, first_seed=first_seed, workers=workers,

@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import ConfigError
 from ..results import Metric, Result
 
-__all__ = ["Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign"]
+__all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -321,13 +321,8 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     ConfigError
         A bad scenario, installation or varied key (checked on the first draw before anything is spread out).
     """
-    if seeds < 1:
-        raise ConfigError(f"--seeds must be at least 1, got {seeds}")
+    jobs = _jobs(seeds, vary, first_seed)
     scenario = str(scenario)
-    jobs = []
-    for seed in range(first_seed, first_seed + seeds):
-        rng = np.random.default_rng([seed, 0x5EED])
-        jobs.append((seed, {v.key: float(rng.uniform(v.lo, v.hi)) for v in vary}))
     _validate(scenario, jobs[0], plant)
     workers = max(1, os.cpu_count() or 1) if workers is None else max(1, workers)
     batch = max(1, math.ceil(len(jobs) / (4 * workers))) if batch is None else max(1, batch)
@@ -346,6 +341,33 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
                 if progress is not None:
                     progress(len(done), len(jobs))
     return CampaignResult(scenario, tuple(vary), tuple(sorted(done, key=lambda r: r.seed)))
+
+
+def _jobs(seeds: int, vary: Sequence[Vary], first_seed: int) -> list[tuple[int, dict]]:
+    """Each run's seed and draws (seeded by the run's seed, so the same on any pool)."""
+    if seeds < 1:
+        raise ConfigError(f"--seeds must be at least 1, got {seeds}")
+    jobs = []
+    for seed in range(first_seed, first_seed + seeds):
+        rng = np.random.default_rng([seed, 0x5EED])
+        jobs.append((seed, {v.key: float(rng.uniform(v.lo, v.hi)) for v in vary}))
+    return jobs
+
+
+def check_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (), first_seed: int = 0,
+                   plant: str | None = None) -> None:
+    """Refuse a campaign's bad input without running it (what :func:`run_campaign` checks first).
+
+    Parameters
+    ----------
+    scenario, seeds, vary, first_seed, plant
+        As for :func:`run_campaign`.
+
+    Raises
+    ------
+    ConfigError
+    """
+    _validate(str(scenario), _jobs(seeds, vary, first_seed)[0], plant)
 
 
 def _validate(scenario: str, job: tuple[int, dict], plant: str | None) -> None:

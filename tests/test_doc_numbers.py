@@ -150,11 +150,12 @@ def test_campaign_tables_hold_on_a_fresh_sample():
     from loadarm.guidance.campaign import run_campaign
 
     page = doc("docs/guidance.md")
-    assert "| `driftoff.toml` (drift 0.15 m/s at 10 deg, Hs 0.5 m; hydraulic) | 1000 | 0 | 0 | 0 | 0 | 1000 |" in page
-    assert "| `hs15.toml` (Hs 1.5 m, outliers; hydraulic) | 1000 | 0 | 0 | 0 | 0 | 0 |" in page
+    assert ("| `driftoff.toml` (drift 0.15 m/s at 10 deg, Hs 0.5 m; hydraulic) | 1000 | 1000, 33.5 h | 0 | 0 | 0 | 0 "
+            "| 1000 |") in page
+    assert "| `hs15.toml` (Hs 1.5 m, outliers; hydraulic) | 1000 | 1000, 116.4 h | 0 | 0 | 0 | 0 | 0 |" in page
     drift = run_campaign(ROOT / "examples" / "scenarios" / "driftoff.toml", 6, first_seed=5000, workers=2)
     s = drift.summary()
     assert (s["overstretches"], s["opened_on_live_product"], s["missed_alarms"], s["false_alarms"]) == (0, 0, 0, 0)
-    assert s["releases"] == 6 and s["margin_min_s"] > 0
+    assert s["releases"] == 6 and s["margin_min_s"] > 0 and s["connected_runs"] == 6
     sea = run_campaign(ROOT / "examples" / "scenarios" / "hs15.toml", 2, first_seed=5000, workers=2)
-    assert sea.summary()["false_alarms"] == 0
+    assert sea.summary()["false_alarms"] == 0 and sea.summary()["connected_runs"] == 2

@@ -338,3 +338,11 @@ def test_loadarm_recognises_its_outputs_by_format_not_by_a_word(tmp_path):
     for name, (data, ours) in cases.items():
         (tmp_path / name).write_bytes(data)
         assert written_by_loadarm(tmp_path / name) is ours, name
+
+
+def test_a_campaign_on_a_malformed_scenario_is_refused(capsys, tmp_path):
+    """Found by the fuzz suite (thorough profile): `scenario = 0.0` in a campaign's scenario raised
+    AttributeError ('float' object has no attribute 'get') before validation."""
+    sc = tmp_path / "s.toml"
+    sc.write_text("scenario = 0.0\n")
+    refused(capsys, "campaign", "-s", sc, "--seeds", "1", "--workers", "1", contains=[str(sc), "scenario = 0.0"])

@@ -155,7 +155,11 @@ class _Draw:
         self.scenario = scenario
         path = Path(scenario)
         self.raw = read_toml(path, "scenario")
-        inst_file = self.raw.get("scenario", {}).get("installation")
+        from .scenario import parse_scenario
+
+        # validated first, so that a malformed file is refused in one line before any key is looked up (found by
+        # the fuzz suite: `scenario = 0.0` raised AttributeError)
+        inst_file = parse_scenario(self.raw, source=scenario).scenario.installation
         self.inst_source = "installation" if inst_file is None else str(path.parent / inst_file)
         self.inst_raw = paper_installation().model_dump() if inst_file is None else read_toml(path.parent / inst_file)
 

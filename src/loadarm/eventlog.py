@@ -168,8 +168,6 @@ class EventLog:
                 if self.version == 0:
                     raise EventLogError(f"{self.path}: an empty database, not an event log")
                 return
-            self._db.execute("BEGIN IMMEDIATE")          # fails now, not mid-run, if the file cannot be written
-            self._db.execute("COMMIT")
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute(f"PRAGMA synchronous={synchronous}")
             if self.version < SCHEMA_VERSION:            # a new log, or an older loadarm's: make it this schema
@@ -178,6 +176,10 @@ class EventLog:
                                        + "INSERT OR REPLACE INTO loadarm_meta VALUES ('schema_version', "
                                        + f"'{SCHEMA_VERSION}'); COMMIT;")
                 self.version = SCHEMA_VERSION
+            # a real write now, so a file that cannot be written fails here, not at the run's first event (found:
+            # a read-only or immutable file opened and an empty write transaction passed; the run then failed)
+            self._db.execute("INSERT OR REPLACE INTO loadarm_meta VALUES ('last_writer', ?)",
+                             (datetime.now(timezone.utc).isoformat(timespec="seconds"),))
         except EventLogError:
             self._close_quietly()
             raise

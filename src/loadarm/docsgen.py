@@ -2,7 +2,8 @@
 
 * the figures in ``docs/img`` that the docs show, drawn from the paper's case with the report's own
   builders (:data:`loadarm.report.FIGURES`), so a figure in the docs is the figure the report draws;
-* the parameter table of ``docs/configuration.md`` and ``examples/full.toml``, from the declarations.
+* the parameter tables of ``docs/configuration.md`` and ``docs/ship-motion.md`` (the berth file) and
+  ``examples/full.toml``, from the declarations.
 
 Console blocks are not generated: ``tests/test_docs.py`` runs every one and compares. ``tests/test_docs.py``
 also redraws every figure and compares it with the committed PNG (``--check`` does the same here).
@@ -106,19 +107,22 @@ def regenerate(root: str | Path = ".") -> list[Path]:
     list of Path
         Files written.
     """
+    from .berth import berth_parameter_markdown
     from .config import example_toml, parameter_markdown
 
     root = Path(root)
     written = list(render_doc_figures(root / "docs" / "img").values())
-    conf = root / "docs" / "configuration.md"
-    text = conf.read_text(encoding="utf-8")
-    a = text.index("| key | unit | default |")
-    b = text.find("\n\n", a)
-    text = text[:a] + parameter_markdown().rstrip("\n") + (text[b:] if b >= 0 else "\n")
-    conf.write_text(text, encoding="utf-8")
+    tables = [(root / "docs" / "configuration.md", parameter_markdown()),
+              (root / "docs" / "ship-motion.md", berth_parameter_markdown())]
+    for page, table in tables:
+        text = page.read_text(encoding="utf-8")
+        a = text.index("| key | unit | default |")
+        b = text.find("\n\n", a)
+        text = text[:a] + table.rstrip("\n") + (text[b:] if b >= 0 else "\n")
+        page.write_text(text, encoding="utf-8")
     full = root / "examples" / "full.toml"
     full.write_text(example_toml(), encoding="utf-8")
-    return [*written, conf, full]
+    return [*written, *(page for page, _ in tables), full]
 
 
 def main(argv: list[str] | None = None) -> int:

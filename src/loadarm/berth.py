@@ -24,7 +24,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, Field, ValidationError, model_validator
 
-from .config import _format_validation_error, _param, _Section, read_toml, toml_values
+from .config import _format_validation_error, _param, _Section, parameter_markdown, read_toml, toml_values
 from .errors import ConfigError
 
 __all__ = ["ShipSection", "BerthSection", "MooringLine", "Fender", "Environment", "Berth", "parse_berth",
@@ -249,24 +249,11 @@ def load_berth(path: str | Path) -> Berth:
 
 def berth_parameter_markdown() -> str:
     """The berth file's parameters as a markdown table (key, unit, default, range, description, source), for
-    docs/ship-motion.md.
+    docs/ship-motion.md (the installation's table maker, :func:`loadarm.config.parameter_markdown`).
 
     Returns
     -------
     str
     """
-    from .config import _range_text
-
-    rows = ["| key | unit | default | valid range | description | source |", "|---|---|---|---|---|---|"]
-    sections = [("ship", ShipSection), ("berth", BerthSection), ("moorings[]", MooringLine), ("fenders[]", Fender),
-                ("environment", Environment)]
-    for prefix, model in sections:
-        for name, info in model.model_fields.items():
-            extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
-            default = "required" if info.is_required() else info.default
-            if isinstance(default, float) and (abs(default) >= 1e5 or 0 < abs(default) < 1e-3):
-                default = f"{default:g}"
-            rng = _range_text(model, name).removeprefix("valid range ")
-            rows.append(f"| `{prefix}.{name}` | {extra.get('unit', '')} | {default} | {rng} | "
-                        f"{info.description or ''} | {extra.get('source', '')} |".replace("\n", " "))
-    return "\n".join(rows) + "\n"
+    return parameter_markdown([("ship", ShipSection), ("berth", BerthSection), ("moorings[]", MooringLine),
+                               ("fenders[]", Fender), ("environment", Environment)])

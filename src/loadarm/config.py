@@ -911,8 +911,29 @@ _VALIDATOR_RANGES = {
 }
 
 
-def parameter_table() -> list[dict[str, str]]:
+def _installation_sections() -> list[tuple[str, type[BaseModel]]]:
+    out = []
+    for section, info in Installation.model_fields.items():
+        model = info.annotation
+        assert isinstance(model, type) and issubclass(model, BaseModel)
+        out.append((section, model))
+    return out
+
+
+def _choices(f: Any) -> str:
+    """``one of a, b`` for a Literal field, else ``""``."""
+    args = typing.get_args(f.annotation) if typing.get_origin(f.annotation) is Literal else ()
+    return "one of " + ", ".join(str(a) for a in args) if args else ""
+
+
+def parameter_table(sections: list[tuple[str, type[BaseModel]]] | None = None) -> list[dict[str, str]]:
     """Every declared parameter, for the configuration docs.
+
+    Parameters
+    ----------
+    sections : list of (str, model), optional
+        Key prefix and section model of each section (default: the installation's; the berth file passes its
+        own, :func:`loadarm.berth.berth_parameter_markdown`).
 
     Returns
     -------
@@ -921,13 +942,11 @@ def parameter_table() -> list[dict[str, str]]:
         ``range``, ``description`` and ``source``.
     """
     rows = []
-    for section, info in Installation.model_fields.items():
-        model = info.annotation
-        assert isinstance(model, type) and issubclass(model, BaseModel)
+    for section, model in (_installation_sections() if sections is None else sections):
         for name, f in model.model_fields.items():
             extra = f.json_schema_extra if isinstance(f.json_schema_extra, dict) else {}
             if f.is_required():
-                default = f"required (paper: {extra.get('paper')})"
+                default = f"required (paper: {extra['paper']})" if "paper" in extra else "required"
             else:
                 default = repr(f.default)
             rows.append({
@@ -935,15 +954,20 @@ def parameter_table() -> list[dict[str, str]]:
                 "unit": str(extra.get("unit", "")),
                 "default": default,
                 "range": _range_text(model, name).removeprefix("valid range ") or _VALIDATOR_RANGES.get(
-                    f"{section}.{name}", "see validator"),
+                    f"{section}.{name}", _choices(f) or "see validator"),
                 "description": f.description or "",
                 "source": str(extra.get("source", "")),
             })
     return rows
 
 
-def parameter_markdown() -> str:
+def parameter_markdown(sections: list[tuple[str, type[BaseModel]]] | None = None) -> str:
     """The parameter table as Markdown (the body of ``docs/configuration.md``).
+
+    Parameters
+    ----------
+    sections : list of (str, model), optional
+        As for :func:`parameter_table`.
 
     Returns
     -------
@@ -954,7 +978,7 @@ def parameter_markdown() -> str:
         return text.replace("|", "\\|")
 
     lines = ["| key | unit | default | valid range | description | source |", "|---|---|---|---|---|---|"]
-    for r in parameter_table():
+    for r in parameter_table(sections):
         lines.append("| `{}` | {} | {} | {} | {} | {} |".format(
             r["key"], esc(r["unit"]), esc(r["default"]), esc(r["range"]), esc(r["description"]), esc(r["source"])))
     return "\n".join(lines) + "\n"

@@ -169,8 +169,15 @@ def hull_mesh(length: float, beam: float, draft: float, depth: float, block_coef
         raise ValueError(f"need L, B > 0 and 0 < T < D, got L={length}, B={beam}, T={draft}, D={depth}")
     midbody = parallel_midbody(block_coefficient)
     p = _solve_p(block_coefficient, midbody)
-    # cosine spacing along x (finer at the ends), z levels: keel to draft, draft to deck
-    x = -length / 2 * np.cos(np.linspace(0.0, math.pi, nx + 1))
+    # along x: the entrance and the run cosine-spaced between the midbody's ends and the tips (the waterline's
+    # slope is unbounded at both when p < 1: found by the thorough profile, where a fine hull converged at first
+    # order with nodes only cosine-spaced over the whole length), the midbody uniform; z: keel to draft, to deck
+    half_pm = midbody * length / 2
+    n_end = max(2, round(nx * 0.35)) if midbody > 0 else nx // 2
+    n_mid = max(nx - 2 * n_end, 1) if midbody > 0 else 0
+    end = half_pm + (length / 2 - half_pm) * 0.5 * (1 - np.cos(np.linspace(0.0, math.pi, n_end + 1)))
+    x = np.concatenate([-end[::-1], np.linspace(-half_pm, half_pm, n_mid + 1)[1:-1], end]) if n_mid else \
+        np.concatenate([-end[::-1], end[1:]])
     z = np.concatenate([draft * (1 - np.cos(np.linspace(0.0, math.pi / 2, nz + 1))),
                         np.linspace(draft, depth, max(2, nz // 3) + 1)[1:]])
     X, Z = np.meshgrid(x, z, indexing="ij")                   # (nx+1, nz')

@@ -51,7 +51,9 @@ class ShipSection(_Section):
     displacement: float = _param(105_000e3, unit="kg", ge=1e6, le=5e8,
                                  source="rho L B T Cb with Cb = 0.74 at the design draft",
                                  description="displacement (mass) of the loading condition")
-    kg: float = _param(15.5, unit="m", ge=0, le=40, source="loaded LNG carrier, order of magnitude (stability book)",
+    kg: float = _param(12.4, unit="m", ge=0, le=40,
+                       source="GM about 2.5 m, a loaded LNG carrier's order (stability book), on the parametric "
+                              "hull (KM 14.9 m at the example's draft)",
                        description="centre of gravity above the keel")
     lcg: float = _param(0.0, unit="m", ge=-50, le=50, source="even keel", description="centre of gravity forward of "
                                                                                         "midships")

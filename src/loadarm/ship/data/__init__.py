@@ -1,0 +1,1 @@
+"""Hydrodynamic coefficients shipped for the example berths (NetCDF, named by their key)."""

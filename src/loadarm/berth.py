@@ -72,6 +72,23 @@ class ShipSection(_Section):
                                     source="B (D - T) plus accommodation", description="frontal projected area above "
                                                                                        "water (Blendermann A_F)")
 
+    windage_centroid_x: float = _param(-15.0, unit="m", ge=-200, le=200,
+                                       source="accommodation aft moves the lateral area's centroid aft of midships",
+                                       description="centroid of the lateral windage forward of midships "
+                                                   "(Blendermann s_L)")
+    propeller_area: float = _param(45.0, unit="m^2", ge=0, le=300,
+                                   source="expanded blade area of an 8.6 m propeller, blade-area ratio 0.78",
+                                   description="propeller expanded area (UFC 4-159-03 locked-propeller drag)")
+    roll_damping_ratio: float = _param(0.05, unit="1", ge=0, le=0.5,
+                                       source="viscous roll damping of a large ship at small angles, a few % of "
+                                              "critical (ITTC 7.5-02-07-04.5); potential flow has almost none",
+                                       description="roll damping added to the BEM's, fraction of critical")
+    lf_damping_ratio: float = _param(0.05, unit="1", ge=0, le=0.5,
+                                     source="low-frequency damping of moored ships (wave drift, viscous hull, "
+                                            "lines): 5-10 % of critical (Faltinsen 1990, ch. 5)",
+                                     description="surge, sway and yaw damping at the mooring natural periods, "
+                                                 "fraction of critical (current drag comes on top)")
+
     @model_validator(mode="after")
     def _consistent(self) -> "ShipSection":
         cb = self.displacement / (RHO_SEA * self.length_pp * self.beam * self.draft)
@@ -157,7 +174,7 @@ class Environment(_Section):
 
     wind_speed: float = _param(20.0, unit="m/s", ge=0, le=60, source="connected-operation limit of the order of "
                                                                      "40 kn (terminal rules; example)",
-                               description="mean wind speed at 10 m, 1-minute")
+                               description="1-hour mean wind speed at 10 m (gusts from the NPD spectrum)")
     wind_direction_deg: float = _param(0.0, unit="deg", ge=-180, le=180, source="off the berth: the break-out case",
                                        description="direction the wind blows towards")
     current_speed: float = _param(0.5, unit="m/s", ge=0, le=5, source="example sheltered jetty",

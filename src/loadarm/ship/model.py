@@ -1,0 +1,185 @@
+"""The moored ship compiled once (like the arm's :class:`loadarm.model.ArmModel`): hydrodynamics, moorings,
+RAOs and drift coefficients at the calm equilibrium, the low-frequency mass and damping, the load factors.
+
+:func:`compile_ship` reads nothing from disk but the cached coefficients (:func:`loadarm.ship.hydro.load_hydro`);
+the motion (:mod:`loadarm.ship.motion`) and the alarm design take the :class:`ShipModel`.
+
+Low-frequency pose and frames: see :mod:`loadarm.ship.mooring` (midships, berth frame). The hydrodynamic
+coefficients and RAOs are about the centre of gravity in the ship frame; :func:`midships_transform` moves the
+surge-sway-yaw ones to midships.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..berth import RHO_SEA, Berth
+from . import hydro as _hydro
+from .loads import current_coefficients
+from .mooring import Moorings, compile_moorings, equilibrium, stiffness
+
+__all__ = ["ShipModel", "compile_ship", "LF_DOFS", "midships_transform"]
+
+#: The ship-frame DOFs of the low-frequency motion, indices into the six of :data:`loadarm.ship.hydro.DOFS`.
+LF_DOFS = (0, 1, 5)
+
+
+def midships_transform(lcg: float) -> np.ndarray:
+    """``S`` with ``(u, v, psi)_midships = S (u, v, psi)_cog`` (small yaw), for surge, sway, yaw.
+
+    Parameters
+    ----------
+    lcg : float
+        Centre of gravity forward of midships, m.
+
+    Returns
+    -------
+    ndarray (3, 3)
+    """
+    return np.array([[1.0, 0.0, 0.0], [0.0, 1.0, -lcg], [0.0, 0.0, 1.0]])
+
+
+def _rot3(psi: float) -> np.ndarray:
+    c, s = math.cos(psi), math.sin(psi)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+@dataclass(frozen=True)
+class ShipModel:
+    """A berth's design ship, compiled (immutable).
+
+    Attributes
+    ----------
+    moorings : Moorings
+    hydro : Hydro
+    rao : ndarray (nw, nb, 6), complex
+        About the centre of gravity, with the viscous roll damping and the moorings' stiffness at the calm
+        equilibrium.
+    drift : ndarray (nw, nb, 3)
+        Mean drift coefficients (surge, sway N/m^2, yaw N m/m^2), ship frame, about midships.
+    mass_lf : ndarray (3, 3)
+        Low-frequency inertia (mass plus zero-frequency-end added mass), berth frame, at midships.
+    damping_lf : ndarray (3, 3)
+        Linear low-frequency damping, berth frame.
+    eq0 : ndarray (3,)
+        Calm equilibrium pose (lines against fenders).
+    k0 : ndarray (3, 3)
+        Mooring stiffness there, berth frame.
+    manifold, cog : ndarray (3,)
+        Ship frame (z above the keel).
+    """
+
+    moorings: Moorings
+    hydro: _hydro.Hydro
+    rao: np.ndarray
+    drift: np.ndarray
+    mass_lf: np.ndarray
+    damping_lf: np.ndarray
+    eq0: np.ndarray
+    k0: np.ndarray
+    manifold: np.ndarray
+    cog: np.ndarray
+    length: float
+    beam: float
+    draft: float
+    kind: str
+    frontal_area: float
+    lateral_area: float
+    centroid_x: float
+    current_kx: float
+    current_ky: float
+    current_cyc: float
+    water_depth: float
+    lf_damping_ratio: float
+    names: tuple[str, ...] = field(default=())
+
+    @property
+    def psi0(self) -> float:
+        """Reference heading, rad."""
+        return self.moorings.psi0
+
+    def natural_periods(self) -> dict[str, float]:
+        """Natural periods, s: surge, sway and yaw of the moored ship (eigenvalues of the low-frequency
+        system at the calm equilibrium) and heave, roll and pitch (hydrostatics with the added mass at the
+        resonance).
+
+        Returns
+        -------
+        dict
+        """
+        ev = np.linalg.eigvals(np.linalg.solve(self.mass_lf, self.k0))
+        periods = sorted(2 * math.pi / math.sqrt(max(e.real, 1e-12)) for e in ev)[::-1]
+        out = {f"lf_mode_{i + 1}_s": p for i, p in enumerate(periods)}
+        h = self.hydro
+        for j, name in ((2, "heave_s"), (3, "roll_s"), (4, "pitch_s")):
+            w = np.sqrt(np.maximum(h.stiffness[j, j], 0.0) / (h.inertia[j, j] + h.added_mass[:, j, j]))
+            i = int(np.argmin(np.abs(w - h.omega)))
+            out[name] = 2 * math.pi / w[i] if w[i] > 0 else math.inf
+        return out
+
+
+def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False) -> ShipModel:
+    """Compile a berth's design ship.
+
+    Parameters
+    ----------
+    berth : Berth
+    solve : bool
+        Run capytaine when no coefficients are stored (:func:`loadarm.ship.hydro.load_hydro`).
+    progress : bool
+
+    Returns
+    -------
+    ShipModel
+
+    Raises
+    ------
+    ConfigError
+        No stored coefficients and ``solve`` false; or no calm equilibrium.
+    """
+    s = berth.ship
+    h = _hydro.load_hydro(_hydro.hydro_spec(s, berth.berth.water_depth), solve=solve, progress=progress)
+    mo = compile_moorings(berth)
+    eq0 = equilibrium(mo, np.zeros(3))
+    k0 = stiffness(mo, eq0)
+    # berth-frame (x, y, psi) = T (u, v, psi) ship frame; midships = S cog
+    t = _rot3(mo.psi0)
+    sm = midships_transform(s.lcg)
+    sinv = np.linalg.inv(sm)
+    idx = np.ix_(LF_DOFS, LF_DOFS)
+    m_cog = h.inertia[idx] + h.added_mass[0][idx]
+    m_mid_ship = sinv.T @ m_cog @ sinv
+    mass_lf = t @ m_mid_ship @ t.T
+    # moorings into the RAO: ship frame about the CoG
+    k_ship_mid = t.T @ k0 @ t
+    k6 = np.zeros((6, 6))
+    k6[idx] = sm.T @ k_ship_mid @ sm
+    d6 = np.zeros((6, 6))
+    d6[3, 3] = _hydro.roll_damping(h, s.roll_damping_ratio)
+    motion = _hydro.rao(h, damping=d6, stiffness=k6)
+    drift_cog = _hydro.mean_drift(h, motion)
+    # yaw moment about midships: N_mid = N_cog + lcg Y
+    drift = drift_cog.copy()
+    drift[..., 2] += s.lcg * drift_cog[..., 1]
+    # linear low-frequency damping: a fraction of critical on each mode of (M, K)
+    ev, vec = np.linalg.eig(np.linalg.solve(mass_lf, k0))
+    ev, vec = ev.real, vec.real
+    mm = vec.T @ mass_lf @ vec
+    kk = vec.T @ k0 @ vec
+    crit = np.diag(2.0 * s.lf_damping_ratio * np.sqrt(np.maximum(np.diag(kk), 0.0) * np.diag(mm)))
+    vinv = np.linalg.inv(vec)
+    damping_lf = vinv.T @ crit @ vinv
+    volume = s.displacement / RHO_SEA
+    kx, ky, cyc = current_coefficients(s.length_pp, s.beam, s.draft, volume, berth.berth.water_depth,
+                                       0.98 * s.beam * s.draft, s.propeller_area,
+                                       max(berth.environment.current_speed, 0.1), RHO_SEA)
+    return ShipModel(moorings=mo, hydro=h, rao=motion, drift=drift, mass_lf=mass_lf, damping_lf=damping_lf,
+                     eq0=eq0, k0=k0, manifold=np.array(s.manifold, dtype=float),
+                     cog=np.array([s.lcg, 0.0, s.kg]), length=s.length_pp, beam=s.beam, draft=s.draft, kind=s.kind,
+                     frontal_area=s.frontal_windage, lateral_area=s.lateral_windage,
+                     centroid_x=s.windage_centroid_x, current_kx=kx, current_ky=ky, current_cyc=cyc,
+                     water_depth=berth.berth.water_depth, lf_damping_ratio=s.lf_damping_ratio,
+                     names=mo.names)

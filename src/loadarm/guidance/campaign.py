@@ -189,7 +189,9 @@ class _Draw:
                 _set(sc_data, key, value, self.scenario)
         if seed is not None:
             _set(sc_data, "scenario.seed", seed, self.scenario)
-        sc = parse_scenario(sc_data, source=self.scenario)
+        from .scenario import resolve_berth
+
+        sc = resolve_berth(parse_scenario(sc_data, source=self.scenario), self.scenario)
         model = compile_model(parse_config(inst_data, source=self.inst_source), source=self.inst_source)
         check_scenario(sc, model, source=self.scenario)
         return sc, model
@@ -199,11 +201,17 @@ def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -
     """Worker: run a batch of (seed, draws) of one scenario file."""
     from .run import run_scenario
 
+    from .ship import moored_ship
+
     draw = _Draw(scenario)
     results = []
+    ships: dict = {}                      # the moored ship compiled once per berth file in a batch
     for seed, draws in jobs:
         sc, model = draw.build(seed, draws)
-        res = run_scenario(sc, model, plant=plant)
+        ship = None
+        if sc.ship.model == "moored":
+            ship = ships.get(sc.ship.berth) or ships.setdefault(sc.ship.berth, moored_ship(sc.ship.berth))
+        res = run_scenario(sc, model, plant=plant, ship=ship)
         results.append(_judge(seed, draws, res._values()))
     return results
 

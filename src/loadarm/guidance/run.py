@@ -425,7 +425,7 @@ class ErsValves:
 
 def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
                  progress: Callable[[float], None] | None = None, plant: str | None = None,
-                 pace: Callable[[float], None] | None = None) -> RunResult:
+                 pace: Callable[[float], None] | None = None, ship=None) -> RunResult:
     """Run a scenario in closed loop on a simulated clock.
 
     Parameters
@@ -449,6 +449,9 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
         Arm plant (default the scenario's ``[scenario] plant``): the two
         electro-hydraulic servo drives of :mod:`loadarm.hydraulics` on the
         arm's dynamics (slew kinematic), or ideal rate-following joints.
+    ship : ShipModel, optional
+        For ``[ship] model = "moored"``: the berth's ship compiled once by the caller (a campaign); default
+        compiled from the berth file.
 
     Returns
     -------
@@ -460,7 +463,7 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
         raise ValueError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
     check_run_size(sc)
     ctrl = GuidanceController(model, g)
-    motion = flange_motion(sc)
+    motion = flange_motion(sc, ship)
     readings = sensor_readings(sc, motion)
     est = FlangeEstimator(noise=sc.sensor.noise, max_age=g.max_estimate_age)
     dt = 1.0 / g.rate

@@ -8,7 +8,7 @@ default and source, like the installation's (:mod:`loadarm.config`).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -20,7 +20,7 @@ from ..errors import ConfigError
 if TYPE_CHECKING:
     from ..model import ArmModel
 
-__all__ = ["Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
+__all__ = ["resolve_berth", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
            "parse_scenario", "check_scenario", "check_drift_window", "check_run_size", "run_memory", "MAX_RUN_MEMORY"]
 
 
@@ -29,7 +29,14 @@ class _S(BaseModel):
 
 
 class Ship(_S):
-    """Where the flange is and how it moves slowly (tide, loading)."""
+    """Where the flange is, how it moves slowly (tide, loading), and which ship model moves it."""
+
+    model: Literal["simple", "moored"] = Field(
+        "simple", description="flange motion: simple (three wave gains, [waves] and [drift]) or moored (the "
+                              "berth file's ship on its moorings, [environment] and [mooring_failure])",
+        json_schema_extra={"unit": "", "source": "issue 12: the moored ship replaces the gains"})
+    berth: str | None = Field(None, description="berth TOML for model = moored, relative to the scenario file",
+                              json_schema_extra={"unit": "", "source": ""})
 
     flange: tuple[float, float, float] = _param((14.0, 0.0, 1.0), unit="m", source="the paper's flange, on the arm's axis",
                                                 description="flange position (x out, y along the berth, z up) at t = 0")
@@ -172,6 +179,34 @@ class Faults(_S):
                                                    "ERS runs on its accumulator")
 
 
+class EnvironmentOverride(_S):
+    """Changes to the berth file's [environment] for this run (model = moored); each key as there."""
+
+    wind_speed: float | None = _param(None, unit="m/s", source="the berth file's", description="1-hour mean wind "
+                                                                                                "at 10 m")
+    wind_direction_deg: float | None = _param(None, unit="deg", source="the berth file's",
+                                              description="direction the wind blows towards")
+    current_speed: float | None = _param(None, unit="m/s", source="the berth file's", description="current speed")
+    current_direction_deg: float | None = _param(None, unit="deg", source="the berth file's",
+                                                 description="direction the current flows towards")
+    hs: float | None = _param(None, unit="m", source="the berth file's", description="significant wave height")
+    tp: float | None = _param(None, unit="s", source="the berth file's", description="peak period")
+    wave_direction_deg: float | None = _param(None, unit="deg", source="the berth file's",
+                                              description="direction the waves travel towards")
+    spreading: float | None = _param(None, unit="1", source="the berth file's", description="cos-2s exponent")
+
+
+class MooringFailure(_S):
+    """Mooring lines that part during the run (model = moored): the break-out case."""
+
+    time: float | None = _param(None, unit="s", ge=0, source="none by default",
+                                description="time the lines part (omit for none)")
+    lines: tuple[str, ...] = Field((), description="names of the lines that part (as in the berth file)",
+                                   json_schema_extra={"unit": "", "source": ""})
+    all_lines: bool = Field(False, description="every line parts (the ship breaks out)",
+                            json_schema_extra={"unit": "", "source": ""})
+
+
 class ScenarioHead(_S):
     """Name, length and seed of the run."""
 
@@ -197,6 +232,30 @@ class Scenario(_S):
     operator: Operator = Field(default_factory=Operator)
     guidance: Guidance = Field(default_factory=Guidance)
     faults: Faults = Field(default_factory=Faults)
+    environment: EnvironmentOverride = Field(default_factory=EnvironmentOverride)
+    mooring_failure: MooringFailure = Field(default_factory=MooringFailure)
+
+    @model_validator(mode="after")
+    def _ship_model(self) -> "Scenario":
+        mf = self.mooring_failure
+        if self.ship.model == "moored":
+            if self.ship.berth is None:
+                raise ValueError("ship.model = 'moored' needs ship.berth, the berth file (relative to the scenario)")
+            if self.waves.hs > 0:
+                raise ValueError(f"waves.hs = {self.waves.hs:g} m: the moored ship takes its sea from the berth's "
+                                 "[environment]; set [environment] hs in the scenario instead")
+            if self.drift.start is not None:
+                raise ValueError("drift.start: the moored ship drifts by its loads; part lines with "
+                                 "[mooring_failure] time and lines (or all_lines = true) instead")
+            if mf.time is not None and not (mf.lines or mf.all_lines):
+                raise ValueError("mooring_failure.time is set but no line parts: give mooring_failure.lines or "
+                                 "all_lines = true")
+        else:
+            used = [k for k, v in self.environment.model_dump().items() if v is not None]
+            if used or mf.time is not None or mf.lines or mf.all_lines:
+                raise ValueError("[environment] and [mooring_failure] apply to ship.model = 'moored' only "
+                                 f"(ship.model is {self.ship.model!r})")
+        return self
 
 
 def parse_scenario(data: dict, *, source: str = "<scenario>") -> Scenario:
@@ -251,8 +310,51 @@ def load_scenario(path: str | Path) -> tuple[Scenario, "ArmModel"]:
     inst_path = None if sc.scenario.installation is None else p.parent / sc.scenario.installation
     inst = paper_installation() if inst_path is None else load_config(inst_path)
     model = compile_model(inst, source=str(p if inst_path is None else inst_path))
+    sc = resolve_berth(sc, p)
     check_scenario(sc, model, source=str(p))
     return sc, model
+
+
+def resolve_berth(sc: Scenario, scenario_path: str | Path) -> Scenario:
+    """The scenario with its berth file's path made absolute (it is given relative to the scenario file), and
+    the berth file validated, so that later stages need not know where the scenario was.
+
+    Parameters
+    ----------
+    sc : Scenario
+    scenario_path : str or Path
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    ConfigError
+        The berth file is missing or invalid, or a parted line is not one of its lines.
+    """
+    if sc.ship.model != "moored" or sc.ship.berth is None:
+        return sc
+    from ..berth import load_berth
+
+    path = (Path(scenario_path).parent / sc.ship.berth).resolve()
+    berth = load_berth(path)
+    names = [m.name for m in berth.moorings]
+    for n in sc.mooring_failure.lines:
+        if n not in names:
+            raise ConfigError(f"{scenario_path}: mooring_failure.lines: {n!r} is not a line of {path} "
+                              f"(lines: {', '.join(names)})")
+    merged = berth.environment.model_dump() | {k: v for k, v in sc.environment.model_dump().items() if v is not None}
+    from pydantic import create_model
+
+    from ..berth import Environment
+
+    wrap = create_model("_MergedEnvironment", environment=(Environment, ...))
+    try:
+        wrap.model_validate({"environment": merged})
+    except ValidationError as err:
+        raise ConfigError(_format_validation_error(err, f"{scenario_path} over {path}", wrap)) from None
+    return sc.model_copy(update={"ship": sc.ship.model_copy(update={"berth": str(path)})})
 
 
 def check_scenario(sc: Scenario, model: "ArmModel", *, source: str = "<scenario>") -> None:

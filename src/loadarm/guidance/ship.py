@@ -1,6 +1,8 @@
-"""Seeded flange trajectories: tide and draft (slow), waves (JONSWAP), drift-off.
+"""Seeded flange trajectories: tide and draft (slow), and either the moored ship of a berth file
+(``[ship] model = "moored"``, :mod:`loadarm.ship`: moorings, wind, current, waves, slow drift, parted lines) or
+the simple model below (``model = "simple"``, the default of older scenarios).
 
-Wave model (documented simple response model): the sea is a JONSWAP spectrum
+Simple wave model (documented simple response model): the sea is a JONSWAP spectrum
 ``S(w)`` with significant height ``Hs`` and peak period ``Tp``,
 
     S(w) = a g^2 w^-5 exp(-5/4 (wp/w)^4) gamma^exp(-(w - wp)^2 / (2 s^2 wp^2)),  s = 0.07 (w <= wp), 0.09
@@ -20,43 +22,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..ship.loads import jonswap
 from .scenario import Scenario
 
-__all__ = ["jonswap", "FlangeMotion", "flange_motion"]
+__all__ = ["jonswap", "FlangeMotion", "MooredFlangeMotion", "flange_motion", "moored_ship", "MOORED_LOOKAHEAD"]
 
 G = 9.80665
-
-
-def jonswap(w: np.ndarray, hs: float, tp: float, gamma: float = 3.3) -> np.ndarray:
-    """JONSWAP spectral density, m^2 s/rad, normalised to ``Hs``.
-
-    Parameters
-    ----------
-    w : ndarray
-        Angular frequencies, rad/s (> 0).
-    hs : float
-        Significant wave height, m.
-    tp : float
-        Peak period, s.
-    gamma : float
-        Peak enhancement.
-
-    Returns
-    -------
-    ndarray
-        ``S(w)`` with ``4 sqrt(int S dw) = hs`` over a wide band.
-    """
-    w = np.asarray(w, dtype=float)
-    wp = 2 * math.pi / tp
-
-    def shape(x):
-        s = np.where(x <= wp, 0.07, 0.09)
-        return x ** -5.0 * np.exp(-1.25 * (wp / x) ** 4) * gamma ** np.exp(-((x - wp) ** 2) / (2 * s * s * wp * wp))
-
-    wide = np.linspace(0.2 * wp, 8 * wp, 8000)
-    m0 = np.trapezoid(shape(wide), wide)
-    scale = (hs / 4.0) ** 2 / m0 if m0 > 0 else 0.0
-    return scale * shape(w)
+#: Seconds of moored-ship motion simulated past a run's end (the run looks ahead for the face the flange reaches).
+MOORED_LOOKAHEAD = 620.0
 
 
 #: Elements of the phase array evaluated at once by :meth:`FlangeMotion.position` (8 MB of float64).
@@ -122,18 +95,111 @@ class FlangeMotion:
         return out.reshape(t.shape + (3,))
 
 
-def flange_motion(sc: Scenario) -> FlangeMotion:
+@dataclass(frozen=True)
+class MooredFlangeMotion:
+    """The flange of a moored ship in the installation's frame: the 10 Hz motion of
+    :func:`loadarm.ship.motion.simulate`, moved so that the flange's mean position under the mean loads is the
+    scenario's ``[ship] flange``, plus tide and draft; between samples a cubic Hermite interpolant (position and
+    velocity both sampled: error of order ``(w dt)^4``, below 1e-4 of the motion for waves longer than 4 s).
+
+    Attributes
+    ----------
+    motion : ShipMotion
+    offset : ndarray (3,)
+        Installation minus berth frame.
+    slow_rate : ndarray (3,)
+    """
+
+    motion: object
+    offset: np.ndarray
+    slow_rate: np.ndarray
+
+    def _at(self, t: np.ndarray):
+        m = self.motion
+        dt = float(m.t[1] - m.t[0])
+        t = np.asarray(t, dtype=float)
+        if t.size and (np.min(t) < -1e-9 or np.max(t) > m.t[-1] + 1e-9):
+            raise ValueError(f"times from {np.min(t):g} to {np.max(t):g} s lie outside the simulated "
+                             f"0-{m.t[-1]:g} s of the moored ship")
+        k = np.clip(np.floor(t / dt).astype(int), 0, m.t.size - 2)
+        s = t / dt - k
+        return k, s[..., None], dt
+
+    def position(self, t) -> np.ndarray:
+        """Flange position at times ``t``, m (installation frame)."""
+        k, s, dt = self._at(t)
+        p, v = self.motion.flange, self.motion.flange_velocity
+        h00, h10, h01, h11 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s, -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
+        out = h00 * p[k] + h10 * dt * v[k] + h01 * p[k + 1] + h11 * dt * v[k + 1]
+        return out + self.offset + np.asarray(t, dtype=float)[..., None] * self.slow_rate
+
+    def velocity(self, t) -> np.ndarray:
+        """Flange velocity at times ``t``, m/s."""
+        k, s, dt = self._at(t)
+        p, v = self.motion.flange, self.motion.flange_velocity
+        d00, d10, d01, d11 = 6 * s ** 2 - 6 * s, 3 * s ** 2 - 4 * s + 1, -6 * s ** 2 + 6 * s, 3 * s ** 2 - 2 * s
+        return (d00 * p[k] + d01 * p[k + 1]) / dt + d10 * v[k] + d11 * v[k + 1] + self.slow_rate
+
+    def orientation(self, t) -> np.ndarray:
+        """Roll, pitch and yaw of the flange face at times ``t`` (linear between samples), rad."""
+        k, s, _ = self._at(t)
+        a = self.motion.flange_angles
+        return (1 - s) * a[k] + s * a[k + 1]
+
+
+def moored_ship(berth_path: str):
+    """Read a berth file and compile its ship (the edge of a moored run; a campaign compiles once per batch).
+
+    Parameters
+    ----------
+    berth_path : str
+        Absolute path (:func:`loadarm.guidance.scenario.resolve_berth`).
+
+    Returns
+    -------
+    ShipModel
+    """
+    from ..berth import load_berth
+    from ..ship.model import compile_ship
+
+    return compile_ship(load_berth(berth_path))
+
+
+def _moored(sc: Scenario, ship) -> MooredFlangeMotion:
+    from ..berth import Environment, load_berth
+    from ..ship.motion import simulate
+
+    berth = load_berth(sc.ship.berth)
+    if ship is None:
+        ship = moored_ship(sc.ship.berth)
+    env = Environment.model_validate(berth.environment.model_dump() | {
+        k: v for k, v in sc.environment.model_dump().items() if v is not None})
+    mf = sc.mooring_failure
+    parted = tuple(ship.names) if mf.all_lines else tuple(mf.lines)
+    m = simulate(ship, env, sc.scenario.duration + MOORED_LOOKAHEAD, seed=sc.scenario.seed,
+                 parted=parted if mf.time is not None else (), part_time=mf.time)
+    offset = np.asarray(sc.ship.flange, dtype=float) - m.flange_reference
+    return MooredFlangeMotion(motion=m, offset=offset,
+                              slow_rate=np.array([0.0, 0.0, sc.ship.tide_rate + sc.ship.draft_rate]))
+
+
+def flange_motion(sc: Scenario, ship=None) -> FlangeMotion | MooredFlangeMotion:
     """Build the flange trajectory of a scenario.
 
     Parameters
     ----------
     sc : Scenario
-        The scenario (ship, waves, drift, seed).
+        The scenario (ship, waves, drift, seed); for ``model = "moored"`` its berth path must be absolute
+        (:func:`loadarm.guidance.scenario.resolve_berth`, done by ``load_scenario``).
+    ship : ShipModel, optional
+        The berth's ship, compiled (default: compiled here from the berth file).
 
     Returns
     -------
-    FlangeMotion
+    FlangeMotion or MooredFlangeMotion
     """
+    if sc.ship.model == "moored":
+        return _moored(sc, ship)
     rng = np.random.default_rng(sc.scenario.seed)
     wv = sc.waves
     if wv.hs > 0:

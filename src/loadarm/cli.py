@@ -160,6 +160,14 @@ def _check_fill(fill: Optional[float]) -> None:
         raise UserError(f"--fill must be in [0, 1], got {fill!r}")
 
 
+def _print_wide(renderable, width: int) -> None:
+    """Print on stdout at least ``width`` columns wide (rich squeezes a table into 80 columns when piped)."""
+    from rich.console import Console
+
+    Console(width=max(out.width, width), soft_wrap=True, markup=False, highlight=False,
+            file=out.file).print(renderable)
+
+
 def _model(config: Path):
     """Read an installation file and compile it (the CLI is an edge: configuration stops here)."""
     from .compiler import compile_model
@@ -595,6 +603,96 @@ def check(
         out.print(t)
     if not res.ok:
         raise UserError(f"{config}: refused: " + "; ".join(res.problems))
+
+
+BerthOpt = Annotated[Path, typer.Option("--berth", "-b", help="Berth TOML file (see examples/berths/).")]
+
+
+@app.command()
+def hydro(
+    berth: BerthOpt,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Figure: RAOs of the six motions.")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """The berth's design ship: hydrodynamics (capytaine, solved once and cached when not shipped), natural
+    periods, mooring stiffness and the static offset under the berth's design environment.
+
+    Example: loadarm hydro --berth examples/berths/lng150k.toml --png out/rao.png
+    """
+    from .berth import load_berth
+    from .ship.model import compile_ship
+    from .ship.summary import ship_summary
+
+    _outputs({"--png": png}, [berth], force)
+    b = load_berth(berth)
+    ship = compile_ship(b, solve=True, progress=not as_json)
+    res = ship_summary(ship, b.environment)
+    if png is not None:
+        from .plotting import save
+
+        save(res.plot(), png)
+    if as_json:
+        _json(res.to_dict())
+    else:
+        out.print(str(res.summary()))
+
+
+@app.command()
+def alarms(
+    config: ConfigOpt,
+    berth: BerthOpt,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Figure: the alarm zones and the break-out "
+                                                              "stages.")] = None,
+    seeds: Annotated[int, typer.Option("--seeds", help="Realisations of the design sea state per case.")] = 5,
+    force: ForceOpt = False,
+) -> None:
+    """Design the alarm settings of this arm at this berth from a mooring analysis of its design ship (intact
+    and break-out, Choi et al. 2018; Lanquetin): per face, the drift allowance, the break-out drift per stage
+    and the recommended beta, slew and design-drift settings as blocks to paste into the installation. Refuses
+    (exit 2), naming the face and the shortfall, when the arm cannot absorb the design drift.
+
+    Example: loadarm alarms --config examples/paper.toml --berth examples/berths/lng150k.toml --png out/alarms.png
+    """
+    from .alarm_design import DesignSettings, design_alarms
+    from .berth import load_berth
+    from .ship.model import compile_ship
+
+    _outputs({"--png": png}, [config, berth], force)
+    if not 1 <= seeds <= 100:
+        raise UserError(f"--seeds must be in [1, 100], got {seeds}")
+    model = _model(config)
+    b = load_berth(berth)
+    ship = compile_ship(b)
+    with _progress() as prog:
+        task = prog.add_task("mooring analysis", total=1.0)
+        res = design_alarms(model, ship, b.environment, settings=DesignSettings(seeds=seeds),
+                            progress=lambda f: prog.update(task, completed=f))
+    if png is not None:
+        from .plotting import save
+
+        save(res.plot(), png)
+    if as_json:
+        _json(res.to_dict())
+    else:
+        out.print(str(res.summary()))
+        from rich import box
+
+        t = Table("dir", "face", "case", "allow m", "ESD-1 m", "ERS-2 m", "lead m", "avail m", "alarms deg",
+                  box=box.SIMPLE_HEAD, pad_edge=False)
+        for r in res.rows:
+            angles = "-" if r.first is None else "/".join(f"{math.degrees(v):.1f}" for v in (r.first, r.second,
+                                                                                               r.release))
+            t.add_row(r.direction.split("(")[-1].rstrip(")"), r.face or "-", r.short_case, f"{r.allowance_m:.2f}",
+                      f"{r.esd_m:.2f}", f"{r.release_m:.2f}", f"{r.lead_m:.2f}", f"{r.available_m:.2f}", angles)
+        _print_wide(t, 100)
+        out.print("Paste into the installation:")
+        out.print(res.toml())
+        for w in res.warnings:
+            err.print(f"loadarm: note: {w}")
+    if not res.ok:
+        raise UserError(f"{berth}: refused: " + "; ".join(res.problems))
 
 
 @app.command()

@@ -696,3 +696,74 @@ def check_figure(result) -> Figure:
     ax.grid(axis="x", alpha=0.3)
     fig.tight_layout()
     return fig
+
+
+def alarm_design_figure(design) -> Figure:
+    """The alarm design of an arm at a berth: side view of the flanging area, the intact drift allowance and
+    each stage's zone (beta loci about the inboard hinge), and the break-out drift against time with the
+    sequence's stages.
+
+    Parameters
+    ----------
+    design : loadarm.alarm_design.AlarmDesign
+
+    Returns
+    -------
+    Figure
+    """
+    from matplotlib.patches import Rectangle as _Rect
+
+    arm = design.arm
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 5.2), gridspec_kw={"width_ratios": [1.3, 1]})
+    x0, x1, z0, z1 = design.flanging_area
+    off = design.rows[0]
+    ups = [r for r in design.rows if r.vector[2] > 0]
+    downs = [r for r in design.rows if r.vector[2] < 0]
+    au = ups[0].allowance_m if ups else 0.0
+    ad = downs[0].allowance_m if downs else 0.0
+    ax.add_patch(_Rect((x0, z0 - ad), x1 - x0 + off.allowance_m, z1 - z0 + au + ad, facecolor="none",
+                       edgecolor="0.2", hatch="///", lw=0.8, label=f"drift allowance (intact, +{off.allowance_m:.2f} m "
+                                                                    "off the berth)"))
+    ax.add_patch(_Rect((x0, z0), x1 - x0, z1 - z0, facecolor="0.8", edgecolor="0.3", label="flanging area"))
+    th = np.linspace(-math.pi / 2, math.pi / 3, 300)
+    rec = design.recommended
+    stages = (("first_beta_deg", "ESD-1", Severity.ESD1), ("second_beta_deg", "second alarm", Severity.SECOND),
+              ("release_beta_deg", "ERS-2 release", Severity.RELEASE))
+    for key, label, sev in stages:
+        if rec.get(key) is None:
+            continue
+        r = float(arm.radius_at_beta(math.radians(rec[key])))
+        ax.plot(r * np.cos(th), arm.a + r * np.sin(th), color=_SEVERITY_COLOURS[sev], lw=2,
+                label=f"{label}: beta {rec[key]:.1f} deg")
+    r = float(arm.radius_at_beta(design.joint_limits.beta[1]))
+    ax.plot(r * np.cos(th), arm.a + r * np.sin(th), color="0.1", lw=1.2, ls="--",
+            label=f"face: beta {math.degrees(design.joint_limits.beta[1]):.1f} deg (stroke end)")
+    ax.plot([0, 0], [0, arm.a], color="k", lw=4)
+    fx, fz = design.nominal_flange
+    ax.plot(fx, fz, "*", color="0.1", ms=11, label=f"nominal flange ({fx:g}, {fz:g})")
+    ax.set_aspect("equal")
+    ax.set_xlim(-1, arm.r_max + 2)
+    ax.set_ylim(min(z0 - ad, 0) - 3, arm.a + 0.7 * arm.r_max)
+    ax.set_xlabel("x, off the berth from the riser [m]")
+    ax.set_ylabel("z, above the jetty deck [m]")
+    ax.legend(fontsize=7, loc="lower left")
+    ax.set_title("Alarm zones (side view, slew 0)")
+    seq = design.sequence
+    t, s = design.breakout_t, design.breakout_s
+    bx.plot(t, off.allowance_m + s, color="0.2", lw=1.5, label="break-out drift from the allowance's edge")
+    t_rel = seq["ers_valve_time_s"]
+    t_free = t_rel + seq["erc_release_time_s"] + seq["margin_s"]
+    for tt, label, sev in ((0.0, "ESD-1", Severity.ESD1), (0.5 * t_rel, "second alarm", Severity.SECOND),
+                           (t_rel, "ERS-2 (valves closed)", Severity.RELEASE)):
+        bx.axvline(tt, color=_SEVERITY_COLOURS[sev], lw=1.5, label=f"{label} at {tt:g} s")
+    bx.axvline(t_free, color="0.4", ls=":", label=f"coupler free + margin at {t_free:g} s")
+    bx.axvline(seq["esd_lead_s"], color="0.4", ls="-.", label=f"ESD-1 lead {seq['esd_lead_s']:g} s")
+    bx.axhline(off.available_m, color="0.1", ls="--", label=f"face, {off.available_m:.2f} m from the worst corner")
+    bx.set_xlim(-1.0, max(seq["esd_lead_s"] * 1.5, t_free * 1.5))
+    bx.set_ylim(0, max(off.available_m, float(off.allowance_m + np.interp(bx.get_xlim()[1], t, s))) * 1.15)
+    bx.set_xlabel("time since every line parted [s]")
+    bx.set_ylabel("distance off the berth from the worst corner [m]")
+    bx.legend(fontsize=7, loc="upper left")
+    bx.set_title("Break-out (Choi et al. 2018 stages)" + ("" if design.ok else ": REFUSED"))
+    fig.tight_layout()
+    return fig

@@ -94,6 +94,7 @@ class ShipModel:
     current_cyc: float
     water_depth: float
     lf_damping_ratio: float
+    manifold_tolerance: float = 0.0
     names: tuple[str, ...] = field(default=())
 
     @property
@@ -182,4 +183,4 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False) -
                      frontal_area=s.frontal_windage, lateral_area=s.lateral_windage,
                      centroid_x=s.windage_centroid_x, current_kx=kx, current_ky=ky, current_cyc=cyc,
                      water_depth=berth.berth.water_depth, lf_damping_ratio=s.lf_damping_ratio,
-                     names=mo.names)
+                     manifold_tolerance=berth.berth.manifold_tolerance, names=mo.names)

@@ -1,0 +1,273 @@
+"""The moored ship in time: environmental loads, the synthesised motions against their spectra, the
+low-frequency dynamics against its damping and stiffness, the break-out, the flange and the scenario files."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from loadarm.berth import load_berth
+from loadarm.errors import ConfigError
+from loadarm.guidance.scenario import load_scenario, parse_scenario
+from loadarm.guidance.ship import flange_motion
+from loadarm.ship import loads
+from loadarm.ship.model import compile_ship
+from loadarm.ship.motion import DT, MIN_RECORD, _flange, _interp_heading, simulate
+
+BERTH = "examples/berths/lng150k.toml"
+
+
+@pytest.fixture(scope="module")
+def berth():
+    return load_berth(BERTH)
+
+
+@pytest.fixture(scope="module")
+def ship(berth):
+    return compile_ship(berth)
+
+
+# ---------------------------------------------------------------- loads
+
+def test_blendermann_limits():
+    """Beam wind: the transverse coefficient is CDt; head and stern wind: the longitudinal ones, pushing aft
+    and forward; the yaw moment vanishes abeam with the centroid at midships and is antisymmetric."""
+    cdt, ahead, astern, _ = loads.BLENDERMANN["lng_carrier"]
+    cx, cy, cn = loads.wind_coefficients("lng_carrier", [math.pi / 2, math.pi, 0.0], 1150.0, 5500.0, 0.0, 278.0)
+    assert cy[0] == pytest.approx(cdt) and cx[0] == pytest.approx(0.0, abs=1e-12)
+    assert cx[1] == pytest.approx(-ahead) and cx[2] == pytest.approx(astern)
+    assert cn[0] == pytest.approx(0.0, abs=1e-12)
+    th = np.linspace(-3, 3, 13)
+    a = loads.wind_coefficients("tanker", th, 1150.0, 5500.0, -10.0, 278.0)
+    b = loads.wind_coefficients("tanker", -th, 1150.0, 5500.0, -10.0, 278.0)
+    assert np.allclose(a[0], b[0]) and np.allclose(a[1], -b[1]) and np.allclose(a[2], -b[2])
+
+
+def test_ufc_current_rises_in_shallow_water():
+    """C_yc from C0 (deep, T/d -> 0) to 3.2 (T/d = 1), through (C1 - C0) (T/d)^2: a keel clearance of 8.5 m
+    under 11.5 m nearly doubles the deep-water force of the example."""
+    args = dict(length=278.0, beam=43.4, draft=11.5, volume=102439.0, midship_area=0.98 * 43.4 * 11.5,
+                propeller_area=45.0, speed=0.5, rho=1025.0)
+    deep = loads.current_coefficients(water_depth=1e6, **args)
+    wall = loads.current_coefficients(water_depth=11.5, **args)
+    berth = loads.current_coefficients(water_depth=20.0, **args)
+    c0 = 0.22 * math.sqrt(278.0 ** 2 * 0.98 * 43.4 * 11.5 / (43.4 * 102439.0))
+    assert deep[2] == pytest.approx(c0, rel=1e-6) and wall[2] == pytest.approx(3.2)
+    assert berth[2] == pytest.approx(c0 + (3.2 - c0) * (11.5 / 20.0) ** 2)
+    assert 1.5 < berth[1] / deep[1] < 2.5
+
+
+def test_npd_spectrum_gust_intensity():
+    """The NPD spectrum's variance: a turbulence intensity of about 0.1 for a 20 m/s wind at 10 m (its
+    frequency integral over 1 h to 2 Hz, the range synthesised)."""
+    f = np.linspace(1 / 3600, 2.0, 200000)
+    sigma = math.sqrt(np.trapezoid(loads.npd_spectrum(f, 20.0), f))
+    assert 0.08 < sigma / 20.0 < 0.16
+
+
+@pytest.mark.parametrize("s", [1.0, 4.0, 15.0])
+def test_spreading_integrates_to_one_and_samples_follow_it(s):
+    th = np.linspace(-math.pi, math.pi, 20001)
+    assert np.trapezoid(loads.spreading(th, 0.3, s), th) == pytest.approx(1.0, rel=1e-6)
+    draws = loads.sample_directions(np.random.default_rng(1), 200000, 0.3, s)
+    m = np.trapezoid(np.cos(th - 0.3) * loads.spreading(th, 0.3, s), th)
+    assert np.mean(np.cos(draws - 0.3)) == pytest.approx(m, abs=0.005)        # 5 standard errors
+
+
+def test_jonswap_normalised():
+    w = np.linspace(0.05, 6.0, 20000)
+    assert 4 * math.sqrt(np.trapezoid(loads.jonswap(w, 1.5, 9.0), w)) == pytest.approx(1.5, rel=0.01)
+    assert np.all(loads.jonswap(w, 0.0, 9.0) == 0)
+
+
+# ---------------------------------------------------------------- motion
+
+def _calm(berth, **kw):
+    base = dict(wind_speed=0.0, current_speed=0.0, hs=0.0)
+    return berth.environment.model_copy(update=base | kw)
+
+
+def _full_period():
+    from scipy.fft import next_fast_len
+
+    n = next_fast_len(int(math.ceil(MIN_RECORD / DT)))
+    return n + n % 2
+
+
+def test_wave_synthesis_is_exact_over_its_period(ship, berth):
+    """Over the FFT's whole period the synthesised motion's variance is exactly sum a_k^2 |H_k|^2 / 2 of the
+    realised components (the FFT is the sum of the cosines, to round-off)."""
+    env = _calm(berth, hs=1.5, tp=9.0, wave_direction_deg=30.0, spreading=4.0)
+    n = _full_period()
+    m = simulate(ship, env, (n - 1) * DT, seed=5, slow=False)
+    from loadarm.ship.motion import wave_components
+
+    comp = wave_components(env, n, DT, np.random.default_rng(5))
+    h = ship.hydro
+    r = _interp_heading(ship.rao, h.heading, h.omega, comp.omega, comp.direction - ship.psi0)
+    exact = np.sum(comp.amplitude[:, None] ** 2 * np.abs(r) ** 2, axis=0) / 2
+    assert np.allclose(np.mean(m.wave ** 2, axis=0), exact, rtol=1e-9)
+    assert np.allclose(np.mean(m.wave, axis=0), 0.0, atol=1e-12)
+
+
+def test_wave_motion_matches_the_rao_weighted_spectrum(ship, berth):
+    """Verification (issue 12, item 7): the variance of the synthesised first-order sway, heave and roll of
+    the centre of gravity against the spectral moment m0 = int int |RAO(w, b)|^2 S(w) D(b) dw db. Each record
+    draws its components' directions from D, so its variance scatters (10-20 % per seed here: a narrow
+    spectrum, few effective components); the mean of 32 seeds must lie within 3 of its standard errors,
+    measured from the seeds themselves (a test that fails about 3 times in 1000 if the synthesis were right and
+    the seeds independent; the seeds are fixed, so it is deterministic)."""
+    env = _calm(berth, hs=1.5, tp=9.0, wave_direction_deg=30.0, spreading=4.0)
+    n = _full_period()
+    var = np.array([np.mean(simulate(ship, env, (n - 1) * DT, seed=s, slow=False).wave ** 2, axis=0)
+                    for s in range(32)])
+    h = ship.hydro
+    w = np.linspace(0.05, 2.0, 400)
+    th = np.linspace(-math.pi, math.pi, 181)
+    dens = loads.jonswap(w, env.hs, env.tp)[:, None] * loads.spreading(th, math.radians(30.0), 4.0)[None, :]
+    beta = (th[None, :] - ship.psi0) * np.ones_like(w)[:, None]
+    r = _interp_heading(ship.rao, h.heading, h.omega, np.repeat(w, th.size), beta.ravel()).reshape(w.size,
+                                                                                                   th.size, 6)
+    m0 = np.trapezoid(np.trapezoid(dens[..., None] * np.abs(r) ** 2, th, axis=1), w, axis=0)
+    se = var.std(axis=0, ddof=1) / math.sqrt(len(var))
+    for j in (1, 2, 3):
+        assert abs(var[:, j].mean() - m0[j]) < 3 * se[j], (j, var[:, j].mean(), m0[j], se[j])
+        assert se[j] < 0.05 * m0[j], "and the test is sharp: 5 % or better"
+
+
+def test_free_decay_loses_the_energy_its_damping_dissipates(ship, berth):
+    """Verification (issue 12, item 7): released 1 cm off its equilibrium in calm water (no current: only the
+    linear damping), the moored ship's energy (kinetic plus the moorings' strain energy, quadratic at this
+    amplitude: the fenders stay in contact, 4.8 cm compressed, and the lines taut) falls by the work of the
+    damping force, within 1 % over 120 s (RK4 at 0.1 s against 20-26 s periods: its own dissipation is far
+    below that). Found: released 5 cm off, the ship leaves its fenders and the quadratic energy no longer
+    holds."""
+    from loadarm.ship.motion import _lf_integrate
+    from loadarm.ship.mooring import stiffness
+
+    mo = ship.moorings
+    n = 1201
+    x0 = ship.eq0 + np.array([0.01, 0.0, 0.0])
+    xs, vs, ten = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, len(mo.names)))
+    _lf_integrate(x0, np.zeros(3), np.zeros((n, 3)), DT, np.linalg.inv(ship.mass_lf), ship.damping_lf,
+                  mo.fairlead, mo.height, mo.bollard, mo.ea, mo.l0, mo.alive, mo.alive, n + 1, mo.fender_y,
+                  mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side, mo.psi0, mo.origin, 0.0, 0.0,
+                  ship.current_kx, ship.current_ky, 0.2 * ship.length, xs, vs, ten)
+    k = stiffness(mo, ship.eq0)
+    dx = xs - ship.eq0
+    energy = 0.5 * np.einsum("ni,ij,nj->n", vs, ship.mass_lf, vs) + 0.5 * np.einsum("ni,ij,nj->n", dx, k, dx)
+    power = np.einsum("ni,ij,nj->n", vs, ship.damping_lf, vs)
+    work = np.concatenate([[0.0], np.cumsum(0.5 * (power[1:] + power[:-1]) * DT)])
+    assert energy[-1] < 0.5 * energy[0], "it decays"
+    assert np.max(np.abs(energy + work - energy[0])) < 0.01 * energy[0]
+
+
+def test_steady_current_settles_at_the_static_equilibrium(ship, berth):
+    """Verification (issue 12, item 7): a steady current off the berth (no wind, so no gusts; no waves) and
+    the time-domain ship comes to rest at the static equilibrium under the current's load, within 0.1 mm."""
+    env = _calm(berth, current_speed=1.0, current_direction_deg=0.0)
+    m = simulate(ship, env, 1200.0, seed=3)
+    assert np.allclose(m.pose[-1], m.mean_pose, atol=1e-4)
+    assert np.max(np.abs(m.pose_velocity[-100:])) < 1e-5
+
+
+def test_gusts_and_fender_contact_move_the_mean_off_the_static_offset(ship, berth):
+    """Found (and kept as a property of the model, not a defect): with NPD gusts the ship swings in and out of
+    fender contact, and the softer side (off the fenders) lets it go further: over 30 min the mean offset is
+    9 mm beyond the static equilibrium under the mean wind (rectification), about a third of the static
+    offset's 2.5 cm; the gust's added mean force (sigma_u^2 / U^2, 1 %) explains under 1 mm of it."""
+    env = _calm(berth, wind_speed=20.0, wind_direction_deg=0.0, current_speed=0.5, current_direction_deg=90.0)
+    m = simulate(ship, env, 1800.0, seed=3)
+    settled = m.pose[m.t > 300]
+    assert m.mean_pose[0] > ship.eq0[0], "the off-berth wind pushes the ship off its fenders"
+    extra = np.mean(settled[:, 0]) - m.mean_pose[0]
+    assert 0.0 < extra < 0.5 * (m.mean_pose[0] - ship.eq0[0])
+
+
+def test_all_lines_parted_the_ship_breaks_out(ship, berth):
+    env = berth.environment
+    intact = simulate(ship, env, 240.0, seed=4)
+    broken = simulate(ship, env, 240.0, seed=4, parted=ship.names, part_time=100.0)
+    before = intact.t < 100.0
+    assert np.array_equal(intact.flange[before], broken.flange[before]), "same seed, same sea, until the parting"
+    after = broken.t >= 100.0
+    assert np.all(broken.tension[after] == 0)
+    x = broken.pose[after, 0]
+    assert x[-1] - x[0] > 2.0, "the off-berth wind drives it away"
+    assert np.all(np.diff(broken.pose[after, 0][50:]) > 0), "steadily"
+    assert broken.summary()["parted"].startswith("head 1")
+
+
+def test_flange_moves_rigidly_with_the_ship(ship):
+    """The flange from a pure roll, pitch and heave of the centre of gravity: the small-angle rigid motion
+    (a second route: the rotation matrix to first order)."""
+    wave = np.zeros((1, 6))
+    wave[0, 2], wave[0, 3], wave[0, 4] = 0.1, 0.01, -0.005
+    p, _, ang = _flange(ship, np.zeros((1, 3)), np.zeros((1, 3)), wave, np.zeros((1, 6)))
+    p0, _, _ = _flange(ship, np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
+    r = ship.manifold - ship.cog
+    rx = np.array([[0, -wave[0, 5], wave[0, 4]], [wave[0, 5], 0, -wave[0, 3]], [-wave[0, 4], wave[0, 3], 0]])
+    d_ship = wave[0, :3] + rx @ r
+    c, s = math.cos(ship.psi0), math.sin(ship.psi0)
+    d_berth = np.array([c * d_ship[0] - s * d_ship[1], s * d_ship[0] + c * d_ship[1], d_ship[2]])
+    assert np.allclose(p[0] - p0[0], d_berth, atol=1e-12)
+    assert np.allclose(ang[0], [0.01, -0.005, 0.0])
+
+
+@pytest.fixture(scope="module")
+def moored():
+    sc, _ = load_scenario("examples/scenarios/hs15_moored.toml")
+    return sc, flange_motion(sc)
+
+
+@settings(max_examples=30, deadline=None)
+@given(t=st.floats(0.0, 299.0))
+def test_the_scenario_flange_interpolates_between_samples(moored, t):
+    motion = moored[1]
+    m = motion.motion
+    k = int(t / DT)
+    # at the samples: exactly the motion (plus the installation offset); between: a cubic Hermite whose
+    # derivative is the sampled velocity at the samples
+    assert np.allclose(motion.position(m.t[k]), m.flange[k] + motion.offset + m.t[k] * motion.slow_rate)
+    assert np.allclose(motion.velocity(m.t[k]), m.flange_velocity[k] + motion.slow_rate, atol=1e-9)
+    h = 1e-4
+    fd = (motion.position(t + h) - motion.position(t - h)) / (2 * h) if t > h else motion.velocity(t)
+    assert np.allclose(motion.velocity(t), fd, atol=1e-5)
+
+
+def test_the_scenario_flange_starts_at_the_scenario_flange(moored):
+    sc, motion = moored
+    p = motion.position(np.arange(0.0, 600.0, 0.1))
+    assert np.allclose(np.mean(p, axis=0), sc.ship.flange, atol=0.1)
+    with pytest.raises(ValueError, match="outside the simulated"):
+        motion.position(1e5)
+
+
+# ---------------------------------------------------------------- scenario files
+
+@pytest.mark.parametrize("data, match", [
+    ({"ship": {"model": "moored"}}, "needs ship.berth"),
+    ({"ship": {"model": "moored", "berth": "b.toml"}, "waves": {"hs": 1.0}}, "set \\[environment\\] hs"),
+    ({"ship": {"model": "moored", "berth": "b.toml"}, "drift": {"start": 10.0}}, "mooring_failure"),
+    ({"ship": {"model": "moored", "berth": "b.toml"}, "mooring_failure": {"time": 10.0}}, "no line parts"),
+    ({"environment": {"hs": 1.0}}, "apply to ship.model = 'moored' only"),
+])
+def test_moored_scenario_keys_are_checked(data, match):
+    with pytest.raises(ConfigError, match=match):
+        parse_scenario(data)
+
+
+def test_unknown_parted_line_and_bad_override_are_refused(tmp_path):
+    berth = (tmp_path / "b.toml")
+    berth.write_text(open(BERTH).read())
+    sc = tmp_path / "s.toml"
+    sc.write_text('[ship]\nmodel = "moored"\nberth = "b.toml"\n[mooring_failure]\ntime = 5.0\nlines = ["bow 9"]\n')
+    with pytest.raises(ConfigError, match="'bow 9' is not a line of"):
+        load_scenario(sc)
+    sc.write_text('[ship]\nmodel = "moored"\nberth = "b.toml"\n[environment]\nhs = 9.5\n')
+    with pytest.raises(ConfigError, match="environment.hs"):
+        load_scenario(sc)

@@ -1,0 +1,138 @@
+"""The alarm design of an arm at a berth (``loadarm alarms``)."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from loadarm.alarm_design import DesignSettings, breakout_curve, design_alarms, design_drift_fit
+from loadarm.berth import load_berth
+from loadarm.compiler import compile_model
+from loadarm.config import load_config, parse_config, read_toml
+from loadarm.faces import breakout_distance
+from loadarm.ship.model import compile_ship
+from loadarm.slew import inverse3d
+
+BERTH = "examples/berths/lng150k.toml"
+INST = "examples/paper.toml"
+FAST = DesignSettings(seeds=2, intact_duration=1800.0)
+
+
+@pytest.fixture(scope="module")
+def berth():
+    return load_berth(BERTH)
+
+
+@pytest.fixture(scope="module")
+def ship(berth):
+    return compile_ship(berth)
+
+
+@pytest.fixture(scope="module")
+def design(berth, ship):
+    return design_alarms(compile_model(load_config(INST)), ship, berth.environment, settings=FAST)
+
+
+def test_thresholds_are_ordered_and_inside_the_limits(design):
+    r = design.recommended
+    assert r["first_beta_deg"] < r["second_beta_deg"] < r["release_beta_deg"] < math.degrees(
+        design.joint_limits.beta[1])
+    assert r["first_slew_deg"] < r["second_slew_deg"] < r["release_slew_deg"] < 40.0
+    assert design.ok, design.problems
+
+
+def test_no_alarm_inside_the_drift_allowance(design):
+    """At every corner of the flanging area the intact ship's largest excursion towards a face stays below
+    the first alarm (the design weather gives no false alarm)."""
+    model = compile_model(load_config(INST))
+    row = design.rows[0]
+    assert row.direction.startswith("off the berth")
+    for x in (design.flanging_area[0], design.flanging_area[1]):
+        for z in (design.flanging_area[2], design.flanging_area[3]):
+            for y in (-1.5, 1.5):
+                p = np.array([x, y, z]) + row.allowance_m * np.array(row.vector)
+                q = inverse3d(model.arm, *p, check=False)
+                if np.isfinite(q.beta) and q.beta < model.joint_limits.beta[1] and np.isfinite(q.alpha) and \
+                        model.joint_limits.alpha[0] <= q.alpha <= model.joint_limits.alpha[1]:
+                    assert math.degrees(q.beta) <= design.recommended["first_beta_deg"] + 1e-9
+
+
+def test_the_pasted_blocks_make_a_valid_installation(design):
+    """The [alarms], [slew] and [design_drift] blocks drop into the installation and compile."""
+    import tomllib
+
+    data = read_toml(INST)
+    blocks = tomllib.loads(design.toml())
+    for section, values in blocks.items():
+        data.setdefault(section, {}).update(values)
+    model = compile_model(parse_config(data, source="pasted"))
+    assert math.degrees(model.alarms.first) == pytest.approx(design.recommended["first_beta_deg"])
+    assert model.design_drift.speed == pytest.approx(design.recommended["design_drift_speed_ms"])
+
+
+def test_the_design_drift_covers_the_breakout(design):
+    """Over the stages it is used for (ESD-1 lead plus the release's own time, 50 s here), within 1 cm."""
+    r = design.recommended
+    t, s = design.breakout_t, design.breakout_s
+    seq = design.sequence
+    k = (t >= 2.0) & (t <= seq["esd_lead_s"] + seq["ers_valve_time_s"] + seq["erc_release_time_s"] + seq["margin_s"])
+    d = breakout_distance(t[k], r["design_drift_speed_ms"], r["design_drift_acceleration_ms2"])
+    assert np.all(d >= s[k] - 0.01)
+
+
+def test_design_drift_fit_on_a_known_curve():
+    """A curve that is exactly a break-out from rest at 0.01 m/s^2 up to 0.2 m/s is fitted back (rounded up)."""
+    tau = np.linspace(0, 120, 1201)
+    s = breakout_distance(tau, 0.2, 0.01)
+    speed, acc = design_drift_fit([(tau, s)], 60.0)
+    assert acc == pytest.approx(0.01, abs=0.0011) and speed == pytest.approx(0.2, abs=0.011)
+
+
+def test_breakout_curve_is_the_envelope_from_the_parting():
+    t = np.arange(0, 50, 0.1)
+    fl = np.zeros((2, t.size, 3))
+    fl[0, :, 0] = np.where(t > 10, 0.5 * 0.01 * (t - 10) ** 2, 0.0) + 0.05 * np.sin(t)
+    fl[1, :, 0] = np.where(t > 10, 0.02 * (t - 10), 0.0)
+    tau, s = breakout_curve(fl, t, 10.0, np.array([1.0, 0.0, 0.0]), 30.0)
+    assert tau[0] == 0 and np.all(np.diff(s) >= 0) and s[0] == 0
+    assert s[-1] >= 0.5 * 0.01 * 30 ** 2
+
+
+def test_a_slow_sequence_is_refused_naming_the_face_and_the_shortfall(berth, ship):
+    data = read_toml(INST)
+    data.setdefault("sequence", {}).update({"esd_time": 60.0, "erc_release_time": 30.0, "margin": 20.0})
+    model = compile_model(parse_config(data, source="slow"))
+    d = design_alarms(model, ship, berth.environment, settings=FAST)
+    assert not d.ok
+    assert any("off the berth (+x)" in p and "short by" in p and "arm stretched" in p for p in d.problems)
+
+
+def test_cli_json_and_refusal(tmp_path):
+    png = tmp_path / "a.png"
+    r = subprocess.run([sys.executable, "-m", "loadarm.cli", "alarms", "--config", INST, "--berth", BERTH,
+                        "--seeds", "1", "--json", "--png", str(png)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    for key in ("first_beta_deg", "second_beta_deg", "release_beta_deg", "first_slew_deg",
+                "design_drift_speed_ms", "design_drift_acceleration_ms2"):
+        assert key in out["recommended"]
+    assert {"drift_allowance_off_berth_m", "breakout_speed_at_release_ms"} <= set(out["design_drift"])
+    assert set(out["natural_periods_s"]) >= {"heave", "roll", "pitch", "lf_mode_1"}
+    assert out["faces"][0]["face"] == "beta_max" and "[alarms]" in out["alarms_toml"]
+    assert png.read_bytes()[:4] == b"\x89PNG"
+    import tomli_w
+
+    slow = tmp_path / "slow.toml"
+    data = read_toml(INST)
+    data.setdefault("sequence", {}).update({"esd_time": 60.0, "erc_release_time": 30.0, "margin": 20.0})
+    slow.write_text(tomli_w.dumps(data))
+    r = subprocess.run([sys.executable, "-m", "loadarm.cli", "alarms", "--config", str(slow), "--berth", BERTH,
+                        "--seeds", "1"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2
+    last = r.stderr.strip().splitlines()[-1]
+    assert "refused" in last and "short by" in last and "Traceback" not in r.stderr

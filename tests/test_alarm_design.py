@@ -112,6 +112,7 @@ def test_a_slow_sequence_is_refused_naming_the_face_and_the_shortfall(berth, shi
     assert any("off the berth (+x)" in p and "short by" in p and "arm stretched" in p for p in d.problems)
 
 
+@pytest.mark.slow
 def test_cli_json_and_refusal(tmp_path):
     png = tmp_path / "a.png"
     r = subprocess.run([sys.executable, "-m", "loadarm.cli", "alarms", "--config", INST, "--berth", BERTH,

@@ -82,7 +82,12 @@ def scratch(tmp_path_factory):
     return d
 
 
-@pytest.mark.parametrize("cmd", ALL, ids=[c.id for c in ALL])
+#: Commands that take many seconds (a mooring analysis): checked in the slow suite (CI runs it).
+SLOW_COMMANDS = {"alarms"}
+
+
+@pytest.mark.parametrize("cmd", [pytest.param(c, marks=pytest.mark.slow) if c.argv[1] in SLOW_COMMANDS else c
+                                 for c in ALL], ids=[c.id for c in ALL])
 def test_console_block_matches_a_real_run(cmd, scratch):
     env = dict(os.environ, COLUMNS="80", NO_COLOR="1", TERM="dumb")
     r = subprocess.run([sys.executable, "-m", "loadarm.cli", *cmd.argv[1:]], cwd=scratch, env=env,

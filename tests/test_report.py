@@ -83,7 +83,7 @@ def test_report_html_is_a_template_that_escapes_user_text(own_report, tmp_path):
 
     files, html, _ = own_report
     assert _template().environment.autoescape("report.html.j2") is True
-    assert html.startswith("<!doctype html>") and html.count("<h2>") == 10
+    assert html.startswith("<!doctype html>") and html.count("<h2>") == 10     # no [report] berth: no berth section
     text = _template().render(**{**_render_minimal(), "title": "<script>alert(1)</script>"})
     assert "<script>alert(1)</script>" not in text and "&lt;script&gt;alert(1)&lt;/script&gt;" in text
     assert "<i>bad</i>" not in text and "&lt;i&gt;bad&lt;/i&gt;" in text           # the check's reasons too
@@ -96,7 +96,8 @@ def _render_minimal():
     empty = {"headers": [], "rows": []}
     fig = {"uri": "data:,", "caption": "c"}
     inst = load_config(PAPER_TOML)
-    return dict(css="", stamp="now", version="0", input_line="in", notes=["<b>note</b>"],
+    return dict(css="", stamp="now", version="0", input_line="in", notes=["<b>note</b>"], berth=None, berth_file="",
+                design=None,
                 sizing=NS(corner=(1.0, -1.0), r_alarm=1.0, inboard=1.0, outboard=1.0, active_bound="x"), inst=inst,
                 paper=False, arm=NS(b=1.0, c=1.0), tables={k: empty for k in (
                     "corners_sized", "corners_configured", "endpoints", "plans", "loads", "simulation", "scenarios",
@@ -133,3 +134,23 @@ def test_the_report_plans_each_timing_law_once(monkeypatch, tmp_path):
     data.plans, data.verification, data.simulations, data.loads
     assert sorted(calls) == ["optimal", "paper", "smooth"]
     assert data.model == compile_model(parse_config(d))
+
+
+@pytest.mark.slow
+def test_report_with_a_berth_has_the_moored_ship_and_its_alarm_design(tmp_path):
+    """An installation naming a [report] berth: the report's berth section (ship summary, RAOs, the alarm
+    design with the blocks to paste) and summary.json's "berth"; the demo's paper case does this."""
+    text = PAPER_TOML.read_text()
+    text = re.sub(r"\[report\].*", '[report]\nberth = "berths/lng150k.toml"\n', text, flags=re.S)
+    (tmp_path / "berths").mkdir()
+    (tmp_path / "berths" / "lng150k.toml").write_text((ROOT / "examples" / "berths" / "lng150k.toml").read_text())
+    cfg = tmp_path / "mine.toml"
+    cfg.write_text(text)
+    files = build_report(load_config(cfg), tmp_path / "out", source=cfg)
+    html = files.html.read_text()
+    summary = json.loads(files.summary.read_text())
+    assert "8b. The berth: moored ship and alarm design" in html and "[alarms]" in html
+    assert {"rao.png", "alarm_design.png"} <= {p.name for p in files.figures.values()}
+    rec = summary["berth"]["alarm_design"]["recommended"]
+    assert rec["first_beta_deg"] < rec["second_beta_deg"] < rec["release_beta_deg"]
+    assert summary["berth"]["ship"]["roll_period_s"] == pytest.approx(22.7, abs=0.1)

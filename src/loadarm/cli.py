@@ -688,7 +688,7 @@ def alarms(
                       f"{r.esd_m:.2f}", f"{r.release_m:.2f}", f"{r.lead_m:.2f}", f"{r.available_m:.2f}", angles)
         _print_wide(t, 100)
         out.print("Paste into the installation:")
-        out.print(res.toml())
+        out.print(res.toml().rstrip("\n"))
         for w in res.warnings:
             err.print(f"loadarm: note: {w}")
     if not res.ok:

@@ -509,6 +509,11 @@ class Report(_Section):
         (), max_length=50,
         description="live-guidance scenario files run on this installation in the report, relative to this file",
         json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case lists the examples)"})
+    berth: str | None = Field(
+        None, description="berth file (design ship, moorings, environment) whose moored ship and alarm design the "
+                          "report shows, relative to this file (omit for none)",
+        json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case: the example "
+                                                     "LNG carrier berth)"})
 
 
 class Sequence(_Section):
@@ -1012,7 +1017,11 @@ def example_toml() -> str:
         lines.append(f"[{section}]")
         for key in type(sec).model_fields:
             r = rows[f"{section}.{key}"]
-            lines.append(f"{key} = {fmt(getattr(sec, key))}  # {r['unit']}: {r['description']}")
+            value = getattr(sec, key)
+            if value is None:                     # TOML has no null: an optional key left out, shown commented
+                lines.append(f"# {key} = (not set)  # {r['unit']}: {r['description']}")
+            else:
+                lines.append(f"{key} = {fmt(value)}  # {r['unit']}: {r['description']}")
         lines.append("")
     return "\n".join(lines)
 

@@ -254,14 +254,52 @@ class ReportData:
     @cached_property
     def scenarios(self) -> dict:
         """``name -> RunResult`` of each listed scenario, run on this installation."""
-        from .guidance.scenario import parse_scenario
+        from .guidance.scenario import parse_scenario, resolve_berth
 
         out = {}
         for f in self.scenario_files:
             self._progress(f"scenario {f.stem}")
-            sc = parse_scenario(read_toml(f, "scenario"), source=str(f))
+            sc = resolve_berth(parse_scenario(read_toml(f, "scenario"), source=str(f)), f)
             out[f.stem] = run_scenario(sc, self.model)
         return out
+
+    @cached_property
+    def berth_file(self) -> Path | None:
+        """The installation's ``[report] berth``, resolved against its file."""
+        if self.inst.report.berth is None:
+            return None
+        base = self.source.parent if self.source is not None else Path.cwd()
+        return base / self.inst.report.berth
+
+    @cached_property
+    def berth(self):
+        """:class:`loadarm.berth.Berth` of the report's berth (None without one)."""
+        from .berth import load_berth
+
+        return None if self.berth_file is None else load_berth(self.berth_file)
+
+    @cached_property
+    def ship(self):
+        """The berth's ship, compiled (:func:`loadarm.ship.model.compile_ship`)."""
+        from .ship.model import compile_ship
+
+        self._progress("the moored ship: hydrodynamics and moorings")
+        return compile_ship(self.berth)
+
+    @cached_property
+    def ship_summary(self):
+        """:func:`loadarm.ship.summary.ship_summary` under the berth's design environment."""
+        from .ship.summary import ship_summary
+
+        return ship_summary(self.ship, self.berth.environment)
+
+    @cached_property
+    def alarm_design(self):
+        """:func:`loadarm.alarm_design.design_alarms` of this arm at the berth."""
+        from .alarm_design import design_alarms
+
+        self._progress("alarm design: mooring analysis, intact and break-out")
+        return design_alarms(self.model, self.ship, self.berth.environment)
 
 
 def _timeline(name: str):
@@ -303,6 +341,17 @@ FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
 }
 
 
+#: The berth section's figures (drawn when the installation names a ``[report] berth``).
+BERTH_FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
+    "rao.png": (lambda d: d.ship_summary.plot(),
+                "Motion RAOs of the design ship at its centre of gravity (capytaine; moored, with viscous roll "
+                "damping) for beam (90 deg), quartering (135 deg) and head (180 deg) seas."),
+    "alarm_design.png": (lambda d: d.alarm_design.plot(),
+                         "Alarm design: the flanging area, the intact drift allowance and each stage's beta zone "
+                         "(left); the break-out drift with the sequence's stages (right)."),
+}
+
+
 def figure_builders(data: ReportData) -> dict[str, tuple[Callable[[ReportData], object], str]]:
     """:data:`FIGURES` plus one timeline per scenario of the installation.
 
@@ -317,6 +366,8 @@ def figure_builders(data: ReportData) -> dict[str, tuple[Callable[[ReportData], 
         ``file name -> (builder, caption)``.
     """
     figs = dict(FIGURES)
+    if data.inst.report.berth is not None:
+        figs.update(BERTH_FIGURES)
     for f in data.scenario_files:
         figs[f"timeline_{f.stem}.png"] = (_timeline(f.stem), f"Timeline of scenario {f.stem}.")
     return figs
@@ -356,9 +407,11 @@ def report_outputs(inst: Installation, out_dir: str | Path,
     """
     out = Path(out_dir)
     base = Path(source).parent if source is not None else Path.cwd()
-    names = list(FIGURES) + [f"timeline_{Path(f).stem}.png" for f in inst.report.scenarios]
+    names = list(FIGURES) + (list(BERTH_FIGURES) if inst.report.berth is not None else []) + [
+        f"timeline_{Path(f).stem}.png" for f in inst.report.scenarios]
+    inputs = [base / f for f in inst.report.scenarios] + ([base / inst.report.berth] if inst.report.berth else [])
     return ([out / "report.html", out / "summary.json"] + [out / f"plan_{law}.csv" for law in TIMING_LAWS]
-            + [out / "figures" / n for n in names]), [base / f for f in inst.report.scenarios]
+            + [out / "figures" / n for n in names]), inputs
 
 
 def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loadarm report",
@@ -412,6 +465,9 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     csvs = {law: p.write_csv(out / f"plan_{law}.csv") for law, p in plans.items()}
     verification, loads, balance, sims, scen_runs = d.verification, d.loads, d.balance, d.simulations, d.scenarios
     check = d.check
+    berth = d.berth
+    if berth is not None:
+        ship_sum, design = d.ship_summary, d.alarm_design
 
     step("drawing figures")
     builders = figure_builders(d)
@@ -426,6 +482,9 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     summary["balance"] = balance.summary()
     summary["simulation"] = {law: r.summary() for law, r in sims.items()}
     summary["check"] = check.to_dict()
+    if berth is not None:
+        summary["berth"] = {"file": str(d.berth_file.name), "ship": ship_sum.to_dict(),
+                            "alarm_design": design.to_dict()}
     # wall-clock cycle times depend on the machine and its load: they belong to `loadarm run`, not the report
     summary["scenarios"] = {name: {k: v for k, v in rr.summary().items() if not k.startswith("cycle_us")}
                             for name, rr in scen_runs.items()}
@@ -508,6 +567,18 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                          ("alarm", "first alarm at [m]"), ("needed", "design drift needs [m]"),
                          ("vmax", "absorbs [m/s]"), ("ok", "ok")],
                         {"avail": ".2f", "alarm": ".2f", "needed": ".2f", "vmax": ".3f"}),
+        "berth": _table([{"k": label, "v": text} for label, text in ship_sum.summary().rows()]
+                        if berth is not None else [], [("k", "quantity"), ("v", "value")]),
+        "alarm_design": _table([
+            {"dir": r.direction, "face": r.face or "-", "case": r.short_case, "allow": r.allowance_m,
+             "esd": r.esd_m, "rel": r.release_m, "lead": r.lead_m, "avail": r.available_m,
+             "angles": "-" if r.first is None else " / ".join(f"{math.degrees(v):.1f}" for v in (r.first, r.second,
+                                                                                                  r.release)),
+             "ok": "yes" if r.ok else "NO"} for r in (design.rows if berth is not None else ())],
+            [("dir", "direction"), ("face", "face"), ("case", "design case"), ("allow", "drift allowance [m]"),
+             ("esd", "ESD-1 at [m]"), ("rel", "ERS-2 at [m]"), ("lead", "ESD-1 lead reaches [m]"),
+             ("avail", "face at [m]"), ("angles", "first / second / release [deg]"), ("ok", "ok")],
+            {"allow": ".2f", "esd": ".2f", "rel": ".2f", "lead": ".2f", "avail": ".2f"}),
         "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes")]
                             + [(m.key, m.header) for m in scen_cols]),
         "parameters": _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),
@@ -520,6 +591,8 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         local_minima=", ".join(f"({b:.3f}, {c:.3f})" for b, c in sizing.local_minima),
         paper_peak_speed=plans["paper"].summary()["peak_path_speed_m_s"], csv_names=[p.name for p in csvs.values()],
         vs=vs, bs=bs, mass_text=mass_text, scenario_files=", ".join(f.name for f in d.scenario_files),
-        timelines=[f"timeline_{n}.png" for n in scen_runs], check=check, seq=d.model.sequence)
+        timelines=[f"timeline_{n}.png" for n in scen_runs], check=check, seq=d.model.sequence,
+        berth=berth, berth_file=d.berth_file.name if berth is not None else "",
+        design=design if berth is not None else None)
     html_path = atomic_write(out / "report.html", text)
     return ReportFiles(html=html_path, summary=summary_path, csv=csvs, figures=figs)

@@ -14,7 +14,11 @@ round (the least disturbed by other load), so a ratio compares like with like.
   4-state Kalman update in NumPy) timed right after it (measured 2026-11-23 with the connected-mode monitor:
   1.1x and 4.4x; the cycle's tail is longer because cycles with a sensor reading, a drift fit, a forecast of the
   faces, a mode change or an event do more work);
-* campaigns: runs per second on every core >= 1.4x one process (same runs, same run; skipped on one core).
+* campaigns: runs per second on every core >= 1.4x one process (same runs, same run; skipped on one core);
+* moored ship: 30 minutes of the moored ship's motion at 10 Hz (cached hydrodynamics: slow drift, gusts, lines,
+  fenders, first-order waves, the flange) <= 5 % of the guidance loop's own cost for the same 30 minutes
+  (measured 2026-11-23: about 30 ms against about 2 s, 1.5 %; the issue's absolute goal, 50 ms on one core, is
+  printed, not asserted).
 """
 
 import math
@@ -246,3 +250,29 @@ def test_campaign_throughput_on_every_core(results, tmp_path):
     results[f"campaign runs per second, {workers} processes"] = n / t_parallel
     results["campaign speed-up, every core / one process"] = t_serial / t_parallel
     assert t_serial / t_parallel >= 1.4, f"campaign only {t_serial / t_parallel:.2f}x one process on {workers} cores"
+
+
+def test_moored_motion_thirty_minutes_against_the_guidance_loop(results):
+    """The moored ship's 30 minutes at 10 Hz, best of 5, against the guidance loop's cycles for the same 30
+    minutes (its median cycle times the 90 000 cycles at 50 Hz, from a run timed in the same session)."""
+    from loadarm.berth import load_berth
+    from loadarm.guidance.run import run_scenario
+    from loadarm.guidance.scenario import load_scenario
+    from loadarm.ship.model import compile_ship
+    from loadarm.ship.motion import simulate
+
+    berth = load_berth(ROOT / "examples" / "berths" / "lng150k.toml")
+    ship = compile_ship(berth)
+    simulate(ship, berth.environment, 60.0, seed=0)                 # compiled (numba cache) and warm
+    best = math.inf
+    for seed in range(5):
+        t0 = time.perf_counter()
+        simulate(ship, berth.environment, 1800.0, seed=seed)
+        best = min(best, time.perf_counter() - t0)
+    sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15_moored.toml")
+    r = run_scenario(sc, model, plant="kinematic")
+    loop = float(np.median(r.cycle_us)) * 1e-6 * 1800.0 * sc.guidance.rate
+    results["moored ship, 30 min at 10 Hz [ms]"] = best * 1e3
+    results["guidance loop cycles for the same 30 min [ms]"] = loop * 1e3
+    results["ratio moored motion / guidance loop, 30 min"] = best / loop
+    assert best / loop <= 0.05, f"moored motion {best / loop:.3f}x the guidance loop, goal <= 0.05"

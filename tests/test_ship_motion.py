@@ -143,7 +143,7 @@ def test_free_decay_loses_the_energy_its_damping_dissipates(ship, berth):
     """Verification (issue 12, item 7): released 1 cm off its equilibrium in calm water (no current: only the
     linear damping), the moored ship's energy (kinetic plus the moorings' strain energy, quadratic at this
     amplitude: the fenders stay in contact, 4.8 cm compressed, and the lines taut) falls by the work of the
-    damping force, within 1 % over 120 s (RK4 at 0.1 s against 20-26 s periods: its own dissipation is far
+    damping force, within 1 % over 120 s (RK4 at 0.2 s against 19-26 s periods: its own dissipation is far
     below that). Found: released 5 cm off, the ship leaves its fenders and the quadratic energy no longer
     holds."""
     from loadarm.ship.motion import _lf_integrate

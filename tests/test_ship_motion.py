@@ -220,8 +220,10 @@ def test_flange_moves_rigidly_with_the_ship(ship):
 
 @pytest.fixture(scope="module")
 def moored():
+    from loadarm.guidance.scenario import moored_ship
+
     sc, _ = load_scenario("examples/scenarios/hs15_moored.toml")
-    return sc, flange_motion(sc)
+    return sc, flange_motion(sc, moored_ship(sc))
 
 
 @settings(max_examples=30, deadline=None)

@@ -201,7 +201,7 @@ def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -
     """Worker: run a batch of (seed, draws) of one scenario file."""
     from .run import run_scenario
 
-    from .ship import moored_ship
+    from .scenario import moored_ship
 
     draw = _Draw(scenario)
     results = []
@@ -210,7 +210,7 @@ def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -
         sc, model = draw.build(seed, draws)
         ship = None
         if sc.ship.model == "moored":
-            ship = ships.get(sc.ship.berth) or ships.setdefault(sc.ship.berth, moored_ship(sc.ship.berth))
+            ship = ships.get(sc.ship.berth) or ships.setdefault(sc.ship.berth, moored_ship(sc))
         res = run_scenario(sc, model, plant=plant, ship=ship)
         results.append(_judge(seed, draws, res._values()))
     return results

@@ -463,6 +463,10 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
         raise ValueError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
     check_run_size(sc)
     ctrl = GuidanceController(model, g)
+    if ship is None and sc.ship.model == "moored":
+        from .scenario import moored_ship
+
+        ship = moored_ship(sc)
     motion = flange_motion(sc, ship)
     readings = sensor_readings(sc, motion)
     est = FlangeEstimator(noise=sc.sensor.noise, max_age=g.max_estimate_age)

@@ -20,7 +20,7 @@ from ..errors import ConfigError
 if TYPE_CHECKING:
     from ..model import ArmModel
 
-__all__ = ["resolve_berth", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
+__all__ = ["resolve_berth", "moored_ship", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
            "parse_scenario", "check_scenario", "check_drift_window", "check_run_size", "run_memory", "MAX_RUN_MEMORY"]
 
 
@@ -452,3 +452,25 @@ def check_drift_window(g: Guidance, seq, *, source: str = "<guidance>") -> None:
             f"{source}: guidance.drift_window = {w:g} s is too slow for the sequence it protects (at most twice the "
             f"first alarm's lead, max(esd_time, ers_valve_time) + erc_release_time + margin = {lead:g} s): a drift "
             f"would reach the limit before the fit saw it; valid range (5, {2 * lead:g}] s")
+
+
+def moored_ship(sc: Scenario):
+    """Read a moored scenario's berth file and compile its ship (the edge of a moored run; a campaign compiles
+    once per batch and passes it on).
+
+    Parameters
+    ----------
+    sc : Scenario
+        With ``[ship] model = "moored"`` and its berth path made absolute (:func:`resolve_berth`).
+
+    Returns
+    -------
+    ShipModel or None
+        None for ``model = "simple"``.
+    """
+    if sc.ship.model != "moored":
+        return None
+    from ..berth import load_berth
+    from ..ship.model import compile_ship
+
+    return compile_ship(load_berth(sc.ship.berth))

@@ -25,7 +25,7 @@ import numpy as np
 from ..ship.loads import jonswap
 from .scenario import Scenario
 
-__all__ = ["jonswap", "FlangeMotion", "MooredFlangeMotion", "flange_motion", "moored_ship", "MOORED_LOOKAHEAD"]
+__all__ = ["jonswap", "FlangeMotion", "MooredFlangeMotion", "flange_motion", "MOORED_LOOKAHEAD"]
 
 G = 9.80665
 #: Seconds of moored-ship motion simulated past a run's end (the run looks ahead for the face the flange reaches).
@@ -147,32 +147,11 @@ class MooredFlangeMotion:
         return (1 - s) * a[k] + s * a[k + 1]
 
 
-def moored_ship(berth_path: str):
-    """Read a berth file and compile its ship (the edge of a moored run; a campaign compiles once per batch).
-
-    Parameters
-    ----------
-    berth_path : str
-        Absolute path (:func:`loadarm.guidance.scenario.resolve_berth`).
-
-    Returns
-    -------
-    ShipModel
-    """
-    from ..berth import load_berth
-    from ..ship.model import compile_ship
-
-    return compile_ship(load_berth(berth_path))
-
-
 def _moored(sc: Scenario, ship) -> MooredFlangeMotion:
-    from ..berth import Environment, load_berth
+    from ..berth import Environment
     from ..ship.motion import simulate
 
-    berth = load_berth(sc.ship.berth)
-    if ship is None:
-        ship = moored_ship(sc.ship.berth)
-    env = Environment.model_validate(berth.environment.model_dump() | {
+    env = Environment.model_validate(ship.environment.model_dump() | {
         k: v for k, v in sc.environment.model_dump().items() if v is not None})
     mf = sc.mooring_failure
     parted = tuple(ship.names) if mf.all_lines else tuple(mf.lines)
@@ -189,16 +168,18 @@ def flange_motion(sc: Scenario, ship=None) -> FlangeMotion | MooredFlangeMotion:
     Parameters
     ----------
     sc : Scenario
-        The scenario (ship, waves, drift, seed); for ``model = "moored"`` its berth path must be absolute
-        (:func:`loadarm.guidance.scenario.resolve_berth`, done by ``load_scenario``).
+        The scenario (ship, waves, drift, seed).
     ship : ShipModel, optional
-        The berth's ship, compiled (default: compiled here from the berth file).
+        For ``model = "moored"``: the berth's ship, compiled (:func:`loadarm.guidance.scenario.moored_ship`
+        reads and compiles the scenario's berth file).
 
     Returns
     -------
     FlangeMotion or MooredFlangeMotion
     """
     if sc.ship.model == "moored":
+        if ship is None:
+            raise ValueError("a moored scenario needs its ship: loadarm.guidance.scenario.moored_ship(scenario)")
         return _moored(sc, ship)
     rng = np.random.default_rng(sc.scenario.seed)
     wv = sc.waves

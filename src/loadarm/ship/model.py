@@ -70,6 +70,8 @@ class ShipModel:
         Mooring stiffness there, berth frame.
     manifold, cog : ndarray (3,)
         Ship frame (z above the keel).
+    environment : Environment
+        The berth file's design environment (scenarios override keys of it).
     """
 
     moorings: Moorings
@@ -96,6 +98,7 @@ class ShipModel:
     lf_damping_ratio: float
     manifold_tolerance: float = 0.0
     names: tuple[str, ...] = field(default=())
+    environment: object = None
 
     @property
     def psi0(self) -> float:
@@ -183,4 +186,5 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False) -
                      frontal_area=s.frontal_windage, lateral_area=s.lateral_windage,
                      centroid_x=s.windage_centroid_x, current_kx=kx, current_ky=ky, current_cyc=cyc,
                      water_depth=berth.berth.water_depth, lf_damping_ratio=s.lf_damping_ratio,
-                     manifold_tolerance=berth.berth.manifold_tolerance, names=mo.names)
+                     manifold_tolerance=berth.berth.manifold_tolerance, names=mo.names,
+                     environment=berth.environment)

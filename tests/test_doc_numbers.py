@@ -159,3 +159,34 @@ def test_campaign_tables_hold_on_a_fresh_sample():
     assert s["releases"] == 6 and s["margin_min_s"] > 0 and s["connected_runs"] == 6
     sea = run_campaign(ROOT / "examples" / "scenarios" / "hs15.toml", 2, first_seed=5000, workers=2)
     assert sea.summary()["false_alarms"] == 0 and sea.summary()["connected_runs"] == 2
+
+
+@pytest.mark.slow
+def test_ship_motion_page_breakout_scenario():
+    """docs/ship-motion.md section 9: the break-out scenario (every line parts, the ship drifts off under its own
+    loads) runs the whole sequence and releases with the margin it cites, before any face."""
+    from loadarm.guidance.run import run_scenario
+    from loadarm.guidance.scenario import load_scenario
+
+    sc, model = load_scenario(ROOT / "examples" / "scenarios" / "breakout.toml")
+    s = run_scenario(sc, model).summary()
+    assert s["mode_sequence"][-4:] == ["ALARM1", "ALARM2", "RELEASE", "RETURN"]
+    assert s["overstretched_s"] is None and s["release_margin_s"] >= model.sequence.margin
+    assert s["valves_confirmed_s"] <= s["coupler_opening_s"]
+    cited("docs/ship-motion.md", f"with the coupler free {s['release_margin_s']:.1f} s before the arm's face")
+
+
+def test_ship_motion_page_verification_numbers():
+    """docs/ship-motion.md section 7: the beam-sea drift at the shortest waves and the long-wave heave RAO."""
+    import numpy as np
+
+    from loadarm.berth import RHO_SEA, load_berth
+    from loadarm.ship import hydro
+    from loadarm.ship.model import compile_ship
+
+    ship = compile_ship(load_berth(ROOT / "examples" / "berths" / "lng150k.toml"))
+    h = ship.hydro
+    k = int(np.argmin(np.abs(h.heading - math.pi / 2)))
+    wall = ship.drift[-1, k, 1] / (0.5 * RHO_SEA * hydro.G * ship.length)
+    cited("docs/ship-motion.md", f"| {wall:.2f} of it (0.9-1.05) |")
+    cited("docs/ship-motion.md", f"| {abs(ship.rao[0, k, 2]):.2f} (1 +/- 0.05) |")

@@ -273,3 +273,15 @@ def test_unknown_parted_line_and_bad_override_are_refused(tmp_path):
     sc.write_text('[ship]\nmodel = "moored"\nberth = "b.toml"\n[environment]\nhs = 9.5\n')
     with pytest.raises(ConfigError, match="environment.hs"):
         load_scenario(sc)
+
+
+def test_fenders_too_stiff_to_integrate_are_refused_naming_the_file(berth):
+    """Found by reasoning about hostile input: a fender curve in the wrong units (MN for N) would blow the
+    0.2 s integration up into NaN; it is refused with the file, the fender and the allowed stiffness."""
+    data = berth.model_dump()
+    data["fenders"] = tuple(dict(f, load=tuple(v * 1e6 for v in f["load"])) for f in data["fenders"])
+    from loadarm.berth import Berth
+
+    bad = Berth.model_validate(data)
+    with pytest.raises(ConfigError, match=r"mine.toml: the lines and fenders are too stiff.*'F1'.*at most"):
+        compile_ship(bad, source="mine.toml")

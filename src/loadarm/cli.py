@@ -626,7 +626,7 @@ def hydro(
 
     _outputs({"--png": png}, [berth], force)
     b = load_berth(berth)
-    ship = compile_ship(b, solve=True, progress=not as_json)
+    ship = compile_ship(b, solve=True, progress=not as_json, source=str(berth))
     res = ship_summary(ship, b.environment)
     if png is not None:
         from .plotting import save
@@ -664,7 +664,7 @@ def alarms(
         raise UserError(f"--seeds must be in [1, 100], got {seeds}")
     model = _model(config)
     b = load_berth(berth)
-    ship = compile_ship(b)
+    ship = compile_ship(b, source=str(berth))
     with _progress() as prog:
         task = prog.add_task("mooring analysis", total=1.0)
         res = design_alarms(model, ship, b.environment, settings=DesignSettings(seeds=seeds),

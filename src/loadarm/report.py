@@ -284,7 +284,7 @@ class ReportData:
         from .ship.model import compile_ship
 
         self._progress("the moored ship: hydrodynamics and moorings")
-        return compile_ship(self.berth)
+        return compile_ship(self.berth, source=str(self.berth_file))
 
     @cached_property
     def ship_summary(self):

@@ -473,4 +473,4 @@ def moored_ship(sc: Scenario):
     from ..berth import load_berth
     from ..ship.model import compile_ship
 
-    return compile_ship(load_berth(sc.ship.berth))
+    return compile_ship(load_berth(sc.ship.berth), source=sc.ship.berth)

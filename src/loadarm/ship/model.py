@@ -19,6 +19,7 @@ import numpy as np
 from ..berth import RHO_SEA, Berth
 from . import hydro as _hydro
 from .loads import current_coefficients
+from ..errors import ConfigError
 from .mooring import Moorings, compile_moorings, equilibrium, stiffness
 
 __all__ = ["ShipModel", "compile_ship", "LF_DOFS", "midships_transform"]
@@ -125,7 +126,32 @@ class ShipModel:
         return out
 
 
-def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False) -> ShipModel:
+#: The low-frequency integrator's step, s (two 10 Hz samples: :func:`loadarm.ship.motion._lf_integrate`).
+LF_STEP = 0.2
+#: Largest ``omega * step`` allowed: RK4 is stable on an undamped oscillator up to 2.83; with room.
+LF_STABILITY = 2.0
+
+
+def _check_step(berth: Berth, mo: Moorings, h, source: str) -> None:
+    """Refuse lines or fenders so stiff that the ship's fastest low-frequency motion cannot be integrated at
+    :data:`LF_STEP` (found by reasoning about hostile input: a fender curve rising 100 MN in a millimetre would
+    make the integration blow up into NaN instead of a message)."""
+    m_min = min(h.inertia[0, 0] + h.added_mass[0, 0, 0], h.inertia[1, 1] + h.added_mass[0, 1, 1])
+    k_lines = float(np.sum(mo.ea / mo.l0))
+    slopes = [float(np.max(np.diff(mo.fender_load[j, :n]) / np.diff(mo.fender_defl[j, :n])))
+              for j, n in enumerate(mo.fender_npts)]
+    k_max = k_lines + sum(slopes)
+    limit = m_min * (LF_STABILITY / LF_STEP) ** 2
+    if k_max > limit:
+        j = int(np.argmax(slopes))
+        raise ConfigError(
+            f"{source}: the lines and fenders are too stiff for the motion's {LF_STEP:g} s step: together {k_max:.3g} N/m "
+            f"(lines {k_lines:.3g}, stiffest fender {mo.fender_names[j]!r} {slopes[j]:.3g} N/m) against at most "
+            f"{limit:.3g} N/m for this ship (natural period above {2 * math.pi * LF_STEP / LF_STABILITY:.2f} s); "
+            "check the fender curves' units (N and m) and the lines' axial_stiffness")
+
+
+def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, source: str = "<berth>") -> ShipModel:
     """Compile a berth's design ship.
 
     Parameters
@@ -134,6 +160,8 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False) -
     solve : bool
         Run capytaine when no coefficients are stored (:func:`loadarm.ship.hydro.load_hydro`).
     progress : bool
+    source : str
+        The berth file, for messages.
 
     Returns
     -------
@@ -147,7 +175,11 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False) -
     s = berth.ship
     h = _hydro.load_hydro(_hydro.hydro_spec(s, berth.berth.water_depth), solve=solve, progress=progress)
     mo = compile_moorings(berth)
-    eq0 = equilibrium(mo, np.zeros(3))
+    _check_step(berth, mo, h, source)
+    try:
+        eq0 = equilibrium(mo, np.zeros(3))
+    except ConfigError as exc:
+        raise type(exc)(f"{source}: in calm weather: {exc}") from None
     k0 = stiffness(mo, eq0)
     # berth-frame (x, y, psi) = T (u, v, psi) ship frame; midships = S cog
     t = _rot3(mo.psi0)

@@ -285,3 +285,32 @@ def test_fenders_too_stiff_to_integrate_are_refused_naming_the_file(berth):
     bad = Berth.model_validate(data)
     with pytest.raises(ConfigError, match=r"mine.toml: the lines and fenders are too stiff.*'F1'.*at most"):
         compile_ship(bad, source="mine.toml")
+
+
+@settings(max_examples=100, deadline=None)
+@given(speed=st.floats(0.0, 3.0), direction=st.floats(-math.pi, math.pi), vx=st.floats(-0.5, 0.5),
+       vy=st.floats(-0.5, 0.5), psi=st.floats(-0.02, 0.02))
+def test_the_kernels_current_is_the_vectorised_formula(ship, speed, direction, vx, vy, psi):
+    """The time-domain kernel's scalar current load (on the relative velocity, in the ship frame, turned back
+    to the berth frame) against :func:`loadarm.ship.loads.current_force` on the same relative flow, to 1e-12
+    of the load (the same formula, operations in another order)."""
+    from loadarm.ship.motion import _lf_rhs
+    from loadarm.ship.mooring import restoring_force
+
+    mo = ship.moorings
+    x = ship.eq0 + np.array([0.0, 0.0, psi])
+    cx, cy = speed * math.cos(direction), speed * math.sin(direction)
+    zero = np.zeros((3, 3))
+    a = _lf_rhs(x[0], x[1], x[2], vx, vy, 0.0, 0.0, 0.0, 0.0, np.eye(3), zero, mo.fairlead, mo.height, mo.bollard,
+                mo.ea, mo.l0, mo.alive, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side,
+                mo.psi0, mo.origin, cx, cy, ship.current_kx, ship.current_ky, loads.E_C * ship.length,
+                np.zeros(3), np.zeros(3), np.zeros(len(mo.names)))
+    got = np.array(a) - restoring_force(mo, x)[0]
+    heading = mo.psi0 + psi
+    rx, ry = cx - vx, cy - vy
+    f = loads.current_force(ship.current_kx, ship.current_ky, ship.length, math.hypot(rx, ry),
+                            math.atan2(ry, rx) - heading)
+    c, s = math.cos(heading), math.sin(heading)
+    want = np.array([c * f[0] - s * f[1], s * f[0] + c * f[1], f[2]])
+    scale = ship.current_ky * (speed + 1.0) ** 2 * ship.length
+    assert np.allclose(got, want, rtol=0, atol=1e-12 * scale)

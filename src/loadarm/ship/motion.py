@@ -27,7 +27,7 @@ from scipy.fft import irfft, next_fast_len
 
 from ..berth import Environment
 from ..results import Metric, Result
-from .loads import E_C, jonswap, npd_spectrum, sample_directions, wind_force
+from .loads import E_C, current_force, jonswap, npd_spectrum, sample_directions, wind_force
 from .model import ShipModel
 from .mooring import _restoring
 
@@ -345,10 +345,8 @@ def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
     th_w = math.radians(env.wind_direction_deg) - psi
     f = wind_force(ship.kind, env.wind_speed, th_w, ship.frontal_area, ship.lateral_area, ship.centroid_x,
                    ship.length)
-    th_c = math.radians(env.current_direction_deg) - psi
-    v2 = env.current_speed ** 2
-    gy = ship.current_ky * v2 * math.sin(th_c)
-    f = f + np.array([ship.current_kx * v2 * math.cos(th_c), gy, gy * E_C * ship.length * math.cos(th_c)])
+    f = f + current_force(ship.current_kx, ship.current_ky, ship.length, env.current_speed,
+                          math.radians(env.current_direction_deg) - psi)
     if env.hs > 0:
         w = np.linspace(0.05, 2.5, 246)                     # 0.01 rad/s; the spectra are smooth on it
         th = np.linspace(-math.pi, math.pi, 73)             # 5 deg

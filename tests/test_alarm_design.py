@@ -137,3 +137,13 @@ def test_cli_json_and_refusal(tmp_path):
     assert r.returncode == 2
     last = r.stderr.strip().splitlines()[-1]
     assert "refused" in last and "short by" in last and "Traceback" not in r.stderr
+
+
+def test_one_slew_setting_serves_both_sides_without_alarming_inside_either_allowance(design):
+    """Found in review: the slew settings were the earlier side's, which could put the first alarm inside the
+    other side's drift allowance. Each side's allowance stays below the one first-alarm angle."""
+    rows = [r for r in design.rows if r.coordinate == "slew"]
+    assert len(rows) == 2
+    for r in rows:
+        assert math.degrees(r.floor) <= design.recommended["first_slew_deg"] + 1e-9
+    assert design.recommended["first_slew_deg"] <= min(math.degrees(r.first) for r in rows) + 0.1

@@ -92,6 +92,7 @@ class FaceDesign:
     corner: tuple[float, float, float]
     case: str = ""
     position_shortfall_m: float = 0.0
+    floor: float | None = None
 
     @property
     def short_case(self) -> str:
@@ -384,9 +385,6 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
     def past_face(pts):
         return first_face(face_margins(model, pts[:, 0], pts[:, 1], pts[:, 2]))[0]
 
-    def coord(kind, pts):
-        q = inverse3d(model.arm, pts[..., 0], pts[..., 1], pts[..., 2], check=False)
-        return np.asarray(q.beta if kind == "beta" else q.phi * np.sign(pts[..., 1] - 0.0 + 1e-300), dtype=float)
 
     # the mooring analysis: intact (the berth's environment, and turned towards each horizontal face) and
     # break-out (every line parted, the environment turned towards the face), several seeds each
@@ -444,16 +442,15 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
             avail[ci] = 40.0 if a is None else a
         s_rel, s_sec, s_free, s_lead = (_s_at(tau, s, t) for t in (t_rel, 0.5 * t_rel, t_free, lead1))
         v_rel = float(np.interp(min(t_rel, tau[-1]), tau[1:], np.diff(s) / np.diff(tau)))
-        first = second = release = limit = None
+        first = second = release = limit = floor = None
         if kind is not None:
             sign = float(np.sign(vec[0] + vec[1]))
             limit = lim.beta[1] if kind == "beta" else (lim.phi[1] if sign > 0 else -lim.phi[0])
 
             def ang(pts, kind=kind, sign=sign):
-                if kind == "beta":
-                    return coord("beta", pts)
+                """The guarding coordinate: beta, or the slew signed towards this face."""
                 q = inverse3d(model.arm, pts[..., 0], pts[..., 1], pts[..., 2], check=False)
-                return sign * np.asarray(q.phi, dtype=float)
+                return np.asarray(q.beta if kind == "beta" else sign * q.phi, dtype=float)
 
             # stacked back from the face, corner by corner (Choi et al. 2018): the coupler free (plus the margin)
             # at the face, the release that long before, ESD-1 the valves' closing time before the release and at
@@ -522,17 +519,23 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
                                allow + s_rel, allow + s_free, allow + s_lead, v_rel, kind or "", first, second,
                                release, limit, ok, float(short_floor),
                                tuple(float(v) for v in corners[worst_f]), case,
-                               float(short) if math.isfinite(short) else float("inf")))
+                               float(short) if math.isfinite(short) else float("inf"), floor))
         if how == "breakout":
             curves.append((tau, s))
     rec = {}
     for kind in ("beta", "slew"):
         rs = [r for r in rows if r.coordinate == kind]
-        for stage in ("first", "second", "release"):
-            # the slew alarms are symmetric (+/-): the earlier of the two sides
-            vals = [getattr(r, stage) for r in rs if getattr(r, stage) is not None]
-            rec[f"{stage}_{kind}_deg"] = round(math.degrees(min(vals) if kind == "slew" else max(vals)), 1) \
-                if vals else None
+        if not rs:
+            rec.update({f"{stage}_{kind}_deg": None for stage in ("first", "second", "release")})
+            continue
+        # the slew alarms are one setting for both sides: the earlier side's stages, but the first alarm never
+        # inside either side's allowance
+        floor = max(r.floor for r in rs)
+        first = max(min(r.first for r in rs), floor)
+        release = max(min(r.release for r in rs), first)
+        first, second, release = _round_thresholds(first, 0.5 * (first + release), release, floor)
+        for stage, v in (("first", first), ("second", second), ("release", release)):
+            rec[f"{stage}_{kind}_deg"] = round(math.degrees(v), 1)
     speed, accel = design_drift_fit(curves, lead1 + t_free)
     rec["design_drift_speed_ms"] = speed
     rec["design_drift_acceleration_ms2"] = accel

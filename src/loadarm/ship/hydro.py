@@ -141,7 +141,7 @@ def _body(spec: HydroSpec):
 
 
 def solve_hydro(spec: HydroSpec, *, progress: bool = False):
-    """Run capytaine for a spec (minutes for the default mesh; seconds for a coarse one).
+    """Run capytaine for a spec (about a minute on two cores for the default mesh; seconds for a coarse one).
 
     Parameters
     ----------
@@ -298,7 +298,8 @@ def load_hydro(spec: HydroSpec, *, solve: bool = False, progress: bool = False,
         if not solve:
             raise ConfigError(f"no hydrodynamic coefficients for this ship, loading condition and water depth "
                               f"(key {key}); run `loadarm hydro --berth FILE` once to compute them with capytaine "
-                              f"(a few minutes), they are then cached in {cache_dir()}")
+                              f"(about a minute on two cores for the default mesh); they are then cached in "
+                              f"{cache_dir()}")
         if on_solve is not None:
             on_solve(spec)
         save_hydro(solve_hydro(spec, progress=progress), path)

@@ -117,6 +117,11 @@ class BerthSection(_Section):
                            description="position of the ship's midships along the berth (berth y)")
     deck_height: float = _param(8.0, unit="m", ge=0, le=40, source="example jetty deck above still water",
                                 description="jetty deck above the still-water level (the installation's z = 0)")
+    x_bearing_deg: float = _param(270.0, unit="deg", ge=0, le=360,
+                                  source="example: a berth open to the west (metocean records give compass "
+                                         "directions)",
+                                  description="compass bearing of berth +x (off the berth, towards the sea), "
+                                              "clockwise from true north")
     manifold_tolerance: float = _param(1.5, unit="m", ge=0, le=20,
                                        source="the mooring master places the manifold within about 1-2 m of the "
                                               "arm's centre line (terminal procedure; example)",

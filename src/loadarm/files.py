@@ -181,6 +181,8 @@ def atomic_write(path: str | Path, data: str | bytes) -> Path:
 #: How loadarm's CSV outputs begin (the plan's samples, 2D and 3D).
 _CSV_HEADERS = (b"t_s,x_m,y_m,alpha_deg,", b"t_s,x_m,y_m,z_m,slew_deg,alpha_deg,")
 _PNG = b"\x89PNG\r\n\x1a\n"
+#: The end of the first line of a metocean record loadarm wrote (``# loadarm <version> metocean record``).
+METOCEAN_MARK = b" metocean record"
 #: The HTML report's mark, in its head.
 HTML_MARK = f'<meta name="generator" content="{SIGNATURE}'
 #: The JSON summary's first key.
@@ -212,6 +214,9 @@ def written_by_loadarm(path: str | Path) -> bool:
         return HTML_MARK.encode() in head[:4096]
     if head.startswith(b"{"):
         return head.startswith(JSON_MARK.encode())
+    first = head.split(b"\n", 1)[0]
+    if first.startswith(b"# " + SIGNATURE.encode() + b" ") and first.endswith(METOCEAN_MARK):
+        return True                                   # a metocean record loadarm wrote
     return head.startswith(_CSV_HEADERS)
 
 

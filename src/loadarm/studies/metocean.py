@@ -1,0 +1,389 @@
+"""Metocean records for operability studies (issue 13, item 1): read, validate, generate.
+
+A record is an hourly time series of the sea states a berth sees, as an :class:`xarray.Dataset` on a ``time``
+coordinate (UTC) with self-describing variables (:data:`VARIABLES`): significant wave height, peak period, the
+direction the waves come from and their spreading, the 1-hour mean wind at 10 m and the direction it comes from,
+the current and the direction it goes to, the tide. Directions follow the data's own conventions (meteorological
+"from" for wind and waves, oceanographic "to" for current), clockwise from true north; the berth's
+``[berth] x_bearing_deg`` turns them into the berth frame (:func:`berth_directions`).
+
+* :func:`read_metocean` reads CSV (a ``time`` column in ISO 8601) or NetCDF (also ERA5's short names: ``swh``,
+  ``pp1d``, ``mwd``, ``u10``/``v10``), checks every value against its range, and reports the gaps (missing hours,
+  missing values) in a :class:`GapReport` without filling them: the study skips those hours and says so.
+* :func:`synthetic_metocean` generates a seeded multi-year record with seasons and storms, for demos and tests
+  (no data set can be downloaded here; ``examples/metocean/sample.csv`` is two months of it).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+
+__all__ = ["VARIABLES", "GapReport", "read_metocean", "validate_metocean", "synthetic_metocean",
+           "write_metocean_csv", "berth_directions", "MetoceanError"]
+
+
+class MetoceanError(ConfigError):
+    """A metocean record that cannot be used (one line: the file, the variable, the value, the range)."""
+
+
+#: The record's variables: name -> (unit, lowest, highest, required, description). Ranges are physical bounds for
+#: a berth (a value outside is a unit or sign error, not weather).
+VARIABLES = {
+    "hs_m": ("m", 0.0, 20.0, True, "significant wave height"),
+    "tp_s": ("s", 1.0, 30.0, True, "spectral peak period"),
+    "wave_from_deg": ("deg", 0.0, 360.0, True, "mean direction the waves come from, clockwise from north"),
+    "wave_spreading": ("1", 1.0, 100.0, False, "cos-2s spreading exponent (default 4, wind sea)"),
+    "wind_speed_ms": ("m/s", 0.0, 60.0, True, "1-hour mean wind speed at 10 m"),
+    "wind_from_deg": ("deg", 0.0, 360.0, True, "direction the wind comes from, clockwise from north"),
+    "current_speed_ms": ("m/s", 0.0, 5.0, True, "depth-averaged current speed"),
+    "current_to_deg": ("deg", 0.0, 360.0, True, "direction the current goes to, clockwise from north"),
+    "tide_m": ("m", -10.0, 10.0, True, "water level above mean sea level"),
+}
+#: Default spreading when a record has none.
+DEFAULT_SPREADING = 4.0
+#: ERA5 single-level short names and how they map (u10/v10 are combined into speed and direction).
+ERA5 = {"swh": "hs_m", "pp1d": "tp_s", "mwd": "wave_from_deg"}
+#: Largest file read, bytes (a 30-year hourly CSV is about 25 MB).
+MAX_BYTES = 200 * 1024 ** 2
+
+
+@dataclass(frozen=True)
+class GapReport:
+    """What the record lacks, reported and never filled.
+
+    Attributes
+    ----------
+    hours : int
+        Hours from the first to the last time stamp, inclusive.
+    usable : int
+        Hours with every required value.
+    missing_times : int
+        Hours absent from the time axis.
+    missing_values : dict
+        Variable -> hours present but without that value.
+    longest_gap_h : int
+        Longest run of unusable hours.
+    first_gaps : list of str
+        Up to five gaps as ``start .. end`` (UTC).
+    """
+
+    hours: int
+    usable: int
+    missing_times: int
+    missing_values: dict = field(default_factory=dict)
+    longest_gap_h: int = 0
+    first_gaps: list = field(default_factory=list)
+
+    def summary(self) -> str:
+        """One or two lines for the console.
+
+        Returns
+        -------
+        str
+        """
+        if self.usable == self.hours:
+            return f"{self.hours} hourly states, no gap"
+        text = (f"{self.usable} usable hourly states of {self.hours} ({self.hours - self.usable} skipped: "
+                f"{self.missing_times} hours absent")
+        if self.missing_values:
+            text += ", values missing: " + ", ".join(f"{k} {v} h" for k, v in self.missing_values.items())
+        return text + f"; longest gap {self.longest_gap_h} h: " + "; ".join(self.first_gaps) + ")"
+
+    def to_dict(self) -> dict:
+        """JSON form.
+
+        Returns
+        -------
+        dict
+        """
+        return {"hours": self.hours, "usable_hours": self.usable, "missing_times": self.missing_times,
+                "missing_values": dict(self.missing_values), "longest_gap_h": self.longest_gap_h,
+                "first_gaps": list(self.first_gaps)}
+
+
+def _err(source, var, what) -> MetoceanError:
+    return MetoceanError(f"{source}: {var}: {what}")
+
+
+def validate_metocean(ds, source: str = "<metocean>"):
+    """Check a record and put it on a complete hourly axis (absent hours become NaN, reported as gaps).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        With a ``time`` coordinate and the variables of :data:`VARIABLES`.
+    source : str
+        Name for messages.
+
+    Returns
+    -------
+    ds : xarray.Dataset
+        Hourly, with ``wave_spreading`` (the default where absent), units in each variable's attributes and a
+        boolean ``usable``.
+    gaps : GapReport
+
+    Raises
+    ------
+    MetoceanError
+        A required variable missing, a value out of its range, times not increasing or not on whole hours, fewer
+        than one usable hour.
+    """
+    import pandas as pd
+
+    if "time" not in ds.coords:
+        raise _err(source, "time", "no time axis (a 'time' column or coordinate in UTC is needed)")
+    t = pd.DatetimeIndex(ds["time"].values)
+    if t.size == 0:
+        raise _err(source, "time", "the record is empty")
+    if t.tz is not None:
+        t = t.tz_convert("UTC").tz_localize(None)
+    if not t.is_monotonic_increasing or t.has_duplicates:
+        i = int(np.flatnonzero(np.diff(t.asi8) <= 0)[0]) + 1
+        raise _err(source, "time", f"times must increase, {t[i]} follows {t[i - 1]}")
+    off = t[(t.minute != 0) | (t.second != 0)]
+    if off.size:
+        raise _err(source, "time", f"hourly states on whole hours are needed, got {off[0]}")
+    missing = [v for v, spec in VARIABLES.items() if spec[3] and v not in ds]
+    if missing:
+        raise _err(source, missing[0], f"missing (required: {', '.join(v for v, s in VARIABLES.items() if s[3])})")
+    ds = ds.assign_coords(time=t)
+    if "wave_spreading" not in ds:
+        ds["wave_spreading"] = ("time", np.full(t.size, DEFAULT_SPREADING))
+    for var, (unit, lo, hi, _req, desc) in VARIABLES.items():
+        v = np.asarray(ds[var].values, dtype=float)
+        bad = np.flatnonzero(np.isfinite(v) & ((v < lo) | (v > hi)) | np.isinf(v))
+        if bad.size:
+            k = int(bad[0])
+            raise _err(source, var, f"{float(v[k])!r} {unit} at {t[k]} is outside [{lo:g}, {hi:g}] {unit} ({desc}; "
+                                    f"{bad.size} value(s) out of range)")
+        ds[var] = ("time", v, {"units": unit, "long_name": desc})
+    full = pd.date_range(t[0], t[-1], freq="h")
+    ds = ds[list(VARIABLES)].reindex(time=full)
+    present = np.isin(full.asi8, t.asi8)
+    required = [v for v, s in VARIABLES.items() if s[3]]
+    values = np.stack([np.isfinite(ds[v].values) for v in required])
+    usable = present & values.all(axis=0)
+    if not usable.any():
+        raise _err(source, "time", "no hour has every required value")
+    missing_values = {v: int(np.sum(present & ~values[i])) for i, v in enumerate(required)
+                      if np.any(present & ~values[i])}
+    runs, start = [], None
+    for i, ok in enumerate(np.append(usable, True)):
+        if not ok and start is None:
+            start = i
+        elif ok and start is not None:
+            runs.append((start, i - 1))
+            start = None
+    gaps = GapReport(hours=int(full.size), usable=int(usable.sum()), missing_times=int((~present).sum()),
+                     missing_values=missing_values,
+                     longest_gap_h=max((b - a + 1 for a, b in runs), default=0),
+                     first_gaps=[f"{full[a]:%Y-%m-%d %H:%M} .. {full[b]:%Y-%m-%d %H:%M}" for a, b in runs[:5]])
+    ds["usable"] = ("time", usable)
+    ds.attrs["source"] = source
+    return ds, gaps
+
+
+def _from_era5(ds):
+    import xarray as xr
+
+    ren = {k: v for k, v in ERA5.items() if k in ds and v not in ds}
+    ds = ds.rename(ren)
+    if "u10" in ds and "v10" in ds and "wind_speed_ms" not in ds:
+        u, v = ds["u10"], ds["v10"]
+        ds["wind_speed_ms"] = np.hypot(u, v)
+        # u, v: the wind's components towards east and north; "from" is the opposite bearing
+        ds["wind_from_deg"] = (np.degrees(np.arctan2(-u, -v)) % 360.0)
+    if "valid_time" in ds.coords and "time" not in ds.coords:
+        ds = ds.rename({"valid_time": "time"})
+    # ERA5 extracts are often (time, latitude, longitude) of one point
+    extra = [d for d in ds.dims if d != "time" and ds.sizes[d] == 1]
+    ds = ds.squeeze(extra, drop=True) if extra else ds
+    keep = [v for v in list(VARIABLES) if v in ds]
+    return xr.Dataset({v: ("time", np.asarray(ds[v].values, dtype=float).reshape(-1)) for v in keep},
+                      coords={"time": ds["time"].values})
+
+
+def read_metocean(path: str | Path):
+    """Read and validate a metocean record (CSV or NetCDF).
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.csv`` (columns ``time`` and :data:`VARIABLES`; ``#`` lines are comments) or ``.nc`` (variables of
+        :data:`VARIABLES` or ERA5's ``swh``, ``pp1d``, ``mwd``, ``u10``, ``v10``; current and tide as named here).
+
+    Returns
+    -------
+    ds : xarray.Dataset
+    gaps : GapReport
+
+    Raises
+    ------
+    MetoceanError
+        Unreadable file, unknown format, missing variable, value out of range (one line naming the file).
+    """
+    import pandas as pd
+    import xarray as xr
+
+    p = Path(path)
+    source = str(p)
+    if not p.is_file():
+        raise MetoceanError(f"{source}: no such file")
+    if p.stat().st_size > MAX_BYTES:
+        raise MetoceanError(f"{source}: {p.stat().st_size} bytes, larger than the {MAX_BYTES} bytes a record may be")
+    suffix = p.suffix.lower()
+    try:
+        if suffix == ".csv":
+            df = pd.read_csv(p, comment="#", skipinitialspace=True)
+            if "time" not in df:
+                raise MetoceanError(f"{source}: time: no 'time' column (columns: {', '.join(map(str, df.columns))})")
+            t = pd.to_datetime(df.pop("time"), utc=True, format="ISO8601")
+            unknown = [c for c in df.columns if c not in VARIABLES]
+            if unknown:
+                raise MetoceanError(f"{source}: {unknown[0]}: unknown column (known: time, {', '.join(VARIABLES)})")
+            ds = xr.Dataset({c: ("time", pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float))
+                             for c in df.columns}, coords={"time": t.dt.tz_localize(None).to_numpy()})
+            bad = [c for c in df.columns if df[c].notna().sum() != np.isfinite(ds[c].values).sum()]
+            if bad:
+                col = df[bad[0]]
+                k = int(np.flatnonzero(col.notna() & ~np.isfinite(ds[bad[0]].values))[0])
+                raise MetoceanError(f"{source}: {bad[0]}: {col.iloc[k]!r} at {t.iloc[k]} is not a number")
+        elif suffix in (".nc", ".nc4", ".netcdf"):
+            with xr.open_dataset(p) as raw:
+                ds = _from_era5(raw.load())
+        else:
+            raise MetoceanError(f"{source}: unknown format {suffix!r} (.csv or .nc)")
+    except MetoceanError:
+        raise
+    except (ValueError, OSError, KeyError, TypeError) as exc:
+        raise MetoceanError(f"{source}: cannot read: {' '.join(str(exc).split())}") from None
+    return validate_metocean(ds, source)
+
+
+def write_metocean_csv(ds, path: str | Path) -> Path:
+    """Write a record as CSV (atomically), with a comment header naming the generator and the units.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+    path : str or Path
+
+    Returns
+    -------
+    Path
+    """
+    import pandas as pd
+
+    from .. import __version__
+    from ..files import SIGNATURE, atomic_write
+
+    cols = [v for v in VARIABLES if v in ds]
+    df = pd.DataFrame({v: np.round(ds[v].values, 3) for v in cols})
+    df.insert(0, "time", pd.DatetimeIndex(ds["time"].values).strftime("%Y-%m-%dT%H:%MZ"))
+    head = [f"# {SIGNATURE} {__version__} metocean record"] + [
+        f"# {v}: {VARIABLES[v][0]}, {VARIABLES[v][4]}" for v in cols]
+    return atomic_write(path, "\n".join(head) + "\n" + df.to_csv(index=False))
+
+
+def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00:00") -> "object":
+    """A seeded synthetic record with seasons and storms (for demos and tests, not a hindcast).
+
+    * Hs: a log-normal AR(1) process (hourly correlation 0.98, a day's memory) whose median follows an annual
+      cycle (about 0.45 m in summer to 0.9 m in winter), plus storms (Poisson, about 14 a year, more in winter)
+      that rise and decay over a day or two to peaks of 1.5-4 m;
+    * Tp from the wave steepness of a growing wind sea, ``Tp = 4.4 sqrt(Hs) + 3``, with noise and swell;
+    * wind: fully developed for the sea (Pierson-Moskowitz ``U10 = sqrt(g Hs / 0.21)``) with noise, from a
+      prevailing direction that storms veer;
+    * waves come from the wind's direction give or take 20 deg; spreading 4 (wind sea) to 10 (swell);
+    * current and tide: semi-diurnal (M2, 12.42 h) with the spring-neap modulation of S2 (14.8 days).
+
+    Parameters
+    ----------
+    hours : int
+        Length (8760 for a year).
+    seed : int
+    start : str
+        First hour, UTC.
+
+    Returns
+    -------
+    xarray.Dataset
+        Validated (:func:`validate_metocean`), no gaps.
+    """
+    import pandas as pd
+    import xarray as xr
+
+    if not 1 <= hours <= 30 * 8784:
+        raise ValueError(f"hours must be in [1, {30 * 8784}], got {hours}")
+    rng = np.random.default_rng(seed)
+    t = pd.date_range(pd.Timestamp(start), periods=hours, freq="h")
+    day = (t.dayofyear.to_numpy() - 1) + t.hour.to_numpy() / 24.0
+    season = np.cos(2 * math.pi * (day - 15) / 365.25)          # +1 mid-January, -1 mid-July
+    median = np.exp(np.log(0.65) + 0.35 * season)
+    z = np.empty(hours)
+    z[0] = rng.normal()
+    phi = 0.98
+    noise = rng.normal(size=hours) * math.sqrt(1 - phi ** 2)
+    for i in range(1, hours):
+        z[i] = phi * z[i - 1] + noise[i]
+    hs = median * np.exp(0.45 * z)
+    # storms: Poisson in time with a winter-heavy rate; a smooth rise and decay
+    rate = 14 / 8766 * (1 + 0.6 * season)
+    starts = np.flatnonzero(rng.uniform(size=hours) < rate)
+    storm_dir = np.zeros(hours)
+    for s0 in starts:
+        peak = rng.uniform(1.5, 4.0)
+        width = rng.uniform(8.0, 24.0)
+        k = np.arange(max(0, s0 - 48), min(hours, s0 + 72))
+        bump = peak * np.exp(-0.5 * ((k - s0) / width) ** 2)
+        hs[k] = np.maximum(hs[k], bump)
+        storm_dir[k] = np.where(bump > 0.5, rng.uniform(-60, 60), storm_dir[k])
+    hs = np.clip(hs, 0.05, 19.0)
+    tp = np.clip(4.4 * np.sqrt(hs) + 3.0 + rng.normal(0, 0.6, hours), 2.0, 25.0)
+    wind = np.clip(np.sqrt(9.80665 * hs / 0.21) * rng.lognormal(0.0, 0.15, hours), 0.0, 55.0)
+    wind_from = (250.0 + 30 * np.sin(2 * math.pi * day / 365.25) + storm_dir + rng.normal(0, 15, hours)) % 360
+    wave_from = (wind_from + rng.normal(0, 20, hours)) % 360
+    spreading = np.where(hs > 1.0, 4.0, 10.0)
+    th = np.arange(hours, dtype=float)
+    m2 = 2 * math.pi / 12.42
+    spring = 1 + 0.3 * np.cos(2 * math.pi * th / (14.77 * 24))
+    tide = 1.2 * spring * np.cos(m2 * th)
+    cur = 0.5 * spring * np.abs(np.sin(m2 * th)) + 0.05
+    cur_to = np.where(np.sin(m2 * th) >= 0, 0.0, 180.0)          # flood along the berth one way, ebb the other
+    ds = xr.Dataset({"hs_m": ("time", hs), "tp_s": ("time", tp), "wave_from_deg": ("time", wave_from),
+                     "wave_spreading": ("time", spreading), "wind_speed_ms": ("time", wind),
+                     "wind_from_deg": ("time", wind_from), "current_speed_ms": ("time", cur),
+                     "current_to_deg": ("time", cur_to), "tide_m": ("time", tide)},
+                    coords={"time": t.to_numpy()})
+    ds.attrs["generator"] = f"loadarm.studies.metocean.synthetic_metocean(hours={hours}, seed={seed})"
+    return validate_metocean(ds, "synthetic")[0]
+
+
+def berth_directions(ds, x_bearing_deg: float) -> dict:
+    """The record's directions in the berth frame (the direction each goes to, from berth +x towards +y, deg),
+    as the berth file's ``[environment]`` keys take them.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+    x_bearing_deg : float
+        Compass bearing of berth +x (off the berth, towards the sea), clockwise from north.
+
+    Returns
+    -------
+    dict
+        ``wind_direction_deg``, ``wave_direction_deg``, ``current_direction_deg``: ndarrays in (-180, 180].
+    """
+    def turn(to_bearing):
+        a = x_bearing_deg - np.asarray(to_bearing, dtype=float)      # bearings clockwise, berth angles counter
+        return (a + 180.0) % 360.0 - 180.0
+
+    return {"wind_direction_deg": turn(ds["wind_from_deg"].values + 180.0),
+            "wave_direction_deg": turn(ds["wave_from_deg"].values + 180.0),
+            "current_direction_deg": turn(ds["current_to_deg"].values)}

@@ -1,0 +1,139 @@
+"""Metocean records: read, validate, report gaps (never fill them), generate, turn into the berth frame."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from loadarm.studies.metocean import (VARIABLES, MetoceanError, berth_directions, read_metocean,
+                                      synthetic_metocean, write_metocean_csv)
+
+from .conftest import ROOT
+
+SAMPLE = ROOT / "examples" / "metocean" / "sample.csv"
+HEADER = "time," + ",".join(VARIABLES)
+
+
+def _csv(tmp_path, rows, header=HEADER):
+    p = tmp_path / "m.csv"
+    p.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return p
+
+
+def _row(t, hs=1.0, tp=8.0, wave=250.0, s=4.0, wind=10.0, wfrom=250.0, cur=0.3, cto=0.0, tide=0.5):
+    return f"{t},{hs},{tp},{wave},{s},{wind},{wfrom},{cur},{cto},{tide}"
+
+
+def test_the_shipped_sample_is_the_generator_s_and_reads_back():
+    """examples/metocean/sample.csv: two months of synthetic_metocean(1416, seed=7) from 2025-01-01, exactly
+    (regenerate it with write_metocean_csv if the generator changes)."""
+    ds, gaps = read_metocean(SAMPLE)
+    assert gaps.hours == gaps.usable == 24 * 59 and gaps.summary() == "1416 hourly states, no gap"
+    again = synthetic_metocean(24 * 59, seed=7, start="2025-01-01T00:00")
+    for v in VARIABLES:
+        assert np.allclose(ds[v].values, np.round(again[v].values, 3), atol=5e-4), v
+    from loadarm.files import written_by_loadarm
+
+    assert written_by_loadarm(SAMPLE)
+
+
+def test_gaps_are_reported_not_filled(tmp_path):
+    rows = [_row("2025-03-01T00:00Z"), _row("2025-03-01T01:00Z"), _row("2025-03-01T04:00Z"),
+            _row("2025-03-01T05:00Z", hs="")]
+    ds, gaps = read_metocean(_csv(tmp_path, rows))
+    assert gaps.hours == 6 and gaps.usable == 3 and gaps.missing_times == 2
+    assert gaps.missing_values == {"hs_m": 1} and gaps.longest_gap_h == 2
+    assert gaps.first_gaps == ["2025-03-01 02:00 .. 2025-03-01 03:00", "2025-03-01 05:00 .. 2025-03-01 05:00"]
+    assert np.isnan(ds["hs_m"].values[2]) and list(ds["usable"].values) == [True, True, False, False, True, False]
+    assert "3 usable hourly states of 6" in gaps.summary()
+
+
+@pytest.mark.parametrize("rows, match", [
+    ([_row("2025-03-01T00:00Z", hs=25.0)], r"m\.csv: hs_m: 25\.0 m at 2025-03-01 00:00:00 is outside \[0, 20\] m"),
+    ([_row("2025-03-01T00:00Z", wfrom=-10.0)], r"wind_from_deg: -10\.0 deg .* outside \[0, 360\]"),
+    ([_row("2025-03-01T01:00Z"), _row("2025-03-01T00:00Z")], r"time: times must increase"),
+    ([_row("2025-03-01T00:30Z")], r"time: hourly states on whole hours"),
+    ([_row("2025-03-01T00:00Z", tp="abc")], r"tp_s: 'abc' at .* is not a number"),
+    ([_row("2025-03-01T00:00Z", hs="")], r"time: no hour has every required value"),
+])
+def test_bad_values_are_refused_in_one_line(tmp_path, rows, match):
+    with pytest.raises(MetoceanError, match=match) as info:
+        read_metocean(_csv(tmp_path, rows))
+    assert "\n" not in str(info.value)
+
+
+def test_bad_files_are_refused(tmp_path):
+    with pytest.raises(MetoceanError, match="no such file"):
+        read_metocean(tmp_path / "none.csv")
+    with pytest.raises(MetoceanError, match=r"unknown column \(known"):
+        read_metocean(_csv(tmp_path, ["2025-01-01T00:00Z,1"], header="time,swh"))
+    with pytest.raises(MetoceanError, match="tp_s: missing"):
+        read_metocean(_csv(tmp_path, ["2025-01-01T00:00Z,1"], header="time,hs_m"))
+    p = tmp_path / "m.txt"
+    p.write_text("x")
+    with pytest.raises(MetoceanError, match="unknown format"):
+        read_metocean(p)
+
+
+def test_era5_names_in_netcdf(tmp_path):
+    """An ERA5 point extract (swh, pp1d, mwd, u10, v10 on (valid_time, latitude, longitude)) plus current and
+    tide columns reads as the record; u10 = v10 = -5 is a wind from the north-east (45 deg)."""
+    import pandas as pd
+    import xarray as xr
+
+    t = pd.date_range("2025-01-01", periods=3, freq="h")
+    one = lambda v: (("valid_time", "latitude", "longitude"), np.full((3, 1, 1), v))  # noqa: E731
+    ds = xr.Dataset({"swh": one(1.2), "pp1d": one(9.0), "mwd": one(270.0), "u10": one(-5.0), "v10": one(-5.0),
+                     "current_speed_ms": one(0.2), "current_to_deg": one(10.0), "tide_m": one(0.1)},
+                    coords={"valid_time": t, "latitude": [51.0], "longitude": [3.0]})
+    p = tmp_path / "era5.nc"
+    ds.to_netcdf(p)
+    rec, gaps = read_metocean(p)
+    assert gaps.usable == 3
+    assert rec["hs_m"].values[0] == pytest.approx(1.2)
+    assert rec["wind_speed_ms"].values[0] == pytest.approx(math.sqrt(50))
+    assert rec["wind_from_deg"].values[0] == pytest.approx(45.0)
+    assert rec["wave_spreading"].values[0] == 4.0
+
+
+def test_synthetic_year_has_seasons_and_storms():
+    ds = synthetic_metocean(8760, seed=1)
+    import pandas as pd
+
+    hs = pd.Series(ds["hs_m"].values, index=pd.DatetimeIndex(ds["time"].values))
+    monthly = hs.resample("MS").mean()
+    winter, summer = monthly.iloc[[0, 1, 11]].mean(), monthly.iloc[5:8].mean()
+    assert winter > 1.3 * summer
+    assert 0.4 < np.median(hs) < 1.0 and hs.max() > 2.5
+    assert synthetic_metocean(100, seed=3).equals(synthetic_metocean(100, seed=3))
+
+
+@settings(max_examples=60, deadline=None)
+@given(bearing=st.floats(0, 360), wind_from=st.floats(0, 360))
+def test_berth_directions_turn_compass_into_the_berth_frame(bearing, wind_from):
+    """Second route: unit vectors. A wind from compass bearing f goes towards f + 180; berth +x points to
+    `bearing`, berth +y 90 deg anticlockwise of it (bearing - 90)."""
+    import xarray as xr
+
+    ds = xr.Dataset({"wind_from_deg": ("time", [wind_from]), "wave_from_deg": ("time", [wind_from]),
+                     "current_to_deg": ("time", [wind_from])}, coords={"time": [0]})
+    ang = math.radians(float(berth_directions(ds, bearing)["wind_direction_deg"][0]))
+    to = math.radians(wind_from + 180.0)
+    east_north = np.array([math.sin(to), math.cos(to)])                 # the wind's heading, (east, north)
+    x = np.array([math.sin(math.radians(bearing)), math.cos(math.radians(bearing))])
+    y = np.array([math.sin(math.radians(bearing - 90)), math.cos(math.radians(bearing - 90))])
+    assert math.cos(ang) == pytest.approx(east_north @ x, abs=1e-9)
+    assert math.sin(ang) == pytest.approx(east_north @ y, abs=1e-9)
+
+
+def test_written_record_reads_back(tmp_path):
+    ds = synthetic_metocean(48, seed=2)
+    p = write_metocean_csv(ds, tmp_path / "r.csv")
+    back, gaps = read_metocean(p)
+    assert gaps.usable == 48
+    for v in VARIABLES:
+        assert np.allclose(back[v].values, ds[v].values, atol=5e-4)

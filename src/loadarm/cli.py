@@ -696,6 +696,55 @@ def alarms(
 
 
 @app.command()
+def operability(
+    config: ConfigOpt,
+    berth: BerthOpt,
+    metocean: Annotated[Path, typer.Option("--metocean", "-m", help="Metocean record, CSV or NetCDF (see "
+                                                                    "examples/metocean/).")],
+    hours: Annotated[Optional[int], typer.Option("--hours", help="Only the first N usable hours.")] = None,
+    duration_per_state: Annotated[float, typer.Option("--duration-per-state", help="Seconds simulated per "
+                                                                                   "hourly state.")] = 3600.0,
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="A running Dask scheduler "
+                                                                         "(tcp://HOST:8786); default a local "
+                                                                         "cluster.")] = None,
+    workers: Annotated[Optional[int], typer.Option("--workers", help="Local cluster workers (default: every "
+                                                                     "core).")] = None,
+    chunks: Annotated[int, typer.Option("--chunks", help="Dask tasks the record is cut into.")] = 100,
+    out_file: Annotated[Path, typer.Option("--out", help="Per-state results (Parquet); chunks kept beside it "
+                                                         "for resuming.")] = Path("operability.parquet"),
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Figure: monthly downtime, Hs-Tp map, the worst "
+                                                              "week.")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """Operability of this arm at this berth over a metocean record, on Dask: per hourly sea state the moored
+    ship's motion and the connected-mode monitoring; downtime, events per stage, breakdowns by month, year, Hs,
+    Tp and wind. A stopped run resumes from the chunks already written.
+
+    Example: loadarm operability --config examples/paper.toml --berth examples/berths/lng150k.toml --metocean examples/metocean/sample.csv --hours 48 --duration-per-state 600
+    """
+    from .studies.operability import OperabilitySettings, run_operability
+
+    _outputs({"--png": png, "--out": out_file}, [config, berth, metocean], force)
+    if workers is not None and workers < 1:
+        raise UserError(f"--workers must be at least 1, got {workers}")
+    if not 1 <= chunks <= 10000:
+        raise UserError(f"--chunks must be in [1, 10000], got {chunks}")
+    settings = OperabilitySettings(duration_per_state=duration_per_state, chunks=chunks)
+    res = run_operability(config, berth, metocean, out_file, hours=hours, settings=settings, scheduler=scheduler,
+                          workers=workers, progress=not as_json)
+    if png is not None:
+        from .plotting import save
+
+        save(res.plot(), png)
+    if as_json:
+        _json(res.to_dict())
+    else:
+        out.print(str(res.summary()))
+        out.print(f"per-state results: {out_file}")
+
+
+@app.command()
 def campaign(
     scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML (see examples/scenarios/).")],
     seeds: Annotated[int, typer.Option("--seeds", "-n", help="Number of runs (seeds 0..N-1).")] = 100,

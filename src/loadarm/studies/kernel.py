@@ -1,0 +1,279 @@
+"""The batched operability kernel (issue 13, item 3): the connected-mode monitoring of many sea states, without
+the closed loop.
+
+For one sea state the moored ship's flange moves (:func:`loadarm.ship.motion.simulate`, the same motion a
+``loadarm run`` of that state sees); while connected the coupler follows it, so the arm's joints are the inverse
+kinematics of the flange, vectorised over the whole record. The monitor's two alarm criteria are evaluated on
+every sample at once:
+
+* **position**: the customer's beta and slew angles (:func:`loadarm.alarms.beta_severity`, ``slew_severity``);
+* **design drift** (the floor of :class:`loadarm.guidance.monitor.EnvelopeMonitor`): the time a break-out from
+  the flange's position at the design acceleration up to the design speed, along the monitor's eight horizontal
+  directions, or the design vertical speed up and down, takes to reach a face. It depends on the position only,
+  so it is tabulated once per installation over the region the flange can reach (:class:`FloorTable`: the ray
+  distance to the first face along each direction, bisected to 1 mm, on a 0.2 m grid) and interpolated.
+
+A compiled scan (numba) then runs the alarm sequence over the record: ESD-1 at the first sample whose stage is at
+least ESD-1, the ERS valves closed ``ers_valve_time`` later, the leads of the later stages shrinking as the
+sequence runs (:func:`loadarm.guidance.monitor.stage_leads`), the release at the first sample after the valves
+closed whose stage is RELEASE. The monitor's measured-drift route (the 60 s drift fit and its velocity-step test)
+is not evaluated here: in a sea state with intact moorings the design-drift floor and the angles are what raise
+the alarms (the 100-seed Hs 1.5 m campaign measured no alarm at all); a break-out is the safety campaigns'.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..alarms import Severity, beta_severity, slew_severity
+from ..check import esd_lead
+from ..faces import breakout_distance, face_margins, first_face
+from ..slew import inverse3d
+
+__all__ = ["FloorTable", "floor_table", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS"]
+
+#: The monitor's horizontal directions (every 45 deg) and the vertical two.
+N_DIRECTIONS = 10
+_ANG = np.arange(8) * (math.pi / 4)
+_DIRS = np.concatenate([np.stack([np.cos(_ANG), np.sin(_ANG), np.zeros(8)], axis=1),
+                        np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])])
+
+
+def breakout_time(distance, speed: float, accel: float) -> np.ndarray:
+    """Time a break-out from rest at ``accel`` up to ``speed`` takes to cover ``distance`` (the inverse of
+    :func:`loadarm.faces.breakout_distance`).
+
+    Parameters
+    ----------
+    distance : array_like
+        m (>= 0; ``inf`` gives ``inf``).
+    speed, accel : float
+        m/s, m/s^2 (> 0).
+
+    Returns
+    -------
+    ndarray
+        s.
+    """
+    d = np.asarray(distance, dtype=float)
+    knee = speed * speed / (2 * accel)
+    return np.where(d <= knee, np.sqrt(2 * np.maximum(d, 0.0) / accel), d / speed + speed / (2 * accel))
+
+
+@dataclass(frozen=True)
+class FloorTable:
+    """Ray distances from grid points to the first face along each of :data:`N_DIRECTIONS` directions, m.
+
+    Attributes
+    ----------
+    origin : ndarray (3,)
+    spacing : float
+    dist : ndarray (nx, ny, nz, 10)
+        Capped at ``cap`` (horizontal) and ``cap_v`` (vertical); 0 at a point outside the envelope.
+    cap, cap_v : float
+    """
+
+    origin: np.ndarray
+    spacing: float
+    dist: np.ndarray
+    cap: float
+    cap_v: float
+
+    def contains(self, p: np.ndarray) -> bool:
+        """Whether every point lies inside the tabulated region.
+
+        Parameters
+        ----------
+        p : ndarray (n, 3)
+
+        Returns
+        -------
+        bool
+        """
+        hi = self.origin + self.spacing * (np.array(self.dist.shape[:3]) - 1)
+        return bool(np.all(p >= self.origin - 1e-9) and np.all(p <= hi + 1e-9))
+
+    def horizontal_vertical(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The least horizontal ray distance and the least vertical one at points (trilinear).
+
+        Parameters
+        ----------
+        p : ndarray (n, 3)
+
+        Returns
+        -------
+        horizontal, vertical : ndarray (n,)
+        """
+        from scipy.ndimage import map_coordinates
+
+        idx = ((p - self.origin) / self.spacing).T
+        h = map_coordinates(self._h, idx, order=1, mode="nearest")
+        v = map_coordinates(self._v, idx, order=1, mode="nearest")
+        return h, v
+
+    @property
+    def _h(self):
+        return self.dist[..., :8].min(axis=-1)
+
+    @property
+    def _v(self):
+        return self.dist[..., 8:].min(axis=-1)
+
+
+def floor_table(model, lo, hi, *, spacing: float = 0.2) -> FloorTable:
+    """Tabulate the ray distances to the faces over a box (march at 0.25 m, then bisect to 1 mm).
+
+    Parameters
+    ----------
+    model : ArmModel
+    lo, hi : array_like (3,)
+        Corners of the box, installation frame, m.
+    spacing : float
+        Grid spacing, m.
+
+    Returns
+    -------
+    FloorTable
+    """
+    seq, dd = model.sequence, model.design_drift
+    lead = esd_lead(seq) + max(seq.pre_alarm_lead, 0.0) + seq.margin
+    cap = float(breakout_distance(lead, dd.speed, dd.acceleration)) + 0.5
+    cap_v = dd.vertical_speed * lead + 0.5
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+    n = np.maximum(np.ceil((hi - lo) / spacing).astype(int) + 1, 2)
+    axes = [lo[i] + spacing * np.arange(n[i]) for i in range(3)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+
+    def outside(pts):
+        return first_face(face_margins(model, pts[..., 0], pts[..., 1], pts[..., 2]))[0]
+
+    dist = np.empty((grid.shape[0], N_DIRECTIONS))
+    inside0 = ~outside(grid)
+    for j, d in enumerate(_DIRS):
+        c = cap if j < 8 else cap_v
+        steps = np.arange(0.0, c + 0.25, 0.25)
+        out = outside(grid[:, None, :] + steps[None, :, None] * d)            # (N, S)
+        hit = out.any(axis=1)
+        first = np.where(hit, out.argmax(axis=1), steps.size - 1)
+        a = steps[np.maximum(first - 1, 0)]
+        b = steps[first]
+        for _ in range(8):                                                   # 0.25 m / 2^8 = 1 mm
+            mid = 0.5 * (a + b)
+            o = outside(grid + mid[:, None] * d)
+            b = np.where(hit & o, mid, b)
+            a = np.where(hit & ~o, mid, a)
+        dist[:, j] = np.where(hit, b, c)
+        dist[~inside0, j] = 0.0
+    return FloorTable(lo, spacing, dist.reshape(*n, N_DIRECTIONS), cap, cap_v)
+
+
+@njit(cache=True, nogil=True)
+def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1):
+    """The alarm sequence over one record: returns (stage reached, i_esd1, i_release, min time-to-limit)."""
+    n = level.shape[0]
+    raised = 0
+    i_esd = -1
+    i_rel = -1
+    ttl_min = np.inf
+    for i in range(n):
+        t = i * dt
+        if ttl[i] < ttl_min:
+            ttl_min = ttl[i]
+        lv = level[i]
+        # the leads of the stages, shrinking once ESD-1 runs (valves closing)
+        if i_esd >= 0:
+            valves_left = max(i_esd * dt + ers_valve_time - t, 0.0)
+        else:
+            valves_left = ers_valve_time
+        rel_lead = valves_left + erc_release_time + margin
+        sec_lead = rel_lead + margin
+        esd_lead_now = max(lead_esd1, sec_lead)
+        tt = ttl[i]
+        if tt <= rel_lead:
+            lv = max(lv, 4)
+        elif tt <= sec_lead:
+            lv = max(lv, 3)
+        elif tt <= esd_lead_now:
+            lv = max(lv, 2)
+        if lv > raised:
+            raised = lv
+        if raised >= 2 and i_esd < 0:
+            i_esd = i
+        if raised >= 4 and i_rel < 0 and i_esd >= 0 and t >= i_esd * dt + ers_valve_time - 1e-9:
+            i_rel = i
+    return raised, i_esd, i_rel, ttl_min
+
+
+@dataclass(frozen=True)
+class RecordMonitor:
+    """What the connected-mode monitoring of one record found.
+
+    Attributes
+    ----------
+    stage : int
+        Most severe alarm stage (:class:`loadarm.alarms.Severity`).
+    esd1_s, release_s : float
+        When ESD-1 and the release fired (NaN: never).
+    max_beta_deg, max_slew_deg : float
+        Largest elbow angle and absolute slew.
+    z_range_m : float
+        Vertical excursion of the flange (max - min).
+    min_time_to_limit_s : float
+        Least design-drift time to a face (inf: none within the longest lead).
+    outside : bool
+        The flange left the envelope (the arm would be overstretched).
+    """
+
+    stage: int
+    esd1_s: float
+    release_s: float
+    max_beta_deg: float
+    max_slew_deg: float
+    z_range_m: float
+    min_time_to_limit_s: float
+    outside: bool
+
+
+def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> RecordMonitor:
+    """Run the connected-mode monitoring over one flange record.
+
+    Parameters
+    ----------
+    model : ArmModel
+    table : FloorTable
+        Covering every position of ``p`` (:meth:`FloorTable.contains`).
+    p : ndarray (n, 3)
+        Flange positions, installation frame, m, ``dt`` apart.
+    dt : float
+        s.
+
+    Returns
+    -------
+    RecordMonitor
+
+    Raises
+    ------
+    ValueError
+        A position outside the table.
+    """
+    if not table.contains(p):
+        raise ValueError("flange positions outside the design-drift table: widen its box")
+    q = inverse3d(model.arm, p[:, 0], p[:, 1], p[:, 2], check=False)
+    beta, phi = np.asarray(q.beta, dtype=float), np.asarray(q.phi, dtype=float)
+    pos = np.maximum(beta_severity(beta, model.alarms), slew_severity(phi, model.slew))
+    outside = bool(first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2]))[0].any())
+    pos = np.where(pos < 0, int(Severity.RELEASE), pos)               # unreachable: as severe as it gets
+    h, v = table.horizontal_vertical(p)
+    dd = model.design_drift
+    ttl = np.minimum(np.where(h >= table.cap - 1e-9, np.inf, breakout_time(h, dd.speed, dd.acceleration)),
+                     np.where(v >= table.cap_v - 1e-9, np.inf, v / dd.vertical_speed))
+    seq = model.sequence
+    stage, i1, ir, tmin = _scan(pos.astype(np.int64), ttl, dt, seq.ers_valve_time, seq.erc_release_time,
+                                seq.margin, esd_lead(seq))
+    return RecordMonitor(int(stage), i1 * dt if i1 >= 0 else math.nan, ir * dt if ir >= 0 else math.nan,
+                         float(np.degrees(np.nanmax(beta))), float(np.degrees(np.nanmax(np.abs(phi)))),
+                         float(np.ptp(p[:, 2])), float(tmin), outside)

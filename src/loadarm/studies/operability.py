@@ -1,0 +1,359 @@
+"""Operability over a metocean record, on Dask (issue 13): how many hours the arm can stay connected at this berth,
+how often ESD-1 and the release fire, and which weather causes it.
+
+Every usable hour of the record (:mod:`loadarm.studies.metocean`) is one sea state: the berth's design ship in
+that hour's wind, current, waves and tide (:func:`state_environment`), its flange's motion for
+``duration_per_state`` seconds (:func:`loadarm.ship.motion.simulate`, seeded per hour), and the connected-mode
+monitoring of it (:func:`loadarm.studies.kernel.monitor_record`). The hours are cut into chunks (50-200 tasks,
+many states each: a Dask task costs about 2 ms to schedule), each chunk runs on a worker and writes its rows to
+``<out>.chunks/chunk-NNNNN.parquet`` as soon as it is done, so a run that stops (a killed worker, a killed
+client) resumes from the chunks already written; the rows are then gathered into one Parquet file.
+
+A state is **down** (not operable) when the arm could not connect (the flange's significant motion above
+``connect_motion_limit``) or, connected, the monitoring reached ESD-1 or worse.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ConfigError
+from ..results import Metric, Result
+
+__all__ = ["OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
+           "plan_chunks", "COLUMNS"]
+
+#: Result columns, one row per state (units in the names).
+COLUMNS = ("time", "hs_m", "tp_s", "wind_speed_ms", "current_speed_ms", "tide_m", "stage", "esd1_s", "release_s",
+           "max_beta_deg", "max_slew_deg", "z_range_m", "min_time_to_limit_s", "flange_motion_m", "connectable",
+           "outside", "down")
+
+
+@dataclass(frozen=True)
+class OperabilitySettings:
+    """How each sea state is simulated and judged.
+
+    Attributes
+    ----------
+    duration_per_state : float
+        Seconds simulated per hourly state (3600: the whole hour).
+    connect_motion_limit : float
+        Largest significant flange motion (4 standard deviations of the first-order motion, the worst axis) at
+        which the arm can still connect, m (the coupler's capture range with the guidance's tracking; about an
+        Hs of 2.5-3 m for the example ship).
+    seed : int
+        Base of the per-hour seeds (hour index + seed).
+    chunks : int
+        Tasks the record is cut into (50-200 for a year; fewer for short records).
+    """
+
+    duration_per_state: float = 3600.0
+    connect_motion_limit: float = 1.0
+    seed: int = 0
+    chunks: int = 100
+
+    def __post_init__(self):
+        if not (10.0 <= self.duration_per_state <= 3600.0):
+            raise ConfigError(f"--duration-per-state must be in [10, 3600] s, got {self.duration_per_state:g}")
+        if not self.connect_motion_limit > 0:
+            raise ConfigError(f"connect_motion_limit must be > 0 m, got {self.connect_motion_limit:g}")
+
+
+def state_environment(base, row: dict, x_bearing_deg: float):
+    """The berth environment of one hour of the record.
+
+    Parameters
+    ----------
+    base : Environment
+        The berth file's (its keys not in the record, none today, stay).
+    row : dict
+        One hour: the record's variables.
+    x_bearing_deg : float
+
+    Returns
+    -------
+    Environment
+    """
+    def turn(to_bearing):
+        return (x_bearing_deg - to_bearing + 180.0) % 360.0 - 180.0
+
+    return base.model_copy(update={
+        "hs": float(row["hs_m"]), "tp": float(row["tp_s"]), "spreading": float(row["wave_spreading"]),
+        "wave_direction_deg": turn(float(row["wave_from_deg"]) + 180.0),
+        "wind_speed": float(row["wind_speed_ms"]), "wind_direction_deg": turn(float(row["wind_from_deg"]) + 180.0),
+        "current_speed": float(row["current_speed_ms"]),
+        "current_direction_deg": turn(float(row["current_to_deg"]))})
+
+
+def run_states(model, ship, table, rows: list[dict], settings: OperabilitySettings, x_bearing_deg: float,
+               base_env) -> list[dict]:
+    """Simulate and monitor a batch of hourly states (one Dask task).
+
+    Parameters
+    ----------
+    model : ArmModel
+    ship : ShipModel
+    table : FloorTable
+    rows : list of dict
+        Hours of the record (with ``index``, ``time`` and the variables).
+    settings : OperabilitySettings
+    x_bearing_deg : float
+    base_env : Environment
+
+    Returns
+    -------
+    list of dict
+        One row per state (:data:`COLUMNS`).
+    """
+    from ..ship.motion import DT, simulate
+    from .kernel import monitor_record
+
+    fx, fz = model.approach.flange
+    out = []
+    for row in rows:
+        env = state_environment(base_env, row, x_bearing_deg)
+        m = simulate(ship, env, settings.duration_per_state, seed=settings.seed + int(row["index"]))
+        p = np.array([fx, 0.0, fz + float(row["tide_m"])]) + (m.flange - m.flange_reference)
+        r = monitor_record(model, table, p, DT)
+        motion = 4.0 * float(np.max(np.std(m.flange - np.mean(m.flange, axis=0), axis=0)))
+        connectable = motion <= settings.connect_motion_limit
+        out.append({"time": row["time"], "hs_m": row["hs_m"], "tp_s": row["tp_s"],
+                    "wind_speed_ms": row["wind_speed_ms"], "current_speed_ms": row["current_speed_ms"],
+                    "tide_m": row["tide_m"], "stage": r.stage, "esd1_s": r.esd1_s, "release_s": r.release_s,
+                    "max_beta_deg": r.max_beta_deg, "max_slew_deg": r.max_slew_deg, "z_range_m": r.z_range_m,
+                    "min_time_to_limit_s": r.min_time_to_limit_s, "flange_motion_m": motion,
+                    "connectable": connectable, "outside": r.outside,
+                    "down": (not connectable) or r.stage >= 2})
+    return out
+
+
+def plan_chunks(n: int, chunks: int) -> list[tuple[int, int]]:
+    """Cut ``n`` states into at most ``chunks`` contiguous ranges of nearly equal size.
+
+    Parameters
+    ----------
+    n, chunks : int
+
+    Returns
+    -------
+    list of (start, stop)
+    """
+    k = max(1, min(chunks, n))
+    edges = np.linspace(0, n, k + 1).round().astype(int)
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
+# --------------------------------------------------------------------------- worker side
+
+_WORKER_CACHE: dict = {}
+
+
+def _worker_setup(config: str, berth: str, box: tuple):
+    """Per worker process, once: the compiled installation, ship and design-drift table (kept between tasks)."""
+    key = (config, berth, box)
+    if key not in _WORKER_CACHE:
+        from ..berth import load_berth
+        from ..compiler import compile_model
+        from ..config import load_config
+        from ..ship.model import compile_ship
+        from .kernel import floor_table
+
+        model = compile_model(load_config(config), source=config)
+        b = load_berth(berth)
+        ship = compile_ship(b, source=berth)
+        table = floor_table(model, box[0], box[1])
+        _WORKER_CACHE.clear()
+        _WORKER_CACHE[key] = (model, ship, table, b)
+    return _WORKER_CACHE[key]
+
+
+def _chunk_task(config: str, berth: str, box: tuple, rows: list[dict], settings: OperabilitySettings,
+                path: str) -> str:
+    """A Dask task: run the chunk's states and write them to ``path`` (atomically); return the path."""
+    import pandas as pd
+
+    for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+    model, ship, table, b = _worker_setup(config, berth, box)
+    res = run_states(model, ship, table, rows, settings, b.berth.x_bearing_deg, b.environment)
+    df = pd.DataFrame(res, columns=list(COLUMNS))
+    tmp = Path(path).with_suffix(".tmp")
+    df.to_parquet(tmp, index=False)
+    os.replace(tmp, path)
+    return path
+
+
+# --------------------------------------------------------------------------- result
+
+
+@dataclass(frozen=True)
+class OperabilityResult(Result):
+    """The operability of an arm at a berth over a metocean record."""
+
+    table: object = field(repr=False)          # pandas.DataFrame, one row per state
+    gaps: dict = field(default_factory=dict)
+    wall_s: float = math.nan
+    workers: int = 0
+
+    METRICS = (
+        Metric("states", "sea states", "", "d"),
+        Metric("downtime_fraction", "downtime", "", ".4f"),
+        Metric("operable_h", "hours operable", "h", ".0f"),
+        Metric("not_connectable_h", "hours the arm could not connect", "h", ".0f"),
+        Metric("esd1_per_year", "ESD-1 per year", "", ".1f"),
+        Metric("releases_per_year", "releases per year", "", ".1f"),
+        Metric("max_beta_deg", "largest beta", "deg", ".1f"),
+        Metric("wall_s", "wall time", "s", ".1f"),
+    )
+
+    def _values(self) -> dict:
+        df = self.table
+        n = len(df)
+        years = max(n / 8766.0, 1e-9)
+        return {"states": n, "downtime_fraction": float(df["down"].mean()) if n else math.nan,
+                "operable_h": int((~df["down"]).sum()), "not_connectable_h": int((~df["connectable"]).sum()),
+                "esd1_per_year": float((df["stage"] >= 2).sum() / years),
+                "releases_per_year": float(df["release_s"].notna().sum() / years),
+                "max_beta_deg": float(df["max_beta_deg"].max()) if n else math.nan, "wall_s": self.wall_s}
+
+    def to_dict(self) -> dict:
+        """Headline numbers and the breakdowns (per month, per year, per stage, over Hs and Tp, over wind).
+
+        Returns
+        -------
+        dict
+        """
+        import pandas as pd
+
+        df = self.table.copy()
+        t = pd.DatetimeIndex(df["time"])
+        df.index = t
+        by_month = df["down"].groupby(t.to_period("M")).mean()
+        by_year = df["down"].groupby(t.year).mean()
+        stages = {Severity_label(s): int((df["stage"] == s).sum()) for s in sorted(df["stage"].unique())}
+        hs_bins = [0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 20.0]
+        tp_bins = [0, 6, 8, 10, 12, 30]
+        grid = df.groupby([pd.cut(df["hs_m"], hs_bins), pd.cut(df["tp_s"], tp_bins)], observed=True)["down"]
+        wind = df.groupby(pd.cut(df["wind_speed_ms"], [0, 5, 10, 15, 20, 25, 60]), observed=True)["down"]
+        return {**self._values(), "gaps": dict(self.gaps), "workers": self.workers,
+                "downtime_by_month": {str(k): float(v) for k, v in by_month.items()},
+                "downtime_by_year": {str(k): float(v) for k, v in by_year.items()},
+                "states_by_stage": stages,
+                "downtime_by_hs_tp": [{"hs_m": str(a), "tp_s": str(b), "downtime_fraction": float(v),
+                                       "states": int(c)} for ((a, b), v), c in zip(grid.mean().items(),
+                                                                                   grid.size().values)],
+                "downtime_by_wind": [{"wind_speed_ms": str(k), "downtime_fraction": float(v)}
+                                     for k, v in wind.mean().items()]}
+
+    def _figure(self):
+        from ..plotting import operability_figure
+
+        return operability_figure(self)
+
+
+def Severity_label(s) -> str:  # noqa: N802 - a tiny helper named after the type it labels
+    from ..alarms import Severity
+
+    return Severity(int(s)).label
+
+
+def _box(model, tide_lo: float, tide_hi: float):
+    fx, fz = model.approach.flange
+    margin = 2.5
+    return ((fx - margin, -margin, fz + tide_lo - margin), (fx + margin, margin, fz + tide_hi + margin))
+
+
+def run_operability(config: str | Path, berth: str | Path, metocean: str | Path, out: str | Path, *,
+                    hours: int | None = None, settings: OperabilitySettings = OperabilitySettings(),
+                    scheduler: str | None = None, workers: int | None = None, progress: bool = False):
+    """Run a record on Dask and gather the result (resuming from chunks already written).
+
+    Parameters
+    ----------
+    config, berth, metocean : path
+        Installation, berth file, metocean record.
+    out : path
+        Parquet file of the per-state rows; its chunks go to ``<out>.chunks/``.
+    hours : int, optional
+        Only the first ``hours`` usable states.
+    settings : OperabilitySettings
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``); default a ``LocalCluster`` on this machine
+        (one single-threaded worker process per core, dashboard off, loopback).
+    workers : int, optional
+        Workers of the local cluster (default: every core).
+    progress : bool
+        Dask's progress bar on stderr.
+
+    Returns
+    -------
+    OperabilityResult
+    """
+    import time
+
+    import pandas as pd
+
+    from .metocean import read_metocean
+
+    ds, gaps = read_metocean(metocean)
+    use = np.flatnonzero(ds["usable"].values)
+    if hours is not None:
+        if hours < 1:
+            raise ConfigError(f"--hours must be at least 1, got {hours}")
+        use = use[:hours]
+    names = ["hs_m", "tp_s", "wave_from_deg", "wave_spreading", "wind_speed_ms", "wind_from_deg",
+             "current_speed_ms", "current_to_deg", "tide_m"]
+    values = {k: ds[k].values[use] for k in names}
+    times = pd.DatetimeIndex(ds["time"].values[use])
+    rows = [{"index": int(i), "time": times[j], **{k: float(values[k][j]) for k in names}}
+            for j, i in enumerate(use)]
+    from ..compiler import compile_model
+    from ..config import load_config
+
+    model = compile_model(load_config(config), source=str(config))
+    box = _box(model, float(np.min(values["tide_m"])), float(np.max(values["tide_m"])))
+    out = Path(out)
+    chunk_dir = out.with_name(out.name + ".chunks")
+    chunk_dir.mkdir(parents=True, exist_ok=True)
+    plan = plan_chunks(len(rows), settings.chunks)
+    todo = [(k, a, b) for k, (a, b) in enumerate(plan) if not (chunk_dir / f"chunk-{k:05d}.parquet").is_file()]
+    t0 = time.perf_counter()
+    n_workers = 0
+    if todo:
+        from distributed import Client, LocalCluster, progress as dask_progress
+
+        for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+            os.environ.setdefault(var, "1")           # inherited by the local cluster's worker processes
+        if scheduler is None:
+            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, host="127.0.0.1")
+            client = Client(cluster)
+        else:
+            cluster, client = None, Client(scheduler)
+        try:
+            n_workers = len(client.scheduler_info()["workers"])
+            futures = [client.submit(_chunk_task, str(config), str(berth), box, rows[a:b], settings,
+                                     str(chunk_dir / f"chunk-{k:05d}.parquet"), retries=2, pure=False)
+                       for k, a, b in todo]
+            if progress:
+                import contextlib
+                import sys
+
+                with contextlib.redirect_stdout(sys.stderr):   # Dask's text bar writes to stdout
+                    dask_progress(futures)
+            client.gather(futures)
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+    parts = [pd.read_parquet(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
+    table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(COLUMNS))
+    tmp = out.with_suffix(".tmp")
+    table.to_parquet(tmp, index=False)
+    os.replace(tmp, out)
+    return OperabilityResult(table, gaps.to_dict(), time.perf_counter() - t0, n_workers)

@@ -166,7 +166,7 @@ def floor_table(model, lo, hi, *, spacing: float = 0.2) -> FloorTable:
             o = outside(grid + mid[:, None] * d)
             b = np.where(hit & o, mid, b)
             a = np.where(hit & ~o, mid, a)
-        dist[:, j] = np.where(hit, b, c)
+        dist[:, j] = np.where(hit, np.minimum(b, c), c)
         dist[~inside0, j] = 0.0
     return FloorTable(lo, spacing, dist.reshape(*n, N_DIRECTIONS), cap, cap_v)
 

@@ -533,7 +533,8 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
         floor = max(r.floor for r in rs)
         first = max(min(r.first for r in rs), floor)
         release = max(min(r.release for r in rs), first)
-        first, second, release = _round_thresholds(first, 0.5 * (first + release), release, floor)
+        second = min(max(min(r.second for r in rs), first), release)
+        first, second, release = _round_thresholds(first, second, release, floor)
         for stage, v in (("first", first), ("second", second), ("release", release)):
             rec[f"{stage}_{kind}_deg"] = round(math.degrees(v), 1)
     speed, accel = design_drift_fit(curves, lead1 + t_free)

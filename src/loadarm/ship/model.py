@@ -22,7 +22,7 @@ from .loads import current_coefficients
 from ..errors import ConfigError
 from .mooring import Moorings, compile_moorings, equilibrium, stiffness
 
-__all__ = ["ShipModel", "compile_ship", "LF_DOFS", "midships_transform"]
+__all__ = ["ShipModel", "compile_ship", "LF_DOFS", "midships_transform", "lf_step", "LF_STEP", "LF_MAX_STEP"]
 
 #: The ship-frame DOFs of the low-frequency motion, indices into the six of :data:`loadarm.ship.hydro.DOFS`.
 LF_DOFS = (0, 1, 5)
@@ -73,6 +73,8 @@ class ShipModel:
         Ship frame (z above the keel).
     environment : Environment
         The berth file's design environment (scenarios override keys of it).
+    lf_step : float
+        Low-frequency integration step, s (:func:`lf_step`).
     """
 
     moorings: Moorings
@@ -100,6 +102,7 @@ class ShipModel:
     manifold_tolerance: float = 0.0
     names: tuple[str, ...] = field(default=())
     environment: object = None
+    lf_step: float = 0.1
 
     @property
     def psi0(self) -> float:
@@ -126,20 +129,50 @@ class ShipModel:
         return out
 
 
-#: The low-frequency integrator's step, s (two 10 Hz samples: :func:`loadarm.ship.motion._lf_integrate`).
-LF_STEP = 0.2
-#: Largest ``omega * step`` allowed: RK4 is stable on an undamped oscillator up to 2.83; with room.
+#: The finest low-frequency integration step, s (the 10 Hz output step).
+LF_STEP = 0.1
+#: The coarsest, s (:func:`loadarm.ship.motion._lf_integrate` integrates on the low-passed load).
+LF_MAX_STEP = 1.0
+#: Largest ``omega * step`` at the finest step: RK4 is stable on an undamped oscillator up to 2.83; with room.
 LF_STABILITY = 2.0
+#: ``omega * step`` chosen for accuracy (RK4's error per period about ``(omega h)^4 / 120``: 5e-4 at 0.5).
+LF_ACCURACY = 0.5
+
+
+def _stiffest(mo: Moorings, h) -> tuple[float, float, list]:
+    m_min = min(h.inertia[0, 0] + h.added_mass[0, 0, 0], h.inertia[1, 1] + h.added_mass[0, 1, 1])
+    k_lines = float(np.sum(mo.ea / mo.l0))
+    slopes = [float(np.max(np.diff(mo.fender_load[j, :n]) / np.diff(mo.fender_defl[j, :n])))
+              for j, n in enumerate(mo.fender_npts)]
+    return m_min, k_lines, slopes
+
+
+def lf_step(mo: Moorings, h) -> float:
+    """The low-frequency integration step for these moorings: the coarsest multiple of :data:`LF_STEP` up to
+    :data:`LF_MAX_STEP` with ``omega_max h <= LF_ACCURACY`` (``omega_max`` from every line and fender at once
+    on the lightest of surge and sway).
+
+    Parameters
+    ----------
+    mo : Moorings
+    h : Hydro
+
+    Returns
+    -------
+    float
+        s.
+    """
+    m_min, k_lines, slopes = _stiffest(mo, h)
+    w = math.sqrt((k_lines + sum(slopes)) / m_min)
+    k = int(min(LF_MAX_STEP / LF_STEP, max(1.0, math.floor(LF_ACCURACY / (w * LF_STEP) + 1e-9))))
+    return k * LF_STEP
 
 
 def _check_step(berth: Berth, mo: Moorings, h, source: str) -> None:
     """Refuse lines or fenders so stiff that the ship's fastest low-frequency motion cannot be integrated at
     :data:`LF_STEP` (found by reasoning about hostile input: a fender curve rising 100 MN in a millimetre would
     make the integration blow up into NaN instead of a message)."""
-    m_min = min(h.inertia[0, 0] + h.added_mass[0, 0, 0], h.inertia[1, 1] + h.added_mass[0, 1, 1])
-    k_lines = float(np.sum(mo.ea / mo.l0))
-    slopes = [float(np.max(np.diff(mo.fender_load[j, :n]) / np.diff(mo.fender_defl[j, :n])))
-              for j, n in enumerate(mo.fender_npts)]
+    m_min, k_lines, slopes = _stiffest(mo, h)
     k_max = k_lines + sum(slopes)
     limit = m_min * (LF_STABILITY / LF_STEP) ** 2
     if k_max > limit:
@@ -219,4 +252,4 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, s
                      centroid_x=s.windage_centroid_x, current_kx=kx, current_ky=ky, current_cyc=cyc,
                      water_depth=berth.berth.water_depth, lf_damping_ratio=s.lf_damping_ratio,
                      manifold_tolerance=berth.berth.manifold_tolerance, names=mo.names,
-                     environment=berth.environment)
+                     environment=berth.environment, lf_step=lf_step(mo, h))

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
-from scipy.fft import irfft, next_fast_len
+from scipy.fft import irfft, next_fast_len, rfft
 
 from ..berth import Environment
 from ..results import Metric, Result
@@ -35,8 +35,11 @@ __all__ = ["ShipMotion", "simulate", "MIN_RECORD", "DT", "wave_components"]
 
 #: Shortest record synthesised, s (frequency step 2 pi / 1800 s: 0.0035 rad/s).
 MIN_RECORD = 1800.0
-#: Output and integration step, s (10 Hz).
+#: Output step, s (10 Hz).
 DT = 0.1
+#: Loads on the low-frequency motion are low-passed at this frequency, rad/s (a 10 s period: twice the highest
+#: moored natural frequency of a large ship, and well above slow drift's difference frequencies).
+LF_CUTOFF = 0.6
 
 
 def _interp_heading(table: np.ndarray, heading: np.ndarray, omega_grid: np.ndarray, w: np.ndarray,
@@ -135,19 +138,18 @@ def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, fair, height, boll, 
 
 
 @njit(cache=True, nogil=True)
-def _lf_integrate(x0, v0, f_ship, dt, minv, damp, fair, height, boll, ea, l0, alive0, alive1, i_part, fy, fdefl,
-                  fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xs, vs, tens):
-    """RK4 of the low-frequency pose, two output samples per step (the load's samples at the step's start, middle
-    and end: no interpolation), the sample between from the cubic Hermite of the step's ends (error of order
-    ``(w 2 dt)^4``, below 1e-7 of the motion for the 19 s and longer periods of a moored ship); one sample per step
-    where the lines part at the sample between, and for the last. The lines switch from ``alive0`` to ``alive1``
-    at sample ``i_part``. Measured on the example (30 min, design weather): 0.65 of the cost of one step per
-    sample, the pose within 1.1 mm of it in a motion of 5 cm standard deviation (the load's sum-frequency content
-    taken at its samples instead of interpolated, and the fender contact switching within a step)."""
+def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea, l0, alive0, alive1, i_part, fy,
+                  fdefl, fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xs, vs, tens):
+    """RK4 of the low-frequency pose, ``stride`` output samples per step (the load taken at its samples at the
+    step's start, middle and end: it is low-passed first, :data:`LF_CUTOFF`); the samples between from the cubic
+    Hermite of the step's ends (error of order ``(w h)^4 / 384``: below 1e-4 of the motion for the 19 s and longer
+    periods of a moored ship at :data:`LF_STEP`), their tensions interpolated linearly. A step ends exactly where
+    the lines part (``i_part``: from there ``alive1``) and at the last sample."""
     n = f_ship.shape[0]
     nl = fair.shape[0]
     out_f = np.zeros(3)
     ten = np.zeros(nl)
+    ten0 = np.zeros(nl)
     xbuf = np.zeros(3)
     a0, a1, a2 = x0[0], x0[1], x0[2]
     b0, b1, b2 = v0[0], v0[1], v0[2]
@@ -161,24 +163,30 @@ def _lf_integrate(x0, v0, f_ship, dt, minv, damp, fair, height, boll, ea, l0, al
                      fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten)
         for j in range(nl):                      # the first stage is at the step's own pose: its tensions
             tens[k, j] = ten[j]
+            ten0[j] = ten[j]
         if k == n - 1:
             break
-        two = k + 2 <= n - 1 and i_part != k + 1
-        if two:
-            big = 2.0 * dt
-            m0, m1, m2 = f_ship[k + 1, 0], f_ship[k + 1, 1], f_ship[k + 1, 2]
-            q0, q1, q2 = f_ship[k + 2, 0], f_ship[k + 2, 1], f_ship[k + 2, 2]
+        k2 = min(k + stride, n - 1)
+        if k < i_part < k2:
+            k2 = i_part
+        m = k2 - k
+        big = m * dt
+        q0, q1, q2 = f_ship[k2, 0], f_ship[k2, 1], f_ship[k2, 2]
+        if m % 2 == 0:
+            km = k + m // 2
+            m0, m1, m2 = f_ship[km, 0], f_ship[km, 1], f_ship[km, 2]
         else:
-            big = dt
-            q0, q1, q2 = f_ship[k + 1, 0], f_ship[k + 1, 1], f_ship[k + 1, 2]
-            m0, m1, m2 = 0.5 * (p0 + q0), 0.5 * (p1 + q1), 0.5 * (p2 + q2)
+            kl = k + m // 2
+            m0 = 0.5 * (f_ship[kl, 0] + f_ship[kl + 1, 0])
+            m1 = 0.5 * (f_ship[kl, 1] + f_ship[kl + 1, 1])
+            m2 = 0.5 * (f_ship[kl, 2] + f_ship[kl + 1, 2])
         h = 0.5 * big
         x20, x21, x22 = a0 + h * b0, a1 + h * b1, a2 + h * b2
         v20, v21, v22 = b0 + h * k1[0], b1 + h * k1[1], b2 + h * k1[2]
-        k2 = _lf_rhs(x20, x21, x22, v20, v21, v22, m0, m1, m2, minv, damp, fair, height, boll, ea, l0, alive, fy,
-                     fdefl, fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten)
+        k2s = _lf_rhs(x20, x21, x22, v20, v21, v22, m0, m1, m2, minv, damp, fair, height, boll, ea, l0, alive, fy,
+                      fdefl, fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten)
         x30, x31, x32 = a0 + h * v20, a1 + h * v21, a2 + h * v22
-        v30, v31, v32 = b0 + h * k2[0], b1 + h * k2[1], b2 + h * k2[2]
+        v30, v31, v32 = b0 + h * k2s[0], b1 + h * k2s[1], b2 + h * k2s[2]
         k3 = _lf_rhs(x30, x31, x32, v30, v31, v32, m0, m1, m2, minv, damp, fair, height, boll, ea, l0, alive, fy,
                      fdefl, fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten)
         x40, x41, x42 = a0 + big * v30, a1 + big * v31, a2 + big * v32
@@ -188,24 +196,35 @@ def _lf_integrate(x0, v0, f_ship, dt, minv, damp, fair, height, boll, ea, l0, al
         c0 = a0 + big / 6 * (b0 + 2 * v20 + 2 * v30 + v40)
         c1 = a1 + big / 6 * (b1 + 2 * v21 + 2 * v31 + v41)
         c2 = a2 + big / 6 * (b2 + 2 * v22 + 2 * v32 + v42)
-        d0 = b0 + big / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        d1 = b1 + big / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
-        d2 = b2 + big / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2])
-        if two:
-            # the sample between: cubic Hermite of the step's ends (position and velocity)
-            xs[k + 1, 0] = 0.5 * (a0 + c0) + big / 8 * (b0 - d0)
-            xs[k + 1, 1] = 0.5 * (a1 + c1) + big / 8 * (b1 - d1)
-            xs[k + 1, 2] = 0.5 * (a2 + c2) + big / 8 * (b2 - d2)
-            vs[k + 1, 0] = 1.5 / big * (c0 - a0) - 0.25 * (b0 + d0)
-            vs[k + 1, 1] = 1.5 / big * (c1 - a1) - 0.25 * (b1 + d1)
-            vs[k + 1, 2] = 1.5 / big * (c2 - a2) - 0.25 * (b2 + d2)
-            for i in range(3):
-                xbuf[i] = xs[k + 1, i]
-            _restoring(xbuf, fair, height, boll, ea, l0, alive, fy, fdefl, fload, fn, side, psi0, origin, out_f, ten)
-            for j in range(nl):
-                tens[k + 1, j] = ten[j]
+        d0 = b0 + big / 6 * (k1[0] + 2 * k2s[0] + 2 * k3[0] + k4[0])
+        d1 = b1 + big / 6 * (k1[1] + 2 * k2s[1] + 2 * k3[1] + k4[1])
+        d2 = b2 + big / 6 * (k1[2] + 2 * k2s[2] + 2 * k3[2] + k4[2])
+        if m > 1:
+            # the tensions at the step's end (the next step's first stage computes them again: cheap enough)
+            xbuf[0], xbuf[1], xbuf[2] = c0, c1, c2
+            alive_end = alive1 if k2 >= i_part else alive0
+            _restoring(xbuf, fair, height, boll, ea, l0, alive_end, fy, fdefl, fload, fn, side, psi0, origin, out_f,
+                       ten)
+            for i in range(1, m):
+                u = i / m
+                hh00 = 2 * u ** 3 - 3 * u ** 2 + 1
+                hh10 = u ** 3 - 2 * u ** 2 + u
+                hh01 = -2 * u ** 3 + 3 * u ** 2
+                hh11 = u ** 3 - u ** 2
+                g00 = (6 * u ** 2 - 6 * u) / big
+                g10 = 3 * u ** 2 - 4 * u + 1
+                g01 = (-6 * u ** 2 + 6 * u) / big
+                g11 = 3 * u ** 2 - 2 * u
+                xs[k + i, 0] = hh00 * a0 + hh10 * big * b0 + hh01 * c0 + hh11 * big * d0
+                xs[k + i, 1] = hh00 * a1 + hh10 * big * b1 + hh01 * c1 + hh11 * big * d1
+                xs[k + i, 2] = hh00 * a2 + hh10 * big * b2 + hh01 * c2 + hh11 * big * d2
+                vs[k + i, 0] = g00 * a0 + g10 * b0 + g01 * c0 + g11 * d0
+                vs[k + i, 1] = g00 * a1 + g10 * b1 + g01 * c1 + g11 * d1
+                vs[k + i, 2] = g00 * a2 + g10 * b2 + g01 * c2 + g11 * d2
+                for j in range(nl):
+                    tens[k + i, j] = (1 - u) * ten0[j] + u * ten[j]
         a0, a1, a2, b0, b1, b2 = c0, c1, c2, d0, d1, d2
-        k += 2 if two else 1
+        k = k2
 
 
 @dataclass(frozen=True)
@@ -421,27 +440,33 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
     eq = equilibrium(mo, mean, eta0=ship.eq0)
     t = np.arange(n_out) * dt
     if slow:
-        # Newman slow drift (ship frame), wind with gusts (ship frame); the current acts in the integration
-        f_ship = np.zeros((n_out, 3))
+        # Newman slow drift (ship frame), wind with gusts (ship frame), over the whole (periodic) FFT record, then
+        # low-passed (the sum-frequency part of Newman's square is not slow drift, and a moored ship does not
+        # answer faster loads); the current acts in the integration
+        f_full = np.zeros((n, 3))
         if env.hs > 0:
             tt = _interp_heading(ship.drift, h.heading, h.omega, comp.omega, beta)          # (nc, 3)
             mean_j = np.sum(comp.amplitude[:, None] ** 2 * tt, axis=0)
-            sq = _synth((comp.amplitude[:, None] * np.sqrt(np.abs(tt))).T * np.exp(-1j * comp.phase), n)[:, :n_out]
-            f_ship += (np.sign(mean_j)[:, None] * 2.0 * sq ** 2).T
+            sq = _synth((comp.amplitude[:, None] * np.sqrt(np.abs(tt))).T * np.exp(-1j * comp.phase), n)
+            f_full += (np.sign(mean_j)[:, None] * 2.0 * sq ** 2).T
         if env.wind_speed > 0:
             df = 1.0 / (n * dt)
             f = df * np.arange(1, n // 2)
             amp = np.sqrt(2.0 * npd_spectrum(f, env.wind_speed) * df)
-            gust = _synth(amp * np.exp(-1j * rng.uniform(0, 2 * math.pi, f.size)), n)[:n_out]
+            gust = _synth(amp * np.exp(-1j * rng.uniform(0, 2 * math.pi, f.size)), n)
             speed = np.maximum(env.wind_speed + gust, 0.0)
-            f_ship += wind_force(ship.kind, speed, math.radians(env.wind_direction_deg) - mo.psi0, ship.frontal_area,
+            f_full += wind_force(ship.kind, speed, math.radians(env.wind_direction_deg) - mo.psi0, ship.frontal_area,
                                  ship.lateral_area, ship.centroid_x, ship.length)
+        spec = rfft(f_full, axis=0)
+        spec[2 * math.pi * np.fft.rfftfreq(n, dt) > LF_CUTOFF] = 0.0
+        f_ship = np.ascontiguousarray(irfft(spec, n, axis=0)[:n_out])
         cur = math.radians(env.current_direction_deg)
         pose = np.empty((n_out, 3))
         pose_v = np.empty((n_out, 3))
         tension = np.empty((n_out, len(mo.names)))
         i_part = n_out + 1 if part_time is None or not parted else int(math.ceil(part_time / dt - 1e-9))
-        _lf_integrate(eq.copy(), np.zeros(3), f_ship, dt, np.linalg.inv(ship.mass_lf), ship.damping_lf, mo.fairlead,
+        _lf_integrate(eq.copy(), np.zeros(3), f_ship, dt, max(1, int(round(ship.lf_step / dt))), np.linalg.inv(ship.mass_lf),
+                      ship.damping_lf, mo.fairlead,
                       mo.height, mo.bollard, mo.ea, mo.l0, alive0, alive1, i_part, mo.fender_y, mo.fender_defl,
                       mo.fender_load, mo.fender_npts, mo.side, mo.psi0, mo.origin,
                       env.current_speed * math.cos(cur), env.current_speed * math.sin(cur), ship.current_kx,

@@ -34,7 +34,7 @@ from ..check import esd_lead
 from ..faces import breakout_distance, face_margins, first_face
 from ..slew import inverse3d
 
-__all__ = ["FloorTable", "floor_table", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS"]
+__all__ = ["FloorTable", "floor_table", "ray_distances", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS"]
 
 #: The monitor's horizontal directions (every 45 deg) and the vertical two.
 N_DIRECTIONS = 10
@@ -97,6 +97,20 @@ class FloorTable:
         hi = self.origin + self.spacing * (np.array(self.dist.shape[:3]) - 1)
         return bool(np.all(p >= self.origin - 1e-9) and np.all(p <= hi + 1e-9))
 
+    def inside(self, p: np.ndarray) -> np.ndarray:
+        """Which points lie inside the tabulated region.
+
+        Parameters
+        ----------
+        p : ndarray (n, 3)
+
+        Returns
+        -------
+        ndarray (n,) bool
+        """
+        hi = self.origin + self.spacing * (np.array(self.dist.shape[:3]) - 1)
+        return np.all((p >= self.origin - 1e-9) & (p <= hi + 1e-9), axis=1)
+
     def horizontal_vertical(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The least horizontal ray distance and the least vertical one at points (trilinear).
 
@@ -124,6 +138,44 @@ class FloorTable:
         return self.dist[..., 8:].min(axis=-1)
 
 
+def ray_distances(model, pts: np.ndarray, cap: float, cap_v: float) -> np.ndarray:
+    """Distance from each point to the first face along each of :data:`N_DIRECTIONS` directions (march at
+    0.25 m, then bisect to 1 mm), capped at ``cap`` horizontally and ``cap_v`` vertically; 0 at a point outside.
+
+    Parameters
+    ----------
+    model : ArmModel
+    pts : ndarray (N, 3)
+    cap, cap_v : float
+        m.
+
+    Returns
+    -------
+    ndarray (N, 10)
+    """
+    def outside(p):
+        return first_face(face_margins(model, p[..., 0], p[..., 1], p[..., 2]))[0]
+
+    dist = np.empty((pts.shape[0], N_DIRECTIONS))
+    inside0 = ~outside(pts)
+    for j, d in enumerate(_DIRS):
+        c = cap if j < 8 else cap_v
+        steps = np.arange(0.0, c + 0.25, 0.25)
+        out = outside(pts[:, None, :] + steps[None, :, None] * d)             # (N, S)
+        hit = out.any(axis=1)
+        first = np.where(hit, out.argmax(axis=1), steps.size - 1)
+        a = steps[np.maximum(first - 1, 0)]
+        b = steps[first]
+        for _ in range(8):                                                   # 0.25 m / 2^8 = 1 mm
+            mid = 0.5 * (a + b)
+            o = outside(pts + mid[:, None] * d)
+            b = np.where(hit & o, mid, b)
+            a = np.where(hit & ~o, mid, a)
+        dist[:, j] = np.where(hit, np.minimum(b, c), c)
+        dist[~inside0, j] = 0.0
+    return dist
+
+
 def floor_table(model, lo, hi, *, spacing: float = 0.2) -> FloorTable:
     """Tabulate the ray distances to the faces over a box (march at 0.25 m, then bisect to 1 mm).
 
@@ -148,26 +200,7 @@ def floor_table(model, lo, hi, *, spacing: float = 0.2) -> FloorTable:
     axes = [lo[i] + spacing * np.arange(n[i]) for i in range(3)]
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
 
-    def outside(pts):
-        return first_face(face_margins(model, pts[..., 0], pts[..., 1], pts[..., 2]))[0]
-
-    dist = np.empty((grid.shape[0], N_DIRECTIONS))
-    inside0 = ~outside(grid)
-    for j, d in enumerate(_DIRS):
-        c = cap if j < 8 else cap_v
-        steps = np.arange(0.0, c + 0.25, 0.25)
-        out = outside(grid[:, None, :] + steps[None, :, None] * d)            # (N, S)
-        hit = out.any(axis=1)
-        first = np.where(hit, out.argmax(axis=1), steps.size - 1)
-        a = steps[np.maximum(first - 1, 0)]
-        b = steps[first]
-        for _ in range(8):                                                   # 0.25 m / 2^8 = 1 mm
-            mid = 0.5 * (a + b)
-            o = outside(grid + mid[:, None] * d)
-            b = np.where(hit & o, mid, b)
-            a = np.where(hit & ~o, mid, a)
-        dist[:, j] = np.where(hit, np.minimum(b, c), c)
-        dist[~inside0, j] = 0.0
+    dist = ray_distances(model, grid, cap, cap_v)
     return FloorTable(lo, spacing, dist.reshape(*n, N_DIRECTIONS), cap, cap_v)
 
 
@@ -245,7 +278,7 @@ def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> Record
     ----------
     model : ArmModel
     table : FloorTable
-        Covering every position of ``p`` (:meth:`FloorTable.contains`).
+        Covering the positions of ``p`` (those beyond it are cast directly).
     p : ndarray (n, 3)
         Flange positions, installation frame, m, ``dt`` apart.
     dt : float
@@ -255,19 +288,20 @@ def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> Record
     -------
     RecordMonitor
 
-    Raises
-    ------
-    ValueError
-        A position outside the table.
+    Notes
+    -----
+    Positions beyond the table get their ray distances cast directly (slower, exact).
     """
-    if not table.contains(p):
-        raise ValueError("flange positions outside the design-drift table: widen its box")
     q = inverse3d(model.arm, p[:, 0], p[:, 1], p[:, 2], check=False)
     beta, phi = np.asarray(q.beta, dtype=float), np.asarray(q.phi, dtype=float)
     pos = np.maximum(beta_severity(beta, model.alarms), slew_severity(phi, model.slew))
     outside = bool(first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2]))[0].any())
     pos = np.where(pos < 0, int(Severity.RELEASE), pos)               # unreachable: as severe as it gets
     h, v = table.horizontal_vertical(p)
+    away = ~table.inside(p)
+    if away.any():                                # beyond the table (a rare, violent state): cast the rays there
+        d = ray_distances(model, p[away], table.cap, table.cap_v)
+        h[away], v[away] = d[:, :8].min(axis=1), d[:, 8:].min(axis=1)
     dd = model.design_drift
     ttl = np.minimum(np.where(h >= table.cap - 1e-9, np.inf, breakout_time(h, dd.speed, dd.acceleration)),
                      np.where(v >= table.cap_v - 1e-9, np.inf, v / dd.vertical_speed))

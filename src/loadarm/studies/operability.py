@@ -330,8 +330,10 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
             os.environ.setdefault(var, "1")           # inherited by the local cluster's worker processes
         if scheduler is None:
+            import logging
+
             cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, host="127.0.0.1")
+                                   dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL)
             client = Client(cluster)
         else:
             cluster, client = None, Client(scheduler)

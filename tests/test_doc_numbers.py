@@ -190,3 +190,18 @@ def test_ship_motion_page_verification_numbers():
     wall = ship.drift[-1, k, 1] / (0.5 * RHO_SEA * hydro.G * ship.length)
     cited("docs/ship-motion.md", f"| {wall:.2f} of it (0.9-1.05) |")
     cited("docs/ship-motion.md", f"| {abs(ship.rao[0, k, 2]):.2f} (1 +/- 0.05) |")
+
+
+@pytest.mark.slow
+def test_operability_page_sample_numbers(tmp_path):
+    """docs/operability.md section 4: the shipped sample at 600 s per state (seeded: the counts are exact)."""
+    from loadarm.studies.operability import OperabilitySettings, run_operability
+
+    res = run_operability(PAPER_TOML, ROOT / "examples" / "berths" / "lng150k.toml",
+                          ROOT / "examples" / "metocean" / "sample.csv", tmp_path / "op.parquet",
+                          settings=OperabilitySettings(duration_per_state=600.0, chunks=24))
+    d = res.to_dict()
+    esd = int((res.table["stage"] >= 2).sum())
+    cited("docs/operability.md", f"downtime {100 * d['downtime_fraction']:.1f} % ({d['not_connectable_h']} hours not "
+                                 f"connectable, {esd} states with ESD-1")
+    assert d["releases_per_year"] == 0

@@ -82,8 +82,8 @@ def scratch(tmp_path_factory):
     return d
 
 
-#: Commands that take many seconds (a mooring analysis): checked in the slow suite (CI runs it).
-SLOW_COMMANDS = {"alarms"}
+#: Commands that take many seconds (a mooring analysis, a Dask cluster): checked in the slow suite (CI runs it).
+SLOW_COMMANDS = {"alarms", "operability"}
 
 
 @pytest.mark.parametrize("cmd", [pytest.param(c, marks=pytest.mark.slow) if c.argv[1] in SLOW_COMMANDS else c

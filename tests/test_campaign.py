@@ -183,3 +183,22 @@ def test_hs15_on_the_moored_ship_gives_no_false_alarm():
     d = res.to_dict()
     assert d["connected_runs"] == 10 and d["false_alarms"] == 0 and d["overstretches"] == 0
     assert d["releases"] == 0 and not d["failed_seeds"]
+
+
+@pytest.mark.slow
+def test_a_campaign_on_a_dask_scheduler_gives_the_same_runs(tmp_path):
+    """Issue 13, item 5: `loadarm campaign --scheduler`: the same runs as local processes, on a Dask cluster
+    (a LocalCluster on loopback standing in for a user's; its address is all the campaign gets)."""
+    from distributed import LocalCluster
+
+    text = (SCEN / "driftoff.toml").read_text()
+    text = text.replace('installation = "../paper.toml"', f'installation = "{(SCEN.parent / "paper.toml").as_posix()}"')
+    text = text.replace("duration = 320.0", 'duration = 240.0\nplant = "kinematic"').replace("start = 200.0",
+                                                                                           "start = 150.0")
+    sc = tmp_path / "short.toml"
+    sc.write_text(text)
+    local = run_campaign(sc, 3, workers=1)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      host="127.0.0.1") as cluster:
+        remote = run_campaign(sc, 3, scheduler=cluster.scheduler_address)
+    assert remote.to_dict() == local.to_dict()

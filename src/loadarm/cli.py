@@ -754,6 +754,9 @@ def campaign(
     first_seed: Annotated[int, typer.Option("--first-seed", help="First seed.")] = 0,
     workers: Annotated[Optional[int], typer.Option("--workers", help="Processes (default: every core).")] = None,
     plant: Annotated[Optional[PlantKind], typer.Option(help="Arm plant (default: the scenario's).")] = None,
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="A running Dask scheduler "
+                                                                         "(tcp://HOST:8786) instead of local "
+                                                                         "processes.")] = None,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Histogram of the release margins.")] = None,
     force: ForceOpt = False,
@@ -775,7 +778,7 @@ def campaign(
         task = prog.add_task(f"campaign {scenario.name}", total=seeds)
         res = run_campaign(scenario, seeds, vary=varied, first_seed=first_seed, workers=workers,
                            plant=None if plant is None else plant.value,
-                           progress=lambda done, total: prog.update(task, completed=done))
+                           progress=lambda done, total: prog.update(task, completed=done), scheduler=scheduler)
     if png is not None:
         from .plotting import save
 

@@ -302,7 +302,7 @@ class CampaignResult(Result):
 
 def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (), first_seed: int = 0,
                  plant: str | None = None, workers: int | None = None, batch: int | None = None,
-                 progress: Callable[[int, int], None] | None = None) -> CampaignResult:
+                 progress: Callable[[int, int], None] | None = None, scheduler: str | None = None) -> CampaignResult:
     """Run a scenario over ``seeds`` seeds and parameter draws.
 
     Parameters
@@ -323,6 +323,9 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
         Runs per task (default: enough for about four tasks per worker).
     progress : callable, optional
         ``progress(done, total)`` after each batch.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``): the batches run on its workers (which need
+        loadarm and see the same files) instead of a local process pool; a batch whose worker dies is run again.
 
     Returns
     -------
@@ -340,7 +343,17 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     batch = max(1, math.ceil(len(jobs) / (4 * workers))) if batch is None else max(1, batch)
     chunks = [jobs[i:i + batch] for i in range(0, len(jobs), batch)]
     done: list[CampaignRun] = []
-    if workers == 1:
+    if scheduler is not None:
+        from distributed import Client, as_completed as dask_completed
+
+        path = str(Path(scenario).resolve())
+        with Client(scheduler) as client:
+            futures = [client.submit(_run_batch, path, plant, chunk, retries=2, pure=False) for chunk in chunks]
+            for fut in dask_completed(futures):
+                done.extend(fut.result())
+                if progress is not None:
+                    progress(len(done), len(jobs))
+    elif workers == 1:
         for chunk in chunks:
             done.extend(_run_batch(scenario, plant, chunk))
             if progress is not None:

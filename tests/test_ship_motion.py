@@ -92,10 +92,24 @@ def _calm(berth, **kw):
 
 
 def _full_period():
-    from scipy.fft import next_fast_len
+    from loadarm.ship.motion import fft_length
 
-    n = next_fast_len(int(math.ceil(MIN_RECORD / DT)))
-    return n + n % 2
+    return fft_length(int(math.ceil(MIN_RECORD / DT)))
+
+
+@pytest.mark.parametrize("target", [18001, 36001, 36015, 6001, 123457])
+def test_fft_lengths_are_even_and_smooth(target):
+    """Found: the record length was a fast FFT length rounded up to even, which can have a large prime factor
+    (36016 = 16 x 2251 for an hour at 10 Hz: 18 times slower)."""
+    from loadarm.ship.motion import fft_length
+
+    n = fft_length(target)
+    assert n >= target and n % 2 == 0
+    m = n
+    for p in (2, 3, 5, 7, 11):
+        while m % p == 0:
+            m //= p
+    assert m == 1, (n, m)
 
 
 def test_wave_synthesis_is_exact_over_its_period(ship, berth):

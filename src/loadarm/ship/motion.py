@@ -446,7 +446,10 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
     z = comp.amplitude * np.exp(-1j * comp.phase)                         # complex amplitude (e^{-i w t})
     h = ship.hydro
     if waves and env.hs > 0:
-        r = _interp_heading(ship.rao, h.heading, h.omega, comp.omega, beta)     # (nc, 6)
+        # the coefficients are zero above the grid's top frequency: interpolate only below it (the same sum)
+        band = comp.omega <= h.omega[-1]
+        r = np.zeros((comp.omega.size, 6), dtype=complex)
+        r[band] = _interp_heading(ship.rao, h.heading, h.omega, comp.omega[band], beta[band])     # (nc, 6)
         coef = (r * z[:, None]).T                                               # (6, nc)
         wave = _synth(coef, n)[:, :n_out].T
         wave_v = _synth(-1j * comp.omega * coef, n)[:, :n_out].T
@@ -462,7 +465,9 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
         # answer faster loads); the current acts in the integration
         f_full = np.zeros((n, 3))
         if env.hs > 0:
-            tt = _interp_heading(ship.drift, h.heading, h.omega, comp.omega, beta)          # (nc, 3)
+            band = comp.omega <= h.omega[-1]
+            tt = np.zeros((comp.omega.size, 3))
+            tt[band] = _interp_heading(ship.drift, h.heading, h.omega, comp.omega[band], beta[band])   # (nc, 3)
             mean_j = np.sum(comp.amplitude[:, None] ** 2 * tt, axis=0)
             sq = _synth((comp.amplitude[:, None] * np.sqrt(np.abs(tt))).T * np.exp(-1j * comp.phase), n)
             f_full += (np.sign(mean_j)[:, None] * 2.0 * sq ** 2).T

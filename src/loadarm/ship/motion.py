@@ -162,7 +162,8 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
     step's start, middle and end: it is low-passed first, :data:`LF_CUTOFF`); the samples between from the cubic
     Hermite of the step's ends (error of order ``(w h)^4 / 384``: below 1e-4 of the motion for the 19 s and longer
     periods of a moored ship at :data:`LF_STEP`), their tensions interpolated linearly. A step ends exactly where
-    the lines part (``i_part``: from there ``alive1``) and at the last sample."""
+    the lines part (``i_part``: from there ``alive1``) and at the last sample. The tensions between two steps are
+    filled once the next step's first stage has the end's."""
     n = f_ship.shape[0]
     nl = fair.shape[0]
     out_f = np.zeros(3)
@@ -172,6 +173,7 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
     a0, a1, a2 = x0[0], x0[1], x0[2]
     b0, b1, b2 = v0[0], v0[1], v0[2]
     k = 0
+    k_prev = -1
     while True:
         alive = alive1 if k >= i_part else alive0
         xs[k, 0], xs[k, 1], xs[k, 2] = a0, a1, a2
@@ -181,6 +183,13 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
                      fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten)
         for j in range(nl):                      # the first stage is at the step's own pose: its tensions
             tens[k, j] = ten[j]
+        if k_prev >= 0:                          # the previous step's samples between: tensions interpolated
+            m_prev = k - k_prev
+            for i in range(1, m_prev):
+                u = i / m_prev
+                for j in range(nl):
+                    tens[k_prev + i, j] = (1 - u) * ten0[j] + u * ten[j]
+        for j in range(nl):
             ten0[j] = ten[j]
         if k == n - 1:
             break
@@ -218,11 +227,6 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
         d1 = b1 + big / 6 * (k1[1] + 2 * k2s[1] + 2 * k3[1] + k4[1])
         d2 = b2 + big / 6 * (k1[2] + 2 * k2s[2] + 2 * k3[2] + k4[2])
         if m > 1:
-            # the tensions at the step's end (the next step's first stage computes them again: cheap enough)
-            xbuf[0], xbuf[1], xbuf[2] = c0, c1, c2
-            alive_end = alive1 if k2 >= i_part else alive0
-            _restoring(xbuf, fair, height, boll, ea, l0, alive_end, fy, fdefl, fload, fn, side, psi0, origin, out_f,
-                       ten)
             for i in range(1, m):
                 u = i / m
                 hh00 = 2 * u ** 3 - 3 * u ** 2 + 1
@@ -239,9 +243,8 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
                 vs[k + i, 0] = g00 * a0 + g10 * b0 + g01 * c0 + g11 * d0
                 vs[k + i, 1] = g00 * a1 + g10 * b1 + g01 * c1 + g11 * d1
                 vs[k + i, 2] = g00 * a2 + g10 * b2 + g01 * c2 + g11 * d2
-                for j in range(nl):
-                    tens[k + i, j] = (1 - u) * ten0[j] + u * ten[j]
         a0, a1, a2, b0, b1, b2 = c0, c1, c2, d0, d1, d2
+        k_prev = k
         k = k2
 
 

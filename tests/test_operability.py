@@ -259,3 +259,36 @@ def test_a_real_dask_cluster_on_loopback_survives_a_killed_worker(tmp_path):
             except ProcessLookupError:
                 pass
             p.wait(timeout=30)
+
+
+def test_results_are_marked_and_a_rerun_may_replace_them(tmp_path):
+    """Found: a second run of the same command (to resume) was refused, its own Parquet output not recognised
+    as loadarm's. Parquet written here carries the generator in its metadata."""
+    import pandas as pd
+
+    from loadarm.files import written_by_loadarm
+    from loadarm.studies.operability import write_parquet
+
+    p = write_parquet(pd.DataFrame({"a": [1.0, 2.0]}), tmp_path / "r.parquet")
+    assert written_by_loadarm(p)
+    other = tmp_path / "o.parquet"
+    pd.DataFrame({"a": [1.0]}).to_parquet(other)
+    assert not written_by_loadarm(other)
+    assert pd.read_parquet(p)["a"].tolist() == [1.0, 2.0]
+
+
+def test_chunks_of_another_run_are_refused_or_discarded(tmp_path):
+    """Resuming is for the same run only: chunks made from other inputs or settings would mix two studies."""
+    from loadarm.errors import ConfigError
+    from loadarm.studies.operability import _check_manifest
+
+    d = tmp_path / "r.parquet.chunks"
+    _check_manifest(d, "aaa", False)
+    (d / "chunk-00000.parquet").write_bytes(b"x")
+    _check_manifest(d, "aaa", False)                       # the same run: kept
+    assert (d / "chunk-00000.parquet").is_file()
+    with pytest.raises(ConfigError, match="from another run"):
+        _check_manifest(d, "bbb", False)
+    assert (d / "chunk-00000.parquet").is_file()
+    _check_manifest(d, "bbb", True)                        # --force: start again
+    assert not (d / "chunk-00000.parquet").exists() and (d / "MANIFEST").read_text().strip() == "bbb"

@@ -732,7 +732,7 @@ def operability(
         raise UserError(f"--chunks must be in [1, 10000], got {chunks}")
     settings = OperabilitySettings(duration_per_state=duration_per_state, chunks=chunks)
     res = run_operability(config, berth, metocean, out_file, hours=hours, settings=settings, scheduler=scheduler,
-                          workers=workers, progress=not as_json)
+                          workers=workers, progress=not as_json, fresh=force)
     if png is not None:
         from .plotting import save
 

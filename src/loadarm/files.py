@@ -192,7 +192,8 @@ JSON_MARK = f'{{\n  "generator": "{SIGNATURE}'
 def written_by_loadarm(path: str | Path) -> bool:
     """Whether an existing file carries loadarm's mark, by its format: a PNG with a ``Software`` text chunk
     starting with :data:`SIGNATURE`, an HTML file with :data:`HTML_MARK` in its head, a JSON file whose first
-    key is loadarm's ``generator`` (:data:`JSON_MARK`), or a CSV with one of loadarm's headers. A text that
+    key is loadarm's ``generator`` (:data:`JSON_MARK`), a CSV with one of loadarm's headers, or a Parquet file
+    whose key-value metadata has loadarm's ``generator``. A text that
     merely mentions loadarm is not loadarm's.
 
     Parameters
@@ -214,6 +215,14 @@ def written_by_loadarm(path: str | Path) -> bool:
         return HTML_MARK.encode() in head[:4096]
     if head.startswith(b"{"):
         return head.startswith(JSON_MARK.encode())
+    if head.startswith(b"PAR1"):                      # Parquet: the generator in its key-value metadata
+        try:
+            import pyarrow.parquet as pq
+
+            meta = pq.read_metadata(path).metadata or {}
+        except (ImportError, OSError, ValueError):
+            return False
+        return meta.get(b"generator", b"").startswith(SIGNATURE.encode())
     first = head.split(b"\n", 1)[0]
     if first.startswith(b"# " + SIGNATURE.encode() + b" ") and first.endswith(METOCEAN_MARK):
         return True                                   # a metocean record loadarm wrote

@@ -26,7 +26,7 @@ from ..errors import ConfigError
 from ..results import Metric, Result
 
 __all__ = ["OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
-           "plan_chunks", "COLUMNS"]
+           "plan_chunks", "write_parquet", "COLUMNS"]
 
 #: glibc's trim threshold in the local cluster's workers, bytes (Dask's default, 64 KiB, returns every large
 #: temporary to the kernel).
@@ -137,6 +137,35 @@ def run_states(model, ship, table, rows: list[dict], settings: OperabilitySettin
     return out
 
 
+def write_parquet(df, path: str | Path) -> Path:
+    """Write a table as Parquet, atomically, with loadarm's ``generator`` in its metadata (so that a rerun may
+    replace it: :func:`loadarm.files.written_by_loadarm`).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+    path : str or Path
+
+    Returns
+    -------
+    Path
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from .. import __version__
+    from ..files import SIGNATURE
+
+    p = Path(path)
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    meta = dict(table.schema.metadata or {})
+    meta[b"generator"] = f"{SIGNATURE} {__version__}".encode()
+    tmp = p.with_name(f".{p.name}.tmp")
+    pq.write_table(table.replace_schema_metadata(meta), tmp)
+    os.replace(tmp, p)
+    return p
+
+
 def plan_chunks(n: int, chunks: int) -> list[tuple[int, int]]:
     """Cut ``n`` states into at most ``chunks`` contiguous ranges of nearly equal size.
 
@@ -186,10 +215,7 @@ def _chunk_task(config: str, berth: str, box: tuple, rows: list[dict], settings:
         os.environ.setdefault(var, "1")
     model, ship, table, b = _worker_setup(config, berth, box)
     res = run_states(model, ship, table, rows, settings, b.berth.x_bearing_deg, b.environment)
-    df = pd.DataFrame(res, columns=list(COLUMNS))
-    tmp = Path(path).with_suffix(".tmp")
-    df.to_parquet(tmp, index=False)
-    os.replace(tmp, path)
+    write_parquet(pd.DataFrame(res, columns=list(COLUMNS)), path)
     return path
 
 
@@ -273,9 +299,42 @@ def _box(model, tide_lo: float, tide_hi: float):
     return ((fx - margin, -margin, fz + tide_lo - margin), (fx + margin, margin, fz + tide_hi + margin))
 
 
+def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, plan) -> str:
+    """What the chunks of a run depend on: the three input files' contents, the hours, the settings, the plan."""
+    import hashlib
+    import json
+
+    from .. import __version__
+
+    h = hashlib.sha256()
+    for f in (config, berth, metocean):
+        h.update(Path(f).read_bytes())
+    h.update(json.dumps({"hours": hours, "settings": settings.__dict__, "plan": plan, "version": __version__},
+                        sort_keys=True).encode())
+    return h.hexdigest()
+
+
+def _check_manifest(chunk_dir: Path, digest: str, fresh: bool) -> None:
+    """Resume only the same run: chunks from other inputs or settings are refused (or, with ``fresh``, removed)."""
+    chunk_dir.mkdir(parents=True, exist_ok=True)
+    manifest = chunk_dir / "MANIFEST"
+    old = manifest.read_text().strip() if manifest.is_file() else None
+    stale = sorted(chunk_dir.glob("chunk-*.parquet"))
+    if old != digest and (stale or old is not None):
+        if not fresh:
+            raise ConfigError(f"{chunk_dir}: its chunks are from another run (other inputs, hours or settings); "
+                              "remove the folder, or pass --force to start again")
+        for f in stale:
+            f.unlink()
+    from ..files import atomic_write
+
+    atomic_write(manifest, digest + "\n")
+
+
 def run_operability(config: str | Path, berth: str | Path, metocean: str | Path, out: str | Path, *,
                     hours: int | None = None, settings: OperabilitySettings = OperabilitySettings(),
-                    scheduler: str | None = None, workers: int | None = None, progress: bool = False):
+                    scheduler: str | None = None, workers: int | None = None, progress: bool = False,
+                    fresh: bool = False):
     """Run a record on Dask and gather the result (resuming from chunks already written).
 
     Parameters
@@ -294,10 +353,17 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         Workers of the local cluster (default: every core).
     progress : bool
         Dask's progress bar on stderr.
+    fresh : bool
+        Discard chunks of another run (other inputs, hours or settings) instead of refusing them.
 
     Returns
     -------
     OperabilityResult
+
+    Raises
+    ------
+    ConfigError
+        A bad record or setting; chunks beside ``out`` from another run (without ``fresh``).
     """
     import time
 
@@ -324,8 +390,8 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     box = _box(model, float(np.min(values["tide_m"])), float(np.max(values["tide_m"])))
     out = Path(out)
     chunk_dir = out.with_name(out.name + ".chunks")
-    chunk_dir.mkdir(parents=True, exist_ok=True)
     plan = plan_chunks(len(rows), settings.chunks)
+    _check_manifest(chunk_dir, _manifest(config, berth, metocean, hours, settings, plan), fresh)
     todo = [(k, a, b) for k, (a, b) in enumerate(plan) if not (chunk_dir / f"chunk-{k:05d}.parquet").is_file()]
     t0 = time.perf_counter()
     n_workers = 0
@@ -368,7 +434,5 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
                 cluster.close()
     parts = [pd.read_parquet(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
     table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(COLUMNS))
-    tmp = out.with_suffix(".tmp")
-    table.to_parquet(tmp, index=False)
-    os.replace(tmp, out)
+    write_parquet(table, out)
     return OperabilityResult(table, gaps.to_dict(), time.perf_counter() - t0, n_workers)

@@ -20,6 +20,19 @@ ROOT = Path(__file__).resolve().parents[1]
 PAPER_TOML = ROOT / "examples" / "paper.toml"
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _private_hydro_cache(tmp_path_factory):
+    """Solved hydrodynamics go to a scratch cache, never the user's ~/.cache (found: a berth case in the hostile
+    suite changed the loading condition, `loadarm hydro` solved it and kept it in the home folder)."""
+    old = os.environ.get("LOADARM_CACHE")
+    os.environ["LOADARM_CACHE"] = str(tmp_path_factory.mktemp("hydro-cache"))
+    yield
+    if old is None:
+        os.environ.pop("LOADARM_CACHE", None)
+    else:
+        os.environ["LOADARM_CACHE"] = old
+
+
 @pytest.fixture(scope="session")
 def inst():
     return load_config(PAPER_TOML)

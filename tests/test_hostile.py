@@ -358,3 +358,35 @@ def test_a_campaign_on_a_malformed_scenario_is_refused(capsys, tmp_path):
     sc = tmp_path / "s.toml"
     sc.write_text("scenario = 0.0\n")
     refused(capsys, "campaign", "-s", sc, "--seeds", "1", "--workers", "1", contains=[str(sc), "scenario = 0.0"])
+
+
+# ---------------------------------------------------------------- the moored ship and the studies
+
+BERTH = ROOT / "examples" / "berths" / "lng150k.toml"
+
+
+@pytest.mark.parametrize("old,new,expect", [
+    ("kg = 12.4", 'kg = "12.4"', "ship.kg"),                          # a string where a number is declared
+    ("hs = 1.0", "hs = -1.0", "environment.hs"),
+    ("water_depth = 20.0", "water_depth = 11.0", "no water under the keel"),
+    ('name = "F1"', 'name = "F2"', "fenders: names must be unique"),
+])
+def test_bad_berth_files_are_refused_in_one_line(capsys, tmp_path, old, new, expect):
+    text = BERTH.read_text()
+    assert old in text, old
+    p = tmp_path / "b.toml"
+    p.write_text(text.replace(old, new, 1))
+    refused(capsys, "hydro", "--berth", p, contains=[str(p), expect])
+    refused(capsys, "alarms", "--config", CFG, "--berth", p, contains=[expect])
+
+
+def test_bad_metocean_records_are_refused_before_any_cluster(capsys, tmp_path):
+    p = tmp_path / "m.csv"
+    p.write_text("time,hs_m\n2025-01-01T00:00Z,1.0\n")
+    refused(capsys, "operability", "--config", CFG, "--berth", BERTH, "--metocean", p, "--out", tmp_path / "r.parquet",
+            contains=[str(p), "tp_s: missing"])
+    refused(capsys, "operability", "--config", CFG, "--berth", BERTH, "--metocean", tmp_path / "none.csv",
+            "--out", tmp_path / "r.parquet", contains=["none.csv"])
+    refused(capsys, "operability", "--config", CFG, "--berth", BERTH,
+            "--metocean", ROOT / "examples" / "metocean" / "sample.csv", "--duration-per-state", "5",
+            "--out", tmp_path / "r.parquet", contains=["--duration-per-state must be in [10, 3600] s"])

@@ -82,8 +82,9 @@ def scratch(tmp_path_factory):
     return d
 
 
-#: Commands that take many seconds (a mooring analysis, a Dask cluster): checked in the slow suite (CI runs it).
-SLOW_COMMANDS = {"alarms", "operability"}
+#: Commands that take seconds (compiling the moored ship, a mooring analysis, a Dask cluster): checked in the slow
+#: suite (CI runs it), to keep `make test` under two minutes.
+SLOW_COMMANDS = {"alarms", "operability", "hydro"}
 
 
 @pytest.mark.parametrize("cmd", [pytest.param(c, marks=pytest.mark.slow) if c.argv[1] in SLOW_COMMANDS else c

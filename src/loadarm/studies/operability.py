@@ -28,11 +28,13 @@ from ..results import Metric, Result
 __all__ = ["OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
            "plan_chunks", "write_parquet", "COLUMNS"]
 
-#: glibc's trim threshold in the local cluster's workers, bytes (Dask's default, 64 KiB, returns every large
-#: temporary to the kernel).
-WORKER_TRIM_THRESHOLD = 512 * 1024 ** 2
-#: glibc's mmap threshold there, bytes (its largest, 32 MiB: an hour's arrays come from the heap and are reused).
-WORKER_MMAP_THRESHOLD = 32 * 1024 ** 2
+#: The environment of the local cluster's worker processes (start a cluster of your own's workers with the same):
+#: single-threaded numerical libraries (one worker process per core), glibc keeping freed memory (Dask's default
+#: trim threshold, 64 KiB, returns every large temporary to the kernel; the mmap threshold at its largest, 32 MiB,
+#: so an hour's arrays come from the heap and are reused).
+WORKER_ENVIRONMENT = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
+                      "MKL_NUM_THREADS": "1", "MALLOC_TRIM_THRESHOLD_": str(512 * 1024 ** 2),
+                      "MALLOC_MMAP_THRESHOLD_": str(32 * 1024 ** 2)}
 #: Result columns, one row per state (units in the names).
 COLUMNS = ("time", "hs_m", "tp_s", "wind_speed_ms", "current_speed_ms", "tide_m", "stage", "esd1_s", "release_s",
            "max_beta_deg", "max_slew_deg", "z_range_m", "min_time_to_limit_s", "flange_motion_m", "connectable",
@@ -211,8 +213,6 @@ def _chunk_task(config: str, berth: str, box: tuple, rows: list[dict], settings:
     """A Dask task: run the chunk's states and write them to ``path`` (atomically); return the path."""
     import pandas as pd
 
-    for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")
     model, ship, table, b = _worker_setup(config, berth, box)
     res = run_states(model, ship, table, rows, settings, b.berth.x_bearing_deg, b.environment)
     write_parquet(pd.DataFrame(res, columns=list(COLUMNS)), path)
@@ -396,42 +396,35 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     t0 = time.perf_counter()
     n_workers = 0
     if todo:
+        import contextlib
+        import logging
+        import sys
+
+        import dask
         from distributed import Client, LocalCluster, progress as dask_progress
 
-        for var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-            os.environ.setdefault(var, "1")           # inherited by the local cluster's worker processes
-        if scheduler is None:
-            import logging
-
-            import dask
-
-            # found: Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in its workers, which also freezes glibc's mmap
-            # threshold at 128 KiB, so every large temporary is mapped, faulted in and unmapped again: the system
-            # time equalled the user time (a year: 353 s sys for 315 s user). The workers here keep freed memory.
-            env = "distributed.nanny.pre-spawn-environ."
-            dask.config.set({env + "MALLOC_TRIM_THRESHOLD_": str(WORKER_TRIM_THRESHOLD),
-                             env + "MALLOC_MMAP_THRESHOLD_": str(WORKER_MMAP_THRESHOLD)})
-            cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL)
-            client = Client(cluster)
-        else:
-            cluster, client = None, Client(scheduler)
-        try:
+        # the local cluster's worker processes: one thread, numba and BLAS single-threaded, and they keep freed
+        # memory (found: Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536, which also freezes glibc's mmap threshold
+        # at 128 KiB, so every large temporary was mapped, faulted in and unmapped again: a year took 339 s with
+        # 353 s of system time for 315 s of user time)
+        env = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENVIRONMENT.items()}
+        paths = [str(Path(f).resolve()) for f in (config, berth)]       # the workers may have another cwd
+        with dask.config.set(env), contextlib.ExitStack() as stack:
+            if scheduler is None:
+                cluster = stack.enter_context(LocalCluster(
+                    n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                    dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL))
+                client = stack.enter_context(Client(cluster))
+            else:
+                client = stack.enter_context(Client(scheduler))
             n_workers = len(client.scheduler_info()["workers"])
-            futures = [client.submit(_chunk_task, str(config), str(berth), box, rows[a:b], settings,
-                                     str(chunk_dir / f"chunk-{k:05d}.parquet"), retries=2, pure=False)
+            futures = [client.submit(_chunk_task, paths[0], paths[1], box, rows[a:b], settings,
+                                     str((chunk_dir / f"chunk-{k:05d}.parquet").resolve()), retries=2, pure=False)
                        for k, a, b in todo]
             if progress:
-                import contextlib
-                import sys
-
                 with contextlib.redirect_stdout(sys.stderr):   # Dask's text bar writes to stdout
                     dask_progress(futures)
             client.gather(futures)
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
     parts = [pd.read_parquet(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
     table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(COLUMNS))
     write_parquet(table, out)

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from loadarm.studies.metocean import (VARIABLES, MetoceanError, berth_directions, read_metocean,
                                       synthetic_metocean, write_metocean_csv)
 
+from .hypo import examples
 from .conftest import ROOT
 
 SAMPLE = ROOT / "examples" / "metocean" / "sample.csv"
@@ -112,7 +113,7 @@ def test_synthetic_year_has_seasons_and_storms():
     assert synthetic_metocean(100, seed=3).equals(synthetic_metocean(100, seed=3))
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 @given(bearing=st.floats(0, 360), wind_from=st.floats(0, 360))
 def test_berth_directions_turn_compass_into_the_berth_frame(bearing, wind_from):
     """Second route: unit vectors. A wind from compass bearing f goes towards f + 180; berth +x points to

@@ -15,6 +15,8 @@ from loadarm.errors import ConfigError
 from loadarm.ship.mooring import (MooringEquilibriumError, compile_moorings, equilibrium, line_tensions,
                                   restoring_force, stiffness)
 
+from .hypo import examples
+
 BERTH = "examples/berths/lng150k.toml"
 
 
@@ -48,7 +50,7 @@ def _numpy_route(mo, eta, alive):
     return force, t
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=examples(200), deadline=None)
 @given(x=st.floats(-0.5, 2.0), y=st.floats(-2.0, 2.0), psi=st.floats(-0.01, 0.01),
        parted=st.lists(st.integers(0, 15), max_size=16))
 def test_the_kernel_matches_an_independent_numpy_route(mo, x, y, psi, parted):

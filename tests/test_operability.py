@@ -15,6 +15,7 @@ from loadarm.config import load_config
 from loadarm.faces import breakout_distance, face_margins, first_face
 from loadarm.studies.kernel import _DIRS, breakout_time, floor_table, monitor_record
 
+from .hypo import examples
 from .conftest import ROOT
 
 PAPER = ROOT / "examples" / "paper.toml"
@@ -32,7 +33,7 @@ def table(model):
     return floor_table(model, [fx - 2.5, -2.5, fz - 3.0], [fx + 2.5, 2.5, fz + 3.0])
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=examples(200), deadline=None)
 @given(d=st.floats(0.0, 50.0), v=st.floats(0.01, 1.0), a=st.floats(0.001, 0.5))
 def test_breakout_time_inverts_breakout_distance(d, v, a):
     t = float(breakout_time(d, v, a))

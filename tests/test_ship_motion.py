@@ -18,6 +18,8 @@ from loadarm.ship import loads
 from loadarm.ship.model import compile_ship
 from loadarm.ship.motion import DT, MIN_RECORD, _flange, _interp_heading, simulate
 
+from .hypo import examples
+
 BERTH = "examples/berths/lng150k.toml"
 
 
@@ -241,7 +243,7 @@ def moored():
     return sc, flange_motion(sc, moored_ship(sc))
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=examples(30), deadline=None)
 @given(t=st.floats(0.0, 299.0))
 def test_the_scenario_flange_interpolates_between_samples(moored, t):
     motion = moored[1]
@@ -302,7 +304,7 @@ def test_fenders_too_stiff_to_integrate_are_refused_naming_the_file(berth):
         compile_ship(bad, source="mine.toml")
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=examples(100), deadline=None)
 @given(speed=st.floats(0.0, 3.0), direction=st.floats(-math.pi, math.pi), vx=st.floats(-0.5, 0.5),
        vy=st.floats(-0.5, 0.5), psi=st.floats(-0.02, 0.02))
 def test_the_kernels_current_is_the_vectorised_formula(ship, speed, direction, vx, vy, psi):

@@ -20,7 +20,7 @@ from ..errors import ConfigError
 if TYPE_CHECKING:
     from ..model import ArmModel
 
-__all__ = ["resolve_berth", "moored_ship", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
+__all__ = ["resolve_berth", "moored_ship", "scenario_environment", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
            "parse_scenario", "check_scenario", "check_drift_window", "check_run_size", "run_memory", "MAX_RUN_MEMORY"]
 
 
@@ -344,17 +344,40 @@ def resolve_berth(sc: Scenario, scenario_path: str | Path) -> Scenario:
         if n not in names:
             raise ConfigError(f"{scenario_path}: mooring_failure.lines: {n!r} is not a line of {path} "
                               f"(lines: {', '.join(names)})")
-    merged = berth.environment.model_dump() | {k: v for k, v in sc.environment.model_dump().items() if v is not None}
+    scenario_environment(sc, berth.environment, source=f"{scenario_path} over {path}")
+    return sc.model_copy(update={"ship": sc.ship.model_copy(update={"berth": str(path)})})
+
+
+def scenario_environment(sc: Scenario, base, *, source: str = "<scenario>"):
+    """The berth's environment with the scenario's ``[environment]`` overrides, validated.
+
+    Parameters
+    ----------
+    sc : Scenario
+    base : Environment
+        The berth file's.
+    source : str
+        Name for messages.
+
+    Returns
+    -------
+    Environment
+
+    Raises
+    ------
+    ConfigError
+        An override out of its range (named ``environment.<key>``).
+    """
     from pydantic import create_model
 
     from ..berth import Environment
 
+    merged = base.model_dump() | {k: v for k, v in sc.environment.model_dump().items() if v is not None}
     wrap = create_model("_MergedEnvironment", environment=(Environment, ...))
     try:
-        wrap.model_validate({"environment": merged})
+        return wrap.model_validate({"environment": merged}).environment
     except ValidationError as err:
-        raise ConfigError(_format_validation_error(err, f"{scenario_path} over {path}", wrap)) from None
-    return sc.model_copy(update={"ship": sc.ship.model_copy(update={"berth": str(path)})})
+        raise ConfigError(_format_validation_error(err, source, wrap)) from None
 
 
 def check_scenario(sc: Scenario, model: "ArmModel", *, source: str = "<scenario>") -> None:

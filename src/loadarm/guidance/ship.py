@@ -148,11 +148,10 @@ class MooredFlangeMotion:
 
 
 def _moored(sc: Scenario, ship) -> MooredFlangeMotion:
-    from ..berth import Environment
     from ..ship.motion import simulate
+    from .scenario import scenario_environment
 
-    env = Environment.model_validate(ship.environment.model_dump() | {
-        k: v for k, v in sc.environment.model_dump().items() if v is not None})
+    env = scenario_environment(sc, ship.environment)
     mf = sc.mooring_failure
     parted = tuple(ship.names) if mf.all_lines else tuple(mf.lines)
     m = simulate(ship, env, sc.scenario.duration + MOORED_LOOKAHEAD, seed=sc.scenario.seed,

@@ -25,7 +25,7 @@ import numpy as np
 from ..errors import ConfigError
 
 __all__ = ["VARIABLES", "GapReport", "read_metocean", "validate_metocean", "synthetic_metocean",
-           "write_metocean_csv", "berth_directions", "MetoceanError"]
+           "write_metocean_csv", "berth_directions", "compass_to_berth", "MetoceanError"]
 
 
 class MetoceanError(ConfigError):
@@ -365,6 +365,24 @@ def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00
     return validate_metocean(ds, "synthetic")[0]
 
 
+def compass_to_berth(to_bearing_deg, x_bearing_deg: float):
+    """A compass bearing (the direction something goes to, clockwise from north) as a berth-frame angle (from
+    berth +x towards +y, anticlockwise seen from above), deg in [-180, 180).
+
+    Parameters
+    ----------
+    to_bearing_deg : float or array_like
+    x_bearing_deg : float
+        Compass bearing of berth +x.
+
+    Returns
+    -------
+    float or ndarray
+    """
+    a = x_bearing_deg - np.asarray(to_bearing_deg, dtype=float)       # bearings clockwise, berth angles anticlockwise
+    return (a + 180.0) % 360.0 - 180.0
+
+
 def berth_directions(ds, x_bearing_deg: float) -> dict:
     """The record's directions in the berth frame (the direction each goes to, from berth +x towards +y, deg),
     as the berth file's ``[environment]`` keys take them.
@@ -380,10 +398,6 @@ def berth_directions(ds, x_bearing_deg: float) -> dict:
     dict
         ``wind_direction_deg``, ``wave_direction_deg``, ``current_direction_deg``: ndarrays in (-180, 180].
     """
-    def turn(to_bearing):
-        a = x_bearing_deg - np.asarray(to_bearing, dtype=float)      # bearings clockwise, berth angles counter
-        return (a + 180.0) % 360.0 - 180.0
-
-    return {"wind_direction_deg": turn(ds["wind_from_deg"].values + 180.0),
-            "wave_direction_deg": turn(ds["wave_from_deg"].values + 180.0),
-            "current_direction_deg": turn(ds["current_to_deg"].values)}
+    return {"wind_direction_deg": compass_to_berth(ds["wind_from_deg"].values + 180.0, x_bearing_deg),
+            "wave_direction_deg": compass_to_berth(ds["wave_from_deg"].values + 180.0, x_bearing_deg),
+            "current_direction_deg": compass_to_berth(ds["current_to_deg"].values, x_bearing_deg)}

@@ -86,8 +86,10 @@ def state_environment(base, row: dict, x_bearing_deg: float):
     -------
     Environment
     """
+    from .metocean import compass_to_berth
+
     def turn(to_bearing):
-        return (x_bearing_deg - to_bearing + 180.0) % 360.0 - 180.0
+        return float(compass_to_berth(to_bearing, x_bearing_deg))
 
     return base.model_copy(update={
         "hs": float(row["hs_m"]), "tp": float(row["tp_s"]), "spreading": float(row["wave_spreading"]),

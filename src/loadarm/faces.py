@@ -31,7 +31,7 @@ FACE_LABELS = {
 }
 
 
-def face_margins(model, x, y, z) -> np.ndarray:
+def face_margins(model, x, y, z, *, q=None) -> np.ndarray:
     """Signed margin of coupler positions to every face, in the face's own coordinate (rad).
 
     Parameters
@@ -40,6 +40,8 @@ def face_margins(model, x, y, z) -> np.ndarray:
         Arm and joint limits.
     x, y, z : float or ndarray
         Coupler positions, m (broadcast together).
+    q : Joints3D, optional
+        ``inverse3d(model.arm, x, y, z, check=False)`` when the caller has it already (not computed again).
 
     Returns
     -------
@@ -49,7 +51,8 @@ def face_margins(model, x, y, z) -> np.ndarray:
         ``beta_min`` face (inside the folded arm), and ``+inf`` on the others.
     """
     arm, lim = model.arm, model.joint_limits
-    q = inverse3d(arm, x, y, z, check=False)
+    if q is None:
+        q = inverse3d(arm, x, y, z, check=False)
     phi, alpha, beta = (np.asarray(v, dtype=float) for v in (q.phi, q.alpha, q.beta))
     out = np.stack([lim.beta[1] - beta, beta - lim.beta[0], lim.alpha[1] - alpha, alpha - lim.alpha[0],
                     lim.phi[1] - phi, phi - lim.phi[0]], axis=-1)

@@ -24,7 +24,7 @@ from typing import IO, Any
 
 from .errors import ConfigError, OutputError
 
-__all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "read_input", "check_depth",
+__all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "read_input", "check_depth", "atomic_path",
            "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs"]
 
 #: Largest input file read, bytes. An installation or scenario file is a few kilobytes.
@@ -119,8 +119,37 @@ def check_depth(obj: Any, source: str, limit: int = MAX_DEPTH) -> None:
 
 
 @contextlib.contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """A temporary file's path next to ``path``, for writers that take a path (NetCDF); on a clean exit it is
+    given the permissions of a new file and renamed over ``path``, on an error removed.
+
+    Parameters
+    ----------
+    path : str or Path
+        The target; parent directories are created.
+
+    Yields
+    ------
+    Path
+    """
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, p)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+@contextlib.contextmanager
 def atomic_open(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
-    """Open a temporary file next to ``path``; on a clean exit flush it to disk and rename it over ``path``.
+    """Open a temporary file next to ``path``; on a clean exit flush it to disk and rename it over ``path``
+    (:func:`atomic_path`).
 
     Parameters
     ----------
@@ -135,20 +164,10 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
     ------
     file object
     """
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
-    try:
-        with os.fdopen(fd, mode, **kwargs) as fh:
-            yield fh
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, p)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with atomic_path(path) as tmp, open(tmp, mode, **kwargs) as fh:
+        yield fh
+        fh.flush()
+        os.fsync(fh.fileno())
 
 
 def _umask() -> int:

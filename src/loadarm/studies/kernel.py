@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -83,20 +84,6 @@ class FloorTable:
     cap: float
     cap_v: float
 
-    def contains(self, p: np.ndarray) -> bool:
-        """Whether every point lies inside the tabulated region.
-
-        Parameters
-        ----------
-        p : ndarray (n, 3)
-
-        Returns
-        -------
-        bool
-        """
-        hi = self.origin + self.spacing * (np.array(self.dist.shape[:3]) - 1)
-        return bool(np.all(p >= self.origin - 1e-9) and np.all(p <= hi + 1e-9))
-
     def inside(self, p: np.ndarray) -> np.ndarray:
         """Which points lie inside the tabulated region.
 
@@ -129,11 +116,11 @@ class FloorTable:
         v = map_coordinates(self._v, idx, order=1, mode="nearest")
         return h, v
 
-    @property
-    def _h(self):
+    @cached_property
+    def _h(self):                            # the least horizontal ray distance per grid point (once per table)
         return self.dist[..., :8].min(axis=-1)
 
-    @property
+    @cached_property
     def _v(self):
         return self.dist[..., 8:].min(axis=-1)
 
@@ -295,7 +282,7 @@ def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> Record
     q = inverse3d(model.arm, p[:, 0], p[:, 1], p[:, 2], check=False)
     beta, phi = np.asarray(q.beta, dtype=float), np.asarray(q.phi, dtype=float)
     pos = np.maximum(beta_severity(beta, model.alarms), slew_severity(phi, model.slew))
-    outside = bool(first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2]))[0].any())
+    outside = bool(first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2], q=q))[0].any())
     pos = np.where(pos < 0, int(Severity.RELEASE), pos)               # unreachable: as severe as it gets
     h, v = table.horizontal_vertical(p)
     away = ~table.inside(p)

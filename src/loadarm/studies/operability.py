@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..alarms import Severity
 from ..errors import ConfigError
 from ..results import Metric, Result
 
@@ -129,7 +130,7 @@ def run_states(model, ship, table, rows: list[dict], settings: OperabilitySettin
         m = simulate(ship, env, settings.duration_per_state, seed=settings.seed + int(row["index"]))
         p = np.array([fx, 0.0, fz + float(row["tide_m"])]) + (m.flange - m.flange_reference)
         r = monitor_record(model, table, p, DT)
-        motion = 4.0 * float(np.max(np.std(m.flange - np.mean(m.flange, axis=0), axis=0)))
+        motion = 4.0 * float(np.max(np.std(m.flange, axis=0)))
         connectable = motion <= settings.connect_motion_limit
         out.append({"time": row["time"], "hs_m": row["hs_m"], "tp_s": row["tp_s"],
                     "wind_speed_ms": row["wind_speed_ms"], "current_speed_ms": row["current_speed_ms"],
@@ -160,14 +161,14 @@ def write_parquet(df, path: str | Path) -> Path:
     from .. import __version__
     from ..files import SIGNATURE
 
-    p = Path(path)
+    from ..files import atomic_open
+
     table = pa.Table.from_pandas(df, preserve_index=False)
     meta = dict(table.schema.metadata or {})
     meta[b"generator"] = f"{SIGNATURE} {__version__}".encode()
-    tmp = p.with_name(f".{p.name}.tmp")
-    pq.write_table(table.replace_schema_metadata(meta), tmp)
-    os.replace(tmp, p)
-    return p
+    with atomic_open(path, "wb") as fh:
+        pq.write_table(table.replace_schema_metadata(meta), fh)
+    return Path(path)
 
 
 def plan_chunks(n: int, chunks: int) -> list[tuple[int, int]]:
@@ -268,7 +269,7 @@ class OperabilityResult(Result):
         df.index = t
         by_month = df["down"].groupby(t.to_period("M")).mean()
         by_year = df["down"].groupby(t.year).mean()
-        stages = {Severity_label(s): int((df["stage"] == s).sum()) for s in sorted(df["stage"].unique())}
+        stages = {Severity(int(s)).label: int((df["stage"] == s).sum()) for s in sorted(df["stage"].unique())}
         hs_bins = [0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 20.0]
         tp_bins = [0, 6, 8, 10, 12, 30]
         grid = df.groupby([pd.cut(df["hs_m"], hs_bins), pd.cut(df["tp_s"], tp_bins)], observed=True)["down"]
@@ -287,12 +288,6 @@ class OperabilityResult(Result):
         from ..plotting import operability_figure
 
         return operability_figure(self)
-
-
-def Severity_label(s) -> str:  # noqa: N802 - a tiny helper named after the type it labels
-    from ..alarms import Severity
-
-    return Severity(int(s)).label
 
 
 def _box(model, tide_lo: float, tide_hi: float):

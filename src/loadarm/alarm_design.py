@@ -76,7 +76,6 @@ class FaceDesign:
     available_m: float
     allowance_m: float
     intact_speed_ms: float
-    esd_m: float
     second_m: float
     release_m: float
     free_m: float
@@ -93,6 +92,11 @@ class FaceDesign:
     case: str = ""
     position_shortfall_m: float = 0.0
     floor: float | None = None
+
+    @property
+    def esd_m(self) -> float:
+        """Where ESD-1 fires in the stacking: at the drift allowance's edge, m."""
+        return self.allowance_m
 
     @property
     def short_case(self) -> str:
@@ -515,7 +519,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
                             + (f"{short:.2f} m" if math.isfinite(short) else "the whole release")
                             + "): one angle cannot serve the whole flanging area there; the design-drift floor "
                               "(recommended [design_drift]) covers it")
-        rows.append(FaceDesign(name, tuple(vec), face, avail[worst_f], allow, v_int, allow, allow + s_sec,
+        rows.append(FaceDesign(name, tuple(vec), face, avail[worst_f], allow, v_int, allow + s_sec,
                                allow + s_rel, allow + s_free, allow + s_lead, v_rel, kind or "", first, second,
                                release, limit, ok, float(short_floor),
                                tuple(float(v) for v in corners[worst_f]), case,

@@ -448,9 +448,9 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
     beta = comp.direction - mo.psi0
     z = comp.amplitude * np.exp(-1j * comp.phase)                         # complex amplitude (e^{-i w t})
     h = ship.hydro
+    # the RAOs and drift coefficients are zero above the grid's top frequency: interpolated only below it
+    band = comp.omega <= h.omega[-1]
     if waves and env.hs > 0:
-        # the coefficients are zero above the grid's top frequency: interpolate only below it (the same sum)
-        band = comp.omega <= h.omega[-1]
         r = np.zeros((comp.omega.size, 6), dtype=complex)
         r[band] = _interp_heading(ship.rao, h.heading, h.omega, comp.omega[band], beta[band])     # (nc, 6)
         coef = (r * z[:, None]).T                                               # (6, nc)
@@ -468,7 +468,6 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
         # answer faster loads); the current acts in the integration
         f_full = np.zeros((n, 3))
         if env.hs > 0:
-            band = comp.omega <= h.omega[-1]
             tt = np.zeros((comp.omega.size, 3))
             tt[band] = _interp_heading(ship.drift, h.heading, h.omega, comp.omega[band], beta[band])   # (nc, 3)
             mean_j = np.sum(comp.amplitude[:, None] ** 2 * tt, axis=0)

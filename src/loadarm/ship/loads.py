@@ -260,7 +260,8 @@ def spreading(theta, mean: float, s: float) -> np.ndarray:
     return spreading_norm(s) * np.abs(np.cos((np.asarray(theta, dtype=float) - mean) / 2)) ** (2 * s)
 
 
-def sample_directions(rng: np.random.Generator, n: int, mean: float, s: float) -> np.ndarray:
+def sample_directions(rng: np.random.Generator, n: int, mean: float, s: float, keep: int | None = None) \
+        -> np.ndarray:
     """Draw ``n`` directions from the cos-2s distribution (inverse of its tabulated CDF).
 
     Parameters
@@ -268,14 +269,17 @@ def sample_directions(rng: np.random.Generator, n: int, mean: float, s: float) -
     rng : numpy.random.Generator
     n : int
     mean, s : float
+    keep : int, optional
+        Return only the first ``keep`` of the ``n`` draws (the generator advances by ``n`` all the same).
 
     Returns
     -------
-    ndarray (n,)
+    ndarray (n,) or (keep,)
         rad.
     """
     grid = np.linspace(-math.pi, math.pi, 4001)
     pdf = spreading(grid, 0.0, s)
     cdf = np.concatenate([[0.0], np.cumsum(0.5 * (pdf[1:] + pdf[:-1]) * np.diff(grid))])
     cdf /= cdf[-1]
-    return mean + np.interp(rng.uniform(0.0, 1.0, n), cdf, grid)
+    u = rng.uniform(0.0, 1.0, n)
+    return mean + np.interp(u if keep is None else u[:keep], cdf, grid)

@@ -149,7 +149,7 @@ def compile_moorings(berth: Berth) -> Moorings:
                     side=side, psi0=psi0, origin=origin)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _fender_load(d, defl, load, n):
     if d <= 0.0:
         return 0.0
@@ -160,7 +160,7 @@ def _fender_load(d, defl, load, n):
     return 0.0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _restoring(eta, fair, height, boll, ea, l0, alive, fy, fdefl, fload, fn, side, psi0, origin, out, tension):
     psi = psi0 + eta[2]
     c, s = math.cos(psi), math.sin(psi)

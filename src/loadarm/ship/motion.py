@@ -31,7 +31,8 @@ from .loads import E_C, current_force, jonswap, npd_spectrum, sample_directions,
 from .model import ShipModel
 from .mooring import _restoring
 
-__all__ = ["ShipMotion", "simulate", "MIN_RECORD", "DT", "wave_components", "fft_length"]
+__all__ = ["ShipMotion", "simulate", "flange_positions", "mean_load", "mean_drift_grid", "MIN_RECORD", "DT",
+           "wave_components", "fft_length"]
 
 #: Shortest record synthesised, s (frequency step 2 pi / 1800 s: 0.0035 rad/s).
 MIN_RECORD = 1800.0
@@ -65,7 +66,8 @@ def _interp_heading(table: np.ndarray, heading: np.ndarray, omega_grid: np.ndarr
 
 @dataclass(frozen=True)
 class WaveComponents:
-    """The realised sea on the FFT grid: frequency, amplitude, direction (berth frame, towards), phase."""
+    """The realised sea on the FFT grid: frequency, amplitude, direction (berth frame, towards), phase of the
+    components ``k = 1 .. K`` (the grid's first ``K``: those up to ``omega_max``)."""
 
     omega: np.ndarray
     amplitude: np.ndarray
@@ -74,8 +76,8 @@ class WaveComponents:
     n: int
 
 
-def wave_components(env: Environment, n: int, dt: float, rng: np.random.Generator, gamma: float = 3.3) \
-        -> WaveComponents:
+def wave_components(env: Environment, n: int, dt: float, rng: np.random.Generator, gamma: float = 3.3,
+                    omega_max: float = math.inf) -> WaveComponents:
     """Draw the sea's components on the FFT grid of ``n`` samples ``dt`` apart.
 
     Parameters
@@ -85,6 +87,9 @@ def wave_components(env: Environment, n: int, dt: float, rng: np.random.Generato
     dt : float
     rng : numpy.random.Generator
     gamma : float
+    omega_max : float
+        Keep the components up to this frequency, rad/s (the random draws are those of the whole grid, so a
+        seed realises the same sea whatever the band kept; a ship answers nothing above its RAO grid).
 
     Returns
     -------
@@ -92,10 +97,11 @@ def wave_components(env: Environment, n: int, dt: float, rng: np.random.Generato
     """
     dw = 2 * math.pi / (n * dt)
     w = dw * np.arange(1, n // 2)
-    a = np.sqrt(2.0 * jonswap(w, env.hs, env.tp, gamma) * dw)
-    direction = sample_directions(rng, w.size, math.radians(env.wave_direction_deg), env.spreading)
-    phase = rng.uniform(0.0, 2 * math.pi, w.size)
-    return WaveComponents(w, a, direction, phase, n)
+    keep = int(np.searchsorted(w, omega_max, side="right"))
+    a = np.sqrt(2.0 * jonswap(w[:keep], env.hs, env.tp, gamma) * dw)
+    direction = sample_directions(rng, w.size, math.radians(env.wave_direction_deg), env.spreading, keep=keep)
+    phase = rng.uniform(0.0, 2 * math.pi, w.size)[:keep]
+    return WaveComponents(w[:keep], a, direction, phase, n)
 
 
 def fft_length(target: int) -> int:
@@ -123,11 +129,15 @@ def _synth(coef: np.ndarray, n: int) -> np.ndarray:
     return irfft(c, n, axis=-1) * n / 2
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, fair, height, boll, ea, l0, alive, fy, fdefl, fload,
-            fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten):
-    """Acceleration (3 floats) of the low-frequency pose: scalars in and out, no allocation (the 10 Hz
-    integration calls it four times a step)."""
+            fn, side, psi0, origin, current, xbuf, out_f, ten):
+    """Acceleration (3 floats) of the low-frequency pose: scalars in and out, no allocation (the integration
+    calls it four times a step). ``current`` is ``(vx, vy, kx, ky, el)``: the current's velocity and the ship's
+    current-load factors. Inlined into the integrator (no reference counting of its arrays per call: found,
+    about 0.5 us a call; fewer than 30 arguments, or Python passes them as ``*args``, which numba cannot
+    inline)."""
+    cur_vx, cur_vy, kx, ky, el = current
     xbuf[0], xbuf[1], xbuf[2] = x0, x1, x2
     _restoring(xbuf, fair, height, boll, ea, l0, alive, fy, fdefl, fload, fn, side, psi0, origin, out_f, ten)
     psi = psi0 + x2
@@ -163,8 +173,10 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
     Hermite of the step's ends (error of order ``(w h)^4 / 384``: below 1e-4 of the motion for the 19 s and longer
     periods of a moored ship at :data:`LF_STEP`), their tensions interpolated linearly. A step ends exactly where
     the lines part (``i_part``: from there ``alive1``) and at the last sample. The tensions between two steps are
-    filled once the next step's first stage has the end's."""
+    filled once the next step's first stage has the end's. Empty ``vs`` and ``tens`` (no rows): the pose alone."""
     n = f_ship.shape[0]
+    rates = vs.shape[0] > 0
+    current = (cur_vx, cur_vy, kx, ky, el)
     nl = fair.shape[0]
     out_f = np.zeros(3)
     ten = np.zeros(nl)
@@ -177,13 +189,15 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
     while True:
         alive = alive1 if k >= i_part else alive0
         xs[k, 0], xs[k, 1], xs[k, 2] = a0, a1, a2
-        vs[k, 0], vs[k, 1], vs[k, 2] = b0, b1, b2
+        if rates:
+            vs[k, 0], vs[k, 1], vs[k, 2] = b0, b1, b2
         p0, p1, p2 = f_ship[k, 0], f_ship[k, 1], f_ship[k, 2]
         k1 = _lf_rhs(a0, a1, a2, b0, b1, b2, p0, p1, p2, minv, damp, fair, height, boll, ea, l0, alive, fy, fdefl,
-                     fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten)
-        for j in range(nl):                      # the first stage is at the step's own pose: its tensions
-            tens[k, j] = ten[j]
-        if k_prev >= 0:                          # the previous step's samples between: tensions interpolated
+                     fload, fn, side, psi0, origin, current, xbuf, out_f, ten)
+        if rates:
+            for j in range(nl):                  # the first stage is at the step's own pose: its tensions
+                tens[k, j] = ten[j]
+        if rates and k_prev >= 0:                # the previous step's samples between: tensions interpolated
             m_prev = k - k_prev
             for i in range(1, m_prev):
                 u = i / m_prev
@@ -211,15 +225,15 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
         x20, x21, x22 = a0 + h * b0, a1 + h * b1, a2 + h * b2
         v20, v21, v22 = b0 + h * k1[0], b1 + h * k1[1], b2 + h * k1[2]
         k2s = _lf_rhs(x20, x21, x22, v20, v21, v22, m0, m1, m2, minv, damp, fair, height, boll, ea, l0, alive, fy,
-                      fdefl, fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten)
+                      fdefl, fload, fn, side, psi0, origin, current, xbuf, out_f, ten)
         x30, x31, x32 = a0 + h * v20, a1 + h * v21, a2 + h * v22
         v30, v31, v32 = b0 + h * k2s[0], b1 + h * k2s[1], b2 + h * k2s[2]
         k3 = _lf_rhs(x30, x31, x32, v30, v31, v32, m0, m1, m2, minv, damp, fair, height, boll, ea, l0, alive, fy,
-                     fdefl, fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten)
+                     fdefl, fload, fn, side, psi0, origin, current, xbuf, out_f, ten)
         x40, x41, x42 = a0 + big * v30, a1 + big * v31, a2 + big * v32
         v40, v41, v42 = b0 + big * k3[0], b1 + big * k3[1], b2 + big * k3[2]
         k4 = _lf_rhs(x40, x41, x42, v40, v41, v42, q0, q1, q2, minv, damp, fair, height, boll, ea, l0, alive, fy,
-                     fdefl, fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xbuf, out_f, ten)
+                     fdefl, fload, fn, side, psi0, origin, current, xbuf, out_f, ten)
         c0 = a0 + big / 6 * (b0 + 2 * v20 + 2 * v30 + v40)
         c1 = a1 + big / 6 * (b1 + 2 * v21 + 2 * v31 + v41)
         c2 = a2 + big / 6 * (b2 + 2 * v22 + 2 * v32 + v42)
@@ -240,6 +254,8 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
                 xs[k + i, 0] = hh00 * a0 + hh10 * big * b0 + hh01 * c0 + hh11 * big * d0
                 xs[k + i, 1] = hh00 * a1 + hh10 * big * b1 + hh01 * c1 + hh11 * big * d1
                 xs[k + i, 2] = hh00 * a2 + hh10 * big * b2 + hh01 * c2 + hh11 * big * d2
+                if not rates:
+                    continue
                 vs[k + i, 0] = g00 * a0 + g10 * b0 + g01 * c0 + g11 * d0
                 vs[k + i, 1] = g00 * a1 + g10 * b1 + g01 * c1 + g11 * d1
                 vs[k + i, 2] = g00 * a2 + g10 * b2 + g01 * c2 + g11 * d2
@@ -347,13 +363,10 @@ class ShipMotion(Result):
         return fig
 
 
-def _flange(ship: ShipModel, pose, pose_v, wave, wave_v):
-    """Berth-frame flange position, velocity and face angles from the two motions."""
+def _flange_position(ship: ShipModel, pose, d):
+    """Berth-frame flange position from the low-frequency pose and the first-order flange displacement ``d``
+    (ship frame); also the heading's cosine and sine and the flange's ship-frame x and y (for its velocity)."""
     mo = ship.moorings
-    r = ship.manifold - ship.cog                              # CoG to flange, ship frame
-    rot = wave[:, 3:]
-    d = wave[:, :3] + np.cross(rot, r)                        # first-order flange displacement, ship frame
-    dv = wave_v[:, :3] + np.cross(wave_v[:, 3:], r)
     psi = mo.psi0 + pose[:, 2]
     c, s = np.cos(psi), np.sin(psi)
     lx = ship.manifold[0] + d[:, 0]
@@ -361,11 +374,20 @@ def _flange(ship: ShipModel, pose, pose_v, wave, wave_v):
     px = mo.origin[0] + pose[:, 0] + c * lx - s * ly
     py = mo.origin[1] + pose[:, 1] + s * lx + c * ly
     pz = ship.manifold[2] - ship.draft + d[:, 2]
+    return np.stack([px, py, pz], axis=1), c, s, lx, ly
+
+
+def _flange(ship: ShipModel, pose, pose_v, wave, wave_v):
+    """Berth-frame flange position, velocity and face angles from the two motions."""
+    r = ship.manifold - ship.cog                              # CoG to flange, ship frame
+    d = wave[:, :3] + np.cross(wave[:, 3:], r)                # first-order flange displacement, ship frame
+    dv = wave_v[:, :3] + np.cross(wave_v[:, 3:], r)
+    p, c, s, lx, ly = _flange_position(ship, pose, d)
     r_dot = pose_v[:, 2]
     vx = pose_v[:, 0] - r_dot * (s * lx + c * ly) + c * dv[:, 0] - s * dv[:, 1]
     vy = pose_v[:, 1] + r_dot * (c * lx - s * ly) + s * dv[:, 0] + c * dv[:, 1]
     angles = np.stack([wave[:, 3], wave[:, 4], pose[:, 2] + wave[:, 5]], axis=1)
-    return np.stack([px, py, pz], axis=1), np.stack([vx, vy, dv[:, 2]], axis=1), angles
+    return p, np.stack([vx, vy, dv[:, 2]], axis=1), angles
 
 
 def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
@@ -388,18 +410,110 @@ def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
     f = f + current_force(ship.current_kx, ship.current_ky, ship.length, env.current_speed,
                           math.radians(env.current_direction_deg) - psi)
     if env.hs > 0:
-        w = np.linspace(0.05, 2.5, 246)                     # 0.01 rad/s; the spectra are smooth on it
-        th = np.linspace(-math.pi, math.pi, 73)             # 5 deg
         from .loads import spreading
 
+        w, th = MEAN_DRIFT_OMEGA, MEAN_DRIFT_DIRECTION
         dens = jonswap(w, env.hs, env.tp)[:, None] * spreading(th, math.radians(env.wave_direction_deg),
                                                                env.spreading)[None, :]
-        beta = (th[None, :] - psi) * np.ones_like(w)[:, None]
-        tt = _interp_heading(ship.drift, ship.hydro.heading, ship.hydro.omega, np.repeat(w, th.size),
-                             beta.ravel()).reshape(w.size, th.size, 3)
+        tt = mean_drift_grid(ship)
         f = f + 2 * np.trapezoid(np.trapezoid(dens[..., None] * tt, th, axis=1), w, axis=0)
     c, s = math.cos(psi), math.sin(psi)
     return np.array([c * f[0] - s * f[1], s * f[0] + c * f[1], f[2]])
+
+
+#: The grid :func:`mean_load` integrates the mean drift over: frequency (0.01 rad/s; the spectra are smooth on
+#: it), rad/s, and the direction the waves travel, berth frame (5 deg), rad.
+MEAN_DRIFT_OMEGA = np.linspace(0.05, 2.5, 246)
+MEAN_DRIFT_DIRECTION = np.linspace(-math.pi, math.pi, 73)
+
+
+def mean_drift_grid(ship: ShipModel) -> np.ndarray:
+    """The ship's drift coefficients on :func:`mean_load`'s grid, (246, 73, 3), interpolated once per ship and
+    kept with it (the coefficients and the grid never change; every sea state of a study reuses them).
+
+    Parameters
+    ----------
+    ship : ShipModel
+
+    Returns
+    -------
+    ndarray (246, 73, 3)
+        Read-only.
+    """
+    cached = ship.__dict__.get("_mean_drift_grid")
+    if cached is None:
+        w, th = MEAN_DRIFT_OMEGA, MEAN_DRIFT_DIRECTION
+        beta = (th[None, :] - ship.psi0) * np.ones_like(w)[:, None]
+        cached = _interp_heading(ship.drift, ship.hydro.heading, ship.hydro.omega, np.repeat(w, th.size),
+                                 beta.ravel()).reshape(w.size, th.size, 3)
+        cached.setflags(write=False)
+        object.__setattr__(ship, "_mean_drift_grid", cached)     # a cache of the frozen model's own data
+    return cached
+
+
+def _lengths(duration: float, dt: float) -> tuple[int, int]:
+    """Output samples and FFT length of a record (at least :data:`MIN_RECORD` long)."""
+    if not (duration > 0 and math.isfinite(duration)):
+        raise ValueError(f"duration must be a positive number of seconds, got {duration!r}")
+    n_out = int(round(duration / dt)) + 1
+    return n_out, fft_length(max(n_out, int(math.ceil(MIN_RECORD / dt))))
+
+
+def _sea(ship: ShipModel, env: Environment, n: int, dt: float, rng: np.random.Generator):
+    """The realised sea up to the RAO grid's top frequency (above it the ship answers nothing), the components'
+    headings relative to the ship and their complex amplitudes (``e^{-i w t}``)."""
+    comp = wave_components(env, n, dt, rng, omega_max=float(ship.hydro.omega[-1]))
+    return comp, comp.direction - ship.moorings.psi0, comp.amplitude * np.exp(-1j * comp.phase)
+
+
+def _wave_coefficients(ship: ShipModel, comp: WaveComponents, beta, z) -> np.ndarray:
+    """Complex amplitudes of the first-order motion of the centre of gravity, (6, components), ship frame."""
+    h = ship.hydro
+    return (_interp_heading(ship.rao, h.heading, h.omega, comp.omega, beta) * z[:, None]).T
+
+
+def _lf_load(ship: ShipModel, env: Environment, comp: WaveComponents, beta, n: int, n_out: int, dt: float,
+             rng: np.random.Generator) -> np.ndarray:
+    """The low-frequency load (ship frame, (n_out, 3)): Newman slow drift and the wind with its gusts, over the
+    whole (periodic) FFT record, then low-passed (the sum-frequency part of Newman's square is not slow drift,
+    and a moored ship does not answer faster loads); the current acts in the integration."""
+    h = ship.hydro
+    f_full = np.zeros((3, n))                                  # (load, time): each FFT on contiguous samples
+    if env.hs > 0:
+        tt = _interp_heading(ship.drift, h.heading, h.omega, comp.omega, beta)                  # (nc, 3)
+        mean_j = np.sum(comp.amplitude[:, None] ** 2 * tt, axis=0)
+        sq = _synth((comp.amplitude[:, None] * np.sqrt(np.abs(tt))).T * np.exp(-1j * comp.phase), n)
+        sq *= sq
+        f_full += (2.0 * np.sign(mean_j))[:, None] * sq
+    if env.wind_speed > 0:
+        df = 1.0 / (n * dt)
+        f = df * np.arange(1, n // 2)
+        amp = np.sqrt(2.0 * npd_spectrum(f, env.wind_speed) * df)
+        gust = _synth(amp * np.exp(-1j * rng.uniform(0, 2 * math.pi, f.size)), n)
+        speed = np.maximum(env.wind_speed + gust, 0.0)
+        f_full += wind_force(ship.kind, speed, math.radians(env.wind_direction_deg) - ship.moorings.psi0,
+                             ship.frontal_area, ship.lateral_area, ship.centroid_x, ship.length).T
+    spec = rfft(f_full, axis=-1)
+    spec[:, 2 * math.pi * np.fft.rfftfreq(n, dt) > LF_CUTOFF] = 0.0
+    return np.ascontiguousarray(irfft(spec, n, axis=-1)[:, :n_out].T)
+
+
+def _lf_motion(ship: ShipModel, env: Environment, f_ship: np.ndarray, eq: np.ndarray, dt: float, alive0, alive1,
+               i_part: int, *, rates: bool = True):
+    """Integrate the low-frequency pose under ``f_ship``; with ``rates`` False only the pose (its rate and the
+    line tensions come back empty)."""
+    mo = ship.moorings
+    n_out = f_ship.shape[0]
+    pose = np.empty((n_out, 3))
+    pose_v = np.empty((n_out if rates else 0, 3))
+    tension = np.empty((n_out if rates else 0, len(mo.names)))
+    cur = math.radians(env.current_direction_deg)
+    _lf_integrate(eq.copy(), np.zeros(3), f_ship, dt, max(1, int(round(ship.lf_step / dt))),
+                  np.linalg.inv(ship.mass_lf), ship.damping_lf, mo.fairlead, mo.height, mo.bollard, mo.ea, mo.l0,
+                  alive0, alive1, i_part, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side,
+                  mo.psi0, mo.origin, env.current_speed * math.cos(cur), env.current_speed * math.sin(cur),
+                  ship.current_kx, ship.current_ky, E_C * ship.length, pose, pose_v, tension)
+    return pose, pose_v, tension
 
 
 def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 0, parted: tuple[str, ...] = (),
@@ -435,66 +549,25 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
     """
     from .mooring import equilibrium
 
-    if not (duration > 0 and math.isfinite(duration)):
-        raise ValueError(f"duration must be a positive number of seconds, got {duration!r}")
+    n_out, n = _lengths(duration, dt)
     mo = ship.moorings
     alive0 = mo.alive
     alive1 = mo.parted(parted) if parted else alive0
-    n_out = int(round(duration / dt)) + 1
-    n = fft_length(max(n_out, int(math.ceil(MIN_RECORD / dt))))
     rng = np.random.default_rng(seed)
-    comp = wave_components(env, n, dt, rng)
-    # wave-frequency motion of the CoG (ship frame) from the RAOs, at the ship's reference heading
-    beta = comp.direction - mo.psi0
-    z = comp.amplitude * np.exp(-1j * comp.phase)                         # complex amplitude (e^{-i w t})
-    h = ship.hydro
-    # the RAOs and drift coefficients are zero above the grid's top frequency: interpolated only below it
-    band = comp.omega <= h.omega[-1]
+    comp, beta, z = _sea(ship, env, n, dt, rng)
     if waves and env.hs > 0:
-        r = np.zeros((comp.omega.size, 6), dtype=complex)
-        r[band] = _interp_heading(ship.rao, h.heading, h.omega, comp.omega[band], beta[band])     # (nc, 6)
-        coef = (r * z[:, None]).T                                               # (6, nc)
+        coef = _wave_coefficients(ship, comp, beta, z)
         wave = _synth(coef, n)[:, :n_out].T
         wave_v = _synth(-1j * comp.omega * coef, n)[:, :n_out].T
     else:
         wave = np.zeros((n_out, 6))
         wave_v = np.zeros((n_out, 6))
-    mean = mean_load(ship, env)
-    eq = equilibrium(mo, mean, eta0=ship.eq0)
+    eq = equilibrium(mo, mean_load(ship, env), eta0=ship.eq0)
     t = np.arange(n_out) * dt
     if slow:
-        # Newman slow drift (ship frame), wind with gusts (ship frame), over the whole (periodic) FFT record, then
-        # low-passed (the sum-frequency part of Newman's square is not slow drift, and a moored ship does not
-        # answer faster loads); the current acts in the integration
-        f_full = np.zeros((n, 3))
-        if env.hs > 0:
-            tt = np.zeros((comp.omega.size, 3))
-            tt[band] = _interp_heading(ship.drift, h.heading, h.omega, comp.omega[band], beta[band])   # (nc, 3)
-            mean_j = np.sum(comp.amplitude[:, None] ** 2 * tt, axis=0)
-            sq = _synth((comp.amplitude[:, None] * np.sqrt(np.abs(tt))).T * np.exp(-1j * comp.phase), n)
-            f_full += (np.sign(mean_j)[:, None] * 2.0 * sq ** 2).T
-        if env.wind_speed > 0:
-            df = 1.0 / (n * dt)
-            f = df * np.arange(1, n // 2)
-            amp = np.sqrt(2.0 * npd_spectrum(f, env.wind_speed) * df)
-            gust = _synth(amp * np.exp(-1j * rng.uniform(0, 2 * math.pi, f.size)), n)
-            speed = np.maximum(env.wind_speed + gust, 0.0)
-            f_full += wind_force(ship.kind, speed, math.radians(env.wind_direction_deg) - mo.psi0, ship.frontal_area,
-                                 ship.lateral_area, ship.centroid_x, ship.length)
-        spec = rfft(f_full, axis=0)
-        spec[2 * math.pi * np.fft.rfftfreq(n, dt) > LF_CUTOFF] = 0.0
-        f_ship = np.ascontiguousarray(irfft(spec, n, axis=0)[:n_out])
-        cur = math.radians(env.current_direction_deg)
-        pose = np.empty((n_out, 3))
-        pose_v = np.empty((n_out, 3))
-        tension = np.empty((n_out, len(mo.names)))
+        f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng)
         i_part = n_out + 1 if part_time is None or not parted else int(math.ceil(part_time / dt - 1e-9))
-        _lf_integrate(eq.copy(), np.zeros(3), f_ship, dt, max(1, int(round(ship.lf_step / dt))), np.linalg.inv(ship.mass_lf),
-                      ship.damping_lf, mo.fairlead,
-                      mo.height, mo.bollard, mo.ea, mo.l0, alive0, alive1, i_part, mo.fender_y, mo.fender_defl,
-                      mo.fender_load, mo.fender_npts, mo.side, mo.psi0, mo.origin,
-                      env.current_speed * math.cos(cur), env.current_speed * math.sin(cur), ship.current_kx,
-                      ship.current_ky, E_C * ship.length, pose, pose_v, tension)
+        pose, pose_v, tension = _lf_motion(ship, env, f_ship, eq, dt, alive0, alive1, i_part)
     else:
         pose = np.tile(eq, (n_out, 1))
         pose_v = np.zeros((n_out, 3))
@@ -507,3 +580,46 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
                       flange_velocity=flange_v, flange_angles=angles, tension=tension, names=mo.names, mbl=mo.mbl,
                       parted=tuple(parted), part_time=part_time if parted else None, mean_pose=eq,
                       flange_reference=ref[0])
+
+
+def flange_positions(ship: ShipModel, env: Environment, duration: float, *, seed: int = 0, dt: float = DT) \
+        -> tuple[np.ndarray, np.ndarray]:
+    """The flange's berth-frame position alone, intact moorings: what :func:`simulate` with the same seed gives
+    as ``flange`` and ``flange_reference`` (the same sea, loads and low-frequency motion), for the operability
+    kernel. Cheaper: the flange's three first-order displacements are combined in the frequency domain (three
+    FFTs instead of the twelve motions and rates), and no rates or tensions are kept.
+
+    Parameters
+    ----------
+    ship : ShipModel
+    env : Environment
+    duration : float
+        s.
+    seed : int
+    dt : float
+        s.
+
+    Returns
+    -------
+    flange : ndarray (n, 3)
+        Berth frame, m.
+    reference : ndarray (3,)
+        The flange at the mean equilibrium, calm water.
+    """
+    from .mooring import equilibrium
+
+    n_out, n = _lengths(duration, dt)
+    mo = ship.moorings
+    rng = np.random.default_rng(seed)
+    comp, beta, z = _sea(ship, env, n, dt, rng)
+    if env.hs > 0:
+        coef = _wave_coefficients(ship, comp, beta, z)
+        cd = coef[:3] + np.cross(coef[3:], ship.manifold - ship.cog, axis=0)      # d = x + rot x r, per component
+        d = _synth(cd, n)[:, :n_out].T
+    else:
+        d = np.zeros((n_out, 3))
+    eq = equilibrium(mo, mean_load(ship, env), eta0=ship.eq0)
+    f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng)
+    pose, _, _ = _lf_motion(ship, env, f_ship, eq, dt, mo.alive, mo.alive, n_out + 1, rates=False)
+    p = _flange_position(ship, pose, d)[0]
+    return p, _flange_position(ship, eq[None, :], np.zeros((1, 3)))[0][0]

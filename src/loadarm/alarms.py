@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Severity", "UNREACHABLE", "severity_label", "AlarmAngles", "beta_severity", "slew_severity",
+__all__ = ["Severity", "UNREACHABLE", "severity_label", "AlarmAngles", "beta_severity", "slew_severity", "zone_level",
            "AlarmThresholds", "AlarmState", "next_alarm_state", "BETA_TOL_RAD"]
 
 #: Angular tolerance (rad) when comparing beta with a threshold: 1e-9 rad is
@@ -103,6 +103,38 @@ def beta_severity(beta: np.ndarray | float, alarms: AlarmAngles) -> np.ndarray:
                      beta > alarms.first + BETA_TOL_RAD],
                     [int(Severity.RELEASE), int(Severity.SECOND), int(Severity.ESD1)], int(Severity.NORMAL))
     return np.where(np.isnan(beta), UNREACHABLE, sev).astype(int)
+
+
+def zone_level(value: float, first: float, second: float, release: float, tol: float) -> int:
+    """The severity of one value against three thresholds, on plain floats: the rule of :func:`beta_severity`
+    (``tol`` = :data:`BETA_TOL_RAD`, NaN unreachable) and of :func:`slew_severity` (``tol`` 0, the absolute
+    slew) for a compiled per-sample loop (the operability kernel compiles it with numba); a test holds it to
+    the two vectorised functions.
+
+    Parameters
+    ----------
+    value, first, second, release, tol : float
+        rad.
+
+    Returns
+    -------
+    int
+        A :class:`Severity` value, or :data:`UNREACHABLE` for NaN.
+    """
+    if value != value:
+        return UNREACHABLE
+    if value >= release - tol:
+        return LEVEL_RELEASE
+    if value > second + tol:
+        return LEVEL_SECOND
+    if value > first + tol:
+        return LEVEL_ESD1
+    return LEVEL_NORMAL
+
+
+#: :class:`Severity` values as plain ints, for compiled code.
+LEVEL_NORMAL, LEVEL_ESD1, LEVEL_SECOND, LEVEL_RELEASE = (int(Severity.NORMAL), int(Severity.ESD1),
+                                                         int(Severity.SECOND), int(Severity.RELEASE))
 
 
 def slew_severity(phi, slew) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 
 from .slew import inverse3d
 
-__all__ = ["FACES", "FACE_LABELS", "face_margins", "first_face", "breakout_distance"]
+__all__ = ["FACES", "FACE_LABELS", "face_margins", "first_face", "past_a_face", "breakout_distance"]
 
 #: The faces, in the order of the last axis of :func:`face_margins`.
 FACES = ("beta_max", "beta_min", "alpha_max", "alpha_min", "slew_pos", "slew_neg")
@@ -83,6 +83,26 @@ def first_face(margins: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     face = np.argmin(margins, axis=-1)
     return np.take_along_axis(margins, face[..., None], axis=-1)[..., 0] < 0, face
+
+
+def past_a_face(phi: float, alpha: float, beta: float, phi_range, alpha_range, beta_range) -> bool:
+    """Whether one set of joint angles is past a face: the rule of :func:`face_margins` and :func:`first_face`
+    (a margin below zero, NaN unreachable) on plain floats, for a compiled per-sample loop (the operability
+    kernel compiles it with numba); a test holds it to the vectorised pair.
+
+    Parameters
+    ----------
+    phi, alpha, beta : float
+        rad.
+    phi_range, alpha_range, beta_range : tuple of float
+        The joint limits, rad.
+
+    Returns
+    -------
+    bool
+    """
+    return not (beta_range[0] <= beta <= beta_range[1] and alpha_range[0] <= alpha <= alpha_range[1]
+                and phi_range[0] <= phi <= phi_range[1])
 
 
 def breakout_distance(t, speed: float, accel: float) -> np.ndarray:

@@ -30,9 +30,9 @@ from functools import cached_property
 import numpy as np
 from numba import njit
 
-from ..alarms import Severity, beta_severity, slew_severity
+from ..alarms import BETA_TOL_RAD, LEVEL_RELEASE, UNREACHABLE, zone_level
 from ..check import esd_lead
-from ..faces import breakout_distance, face_margins, first_face
+from ..faces import breakout_distance, face_margins, first_face, past_a_face
 from ..slew import inverse3d
 
 __all__ = ["FloorTable", "floor_table", "ray_distances", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS"]
@@ -95,8 +95,7 @@ class FloorTable:
         -------
         ndarray (n,) bool
         """
-        hi = self.origin + self.spacing * (np.array(self.dist.shape[:3]) - 1)
-        return np.all((p >= self.origin - 1e-9) & (p <= hi + 1e-9), axis=1)
+        return self.lookup(p)[2]
 
     def horizontal_vertical(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The least horizontal ray distance and the least vertical one at points (trilinear).
@@ -109,20 +108,62 @@ class FloorTable:
         -------
         horizontal, vertical : ndarray (n,)
         """
-        from scipy.ndimage import map_coordinates
-
-        idx = ((p - self.origin) / self.spacing).T
-        h = map_coordinates(self._h, idx, order=1, mode="nearest")
-        v = map_coordinates(self._v, idx, order=1, mode="nearest")
+        h, v, _ = self.lookup(p)
         return h, v
 
-    @cached_property
-    def _h(self):                            # the least horizontal ray distance per grid point (once per table)
-        return self.dist[..., :8].min(axis=-1)
+    def lookup(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The least horizontal and vertical ray distances at points (trilinear; the nearest edge value beyond
+        the table) and which points lie inside it (to 1e-9 m), in one compiled pass (found: two
+        ``scipy.ndimage.map_coordinates`` passes and the box test were 40 % of a state's monitoring).
+
+        Parameters
+        ----------
+        p : ndarray (n, 3)
+
+        Returns
+        -------
+        horizontal, vertical : ndarray (n,)
+        inside : ndarray (n,) bool
+        """
+        p = np.ascontiguousarray(p, dtype=float)
+        n = p.shape[0]
+        h, v, ins = np.empty(n), np.empty(n), np.empty(n, dtype=np.bool_)
+        _trilinear(self._hv, self.origin, self.spacing, p, h, v, ins)
+        return h, v, ins
 
     @cached_property
-    def _v(self):
-        return self.dist[..., 8:].min(axis=-1)
+    def _hv(self):                  # the least horizontal and vertical ray distances per grid point (once)
+        return np.ascontiguousarray(np.stack([self.dist[..., :8].min(axis=-1), self.dist[..., 8:].min(axis=-1)],
+                                             axis=-1))
+
+
+@njit(cache=True, nogil=True)
+def _cell(x, lo, spacing, m):
+    """Grid cell and fraction of a coordinate (clamped to the grid's ``m`` nodes), and whether it is on it."""
+    u = min(max((x - lo) / spacing, 0.0), m - 1.0)
+    j = min(int(math.floor(u)), m - 2)
+    return j, u - j, lo - 1e-9 <= x <= lo + spacing * (m - 1) + 1e-9
+
+
+@njit(cache=True, nogil=True)
+def _trilinear(hv, origin, spacing, p, h, v, inside):
+    """Trilinear interpolation of ``hv[(nx, ny, nz, 2)]`` at points ``p``; coordinates clamped to the grid
+    (the nearest edge value beyond it, as ``map_coordinates(mode="nearest")``); ``inside`` to 1e-9 m."""
+    for i in range(p.shape[0]):
+        x0, fx, okx = _cell(p[i, 0], origin[0], spacing, hv.shape[0])
+        y0, fy, oky = _cell(p[i, 1], origin[1], spacing, hv.shape[1])
+        z0, fz, okz = _cell(p[i, 2], origin[2], spacing, hv.shape[2])
+        inside[i] = okx and oky and okz
+        for c in range(2):
+            c00 = hv[x0, y0, z0, c] * (1 - fx) + hv[x0 + 1, y0, z0, c] * fx
+            c10 = hv[x0, y0 + 1, z0, c] * (1 - fx) + hv[x0 + 1, y0 + 1, z0, c] * fx
+            c01 = hv[x0, y0, z0 + 1, c] * (1 - fx) + hv[x0 + 1, y0, z0 + 1, c] * fx
+            c11 = hv[x0, y0 + 1, z0 + 1, c] * (1 - fx) + hv[x0 + 1, y0 + 1, z0 + 1, c] * fx
+            val = (c00 * (1 - fy) + c10 * fy) * (1 - fz) + (c01 * (1 - fy) + c11 * fy) * fz
+            if c == 0:
+                h[i] = val
+            else:
+                v[i] = val
 
 
 def ray_distances(model, pts: np.ndarray, cap: float, cap_v: float) -> np.ndarray:
@@ -258,6 +299,35 @@ class RecordMonitor:
     outside: bool
 
 
+# the rules of the vectorised modules, compiled for the per-sample pass (a test holds each to its original)
+_zone = njit(cache=True, nogil=True)(zone_level)
+_past = njit(cache=True, nogil=True)(past_a_face)
+
+
+@njit(cache=True, nogil=True)
+def _samples(phi, alpha, beta, beta_thr, slew_thr, phi_rng, alpha_rng, beta_rng, level):
+    """Per sample of the record: the position alarm level (beta and slew; unreachable: release) and whether a
+    face is passed. Returns the largest beta and absolute slew (NaN if none reachable) and whether any sample
+    was past a face."""
+    bmax = -np.inf
+    smax = -np.inf
+    outside = False
+    for i in range(beta.shape[0]):
+        b, s = beta[i], abs(phi[i])
+        lb = _zone(b, beta_thr[0], beta_thr[1], beta_thr[2], BETA_TOL_RAD)
+        ls = _zone(s, slew_thr[0], slew_thr[1], slew_thr[2], 0.0)
+        level[i] = LEVEL_RELEASE if lb == UNREACHABLE else max(lb, ls)
+        if _past(phi[i], alpha[i], b, phi_rng, alpha_rng, beta_rng):
+            outside = True
+        if b > bmax:
+            bmax = b
+        if s > smax:
+            smax = s
+    if bmax == -np.inf:
+        bmax = np.nan
+    return bmax, smax, outside
+
+
 def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> RecordMonitor:
     """Run the connected-mode monitoring over one flange record.
 
@@ -277,15 +347,22 @@ def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> Record
 
     Notes
     -----
-    Positions beyond the table get their ray distances cast directly (slower, exact).
+    The inverse kinematics vectorised (NumPy's SIMD transcendentals: a compiled scalar loop was four times
+    slower), then compiled passes for the alarm levels and faces (:func:`_samples`) and the table
+    (:meth:`FloorTable.lookup`); positions beyond the table get their ray distances cast directly (slower,
+    exact); then the alarm sequence (:func:`_scan`).
     """
-    q = inverse3d(model.arm, p[:, 0], p[:, 1], p[:, 2], check=False)
-    beta, phi = np.asarray(q.beta, dtype=float), np.asarray(q.phi, dtype=float)
-    pos = np.maximum(beta_severity(beta, model.alarms), slew_severity(phi, model.slew))
-    outside = bool(first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2], q=q))[0].any())
-    pos = np.where(pos < 0, int(Severity.RELEASE), pos)               # unreachable: as severe as it gets
-    h, v = table.horizontal_vertical(p)
-    away = ~table.inside(p)
+    p = np.ascontiguousarray(p, dtype=float)
+    n = p.shape[0]
+    al, sl, lim = model.alarms, model.slew, model.joint_limits
+    q = inverse3d(model.arm, p[:, 0], p[:, 1], p[:, 2], check=False)       # vectorised: NumPy's SIMD atan2
+    level = np.empty(n, dtype=np.int64)
+    bmax, smax, outside = _samples(np.asarray(q.phi, dtype=float), np.asarray(q.alpha, dtype=float),
+                                   np.asarray(q.beta, dtype=float), (al.first, al.second, al.release),
+                                   (sl.first, sl.second, sl.release), tuple(map(float, lim.phi)),
+                                   tuple(map(float, lim.alpha)), tuple(map(float, lim.beta)), level)
+    h, v, ins = table.lookup(p)
+    away = ~ins
     if away.any():                                # beyond the table (a rare, violent state): cast the rays there
         d = ray_distances(model, p[away], table.cap, table.cap_v)
         h[away], v[away] = d[:, :8].min(axis=1), d[:, 8:].min(axis=1)
@@ -293,8 +370,8 @@ def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> Record
     ttl = np.minimum(np.where(h >= table.cap - 1e-9, np.inf, breakout_time(h, dd.speed, dd.acceleration)),
                      np.where(v >= table.cap_v - 1e-9, np.inf, v / dd.vertical_speed))
     seq = model.sequence
-    stage, i1, ir, tmin = _scan(pos.astype(np.int64), ttl, dt, seq.ers_valve_time, seq.erc_release_time,
-                                seq.margin, esd_lead(seq))
+    stage, i1, ir, tmin = _scan(level, ttl, dt, seq.ers_valve_time, seq.erc_release_time, seq.margin,
+                                esd_lead(seq))
     return RecordMonitor(int(stage), i1 * dt if i1 >= 0 else math.nan, ir * dt if ir >= 0 else math.nan,
-                         float(np.degrees(np.nanmax(beta))), float(np.degrees(np.nanmax(np.abs(phi)))),
-                         float(np.ptp(p[:, 2])), float(tmin), outside)
+                         float(np.degrees(bmax)), float(np.degrees(smax)), float(np.ptp(p[:, 2])), float(tmin),
+                         bool(outside))

@@ -293,3 +293,84 @@ def test_chunks_of_another_run_are_refused_or_discarded(tmp_path):
     assert (d / "chunk-00000.parquet").is_file()
     _check_manifest(d, "bbb", True)                        # --force: start again
     assert not (d / "chunk-00000.parquet").exists() and (d / "MANIFEST").read_text().strip() == "bbb"
+
+
+# --------------------------------------------------------------------------- the compiled passes against their originals
+
+_angles = st.one_of(st.floats(-4.0, 4.0), st.just(float("nan")))
+
+
+@settings(max_examples=examples(300), deadline=None)
+@given(beta=st.lists(_angles, min_size=1, max_size=40), phi=st.lists(st.floats(-3.2, 3.2), min_size=1, max_size=40),
+       alpha=st.lists(st.floats(-3.2, 3.2), min_size=1, max_size=40), near=st.booleans())
+def test_the_compiled_levels_and_faces_are_the_vectorised_rules(model, beta, phi, alpha, near):
+    """The per-sample pass (kernel._samples, compiling alarms.zone_level and faces.past_a_face) gives exactly the
+    levels of beta_severity and slew_severity (unreachable: release) and the faces of face_margins/first_face,
+    including angles on a threshold (``near``: the samples put on the thresholds and limits themselves)."""
+    from loadarm.alarms import Severity, beta_severity, slew_severity
+    from loadarm.studies.kernel import _samples
+
+    al, sl, lim = model.alarms, model.slew, model.joint_limits
+    n = min(len(beta), len(phi), len(alpha))
+    b, f, a = (np.array(x[:n], dtype=float) for x in (beta, phi, alpha))
+    if near:
+        edges_b = [al.first, al.second, al.release, al.release - 1e-9, al.first + 1e-9, *lim.beta]
+        edges_f = [sl.first, -sl.second, sl.release, *lim.phi]
+        b[: min(n, len(edges_b))] = edges_b[:n]
+        f[: min(n, len(edges_f))] = edges_f[:n]
+        a[: min(n, 2)] = list(lim.alpha)[:n]
+    level = np.empty(n, dtype=np.int64)
+    bmax, smax, outside = _samples(f, a, b, (al.first, al.second, al.release), (sl.first, sl.second, sl.release),
+                                   tuple(map(float, lim.phi)), tuple(map(float, lim.alpha)),
+                                   tuple(map(float, lim.beta)), level)
+    bs = beta_severity(b, al)
+    want = np.where(bs < 0, int(Severity.RELEASE), np.maximum(bs, slew_severity(f, sl)))
+    assert np.array_equal(level, want)
+    # face_margins takes positions; its rule on the joints: the margins it stacks from phi, alpha, beta
+    m = np.stack([lim.beta[1] - b, b - lim.beta[0], lim.alpha[1] - a, a - lim.alpha[0], lim.phi[1] - f,
+                  f - lim.phi[0]], axis=-1)
+    m[np.isnan(b)] = -np.inf
+    assert outside == bool(first_face(m)[0].any())
+    assert (math.isnan(bmax) and np.isnan(b).all()) or bmax == np.nanmax(b)
+    assert smax == np.max(np.abs(f))
+
+
+def test_past_a_face_is_face_margins_on_positions(model):
+    """The scalar face rule on the joints of 2000 positions around the nominal flange (some beyond every face,
+    some out of reach) against face_margins/first_face on the same positions."""
+    from loadarm.faces import past_a_face
+    from loadarm.slew import inverse3d
+
+    rng = np.random.default_rng(3)
+    fx, fz = model.approach.flange
+    p = np.array([fx, 0.0, fz]) + rng.uniform(-1, 1, (2000, 3)) * [12.0, 12.0, 12.0]
+    q = inverse3d(model.arm, p[:, 0], p[:, 1], p[:, 2], check=False)
+    lim = model.joint_limits
+    got = np.array([past_a_face(f, a, b, lim.phi, lim.alpha, lim.beta) for f, a, b in zip(q.phi, q.alpha, q.beta)])
+    want = first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2]))[0]
+    assert 100 < want.sum() < 1900 and np.array_equal(got, want)
+
+
+@settings(max_examples=examples(100), deadline=None)
+@given(seed=st.integers(0, 2**31), spacing=st.floats(0.05, 1.0), shape=st.tuples(*[st.integers(2, 7)] * 3))
+def test_the_compiled_table_lookup_is_map_coordinates(seed, spacing, shape):
+    """FloorTable.lookup (one compiled trilinear pass) against scipy's map_coordinates (order 1, nearest) on the
+    least horizontal and vertical distances, and the box test, over points inside, on the edges and beyond
+    (to 1e-12 m: the same interpolation, operations in another order)."""
+    from scipy.ndimage import map_coordinates
+
+    from loadarm.studies.kernel import FloorTable
+
+    rng = np.random.default_rng(seed)
+    dist = rng.uniform(0.0, 5.0, (*shape, 10))
+    t = FloorTable(rng.uniform(-5, 5, 3), spacing, dist, 5.0, 5.0)
+    hi = t.origin + spacing * (np.array(shape) - 1)
+    p = t.origin + rng.uniform(-0.2, 1.2, (300, 3)) * (hi - t.origin)
+    p[:8] = [t.origin, hi, t.origin - 1e-10, hi + 1e-10, t.origin - 1e-8, hi + 1e-8, (t.origin + hi) / 2,
+             [hi[0], t.origin[1], hi[2]]]
+    h, v, ins = t.lookup(p)
+    idx = ((p - t.origin) / spacing).T
+    for got, part in ((h, dist[..., :8]), (v, dist[..., 8:])):
+        assert np.allclose(got, map_coordinates(part.min(axis=-1), idx, order=1, mode="nearest"), rtol=0, atol=1e-12)
+    assert np.array_equal(ins, np.all((p >= t.origin - 1e-9) & (p <= hi + 1e-9), axis=1))
+    assert ins[:4].all() and not ins[4:6].any()

@@ -355,3 +355,35 @@ def test_stiffer_moorings_get_a_finer_step(berth):
     data["moorings"] = tuple(dict(m, axial_stiffness=m["axial_stiffness"] * 10) for m in data["moorings"])
     stiff = compile_ship(Berth.model_validate(data))
     assert stiff.lf_step <= 0.5 and abs(stiff.lf_step / 0.1 - round(stiff.lf_step / 0.1)) < 1e-9
+
+
+@pytest.mark.parametrize("hs, wind, current, seed", [(1.5, 20.0, 0.5, 3), (0.0, 12.0, 0.2, 4), (2.5, 0.0, 0.0, 5),
+                                                    (0.0, 0.0, 0.0, 6)])
+def test_flange_positions_are_simulate_s_flange(ship, berth, hs, wind, current, seed):
+    """The operability kernel's flange (the three first-order flange displacements combined in the frequency
+    domain, no rates or tensions) against simulate's with the same seed: to 1e-12 m (the same sums, the
+    rotation applied before the FFT instead of after it)."""
+    from loadarm.ship.motion import flange_positions
+
+    env = berth.environment.model_copy(update={"hs": hs, "tp": 10.0, "wind_speed": wind, "current_speed": current})
+    m = simulate(ship, env, 900.0, seed=seed)
+    p, ref = flange_positions(ship, env, 900.0, seed=seed)
+    assert p.shape == m.flange.shape
+    assert np.max(np.abs(p - m.flange)) < 1e-12 and np.array_equal(ref, m.flange_reference)
+
+
+def test_the_sea_is_the_same_whatever_band_is_kept(berth):
+    """wave_components draws for the whole FFT grid and keeps the band asked for: the components kept are the
+    first ones of the whole sea, bit for bit, and the generator ends in the same state (so the gusts drawn
+    after the sea are the same too)."""
+    from loadarm.ship.motion import wave_components
+
+    env = berth.environment.model_copy(update={"hs": 1.5, "tp": 9.0, "spreading": 4.0})
+    g1, g2 = np.random.default_rng(11), np.random.default_rng(11)
+    full = wave_components(env, 20000, DT, g1)
+    part = wave_components(env, 20000, DT, g2, omega_max=2.0)
+    k = part.omega.size
+    assert 0 < k < full.omega.size and part.omega[-1] <= 2.0 < full.omega[k]
+    for name in ("omega", "amplitude", "direction", "phase"):
+        assert np.array_equal(getattr(part, name), getattr(full, name)[:k]), name
+    assert g1.uniform() == g2.uniform()

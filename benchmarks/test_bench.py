@@ -18,7 +18,18 @@ round (the least disturbed by other load), so a ratio compares like with like.
 * moored ship: 30 minutes of the moored ship's motion at 10 Hz (cached hydrodynamics: slow drift, gusts, lines,
   fenders, first-order waves, the flange) <= 5 % of the guidance loop's own cost for the same 30 minutes
   (measured 2026-11-24: 11 ms against 2.0 s, 0.006x; the issue's absolute goal, 50 ms on one core, is
-  printed, not asserted).
+  printed, not asserted);
+* operability kernel: one hourly sea state (the moored flange's hour at 10 Hz and its connected-mode
+  monitoring) >= 1000x faster than ``loadarm run`` (kinematic plant) of the same hour, same sea, same seed;
+* operability on Dask: the synthetic year (8760 hourly states) through the default ``LocalCluster`` within
+  1.5x the kernel's own cost of the same states spread over the same workers (the distribution's overhead:
+  scheduling, serialising, Parquet chunks, the workers contending for the memory); the wall time, the 60 s
+  goal and the physical floor (the synthesised motions' memory traffic at this machine's copy bandwidth,
+  measured in the same run) are printed beside it;
+* operability scaling: a month on two workers against one, the speed-up printed (the issue asks for it
+  reported); asserted >= 1.2x, that the work spreads at all (measured 2026-12-01 on a 2-core Xeon VM: about
+  1.4x; two independent processes there already run 25 % slower each than one alone, the two vCPUs sharing
+  the memory system).
 """
 
 import math
@@ -276,3 +287,132 @@ def test_moored_motion_thirty_minutes_against_the_guidance_loop(results):
     results["guidance loop cycles for the same 30 min [ms]"] = loop * 1e3
     results["ratio moored motion / guidance loop, 30 min"] = best / loop
     assert best / loop <= 0.05, f"moored motion {best / loop:.3f}x the guidance loop, goal <= 0.05"
+
+
+def _hour_state():
+    """The moored Hs 1.5 m scenario as a one-hour sea state: the scenario, its model, ship and environment."""
+    from loadarm.guidance.scenario import load_scenario, moored_ship, scenario_environment
+
+    sc0, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15_moored.toml")
+    d = sc0.model_dump()
+    d["scenario"].update(duration=3600.0, plant="kinematic")
+    sc = sc0.model_validate(d)
+    ship = moored_ship(sc)
+    return sc, model, ship, scenario_environment(sc, ship.environment)
+
+
+def test_operability_kernel_against_loadarm_run(results):
+    """Issue 13: the batched kernel's cost of one hourly state (the flange's hour by FFT and the low-frequency
+    integration, then the monitoring: what a Dask task does per state) against `loadarm run` of that hour with
+    the kinematic plant, same sea and seed."""
+    from loadarm.guidance.run import run_scenario
+    from loadarm.ship.motion import DT, flange_positions
+    from loadarm.studies.kernel import floor_table, monitor_record
+    from loadarm.studies.operability import _box
+
+    sc, model, ship, env = _hour_state()
+    table = floor_table(model, *_box(model, 0.0, 0.0))
+    fx, fz = model.approach.flange
+
+    def kernel():
+        flange, ref = flange_positions(ship, env, 3600.0, seed=sc.scenario.seed)
+        return monitor_record(model, table, np.array([fx, 0.0, fz]) + (flange - ref), DT)
+
+    kernel()                                                            # compiled and warm
+    best = math.inf
+    for _ in range(7):
+        t0 = time.perf_counter()
+        kernel()
+        best = min(best, time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    run_scenario(sc, model, ship=ship)
+    run = time.perf_counter() - t0
+    results["operability kernel, one hourly state [ms]"] = best * 1e3
+    results["loadarm run of the same hour, kinematic plant [s]"] = run
+    results["ratio loadarm run / operability kernel, per state"] = run / best
+    assert run / best >= 1000, f"the kernel is only {run / best:.0f}x loadarm run, goal >= 1000x"
+
+
+def _copy_bandwidth() -> float:
+    """This machine's memory bandwidth for a large copy, bytes (read plus written) per second, best of 5."""
+    a = np.ones(2 ** 25)                                               # 256 MiB
+    b = np.empty_like(a)
+    best = math.inf
+    for _ in range(5):
+        t0 = time.perf_counter()
+        np.copyto(b, a)
+        best = min(best, time.perf_counter() - t0)
+    return 2 * a.nbytes / best
+
+
+def _operability(tmp_path, met, chunks, workers, name):
+    from loadarm.studies.operability import OperabilitySettings, run_operability
+
+    out = tmp_path / f"{name}.parquet"
+    t0 = time.perf_counter()
+    r = run_operability(ROOT / "examples" / "paper.toml", ROOT / "examples" / "berths" / "lng150k.toml", met, out,
+                        settings=OperabilitySettings(chunks=chunks),
+                        workers=workers)
+    return r, time.perf_counter() - t0
+
+
+def test_operability_synthetic_year_on_the_local_cluster(results, tmp_path):
+    """Issue 13: a synthetic year (seed 1), one hour a state at 10 Hz, through the default LocalCluster (every
+    core), against the kernel's own cost of the same states on the same workers (a sample of 60 states timed
+    in this process), and the physical floor."""
+    from loadarm.studies.metocean import synthetic_metocean, write_metocean_csv
+    from loadarm.studies.operability import run_states
+
+    met = write_metocean_csv(synthetic_metocean(8760, seed=1), tmp_path / "year.csv")
+    r, wall = _operability(tmp_path, met, 100, None, "year")
+    d = r.to_dict()
+    workers = d["workers"]
+    # the kernel's cost per state, measured on a sample of the same record in this process
+    from loadarm.berth import load_berth
+    from loadarm.compiler import compile_model
+    from loadarm.config import load_config
+    from loadarm.ship.model import compile_ship
+    from loadarm.studies.kernel import floor_table
+    from loadarm.studies.metocean import read_metocean
+    from loadarm.studies.operability import OperabilitySettings, _box
+
+    ds, _ = read_metocean(met)
+    model = compile_model(load_config(ROOT / "examples" / "paper.toml"))
+    b = load_berth(ROOT / "examples" / "berths" / "lng150k.toml")
+    ship = compile_ship(b)
+    table = floor_table(model, *_box(model, float(ds["tide_m"].min()), float(ds["tide_m"].max())))
+    names = ["hs_m", "tp_s", "wave_from_deg", "wave_spreading", "wind_speed_ms", "wind_from_deg",
+             "current_speed_ms", "current_to_deg", "tide_m"]
+    rows = [{"index": int(i), "time": ds["time"].values[i], **{k: float(ds[k].values[i]) for k in names}}
+            for i in range(0, 8760, 146)]
+    run_states(model, ship, table, rows[:1], OperabilitySettings(), b.berth.x_bearing_deg, b.environment)
+    t0 = time.perf_counter()
+    run_states(model, ship, table, rows, OperabilitySettings(), b.berth.x_bearing_deg, b.environment)
+    per_state = (time.perf_counter() - t0) / len(rows)
+    ideal = 8760 * per_state / workers
+    floor = 8760 * 36001 * 3 * 8 * 2 / _copy_bandwidth()           # the flange records written and read once
+    results["synthetic year, LocalCluster wall [s] (goal 60 s)"] = wall
+    results["synthetic year: workers"] = workers
+    results["synthetic year: downtime fraction"] = d["downtime_fraction"]
+    results["kernel per state in one process, 60-state sample [ms]"] = per_state * 1e3
+    results["ratio year wall / kernel cost over the workers"] = wall / ideal
+    results["physical floor: flange records' memory traffic [s]"] = floor
+    results["ratio year wall / physical floor"] = wall / floor
+    assert d["states"] == 8760
+    assert wall / ideal <= 1.5, f"the distributed year took {wall / ideal:.2f}x its kernel cost, goal <= 1.5x"
+
+
+def test_operability_scaling_one_to_two_workers(results, tmp_path):
+    """Issue 13: a month of the synthetic record (744 states) on a LocalCluster of one worker and of two."""
+    if (os.cpu_count() or 1) < 2:
+        pytest.skip("one core: nothing to compare")
+    from loadarm.studies.metocean import synthetic_metocean, write_metocean_csv
+
+    met = write_metocean_csv(synthetic_metocean(744, seed=2), tmp_path / "month.csv")
+    r1, t1 = _operability(tmp_path, met, 24, 1, "one")
+    r2, t2 = _operability(tmp_path, met, 24, 2, "two")
+    assert r1.table.equals(r2.table)                                    # the same rows, whatever the workers
+    results["operability month, one worker [s]"] = t1
+    results["operability month, two workers [s]"] = t2
+    results["operability speed-up, two workers / one"] = t1 / t2
+    assert t1 / t2 >= 1.2, f"two workers only {t1 / t2:.2f}x one"

@@ -313,6 +313,17 @@ def _check_manifest(chunk_dir: Path, digest: str, fresh: bool) -> None:
     atomic_write(manifest, digest + "\n")
 
 
+def _close_client(connecting) -> None:
+    """Close the client (and the local cluster it started) once it has connected, whatever happened meanwhile."""
+    if connecting.exception() is not None:           # it never connected: nothing to close
+        return
+    client = connecting.result()
+    cluster = client.cluster
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
 def run_operability(config: str | Path, berth: str | Path, metocean: str | Path, out: str | Path, *,
                     hours: int | None = None, settings: OperabilitySettings = OperabilitySettings(),
                     scheduler: str | None = None, workers: int | None = None, progress: bool = False,
@@ -381,13 +392,10 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     t0 = time.perf_counter()
     n_workers = 0
     if todo:
-        # compiled once here, sent once to every worker
-        ship = compile_ship(bf, source=str(berth))
-        table = floor_table(model, *_box(model, float(np.min(values["tide_m"])), float(np.max(values["tide_m"]))))
-        compiled = (model, ship, table, bf.berth.x_bearing_deg, bf.environment)
         import contextlib
         import logging
         import sys
+        from concurrent.futures import ThreadPoolExecutor
 
         import dask
         from distributed import Client, LocalCluster, progress as dask_progress
@@ -398,13 +406,17 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         # 353 s of system time for 315 s of user time)
         env = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENVIRONMENT.items()}
         with dask.config.set(env), contextlib.ExitStack() as stack:
-            if scheduler is None:
-                cluster = stack.enter_context(LocalCluster(
+            # the cluster starts (its workers spawn and import) while this process compiles the ship and the
+            # table once, to send them to every worker (found: the two in turn cost a month's run 4-5 s)
+            connecting = stack.enter_context(ThreadPoolExecutor(1)).submit(
+                lambda: Client(scheduler) if scheduler is not None else Client(LocalCluster(
                     n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                    dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL))
-                client = stack.enter_context(Client(cluster))
-            else:
-                client = stack.enter_context(Client(scheduler))
+                    dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL)))
+            stack.callback(lambda: _close_client(connecting))
+            ship = compile_ship(bf, source=str(berth))
+            table = floor_table(model, *_box(model, float(np.min(values["tide_m"])), float(np.max(values["tide_m"]))))
+            compiled = (model, ship, table, bf.berth.x_bearing_deg, bf.environment)
+            client = connecting.result()
             n_workers = len(client.scheduler_info()["workers"])
             [shared] = client.scatter([compiled], broadcast=True)      # one object: the tuple
             futures = [client.submit(_chunk_task, shared, rows[a:b], settings,

@@ -385,9 +385,10 @@ def test_operability_synthetic_year_on_the_local_cluster(results, tmp_path):
              "current_speed_ms", "current_to_deg", "tide_m"]
     rows = [{"index": int(i), "time": ds["time"].values[i], **{k: float(ds[k].values[i]) for k in names}}
             for i in range(0, 8760, 146)]
-    run_states(model, ship, table, rows[:1], OperabilitySettings(), b.berth.x_bearing_deg, b.environment)
+    st_ = OperabilitySettings().resolved(load_config(ROOT / "examples" / "paper.toml").operability)
+    run_states(model, ship, table, rows[:1], st_, b.berth.x_bearing_deg, b.environment)
     t0 = time.perf_counter()
-    run_states(model, ship, table, rows, OperabilitySettings(), b.berth.x_bearing_deg, b.environment)
+    run_states(model, ship, table, rows, st_, b.berth.x_bearing_deg, b.environment)
     per_state = (time.perf_counter() - t0) / len(rows)
     ideal = 8760 * per_state / workers
     floor = 8760 * 36001 * 3 * 8 * 2 / _copy_bandwidth()           # the flange records written and read once

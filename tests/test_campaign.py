@@ -59,6 +59,7 @@ def _short_driftoff(tmp_path, **drift):
     return p
 
 
+@pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_a_campaign_is_repeatable_and_draws_within_the_ranges(tmp_path):
     sc = _short_driftoff(tmp_path)
     vary = [parse_vary("drift.speed=0.1:0.25"), parse_vary("installation.sequence.margin=1:3")]
@@ -137,6 +138,7 @@ def test_an_estop_at_205_s_during_the_driftoff_still_releases():
     assert v["release_complete_s"] is not None and v["overstretched_s"] is None and v["release_margin_s"] > 0
 
 
+@pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 @settings(max_examples=examples(4), deadline=None)
 @given(speed=st.floats(0.05, 0.27), accel=st.floats(0.005, 0.05), direction=st.floats(-60.0, 60.0),
        start=st.floats(140.0, 170.0), ers_valve_time=st.floats(3.0, 15.0), erc=st.floats(1.0, 5.0),

@@ -219,6 +219,7 @@ def test_simulate_unstable_gains_exit_2(capsys, tmp_path):
 SCEN = str(PAPER_TOML.parent / "scenarios" / "driftoff.toml")
 
 
+@pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_run_and_log(capsys, tmp_path):
     db = tmp_path / "ev.db"
     png = tmp_path / "tl.png"
@@ -335,6 +336,7 @@ def test_json_floats_have_no_noise(capsys, tmp_path):
     assert json.loads(out)["scenario"] == "drift-off"
 
 
+@pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_log_hides_samples_unless_asked_and_says_where_the_png_went(capsys, tmp_path):
     db = tmp_path / "ev.db"
     code, _, _ = run(capsys, "run", "-s", str(PAPER_TOML.parent / "scenarios" / "calm.toml"), "--db", str(db),

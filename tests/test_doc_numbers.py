@@ -84,6 +84,7 @@ def test_approach_refusal_message(paper):
     cited("docs/approach.md", head)
 
 
+@pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_guidance_page_driftoff_row():
     from loadarm.guidance.run import run_scenario
     from loadarm.guidance.scenario import load_scenario

@@ -116,6 +116,7 @@ def test_runs_are_deterministic():
         assert np.array_equal(a.signals[k], b.signals[k], equal_nan=True)
 
 
+@pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_event_log_of_a_run_replays_its_mode_sequence(tmp_path):
     sc, inst = load_scenario(SCEN / "driftoff.toml")
     with EventLog(tmp_path / "ev.db", run="x") as log:
@@ -882,6 +883,7 @@ def test_controlled_disconnection_closes_drains_unclamps_and_lifts_off(model):
     assert not any(k == "alarm" for _, k, _ in ev)
 
 
+@pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_estop_during_a_driftoff_releases_before_the_limit():
     """The stock drift-off with the E-stop pressed at 220 s and 236 s (found: 15 of 15 runs overstretched)."""
     sc, model = load_scenario(SCEN / "driftoff.toml")
@@ -1023,6 +1025,7 @@ def _driftoff_with(**faults):
     return run_scenario(sc, model)
 
 
+@pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_an_hpu_trip_during_a_driftoff_does_not_stop_the_release():
     r = _driftoff_with(hpu_trip_at=215.0)
     v = r.to_dict()
@@ -1034,6 +1037,7 @@ def test_an_hpu_trip_during_a_driftoff_does_not_stop_the_release():
     assert np.ptp(r.signals["beta"][k + 1:]) < 1e-12 and v["cleared_s"] is not None
 
 
+@pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_stuck_ers_valves_keep_the_coupler_closed_and_say_so():
     """The interlock holds even when it costs the arm: no release on live product; the fault alarm gives the
     operator the warning (documented in docs/guidance.md section 6)."""

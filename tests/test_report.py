@@ -97,7 +97,7 @@ def _render_minimal():
     fig = {"uri": "data:,", "caption": "c"}
     inst = load_config(PAPER_TOML)
     return dict(css="", stamp="now", version="0", input_line="in", notes=["<b>note</b>"], berth=None, berth_file="",
-                design=None,
+                design=None, oper=None, oper_settings=None,
                 sizing=NS(corner=(1.0, -1.0), r_alarm=1.0, inboard=1.0, outboard=1.0, active_bound="x"), inst=inst,
                 paper=False, arm=NS(b=1.0, c=1.0), tables={k: empty for k in (
                     "corners_sized", "corners_configured", "endpoints", "plans", "loads", "simulation", "scenarios",

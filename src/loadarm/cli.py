@@ -702,8 +702,9 @@ def operability(
     metocean: Annotated[Path, typer.Option("--metocean", "-m", help="Metocean record, CSV or NetCDF (see "
                                                                     "examples/metocean/).")],
     hours: Annotated[Optional[int], typer.Option("--hours", help="Only the first N usable hours.")] = None,
-    duration_per_state: Annotated[float, typer.Option("--duration-per-state", help="Seconds simulated per "
-                                                                                   "hourly state.")] = 3600.0,
+    duration_per_state: Annotated[Optional[float], typer.Option(
+        "--duration-per-state", help="Seconds simulated per hourly state (default: the installation's "
+                                     "[operability] duration_per_state, 3600).")] = None,
     scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="A running Dask scheduler "
                                                                          "(tcp://HOST:8786); default a local "
                                                                          "cluster.")] = None,
@@ -900,7 +901,7 @@ def demo(
 
     outputs, scenario_files = report_outputs(inst, out_dir, source)         # refused before any work or bar
     guard_outputs([("--out", p) for p in outputs], [source, *scenario_files], force=force)
-    steps = 13 + len(inst.report.scenarios)
+    steps = 13 + len(inst.report.scenarios) + (inst.report.metocean is not None)
     with _progress() as prog:
         task = prog.add_task("starting", total=steps)
 

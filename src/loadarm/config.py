@@ -514,6 +514,31 @@ class Report(_Section):
                           "report shows, relative to this file (omit for none)",
         json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case: the example "
                                                      "LNG carrier berth)"})
+    metocean: str | None = Field(
+        None, description="metocean record (CSV or NetCDF) whose operability at the berth the report shows, "
+                          "relative to this file; needs berth (omit for none)",
+        json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case: the shipped "
+                                                     "two-month sample)"})
+
+    @model_validator(mode="after")
+    def _metocean_needs_berth(self) -> "Report":
+        if self.metocean is not None and self.berth is None:
+            raise ValueError("metocean needs a berth: the operability is the berth's ship in that weather")
+        return self
+
+
+class Operability(_Section):
+    """How ``loadarm operability`` judges each hourly sea state of a metocean record (issue 13)."""
+
+    connect_motion_limit: float = _param(
+        1.0, unit="m", gt=0, le=5,
+        source="the coupler's capture range with the guidance's tracking (engineering estimate; about Hs 2.5-3 m "
+               "for the example ship)",
+        description="largest significant flange motion (4 standard deviations, worst axis) at which the arm can "
+                    "still connect")
+    duration_per_state: float = _param(3600.0, unit="s", ge=10, le=3600,
+                                       source="a metocean record's hourly step (the whole hour)",
+                                       description="seconds simulated per hourly sea state")
 
 
 class Sequence(_Section):
@@ -618,6 +643,7 @@ class Installation(_Section):
     sequence: Sequence = Field(default_factory=Sequence)
     design_drift: DesignDrift = Field(default_factory=DesignDrift)
     accumulator: Accumulator = Field(default_factory=Accumulator)
+    operability: Operability = Field(default_factory=Operability)
     report: Report = Field(default_factory=Report)
 
 

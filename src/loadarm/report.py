@@ -302,6 +302,26 @@ class ReportData:
         return design_alarms(self.model, self.ship, self.berth.environment)
 
 
+def _operability_rows(od: dict) -> list[dict]:
+    """The operability section's headline table from its summary."""
+    months = od["downtime_by_month"]
+    worst = max(months, key=months.get) if months else None
+    best = min(months, key=months.get) if months else None
+    rows = [("metocean record", od["metocean"]), ("hourly sea states", f"{od['states']}"),
+            ("downtime", f"{100 * od['downtime_fraction']:.1f} % ({od['states'] - od['operable_h']} h)"),
+            ("hours the arm could not connect", f"{od['not_connectable_h']} h"),
+            ("ESD-1 per year", f"{od['esd1_per_year']:.1f}"), ("releases per year", f"{od['releases_per_year']:.1f}"),
+            ("largest beta", f"{od['max_beta_deg']:.1f} deg")]
+    if worst is not None:
+        rows += [("worst month", f"{worst}: {100 * months[worst]:.1f} %"),
+                 ("best month", f"{best}: {100 * months[best]:.1f} %")]
+    gaps = od["gaps"]
+    if gaps and gaps["usable_hours"] < gaps["hours"]:
+        rows.append(("gaps in the record (skipped, never filled)",
+                     f"{gaps['hours'] - gaps['usable_hours']} h, the longest {gaps['longest_gap_h']} h"))
+    return [{"k": k, "v": v} for k, v in rows]
+
+
 def _timeline(name: str):
     return lambda d: d.scenarios[name].plot()      # the run carries its own thresholds
 
@@ -350,6 +370,24 @@ BERTH_FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
                          "Alarm design: the flanging area, the intact drift allowance and each stage's beta zone "
                          "(left); the break-out drift with the sequence's stages (right)."),
 }
+
+
+#: The operability section's figure (drawn when the installation names a ``[report] metocean``).
+OPERABILITY_FIGURE = ("operability.png", "Operability over the metocean record: downtime per month, over Hs and Tp "
+                                         "(hours per cell), and the worst week in time.")
+
+
+def _operability(inst: Installation, source: Path, berth_file: Path, out: Path):
+    """``loadarm operability`` of this arm at the report's berth over its ``[report] metocean`` (the local
+    cluster; the per-state rows beside the report, its chunks removed once gathered)."""
+    import shutil
+
+    from .studies.operability import run_operability
+
+    res = run_operability(source, berth_file, source.parent / inst.report.metocean, out / "operability.parquet",
+                          fresh=True)
+    shutil.rmtree(out / "operability.parquet.chunks", ignore_errors=True)
+    return res
 
 
 def figure_builders(data: ReportData) -> dict[str, tuple[Callable[[ReportData], object], str]]:
@@ -407,11 +445,13 @@ def report_outputs(inst: Installation, out_dir: str | Path,
     """
     out = Path(out_dir)
     base = Path(source).parent if source is not None else Path.cwd()
+    oper = inst.report.metocean is not None and source is not None
     names = list(FIGURES) + (list(BERTH_FIGURES) if inst.report.berth is not None else []) + [
-        f"timeline_{Path(f).stem}.png" for f in inst.report.scenarios]
-    inputs = [base / f for f in inst.report.scenarios] + ([base / inst.report.berth] if inst.report.berth else [])
+        f"timeline_{Path(f).stem}.png" for f in inst.report.scenarios] + ([OPERABILITY_FIGURE[0]] if oper else [])
+    inputs = ([base / f for f in inst.report.scenarios] + ([base / inst.report.berth] if inst.report.berth else [])
+              + ([base / inst.report.metocean] if oper else []))
     return ([out / "report.html", out / "summary.json"] + [out / f"plan_{law}.csv" for law in TIMING_LAWS]
-            + [out / "figures" / n for n in names]), inputs
+            + [out / "figures" / n for n in names] + ([out / "operability.parquet"] if oper else [])), inputs
 
 
 def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loadarm report",
@@ -468,9 +508,15 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     berth = d.berth
     if berth is not None:
         ship_sum, design = d.ship_summary, d.alarm_design
+    oper = None
+    if inst.report.metocean is not None and src is not None:
+        step("operability over the metocean record (Dask)")
+        oper = _operability(inst, src, d.berth_file, out)
 
     step("drawing figures")
     builders = figure_builders(d)
+    if oper is not None:
+        builders[OPERABILITY_FIGURE[0]] = (lambda _d: oper.plot(), OPERABILITY_FIGURE[1])
     figs = {name: save(build(d), figdir / name) for name, (build, _caption) in builders.items()}
 
     step("writing report")
@@ -485,6 +531,11 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     if berth is not None:
         summary["berth"] = {"file": str(d.berth_file.name), "ship": ship_sum.to_dict(),
                             "alarm_design": design.to_dict()}
+    if oper is not None:
+        od = oper.to_dict()
+        od.pop("wall_s", None)                # wall time and workers depend on the machine: not in the report
+        od.pop("workers", None)
+        summary["operability"] = {"metocean": Path(inst.report.metocean).name, **od}
     # wall-clock cycle times depend on the machine and its load: they belong to `loadarm run`, not the report
     summary["scenarios"] = {name: {k: v for k, v in rr.summary().items() if not k.startswith("cycle_us")}
                             for name, rr in scen_runs.items()}
@@ -579,6 +630,11 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
              ("esd", "ESD-1 at [m]"), ("rel", "ERS-2 at [m]"), ("lead", "ESD-1 lead reaches [m]"),
              ("avail", "face at [m]"), ("angles", "first / second / release [deg]"), ("ok", "ok")],
             {"allow": ".2f", "esd": ".2f", "rel": ".2f", "lead": ".2f", "avail": ".2f"}),
+        "operability": _table(_operability_rows(summary["operability"]) if oper is not None else [],
+                              [("k", "quantity"), ("v", "value")]),
+        "operability_stages": _table(
+            [{"stage": k, "n": v} for k, v in summary["operability"]["states_by_stage"].items()]
+            if oper is not None else [], [("stage", "most severe stage reached"), ("n", "hourly states")]),
         "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes")]
                             + [(m.key, m.header) for m in scen_cols]),
         "parameters": _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),
@@ -593,6 +649,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         vs=vs, bs=bs, mass_text=mass_text, scenario_files=", ".join(f.name for f in d.scenario_files),
         timelines=[f"timeline_{n}.png" for n in scen_runs], check=check, seq=d.model.sequence,
         berth=berth, berth_file=d.berth_file.name if berth is not None else "",
-        design=design if berth is not None else None)
+        design=design if berth is not None else None, oper=summary.get("operability"),
+        oper_settings=inst.operability)
     html_path = atomic_write(out / "report.html", text)
     return ReportFiles(html=html_path, summary=summary_path, csv=csvs, figures=figs)

@@ -45,14 +45,14 @@ COLUMNS = ("time", "hs_m", "tp_s", "wind_speed_ms", "current_speed_ms", "tide_m"
 
 @dataclass(frozen=True)
 class OperabilitySettings:
-    """How each sea state is simulated and judged.
+    """How each sea state is simulated and judged; None takes the installation's ``[operability]`` value.
 
     Attributes
     ----------
-    duration_per_state : float
+    duration_per_state : float, optional
         Seconds simulated per hourly state (3600: the whole hour).
-    connect_motion_limit : float
-        Largest significant flange motion (4 standard deviations of the first-order motion, the worst axis) at
+    connect_motion_limit : float, optional
+        Largest significant flange motion (4 standard deviations of the flange's motion, the worst axis) at
         which the arm can still connect, m (the coupler's capture range with the guidance's tracking; about an
         Hs of 2.5-3 m for the example ship).
     seed : int
@@ -61,16 +61,34 @@ class OperabilitySettings:
         Tasks the record is cut into (50-200 for a year; fewer for short records).
     """
 
-    duration_per_state: float = 3600.0
-    connect_motion_limit: float = 1.0
+    duration_per_state: float | None = None
+    connect_motion_limit: float | None = None
     seed: int = 0
     chunks: int = 100
 
     def __post_init__(self):
-        if not (10.0 <= self.duration_per_state <= 3600.0):
+        if self.duration_per_state is not None and not (10.0 <= self.duration_per_state <= 3600.0):
             raise ConfigError(f"--duration-per-state must be in [10, 3600] s, got {self.duration_per_state:g}")
-        if not self.connect_motion_limit > 0:
+        if self.connect_motion_limit is not None and not self.connect_motion_limit > 0:
             raise ConfigError(f"connect_motion_limit must be > 0 m, got {self.connect_motion_limit:g}")
+
+    def resolved(self, section) -> "OperabilitySettings":
+        """These settings with the installation's ``[operability]`` where they are None.
+
+        Parameters
+        ----------
+        section : loadarm.config.Operability
+
+        Returns
+        -------
+        OperabilitySettings
+        """
+        from dataclasses import replace
+
+        return replace(self, duration_per_state=section.duration_per_state if self.duration_per_state is None
+                       else self.duration_per_state,
+                       connect_motion_limit=section.connect_motion_limit if self.connect_motion_limit is None
+                       else self.connect_motion_limit)
 
 
 def state_environment(base, row: dict, x_bearing_deg: float):
@@ -124,6 +142,8 @@ def run_states(model, ship, table, rows: list[dict], settings: OperabilitySettin
     from ..ship.motion import DT, flange_positions
     from .kernel import monitor_record
 
+    if settings.duration_per_state is None or settings.connect_motion_limit is None:
+        raise ValueError("run_states needs resolved settings (OperabilitySettings.resolved)")
     fx, fz = model.approach.flange
     out = []
     for row in rows:
@@ -382,7 +402,9 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     from ..ship.model import compile_ship
     from .kernel import floor_table
 
-    model = compile_model(load_config(config), source=str(config))
+    inst = load_config(config)
+    settings = settings.resolved(inst.operability)
+    model = compile_model(inst, source=str(config))
     bf = load_berth(berth)
     out = Path(out)
     chunk_dir = out.with_name(out.name + ".chunks")

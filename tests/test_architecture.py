@@ -7,8 +7,8 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "loadarm"
 #: Modules that may read configuration: the edges (command line, report, docs, compiler, scenario loading,
-#: campaigns that redraw scenario and installation parameters per run, the berth file, the operability study whose
-#: workers read the installation, berth and metocean files themselves).
+#: campaigns that redraw scenario and installation parameters per run, the berth file, the operability study that
+#: reads the installation, berth and metocean files and sends the compiled objects to its workers).
 EDGES = {"cli.py", "report.py", "docsgen.py", "compiler.py", "config.py", "guidance/scenario.py", "guidance/campaign.py",
          "berth.py", "__init__.py", "studies/operability.py"}
 MATHS = sorted(p for p in SRC.rglob("*.py") if str(p.relative_to(SRC)) not in EDGES

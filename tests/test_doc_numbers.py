@@ -206,3 +206,40 @@ def test_operability_page_sample_numbers(tmp_path):
     cited("docs/operability.md", f"downtime {100 * d['downtime_fraction']:.1f} % ({d['not_connectable_h']} hours not "
                                  f"connectable, {esd} states with ESD-1")
     assert d["releases_per_year"] == 0
+
+
+@pytest.mark.slow
+def test_operability_page_synthetic_year(tmp_path):
+    """docs/operability.md section 5: the synthetic year (seed 1, one hour a state, the default local cluster):
+    every count it cites, recomputed (seeded: exact), and the Parquet rows' size behind the scaling paragraph."""
+    from loadarm.studies.metocean import synthetic_metocean, write_metocean_csv
+    from loadarm.studies.operability import run_operability
+
+    met = write_metocean_csv(synthetic_metocean(8760, seed=1), tmp_path / "year.csv")
+    res = run_operability(PAPER_TOML, ROOT / "examples" / "berths" / "lng150k.toml", met, tmp_path / "y.parquet")
+    d = res.to_dict()
+    t = res.table
+    months = d["downtime_by_month"]
+    lo, hi = min(months, key=months.get), max(months, key=months.get)
+    name = {"01": "January", "05": "May"}
+    cited("docs/operability.md", f"downtime {100 * d['downtime_fraction']:.1f} % ({int(t['down'].sum())} hours: "
+                                 f"{d['not_connectable_h']} not connectable, {int((t['stage'] >= 2).sum())} states "
+                                 f"with ESD-1, overlapping), no release, largest beta {d['max_beta_deg']:.1f} deg")
+    cited("docs/operability.md", f"by month from {100 * months[lo]:.1f} % ({name[lo[-2:]]}) to "
+                                 f"{100 * months[hi]:.1f} % ({name[hi[-2:]]})")
+    assert d["releases_per_year"] == 0 and d["states"] == 8760
+    size = (tmp_path / "y.parquet").stat().st_size / 1e6
+    cited("docs/operability.md", f"the synthetic year's rows are {size:.1f} MB")
+
+
+@pytest.mark.slow
+def test_operability_page_report_sample(tmp_path):
+    """docs/operability.md section 4: the shipped sample at the installation's 3600 s a state (the report's)."""
+    from loadarm.studies.operability import run_operability
+
+    res = run_operability(PAPER_TOML, ROOT / "examples" / "berths" / "lng150k.toml",
+                          ROOT / "examples" / "metocean" / "sample.csv", tmp_path / "op.parquet")
+    d = res.to_dict()
+    cited("docs/operability.md", f"its 1416 hours are down {100 * d['downtime_fraction']:.1f} % "
+                                 f"({d['not_connectable_h']} not connectable, {int((res.table['stage'] >= 2).sum())} "
+                                 f"with ESD-1")

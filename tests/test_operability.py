@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -293,6 +294,30 @@ def test_chunks_of_another_run_are_refused_or_discarded(tmp_path):
     assert (d / "chunk-00000.parquet").is_file()
     _check_manifest(d, "bbb", True)                        # --force: start again
     assert not (d / "chunk-00000.parquet").exists() and (d / "MANIFEST").read_text().strip() == "bbb"
+
+
+def test_the_manifest_follows_the_inputs_the_settings_and_the_code(tmp_path, monkeypatch):
+    """Found: the manifest hashed the inputs and the version number, so chunks computed by an older kernel of the
+    same version would have been resumed into a newer run. Any of the inputs, the settings or a module's source
+    changes it."""
+    import loadarm.studies.operability as op
+
+    met = tmp_path / "m.csv"
+    met.write_text("x")
+    st_ = op.OperabilitySettings(duration_per_state=600.0, connect_motion_limit=1.0)
+    base = op._manifest(PAPER, BERTH, met, None, st_, [(0, 1)])
+    assert base == op._manifest(PAPER, BERTH, met, None, st_, [(0, 1)])
+    met.write_text("y")
+    assert op._manifest(PAPER, BERTH, met, None, st_, [(0, 1)]) != base
+    met.write_text("x")
+    assert op._manifest(PAPER, BERTH, met, 10, st_, [(0, 1)]) != base
+    wider = op.OperabilitySettings(duration_per_state=600.0, connect_motion_limit=1.5)
+    assert op._manifest(PAPER, BERTH, met, None, wider, [(0, 1)]) != base
+    real = Path.read_bytes
+    kernel = Path(op.__file__).resolve().parent / "kernel.py"
+    monkeypatch.setattr(Path, "read_bytes",
+                        lambda self: real(self) + (b"# changed" if self.resolve() == kernel else b""))
+    assert op._manifest(PAPER, BERTH, met, None, st_, [(0, 1)]) != base
 
 
 # --------------------------------------------------------------------------- the compiled passes against their originals

@@ -302,7 +302,9 @@ def _box(model, tide_lo: float, tide_hi: float):
 
 
 def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, plan) -> str:
-    """What the chunks of a run depend on: the three input files' contents, the hours, the settings, the plan."""
+    """What the chunks of a run depend on: the three input files' contents, the hours, the settings, the plan,
+    and loadarm's own code (every module's source: found, a chunk computed by an older kernel of the same version
+    number would have been resumed into a newer run)."""
     import hashlib
     import json
 
@@ -311,6 +313,9 @@ def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, pla
     h = hashlib.sha256()
     for f in (config, berth, metocean):
         h.update(Path(f).read_bytes())
+    package = Path(__file__).resolve().parents[1]
+    for f in sorted(package.rglob("*.py")):
+        h.update(str(f.relative_to(package)).encode() + b"\0" + f.read_bytes())
     h.update(json.dumps({"hours": hours, "settings": settings.__dict__, "plan": plan, "version": __version__},
                         sort_keys=True).encode())
     return h.hexdigest()
@@ -324,8 +329,8 @@ def _check_manifest(chunk_dir: Path, digest: str, fresh: bool) -> None:
     stale = sorted(chunk_dir.glob("chunk-*.parquet"))
     if old != digest and (stale or old is not None):
         if not fresh:
-            raise ConfigError(f"{chunk_dir}: its chunks are from another run (other inputs, hours or settings); "
-                              "remove the folder, or pass --force to start again")
+            raise ConfigError(f"{chunk_dir}: its chunks are from another run (other inputs, hours, settings or "
+                              "loadarm code); remove the folder, or pass --force to start again")
         for f in stale:
             f.unlink()
     from ..files import atomic_write

@@ -21,7 +21,8 @@ __all__ = ["DOC_FIGURES", "render_doc_figures", "regenerate", "compare_figures"]
 #: The figures the docs show (file names in docs/img); the paper's case draws them.
 DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
                "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
-               "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png")
+               "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
+               "operability.png")
 
 #: Root-mean-square difference (0-255 grey levels) tolerated between a committed and a redrawn figure:
 #: anti-aliasing may differ by a pixel across FreeType builds; any change of a curve, label or legend is far

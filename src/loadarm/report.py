@@ -301,6 +301,21 @@ class ReportData:
         self._progress("alarm design: mooring analysis, intact and break-out")
         return design_alarms(self.model, self.ship, self.berth.environment)
 
+    @cached_property
+    def operability(self):
+        """``loadarm operability`` of this arm at the report's berth over its ``[report] metocean`` (the local
+        cluster; its chunks in a scratch folder), or None without a record or an installation file."""
+        import tempfile
+
+        from .studies.operability import run_operability
+
+        if self.inst.report.metocean is None or self.source is None:
+            return None
+        self._progress("operability over the metocean record (Dask)")
+        with tempfile.TemporaryDirectory(prefix="loadarm-operability-") as tmp:
+            return run_operability(self.source, self.berth_file, self.source.parent / self.inst.report.metocean,
+                                   Path(tmp) / "operability.parquet")
+
 
 def _operability_rows(od: dict) -> list[dict]:
     """The operability section's headline table from its summary."""
@@ -377,19 +392,6 @@ OPERABILITY_FIGURE = ("operability.png", "Operability over the metocean record: 
                                          "(hours per cell), and the worst week in time.")
 
 
-def _operability(inst: Installation, source: Path, berth_file: Path, out: Path):
-    """``loadarm operability`` of this arm at the report's berth over its ``[report] metocean`` (the local
-    cluster; the per-state rows beside the report, its chunks removed once gathered)."""
-    import shutil
-
-    from .studies.operability import run_operability
-
-    res = run_operability(source, berth_file, source.parent / inst.report.metocean, out / "operability.parquet",
-                          fresh=True)
-    shutil.rmtree(out / "operability.parquet.chunks", ignore_errors=True)
-    return res
-
-
 def figure_builders(data: ReportData) -> dict[str, tuple[Callable[[ReportData], object], str]]:
     """:data:`FIGURES` plus one timeline per scenario of the installation.
 
@@ -406,6 +408,8 @@ def figure_builders(data: ReportData) -> dict[str, tuple[Callable[[ReportData], 
     figs = dict(FIGURES)
     if data.inst.report.berth is not None:
         figs.update(BERTH_FIGURES)
+    if data.inst.report.metocean is not None and data.source is not None:
+        figs[OPERABILITY_FIGURE[0]] = (lambda d: d.operability.plot(), OPERABILITY_FIGURE[1])
     for f in data.scenario_files:
         figs[f"timeline_{f.stem}.png"] = (_timeline(f.stem), f"Timeline of scenario {f.stem}.")
     return figs
@@ -508,15 +512,14 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     berth = d.berth
     if berth is not None:
         ship_sum, design = d.ship_summary, d.alarm_design
-    oper = None
-    if inst.report.metocean is not None and src is not None:
-        step("operability over the metocean record (Dask)")
-        oper = _operability(inst, src, d.berth_file, out)
+    oper = d.operability
+    if oper is not None:
+        from .studies.operability import write_parquet
+
+        write_parquet(oper.table, out / "operability.parquet")
 
     step("drawing figures")
     builders = figure_builders(d)
-    if oper is not None:
-        builders[OPERABILITY_FIGURE[0]] = (lambda _d: oper.plot(), OPERABILITY_FIGURE[1])
     figs = {name: save(build(d), figdir / name) for name, (build, _caption) in builders.items()}
 
     step("writing report")

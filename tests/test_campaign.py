@@ -201,6 +201,6 @@ def test_a_campaign_on_a_dask_scheduler_gives_the_same_runs(tmp_path):
     sc.write_text(text)
     local = run_campaign(sc, 3, workers=1)
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
-                      host="127.0.0.1") as cluster:
+                      host="127.0.0.1", scheduler_kwargs={"dashboard_address": "127.0.0.1:0"}) as cluster:
         remote = run_campaign(sc, 3, scheduler=cluster.scheduler_address)
     assert remote.to_dict() == local.to_dict()

@@ -222,6 +222,7 @@ def test_a_real_dask_cluster_on_loopback_survives_a_killed_worker(tmp_path):
     procs = []
     try:
         procs.append(subprocess.Popen(dask + ["--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                                              "--dashboard-address", "127.0.0.1:0",
                                               "--scheduler-file", str(sfile)], env=env, cwd=tmp_path,
                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
         for _ in range(300):

@@ -314,7 +314,7 @@ class ReportData:
         self._progress("operability over the metocean record (Dask)")
         with tempfile.TemporaryDirectory(prefix="loadarm-operability-") as tmp:
             return run_operability(self.source, self.berth_file, self.source.parent / self.inst.report.metocean,
-                                   Path(tmp) / "operability.parquet")
+                                   Path(tmp) / "operability.parquet", ship=self.ship)
 
 
 def _operability_rows(od: dict) -> list[dict]:

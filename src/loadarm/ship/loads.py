@@ -40,6 +40,7 @@ Slow drift (Newman 1974)
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -215,16 +216,24 @@ def jonswap(w, hs: float, tp: float, gamma: float = 3.3) -> np.ndarray:
     if hs <= 0:
         return np.zeros_like(w)
     wp = 2 * math.pi / tp
-
-    def shape(x):
-        s = np.where(x <= wp, 0.07, 0.09)
-        return x ** -5.0 * np.exp(-1.25 * (wp / x) ** 4) * gamma ** np.exp(-((x - wp) ** 2) / (2 * s * s * wp * wp))
-
-    wide = np.linspace(0.2 * wp, 8 * wp, 8000)
-    m0 = np.trapezoid(shape(wide), wide)
+    m0 = _jonswap_unit_m0(float(gamma)) * wp ** -4.0       # the shape's area scales as wp^-4
     with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
-        out = (hs / 4.0) ** 2 / m0 * shape(w)
+        out = (hs / 4.0) ** 2 / m0 * _jonswap_shape(w, wp, gamma)
     return np.where(w > 0, out, 0.0)
+
+
+def _jonswap_shape(x, wp: float, gamma: float):
+    """The unnormalised JONSWAP shape ``x^-5 exp(-5/4 (wp/x)^4) gamma^r(x)``."""
+    s = np.where(x <= wp, 0.07, 0.09)
+    return x ** -5.0 * np.exp(-1.25 * (wp / x) ** 4) * gamma ** np.exp(-((x - wp) ** 2) / (2 * s * s * wp * wp))
+
+
+@functools.lru_cache(maxsize=32)
+def _jonswap_unit_m0(gamma: float) -> float:
+    """Area of the JONSWAP shape with ``wp = 1`` over 0.2-8 (trapezoid, 8000 points): the spectrum's
+    normalisation, once per peakedness (found: integrated again for every sea state, 0.2 ms each)."""
+    u = np.linspace(0.2, 8.0, 8000)
+    return float(np.trapezoid(_jonswap_shape(u, 1.0, gamma), u))
 
 
 def spreading_norm(s: float) -> float:

@@ -413,10 +413,10 @@ def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
         from .loads import spreading
 
         w, th = MEAN_DRIFT_OMEGA, MEAN_DRIFT_DIRECTION
-        dens = jonswap(w, env.hs, env.tp)[:, None] * spreading(th, math.radians(env.wave_direction_deg),
-                                                               env.spreading)[None, :]
-        tt = mean_drift_grid(ship)
-        f = f + 2 * np.trapezoid(np.trapezoid(dens[..., None] * tt, th, axis=1), w, axis=0)
+        # the density is separable, S(w) D(theta): the double trapezoid as two weighted contractions
+        sw = jonswap(w, env.hs, env.tp) * _trapezoid_weights(w)
+        dth = spreading(th, math.radians(env.wave_direction_deg), env.spreading) * _trapezoid_weights(th)
+        f = f + 2 * (sw @ np.tensordot(mean_drift_grid(ship), dth, axes=([1], [0])))
     c, s = math.cos(psi), math.sin(psi)
     return np.array([c * f[0] - s * f[1], s * f[0] + c * f[1], f[2]])
 
@@ -425,6 +425,15 @@ def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
 #: it), rad/s, and the direction the waves travel, berth frame (5 deg), rad.
 MEAN_DRIFT_OMEGA = np.linspace(0.05, 2.5, 246)
 MEAN_DRIFT_DIRECTION = np.linspace(-math.pi, math.pi, 73)
+
+
+def _trapezoid_weights(x: np.ndarray) -> np.ndarray:
+    """Weights ``q`` with ``sum(q * f) = trapezoid(f, x)``."""
+    dx = np.diff(x)
+    q = np.zeros_like(x)
+    q[:-1] += dx / 2
+    q[1:] += dx / 2
+    return q
 
 
 def mean_drift_grid(ship: ShipModel) -> np.ndarray:
@@ -494,7 +503,7 @@ def _lf_load(ship: ShipModel, env: Environment, comp: WaveComponents, beta, n: i
         f_full += wind_force(ship.kind, speed, math.radians(env.wind_direction_deg) - ship.moorings.psi0,
                              ship.frontal_area, ship.lateral_area, ship.centroid_x, ship.length).T
     spec = rfft(f_full, axis=-1)
-    spec[:, 2 * math.pi * np.fft.rfftfreq(n, dt) > LF_CUTOFF] = 0.0
+    spec[:, int(np.searchsorted(2 * math.pi * np.fft.rfftfreq(n, dt), LF_CUTOFF, side="right")):] = 0.0
     return np.ascontiguousarray(irfft(spec, n, axis=-1)[:, :n_out].T)
 
 

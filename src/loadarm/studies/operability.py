@@ -352,7 +352,7 @@ def _close_client(connecting) -> None:
 def run_operability(config: str | Path, berth: str | Path, metocean: str | Path, out: str | Path, *,
                     hours: int | None = None, settings: OperabilitySettings = OperabilitySettings(),
                     scheduler: str | None = None, workers: int | None = None, progress: bool = False,
-                    fresh: bool = False):
+                    fresh: bool = False, ship=None):
     """Run a record on Dask and gather the result (resuming from chunks already written).
 
     Parameters
@@ -373,6 +373,8 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         Dask's progress bar on stderr.
     fresh : bool
         Discard chunks of another run (other inputs, hours or settings) instead of refusing them.
+    ship : ShipModel, optional
+        The berth file's ship, compiled already (the report has it); compiled here otherwise.
 
     Returns
     -------
@@ -438,9 +440,13 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
             connecting = stack.enter_context(ThreadPoolExecutor(1)).submit(
                 lambda: Client(scheduler) if scheduler is not None else Client(LocalCluster(
                     n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                    dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL)))
+                    dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL,
+                    # no dashboard, but the scheduler's health/metrics HTTP server: an ephemeral loopback port
+                    # (found: it took 8787, so two studies at once collided and warned)
+                    scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})))
             stack.callback(lambda: _close_client(connecting))
-            ship = compile_ship(bf, source=str(berth))
+            if ship is None:
+                ship = compile_ship(bf, source=str(berth))
             table = floor_table(model, *_box(model, float(np.min(values["tide_m"])), float(np.max(values["tide_m"]))))
             compiled = (model, ship, table, bf.berth.x_bearing_deg, bf.environment)
             client = connecting.result()

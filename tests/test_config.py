@@ -195,3 +195,44 @@ def test_full_example_lists_every_key_and_equals_the_paper_case(paper):
         section, key = row["key"].split(".")
         body = text.split(f"[{section}]")[1]
         assert f"\n{key} = " in body or f"\n# {key} = (not set)" in body, row["key"]   # optional keys: commented
+
+
+@pytest.mark.parametrize("key,value,rng", [("connect_motion_limit", -1.0, "valid range (0, 5] m"),
+                                           ("connect_motion_limit", 6.0, "valid range (0, 5] m"),
+                                           ("duration_per_state", 5.0, "valid range [10, 3600] s"),
+                                           ("duration_per_state", 7200.0, "valid range [10, 3600] s")])
+def test_operability_settings_are_declared_and_checked(key, value, rng):
+    d = _data()
+    d["operability"] = {key: value}
+    with pytest.raises(ConfigError) as e:
+        parse_config(d, source="f.toml")
+    msg = str(e.value)
+    assert msg.startswith("f.toml: ") and f"operability.{key}" in msg and rng in msg and "\n" not in msg
+
+
+def test_a_metocean_record_needs_a_berth():
+    d = _data()
+    d["report"] = {"metocean": "metocean/sample.csv"}
+    with pytest.raises(ConfigError, match="metocean needs a berth") as e:
+        parse_config(d, source="f.toml")
+    assert "\n" not in str(e.value)
+    d["report"]["berth"] = "berths/lng150k.toml"
+    assert parse_config(d).report.metocean == "metocean/sample.csv"
+
+
+def test_operability_settings_take_the_installation_s_unless_given():
+    """`loadarm operability` without --duration-per-state takes the installation's [operability]; given, the
+    flag wins; the connect limit always comes from the installation unless set in the API."""
+    from loadarm.studies.operability import OperabilitySettings
+
+    d = _data()
+    d["operability"] = {"duration_per_state": 600.0, "connect_motion_limit": 0.8}
+    sec = parse_config(d).operability
+    assert OperabilitySettings().resolved(sec) == OperabilitySettings(600.0, 0.8)
+    assert OperabilitySettings(duration_per_state=60.0).resolved(sec) == OperabilitySettings(60.0, 0.8)
+    assert OperabilitySettings(connect_motion_limit=1.2, chunks=7).resolved(sec) == OperabilitySettings(600.0, 1.2,
+                                                                                                      chunks=7)
+    with pytest.raises(ValueError, match="resolved settings"):
+        from loadarm.studies.operability import run_states
+
+        run_states(None, None, None, [], OperabilitySettings(), 0.0, None)

@@ -325,7 +325,8 @@ def _operability_rows(od: dict) -> list[dict]:
     rows = [("metocean record", od["metocean"]), ("hourly sea states", f"{od['states']}"),
             ("downtime", f"{100 * od['downtime_fraction']:.1f} % ({od['states'] - od['operable_h']} h)"),
             ("hours the arm could not connect", f"{od['not_connectable_h']} h"),
-            ("ESD-1 per year", f"{od['esd1_per_year']:.1f}"), ("releases per year", f"{od['releases_per_year']:.1f}"),
+            ("ESD-1 per year (at the record's rate)", f"{od['esd1_per_year']:.1f}"),
+            ("releases per year (at the record's rate)", f"{od['releases_per_year']:.1f}"),
             ("largest beta", f"{od['max_beta_deg']:.1f} deg")]
     if worst is not None:
         rows += [("worst month", f"{worst}: {100 * months[worst]:.1f} %"),

@@ -37,6 +37,10 @@ __all__ = ["OperabilitySettings", "state_environment", "run_states", "run_operab
 WORKER_ENVIRONMENT = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
                       "MKL_NUM_THREADS": "1", "MALLOC_TRIM_THRESHOLD_": str(512 * 1024 ** 2),
                       "MALLOC_MMAP_THRESHOLD_": str(32 * 1024 ** 2)}
+#: The local cluster's Dask settings for its workers (a cluster of your own: ``DASK_DISTRIBUTED__WORKER__PROFILE__
+#: ENABLED=False`` in the workers' environment): no statistical profiler (it samples every thread's stack every
+#: 10 ms; found: the workers ran the kernel about 20 % slower than plain processes).
+WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
 #: Result columns, one row per state (units in the names).
 COLUMNS = ("time", "hs_m", "tp_s", "wind_speed_ms", "current_speed_ms", "tide_m", "stage", "esd1_s", "release_s",
            "max_beta_deg", "max_slew_deg", "z_range_m", "min_time_to_limit_s", "flange_motion_m", "connectable",
@@ -434,6 +438,7 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         # at 128 KiB, so every large temporary was mapped, faulted in and unmapped again: a year took 339 s with
         # 353 s of system time for 315 s of user time)
         env = {f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENVIRONMENT.items()}
+        env.update(WORKER_CONFIG)
         with dask.config.set(env), contextlib.ExitStack() as stack:
             # the cluster starts (its workers spawn and import) while this process compiles the ship and the
             # table once, to send them to every worker (found: the two in turn cost a month's run 4-5 s)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -108,6 +109,20 @@ class ShipModel:
     def psi0(self) -> float:
         """Reference heading, rad."""
         return self.moorings.psi0
+
+    @cached_property
+    def mean_drift_grid(self) -> np.ndarray:
+        """The drift coefficients on :func:`loadarm.ship.motion.mean_load`'s grid, (246, 73, 3), read-only,
+        interpolated once per ship (the coefficients and the grid never change; every sea state of a study
+        reuses them)."""
+        from .motion import MEAN_DRIFT_DIRECTION, MEAN_DRIFT_OMEGA, _interp_heading
+
+        w, th = MEAN_DRIFT_OMEGA, MEAN_DRIFT_DIRECTION
+        beta = (th[None, :] - self.psi0) * np.ones_like(w)[:, None]
+        grid = _interp_heading(self.drift, self.hydro.heading, self.hydro.omega, np.repeat(w, th.size),
+                               beta.ravel()).reshape(w.size, th.size, 3)
+        grid.setflags(write=False)
+        return grid
 
     def natural_periods(self) -> dict[str, float]:
         """Natural periods, s: surge, sway and yaw of the moored ship (eigenvalues of the low-frequency

@@ -31,8 +31,8 @@ from .loads import E_C, current_force, jonswap, npd_spectrum, sample_directions,
 from .model import ShipModel
 from .mooring import _restoring
 
-__all__ = ["ShipMotion", "simulate", "flange_positions", "mean_load", "mean_drift_grid", "MIN_RECORD", "DT",
-           "wave_components", "fft_length"]
+__all__ = ["ShipMotion", "simulate", "flange_positions", "mean_load", "MIN_RECORD", "DT", "wave_components",
+           "fft_length"]
 
 #: Shortest record synthesised, s (frequency step 2 pi / 1800 s: 0.0035 rad/s).
 MIN_RECORD = 1800.0
@@ -363,6 +363,14 @@ class ShipMotion(Result):
         return fig
 
 
+def _at_flange(ship: ShipModel, six, axis: int = -1):
+    """The first-order motion of the flange (``x + rot x r``, ship frame) from the centre of gravity's six
+    (surge, sway, heave, roll, pitch, yaw along ``axis``): time samples or complex amplitudes alike."""
+    six = np.moveaxis(six, axis, -1)
+    out = six[..., :3] + np.cross(six[..., 3:], ship.manifold - ship.cog)
+    return np.moveaxis(out, -1, axis)
+
+
 def _flange_position(ship: ShipModel, pose, d):
     """Berth-frame flange position from the low-frequency pose and the first-order flange displacement ``d``
     (ship frame); also the heading's cosine and sine and the flange's ship-frame x and y (for its velocity)."""
@@ -379,9 +387,7 @@ def _flange_position(ship: ShipModel, pose, d):
 
 def _flange(ship: ShipModel, pose, pose_v, wave, wave_v):
     """Berth-frame flange position, velocity and face angles from the two motions."""
-    r = ship.manifold - ship.cog                              # CoG to flange, ship frame
-    d = wave[:, :3] + np.cross(wave[:, 3:], r)                # first-order flange displacement, ship frame
-    dv = wave_v[:, :3] + np.cross(wave_v[:, 3:], r)
+    d, dv = _at_flange(ship, wave), _at_flange(ship, wave_v)  # first-order flange motion, ship frame
     p, c, s, lx, ly = _flange_position(ship, pose, d)
     r_dot = pose_v[:, 2]
     vx = pose_v[:, 0] - r_dot * (s * lx + c * ly) + c * dv[:, 0] - s * dv[:, 1]
@@ -414,9 +420,9 @@ def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
 
         w, th = MEAN_DRIFT_OMEGA, MEAN_DRIFT_DIRECTION
         # the density is separable, S(w) D(theta): the double trapezoid as two weighted contractions
-        sw = jonswap(w, env.hs, env.tp) * _trapezoid_weights(w)
-        dth = spreading(th, math.radians(env.wave_direction_deg), env.spreading) * _trapezoid_weights(th)
-        f = f + 2 * (sw @ np.tensordot(mean_drift_grid(ship), dth, axes=([1], [0])))
+        sw = jonswap(w, env.hs, env.tp) * _MEAN_DRIFT_WEIGHTS[0]
+        dth = spreading(th, math.radians(env.wave_direction_deg), env.spreading) * _MEAN_DRIFT_WEIGHTS[1]
+        f = f + 2 * (sw @ np.tensordot(ship.mean_drift_grid, dth, axes=([1], [0])))
     c, s = math.cos(psi), math.sin(psi)
     return np.array([c * f[0] - s * f[1], s * f[0] + c * f[1], f[2]])
 
@@ -436,28 +442,9 @@ def _trapezoid_weights(x: np.ndarray) -> np.ndarray:
     return q
 
 
-def mean_drift_grid(ship: ShipModel) -> np.ndarray:
-    """The ship's drift coefficients on :func:`mean_load`'s grid, (246, 73, 3), interpolated once per ship and
-    kept with it (the coefficients and the grid never change; every sea state of a study reuses them).
+_MEAN_DRIFT_WEIGHTS = (_trapezoid_weights(MEAN_DRIFT_OMEGA), _trapezoid_weights(MEAN_DRIFT_DIRECTION))
 
-    Parameters
-    ----------
-    ship : ShipModel
 
-    Returns
-    -------
-    ndarray (246, 73, 3)
-        Read-only.
-    """
-    cached = ship.__dict__.get("_mean_drift_grid")
-    if cached is None:
-        w, th = MEAN_DRIFT_OMEGA, MEAN_DRIFT_DIRECTION
-        beta = (th[None, :] - ship.psi0) * np.ones_like(w)[:, None]
-        cached = _interp_heading(ship.drift, ship.hydro.heading, ship.hydro.omega, np.repeat(w, th.size),
-                                 beta.ravel()).reshape(w.size, th.size, 3)
-        cached.setflags(write=False)
-        object.__setattr__(ship, "_mean_drift_grid", cached)     # a cache of the frozen model's own data
-    return cached
 
 
 def _lengths(duration: float, dt: float) -> tuple[int, int]:
@@ -632,8 +619,7 @@ def flange_positions(ship: ShipModel, env: Environment, duration: float, *, seed
     comp, beta, z = _sea(ship, env, n, dt, rng)
     if env.hs > 0:
         coef = _wave_coefficients(ship, comp, beta, z)
-        cd = coef[:3] + np.cross(coef[3:], ship.manifold - ship.cog, axis=0)      # d = x + rot x r, per component
-        d = _synth(cd, n)[:, :n_out].T
+        d = _synth(_at_flange(ship, coef, axis=0), n)[:, :n_out].T     # per component, before the FFT
     else:
         d = np.zeros((n_out, 3))
     eq = equilibrium(mo, mean_load(ship, env), eta0=ship.eq0)

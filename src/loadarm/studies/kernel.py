@@ -97,20 +97,6 @@ class FloorTable:
         """
         return self.lookup(p)[2]
 
-    def horizontal_vertical(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The least horizontal ray distance and the least vertical one at points (trilinear).
-
-        Parameters
-        ----------
-        p : ndarray (n, 3)
-
-        Returns
-        -------
-        horizontal, vertical : ndarray (n,)
-        """
-        h, v, _ = self.lookup(p)
-        return h, v
-
     def lookup(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The least horizontal and vertical ray distances at points (trilinear; the nearest edge value beyond
         the table) and which points lie inside it (to 1e-9 m), in one compiled pass (found: two

@@ -345,10 +345,13 @@ def test_the_compiled_levels_and_faces_are_the_vectorised_rules(model, beta, phi
         b[: min(n, len(edges_b))] = edges_b[:n]
         f[: min(n, len(edges_f))] = edges_f[:n]
         a[: min(n, 2)] = list(lim.alpha)[:n]
-    level = np.empty(n, dtype=np.int64)
-    bmax, smax, outside = _samples(f, a, b, (al.first, al.second, al.release), (sl.first, sl.second, sl.release),
-                                   tuple(map(float, lim.phi)), tuple(map(float, lim.alpha)),
-                                   tuple(map(float, lim.beta)), level)
+    level, ttl, ins = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n, dtype=np.bool_)
+    zero = np.zeros(n)
+    bmax, smax, outside, _, _ = _samples(f, a, b, zero, zero, zero, (al.first, al.second, al.release),
+                                         (sl.first, sl.second, sl.release), tuple(map(float, lim.phi)),
+                                         tuple(map(float, lim.alpha)), tuple(map(float, lim.beta)),
+                                         np.ones((2, 2, 2, 2)), np.zeros(3), 1.0, (5.0, 5.0, 0.15, 0.02, 0.1),
+                                         level, ttl, ins)
     bs = beta_severity(b, al)
     want = np.where(bs < 0, int(Severity.RELEASE), np.maximum(bs, slew_severity(f, sl)))
     assert np.array_equal(level, want)
@@ -400,3 +403,61 @@ def test_the_compiled_table_lookup_is_map_coordinates(seed, spacing, shape):
         assert np.allclose(got, map_coordinates(part.min(axis=-1), idx, order=1, mode="nearest"), rtol=0, atol=1e-12)
     assert np.array_equal(ins, np.all((p >= t.origin - 1e-9) & (p <= hi + 1e-9), axis=1))
     assert ins[:4].all() and not ins[4:6].any()
+
+
+@settings(max_examples=examples(100), deadline=None)
+@given(seed=st.integers(0, 2**31), spacing=st.floats(0.05, 1.0), shape=st.tuples(*[st.integers(2, 7)] * 3),
+       speed=st.floats(0.01, 2.0), accel=st.floats(1e-3, 1.0), vspeed=st.floats(0.01, 1.0))
+def test_the_compiled_pass_s_time_to_limit_is_the_vectorised_route(seed, spacing, shape, speed, accel, vspeed):
+    """The one compiled per-sample pass (kernel._samples) gives the design-drift time to a face of the
+    vectorised route: the table's least distances (FloorTable.lookup) through breakout_time and the vertical
+    speed, a distance at its cap beyond every lead (inf); bit for bit (the same operations on the same
+    values), the z range too, over points inside the table, on its edges and beyond it."""
+    from loadarm.studies.kernel import FloorTable, _samples
+
+    rng = np.random.default_rng(seed)
+    dist = rng.uniform(0.0, 5.0, (*shape, 10))
+    dist[0, 0, 0, :] = 5.0                                      # a grid point at the caps
+    t = FloorTable(rng.uniform(-5, 5, 3), spacing, dist, 5.0, 4.0)
+    hi = t.origin + spacing * (np.array(shape) - 1)
+    p = t.origin + rng.uniform(-0.2, 1.2, (300, 3)) * (hi - t.origin)
+    p[:3] = [t.origin, hi, t.origin - 1.0]
+    n = p.shape[0]
+    level, ttl, ins = np.empty(n, dtype=np.int64), np.empty(n), np.empty(n, dtype=np.bool_)
+    zero = np.zeros(n)
+    x, y, z = (np.ascontiguousarray(p[:, k]) for k in range(3))
+    *_, zmin, zmax = _samples(zero, zero, zero, x, y, z, (1.0, 2.0, 3.0), (1.0, 2.0, 3.0), (-3.0, 3.0),
+                              (-3.0, 3.0), (-3.0, 3.0), t._hv, t.origin, float(spacing),
+                              (t.cap, t.cap_v, speed, accel, vspeed), level, ttl, ins)
+    h, v, inside = t.lookup(p)
+    want = np.minimum(np.where(h >= t.cap - 1e-9, np.inf, breakout_time(h, speed, accel)),
+                      np.where(v >= t.cap_v - 1e-9, np.inf, v / vspeed))
+    assert np.array_equal(ttl, want) and np.array_equal(ins, inside)
+    assert np.isinf(ttl[2]) and zmin == z.min() and zmax == z.max()
+
+
+@settings(max_examples=examples(300), deadline=None)
+@given(d=st.floats(0.0, 1e4), v=st.floats(1e-3, 5.0), a=st.floats(1e-4, 10.0))
+def test_the_scalar_breakout_time_is_the_vectorised_one(d, v, a):
+    """kernel._breakout_time (the compiled pass's) against breakout_time, bit for bit, the knee included."""
+    from loadarm.studies.kernel import _breakout_time
+
+    for x in (d, v * v / (2 * a)):
+        assert _breakout_time(x, v, a) == float(breakout_time(x, v, a))
+
+
+@settings(max_examples=examples(50), deadline=None)
+@given(seed=st.integers(0, 2**31), n=st.integers(1, 500))
+def test_relative_record_is_the_vectorised_offset_and_std(seed, n):
+    """kernel.relative_record (offset rows and the per-axis standard deviations in one compiled routine)
+    against ``offset + (flange - reference)`` and ``numpy.std`` per axis: the rows bit for bit, the deviations
+    to 1e-12 relative (numpy sums pairwise, the loop in order)."""
+    from loadarm.studies.kernel import relative_record
+
+    rng = np.random.default_rng(seed)
+    flange = rng.normal(size=(n, 3)) * [3.0, 1.0, 0.5] + [80.0, -2.0, 14.0]
+    ref, off = rng.normal(size=3) * 50, rng.normal(size=3) * 20
+    out = np.empty((3, n))
+    std = relative_record(flange, ref, off, out)
+    assert np.array_equal(out.T, off + (flange - ref))
+    assert np.allclose(std, np.std(flange, axis=0), rtol=1e-12, atol=1e-15)

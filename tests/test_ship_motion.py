@@ -169,7 +169,7 @@ def test_free_decay_loses_the_energy_its_damping_dissipates(ship, berth):
     n = 1201
     x0 = ship.eq0 + np.array([0.01, 0.0, 0.0])
     xs, vs, ten = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, len(mo.names)))
-    _lf_integrate(x0, np.zeros(3), np.zeros((n, 3)), DT, int(round(ship.lf_step / DT)), np.linalg.inv(ship.mass_lf),
+    _lf_integrate(x0, np.zeros(3), np.zeros((n, 3)), 1, DT, int(round(ship.lf_step / DT)), np.linalg.inv(ship.mass_lf),
                   ship.damping_lf,
                   mo.fairlead, mo.height, mo.bollard, mo.ea, mo.l0, mo.alive, mo.alive, n + 1, mo.fender_y,
                   mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side, mo.psi0, mo.origin, 0.0, 0.0,
@@ -387,3 +387,55 @@ def test_the_sea_is_the_same_whatever_band_is_kept(berth):
     for name in ("omega", "amplitude", "direction", "phase"):
         assert np.array_equal(getattr(part, name), getattr(full, name)[:k]), name
     assert g1.uniform() == g2.uniform()
+
+
+@pytest.mark.parametrize("n_out, stride, i_part, n, want", [
+    (36001, 10, 36002, 36450, 5),      # an hour at 1 s steps: the load at every half step
+    (36001, 10, 18000, 36450, 5),      # lines parting at a step's end
+    (36001, 10, 18005, 36450, 1),      # ... mid-step: a step ends there
+    (36006, 10, 36007, 36450, 1),      # a record that is no whole number of steps
+    (36001, 10, 36002, 36452, 1),      # an FFT length the half step does not divide
+    (36001, 5, 36002, 36450, 1),       # an odd stride: no half-step sample
+    (36001, 2, 36002, 36450, 1)])      # a half step of one sample: every sample anyway
+def test_the_load_is_read_every_half_step_only_when_every_step_is_whole(n_out, stride, i_part, n, want):
+    from loadarm.ship.motion import _load_every
+
+    assert _load_every(n, n_out, stride, i_part) == want
+
+
+@pytest.mark.parametrize("hs, wind", [(2.0, 15.0), (0.0, 20.0), (1.5, 0.0)])
+def test_the_half_step_load_is_the_full_load_at_those_samples(ship, berth, hs, wind):
+    """The low-frequency load synthesised on n / 5 samples (the integration's half steps) against the same
+    load on all n samples, read every fifth: to 1e-12 of its largest value (the same trigonometric sum
+    evaluated by two FFT lengths)."""
+    from loadarm.ship.motion import _lengths, _lf_load, _sea
+
+    env = berth.environment.model_copy(update={"hs": hs, "tp": 9.0, "wind_speed": wind})
+    n_out, n = _lengths(3600.0, DT)
+    loads_ = []
+    for every in (1, 5):
+        rng = np.random.default_rng(4)
+        comp, beta, _ = _sea(ship, env, n, DT, rng)
+        loads_.append(_lf_load(ship, env, comp, beta, n, n_out, DT, rng, every))
+    full, coarse = loads_
+    assert coarse.shape == ((n_out - 1) // 5 + 1, 3)
+    assert np.max(np.abs(full[::5] - coarse)) < 1e-12 * np.max(np.abs(full))
+    with pytest.raises(ValueError, match="does not divide"):
+        _lf_load(ship, env, comp, beta, n, n_out, DT, np.random.default_rng(4), 7)
+
+
+def test_the_compiled_flange_position_is_the_vectorised_formula(ship):
+    """motion._flange_position (one compiled pass) against the rigid-body formula written out with NumPy on
+    random poses and displacements: to 1e-12 m (libm's and NumPy's cosines may differ in the last bit)."""
+    from loadarm.ship.motion import _flange_position
+
+    rng = np.random.default_rng(5)
+    pose = rng.normal(size=(400, 3)) * [3.0, 3.0, 0.05]
+    d = rng.normal(size=(400, 3)) * 0.5
+    mo = ship.moorings
+    psi = mo.psi0 + pose[:, 2]
+    c, s = np.cos(psi), np.sin(psi)
+    lx, ly = ship.manifold[0] + d[:, 0], ship.manifold[1] + d[:, 1]
+    want = np.stack([mo.origin[0] + pose[:, 0] + c * lx - s * ly, mo.origin[1] + pose[:, 1] + s * lx + c * ly,
+                     ship.manifold[2] - ship.draft + d[:, 2]], axis=1)
+    assert np.max(np.abs(_flange_position(ship, pose, d) - want)) < 1e-12

@@ -166,15 +166,17 @@ def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, fair, height, boll, 
 
 
 @njit(cache=True, nogil=True)
-def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea, l0, alive0, alive1, i_part, fy,
+def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, fair, height, boll, ea, l0, alive0, alive1, i_part, fy,
                   fdefl, fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xs, vs, tens):
     """RK4 of the low-frequency pose, ``stride`` output samples per step (the load taken at its samples at the
     step's start, middle and end: it is low-passed first, :data:`LF_CUTOFF`); the samples between from the cubic
     Hermite of the step's ends (error of order ``(w h)^4 / 384``: below 1e-4 of the motion for the 19 s and longer
     periods of a moored ship at :data:`LF_STEP`), their tensions interpolated linearly. A step ends exactly where
     the lines part (``i_part``: from there ``alive1``) and at the last sample. The tensions between two steps are
-    filled once the next step's first stage has the end's. Empty ``vs`` and ``tens`` (no rows): the pose alone."""
-    n = f_ship.shape[0]
+    filled once the next step's first stage has the end's. Empty ``vs`` and ``tens`` (no rows): the pose alone.
+    ``f_ship`` holds the load at every ``every``-th output sample (:func:`_load_every`: only the samples the
+    stages read)."""
+    n = xs.shape[0]
     rates = vs.shape[0] > 0
     current = (cur_vx, cur_vy, kx, ky, el)
     nl = fair.shape[0]
@@ -191,7 +193,7 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
         xs[k, 0], xs[k, 1], xs[k, 2] = a0, a1, a2
         if rates:
             vs[k, 0], vs[k, 1], vs[k, 2] = b0, b1, b2
-        p0, p1, p2 = f_ship[k, 0], f_ship[k, 1], f_ship[k, 2]
+        p0, p1, p2 = f_ship[k // every, 0], f_ship[k // every, 1], f_ship[k // every, 2]
         k1 = _lf_rhs(a0, a1, a2, b0, b1, b2, p0, p1, p2, minv, damp, fair, height, boll, ea, l0, alive, fy, fdefl,
                      fload, fn, side, psi0, origin, current, xbuf, out_f, ten)
         if rates:
@@ -212,11 +214,11 @@ def _lf_integrate(x0, v0, f_ship, dt, stride, minv, damp, fair, height, boll, ea
             k2 = i_part
         m = k2 - k
         big = m * dt
-        q0, q1, q2 = f_ship[k2, 0], f_ship[k2, 1], f_ship[k2, 2]
+        q0, q1, q2 = f_ship[k2 // every, 0], f_ship[k2 // every, 1], f_ship[k2 // every, 2]
         if m % 2 == 0:
-            km = k + m // 2
+            km = (k + m // 2) // every
             m0, m1, m2 = f_ship[km, 0], f_ship[km, 1], f_ship[km, 2]
-        else:
+        else:                                    # (every is 1 then)
             kl = k + m // 2
             m0 = 0.5 * (f_ship[kl, 0] + f_ship[kl + 1, 0])
             m1 = 0.5 * (f_ship[kl, 1] + f_ship[kl + 1, 1])
@@ -371,24 +373,37 @@ def _at_flange(ship: ShipModel, six, axis: int = -1):
     return np.moveaxis(out, -1, axis)
 
 
-def _flange_position(ship: ShipModel, pose, d):
-    """Berth-frame flange position from the low-frequency pose and the first-order flange displacement ``d``
-    (ship frame); also the heading's cosine and sine and the flange's ship-frame x and y (for its velocity)."""
+@njit(cache=True, nogil=True)
+def _flange_xyz(pose, d, psi0, origin, manifold, z0, out):
+    """Berth-frame flange positions ``out[(n, 3)]`` from the low-frequency pose and the first-order flange
+    displacement ``d`` (ship frame): one compiled pass (found: the vectorised expression's cosines, sines and
+    seven temporaries were a twelfth of an hourly state's cost)."""
+    for i in range(pose.shape[0]):
+        psi = psi0 + pose[i, 2]
+        c, s = math.cos(psi), math.sin(psi)
+        lx = manifold[0] + d[i, 0]
+        ly = manifold[1] + d[i, 1]
+        out[i, 0] = origin[0] + pose[i, 0] + c * lx - s * ly
+        out[i, 1] = origin[1] + pose[i, 1] + s * lx + c * ly
+        out[i, 2] = z0 + d[i, 2]
+
+
+def _flange_position(ship: ShipModel, pose, d) -> np.ndarray:
+    """Berth-frame flange position (n, 3) from the low-frequency pose and the first-order flange displacement
+    ``d`` (ship frame)."""
     mo = ship.moorings
-    psi = mo.psi0 + pose[:, 2]
-    c, s = np.cos(psi), np.sin(psi)
-    lx = ship.manifold[0] + d[:, 0]
-    ly = ship.manifold[1] + d[:, 1]
-    px = mo.origin[0] + pose[:, 0] + c * lx - s * ly
-    py = mo.origin[1] + pose[:, 1] + s * lx + c * ly
-    pz = ship.manifold[2] - ship.draft + d[:, 2]
-    return np.stack([px, py, pz], axis=1), c, s, lx, ly
+    out = np.empty((pose.shape[0], 3))
+    _flange_xyz(pose, d, mo.psi0, mo.origin, ship.manifold, ship.manifold[2] - ship.draft, out)
+    return out
 
 
 def _flange(ship: ShipModel, pose, pose_v, wave, wave_v):
     """Berth-frame flange position, velocity and face angles from the two motions."""
     d, dv = _at_flange(ship, wave), _at_flange(ship, wave_v)  # first-order flange motion, ship frame
-    p, c, s, lx, ly = _flange_position(ship, pose, d)
+    p = _flange_position(ship, pose, d)
+    psi = ship.moorings.psi0 + pose[:, 2]
+    c, s = np.cos(psi), np.sin(psi)
+    lx, ly = ship.manifold[0] + d[:, 0], ship.manifold[1] + d[:, 1]
     r_dot = pose_v[:, 2]
     vx = pose_v[:, 0] - r_dot * (s * lx + c * ly) + c * dv[:, 0] - s * dv[:, 1]
     vy = pose_v[:, 1] + r_dot * (c * lx - s * ly) + s * dv[:, 0] + c * dv[:, 1]
@@ -468,11 +483,25 @@ def _wave_coefficients(ship: ShipModel, comp: WaveComponents, beta, z) -> np.nda
     return (_interp_heading(ship.rao, h.heading, h.omega, comp.omega, beta) * z[:, None]).T
 
 
+def _load_every(n: int, n_out: int, stride: int, i_part: int) -> int:
+    """Every how many output samples the integration reads the low-frequency load: half a step when every
+    step is whole (the record a whole number of steps, the lines parting, if at all, at a step's end) and the
+    FFT length a multiple of it, else 1 (found: the load's inverse FFT on all n samples, nine in ten of them
+    never read, was a twentieth of an hourly state)."""
+    h = stride // 2
+    whole = stride % 2 == 0 and (n_out - 1) % stride == 0 and (i_part >= n_out or i_part % stride == 0)
+    return h if whole and h > 1 and n % h == 0 else 1
+
+
 def _lf_load(ship: ShipModel, env: Environment, comp: WaveComponents, beta, n: int, n_out: int, dt: float,
-             rng: np.random.Generator) -> np.ndarray:
-    """The low-frequency load (ship frame, (n_out, 3)): Newman slow drift and the wind with its gusts, over the
-    whole (periodic) FFT record, then low-passed (the sum-frequency part of Newman's square is not slow drift,
-    and a moored ship does not answer faster loads); the current acts in the integration."""
+             rng: np.random.Generator, every: int = 1) -> np.ndarray:
+    """The low-frequency load (ship frame, (n_out - 1) // every + 1 samples by 3, every ``every``-th output
+    sample): Newman slow drift and the wind with its gusts, over the whole (periodic) FFT record, then
+    low-passed (the sum-frequency part of Newman's square is not slow drift, and a moored ship does not answer
+    faster loads); the current acts in the integration. The low-passed load is a trigonometric sum of the
+    first ``k_cut`` bins: on ``n / every`` samples of the same period (``every`` divides ``n``, and
+    ``k_cut`` is below that grid's Nyquist bin) its inverse FFT gives the same sum at every ``every``-th
+    sample."""
     h = ship.hydro
     k_cut = int(np.searchsorted(2 * math.pi * np.fft.rfftfreq(n, dt), LF_CUTOFF, side="right"))
     band = np.zeros((3, k_cut), dtype=complex)                 # the low-passed load's FFT bins, as on n samples
@@ -498,22 +527,29 @@ def _lf_load(ship: ShipModel, env: Environment, comp: WaveComponents, beta, n: i
         per_v2 = wind_force(ship.kind, 1.0, math.radians(env.wind_direction_deg) - ship.moorings.psi0,
                             ship.frontal_area, ship.lateral_area, ship.centroid_x, ship.length)
         band += per_v2[:, None] * rfft(speed * speed)[None, :k_cut]
-    spec = np.zeros((3, n // 2 + 1), dtype=complex)
+    nc = n // every
+    if not (n % every == 0 and k_cut <= nc // 2):
+        raise ValueError(f"every={every} does not divide the FFT length {n} or leaves the load's band out")
+    spec = np.zeros((3, nc // 2 + 1), dtype=complex)
     spec[:, :k_cut] = band
-    return np.ascontiguousarray(irfft(spec, n, axis=-1)[:, :n_out].T)
+    return np.ascontiguousarray(irfft(spec, nc, axis=-1)[:, :(n_out - 1) // every + 1].T / every)
 
 
-def _lf_motion(ship: ShipModel, env: Environment, f_ship: np.ndarray, eq: np.ndarray, dt: float, alive0, alive1,
-               i_part: int, *, rates: bool = True):
-    """Integrate the low-frequency pose under ``f_ship``; with ``rates`` False only the pose (its rate and the
-    line tensions come back empty)."""
+def _lf_stride(ship: ShipModel, dt: float) -> int:
+    """Output samples per low-frequency integration step."""
+    return max(1, int(round(ship.lf_step / dt)))
+
+
+def _lf_motion(ship: ShipModel, env: Environment, f_ship: np.ndarray, every: int, n_out: int, eq: np.ndarray,
+               dt: float, alive0, alive1, i_part: int, *, rates: bool = True):
+    """Integrate the low-frequency pose over ``n_out`` samples under ``f_ship`` (every ``every``-th sample's);
+    with ``rates`` False only the pose (its rate and the line tensions come back empty)."""
     mo = ship.moorings
-    n_out = f_ship.shape[0]
     pose = np.empty((n_out, 3))
     pose_v = np.empty((n_out if rates else 0, 3))
     tension = np.empty((n_out if rates else 0, len(mo.names)))
     cur = math.radians(env.current_direction_deg)
-    _lf_integrate(eq.copy(), np.zeros(3), f_ship, dt, max(1, int(round(ship.lf_step / dt))),
+    _lf_integrate(eq.copy(), np.zeros(3), f_ship, every, dt, _lf_stride(ship, dt),
                   np.linalg.inv(ship.mass_lf), ship.damping_lf, mo.fairlead, mo.height, mo.bollard, mo.ea, mo.l0,
                   alive0, alive1, i_part, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side,
                   mo.psi0, mo.origin, env.current_speed * math.cos(cur), env.current_speed * math.sin(cur),
@@ -570,9 +606,10 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
     eq = equilibrium(mo, mean_load(ship, env), eta0=ship.eq0)
     t = np.arange(n_out) * dt
     if slow:
-        f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng)
         i_part = n_out + 1 if part_time is None or not parted else int(math.ceil(part_time / dt - 1e-9))
-        pose, pose_v, tension = _lf_motion(ship, env, f_ship, eq, dt, alive0, alive1, i_part)
+        every = _load_every(n, n_out, _lf_stride(ship, dt), i_part)
+        f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng, every)
+        pose, pose_v, tension = _lf_motion(ship, env, f_ship, every, n_out, eq, dt, alive0, alive1, i_part)
     else:
         pose = np.tile(eq, (n_out, 1))
         pose_v = np.zeros((n_out, 3))
@@ -623,7 +660,7 @@ def flange_positions(ship: ShipModel, env: Environment, duration: float, *, seed
     else:
         d = np.zeros((n_out, 3))
     eq = equilibrium(mo, mean_load(ship, env), eta0=ship.eq0)
-    f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng)
-    pose, _, _ = _lf_motion(ship, env, f_ship, eq, dt, mo.alive, mo.alive, n_out + 1, rates=False)
-    p = _flange_position(ship, pose, d)[0]
-    return p, _flange_position(ship, eq[None, :], np.zeros((1, 3)))[0][0]
+    every = _load_every(n, n_out, _lf_stride(ship, dt), n_out + 1)
+    f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng, every)
+    pose, _, _ = _lf_motion(ship, env, f_ship, every, n_out, eq, dt, mo.alive, mo.alive, n_out + 1, rates=False)
+    return _flange_position(ship, pose, d), _flange_position(ship, eq[None, :], np.zeros((1, 3)))[0]

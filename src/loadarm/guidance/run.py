@@ -28,7 +28,7 @@ from ..faces import FACES, face_margins, first_face
 from ..slew import forward3d, inverse3d, reach_mask3d
 from ..alarms import Severity
 from ..results import Metric, Result
-from .controller import SEVERITY_OF_MODE, GuidanceController, Mode, OperatorInput, PlantFeedback
+from .controller import SEVERITY_OF_MODE, Command, GuidanceController, Mode, OperatorInput, PlantFeedback
 from .scenario import Scenario, check_run_size
 from .sensor import FlangeEstimator, sensor_readings
 from .ship import flange_motion
@@ -36,7 +36,7 @@ from .ship import flange_motion
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["RUN_METRICS", "RunResult", "run_scenario", "ScriptedOperator", "ArmPlant", "ErsValves", "wall_clock_pacer",
+__all__ = ["RUN_METRICS", "RunResult", "run_scenario", "ClosedLoop", "ScriptedOperator", "ArmPlant", "ErsValves", "wall_clock_pacer",
            "MODES", "MANIFOLD_CLEARANCE"]
 
 #: Distance the coupler must put between itself and the ship's flange after a release, m (clear of the
@@ -457,72 +457,141 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     -------
     RunResult
     """
-    g = sc.guidance
-    plant = sc.scenario.plant if plant is None else plant
-    if plant not in ("hydraulic", "kinematic"):
-        raise ValueError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
-    check_run_size(sc)
-    ctrl = GuidanceController(model, g)
-    if ship is None and sc.ship.model == "moored":
-        from .scenario import moored_ship
+    loop = ClosedLoop(sc, model, log=log, sample_every=sample_every, plant=plant, ship=ship)
+    report_every = max(1, loop.n // 50)
+    for k in range(loop.n):
+        if pace is not None:
+            pace(loop.time(k))
+        loop.cycle(k)
+        if progress is not None and k % report_every == 0:
+            progress(k / loop.n)
+    if progress is not None:
+        progress(1.0)
+    return loop.result()
 
-        ship = moored_ship(sc)
-    motion = flange_motion(sc, ship)
-    readings = sensor_readings(sc, motion)
-    est = FlangeEstimator(noise=sc.sensor.noise, max_age=g.max_estimate_age)
-    dt = 1.0 / g.rate
-    n = int(math.floor(sc.scenario.duration / dt)) + 1
-    tt = np.arange(n) * dt
-    flange = motion.position(tt)
-    q0 = inverse3d(model.arm, *ctrl.stored)
-    events: list = []
 
-    limiter = RateLimiter()
+class ClosedLoop:
+    """One closed-loop run of a scenario, a guidance cycle at a time: :func:`run_scenario` drives it on a
+    simulated clock, ``loadarm serve`` on the wall clock with the operator's requests
+    (:mod:`loadarm.plant.service`).
 
-    def emit(t, mode, kind, reason, data):
-        write, suppressed = limiter.admit(t, kind, reason)
+    Parameters
+    ----------
+    sc : Scenario
+    model : ArmModel
+    log : EventLog, optional
+    sample_every : float
+        Period of the replay samples in the log, s.
+    plant : {'hydraulic', 'kinematic'}, optional
+    ship : ShipModel, optional
+    scripted : bool
+        The scenario's operator acts (default); False: only the inputs given to :meth:`cycle`.
+
+    Attributes
+    ----------
+    n : int
+        Cycles in the scenario's duration.
+    dt : float
+        Guidance cycle, s.
+    ctrl : GuidanceController
+    plant : ArmPlant
+    events : list
+        ``(t, mode, kind, reason, data)`` so far.
+    """
+
+    def __init__(self, sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
+                 plant: str | None = None, ship=None, scripted: bool = True):
+        g = sc.guidance
+        plant = sc.scenario.plant if plant is None else plant
+        if plant not in ("hydraulic", "kinematic"):
+            raise ValueError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
+        check_run_size(sc)
+        self.sc, self.model, self.log = sc, model, log
+        self.ctrl = GuidanceController(model, g)
+        if ship is None and sc.ship.model == "moored":
+            from .scenario import moored_ship
+
+            ship = moored_ship(sc)
+        self.motion = flange_motion(sc, ship)
+        self.readings = sensor_readings(sc, self.motion)
+        self.est = FlangeEstimator(noise=sc.sensor.noise, max_age=g.max_estimate_age)
+        self.dt = 1.0 / g.rate
+        self.n = int(math.floor(sc.scenario.duration / self.dt)) + 1
+        self.flange = self.motion.position(np.arange(self.n) * self.dt)
+        q0 = inverse3d(model.arm, *self.ctrl.stored)
+        self.events: list = []
+        self._limiter = RateLimiter()
+        self.plant = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, self.emit,
+                              hpu_trip_at=sc.faults.hpu_trip_at)
+        self.valves = ErsValves(model.sequence.ers_valve_time, stuck=sc.faults.ers_valve_stuck,
+                                delay=sc.faults.ers_valve_delay)
+        self.fb = PlantFeedback()
+        self.operator = ScriptedOperator(sc.operator, self.dt) if scripted else None
+        self.rec = _Recorder(self.n, log, sample_every)
+        self.clearance = _ClearanceWatch(self.emit)
+        self.cycle_us = np.full(self.n, np.nan)
+        self.estimate = None
+        self.command = None
+        self._ir = 0
+
+    def time(self, k: int) -> float:
+        """The time of cycle ``k``, s (a Python float: numpy scalars make every scalar operation slower)."""
+        return k * self.dt
+
+    def emit(self, t, mode, kind, reason, data) -> None:
+        """Record an event (rate-limited alike events) and append it to the log."""
+        write, suppressed = self._limiter.admit(t, kind, reason)
         if not write:
             return
         if suppressed:
-            reason = f"{reason} (and {suppressed} alike in the last {limiter.window:g} s)"
-        events.append((t, mode, kind, reason, data))
-        if log is not None:
-            log.append(t, mode, kind, reason, **data)
+            reason = f"{reason} (and {suppressed} alike in the last {self._limiter.window:g} s)"
+        self.events.append((t, mode, kind, reason, data))
+        if self.log is not None:
+            self.log.append(t, mode, kind, reason, **data)
 
-    arm_plant = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, emit,
-                         hpu_trip_at=sc.faults.hpu_trip_at)
-    valves = ErsValves(model.sequence.ers_valve_time, stuck=sc.faults.ers_valve_stuck, delay=sc.faults.ers_valve_delay)
-    fb = PlantFeedback()
-    operator = ScriptedOperator(sc.operator, dt)
-    rec = _Recorder(n, log, sample_every)
-    clearance = _ClearanceWatch(emit)
-    cycle = np.empty(n)
-    ir = 0
-    report_every = max(1, n // 50)
-    for k in range(n):
-        now = float(tt[k])           # a Python float: numpy scalars make every scalar operation slower
-        if pace is not None:
-            pace(now)
+    def cycle(self, k: int, live: OperatorInput | None = None) -> Command:
+        """Run guidance cycle ``k``: sensor, estimate, controller, valves, plant, record.
+
+        Parameters
+        ----------
+        k : int
+            Cycle, ``0 <= k < n``.
+        live : OperatorInput, optional
+            The operator's requests this cycle (added to the scripted operator's actions; its jog, if any,
+            replaces the script's).
+
+        Returns
+        -------
+        Command
+        """
+        now = self.time(k)
+        ctrl, plant = self.ctrl, self.plant
         t0 = time.perf_counter()
-        ir = _feed_sensor(readings, est, ir, now, lambda z: emit(
+        self._ir = _feed_sensor(self.readings, self.est, self._ir, now, lambda z: self.emit(
             now, ctrl.state.mode.value, "sensor", "reading rejected as an outlier", {"reading": [float(v) for v in z]}))
-        e = est.estimate(now)
-        cmd = ctrl.step(now, arm_plant.q, e, operator.inputs(now, ctrl.state.mode, arm_plant.servo_fault), fb)
-        cycle[k] = (time.perf_counter() - t0) * 1e6
+        e = self.est.estimate(now)
+        op = self.operator.inputs(now, ctrl.state.mode, plant.servo_fault) if self.operator else OperatorInput()
+        if live is not None:
+            op = OperatorInput(op.actions + live.actions, live.jog if any(live.jog) else op.jog)
+        cmd = ctrl.step(now, plant.q, e, op, self.fb)
+        self.cycle_us[k] = (time.perf_counter() - t0) * 1e6
         for kind, reason, data in cmd.events:
-            emit(now, cmd.mode.value, kind, reason, data)
-        fb = PlantFeedback(ers_valves_closed=valves.step(now, cmd.close_ers_valves))
-        q = arm_plant.step(now, dt, cmd, flange[k])
-        rec.record(k, now, cmd, q, flange[k], e, model.arm)
-        clearance.watch(now, cmd, rec.sig["distance"][k])
-        if progress is not None and k % report_every == 0:
-            progress(k / n)
-    if progress is not None:
-        progress(1.0)
-    al = model.alarms
-    limit_at, limit_face = _first_limit(model, rec.sig, flange, motion)
-    return RunResult(sc.scenario.name, rec.sig, events, arm_plant.overstretched, cycle,
-                     tuple(math.degrees(a) for a in (al.first, al.second, al.release)), limit_at, limit_face)
+            self.emit(now, cmd.mode.value, kind, reason, data)
+        self.fb = PlantFeedback(ers_valves_closed=self.valves.step(now, cmd.close_ers_valves))
+        q = plant.step(now, self.dt, cmd, self.flange[k])
+        self.rec.record(k, now, cmd, q, self.flange[k], e, self.model.arm)
+        self.clearance.watch(now, cmd, self.rec.sig["distance"][k])
+        self.estimate, self.command = e, cmd
+        return cmd
+
+    def result(self) -> RunResult:
+        """The run's result over the cycles run so far."""
+        k = int(np.count_nonzero(np.isfinite(self.rec.sig["t"])))
+        sig = {name: v[:k] for name, v in self.rec.sig.items()}
+        al = self.model.alarms
+        limit_at, limit_face = _first_limit(self.model, sig, self.flange[:k], self.motion)
+        return RunResult(self.sc.scenario.name, sig, self.events, self.plant.overstretched, self.cycle_us[:k],
+                         tuple(math.degrees(a) for a in (al.first, al.second, al.release)), limit_at, limit_face)
 
 
 #: How far past the end of a run the flange's own trajectory is followed to find the face it would reach, s.

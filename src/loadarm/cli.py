@@ -917,6 +917,123 @@ def demo(
         out.print(f"samples ({name} timing): {p}")
 
 
+@app.command()
+def serve(
+    scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML: the simulated plant, ship and "
+                                                                    "sensor the controller runs against.")],
+    config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the "
+                                                                          "scenario's).")] = None,
+    endpoint: Annotated[str, typer.Option("--endpoint", help="OPC UA endpoint to listen on (loopback unless "
+                                                             "told otherwise).")] = "opc.tcp://127.0.0.1:4840",
+    state_dir: Annotated[Path, typer.Option("--state-dir", help="Certificates, trust list and users (made on "
+                                                                "first start).")] = Path("loadarm-state"),
+    insecure: Annotated[bool, typer.Option("--insecure", help="Also offer the unsecured endpoint (a lab "
+                                                              "only).")] = False,
+    scripted: Annotated[bool, typer.Option("--scripted", help="The scenario's operator acts too (a "
+                                                              "demonstration).")] = False,
+    db: Annotated[Path, typer.Option("--db", help="SQLite event log (operator actions with the user's "
+                                                  "name).")] = Path("loadarm-events.db"),
+    speedup: Annotated[float, typer.Option("--speedup", help="Run seconds per wall second.")] = 1.0,
+    force: ForceOpt = False,
+) -> None:
+    """Run the guidance controller in real time against a scenario's simulated plant and serve it over
+    OPC UA (Basic256Sha256 / Aes128 / Aes256, SignAndEncrypt; users and roles from STATE_DIR/users.toml;
+    client certificates trusted from STATE_DIR/pki/trusted). Ctrl-C stops.
+
+    Example: loadarm serve --scenario examples/scenarios/driftoff.toml --state-dir out/state
+    """
+    from urllib.parse import urlparse
+
+    from .eventlog import EventLog
+    from .guidance.run import ClosedLoop
+    from .guidance.scenario import check_scenario, load_scenario
+    from .plant.security import thumbprint, _load_certificate
+    from .plant.server import OpcUaServer
+    from .plant.service import GuidanceService
+
+    url = urlparse(endpoint)
+    if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
+        raise UserError(f"--endpoint must be opc.tcp://HOST:PORT, got {endpoint!r}")
+    if not speedup > 0 or not math.isfinite(speedup):
+        raise UserError(f"--speedup must be a positive number, got {speedup!r}")
+    sc, model = load_scenario(scenario)
+    if config is not None:
+        model = _model(config)
+        check_scenario(sc, model, source=str(scenario))
+    inst_file = None if sc.scenario.installation is None else scenario.parent / sc.scenario.installation
+    _outputs({"--db": db}, [scenario, inst_file, config], force, appended=("--db",))
+    from datetime import datetime, timezone
+
+    run_id = f"serve:{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
+    log = EventLog(db, run=run_id)
+    try:
+        service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=scripted), speedup=speedup)
+        server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)
+        server.start()
+        try:
+            cert = _load_certificate(server.state.cert)
+            out.print(f"OPC UA server on {endpoint} ({'with' if insecure else 'no'} unsecured endpoint); "
+                      f"certificate {server.state.cert} (SHA-1 {thumbprint(cert)})")
+            users = server.state.users()
+            out.print(f"{len(users)} user(s) in {server.state.users_file}; trusted clients in {server.state.trusted}")
+            out.print(f"events to {db} (run {run_id}); Ctrl-C stops")
+            service.run()
+        finally:
+            server.stop()
+    finally:
+        log.close()
+    snap = service.snapshot()
+    if snap is not None:
+        out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")
+
+
+@app.command()
+def trust(
+    cert: Annotated[Path, typer.Argument(help="Client certificate (DER or PEM).")],
+    state_dir: Annotated[Path, typer.Option("--state-dir", help="The server's state directory.")] = Path("loadarm-state"),
+) -> None:
+    """Trust an OPC UA client's certificate (copied to STATE_DIR/pki/trusted; a running server reads it at its
+    next start).
+
+    Example: loadarm trust client.der --state-dir out/state
+    """
+    from .plant.security import StateDir
+
+    out.print(f"trusted: {StateDir(state_dir).trust(cert)} (effective at the server's next start)")
+
+
+user_app = typer.Typer(no_args_is_help=True, help="Users of the plant interface (STATE_DIR/users.toml).")
+app.add_typer(user_app, name="user")
+
+
+@user_app.command("add")
+def user_add(
+    name: Annotated[str, typer.Argument(help="User name (letters, digits, _.@-).")],
+    role: Annotated[str, typer.Option("--role", help="viewer, operator or engineer.")],
+    state_dir: Annotated[Path, typer.Option("--state-dir", help="The server's state directory.")] = Path("loadarm-state"),
+    password_stdin: Annotated[bool, typer.Option("--password-stdin", help="Read the password from the first "
+                                                                          "line of stdin.")] = False,
+) -> None:
+    """Add or replace a user (the password scrypt-hashed; the file mode 0600).
+
+    Example: echo 'secret' | loadarm user add alice --role operator --password-stdin --state-dir out/state
+    """
+    from .plant.security import Role, StateDir
+
+    r = Role.parse(role, "--role")
+    if password_stdin:
+        password = sys.stdin.readline().rstrip("\n")
+    else:
+        import getpass
+
+        password = getpass.getpass(f"password for {name}: ")
+        if getpass.getpass("again: ") != password:
+            raise UserError("the two passwords differ")
+    st = StateDir(state_dir)
+    st.users().add(name, r, password)
+    out.print(f"user {name} ({r.name.lower()}) written to {st.users_file}")
+
+
 def _fail(message: str) -> None:
     err.print(f"loadarm: error: {' '.join(message.split())}")
 

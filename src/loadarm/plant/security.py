@@ -311,7 +311,7 @@ class StateDir:
 
         key = cert_gen.generate_private_key()
         cert = cert_gen.generate_self_signed_app_certificate(
-            key, name, {"O": "loadarm"}, [x509.UniformResourceIdentifier(app_uri), x509.DNSName(host)],
+            key, name, {"organizationName": "loadarm"}, [x509.UniformResourceIdentifier(app_uri), x509.DNSName(host)],
             extended=[ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH], days=5 * 365)
         _write_private(self.key, cert_gen.dump_private_key_as_pem(key))
         from ..files import atomic_write

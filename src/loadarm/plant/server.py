@@ -1,0 +1,446 @@
+"""The OPC UA server of ``loadarm serve`` (asyncua), secure by default.
+
+* **Endpoints**: Basic256Sha256, Aes128_Sha256_RsaOaep and Aes256_Sha256_RsaPss, SignAndEncrypt only; the
+  unsecured endpoint exists only with ``insecure=True`` (a lab).
+* **Certificates**: the application's own from the state directory (:class:`loadarm.plant.security.StateDir`,
+  made on first start); a client's must be in ``pki/trusted/`` (read at start: a certificate copied there is
+  trusted after a restart); a refused one is copied to ``pki/rejected/`` for the administrator.
+* **Users**: user name and password against the users file (scrypt), or anonymous. The roles
+  (:class:`loadarm.plant.security.Role`) are enforced per request by :class:`RoleRuleset`: anonymous and viewers
+  browse, read and subscribe; operators also call methods; engineers also write. Everything else is refused
+  with ``BadUserAccessDenied``.
+* **Who called**: asyncua passes no user to a method callback. The ruleset sees every request with its
+  session's user first, in the connection's own task, which then awaits the call: the user is put in a
+  context variable there (:data:`CURRENT_USER`), which the callback reads in the same task.
+
+The server runs its asyncio loop in its own thread; it reads the guidance service's latest snapshot at
+:data:`PUBLISH_RATE` and writes the variables, and a method call only queues a request
+(:meth:`loadarm.plant.service.GuidanceService.request`): nothing blocks the event loop, nothing of OPC UA runs
+in the control loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextvars
+import logging
+import math
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+
+from .security import Role, StateDir, User
+
+__all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "SECURE_POLICIES", "CURRENT_USER", "RoleRuleset",
+           "OpcUaServer", "address_space"]
+
+#: The application URI (in the certificate's subject alternative names).
+APP_URI = "urn:loadarm:guidance"
+#: loadarm's namespace.
+NAMESPACE = "urn:loadarm:guidance:model"
+#: OPC 40001-1 (Machinery) and OPC 10000-100 (DI): the browse names of their building blocks are used in
+#: their namespaces (the companion types themselves are not loaded: see docs/plant-integration.md).
+MACHINERY_NS = "http://opcfoundation.org/UA/Machinery/"
+DI_NS = "http://opcfoundation.org/UA/DI/"
+#: Variables are refreshed from the controller's snapshot this often, Hz.
+PUBLISH_RATE = 10.0
+#: The user of the request being processed (set by :class:`RoleRuleset`, read by the method callbacks).
+CURRENT_USER: contextvars.ContextVar = contextvars.ContextVar("loadarm_opcua_user", default=None)
+
+_log = logging.getLogger(__name__)
+
+
+def _policies():
+    from asyncua import ua
+
+    return [ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt,
+            ua.SecurityPolicyType.Aes128Sha256RsaOaep_SignAndEncrypt,
+            ua.SecurityPolicyType.Aes256Sha256RsaPss_SignAndEncrypt]
+
+
+SECURE_POLICIES = ("Basic256Sha256", "Aes128_Sha256_RsaOaep", "Aes256_Sha256_RsaPss")
+
+
+def _request_ids():
+    """Request types by the least role that may send them."""
+    from asyncua import ua
+    from asyncua.crypto.permission_rules import USER_TYPES
+
+    every = {ua.NodeId(i) for i in USER_TYPES}
+    write = {ua.NodeId(ua.ObjectIds.WriteRequest_Encoding_DefaultBinary)}
+    call = {ua.NodeId(ua.ObjectIds.CallRequest_Encoding_DefaultBinary)}
+    history = {ua.NodeId(ua.ObjectIds.HistoryReadRequest_Encoding_DefaultBinary)}
+    view = every - write - call
+    return {Role.VIEWER: view, Role.OPERATOR: view | call, Role.ENGINEER: view | call | write | history}
+
+
+class RoleRuleset:
+    """asyncua permission ruleset by loadarm role; anonymous sessions are viewers. Records the request's user
+    in :data:`CURRENT_USER` (see the module's notes)."""
+
+    def __init__(self):
+        self._allowed = _request_ids()
+
+    def check_validity(self, user, action_type_id, body) -> bool:
+        """Whether ``user`` may send this request type (asyncua calls it before every request of a session)."""
+        CURRENT_USER.set(user)
+        role = _role(user)
+        return action_type_id in self._allowed[role]
+
+
+def _role(user) -> Role:
+    who = getattr(user, "loadarm", None)
+    return who.role if who is not None else Role.VIEWER
+
+
+def _user_manager(users):
+    from asyncua.crypto.permission_rules import User as UaUser, UserRole
+
+    @dataclass
+    class _User(UaUser):
+        loadarm: User | None = None
+
+    class _Manager:
+        def get_user(self, iserver, username=None, password=None, certificate=None):
+            if username is None:                 # anonymous (``certificate`` is the secure channel's; certificate
+                return _User(role=UserRole.Anonymous, name=None, loadarm=None)   # identity tokens are not offered)
+            who = users.authenticate(username, password)
+            if who is None:
+                _log.warning("OPC UA login refused for user %r", username)
+                return None
+            return _User(role=UserRole.User, name=who.name, loadarm=who)
+
+    return _Manager()
+
+
+def _validator(state: StateDir):
+    """The client-certificate check: trusted (in ``pki/trusted``), in its validity period, a client's; a
+    refused certificate is copied to ``pki/rejected``."""
+    from asyncua.crypto.truststore import TrustStore
+    from asyncua.crypto.validator import CertificateValidator, CertificateValidatorOptions as O
+
+    store = TrustStore([state.trusted], [])
+    check = CertificateValidator(O.TRUSTED_VALIDATION | O.PEER_CLIENT, store)
+
+    async def validate(cert, app_description):
+        try:
+            await check(cert, app_description)
+        except Exception:
+            from cryptography.hazmat.primitives import serialization
+
+            from .security import thumbprint
+
+            state.rejected.mkdir(parents=True, exist_ok=True)
+            (state.rejected / f"{thumbprint(cert)}.der").write_bytes(cert.public_bytes(serialization.Encoding.DER))
+            _log.warning("OPC UA client certificate refused (copied to %s)", state.rejected)
+            raise
+
+    return store, validate
+
+
+# --------------------------------------------------------------------------- the address space
+
+#: Variables of the guidance object: browse name, unit (UNECE code, symbol, description), range, what it is.
+VARIABLES = (
+    ("Slew_deg", ("DD", "deg", "degree"), (-180.0, 180.0), "slew angle"),
+    ("Alpha_deg", ("DD", "deg", "degree"), (-180.0, 180.0), "inboard arm angle"),
+    ("Beta_deg", ("DD", "deg", "degree"), (0.0, 180.0), "elbow angle (customer's beta)"),
+    ("CouplerX_m", ("MTR", "m", "metre"), (-100.0, 100.0), "coupler position, installation frame"),
+    ("CouplerY_m", ("MTR", "m", "metre"), (-100.0, 100.0), "coupler position, installation frame"),
+    ("CouplerZ_m", ("MTR", "m", "metre"), (-100.0, 100.0), "coupler position, installation frame"),
+    ("FlangeX_m", ("MTR", "m", "metre"), (-100.0, 100.0), "flange estimate (Kalman filter)"),
+    ("FlangeY_m", ("MTR", "m", "metre"), (-100.0, 100.0), "flange estimate (Kalman filter)"),
+    ("FlangeZ_m", ("MTR", "m", "metre"), (-100.0, 100.0), "flange estimate (Kalman filter)"),
+    ("DistanceToFlange_m", ("MTR", "m", "metre"), (0.0, 200.0), "coupler to flange"),
+    ("TimeToLimit_s", ("SEC", "s", "second"), (0.0, 3600.0), "design-drift time to the nearest face (-1: none)"),
+    ("CycleTime_us", ("B98", "us", "microsecond"), (0.0, 1e6), "guidance cycle computing time"),
+)
+#: Boolean and integer state variables.
+STATES = (("EstimateHealthy", bool), ("Connected", bool), ("ESDActive", bool), ("ReleaseRequested", bool),
+          ("CouplerOpen", bool), ("ERSValvesClosed", bool), ("AlarmStage", int), ("AlarmStageText", str),
+          ("Mode", str), ("Cycle", int), ("LateCycles", int))
+#: Methods: browse name, request action, input arguments, what it does.
+METHODS = (("StartApproach", "start", (), "start the automatic approach to the standoff"),
+           ("Connect", "connect", (), "connect the coupler at the standoff"),
+           ("Disconnect", "disconnect", (), "controlled disconnection"),
+           ("Jog", "jog", ("vx", "vy", "vz"), f"jog the coupler (m/s) for {0.5:g} s; renew to keep moving"),
+           ("Stop", "stop", (), "stop (manual mode, no motion)"),
+           ("EStop", "estop", (), "request the emergency stop (the PLC's hard-wired chain decides)"),
+           ("ManualESD1", "esd", (), "manual ESD-1"),
+           ("ManualERS", "ers", ("Confirm",), "manual emergency release: call, then call with Confirm=true"),
+           ("Reset", "reset", (), "reset after an emergency stop or an alarm"),
+           ("AcknowledgeAlarm", "ack", (), "acknowledge every alarm"))
+#: OPC 40001-1 MachineryOperationMode and MachineryItemState of each guidance mode (jog is Setup).
+OPERATION_MODE = {"STORED": "None", "MANUAL": "Setup", "ESTOP": "None"}
+ITEM_STATE = {"STORED": "NotExecuting", "HOLD": "NotExecuting", "ESTOP": "OutOfService", "MANUAL": "Executing"}
+
+
+def address_space() -> dict:
+    """The address space as data: what :class:`OpcUaServer` builds and ``docs/plant-integration.md`` lists.
+
+    Returns
+    -------
+    dict
+        ``variables``, ``states``, ``methods``, ``modes``.
+    """
+    from ..guidance.controller import Mode
+
+    return {"variables": VARIABLES, "states": STATES, "methods": METHODS, "modes": tuple(m.value for m in Mode)}
+
+
+class OpcUaServer:
+    """The OPC UA server of a :class:`loadarm.plant.service.GuidanceService`, in its own thread.
+
+    Parameters
+    ----------
+    service : GuidanceService
+    state_dir : path
+    endpoint : str
+        ``opc.tcp://HOST:PORT`` (default loopback).
+    insecure : bool
+        Also offer the unsecured endpoint (a lab only).
+    name : str
+        Installation name (the nameplate's model).
+    """
+
+    def __init__(self, service, state_dir, endpoint: str = "opc.tcp://127.0.0.1:4840", *, insecure: bool = False,
+                 name: str = "loadarm"):
+        self.service, self.state, self.endpoint, self.insecure, self.name = (
+            service, StateDir(state_dir), endpoint, insecure, name)
+        self.ready = threading.Event()
+        self.error: BaseException | None = None
+        self._thread: threading.Thread | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stopping: asyncio.Event | None = None
+
+    def start(self, timeout: float = 30.0) -> None:
+        """Start the server's thread and wait until it listens.
+
+        Raises
+        ------
+        RuntimeError
+            It did not start (the cause chained).
+        """
+        from urllib.parse import urlparse
+
+        host = urlparse(self.endpoint).hostname or "localhost"
+        self.state.ensure(APP_URI, host)
+        self._thread = threading.Thread(target=self._run, name="loadarm-opcua", daemon=True)
+        self._thread.start()
+        if not self.ready.wait(timeout) or self.error is not None:
+            self.stop()
+            raise RuntimeError(f"the OPC UA server on {self.endpoint} did not start: {self.error}") from self.error
+
+    def stop(self, timeout: float = 10.0) -> None:
+        """Stop the server and wait for its thread."""
+        if self._loop is not None and self._stopping is not None:
+            try:
+                self._loop.call_soon_threadsafe(self._stopping.set)
+            except RuntimeError:                  # its loop has ended already (it failed to start)
+                pass
+        if self._thread is not None:
+            self._thread.join(timeout)
+
+    def _run(self) -> None:
+        try:
+            asyncio.run(self._main())
+        except BaseException as exc:
+            self.error = exc
+            self.ready.set()
+
+    async def _main(self) -> None:
+        from asyncua import Server, ua
+
+        self._loop = asyncio.get_running_loop()
+        self._stopping = asyncio.Event()
+        server = Server(user_manager=_user_manager(self.state.users()))
+        server.iserver.bind_condition_methods = True
+        await server.init()
+        server.set_endpoint(self.endpoint)
+        server.set_server_name(f"loadarm guidance ({self.name})")
+        await server.set_application_uri(APP_URI)
+        await server.load_certificate(str(self.state.cert))
+        await server.load_private_key(str(self.state.key))
+        policies = _policies() + ([ua.SecurityPolicyType.NoSecurity] if self.insecure else [])
+        server.set_security_policy(policies, permission_ruleset=RoleRuleset())
+        server.set_identity_tokens([ua.AnonymousIdentityToken, ua.UserNameIdentityToken])
+        store, validate = _validator(self.state)
+        await store.load()
+        server.set_certificate_validator(validate)
+        nodes = await self._build(server)
+        async with server:
+            self.ready.set()
+            period = 1.0 / PUBLISH_RATE
+            last = -1
+            while not self._stopping.is_set():
+                snap = self.service.snapshot()
+                if snap is not None and snap.seq != last:
+                    last = snap.seq
+                    try:
+                        await self._publish(nodes, snap)
+                    except Exception as exc:          # the server stays up; the error is reported once
+                        if self.error is None:
+                            _log.exception("OPC UA variables not updated")
+                            self.error = exc
+                try:
+                    await asyncio.wait_for(self._stopping.wait(), period)
+                except asyncio.TimeoutError:
+                    pass
+
+    async def _build(self, server) -> dict:
+        from asyncua import ua
+
+        from .. import __version__
+
+        ns = await server.register_namespace(NAMESPACE)
+        mns = await server.register_namespace(MACHINERY_NS)
+        dns = await server.register_namespace(DI_NS)
+        machines = await server.nodes.objects.add_folder(ua.NodeId("Machines", ns), ua.QualifiedName("Machines", mns))
+        arm = await machines.add_object(ua.NodeId("LoadingArm", ns), ua.QualifiedName("LoadingArm", ns))
+        ident = await arm.add_object(ua.NodeId("Identification", ns), ua.QualifiedName("Identification", dns))
+        for key, value in (("Manufacturer", "loadarm (open source)"), ("Model", self.name),
+                           ("ProductInstanceUri", f"{APP_URI}:{self.name}"), ("SoftwareRevision", __version__),
+                           ("SerialNumber", self.name)):
+            await ident.add_property(ua.NodeId(f"Identification.{key}", ns), ua.QualifiedName(key, dns),
+                                     ua.LocalizedText(value) if key == "Manufacturer" else value)
+        blocks = await arm.add_object(ua.NodeId("MachineryBuildingBlocks", ns),
+                                      ua.QualifiedName("MachineryBuildingBlocks", dns))
+        nodes: dict = {}
+        machines_sm = {"MachineryItemState": ("NotAvailable", "OutOfService", "Executing", "NotExecuting"),
+                       "MachineryOperationMode": ("None", "Maintenance", "Setup", "Processing")}
+        for bname, states in machines_sm.items():
+            nodes[bname] = await _state_machine(server, blocks, ns, bname, states)
+        guidance = await arm.add_object(ua.NodeId("Guidance", ns), ua.QualifiedName("Guidance", ns))
+        nodes["GuidanceMode"] = await _state_machine(server, guidance, ns, "GuidanceMode", address_space()["modes"])
+        for bname, (code, symbol, text), (lo, hi), what in VARIABLES:
+            v = await guidance.add_variable(ua.NodeId(f"Guidance.{bname}", ns), ua.QualifiedName(bname, ns), math.nan,
+                                            varianttype=ua.VariantType.Double)
+            await v.write_attribute(ua.AttributeIds.Description, ua.DataValue(ua.Variant(ua.LocalizedText(what))))
+            await v.add_property(ua.NodeId(f"Guidance.{bname}.EngineeringUnits", ns),
+                                 ua.QualifiedName("EngineeringUnits", 0),
+                                 ua.EUInformation(NamespaceUri="http://www.opcfoundation.org/UA/units/un/cefact",
+                                                  UnitId=_unit_id(code), DisplayName=ua.LocalizedText(symbol),
+                                                  Description=ua.LocalizedText(text)))
+            await v.add_property(ua.NodeId(f"Guidance.{bname}.EURange", ns), ua.QualifiedName("EURange", 0),
+                                 ua.Range(Low=lo, High=hi))
+            nodes[bname] = v
+        for bname, kind in STATES:
+            vt = {bool: ua.VariantType.Boolean, int: ua.VariantType.Int64, str: ua.VariantType.String}[kind]
+            nodes[bname] = await guidance.add_variable(ua.NodeId(f"Guidance.{bname}", ns),
+                                                       ua.QualifiedName(bname, ns), kind(), varianttype=vt)
+        for tag in self._alarm_tags():
+            nodes[f"Alarm.{tag}"] = await guidance.add_variable(ua.NodeId(f"Guidance.Alarm.{tag}", ns),
+                                                                ua.QualifiedName(f"Alarm_{tag}", ns), "normal")
+        for bname, action, args, what in METHODS:
+            inputs = [_argument(a) for a in args]
+            await guidance.add_method(ua.NodeId(f"Guidance.{bname}", ns), ua.QualifiedName(bname, ns),
+                                      self._callback(action, args), inputs, [])
+        return nodes
+
+    @staticmethod
+    def _alarm_tags():
+        from ..guidance.controller import ANNUNCIATED
+
+        return ANNUNCIATED
+
+    def _callback(self, action: str, args: tuple):
+        from asyncua import ua
+
+        from .service import Request
+
+        service = self.service
+
+        async def method(parent, *values):
+            user = CURRENT_USER.get()
+            who = getattr(user, "loadarm", None)
+            if who is None or who.role < Role.OPERATOR:          # the ruleset refused it already; twice is safe
+                return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
+            vals = [v.Value for v in values]
+            try:
+                if action == "jog":
+                    req = Request("jog", who.name, tuple(float(v) for v in vals))
+                elif action == "ers":
+                    req = Request("ers_confirm" if vals and bool(vals[0]) else "ers", who.name)
+                else:
+                    req = Request(action, who.name)
+            except (TypeError, ValueError):
+                return ua.StatusCode(ua.StatusCodes.BadInvalidArgument)
+            service.request(req)
+            return []
+
+        return method
+
+    async def _publish(self, nodes: dict, snap) -> None:
+        from asyncua import ua
+
+        from ..alarms import Severity
+
+        def num(x):
+            return float(x) if math.isfinite(x) else -1.0
+
+        values = {"Slew_deg": math.degrees(snap.q[0]), "Alpha_deg": math.degrees(snap.q[1]),
+                  "Beta_deg": math.degrees(snap.q[2]), "CouplerX_m": snap.coupler[0], "CouplerY_m": snap.coupler[1],
+                  "CouplerZ_m": snap.coupler[2], "FlangeX_m": snap.flange_estimate[0],
+                  "FlangeY_m": snap.flange_estimate[1], "FlangeZ_m": snap.flange_estimate[2],
+                  "DistanceToFlange_m": snap.distance, "TimeToLimit_s": num(snap.time_to_limit),
+                  "CycleTime_us": snap.cycle_us}
+        for k, v in values.items():
+            await nodes[k].write_value(ua.Variant(float(v), ua.VariantType.Double))
+        for k, v in (("EstimateHealthy", snap.estimate_healthy), ("Connected", snap.connected),
+                     ("ESDActive", snap.esd), ("ReleaseRequested", snap.release), ("CouplerOpen", snap.coupler_open),
+                     ("ERSValvesClosed", snap.ers_valves_closed)):
+            await nodes[k].write_value(ua.Variant(bool(v), ua.VariantType.Boolean))
+        for k, v in (("AlarmStage", snap.level), ("Cycle", snap.seq), ("LateCycles", snap.late)):
+            await nodes[k].write_value(ua.Variant(int(v), ua.VariantType.Int64))
+        await nodes["AlarmStageText"].write_value(Severity(snap.level).label)
+        await nodes["Mode"].write_value(snap.mode)
+        for key, state in (("GuidanceMode", snap.mode), ("MachineryOperationMode",
+                                                       OPERATION_MODE.get(snap.mode, "Processing")),
+                           ("MachineryItemState", ITEM_STATE.get(snap.mode, "Executing"))):
+            node, states, current = nodes[key]
+            if current[0] != state:
+                await node.write_value(ua.LocalizedText(state, "en"))
+                current[0] = state
+        for tag, state in snap.alarms.items():
+            if f"Alarm.{tag}" in nodes:
+                await nodes[f"Alarm.{tag}"].write_value(state)
+
+
+async def _state_machine(server, parent, ns: int, name: str, states):
+    """An OPC UA state machine (an instance of StateMachineType: its CurrentState shows the state's name) with
+    one state object (InitialStateType, then StateType, numbered) per name; returns (CurrentState node,
+    states by name, [current name]). (asyncua's helper writes CurrentState.Id as a NodeId, which its own
+    nodeset types as a string, and the write fails.)"""
+    from asyncua import ua
+
+    sm = await parent.add_object(ua.NodeId(f"{parent.nodeid.Identifier}.{name}", ns), ua.QualifiedName(name, ns),
+                                 objecttype=ua.NodeId(ua.ObjectIds.StateMachineType))
+    current = await sm.get_child(["0:CurrentState"])
+    out = {}
+    for i, st in enumerate(states):
+        node = await sm.add_object(ua.NodeId(f"{parent.nodeid.Identifier}.{name}.{st}", ns), ua.QualifiedName(st, ns),
+                                   objecttype=ua.NodeId(ua.ObjectIds.InitialStateType if i == 0
+                                                        else ua.ObjectIds.StateType))
+        number = await node.get_child(["0:StateNumber"])
+        await number.write_value(ua.Variant(i + 1, ua.VariantType.UInt32))
+        out[st] = node
+    return current, out, [None]
+
+
+def _unit_id(code: str) -> int:
+    """OPC UA's UnitId of a UNECE common code (its characters packed, OPC 10000-8 5.6.3)."""
+    out = 0
+    for c in code:
+        out = (out << 8) | ord(c)
+    return out
+
+
+def _argument(name: str):
+    from asyncua import ua
+
+    arg = ua.Argument()
+    arg.Name = name
+    arg.DataType = ua.NodeId(ua.ObjectIds.Boolean if name == "Confirm" else ua.ObjectIds.Double)
+    arg.ValueRank = -1
+    arg.Description = ua.LocalizedText("m/s" if name != "Confirm" else "true confirms an armed release")
+    return arg

@@ -1,0 +1,221 @@
+"""The guidance controller in real time (``loadarm serve``): the closed loop of a scenario paced by a wall clock,
+the operator's requests taken from a queue, the state published as immutable snapshots.
+
+The control loop runs in its own thread and never waits on the network: requests arrive through a
+:class:`queue.SimpleQueue` (put by the OPC UA server's event loop without blocking), each is applied at the start
+of the next cycle and written to the event log with the user's name; the server reads the latest
+:class:`Snapshot` (one reference, replaced whole each cycle).
+
+A jog request lasts :data:`JOG_HOLD` unless renewed: the dead-man of a jog over a network (the request stops
+when the client stops renewing it, or its link drops).
+"""
+
+from __future__ import annotations
+
+import math
+import queue
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..guidance.controller import OperatorInput
+
+__all__ = ["ACTIONS", "JOG_HOLD", "Request", "Snapshot", "GuidanceService"]
+
+#: How long one jog request moves the arm unless renewed, s.
+JOG_HOLD = 0.5
+#: The operator's requests and the controller actions they become (``jog`` carries a velocity).
+ACTIONS = {"start": ("start",), "connect": ("connect",), "disconnect": ("disconnect",), "stop": ("manual",),
+           "jog": ("manual",), "estop": ("estop",), "esd": ("esd",), "ers": ("ers",),
+           "ers_confirm": ("ers_confirm",), "reset": ("reset",), "ack": ("ack",), "auto": ("auto",)}
+
+
+@dataclass(frozen=True)
+class Request:
+    """One operator request.
+
+    Attributes
+    ----------
+    action : str
+        A key of :data:`ACTIONS`.
+    user : str
+        Who asked (for the event log).
+    jog : tuple of float
+        Coupler velocity for ``jog``, m/s.
+    """
+
+    action: str
+    user: str
+    jog: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self):
+        if self.action not in ACTIONS:
+            raise ValueError(f"action must be one of {', '.join(ACTIONS)}, got {self.action!r}")
+        if len(self.jog) != 3 or not all(math.isfinite(v) for v in self.jog):
+            raise ValueError(f"jog must be three finite velocities, got {self.jog!r}")
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The controller's state after one cycle (what the plant interface and the HMI show).
+
+    Attributes
+    ----------
+    seq : int
+        Cycle number.
+    t : float
+        Run time, s.
+    mode : str
+    q : tuple of float
+        Slew, alpha, beta, rad.
+    coupler, flange_estimate : tuple of float
+        m, installation frame.
+    estimate_healthy : bool
+    distance : float
+        Coupler to the estimated flange, m.
+    level : int
+        Connected-mode alarm level (:class:`loadarm.alarms.Severity`).
+    time_to_limit : float
+        s (inf: none in sight).
+    connected, esd, release, coupler_open, ers_valves_closed : bool
+    alarms : dict of str to str
+        ISA-18.2 state of each annunciated alarm.
+    cycle_us : float
+        The cycle's computing time, microseconds.
+    late : int
+        Cycles that started after their deadline so far.
+    """
+
+    seq: int
+    t: float
+    mode: str
+    q: tuple[float, float, float]
+    coupler: tuple[float, float, float]
+    flange_estimate: tuple[float, float, float]
+    estimate_healthy: bool
+    distance: float
+    level: int
+    time_to_limit: float
+    connected: bool
+    esd: bool
+    release: bool
+    coupler_open: bool
+    ers_valves_closed: bool
+    alarms: dict = field(default_factory=dict)
+    cycle_us: float = 0.0
+    late: int = 0
+
+
+class GuidanceService:
+    """A :class:`loadarm.guidance.run.ClosedLoop` run in real time with live operator requests.
+
+    Parameters
+    ----------
+    loop : ClosedLoop
+        Built with ``scripted=False`` for an operator-driven run.
+    clock : callable
+        Monotonic seconds (injected: tests pass a fake).
+    sleep : callable
+        Sleeps a number of seconds.
+    speedup : float
+        Run seconds per wall second.
+    """
+
+    def __init__(self, loop, *, clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep, speedup: float = 1.0):
+        if not speedup > 0:
+            raise ValueError(f"speedup must be > 0, got {speedup!r}")
+        self.loop, self.clock, self.sleep, self.speedup = loop, clock, sleep, speedup
+        self._requests: queue.SimpleQueue = queue.SimpleQueue()
+        self._snapshot: Snapshot | None = None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._jog = (0.0, 0.0, 0.0)
+        self._jog_until = -math.inf
+        self.late = 0
+        self.finished = threading.Event()
+        self.error: BaseException | None = None
+
+    # ------------------------------------------------------------------ thread-safe side
+    def request(self, req: Request) -> None:
+        """Queue an operator request (any thread; never blocks)."""
+        self._requests.put(req)
+
+    def snapshot(self) -> Snapshot | None:
+        """The latest state (None before the first cycle)."""
+        return self._snapshot
+
+    def start(self) -> None:
+        """Run the loop in its own thread."""
+        self._thread = threading.Thread(target=self._run_guarded, name="loadarm-guidance", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop the loop and wait for it."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+
+    # ------------------------------------------------------------------ the control thread
+    def _run_guarded(self) -> None:
+        try:
+            self.run()
+        except BaseException as exc:          # reported to the caller, who decides (the CLI exits non-zero)
+            self.error = exc
+        finally:
+            self.finished.set()
+
+    def run(self) -> None:
+        """Run every cycle of the scenario on the clock (in the calling thread), until the end or :meth:`stop`."""
+        loop = self.loop
+        start = self.clock()
+        for k in range(loop.n):
+            if self._stop.is_set():
+                break
+            now = loop.time(k)
+            delay = start + now / self.speedup - self.clock()
+            if delay > 0:
+                self.sleep(delay)
+            elif delay < -loop.dt / self.speedup:
+                self.late += 1
+            cmd = loop.cycle(k, self._take_requests(now))
+            self._publish(k, now, cmd)
+
+    def _take_requests(self, now: float) -> OperatorInput:
+        actions: list[str] = []
+        while True:
+            try:
+                req = self._requests.get_nowait()
+            except queue.Empty:
+                break
+            actions.extend(ACTIONS[req.action])
+            if req.action == "jog":
+                self._jog, self._jog_until = req.jog, now + JOG_HOLD
+            elif req.action in ("stop", "estop"):
+                self._jog, self._jog_until = (0.0, 0.0, 0.0), -math.inf
+            mode = self.loop.ctrl.state.mode.value
+            data = {"user": req.user, "action": req.action}
+            if req.action == "jog":
+                data["jog"] = [float(v) for v in req.jog]
+            self.loop.emit(now, mode, "operator", f"{req.user}: {req.action}", data)
+        jog = self._jog if now < self._jog_until else (0.0, 0.0, 0.0)
+        return OperatorInput(tuple(dict.fromkeys(actions)), jog)
+
+    def _publish(self, k: int, now: float, cmd) -> None:
+        loop = self.loop
+        q = loop.plant.q
+        sig = loop.rec.sig
+        e = loop.estimate
+        ttl = float(cmd.time_to_limit)
+        self._snapshot = Snapshot(
+            seq=k, t=now, mode=cmd.mode.value, q=(float(q[0]), float(q[1]), float(q[2])),
+            coupler=(float(sig["x"][k]), float(sig["y"][k]), float(sig["z"][k])),
+            flange_estimate=tuple(float(v) for v in np.asarray(e.position, dtype=float)),
+            estimate_healthy=bool(e.healthy), distance=float(sig["distance"][k]), level=int(cmd.level),
+            time_to_limit=ttl, connected=bool(cmd.connected), esd=bool(cmd.esd), release=bool(cmd.release),
+            coupler_open=bool(cmd.coupler_open), ers_valves_closed=bool(loop.fb.ers_valves_closed),
+            alarms={tag: st.value for tag, st in loop.ctrl.state.alarms.items()},
+            cycle_us=float(loop.cycle_us[k]), late=self.late)

@@ -1,0 +1,269 @@
+"""The plant interface (issue 14): users, certificates and the trust list; the OPC UA server of ``loadarm serve``
+with real asyncua clients on loopback (an ephemeral port): secure endpoints only, roles enforced per request,
+the calling user known to the methods and logged, an operator's jog moving the simulated arm."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import socket
+import stat
+import time
+
+import pytest
+
+from loadarm.errors import ConfigError
+from loadarm.plant.security import Role, StateDir, Users, hash_password, verify_password
+
+SCENARIO = "examples/scenarios/driftoff.toml"
+
+
+# --------------------------------------------------------------------------- users and certificates
+
+def test_passwords_are_scrypt_hashes_checked_in_constant_time():
+    h = hash_password("s3cret")
+    assert h.startswith("scrypt$16384$8$1$") and "s3cret" not in h
+    assert verify_password("s3cret", h) and not verify_password("s3cret ", h) and not verify_password("", h)
+    assert not verify_password("s3cret", "md5$abc") and not verify_password("x", "garbage")
+    assert hash_password("s3cret") != h                     # salted
+    with pytest.raises(ConfigError, match="empty"):
+        hash_password("")
+
+
+def test_the_users_file_round_trips_private_and_refuses_wrong_passwords(tmp_path):
+    users = Users(tmp_path / "users.toml")
+    users.add("alice", Role.OPERATOR, "pw-a")
+    users.add("victor", Role.VIEWER, "pw-v")
+    assert stat.S_IMODE(os.stat(tmp_path / "users.toml").st_mode) == 0o600
+    again = Users(tmp_path / "users.toml")
+    assert again.names() == ["alice", "victor"]
+    assert again.authenticate("alice", "pw-a").role == Role.OPERATOR
+    assert again.authenticate("alice", "pw-v") is None and again.authenticate("mallory", "pw-a") is None
+    assert again.authenticate(None, None) is None
+
+
+@pytest.mark.parametrize("text, match", [
+    ('[users.bob]\nrole = "admin"\npassword = "scrypt$1$1$1$00$00"\n', "unknown role 'admin'"),
+    ('[users.bob]\nrole = "viewer"\npassword = "plain"\n', "not an scrypt hash"),
+    ('[users.bob]\nrole = "viewer"\n', "exactly the keys role and password"),
+    ('[users."a b"]\nrole = "viewer"\npassword = "scrypt$1"\n', "a user name is"),
+    ("[other]\n", "only \\[users.NAME\\]"),
+    ("users = [", "not valid TOML")])
+def test_a_bad_users_file_is_refused_naming_the_file_and_key(tmp_path, text, match):
+    f = tmp_path / "users.toml"
+    f.write_text(text)
+    with pytest.raises(ConfigError, match=match) as exc:
+        Users(f)
+    assert str(f) in str(exc.value)
+
+
+def test_the_application_certificate_is_made_once_with_a_private_key(tmp_path):
+    st = StateDir(tmp_path / "state")
+    st.ensure("urn:test:server", "localhost")
+    assert stat.S_IMODE(st.key.stat().st_mode) == 0o600
+    cert = st.cert.read_bytes()
+    st.ensure("urn:test:server", "localhost")               # the second start keeps it
+    assert st.cert.read_bytes() == cert
+    with pytest.raises(ConfigError, match="another application"):
+        st.ensure("urn:other", "localhost")
+    os.chmod(st.key, 0o644)
+    with pytest.raises(ConfigError, match="readable by others \\(mode 0644\\)"):
+        st.ensure("urn:test:server", "localhost")
+
+
+def test_trust_copies_a_certificate_and_refuses_what_is_not_one(tmp_path):
+    st = StateDir(tmp_path / "state")
+    cert, _ = _client_cert(tmp_path, "c")
+    out = st.trust(cert)
+    assert out.parent == st.trusted and out.read_bytes() == cert.read_bytes()
+    (tmp_path / "junk.der").write_bytes(b"not a certificate")
+    with pytest.raises(ConfigError, match="not an X.509 certificate"):
+        st.trust(tmp_path / "junk.der")
+    with pytest.raises(ConfigError, match="no such certificate"):
+        st.trust(tmp_path / "missing.der")
+
+
+def _client_cert(tmp_path, name: str, uri: str = "urn:test:client"):
+    from asyncua.crypto import cert_gen
+    from cryptography import x509
+    from cryptography.hazmat.primitives import serialization
+    from cryptography.x509.oid import ExtendedKeyUsageOID
+
+    key = cert_gen.generate_private_key()
+    cert = cert_gen.generate_self_signed_app_certificate(
+        key, name, {}, [x509.UniformResourceIdentifier(uri), x509.DNSName("localhost")],
+        extended=[ExtendedKeyUsageOID.CLIENT_AUTH])
+    c, k = tmp_path / f"{name}.der", tmp_path / f"{name}.pem"
+    c.write_bytes(cert.public_bytes(serialization.Encoding.DER))
+    k.write_bytes(cert_gen.dump_private_key_as_pem(key))
+    return c, k
+
+
+# --------------------------------------------------------------------------- the server, with real clients
+
+def _free_port() -> int:
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """loadarm's OPC UA server on an ephemeral loopback port over the drift-off scenario's simulated plant,
+    with an operator, a viewer and one trusted client certificate; stopped afterwards."""
+    from loadarm.eventlog import EventLog
+    from loadarm.guidance.run import ClosedLoop
+    from loadarm.guidance.scenario import load_scenario
+    from loadarm.plant.server import OpcUaServer
+    from loadarm.plant.service import GuidanceService
+
+    tmp = tmp_path_factory.mktemp("plant")
+    st = StateDir(tmp / "state")
+    st.users().add("alice", Role.OPERATOR, "pw-alice")
+    st.users().add("victor", Role.VIEWER, "pw-victor")
+    cert, key = _client_cert(tmp, "trusted")
+    st.trust(cert)
+    sc, model = load_scenario(SCENARIO)
+    log = EventLog(tmp / "events.db", run="serve-test")
+    service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=False))
+    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
+    server = OpcUaServer(service, st.path, endpoint)
+    server.start()
+    service.start()
+    yield {"endpoint": endpoint, "state": st, "cert": cert, "key": key, "tmp": tmp, "service": service}
+    service.stop()
+    server.stop()
+    log.close()
+
+
+def _client(served, user=None, password=None, cert=None, key=None):
+    from asyncua import Client
+    from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+
+    async def make():
+        c = Client(served["endpoint"], timeout=10)
+        c.application_uri = "urn:test:client"
+        if user is not None:
+            c.set_user(user)
+            c.set_password(password)
+        await c.set_security(SecurityPolicyBasic256Sha256, str(cert or served["cert"]), str(key or served["key"]),
+                             server_certificate=str(served["state"].cert))
+        return c
+
+    return make
+
+
+def _nodes(c):
+    from asyncua import ua
+
+    from loadarm.plant.server import NAMESPACE
+
+    async def get():
+        ns = await c.get_namespace_index(NAMESPACE)
+        return ns, c.get_node(ua.NodeId("Guidance", ns)), (lambda name: c.get_node(ua.NodeId(f"Guidance.{name}", ns)))
+
+    return get()
+
+
+def test_only_secure_endpoints_are_offered(served):
+    from asyncua import Client, ua
+
+    async def main():
+        c = Client(served["endpoint"], timeout=10)
+        eps = await c.connect_and_get_server_endpoints()
+        return {(e.SecurityPolicyUri.split("#")[-1], e.SecurityMode) for e in eps}
+
+    got = asyncio.run(main())
+    assert got == {(p, ua.MessageSecurityMode.SignAndEncrypt)
+                   for p in ("Basic256Sha256", "Aes128_Sha256_RsaOaep", "Aes256_Sha256_RsaPss")}
+
+
+def test_an_operator_s_jog_moves_the_arm_and_is_logged_with_the_user(served):
+    from asyncua import ua
+
+    async def main():
+        c = await _client(served, "alice", "pw-alice")()
+        async with c:
+            ns, guidance, var = await _nodes(c)
+            z0 = await var("CouplerZ_m").read_value()
+            for _ in range(8):                  # renewed every 0.2 s: the jog lasts 0.5 s per request
+                await guidance.call_method(ua.QualifiedName("Jog", ns), 0.0, 0.0, 0.2)
+                await asyncio.sleep(0.2)
+            await guidance.call_method(ua.QualifiedName("Stop", ns))
+            await asyncio.sleep(0.3)
+            return z0, await var("CouplerZ_m").read_value(), await var("Mode").read_value()
+
+    z0, z1, mode = asyncio.run(main())
+    assert mode == "MANUAL" and z1 - z0 > 0.1            # about 1.6 s at 0.2 m/s, less the speed limits
+    ops = [e for e in served["service"].loop.events if e[2] == "operator" and e[4].get("user") == "alice"]
+    assert {e[4]["action"] for e in ops} >= {"jog", "stop"}
+
+
+def test_anonymous_may_read_but_not_call_or_write(served):
+    from asyncua import ua
+
+    async def main():
+        c = await _client(served)()
+        async with c:
+            ns, guidance, var = await _nodes(c)
+            mode = await var("Mode").read_value()
+            with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+                await guidance.call_method(ua.QualifiedName("EStop", ns))
+            with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+                await var("Mode").write_value("ESTOP")
+            return mode
+
+    assert asyncio.run(main()) in {"STORED", "MANUAL"}
+
+
+def test_a_viewer_cannot_call_a_method(served):
+    from asyncua import ua
+
+    async def main():
+        c = await _client(served, "victor", "pw-victor")()
+        async with c:
+            ns, guidance, var = await _nodes(c)
+            await var("Beta_deg").read_value()
+            with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+                await guidance.call_method(ua.QualifiedName("StartApproach", ns))
+
+    asyncio.run(main())
+
+
+def test_a_wrong_password_is_refused(served):
+    async def main():
+        c = await _client(served, "alice", "wrong")()
+        await c.connect()
+
+    with pytest.raises(Exception, match="Bad|denied|rejected|closed"):
+        asyncio.run(main())
+
+
+def test_an_untrusted_certificate_is_refused_and_kept_for_the_administrator(served):
+    cert, key = _client_cert(served["tmp"], "stranger")
+
+    async def main():
+        c = await _client(served, "alice", "pw-alice", cert, key)()
+        await c.connect()
+
+    before = set(served["state"].rejected.glob("*.der"))
+    with pytest.raises(Exception):
+        asyncio.run(main())
+    time.sleep(0.2)
+    assert len(set(served["state"].rejected.glob("*.der")) - before) == 1
+
+
+def test_the_variables_carry_engineering_units_and_ranges(served):
+    async def main():
+        c = await _client(served, "victor", "pw-victor")()
+        async with c:
+            ns, guidance, var = await _nodes(c)
+            v = var("Beta_deg")
+            eu = await (await v.get_child([f"0:EngineeringUnits"])).read_value()
+            rng = await (await v.get_child([f"0:EURange"])).read_value()
+            return eu, rng
+
+    eu, rng = asyncio.run(main())
+    assert eu.DisplayName.Text == "deg" and (rng.Low, rng.High) == (0.0, 180.0)

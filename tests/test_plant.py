@@ -156,13 +156,19 @@ def _client(served, user=None, password=None, cert=None, key=None):
 
 
 def _nodes(c):
+    """The namespace, the guidance object and a variable getter, once the server has published a cycle."""
     from asyncua import ua
 
     from loadarm.plant.server import NAMESPACE
 
     async def get():
         ns = await c.get_namespace_index(NAMESPACE)
-        return ns, c.get_node(ua.NodeId("Guidance", ns)), (lambda name: c.get_node(ua.NodeId(f"Guidance.{name}", ns)))
+        var = (lambda name: c.get_node(ua.NodeId(f"Guidance.{name}", ns)))
+        for _ in range(100):                     # the variables are NaN until the first snapshot is copied
+            if await var("Cycle").read_value() > 0:
+                break
+            await asyncio.sleep(0.05)
+        return ns, c.get_node(ua.NodeId("Guidance", ns)), var
 
     return get()
 
@@ -267,3 +273,49 @@ def test_the_variables_carry_engineering_units_and_ranges(served):
 
     eu, rng = asyncio.run(main())
     assert eu.DisplayName.Text == "deg" and (rng.Low, rng.High) == (0.0, 180.0)
+
+
+# --------------------------------------------------------------------------- the commands
+
+def test_user_add_and_trust_from_the_command_line(tmp_path, monkeypatch, capsys):
+    import io
+
+    from loadarm.cli import main
+
+    state = tmp_path / "state"
+    monkeypatch.setattr("sys.stdin", io.StringIO("pw-bob\n"))
+    assert main(["user", "add", "bob", "--role", "engineer", "--password-stdin", "--state-dir", str(state)]) == 0
+    assert StateDir(state).users().authenticate("bob", "pw-bob").role == Role.ENGINEER
+    assert main(["user", "add", "eve", "--role", "root", "--password-stdin", "--state-dir", str(state)]) == 2
+    assert "unknown role 'root'; one of viewer, operator, engineer" in capsys.readouterr().err
+    cert, _ = _client_cert(tmp_path, "c")
+    assert main(["trust", str(cert), "--state-dir", str(state)]) == 0
+    assert len(list(StateDir(state).trusted.glob("*.der"))) == 1
+    assert main(["trust", str(tmp_path / "nope.der"), "--state-dir", str(state)]) == 2
+
+
+@pytest.mark.parametrize("args, match", [
+    (["--endpoint", "http://127.0.0.1:4840"], "--endpoint must be opc.tcp://HOST:PORT"),
+    (["--endpoint", "opc.tcp://127.0.0.1"], "--endpoint must be opc.tcp://HOST:PORT"),
+    (["--speedup", "0"], "--speedup must be a positive number")])
+def test_serve_refuses_a_bad_endpoint_or_speed_in_one_line(tmp_path, capsys, args, match):
+    from loadarm.cli import main
+
+    assert main(["serve", "--scenario", SCENARIO, "--state-dir", str(tmp_path / "s"), "--db",
+                 str(tmp_path / "e.db"), *args]) == 2
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1
+
+
+def test_the_docs_list_the_whole_address_space():
+    """docs/plant-integration.md names every variable, state, method and mode the server builds
+    (loadarm.plant.server.address_space)."""
+    from pathlib import Path
+
+    from loadarm.plant.server import address_space
+
+    doc = Path("docs/plant-integration.md").read_text()
+    space = address_space()
+    names = [v[0] for v in space["variables"]] + [s[0] for s in space["states"]] + [m[0] for m in space["methods"]]
+    missing = [n for n in names + list(space["modes"]) if f"`{n}`" not in doc]
+    assert not missing, f"docs/plant-integration.md lacks {missing}"

@@ -497,6 +497,8 @@ class ClosedLoop:
     plant : ArmPlant
     events : list
         ``(t, mode, kind, reason, data)`` so far.
+    estimate : Estimate or None
+        The flange estimate of the last cycle.
     """
 
     def __init__(self, sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
@@ -531,7 +533,6 @@ class ClosedLoop:
         self.clearance = _ClearanceWatch(self.emit)
         self.cycle_us = np.full(self.n, np.nan)
         self.estimate = None
-        self.command = None
         self._ir = 0
 
     def time(self, k: int) -> float:
@@ -581,7 +582,7 @@ class ClosedLoop:
         q = plant.step(now, self.dt, cmd, self.flange[k])
         self.rec.record(k, now, cmd, q, self.flange[k], e, self.model.arm)
         self.clearance.watch(now, cmd, self.rec.sig["distance"][k])
-        self.estimate, self.command = e, cmd
+        self.estimate = e
         return cmd
 
     def result(self) -> RunResult:

@@ -30,8 +30,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .security import Role, StateDir, User
+from .service import JOG_HOLD
 
-__all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "SECURE_POLICIES", "CURRENT_USER", "RoleRuleset",
+__all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "CURRENT_USER", "RoleRuleset",
            "OpcUaServer", "address_space"]
 
 #: The application URI (in the certificate's subject alternative names).
@@ -56,9 +57,6 @@ def _policies():
     return [ua.SecurityPolicyType.Basic256Sha256_SignAndEncrypt,
             ua.SecurityPolicyType.Aes128Sha256RsaOaep_SignAndEncrypt,
             ua.SecurityPolicyType.Aes256Sha256RsaPss_SignAndEncrypt]
-
-
-SECURE_POLICIES = ("Basic256Sha256", "Aes128_Sha256_RsaOaep", "Aes256_Sha256_RsaPss")
 
 
 def _request_ids():
@@ -163,7 +161,7 @@ STATES = (("EstimateHealthy", bool), ("Connected", bool), ("ESDActive", bool), (
 METHODS = (("StartApproach", "start", (), "start the automatic approach to the standoff"),
            ("Connect", "connect", (), "connect the coupler at the standoff"),
            ("Disconnect", "disconnect", (), "controlled disconnection"),
-           ("Jog", "jog", ("vx", "vy", "vz"), f"jog the coupler (m/s) for {0.5:g} s; renew to keep moving"),
+           ("Jog", "jog", ("vx", "vy", "vz"), f"jog the coupler (m/s) for {JOG_HOLD:g} s; renew to keep moving"),
            ("Stop", "stop", (), "stop (manual mode, no motion)"),
            ("EStop", "estop", (), "request the emergency stop (the PLC's hard-wired chain decides)"),
            ("ManualESD1", "esd", (), "manual ESD-1"),

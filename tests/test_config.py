@@ -1,5 +1,7 @@
 """Configuration loading and validation: every bad-input path gives one clear line."""
 
+import math
+import re
 import tomllib
 
 import pytest
@@ -208,6 +210,25 @@ def test_operability_settings_are_declared_and_checked(key, value, rng):
         parse_config(d, source="f.toml")
     msg = str(e.value)
     assert msg.startswith("f.toml: ") and f"operability.{key}" in msg and rng in msg and "\n" not in msg
+
+
+@pytest.mark.parametrize("key,value,rng", [("connect_motion_limit", -1.0, "(0, 5] m"),
+                                           ("connect_motion_limit", 6.0, "(0, 5] m"),
+                                           ("connect_motion_limit", math.nan, "(0, 5] m"),
+                                           ("duration_per_state", 5.0, "[10, 3600] s"),
+                                           ("duration_per_state", 7200.0, "[10, 3600] s")])
+def test_operability_overrides_are_held_to_the_declared_ranges(key, value, rng):
+    """OperabilitySettings (the command line's overrides) takes its ranges from the [operability] declaration
+    (found: its own copy had no upper bound on connect_motion_limit, so 6 m passed), and the range ends pass."""
+    from loadarm.config import Operability, param_range
+    from loadarm.studies.operability import OperabilitySettings
+
+    with pytest.raises(ConfigError, match=re.escape(f"must be in {rng}, got")):
+        OperabilitySettings(**{key: value})
+    lo, lo_incl, hi, _, _ = param_range(Operability, key)
+    assert getattr(OperabilitySettings(**{key: hi}), key) == hi
+    if lo_incl:
+        assert getattr(OperabilitySettings(**{key: lo}), key) == lo
 
 
 def test_a_metocean_record_needs_a_berth():

@@ -647,7 +647,23 @@ class Installation(_Section):
     report: Report = Field(default_factory=Report)
 
 
-def _range_text(model: type[BaseModel], field: str) -> str:
+def param_range(model: type[BaseModel], field: str) -> tuple[float | None, bool, float | None, bool, str]:
+    """A declared parameter's range and unit, from its declaration (:func:`_param`).
+
+    Parameters
+    ----------
+    model : pydantic model class
+        A section (``Operability``, ...).
+    field : str
+
+    Returns
+    -------
+    lo : float or None
+    lo_inclusive : bool
+    hi : float or None
+    hi_inclusive : bool
+    unit : str
+    """
     info = model.model_fields[field]
     unit = (info.json_schema_extra or {}).get("unit", "") if isinstance(info.json_schema_extra, dict) else ""
     lo = hi = None
@@ -660,11 +676,32 @@ def _range_text(model: type[BaseModel], field: str) -> str:
                     lo, lo_incl = v, incl
                 else:
                     hi, hi_incl = v, incl
+    return lo, lo_incl, hi, hi_incl, unit
+
+
+def range_text(model: type[BaseModel], field: str) -> str:
+    """A declared parameter's range as ``[lo, hi] unit`` (brackets open where the bound is), or "" if none."""
+    lo, lo_incl, hi, hi_incl, unit = param_range(model, field)
     if lo is None and hi is None:
         return ""
     left = ("[" if lo_incl else "(") + ("-inf" if lo is None else f"{lo:g}")
     right = ("inf" if hi is None else f"{hi:g}") + ("]" if hi_incl else ")")
-    return f"valid range {left}, {right} {unit}".rstrip()
+    return f"{left}, {right} {unit}".rstrip()
+
+
+def in_range(model: type[BaseModel], field: str, value: float) -> bool:
+    """Whether ``value`` lies in the declared range of ``model.field`` (NaN never does)."""
+    lo, lo_incl, hi, hi_incl, _ = param_range(model, field)
+    if value != value:
+        return False
+    above = lo is None or (value >= lo if lo_incl else value > lo)
+    below = hi is None or (value <= hi if hi_incl else value < hi)
+    return above and below
+
+
+def _range_text(model: type[BaseModel], field: str) -> str:
+    text = range_text(model, field)
+    return f"valid range {text}" if text else ""
 
 
 def _section_type(ann: Any) -> type[BaseModel] | None:

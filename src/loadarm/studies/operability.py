@@ -71,10 +71,15 @@ class OperabilitySettings:
     chunks: int = 100
 
     def __post_init__(self):
-        if self.duration_per_state is not None and not (10.0 <= self.duration_per_state <= 3600.0):
-            raise ConfigError(f"--duration-per-state must be in [10, 3600] s, got {self.duration_per_state:g}")
-        if self.connect_motion_limit is not None and not self.connect_motion_limit > 0:
-            raise ConfigError(f"connect_motion_limit must be > 0 m, got {self.connect_motion_limit:g}")
+        from ..config import Operability, in_range, range_text
+
+        # the ranges are those declared for [operability] (found: written here again, connect_motion_limit
+        # had lost its upper bound)
+        for key, name in (("duration_per_state", "--duration-per-state"), ("connect_motion_limit",
+                                                                            "connect_motion_limit")):
+            value = getattr(self, key)
+            if value is not None and not in_range(Operability, key, value):
+                raise ConfigError(f"{name} must be in {range_text(Operability, key)}, got {value:g}")
 
     def resolved(self, section) -> "OperabilitySettings":
         """These settings with the installation's ``[operability]`` where they are None.

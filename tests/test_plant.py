@@ -23,6 +23,7 @@ SCENARIO = "examples/scenarios/driftoff.toml"
 def test_passwords_are_scrypt_hashes_checked_in_constant_time():
     h = hash_password("s3cret")
     assert h.startswith("scrypt$16384$8$1$") and "s3cret" not in h
+    assert len(bytes.fromhex(h.split("$")[4])) == 16            # the salt docs/plant-integration.md names
     assert verify_password("s3cret", h) and not verify_password("s3cret ", h) and not verify_password("", h)
     assert not verify_password("s3cret", "md5$abc") and not verify_password("x", "garbage")
     assert hash_password("s3cret") != h                     # salted
@@ -58,9 +59,14 @@ def test_a_bad_users_file_is_refused_naming_the_file_and_key(tmp_path, text, mat
 
 
 def test_the_application_certificate_is_made_once_with_a_private_key(tmp_path):
+    from cryptography import x509
+
     st = StateDir(tmp_path / "state")
     st.ensure("urn:test:server", "localhost")
     assert stat.S_IMODE(st.key.stat().st_mode) == 0o600
+    c = x509.load_der_x509_certificate(st.cert.read_bytes())   # what docs/plant-integration.md says of it
+    assert c.public_key().key_size == 2048 and c.signature_hash_algorithm.name == "sha256"
+    assert (c.not_valid_after_utc - c.not_valid_before_utc).days == 5 * 365
     cert = st.cert.read_bytes()
     st.ensure("urn:test:server", "localhost")               # the second start keeps it
     assert st.cert.read_bytes() == cert
@@ -319,3 +325,13 @@ def test_the_docs_list_the_whole_address_space():
     names = [v[0] for v in space["variables"]] + [s[0] for s in space["states"]] + [m[0] for m in space["methods"]]
     missing = [n for n in names + list(space["modes"]) if f"`{n}`" not in doc]
     assert not missing, f"docs/plant-integration.md lacks {missing}"
+    lines = doc.splitlines()
+    for name, (_, symbol, _), (lo, hi), _ in space["variables"]:      # each row's unit and range are the server's
+        [row] = [ln for ln in lines if ln.startswith("|") and f"`{name}`" in ln]
+        assert f"| {symbol} | {lo:g} .. {hi:g} |" in row, row
+    from loadarm.guidance.controller import ERS_CONFIRM_WINDOW
+    from loadarm.plant.server import PUBLISH_RATE
+    from loadarm.plant.service import JOG_HOLD
+
+    assert f"for {JOG_HOLD:g} s" in doc and f"every {1 / PUBLISH_RATE:g} s" in doc
+    assert f"Confirm = true within {ERS_CONFIRM_WINDOW:g} s" in doc

@@ -119,14 +119,17 @@ def check_depth(obj: Any, source: str, limit: int = MAX_DEPTH) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
+def atomic_path(path: str | Path, *, private: bool = False) -> Iterator[Path]:
     """A temporary file's path next to ``path``, for writers that take a path (NetCDF); on a clean exit it is
-    given the permissions of a new file and renamed over ``path``, on an error removed.
+    given the permissions of a new file (``private``: its owner's alone, 0600, as it was created) and renamed
+    over ``path``, on an error removed.
 
     Parameters
     ----------
     path : str or Path
         The target; parent directories are created.
+    private : bool
+        Keep the file readable by its owner only (a private key, a password file).
 
     Yields
     ------
@@ -138,7 +141,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     os.close(fd)
     try:
         yield Path(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())
+        os.chmod(tmp, 0o600 if private else 0o666 & ~_umask())
         os.replace(tmp, p)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -147,7 +150,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
 
 
 @contextlib.contextmanager
-def atomic_open(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
+def atomic_open(path: str | Path, mode: str = "w", *, private: bool = False, **kwargs) -> Iterator[IO]:
     """Open a temporary file next to ``path``; on a clean exit flush it to disk and rename it over ``path``
     (:func:`atomic_path`).
 
@@ -157,6 +160,8 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
         The target; parent directories are created.
     mode : {'w', 'wb'}
         Text or binary.
+    private : bool
+        Owner-only permissions (:func:`atomic_path`).
     **kwargs
         Passed to :func:`open` (``encoding``, ``newline``).
 
@@ -164,7 +169,7 @@ def atomic_open(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
     ------
     file object
     """
-    with atomic_path(path) as tmp, open(tmp, mode, **kwargs) as fh:
+    with atomic_path(path, private=private) as tmp, open(tmp, mode, **kwargs) as fh:
         yield fh
         fh.flush()
         os.fsync(fh.fileno())
@@ -176,23 +181,25 @@ def _umask() -> int:
     return mask
 
 
-def atomic_write(path: str | Path, data: str | bytes) -> Path:
+def atomic_write(path: str | Path, data: str | bytes, *, private: bool = False) -> Path:
     """Write text (UTF-8) or bytes to ``path`` atomically (:func:`atomic_open`).
 
     Parameters
     ----------
     path : str or Path
     data : str or bytes
+    private : bool
+        Owner-only permissions, 0600 from the file's creation on (:func:`atomic_path`).
 
     Returns
     -------
     Path
     """
     if isinstance(data, bytes):
-        with atomic_open(path, "wb") as fh:
+        with atomic_open(path, "wb", private=private) as fh:
             fh.write(data)
     else:
-        with atomic_open(path, "w", encoding="utf-8", newline="") as fh:
+        with atomic_open(path, "w", private=private, encoding="utf-8", newline="") as fh:
             fh.write(data)
     return Path(path)
 

@@ -203,23 +203,9 @@ class Users:
         for n in sorted(self._entries):
             r, h = self._entries[n]
             lines += [f"[users.{n!s}]", f'role = "{r.name.lower()}"', f'password = "{h}"', ""]
-        _write_private(self.path, "\n".join(lines).encode())
+        from ..files import atomic_write
 
-
-def _write_private(path: Path, data: bytes) -> None:
-    """Write a file only its owner can read (mode 0600), atomically."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+        atomic_write(self.path, "\n".join(lines), private=True)
 
 
 def _load_certificate(path: Path):
@@ -319,9 +305,9 @@ class StateDir:
         cert = cert_gen.generate_self_signed_app_certificate(
             key, name, {"organizationName": "loadarm"}, [x509.UniformResourceIdentifier(app_uri), x509.DNSName(host)],
             extended=[ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH], days=5 * 365)
-        _write_private(self.key, cert_gen.dump_private_key_as_pem(key))
         from ..files import atomic_write
 
+        atomic_write(self.key, cert_gen.dump_private_key_as_pem(key), private=True)
         atomic_write(self.cert, cert.public_bytes(serialization.Encoding.DER))
 
     def trust(self, cert_file: str | Path) -> Path:

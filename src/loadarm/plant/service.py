@@ -75,7 +75,7 @@ class Snapshot:
         m, installation frame.
     estimate_healthy : bool
     distance : float
-        Coupler to the estimated flange, m.
+        Coupler to the flange, m (the simulated plant's flange, as the run records it).
     level : int
         Connected-mode alarm level (:class:`loadarm.alarms.Severity`).
     time_to_limit : float

@@ -36,7 +36,7 @@ from .ship import flange_motion
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["RUN_METRICS", "RunResult", "run_scenario", "ClosedLoop", "ScriptedOperator", "ArmPlant", "ErsValves", "wall_clock_pacer",
+__all__ = ["RUN_METRICS", "RunResult", "run_scenario", "ClosedLoop", "SimulatedPlant", "ScriptedOperator", "ArmPlant", "ErsValves", "wall_clock_pacer",
            "MODES", "MANIFOLD_CLEARANCE"]
 
 #: Distance the coupler must put between itself and the ship's flange after a release, m (clear of the
@@ -470,6 +470,76 @@ def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, 
     return loop.result()
 
 
+class SimulatedPlant:
+    """The scenario's plant in the same process: the ship's flange, the sensor's readings, the arm
+    (:class:`ArmPlant`) and the ERS valves, stepped by the controller's commands. ``loadarm plc-sim`` runs the
+    same plant behind OPC UA; the controller's side of that link has the same four members
+    (:meth:`arrived`, :attr:`q`, :attr:`feedback`, :meth:`step`).
+
+    Parameters
+    ----------
+    sc : Scenario
+    model : ArmModel
+    stored : tuple of float
+        The stored coupler position the arm starts at, m.
+    n : int
+        Cycles.
+    dt : float
+        Cycle, s.
+    plant : {'hydraulic', 'kinematic'}
+    emit : callable
+        ``emit(t, mode, kind, reason, data)``.
+    ship : ShipModel, optional
+    """
+
+    def __init__(self, sc: Scenario, model: ArmModel, stored, n: int, dt: float, plant: str, emit: Callable, ship=None):
+        if ship is None and sc.ship.model == "moored":
+            from .scenario import moored_ship
+
+            ship = moored_ship(sc)
+        self.motion = flange_motion(sc, ship)
+        self.readings = sensor_readings(sc, self.motion)
+        self.flange = self.motion.position(np.arange(n) * dt)
+        q0 = inverse3d(model.arm, *stored)
+        self.arm = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, emit,
+                            hpu_trip_at=sc.faults.hpu_trip_at)
+        self.valves = ErsValves(model.sequence.ers_valve_time, stuck=sc.faults.ers_valve_stuck,
+                                delay=sc.faults.ers_valve_delay)
+        self.feedback = PlantFeedback()
+        self._ir = 0
+
+    @property
+    def q(self) -> np.ndarray:
+        """Joint angles (slew, alpha, beta), rad: the encoders."""
+        return self.arm.q
+
+    @property
+    def servo_fault(self) -> bool:
+        return self.arm.servo_fault
+
+    @property
+    def overstretched(self) -> float | None:
+        return self.arm.overstretched
+
+    def arrived(self, now: float):
+        """The sensor readings that have arrived by ``now`` since the last call: ``(t_meas, (x, y, z))``."""
+        r, out = self.readings, []
+        while self._ir < r.t_arrive.size and r.t_arrive[self._ir] <= now:
+            z = r.xyz[self._ir]
+            out.append((float(r.t_meas[self._ir]), (float(z[0]), float(z[1]), float(z[2]))))
+            self._ir += 1
+        return out
+
+    def step(self, k: int, now: float, dt: float, cmd) -> tuple[np.ndarray, np.ndarray]:
+        """Apply cycle ``k``'s command: the ERS valves, then the arm; returns the joints and the true flange."""
+        self.feedback = PlantFeedback(ers_valves_closed=self.valves.step(now, cmd.close_ers_valves))
+        return self.arm.step(now, dt, cmd, self.flange[k]), self.flange[k]
+
+    def first_limit(self, model: ArmModel, sig: dict) -> tuple[float | None, str]:
+        """The first time the true flange is past a face after the connection (:func:`_first_limit`)."""
+        return _first_limit(model, sig, self.flange[:sig["t"].size], self.motion)
+
+
 class ClosedLoop:
     """One closed-loop run of a scenario, a guidance cycle at a time: :func:`run_scenario` drives it on a
     simulated clock, ``loadarm serve`` on the wall clock with the operator's requests
@@ -486,6 +556,8 @@ class ClosedLoop:
     ship : ShipModel, optional
     scripted : bool
         The scenario's operator acts (default); False: only the inputs given to :meth:`cycle`.
+    io : optional
+        The plant's inputs and outputs (default the scenario's :class:`SimulatedPlant`).
 
     Attributes
     ----------
@@ -494,7 +566,8 @@ class ClosedLoop:
     dt : float
         Guidance cycle, s.
     ctrl : GuidanceController
-    plant : ArmPlant
+    io : SimulatedPlant
+        The plant's inputs and outputs (another with the same members: a PLC over OPC UA).
     events : list
         ``(t, mode, kind, reason, data)`` so far.
     estimate : Estimate or None
@@ -502,7 +575,7 @@ class ClosedLoop:
     """
 
     def __init__(self, sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
-                 plant: str | None = None, ship=None, scripted: bool = True):
+                 plant: str | None = None, ship=None, scripted: bool = True, io=None):
         g = sc.guidance
         plant = sc.scenario.plant if plant is None else plant
         if plant not in ("hydraulic", "kinematic"):
@@ -510,24 +583,13 @@ class ClosedLoop:
         check_run_size(sc)
         self.sc, self.model, self.log = sc, model, log
         self.ctrl = GuidanceController(model, g)
-        if ship is None and sc.ship.model == "moored":
-            from .scenario import moored_ship
-
-            ship = moored_ship(sc)
-        self.motion = flange_motion(sc, ship)
-        self.readings = sensor_readings(sc, self.motion)
         self.est = FlangeEstimator(noise=sc.sensor.noise, max_age=g.max_estimate_age)
         self.dt = 1.0 / g.rate
         self.n = int(math.floor(sc.scenario.duration / self.dt)) + 1
-        self.flange = self.motion.position(np.arange(self.n) * self.dt)
-        q0 = inverse3d(model.arm, *self.ctrl.stored)
         self.events: list = []
         self._limiter = RateLimiter()
-        self.plant = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, self.emit,
-                              hpu_trip_at=sc.faults.hpu_trip_at)
-        self.valves = ErsValves(model.sequence.ers_valve_time, stuck=sc.faults.ers_valve_stuck,
-                                delay=sc.faults.ers_valve_delay)
-        self.fb = PlantFeedback()
+        self.io = SimulatedPlant(sc, model, self.ctrl.stored, self.n, self.dt, plant, self.emit, ship) if io is None \
+            else io
         self.operator = ScriptedOperator(sc.operator, self.dt) if scripted else None
         self.rec = _Recorder(self.n, log, sample_every)
         self.clearance = _ClearanceWatch(self.emit)
@@ -566,21 +628,22 @@ class ClosedLoop:
         Command
         """
         now = self.time(k)
-        ctrl, plant = self.ctrl, self.plant
+        ctrl, io = self.ctrl, self.io
         t0 = time.perf_counter()
-        self._ir = _feed_sensor(self.readings, self.est, self._ir, now, lambda z: self.emit(
-            now, ctrl.state.mode.value, "sensor", "reading rejected as an outlier", {"reading": [float(v) for v in z]}))
+        for t_meas, z in io.arrived(now):
+            if not self.est.update(t_meas, z):
+                self.emit(now, ctrl.state.mode.value, "sensor", "reading rejected as an outlier",
+                          {"reading": [float(v) for v in z]})
         e = self.est.estimate(now)
-        op = self.operator.inputs(now, ctrl.state.mode, plant.servo_fault) if self.operator else OperatorInput()
+        op = self.operator.inputs(now, ctrl.state.mode, io.servo_fault) if self.operator else OperatorInput()
         if live is not None:
             op = OperatorInput(op.actions + live.actions, live.jog if any(live.jog) else op.jog)
-        cmd = ctrl.step(now, plant.q, e, op, self.fb)
+        cmd = ctrl.step(now, io.q, e, op, io.feedback)
         self.cycle_us[k] = (time.perf_counter() - t0) * 1e6
         for kind, reason, data in cmd.events:
             self.emit(now, cmd.mode.value, kind, reason, data)
-        self.fb = PlantFeedback(ers_valves_closed=self.valves.step(now, cmd.close_ers_valves))
-        q = plant.step(now, self.dt, cmd, self.flange[k])
-        self.rec.record(k, now, cmd, q, self.flange[k], e, self.model.arm)
+        q, flange = io.step(k, now, self.dt, cmd)
+        self.rec.record(k, now, cmd, q, flange, e, self.model.arm)
         self.clearance.watch(now, cmd, self.rec.sig["distance"][k])
         self.estimate = e
         return cmd
@@ -590,8 +653,8 @@ class ClosedLoop:
         k = int(np.count_nonzero(np.isfinite(self.rec.sig["t"])))
         sig = {name: v[:k] for name, v in self.rec.sig.items()}
         al = self.model.alarms
-        limit_at, limit_face = _first_limit(self.model, sig, self.flange[:k], self.motion)
-        return RunResult(self.sc.scenario.name, sig, self.events, self.plant.overstretched, self.cycle_us[:k],
+        limit_at, limit_face = self.io.first_limit(self.model, sig)
+        return RunResult(self.sc.scenario.name, sig, self.events, self.io.overstretched, self.cycle_us[:k],
                          tuple(math.degrees(a) for a in (al.first, al.second, al.release)), limit_at, limit_face)
 
 
@@ -616,16 +679,6 @@ def _first_limit(model: ArmModel, sig: dict, flange: np.ndarray, motion) -> tupl
     if hit.size == 0:
         return None, ""
     return float(tt[hit[0]]), FACES[int(face[hit[0]])]
-
-
-def _feed_sensor(readings, est: FlangeEstimator, ir: int, now: float, rejected: Callable) -> int:
-    """Give the estimator every reading that has arrived by ``now``; report the rejected ones."""
-    while ir < readings.t_arrive.size and readings.t_arrive[ir] <= now:
-        z = readings.xyz[ir]
-        if not est.update(float(readings.t_meas[ir]), (float(z[0]), float(z[1]), float(z[2]))):
-            rejected(z)
-        ir += 1
-    return ir
 
 
 class _ClearanceWatch:

@@ -206,7 +206,7 @@ class GuidanceService:
 
     def _publish(self, k: int, now: float, cmd) -> None:
         loop = self.loop
-        q = loop.plant.q
+        q = loop.io.q
         sig = loop.rec.sig
         e = loop.estimate
         ttl = float(cmd.time_to_limit)
@@ -216,6 +216,6 @@ class GuidanceService:
             flange_estimate=tuple(float(v) for v in np.asarray(e.position, dtype=float)),
             estimate_healthy=bool(e.healthy), distance=float(sig["distance"][k]), level=int(cmd.level),
             time_to_limit=ttl, connected=bool(cmd.connected), esd=bool(cmd.esd), release=bool(cmd.release),
-            coupler_open=bool(cmd.coupler_open), ers_valves_closed=bool(loop.fb.ers_valves_closed),
+            coupler_open=bool(cmd.coupler_open), ers_valves_closed=bool(loop.io.feedback.ers_valves_closed),
             alarms={tag: st.value for tag, st in loop.ctrl.state.alarms.items()},
             cycle_us=float(loop.cycle_us[k]), late=self.late)

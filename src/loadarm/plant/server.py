@@ -32,7 +32,7 @@ from pathlib import Path
 from .security import Role, StateDir, User
 from .service import JOG_HOLD
 
-__all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "CURRENT_USER", "RoleRuleset",
+__all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "CURRENT_USER", "RoleRuleset", "SecureServer",
            "OpcUaServer", "address_space"]
 
 #: The application URI (in the certificate's subject alternative names).
@@ -186,25 +186,30 @@ def address_space() -> dict:
     return {"variables": VARIABLES, "states": STATES, "methods": METHODS, "modes": tuple(m.value for m in Mode)}
 
 
-class OpcUaServer:
-    """The OPC UA server of a :class:`loadarm.plant.service.GuidanceService`, in its own thread.
+class SecureServer:
+    """An asyncua server in its own thread, secure as the module says: the state directory's certificate, the
+    trust list, the users and :class:`RoleRuleset`. A subclass builds its address space (:meth:`_build`) and
+    is ticked every ``period`` seconds on the server's loop (:meth:`_tick`).
 
     Parameters
     ----------
-    service : GuidanceService
     state_dir : path
     endpoint : str
-        ``opc.tcp://HOST:PORT`` (default loopback).
+        ``opc.tcp://HOST:PORT``.
+    app_uri : str
+        The application URI (its certificate's).
+    title : str
+        Server name.
     insecure : bool
         Also offer the unsecured endpoint (a lab only).
-    name : str
-        Installation name (the nameplate's model).
+    period : float
+        Tick, s.
     """
 
-    def __init__(self, service, state_dir, endpoint: str = "opc.tcp://127.0.0.1:4840", *, insecure: bool = False,
-                 name: str = "loadarm"):
-        self.service, self.state, self.endpoint, self.insecure, self.name = (
-            service, StateDir(state_dir), endpoint, insecure, name)
+    def __init__(self, state_dir, endpoint: str, app_uri: str, title: str, *, insecure: bool = False,
+                 period: float = 1.0 / PUBLISH_RATE):
+        self.state, self.endpoint, self.app_uri, self.title = StateDir(state_dir), endpoint, app_uri, title
+        self.insecure, self.period = insecure, period
         self.ready = threading.Event()
         self.error: BaseException | None = None
         self._thread: threading.Thread | None = None
@@ -222,8 +227,8 @@ class OpcUaServer:
         from urllib.parse import urlparse
 
         host = urlparse(self.endpoint).hostname or "localhost"
-        self.state.ensure(APP_URI, host)
-        self._thread = threading.Thread(target=self._run, name="loadarm-opcua", daemon=True)
+        self.state.ensure(self.app_uri, host)
+        self._thread = threading.Thread(target=self._run, name=f"opcua-{self.app_uri}", daemon=True)
         self._thread.start()
         if not self.ready.wait(timeout) or self.error is not None:
             self.stop()
@@ -255,8 +260,8 @@ class OpcUaServer:
         server.iserver.bind_condition_methods = True
         await server.init()
         server.set_endpoint(self.endpoint)
-        server.set_server_name(f"loadarm guidance ({self.name})")
-        await server.set_application_uri(APP_URI)
+        server.set_server_name(self.title)
+        await server.set_application_uri(self.app_uri)
         await server.load_certificate(str(self.state.cert))
         await server.load_private_key(str(self.state.key))
         policies = _policies() + ([ua.SecurityPolicyType.NoSecurity] if self.insecure else [])
@@ -268,22 +273,51 @@ class OpcUaServer:
         nodes = await self._build(server)
         async with server:
             self.ready.set()
-            period = 1.0 / PUBLISH_RATE
-            last = -1
             while not self._stopping.is_set():
-                snap = self.service.snapshot()
-                if snap is not None and snap.seq != last:
-                    last = snap.seq
-                    try:
-                        await self._publish(nodes, snap)
-                    except Exception as exc:          # the server stays up; the error is reported once
-                        if self.error is None:
-                            _log.exception("OPC UA variables not updated")
-                            self.error = exc
                 try:
-                    await asyncio.wait_for(self._stopping.wait(), period)
+                    await self._tick(nodes)
+                except Exception as exc:              # the server stays up; the error is reported once
+                    if self.error is None:
+                        _log.exception("OPC UA server tick failed")
+                        self.error = exc
+                try:
+                    await asyncio.wait_for(self._stopping.wait(), self.period)
                 except asyncio.TimeoutError:
                     pass
+
+    async def _build(self, server) -> dict:
+        raise NotImplementedError
+
+    async def _tick(self, nodes: dict) -> None:
+        raise NotImplementedError
+
+
+class OpcUaServer(SecureServer):
+    """The OPC UA server of a :class:`loadarm.plant.service.GuidanceService`, in its own thread.
+
+    Parameters
+    ----------
+    service : GuidanceService
+    state_dir : path
+    endpoint : str
+        ``opc.tcp://HOST:PORT`` (default loopback).
+    insecure : bool
+        Also offer the unsecured endpoint (a lab only).
+    name : str
+        Installation name (the nameplate's model).
+    """
+
+    def __init__(self, service, state_dir, endpoint: str = "opc.tcp://127.0.0.1:4840", *, insecure: bool = False,
+                 name: str = "loadarm"):
+        super().__init__(state_dir, endpoint, APP_URI, f"loadarm guidance ({name})", insecure=insecure)
+        self.service, self.name = service, name
+        self._last = -1
+
+    async def _tick(self, nodes: dict) -> None:
+        snap = self.service.snapshot()
+        if snap is not None and snap.seq != self._last:
+            self._last = snap.seq
+            await self._publish(nodes, snap)
 
     async def _build(self, server) -> dict:
         from asyncua import ua

@@ -327,7 +327,7 @@ def test_the_docs_list_the_whole_address_space():
     assert not missing, f"docs/plant-integration.md lacks {missing}"
     lines = doc.splitlines()
     for name, (_, symbol, _), (lo, hi), _ in space["variables"]:      # each row's unit and range are the server's
-        [row] = [ln for ln in lines if ln.startswith("|") and f"`{name}`" in ln]
+        [row] = [ln for ln in lines if ln.startswith("|") and f"`{name}`" in ln and " .. " in ln]
         assert f"| {symbol} | {lo:g} .. {hi:g} |" in row, row
     from loadarm.guidance.controller import ERS_CONFIRM_WINDOW
     from loadarm.plant.server import PUBLISH_RATE
@@ -335,3 +335,9 @@ def test_the_docs_list_the_whole_address_space():
 
     assert f"for {JOG_HOLD:g} s" in doc and f"every {1 / PUBLISH_RATE:g} s" in doc
     assert f"Confirm = true within {ERS_CONFIRM_WINDOW:g} s" in doc
+    from loadarm.plant.plc import LINK_TIMEOUT, RECONNECT, TAGS, WATCHDOG
+
+    missing = [name for name, *_ in TAGS if f"`{name}`" not in doc]
+    assert not missing, f"docs/plant-integration.md lacks the PLC tags {missing}"
+    assert f"unchanged for {WATCHDOG:g} s (or never come)" in doc
+    assert f"PLC's heartbeat unchanged for {LINK_TIMEOUT:g} s" in doc and f"every {RECONNECT:g} s" in doc

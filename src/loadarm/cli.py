@@ -934,9 +934,17 @@ def serve(
     db: Annotated[Path, typer.Option("--db", help="SQLite event log (operator actions with the user's "
                                                   "name).")] = Path("loadarm-events.db"),
     speedup: Annotated[float, typer.Option("--speedup", help="Run seconds per wall second.")] = 1.0,
+    plc: Annotated[Optional[str], typer.Option("--plc", help="A PLC's OPC UA endpoint (loadarm plc-sim, or a "
+                                                             "real one): the plant is read from and "
+                                                             "commanded through it.")] = None,
+    plc_cert: Annotated[Optional[Path], typer.Option("--plc-cert", help="The PLC's certificate (DER or "
+                                                                        "PEM), as you trust it.")] = None,
+    plc_user: Annotated[str, typer.Option("--plc-user", help="The PLC's user for the controller.")] = "controller",
+    plc_password_file: Annotated[Optional[Path], typer.Option(
+        "--plc-password-file", help="File whose first line is that user's password.")] = None,
     force: ForceOpt = False,
 ) -> None:
-    """Run the guidance controller in real time against a scenario's simulated plant and serve it over
+    """Run the guidance controller in real time against a scenario's simulated plant (or a PLC) and serve it over
     OPC UA (Basic256Sha256 / Aes128 / Aes256, SignAndEncrypt; users and roles from STATE_DIR/users.toml;
     client certificates trusted from STATE_DIR/pki/trusted). Ctrl-C stops.
 
@@ -951,9 +959,12 @@ def serve(
     from .plant.server import OpcUaServer
     from .plant.service import GuidanceService
 
-    url = urlparse(endpoint)
-    if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
-        raise UserError(f"--endpoint must be opc.tcp://HOST:PORT, got {endpoint!r}")
+    for name, value in (("--endpoint", endpoint), ("--plc", plc)):
+        url = urlparse(value or "opc.tcp://x:1")
+        if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
+            raise UserError(f"{name} must be opc.tcp://HOST:PORT, got {value!r}")
+    if plc is not None and (plc_cert is None or plc_password_file is None):
+        raise UserError("--plc needs --plc-cert (the PLC's certificate) and --plc-password-file")
     if not speedup > 0 or not math.isfinite(speedup):
         raise UserError(f"--speedup must be a positive number, got {speedup!r}")
     sc, model = load_scenario(scenario)
@@ -965,9 +976,17 @@ def serve(
     from datetime import datetime, timezone
 
     run_id = f"serve:{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
+    link = None
+    if plc is not None:
+        from .files import read_input
+        from .plant.plc import PlcLink
+
+        password = read_input(plc_password_file, "password file").splitlines()[0] if plc_password_file else ""
+        link = PlcLink(plc, state_dir, plc_user, password, plc_cert)
+        link.start()
     log = EventLog(db, run=run_id)
     try:
-        service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=scripted), speedup=speedup)
+        service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=scripted, io=link), speedup=speedup)
         server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)
         server.start()
         try:
@@ -982,9 +1001,53 @@ def serve(
             server.stop()
     finally:
         log.close()
+        if link is not None:
+            link.stop()
     snap = service.snapshot()
     if snap is not None:
         out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")
+
+
+@app.command("plc-sim")
+def plc_sim(
+    scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML: the plant, ship and sensor "
+                                                                    "the PLC simulates.")],
+    config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the "
+                                                                          "scenario's).")] = None,
+    endpoint: Annotated[str, typer.Option("--endpoint", help="OPC UA endpoint to listen on.")] =
+        "opc.tcp://127.0.0.1:4841",
+    state_dir: Annotated[Path, typer.Option("--state-dir", help="The PLC's certificates, trust list and "
+                                                                "users.")] = Path("loadarm-plc-state"),
+    insecure: Annotated[bool, typer.Option("--insecure", help="Also offer the unsecured endpoint.")] = False,
+) -> None:
+    """A simulated PLC: the scenario's arm, valve drivers (with a watchdog on the controller's heartbeat), ERS
+    valves, flange tracker and hard-wired E-stop in real time, served over OPC UA for `loadarm serve --plc`.
+    Ctrl-C stops.
+
+    Example: loadarm plc-sim --scenario examples/scenarios/driftoff.toml --state-dir out/plc
+    """
+    from urllib.parse import urlparse
+
+    from .guidance.scenario import check_scenario, load_scenario
+    from .plant.plc import PlcServer, PlcSimulator
+
+    url = urlparse(endpoint)
+    if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
+        raise UserError(f"--endpoint must be opc.tcp://HOST:PORT, got {endpoint!r}")
+    sc, model = load_scenario(scenario)
+    if config is not None:
+        model = _model(config)
+        check_scenario(sc, model, source=str(scenario))
+    sim = PlcSimulator(sc, model)
+    server = PlcServer(sim, state_dir, endpoint, insecure=insecure)
+    server.start()
+    try:
+        out.print(f"simulated PLC on {endpoint}; certificate {server.state.cert}; "
+                  f"{len(server.state.users())} user(s); Ctrl-C stops", soft_wrap=True)
+        sys.stdout.flush()
+        sim.run()
+    finally:
+        server.stop()
 
 
 @app.command()

@@ -156,7 +156,7 @@ VARIABLES = (
 #: Boolean and integer state variables.
 STATES = (("EstimateHealthy", bool), ("Connected", bool), ("ESDActive", bool), ("ReleaseRequested", bool),
           ("CouplerOpen", bool), ("ERSValvesClosed", bool), ("AlarmStage", int), ("AlarmStageText", str),
-          ("Mode", str), ("Cycle", int), ("LateCycles", int))
+          ("Mode", str), ("Cycle", int), ("LateCycles", int), ("PlantLinkOK", bool))
 #: Methods: browse name, request action, input arguments, what it does.
 METHODS = (("StartApproach", "start", (), "start the automatic approach to the standoff"),
            ("Connect", "connect", (), "connect the coupler at the standoff"),
@@ -416,11 +416,16 @@ class OpcUaServer(SecureServer):
                   "FlangeY_m": snap.flange_estimate[1], "FlangeZ_m": snap.flange_estimate[2],
                   "DistanceToFlange_m": snap.distance, "TimeToLimit_s": num(snap.time_to_limit),
                   "CycleTime_us": snap.cycle_us}
+        bad = ua.StatusCode(ua.StatusCodes.BadCommunicationError)
         for k, v in values.items():
-            await nodes[k].write_value(ua.Variant(float(v), ua.VariantType.Double))
+            if not snap.plant_ok and k not in ("CycleTime_us",):      # a dead PLC link: bad, not last-known
+                await nodes[k].write_value(ua.DataValue(ua.Variant(float(v), ua.VariantType.Double),
+                                                        StatusCode=bad))
+            else:
+                await nodes[k].write_value(ua.Variant(float(v), ua.VariantType.Double))
         for k, v in (("EstimateHealthy", snap.estimate_healthy), ("Connected", snap.connected),
                      ("ESDActive", snap.esd), ("ReleaseRequested", snap.release), ("CouplerOpen", snap.coupler_open),
-                     ("ERSValvesClosed", snap.ers_valves_closed)):
+                     ("ERSValvesClosed", snap.ers_valves_closed), ("PlantLinkOK", snap.plant_ok)):
             await nodes[k].write_value(ua.Variant(bool(v), ua.VariantType.Boolean))
         for k, v in (("AlarmStage", snap.level), ("Cycle", snap.seq), ("LateCycles", snap.late)):
             await nodes[k].write_value(ua.Variant(int(v), ua.VariantType.Int64))

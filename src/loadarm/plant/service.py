@@ -87,6 +87,8 @@ class Snapshot:
         The cycle's computing time, microseconds.
     late : int
         Cycles that started after their deadline so far.
+    plant_ok : bool
+        The plant's values are good (False: the PLC link is dead, they are the last ones read).
     """
 
     seq: int
@@ -107,6 +109,7 @@ class Snapshot:
     alarms: dict = field(default_factory=dict)
     cycle_us: float = 0.0
     late: int = 0
+    plant_ok: bool = True
 
 
 class GuidanceService:
@@ -136,6 +139,7 @@ class GuidanceService:
         self._jog = (0.0, 0.0, 0.0)
         self._jog_until = -math.inf
         self.late = 0
+        self._link_ok = True
         self.finished = threading.Event()
         self.error: BaseException | None = None
 
@@ -181,7 +185,11 @@ class GuidanceService:
                 self.sleep(delay)
             elif delay < -loop.dt / self.speedup:
                 self.late += 1
-            cmd = loop.cycle(k, self._take_requests(now))
+            live = self._take_requests(now)
+            ok = getattr(loop.io, "link_ok", True)
+            if ok != self._link_ok:
+                live = self._link_changed(now, ok, live)
+            cmd = loop.cycle(k, live)
             self._publish(k, now, cmd)
 
     def _take_requests(self, now: float) -> OperatorInput:
@@ -204,6 +212,22 @@ class GuidanceService:
         jog = self._jog if now < self._jog_until else (0.0, 0.0, 0.0)
         return OperatorInput(tuple(dict.fromkeys(actions)), jog)
 
+    def _link_changed(self, now: float, ok: bool, live: OperatorInput) -> OperatorInput:
+        """The PLC link died (an alarm; ESD-1 if the coupler is on the flange: the PLC's watchdog has already
+        stopped the drives) or came back (its values are good again; the controller reads the arm where it is,
+        so nothing jumps)."""
+        from ..guidance.controller import CONNECTED_MODES
+
+        self._link_ok = ok
+        mode = self.loop.ctrl.state.mode
+        if ok:
+            self.loop.emit(now, mode.value, "info", "PLC link restored", {})
+            return live
+        attached = mode in CONNECTED_MODES
+        self.loop.emit(now, mode.value, "alarm", "PLC link lost: its values are bad"
+                       + ("; ESD-1 initiated" if attached else "; the PLC's watchdog stops the drives"), {})
+        return OperatorInput(live.actions + (("esd",) if attached else ()), (0.0, 0.0, 0.0))
+
     def _publish(self, k: int, now: float, cmd) -> None:
         loop = self.loop
         q = loop.io.q
@@ -218,4 +242,4 @@ class GuidanceService:
             time_to_limit=ttl, connected=bool(cmd.connected), esd=bool(cmd.esd), release=bool(cmd.release),
             coupler_open=bool(cmd.coupler_open), ers_valves_closed=bool(loop.io.feedback.ers_valves_closed),
             alarms={tag: st.value for tag, st in loop.ctrl.state.alarms.items()},
-            cycle_us=float(loop.cycle_us[k]), late=self.late)
+            cycle_us=float(loop.cycle_us[k]), late=self.late, plant_ok=self._link_ok)

@@ -1,0 +1,373 @@
+"""The PLC link (issue 14, item 4): a simulated PLC in its own process (``loadarm plc-sim``), and the
+controller's side of the link (``loadarm serve --plc``).
+
+The PLC owns the plant: the arm and its valve drivers, the ERS valves and their limit switches, the flange
+tracker and the hard-wired E-stop (:class:`PlcSimulator`, the scenario's
+:class:`loadarm.guidance.run.SimulatedPlant` on the PLC's own clock). It serves its tags over OPC UA
+(:data:`TAGS`, under ``Objects/PLC``; the same security as ``loadarm serve``). The controller writes its
+commands and its heartbeat; a command from software is a request:
+
+* **the PLC's watchdog**: when the controller's heartbeat has not changed for :data:`WATCHDOG` seconds (or
+  never came), the valve drivers get zero, whatever was written last, and ``WatchdogTripped`` is set;
+* **the hard-wired E-stop**: an E-stop request stops the drives (zero rates) until reset by the PLC (the
+  request released); it never blocks the release of the coupler or the ERS valves.
+
+The controller's side (:class:`PlcLink`, an asyncua client in its own thread) reads every input at the
+guidance rate and writes the latest command after each cycle. The PLC's heartbeat unchanged for
+:data:`LINK_TIMEOUT` marks the link dead: its values are then bad (``q`` is NaN, no readings arrive), not
+last-known, and the service raises the alarm (and ESD-1 if connected).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import threading
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .server import SecureServer
+
+__all__ = ["TAGS", "WATCHDOG", "LINK_TIMEOUT", "PLC_APP_URI", "PlcSimulator", "PlcServer", "PlcLink"]
+
+#: The PLC's application URI.
+PLC_APP_URI = "urn:loadarm:plc-sim"
+#: The controller's heartbeat unchanged this long trips the PLC's valve watchdog, s.
+WATCHDOG = 0.5
+#: The PLC's heartbeat unchanged this long marks the link dead on the controller's side, s.
+LINK_TIMEOUT = 0.5
+#: A lost link is tried again this often, s.
+RECONNECT = 0.5
+#: The PLC's tags: name, type, direction ("in": PLC to controller, "out": controller to PLC), unit, what.
+TAGS = (
+    ("PlcHeartbeat", int, "in", "", "counts every PLC cycle"),
+    ("PlcTime_s", float, "in", "s", "the PLC's clock"),
+    ("Phi_rad", float, "in", "rad", "slew encoder"),
+    ("Alpha_rad", float, "in", "rad", "inboard arm encoder"),
+    ("Beta_rad", float, "in", "rad", "elbow encoder"),
+    ("FlangeX_m", float, "in", "m", "the flange tracker's latest reading"),
+    ("FlangeY_m", float, "in", "m", "the flange tracker's latest reading"),
+    ("FlangeZ_m", float, "in", "m", "the flange tracker's latest reading"),
+    ("FlangeTime_s", float, "in", "s", "when that reading was measured (PLC clock)"),
+    ("FlangeSeq", int, "in", "", "counts the tracker's readings"),
+    ("ERSValvesClosed", bool, "in", "", "both ERS valves' closed limit switches made"),
+    ("EStopActive", bool, "in", "", "the hard-wired emergency stop is active"),
+    ("ServoFault", bool, "in", "", "a drive reported a fault"),
+    ("WatchdogTripped", bool, "in", "", "the controller's heartbeat stopped: valves at zero"),
+    ("ControllerHeartbeat", int, "out", "", "the controller counts it every cycle"),
+    ("Mode", str, "out", "", "the controller's mode"),
+    ("RatePhi_rads", float, "out", "rad/s", "slew rate command"),
+    ("RateAlpha_rads", float, "out", "rad/s", "inboard arm rate command"),
+    ("RateBeta_rads", float, "out", "rad/s", "elbow rate command"),
+    ("Connected", bool, "out", "", "the coupler is on the flange"),
+    ("Release", bool, "out", "", "ERS-2 release requested"),
+    ("CloseERSValves", bool, "out", "", "close the ERS valves"),
+    ("EStopRequest", bool, "out", "", "request the emergency stop"),
+)
+_NS = "urn:loadarm:plc-sim:tags"
+
+
+def _default(kind):
+    return {int: 0, float: 0.0, bool: False, str: "STORED"}[kind]
+
+
+class PlcSimulator:
+    """The plant on the PLC's clock, with its watchdog and hard-wired E-stop.
+
+    Parameters
+    ----------
+    sc : Scenario
+    model : ArmModel
+    plant : {'hydraulic', 'kinematic'}, optional
+        Default the scenario's.
+    clock, sleep : callable
+        Monotonic seconds and a sleep (injected).
+
+    Attributes
+    ----------
+    applied : tuple of float
+        The rates the valve drivers got last cycle (zero under the watchdog or the E-stop), rad/s.
+    """
+
+    def __init__(self, sc, model, *, plant: str | None = None, clock=time.monotonic, sleep=time.sleep):
+        from ..guidance.controller import GuidanceController
+        from ..guidance.run import SimulatedPlant
+
+        self.dt = 1.0 / sc.guidance.rate
+        self.n = int(math.floor(sc.scenario.duration / self.dt)) + 1
+        self.events: list = []
+        stored = GuidanceController(model, sc.guidance).stored
+        self.plant = SimulatedPlant(sc, model, stored, self.n, self.dt, plant or sc.scenario.plant, self._emit)
+        self.clock, self.sleep = clock, sleep
+        self.outputs = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "out"}
+        self.inputs = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "in"}
+        self._beat, self._beat_at = None, -math.inf
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.estop = False
+        self.applied = (0.0, 0.0, 0.0)
+
+    def _emit(self, t, mode, kind, reason, data):
+        self.events.append((t, mode, kind, reason, data))
+
+    def write(self, outputs: dict) -> None:
+        """The controller's latest writes (from the OPC UA thread: one dict replaced whole)."""
+        self.outputs = dict(outputs)
+
+    def cycle(self, k: int, now: float, wall: float) -> None:
+        """One PLC cycle at time ``now`` (wall clock ``wall`` for the watchdog)."""
+        from ..guidance.controller import Command, Mode
+
+        out = self.outputs
+        if out["ControllerHeartbeat"] != self._beat:
+            self._beat, self._beat_at = out["ControllerHeartbeat"], wall
+        tripped = wall - self._beat_at > WATCHDOG
+        if out["EStopRequest"]:
+            self.estop = True
+        elif self.estop and not out["EStopRequest"] and out["Mode"] != "ESTOP":
+            self.estop = False                  # the request released and the controller reset
+        rates = (0.0, 0.0, 0.0) if tripped or self.estop else (
+            float(out["RatePhi_rads"]), float(out["RateAlpha_rads"]), float(out["RateBeta_rads"]))
+        self.applied = rates
+        try:
+            mode = Mode(out["Mode"])
+        except ValueError:
+            mode = Mode.STORED
+        cmd = Command(mode=mode, rates=rates, connected=bool(out["Connected"]), esd=False,
+                      release=bool(out["Release"]), close_ers_valves=bool(out["CloseERSValves"]))
+        q, _ = self.plant.step(k, now, self.dt, cmd)
+        new = self.plant.arrived(now)
+        inputs = dict(self.inputs)
+        if new:
+            t_meas, z = new[-1]
+            inputs.update(FlangeX_m=z[0], FlangeY_m=z[1], FlangeZ_m=z[2], FlangeTime_s=t_meas,
+                          FlangeSeq=inputs["FlangeSeq"] + len(new))
+        inputs.update(PlcHeartbeat=k + 1, PlcTime_s=now, Phi_rad=float(q[0]), Alpha_rad=float(q[1]),
+                      Beta_rad=float(q[2]), ERSValvesClosed=bool(self.plant.feedback.ers_valves_closed),
+                      EStopActive=self.estop, ServoFault=bool(self.plant.servo_fault), WatchdogTripped=tripped)
+        self.inputs = inputs
+
+    def run(self) -> None:
+        """Every cycle of the scenario on the clock, until the end or :meth:`stop`."""
+        start = self.clock()
+        for k in range(self.n):
+            if self._stop.is_set():
+                return
+            now = k * self.dt
+            delay = start + now - self.clock()
+            if delay > 0:
+                self.sleep(delay)
+            self.cycle(k, now, self.clock())
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self.run, name="loadarm-plc", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(5.0)
+
+
+def _variant(kind):
+    from asyncua import ua
+
+    return {int: ua.VariantType.Int64, float: ua.VariantType.Double, bool: ua.VariantType.Boolean,
+            str: ua.VariantType.String}[kind]
+
+
+class PlcServer(SecureServer):
+    """The simulated PLC's OPC UA server: the tags under ``Objects/PLC``; the inputs refreshed and the outputs
+    read back twice a PLC cycle.
+
+    Parameters
+    ----------
+    sim : PlcSimulator
+    state_dir : path
+    endpoint : str
+    insecure : bool
+    """
+
+    def __init__(self, sim: PlcSimulator, state_dir, endpoint: str, *, insecure: bool = False):
+        super().__init__(state_dir, endpoint, PLC_APP_URI, "loadarm simulated PLC", insecure=insecure,
+                         period=sim.dt / 2)
+        self.sim = sim
+
+    async def _build(self, server) -> dict:
+        from asyncua import ua
+
+        ns = await server.register_namespace(_NS)
+        plc = await server.nodes.objects.add_object(ua.NodeId("PLC", ns), ua.QualifiedName("PLC", ns))
+        nodes = {}
+        for name, kind, direction, unit, what in TAGS:
+            v = await plc.add_variable(ua.NodeId(f"PLC.{name}", ns), ua.QualifiedName(name, ns),
+                                       ua.Variant(_default(kind), _variant(kind)))
+            await v.write_attribute(ua.AttributeIds.Description,
+                                    ua.DataValue(ua.Variant(ua.LocalizedText(f"{what} [{unit}]" if unit else what))))
+            if direction == "out":
+                await v.set_writable()
+            nodes[name] = (v, kind, direction)
+        return nodes
+
+    async def _tick(self, nodes: dict) -> None:
+        from asyncua import ua
+
+        self.sim.write({name: await v.read_value() for name, (v, _, d) in nodes.items() if d == "out"})
+        for name, value in self.sim.inputs.items():
+            v, kind, _ = nodes[name]
+            await v.write_value(ua.Variant(kind(value), _variant(kind)))
+
+
+@dataclass
+class _Reading:
+    seq: int
+    t: float
+    xyz: tuple
+
+
+class PlcLink:
+    """The controller's side of the PLC link: the plant's four members (:meth:`arrived`, :attr:`q`,
+    :attr:`feedback`, :meth:`step`) over OPC UA, for :class:`loadarm.guidance.run.ClosedLoop`.
+
+    Parameters
+    ----------
+    endpoint : str
+        The PLC's.
+    state_dir : path
+        The controller's (its certificate is the client's; the PLC must trust it).
+    user, password : str
+        The PLC's user for the controller (an engineer: it writes).
+    server_certificate : path
+        The PLC's certificate (trusted by the operator beforehand).
+    period : float
+        How often the inputs are read, s.
+    clock : callable
+    """
+
+    def __init__(self, endpoint: str, state_dir, user: str, password: str, server_certificate, *,
+                 period: float = 0.05, clock=time.monotonic):
+        from .security import StateDir
+
+        self.endpoint, self.state = endpoint, StateDir(state_dir)
+        self.user, self.password, self.server_certificate = user, password, server_certificate
+        self.period, self.clock = period, clock
+        self._inputs: dict | None = None
+        self._beat, self._beat_at = None, -math.inf
+        self._outputs: dict = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "out"}
+        self._heartbeat = 0
+        self._seq = 0
+        self._offset: float | None = None
+        self._stop = threading.Event()
+        self.connected = threading.Event()
+        self.error: BaseException | None = None
+        self._thread: threading.Thread | None = None
+        self.overstretched = None
+        self.servo_fault = False
+
+    # --------------------------------------------------------------- the link's thread
+    def start(self, timeout: float = 30.0) -> None:
+        """Connect and read the inputs once; raises RuntimeError if the PLC cannot be reached."""
+        from .server import APP_URI
+
+        self.state.ensure(APP_URI)
+        self._thread = threading.Thread(target=lambda: asyncio.run(self._main()), name="loadarm-plc-link",
+                                        daemon=True)
+        self._thread.start()
+        if not self.connected.wait(timeout):
+            self.stop()
+            raise RuntimeError(f"no link to the PLC at {self.endpoint}: {self.error}")
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(5.0)
+
+    async def _main(self) -> None:
+        while not self._stop.is_set():
+            try:
+                await self._session()
+            except Exception as exc:          # the link is down: link_ok says so from the heartbeat's age
+                self.error = exc
+            if not self._stop.is_set():
+                await asyncio.sleep(RECONNECT)
+
+    async def _session(self) -> None:
+        from asyncua import Client, ua
+        from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+
+        from .server import APP_URI
+
+        client = Client(self.endpoint, timeout=2)
+        client.application_uri = APP_URI
+        client.set_user(self.user)
+        client.set_password(self.password)
+        await client.set_security(SecurityPolicyBasic256Sha256, str(self.state.cert), str(self.state.key),
+                                  server_certificate=str(self.server_certificate))
+        async with client:
+            ns = await client.get_namespace_index(_NS)
+            node = {name: client.get_node(ua.NodeId(f"PLC.{name}", ns)) for name, *_ in TAGS}
+            ins = [name for name, _, d, _, _ in TAGS if d == "in"]
+            outs = [(name, kind) for name, kind, d, _, _ in TAGS if d == "out"]
+            while not self._stop.is_set():
+                values = await client.read_values([node[n] for n in ins])
+                now = self.clock()
+                got = dict(zip(ins, values))
+                if got["PlcHeartbeat"] != self._beat:
+                    self._beat, self._beat_at = got["PlcHeartbeat"], now
+                self._inputs = got
+                self.connected.set()
+                out = self._outputs
+                await client.write_values([node[n] for n, _ in outs],
+                                          [ua.Variant(kind(out[n]), _variant(kind)) for n, kind in outs])
+                await asyncio.sleep(self.period)
+
+    # --------------------------------------------------------------- the plant's members (the control thread)
+    @property
+    def link_ok(self) -> bool:
+        """The PLC's heartbeat changed within :data:`LINK_TIMEOUT`."""
+        return self._inputs is not None and self.clock() - self._beat_at <= LINK_TIMEOUT
+
+    @property
+    def q(self) -> np.ndarray:
+        """The encoders, rad: the last values read (while the link is dead the controller holds on them to
+        run its alarm and ESD-1; what it publishes is marked bad: :attr:`link_ok`)."""
+        i = self._inputs
+        return np.array([i["Phi_rad"], i["Alpha_rad"], i["Beta_rad"]], dtype=float)
+
+    @property
+    def feedback(self):
+        from ..guidance.controller import PlantFeedback
+
+        i = self._inputs
+        return PlantFeedback(ers_valves_closed=bool(i and self.link_ok and i["ERSValvesClosed"]))
+
+    def arrived(self, now: float):
+        """The tracker's new reading since the last call (its time moved onto the controller's clock)."""
+        i = self._inputs
+        if i is None or not self.link_ok:
+            return []
+        if self._offset is None:
+            self._offset = float(i["PlcTime_s"]) - now
+        self.servo_fault = bool(i["ServoFault"])
+        if i["FlangeSeq"] == self._seq:
+            return []
+        self._seq = i["FlangeSeq"]
+        return [(float(i["FlangeTime_s"]) - self._offset, (float(i["FlangeX_m"]), float(i["FlangeY_m"]),
+                                                            float(i["FlangeZ_m"])))]
+
+    def step(self, k: int, now: float, dt: float, cmd):
+        """Write the cycle's command and heartbeat (the link's thread sends it); returns the encoders and no
+        true flange (NaN: the PLC does not know it)."""
+        self._heartbeat += 1
+        self._outputs = {"ControllerHeartbeat": self._heartbeat, "Mode": cmd.mode.value,
+                         "RatePhi_rads": float(cmd.rates[0]), "RateAlpha_rads": float(cmd.rates[1]),
+                         "RateBeta_rads": float(cmd.rates[2]), "Connected": bool(cmd.connected),
+                         "Release": bool(cmd.release), "CloseERSValves": bool(cmd.close_ers_valves),
+                         "EStopRequest": cmd.mode.value == "ESTOP"}
+        return self.q, np.full(3, np.nan)
+
+    def first_limit(self, model, sig):
+        """Unknown over a link (the true flange is the PLC's)."""
+        return None, ""

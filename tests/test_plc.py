@@ -1,0 +1,140 @@
+"""The PLC link (issue 14, item 4): the simulated PLC's watchdog and E-stop on their own, then ``loadarm plc-sim``
+in its own process on loopback with the controller's link: encoders and commands across the link, a jog that
+moves the PLC's arm, and the PLC killed mid-run (the controller's reaction time, the alarm, bad values)."""
+
+from __future__ import annotations
+
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from loadarm.guidance.scenario import load_scenario
+from loadarm.plant.plc import LINK_TIMEOUT, PLC_APP_URI, WATCHDOG, PlcSimulator
+from loadarm.plant.security import Role, StateDir
+
+SCENARIO = "examples/scenarios/driftoff.toml"
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario(SCENARIO)
+
+
+def _outputs(sim, **kw):
+    out = dict(sim.outputs)
+    out.update(kw)
+    return out
+
+
+def test_the_plc_watchdog_zeroes_the_valves_when_the_heartbeat_stops(scenario):
+    """Rate commands move the PLC's arm while the controller's heartbeat counts; with the heartbeat frozen,
+    WatchdogTripped is set once WATCHDOG seconds have passed (not before), the valve drivers get zero whatever
+    was written last, and the (kinematic) arm stands still; a new heartbeat moves it again. (The hydraulic arm
+    settles over some seconds after its valves close: the servo's own dynamics, not the watchdog's.)"""
+    sc, model = scenario
+    sim = PlcSimulator(sc, model, plant="kinematic")
+    dt = sim.dt
+    wall = 0.0
+    for k in range(10):
+        sim.write(_outputs(sim, ControllerHeartbeat=k + 1, RateBeta_rads=0.01, Mode="MANUAL"))
+        sim.cycle(k, k * dt, wall)
+        wall += dt
+    assert not sim.inputs["WatchdogTripped"]
+    frozen_at, k = wall - dt, 10
+    trace = []
+    while wall - frozen_at < WATCHDOG + 3.0:
+        sim.cycle(k, k * dt, wall)                       # the same heartbeat, the same rate command
+        trace.append((wall - frozen_at, sim.inputs["WatchdogTripped"], sim.inputs["Beta_rad"]))
+        wall += dt
+        k += 1
+    assert all(tr == (t > WATCHDOG) for t, tr, _ in trace)
+    assert sim.applied == (0.0, 0.0, 0.0)
+    late = [b for t, _, b in trace if t > WATCHDOG + dt]
+    assert max(np.abs(np.diff(late))) == 0.0 and late[0] > trace[0][2]
+    rest = late[-1]
+    sim.write(_outputs(sim, ControllerHeartbeat=999))
+    for j in range(5):
+        sim.cycle(k + j, (k + j) * dt, wall + j * dt)
+    assert not sim.inputs["WatchdogTripped"] and sim.inputs["Beta_rad"] > rest + 1e-6
+
+
+def test_an_estop_request_stops_the_drives_until_released_and_reset(scenario):
+    sc, model = scenario
+    sim = PlcSimulator(sc, model, plant="kinematic")
+    dt = sim.dt
+    sim.write(_outputs(sim, ControllerHeartbeat=1, RateBeta_rads=0.01, EStopRequest=True, Mode="ESTOP"))
+    sim.cycle(0, 0.0, 0.0)
+    b0 = sim.inputs["Beta_rad"]
+    for k in range(1, 10):
+        sim.write(_outputs(sim, ControllerHeartbeat=k + 1))
+        sim.cycle(k, k * dt, k * dt)
+    assert sim.inputs["EStopActive"] and abs(sim.inputs["Beta_rad"] - b0) < 1e-9
+    for k in range(10, 20):
+        sim.write(_outputs(sim, ControllerHeartbeat=k + 1, EStopRequest=False, Mode="MANUAL"))
+        sim.cycle(k, k * dt, k * dt)
+    assert not sim.inputs["EStopActive"] and sim.inputs["Beta_rad"] > b0 + 1e-6
+
+
+def _free_port() -> int:
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def test_across_two_processes_a_jog_moves_the_plc_s_arm_and_a_dead_plc_is_caught(tmp_path, scenario):
+    """``loadarm plc-sim`` in its own process, the controller's link trusted by it (and it by the link); an
+    operator's jog moves the PLC's arm through the link; the PLC killed: the controller marks the link dead
+    within LINK_TIMEOUT plus a read period, raises the alarm, and publishes its values as bad."""
+    from loadarm.guidance.run import ClosedLoop
+    from loadarm.plant.plc import PlcLink
+    from loadarm.plant.server import APP_URI
+    from loadarm.plant.service import GuidanceService, Request
+
+    sc, model = scenario
+    ctrl, plc = StateDir(tmp_path / "ctrl"), StateDir(tmp_path / "plc")
+    ctrl.ensure(APP_URI)
+    plc.ensure(PLC_APP_URI, "127.0.0.1")
+    plc.trust(ctrl.cert)
+    plc.users().add("controller", Role.ENGINEER, "pw-ctrl")
+    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
+    proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "plc-sim", "--scenario", SCENARIO, "--endpoint",
+                             endpoint, "--state-dir", str(plc.path)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    link = service = None
+    try:
+        line = proc.stdout.readline()
+        assert "simulated PLC on" in line, line + proc.stderr.read()
+        link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.02)
+        link.start()
+        q0 = link.q.copy()
+        service = GuidanceService(ClosedLoop(sc, model, scripted=False, io=link))
+        service.start()
+        for _ in range(8):
+            service.request(Request("jog", "alice", (0.0, 0.0, 0.2)))
+            time.sleep(0.2)
+        q1 = link.q.copy()
+        assert np.max(np.abs(q1 - q0)) > 1e-3 and link.link_ok
+        assert service.snapshot().plant_ok
+        proc.kill()
+        killed = time.monotonic()
+        while service.snapshot().plant_ok and time.monotonic() - killed < 5.0:
+            time.sleep(0.01)
+        reaction = time.monotonic() - killed
+        print(f"PLC killed: link marked dead after {reaction:.3f} s")
+        assert not service.snapshot().plant_ok and reaction <= LINK_TIMEOUT + 0.2, reaction
+        assert any(e[2] == "alarm" and "PLC link lost" in e[3] for e in service.loop.events)
+        time.sleep(0.3)
+        assert np.array_equal(link.q, q_dead := link.q) and not link.link_ok and q_dead is not None
+    finally:
+        if service is not None:
+            service.stop()
+        if link is not None:
+            link.stop()
+        proc.kill()
+        proc.wait(10)

@@ -336,8 +336,133 @@ def test_the_docs_list_the_whole_address_space():
     assert f"for {JOG_HOLD:g} s" in doc and f"every {1 / PUBLISH_RATE:g} s" in doc
     assert f"Confirm = true within {ERS_CONFIRM_WINDOW:g} s" in doc
     from loadarm.plant.plc import LINK_TIMEOUT, RECONNECT, TAGS, WATCHDOG
+    from loadarm.plant.server import CONDITION_SEVERITY, CONDITION_TEXT
+
+    for tag, sev in CONDITION_SEVERITY.items():
+        assert f"| `{tag}` | {sev} | {CONDITION_TEXT[tag]} |" in doc, tag
 
     missing = [name for name, *_ in TAGS if f"`{name}`" not in doc]
     assert not missing, f"docs/plant-integration.md lacks the PLC tags {missing}"
     assert f"unchanged for {WATCHDOG:g} s (or never come)" in doc
     assert f"PLC's heartbeat unchanged for {LINK_TIMEOUT:g} s" in doc and f"every {RECONNECT:g} s" in doc
+
+
+# --------------------------------------------------------------------------- Part 9 alarms
+
+class _FakeService:
+    """A guidance service whose alarm states the test sets (the controller's ISA-18.2 machine is tested on
+    its own); it records the requests it gets."""
+
+    def __init__(self):
+        from loadarm.guidance.controller import ANNUNCIATED
+        from loadarm.plant.service import Snapshot
+
+        self.requests = []
+        self.alarms = {tag: "normal" for tag in ANNUNCIATED}
+        self.seq = 0
+        self._make = lambda: Snapshot(seq=self.seq, t=0.1 * self.seq, mode="CONNECTED", q=(0.0, 1.0, 2.0),
+                                      coupler=(1.0, 0.0, 2.0), flange_estimate=(1.0, 0.0, 2.0), estimate_healthy=True,
+                                      distance=0.0, level=0, time_to_limit=float("inf"), connected=True, esd=False,
+                                      release=False, coupler_open=False, ers_valves_closed=False,
+                                      alarms=dict(self.alarms))
+
+    def set(self, tag, state):
+        self.alarms[tag] = state
+        self.seq += 1
+
+    def snapshot(self):
+        return self._make()
+
+    def request(self, req):
+        self.requests.append(req)
+
+
+def test_alarms_are_part_9_conditions_that_an_operator_acknowledges(served):
+    """Each annunciated alarm is an AlarmConditionType condition: its event carries ActiveState, AckedState,
+    Retain and the severity; Acknowledge on the condition (an operator) asks the controller to acknowledge
+    that alarm, refused for a viewer and for an alarm already acknowledged; ConditionRefresh replays the
+    retained conditions."""
+    from asyncua import ua
+
+    from loadarm.plant.server import CONDITION_SEVERITY, NAMESPACE, OpcUaServer
+
+    fake = _FakeService()
+    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
+    server = OpcUaServer(fake, served["state"].path, endpoint)
+    server.start()
+
+    class Handler:
+        def __init__(self):
+            self.events = []
+
+        def event_notification(self, event):
+            self.events.append(event)
+
+    async def wait_for(handler, pred, timeout=5.0):
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < timeout:
+            hits = [e for e in handler.events if pred(e)]
+            if hits:
+                return hits[-1]
+            await asyncio.sleep(0.05)
+        raise AssertionError(f"no such event among {len(handler.events)}")
+
+    async def main():
+        sv = dict(served, endpoint=endpoint)
+        c = await _client(sv, "alice", "pw-alice")()
+        v = await _client(sv, "victor", "pw-victor")()
+        async with c, v:
+            ns = await c.get_namespace_index(NAMESPACE)
+            guidance = c.get_node(ua.NodeId("Guidance", ns))
+            h = Handler()
+            sub = await c.create_subscription(50, h)
+            await sub.subscribe_events(guidance, ua.NodeId(ua.ObjectIds.AlarmConditionType))
+            fake.set("ESD1", "unacknowledged")
+            ev = await wait_for(h, lambda e: e.ConditionName == "ESD1")
+            assert getattr(ev, "ActiveState/Id") is True and getattr(ev, "AckedState/Id") is False and ev.Retain
+            assert ev.Severity == CONDITION_SEVERITY["ESD1"]
+            cond = c.get_node(ua.NodeId("Guidance.Alarms.ESD1", ns))
+            ack = ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge)
+            with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+                await v.get_node(cond.nodeid).call_method(ack, ev.EventId, ua.LocalizedText("viewer"))
+            await cond.call_method(ack, ev.EventId, ua.LocalizedText("seen"))
+            assert [(r.action, r.user, r.tag) for r in fake.requests] == [("ack", "alice", "ESD1")]
+            fake.set("ESD1", "acknowledged")
+            ev2 = await wait_for(h, lambda e: e.ConditionName == "ESD1" and getattr(e, "AckedState/Id"))
+            assert getattr(ev2, "ActiveState/Id") is True and ev2.Retain
+            with pytest.raises(ua.uaerrors.BadConditionBranchAlreadyAcked):
+                await cond.call_method(ack, ev2.EventId, ua.LocalizedText("again"))
+            n = len(h.events)
+            await c.nodes.server.call_method(ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
+                                             ua.Variant(sub.subscription_id, ua.VariantType.UInt32))
+            replay = await wait_for(h, lambda e: e in h.events[n:] and getattr(e, "ConditionName", None) == "ESD1")
+            assert getattr(replay, "AckedState/Id") is True
+            fake.set("ESD1", "normal")
+            ev3 = await wait_for(h, lambda e: e.ConditionName == "ESD1" and not getattr(e, "ActiveState/Id"))
+            assert not ev3.Retain
+
+    try:
+        asyncio.run(main())
+    finally:
+        server.stop()
+
+
+def test_the_controller_acknowledges_one_alarm_or_every_alarm(served):
+    """``ack:TAG`` (an OPC UA Acknowledge on one condition) acknowledges that alarm only; ``ack`` every one."""
+    from loadarm.alarms import AlarmState
+    from loadarm.guidance.controller import GuidanceController, OperatorInput
+    from loadarm.guidance.scenario import load_scenario
+    from loadarm.guidance.sensor import FlangeEstimator
+
+    sc, model = load_scenario(SCENARIO)
+    ctrl = GuidanceController(model, sc.guidance)
+    s = ctrl.state
+    for tag in ("ESD1", "PRE_ALARM"):
+        s.alarms[tag], s.last_active[tag] = AlarmState.UNACKED, 0.0
+    s.quiet = False
+    est = FlangeEstimator(noise=sc.sensor.noise, max_age=sc.guidance.max_estimate_age)
+    q = (0.0, 1.0, 2.0)
+    ctrl.step(0.1, q, est.estimate(0.1), OperatorInput(("ack:ESD1",)))
+    assert s.alarms["ESD1"] == AlarmState.ACKED and s.alarms["PRE_ALARM"] == AlarmState.UNACKED
+    ctrl.step(0.2, q, est.estimate(0.2), OperatorInput(("ack",)))
+    assert s.alarms["PRE_ALARM"] == AlarmState.ACKED

@@ -97,7 +97,8 @@ class OperatorInput:
     actions : tuple of str
         Any of ``start``, ``connect``, ``disconnect`` (controlled), ``estop``, ``reset``, ``manual``, ``auto``,
         ``esd`` (manual ESD-1), ``ers`` then ``ers_confirm`` (manual emergency release, confirmed within
-        :data:`ERS_CONFIRM_WINDOW`), ``ack`` (acknowledge every alarm).
+        :data:`ERS_CONFIRM_WINDOW`), ``ack`` (acknowledge every alarm), ``ack:TAG`` (acknowledge one of
+        :data:`ANNUNCIATED`).
     jog : tuple of float
         Joystick: requested coupler velocity in MANUAL mode, m/s (x, y, z).
     """
@@ -667,7 +668,8 @@ class GuidanceController:
 
     def rule_annunciate(self, cyc: "Cycle") -> None:
         """ISA-18.2 states of the annunciated alarms: a condition clears after :data:`ALARM_OFF_DELAY` s clear;
-        ``ack`` acknowledges every alarm; each change of state is logged.
+        ``ack`` acknowledges every alarm, ``ack:TAG`` the one (an OPC UA Acknowledge on its condition); each
+        change of state is logged.
 
         Parameters
         ----------
@@ -676,17 +678,17 @@ class GuidanceController:
         """
         s, now = self.state, cyc.now
         level = s.level if self.attached() else Severity.NORMAL
-        if level == Severity.NORMAL and not s.valve_fault and "ack" not in cyc.acts and s.quiet:
-            return                               # nothing present, nothing to acknowledge, all normal: fast path
+        if level == Severity.NORMAL and not s.valve_fault and s.quiet:
+            return                               # nothing present, nothing to acknowledge (all normal): fast path
         present = {"PRE_ALARM": level >= Severity.PRE_ALARM and self.seq.pre_alarm_lead > 0, "ESD1": level >= Severity.ESD1,
                    "SECOND": level >= Severity.SECOND, "RELEASE": level >= Severity.RELEASE,
                    "ERS_VALVE_FAULT": s.valve_fault}
-        ack = "ack" in cyc.acts
+        ack_all = "ack" in cyc.acts
         for tag in ANNUNCIATED:
             if present[tag]:
                 s.last_active[tag] = now
             active = now - s.last_active[tag] < ALARM_OFF_DELAY
-            new = next_alarm_state(s.alarms[tag], active, ack)
+            new = next_alarm_state(s.alarms[tag], active, ack_all or f"ack:{tag}" in cyc.acts)
             if new != s.alarms[tag]:
                 self._event("alarm_state", f"{tag}: {new.value}", tag=tag, alarm_state=new.value,
                             previous=s.alarms[tag].value)

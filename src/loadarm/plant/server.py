@@ -363,6 +363,9 @@ class OpcUaServer(SecureServer):
         for tag in self._alarm_tags():
             nodes[f"Alarm.{tag}"] = await guidance.add_variable(ua.NodeId(f"Guidance.Alarm.{tag}", ns),
                                                                 ua.QualifiedName(f"Alarm_{tag}", ns), "normal")
+        nodes["conditions"] = await _conditions(server, guidance, ns, self._alarm_tags())
+        server.iserver.isession.add_method_callback(
+            ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge), self._acknowledge(nodes["conditions"]))
         for bname, action, args, what in METHODS:
             inputs = [_argument(a) for a in args]
             await guidance.add_method(ua.NodeId(f"Guidance.{bname}", ns), ua.QualifiedName(bname, ns),
@@ -374,6 +377,32 @@ class OpcUaServer(SecureServer):
         from ..guidance.controller import ANNUNCIATED
 
         return ANNUNCIATED
+
+    def _acknowledge(self, conditions: dict):
+        """The Acknowledge method of the conditions (AcknowledgeableConditionType's, bound for all of them):
+        an operator's request to acknowledge that one alarm (the controller's ISA-18.2 state machine does it;
+        the condition follows at the next snapshot)."""
+        from asyncua import ua
+
+        from .service import Request
+
+        by_node = {c.node.nodeid: tag for tag, c in conditions.items()}
+        service = self.service
+
+        async def acknowledge(parent, *values):
+            user = CURRENT_USER.get()
+            who = getattr(user, "loadarm", None)
+            if who is None or who.role < Role.OPERATOR:
+                return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
+            tag = by_node.get(parent)
+            if tag is None:
+                return ua.StatusCode(ua.StatusCodes.BadNodeIdInvalid)
+            if conditions[tag].state in ("normal", "acknowledged"):
+                return ua.StatusCode(ua.StatusCodes.BadConditionBranchAlreadyAcked)
+            service.request(Request("ack", who.name, tag=tag))
+            return []
+
+        return acknowledge
 
     def _callback(self, action: str, args: tuple):
         from asyncua import ua
@@ -441,6 +470,9 @@ class OpcUaServer(SecureServer):
         for tag, state in snap.alarms.items():
             if f"Alarm.{tag}" in nodes:
                 await nodes[f"Alarm.{tag}"].write_value(state)
+            cond = nodes["conditions"].get(tag)
+            if cond is not None and cond.state != state:
+                await cond.report(state)
 
 
 async def _state_machine(server, parent, ns: int, name: str, states):
@@ -462,6 +494,63 @@ async def _state_machine(server, parent, ns: int, name: str, states):
         await number.write_value(ua.Variant(i + 1, ua.VariantType.UInt32))
         out[st] = node
     return current, out, [None]
+
+
+#: OPC UA severity (1-1000) of each annunciated alarm: the one alarm severity, scaled.
+CONDITION_SEVERITY = {"PRE_ALARM": 300, "ESD1": 600, "SECOND": 800, "RELEASE": 1000, "ERS_VALVE_FAULT": 800}
+#: What each annunciated alarm means, for its condition's message.
+CONDITION_TEXT = {"PRE_ALARM": "pre-alarm: the flange nears the ESD-1 threshold", "ESD1": "ESD-1: pumps stopped, "
+                  "ERS valves closing", "SECOND": "second alarm: release imminent", "RELEASE": "ERS-2: release of the "
+                  "coupler", "ERS_VALVE_FAULT": "ERS valves not confirmed closed in time"}
+
+
+class _Condition:
+    """One annunciated alarm as a Part 9 AlarmConditionType condition: its node and event generator; the
+    controller's ISA-18.2 state (:class:`loadarm.alarms.AlarmState`) reported as ActiveState and AckedState
+    (asyncua has no condition state machine of its own: the controller's is the one)."""
+
+    def __init__(self, tag: str, node, evgen):
+        self.tag, self.node, self.evgen = tag, node, evgen
+        self.state = "normal"
+
+    async def report(self, state: str) -> None:
+        from asyncua import ua
+
+        from ..alarms import AlarmState
+
+        st = AlarmState(state)
+        active = st in (AlarmState.UNACKED, AlarmState.ACKED)
+        acked = st in (AlarmState.ACKED, AlarmState.NORMAL)
+        ev = self.evgen.event
+        ev.NodeId = self.node.nodeid
+        ev.ConditionName = self.tag
+        ev.Severity = CONDITION_SEVERITY.get(self.tag, 500)
+        ev.Message = ua.LocalizedText(f"{CONDITION_TEXT.get(self.tag, self.tag)} ({st.value})")
+        ev.Retain = st != AlarmState.NORMAL
+        setattr(ev, "EnabledState/Id", True)
+        ev.EnabledState = ua.LocalizedText("Enabled")
+        setattr(ev, "ActiveState/Id", active)
+        ev.ActiveState = ua.LocalizedText("Active" if active else "Inactive")
+        setattr(ev, "AckedState/Id", acked)
+        ev.AckedState = ua.LocalizedText("Acknowledged" if acked else "Unacknowledged")
+        self.state = state
+        await self.evgen.trigger()
+
+
+async def _conditions(server, parent, ns: int, tags) -> dict:
+    """A condition object (AlarmConditionType) and its event generator per annunciated alarm, under
+    ``parent/Alarms``; the parent emits their events."""
+    from asyncua import ua
+
+    folder = await parent.add_folder(ua.NodeId(f"{parent.nodeid.Identifier}.Alarms", ns), ua.QualifiedName("Alarms", ns))
+    out = {}
+    for tag in tags:
+        node = await folder.add_object(ua.NodeId(f"{parent.nodeid.Identifier}.Alarms.{tag}", ns),
+                                       ua.QualifiedName(tag, ns), objecttype=ua.NodeId(ua.ObjectIds.AlarmConditionType))
+        evgen = await server.get_event_generator(ua.ObjectIds.AlarmConditionType, parent)
+        evgen.event.SourceNode = parent.nodeid
+        out[tag] = _Condition(tag, node, evgen)
+    return out
 
 
 def _unit_id(code: str) -> int:

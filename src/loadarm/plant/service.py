@@ -45,17 +45,24 @@ class Request:
         Who asked (for the event log).
     jog : tuple of float
         Coupler velocity for ``jog``, m/s.
+    tag : str
+        For ``ack``: the one alarm to acknowledge (``""``: every alarm).
     """
 
     action: str
     user: str
     jog: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tag: str = ""
 
     def __post_init__(self):
         if self.action not in ACTIONS:
             raise ValueError(f"action must be one of {', '.join(ACTIONS)}, got {self.action!r}")
         if len(self.jog) != 3 or not all(math.isfinite(v) for v in self.jog):
             raise ValueError(f"jog must be three finite velocities, got {self.jog!r}")
+        from ..guidance.controller import ANNUNCIATED
+
+        if self.tag and (self.action != "ack" or self.tag not in ANNUNCIATED):
+            raise ValueError(f"tag must be one of {', '.join(ANNUNCIATED)} with action 'ack', got {self.tag!r}")
 
 
 @dataclass(frozen=True)
@@ -199,7 +206,7 @@ class GuidanceService:
                 req = self._requests.get_nowait()
             except queue.Empty:
                 break
-            actions.extend(ACTIONS[req.action])
+            actions.extend((f"ack:{req.tag}",) if req.tag else ACTIONS[req.action])
             if req.action == "jog":
                 self._jog, self._jog_until = req.jog, now + JOG_HOLD
             elif req.action in ("stop", "estop"):
@@ -208,7 +215,10 @@ class GuidanceService:
             data = {"user": req.user, "action": req.action}
             if req.action == "jog":
                 data["jog"] = [float(v) for v in req.jog]
-            self.loop.emit(now, mode, "operator", f"{req.user}: {req.action}", data)
+            if req.tag:
+                data["tag"] = req.tag
+            self.loop.emit(now, mode, "operator", f"{req.user}: {req.action}" + (f" {req.tag}" if req.tag else ""),
+                           data)
         jog = self._jog if now < self._jog_until else (0.0, 0.0, 0.0)
         return OperatorInput(tuple(dict.fromkeys(actions)), jog)
 

@@ -344,6 +344,9 @@ def test_the_docs_list_the_whole_address_space():
     missing = [name for name, *_ in TAGS if f"`{name}`" not in doc]
     assert not missing, f"docs/plant-integration.md lacks the PLC tags {missing}"
     assert f"unchanged for {WATCHDOG:g} s (or never come)" in doc
+    from loadarm.plant.plc import BUFFER
+
+    assert f"the last {BUFFER} readings" in doc
     assert f"PLC's heartbeat unchanged for {LINK_TIMEOUT:g} s" in doc and f"every {RECONNECT:g} s" in doc
 
 

@@ -138,3 +138,48 @@ def test_across_two_processes_a_jog_moves_the_plc_s_arm_and_a_dead_plc_is_caught
             link.stop()
         proc.kill()
         proc.wait(10)
+
+
+@pytest.mark.slow
+def test_hardware_in_the_loop_the_drift_off_across_two_processes_runs_the_same_modes(tmp_path, scenario):
+    """The drift-off scenario with the controller in this process and the plant in ``loadarm plc-sim`` (both
+    at 4x real time, the scenario's operator acting on the controller's side): the same mode sequence as the
+    run in one process (the controller's alarms came from the estimate of the readings that crossed the
+    link, through the PLC's buffer of its last readings). 4x, not faster: at 8x the Python PLC's server did not
+    refresh its tags in time and the estimate went stale (found)."""
+    from loadarm.guidance.run import ClosedLoop, run_scenario
+    from loadarm.plant.plc import PlcLink
+    from loadarm.plant.server import APP_URI
+    from loadarm.plant.service import GuidanceService
+
+    sc, model = scenario
+    want = run_scenario(sc, model).summary()["mode_sequence"]
+    ctrl, plc = StateDir(tmp_path / "ctrl"), StateDir(tmp_path / "plc")
+    ctrl.ensure(APP_URI)
+    plc.ensure(PLC_APP_URI, "127.0.0.1")
+    plc.trust(ctrl.cert)
+    plc.users().add("controller", Role.ENGINEER, "pw-ctrl")
+    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
+    proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "plc-sim", "--scenario", SCENARIO, "--endpoint",
+                             endpoint, "--state-dir", str(plc.path), "--speedup", "4"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    link = None
+    try:
+        assert "simulated PLC on" in proc.stdout.readline()
+        link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.01)
+        link.start()
+        loop = ClosedLoop(sc, model, io=link)
+        service = GuidanceService(loop, speedup=4.0)
+        service.start()
+        assert service.finished.wait(sc.scenario.duration / 4 + 60)
+        assert service.error is None
+        got = loop.result().summary()["mode_sequence"]
+        assert got == want, (got, want)
+        from pathlib import Path
+
+        assert ", ".join(want) in Path("docs/plant-integration.md").read_text().replace("\n", " ")
+    finally:
+        if link is not None:
+            link.stop()
+        proc.kill()
+        proc.wait(10)

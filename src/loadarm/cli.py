@@ -1019,6 +1019,7 @@ def plc_sim(
     state_dir: Annotated[Path, typer.Option("--state-dir", help="The PLC's certificates, trust list and "
                                                                 "users.")] = Path("loadarm-plc-state"),
     insecure: Annotated[bool, typer.Option("--insecure", help="Also offer the unsecured endpoint.")] = False,
+    speedup: Annotated[float, typer.Option("--speedup", help="PLC seconds per wall second (as serve's).")] = 1.0,
 ) -> None:
     """A simulated PLC: the scenario's arm, valve drivers (with a watchdog on the controller's heartbeat), ERS
     valves, flange tracker and hard-wired E-stop in real time, served over OPC UA for `loadarm serve --plc`.
@@ -1034,11 +1035,13 @@ def plc_sim(
     url = urlparse(endpoint)
     if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
         raise UserError(f"--endpoint must be opc.tcp://HOST:PORT, got {endpoint!r}")
+    if not speedup > 0 or not math.isfinite(speedup):
+        raise UserError(f"--speedup must be a positive number, got {speedup!r}")
     sc, model = load_scenario(scenario)
     if config is not None:
         model = _model(config)
         check_scenario(sc, model, source=str(scenario))
-    sim = PlcSimulator(sc, model)
+    sim = PlcSimulator(sc, model, speedup=speedup)
     server = PlcServer(sim, state_dir, endpoint, insecure=insecure)
     server.start()
     try:

@@ -38,6 +38,11 @@ PLC_APP_URI = "urn:loadarm:plc-sim"
 WATCHDOG = 0.5
 #: The PLC's heartbeat unchanged this long marks the link dead on the controller's side, s.
 LINK_TIMEOUT = 0.5
+#: Readings kept in ``FlangeBuffer`` (the link reads them all, however many arrived between two reads, up to
+#: this many).
+BUFFER = 8
+#: The PLC server's shortest tick, s (it refreshes 24 tags: faster only starves the PLC's own cycle).
+MIN_TICK = 0.005
 #: A lost link is tried again this often, s.
 RECONNECT = 0.5
 #: The PLC's tags: name, type, direction ("in": PLC to controller, "out": controller to PLC), unit, what.
@@ -52,6 +57,7 @@ TAGS = (
     ("FlangeZ_m", float, "in", "m", "the flange tracker's latest reading"),
     ("FlangeTime_s", float, "in", "s", "when that reading was measured (PLC clock)"),
     ("FlangeSeq", int, "in", "", "counts the tracker's readings"),
+    ("FlangeBuffer", list, "in", "s, m", f"the last {BUFFER} readings, oldest first: t, x, y, z each"),
     ("ERSValvesClosed", bool, "in", "", "both ERS valves' closed limit switches made"),
     ("EStopActive", bool, "in", "", "the hard-wired emergency stop is active"),
     ("ServoFault", bool, "in", "", "a drive reported a fault"),
@@ -70,7 +76,7 @@ _NS = "urn:loadarm:plc-sim:tags"
 
 
 def _default(kind):
-    return {int: 0, float: 0.0, bool: False, str: "STORED"}[kind]
+    return {int: 0, float: 0.0, bool: False, str: "STORED", list: [0.0] * (4 * BUFFER)}[kind]
 
 
 class PlcSimulator:
@@ -84,6 +90,8 @@ class PlcSimulator:
         Default the scenario's.
     clock, sleep : callable
         Monotonic seconds and a sleep (injected).
+    speedup : float
+        PLC seconds per wall second (the watchdog stays in wall seconds).
 
     Attributes
     ----------
@@ -91,7 +99,11 @@ class PlcSimulator:
         The rates the valve drivers got last cycle (zero under the watchdog or the E-stop), rad/s.
     """
 
-    def __init__(self, sc, model, *, plant: str | None = None, clock=time.monotonic, sleep=time.sleep):
+    def __init__(self, sc, model, *, plant: str | None = None, clock=time.monotonic, sleep=time.sleep,
+                 speedup: float = 1.0):
+        if not speedup > 0:
+            raise ValueError(f"speedup must be > 0, got {speedup!r}")
+        self.speedup = speedup
         from ..guidance.controller import GuidanceController
         from ..guidance.run import SimulatedPlant
 
@@ -138,25 +150,35 @@ class PlcSimulator:
         cmd = Command(mode=mode, rates=rates, connected=bool(out["Connected"]), esd=False,
                       release=bool(out["Release"]), close_ers_valves=bool(out["CloseERSValves"]))
         q, _ = self.plant.step(k, now, self.dt, cmd)
-        new = self.plant.arrived(now)
+        self._publish(k, now, q, self.plant.arrived(now), tripped)
+
+    def _publish(self, k: int, now: float, q, new: list, tripped: bool) -> None:
         inputs = dict(self.inputs)
         if new:
             t_meas, z = new[-1]
+            buf = list(inputs["FlangeBuffer"])
+            for t, (x, y, zz) in new:
+                buf = buf[4:] + [t, x, y, zz]
             inputs.update(FlangeX_m=z[0], FlangeY_m=z[1], FlangeZ_m=z[2], FlangeTime_s=t_meas,
-                          FlangeSeq=inputs["FlangeSeq"] + len(new))
+                          FlangeSeq=inputs["FlangeSeq"] + len(new), FlangeBuffer=buf)
         inputs.update(PlcHeartbeat=k + 1, PlcTime_s=now, Phi_rad=float(q[0]), Alpha_rad=float(q[1]),
                       Beta_rad=float(q[2]), ERSValvesClosed=bool(self.plant.feedback.ers_valves_closed),
                       EStopActive=self.estop, ServoFault=bool(self.plant.servo_fault), WatchdogTripped=tripped)
         self.inputs = inputs
 
     def run(self) -> None:
-        """Every cycle of the scenario on the clock, until the end or :meth:`stop`."""
+        """Every cycle of the scenario on the clock, until the end or :meth:`stop`. The clock starts with the
+        controller's first heartbeat (the scenario's time 0 is the same on both sides of the link); until then
+        the PLC publishes the arm at rest, its watchdog tripped."""
+        while self.outputs["ControllerHeartbeat"] == 0 and not self._stop.is_set():
+            self._publish(0, 0.0, self.plant.q, [], True)
+            self.sleep(self.dt / self.speedup)
         start = self.clock()
         for k in range(self.n):
             if self._stop.is_set():
                 return
             now = k * self.dt
-            delay = start + now - self.clock()
+            delay = start + now / self.speedup - self.clock()
             if delay > 0:
                 self.sleep(delay)
             self.cycle(k, now, self.clock())
@@ -175,7 +197,7 @@ def _variant(kind):
     from asyncua import ua
 
     return {int: ua.VariantType.Int64, float: ua.VariantType.Double, bool: ua.VariantType.Boolean,
-            str: ua.VariantType.String}[kind]
+            str: ua.VariantType.String, list: ua.VariantType.Double}[kind]
 
 
 class PlcServer(SecureServer):
@@ -192,7 +214,7 @@ class PlcServer(SecureServer):
 
     def __init__(self, sim: PlcSimulator, state_dir, endpoint: str, *, insecure: bool = False):
         super().__init__(state_dir, endpoint, PLC_APP_URI, "loadarm simulated PLC", insecure=insecure,
-                         period=sim.dt / 2)
+                         period=max(sim.dt / (2 * sim.speedup), MIN_TICK))
         self.sim = sim
 
     async def _build(self, server) -> dict:
@@ -344,18 +366,21 @@ class PlcLink:
         return PlantFeedback(ers_valves_closed=bool(i and self.link_ok and i["ERSValvesClosed"]))
 
     def arrived(self, now: float):
-        """The tracker's new reading since the last call (its time moved onto the controller's clock)."""
+        """The tracker's new readings since the last call, from the PLC's buffer (their times moved onto the
+        controller's clock); more than :data:`BUFFER` between two reads: the older ones are lost."""
         i = self._inputs
         if i is None or not self.link_ok:
             return []
         if self._offset is None:
             self._offset = float(i["PlcTime_s"]) - now
         self.servo_fault = bool(i["ServoFault"])
-        if i["FlangeSeq"] == self._seq:
+        fresh = min(int(i["FlangeSeq"]) - self._seq, BUFFER)
+        if fresh <= 0:
             return []
-        self._seq = i["FlangeSeq"]
-        return [(float(i["FlangeTime_s"]) - self._offset, (float(i["FlangeX_m"]), float(i["FlangeY_m"]),
-                                                            float(i["FlangeZ_m"])))]
+        self._seq = int(i["FlangeSeq"])
+        buf = i["FlangeBuffer"]
+        return [(float(buf[j]) - self._offset, (float(buf[j + 1]), float(buf[j + 2]), float(buf[j + 3])))
+                for j in range(4 * (BUFFER - fresh), 4 * BUFFER, 4)]
 
     def step(self, k: int, now: float, dt: float, cmd):
         """Write the cycle's command and heartbeat (the link's thread sends it); returns the encoders and no

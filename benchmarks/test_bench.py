@@ -417,3 +417,27 @@ def test_operability_scaling_one_to_two_workers(results, tmp_path):
     results["operability month, two workers [s]"] = t2
     results["operability speed-up, two workers / one"] = t1 / t2
     assert t1 / t2 >= 1.2, f"two workers only {t1 / t2:.2f}x one"
+
+
+def test_opc_ua_round_trip_notifications_and_the_cycle_under_load(results, tmp_path):
+    """The plant interface (issue 14): a method call's round trip on a secure session against a plain read's
+    on the same session (the protocol's own), data-change notifications delivered per second and per CPU
+    second of the serving process, and the guidance cycle's p99 with 20 clients subscribed to every variable
+    at 10 Hz against its p99 without them (reported; no cycle may start late)."""
+    from loadarm.plant.loadtest import measure_load
+
+    r = measure_load(tmp_path, ROOT / "examples" / "scenarios" / "driftoff.toml", seconds=10.0, clients=20,
+                     calls=300)
+    call, read = np.array(r["call_ms"]), np.array(r["read_ms"])
+    results["OPC UA method call round trip, median [ms]"] = float(np.median(call))
+    results["OPC UA method call round trip p99 [ms]"] = float(np.percentile(call, 99))
+    results["OPC UA read round trip, median [ms]"] = float(np.median(read))
+    results["ratio method call / read round trip, median"] = float(np.median(call) / np.median(read))
+    rate = r["notifications"] / r["seconds"]
+    results["notifications per second, 20 clients"] = rate
+    results["notifications per CPU second of the serving process"] = r["notifications"] / r["server_cpu_s"]
+    before, during = np.percentile(r["cycle_us_before"], 99), np.percentile(r["cycle_us_during"], 99)
+    results["guidance cycle p99 without clients [us]"] = float(before)
+    results["guidance cycle p99 with 20 clients [us]"] = float(during)
+    results["ratio guidance cycle p99 with / without 20 clients"] = float(during / before)
+    assert r["late"] == 0, f"{r['late']} guidance cycles started late under the load"

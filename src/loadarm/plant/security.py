@@ -34,7 +34,8 @@ from pathlib import Path
 
 from ..errors import ConfigError
 
-__all__ = ["Role", "User", "Users", "StateDir", "hash_password", "verify_password", "SCRYPT"]
+__all__ = ["Role", "User", "Users", "StateDir", "hash_password", "verify_password", "SCRYPT", "client_certificate",
+           "thumbprint"]
 
 #: scrypt cost (n, r, p) and salt length, bytes.
 SCRYPT = (2 ** 14, 8, 1)
@@ -218,6 +219,39 @@ def _load_certificate(path: Path):
             else x509.load_der_x509_certificate(data)
     except ValueError as exc:
         raise ConfigError(f"{path}: not an X.509 certificate in DER or PEM ({exc})") from None
+
+
+def client_certificate(folder: str | Path, name: str, app_uri: str) -> tuple[Path, Path]:
+    """Make a self-signed OPC UA client certificate and key (``NAME.der``, ``NAME.pem`` mode 0600) in
+    ``folder``: for a test client, or a script that talks to ``loadarm serve``.
+
+    Parameters
+    ----------
+    folder : path
+    name : str
+        Common name and file stem.
+    app_uri : str
+        The client's application URI (it must match its ``application_uri``).
+
+    Returns
+    -------
+    cert, key : Path
+    """
+    from cryptography import x509
+    from cryptography.hazmat.primitives import serialization
+    from cryptography.x509.oid import ExtendedKeyUsageOID
+    from asyncua.crypto import cert_gen
+
+    from ..files import atomic_write
+
+    key = cert_gen.generate_private_key()
+    cert = cert_gen.generate_self_signed_app_certificate(
+        key, name, {}, [x509.UniformResourceIdentifier(app_uri), x509.DNSName("localhost")],
+        extended=[ExtendedKeyUsageOID.CLIENT_AUTH])
+    folder = Path(folder)
+    c = atomic_write(folder / f"{name}.der", cert.public_bytes(serialization.Encoding.DER))
+    k = atomic_write(folder / f"{name}.pem", cert_gen.dump_private_key_as_pem(key), private=True)
+    return c, k
 
 
 def thumbprint(cert) -> str:

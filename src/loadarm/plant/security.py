@@ -28,7 +28,6 @@ import os
 import re
 import secrets
 import stat
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -143,13 +142,10 @@ class Users:
             self._load()
 
     def _load(self) -> None:
-        from ..files import read_input
+        from ..config import read_toml
 
         src = str(self.path)
-        try:
-            data = tomllib.loads(read_input(self.path, "users file"))
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"{src}: not valid TOML: {exc}") from None
+        data = read_toml(self.path, "users file")
         users = data.get("users", {})
         if not isinstance(users, dict) or set(data) - {"users"}:
             raise ConfigError(f"{src}: expected only [users.NAME] tables")

@@ -183,3 +183,37 @@ def test_hardware_in_the_loop_the_drift_off_across_two_processes_runs_the_same_m
             link.stop()
         proc.kill()
         proc.wait(10)
+
+
+def _map_text(tags):
+    return "[tags]\n" + "".join(f'{k} = "{v[0]}"\n' if v[1] == 1.0 else f'{k} = {{ node = "{v[0]}", scale = {v[1]} }}\n'
+                                for k, v in tags.items())
+
+
+def test_a_mapping_file_round_trips_and_scales(tmp_path):
+    from loadarm.plant.plc import default_tag_map, load_tag_map
+
+    m = default_tag_map().nodes
+    m["Alpha_rad"] = ("ns=3;s=MLA.Inboard.Angle", 0.0174533)
+    f = tmp_path / "map.toml"
+    f.write_text(_map_text(m))
+    assert load_tag_map(f).nodes == m
+
+
+@pytest.mark.parametrize("edit, match", [
+    (lambda m: m.pop("Beta_rad"), "tags.Beta_rad is not mapped"),
+    (lambda m: m.update(Gamma=("ns=1;s=x", 1.0)), "unknown tag 'tags.Gamma'"),
+    (lambda m: m.update(Phi_rad=("MLA.Slew", 1.0)), "tags.Phi_rad = 'MLA.Slew': a node id like"),
+    (lambda m: m.update(Phi_rad=("ns=1;s=x", 0.0)), "tags.Phi_rad.scale = 0.0: a finite, non-zero number"),
+    (lambda m: m.update(Connected=("ns=1;s=x", 2.0)), "only numeric tags scale, Connected is bool")])
+def test_a_bad_mapping_file_is_refused_naming_the_file_and_tag(tmp_path, edit, match):
+    from loadarm.errors import ConfigError
+    from loadarm.plant.plc import default_tag_map, load_tag_map
+
+    m = default_tag_map().nodes
+    edit(m)
+    f = tmp_path / "map.toml"
+    f.write_text(_map_text(m))
+    with pytest.raises(ConfigError, match=match) as e:
+        load_tag_map(f)
+    assert str(e.value).startswith(str(f)) and "\n" not in str(e.value)

@@ -942,6 +942,8 @@ def serve(
     plc_user: Annotated[str, typer.Option("--plc-user", help="The PLC's user for the controller.")] = "controller",
     plc_password_file: Annotated[Optional[Path], typer.Option(
         "--plc-password-file", help="File whose first line is that user's password.")] = None,
+    plc_map: Annotated[Optional[Path], typer.Option("--plc-map", help="Where each tag is on the PLC (TOML; "
+                                                                      "default loadarm plc-sim's nodes).")] = None,
     force: ForceOpt = False,
 ) -> None:
     """Run the guidance controller in real time against a scenario's simulated plant (or a PLC) and serve it over
@@ -979,10 +981,13 @@ def serve(
     link = None
     if plc is not None:
         from .files import read_input
-        from .plant.plc import PlcLink
+        from .plant.plc import PlcLink, load_tag_map
 
-        password = read_input(plc_password_file, "password file").splitlines()[0] if plc_password_file else ""
-        link = PlcLink(plc, state_dir, plc_user, password, plc_cert)
+        tags = load_tag_map(plc_map) if plc_map is not None else None
+        lines = read_input(plc_password_file, "password file").splitlines()
+        if not lines or not lines[0]:
+            raise UserError(f"--plc-password-file {plc_password_file}: its first line is empty")
+        link = PlcLink(plc, state_dir, plc_user, lines[0], plc_cert, tags=tags)
         link.start()
     log = EventLog(db, run=run_id)
     try:

@@ -30,7 +30,8 @@ import numpy as np
 
 from .server import SecureServer
 
-__all__ = ["TAGS", "WATCHDOG", "LINK_TIMEOUT", "PLC_APP_URI", "PlcSimulator", "PlcServer", "PlcLink"]
+__all__ = ["TAGS", "WATCHDOG", "LINK_TIMEOUT", "PLC_APP_URI", "PlcSimulator", "PlcServer", "PlcLink", "TagMap",
+           "load_tag_map", "default_tag_map"]
 
 #: The PLC's application URI.
 PLC_APP_URI = "urn:loadarm:plc-sim"
@@ -242,11 +243,97 @@ class PlcServer(SecureServer):
             await v.write_value(ua.Variant(kind(value), _variant(kind)))
 
 
-@dataclass
-class _Reading:
-    seq: int
-    t: float
-    xyz: tuple
+@dataclass(frozen=True)
+class TagMap:
+    """Where each of :data:`TAGS` is on a PLC: a node id (``nsu=URI;s=...`` or ``ns=N;i=...``) and a scale
+    (the PLC's value times ``scale`` is the tag's, in its unit: 0.0174533 for a PLC that gives degrees).
+
+    Attributes
+    ----------
+    nodes : dict of str to (str, float)
+    """
+
+    nodes: dict
+
+    async def resolve(self, client) -> dict:
+        """The asyncua nodes, the namespace URIs resolved on this server."""
+        from asyncua import ua
+
+        out = {}
+        for name, (text, _) in self.nodes.items():
+            if text.startswith("nsu="):
+                uri, _, rest = text[4:].partition(";")
+                text = f"ns={await client.get_namespace_index(uri)};{rest}"
+            out[name] = client.get_node(ua.NodeId.from_string(text))
+        return out
+
+
+def default_tag_map() -> TagMap:
+    """The tags where ``loadarm plc-sim`` serves them."""
+    return TagMap({name: (f"nsu={_NS};s=PLC.{name}", 1.0) for name, *_ in TAGS})
+
+
+def load_tag_map(path) -> TagMap:
+    """Read a mapping file (``--plc-map``)::
+
+        [tags]
+        Phi_rad = "nsu=urn:vendor:plc;s=MLA.Slew.Position"
+        Alpha_rad = { node = "ns=3;s=MLA.Inboard.Angle", scale = 0.0174533 }   # the PLC gives degrees
+        ...
+
+    Every tag of :data:`TAGS` must be mapped; unknown keys are refused.
+
+    Raises
+    ------
+    ConfigError
+        Naming the file, the key and what was wrong.
+    """
+    import re
+
+    from ..config import read_toml
+    from ..errors import ConfigError
+
+    data = read_toml(path, "PLC mapping")
+    src = str(path)
+    if set(data) != {"tags"} or not isinstance(data["tags"], dict):
+        raise ConfigError(f"{src}: expected one [tags] table, got {', '.join(map(repr, data)) or 'nothing'}")
+    names = [t[0] for t in TAGS]
+    tags = data["tags"]
+    unknown = sorted(set(tags) - set(names))
+    if unknown:
+        raise ConfigError(f"{src}: unknown tag 'tags.{unknown[0]}'; the tags are {', '.join(names)}")
+    missing = [n for n in names if n not in tags]
+    if missing:
+        raise ConfigError(f"{src}: tags.{missing[0]} is not mapped (every tag must be: {', '.join(missing)})")
+    nodes = {}
+    for name in names:
+        v = tags[name]
+        node, scale = (v, 1.0) if isinstance(v, str) else (v.get("node"), v.get("scale", 1.0)) \
+            if isinstance(v, dict) and set(v) <= {"node", "scale"} else (None, None)
+        if not isinstance(node, str) or not re.match(r"^(nsu=[^;]+|ns=\d+);[isgb]=.+$", node):
+            raise ConfigError(f"{src}: tags.{name} = {v!r}: a node id like \"nsu=URI;s=NAME\" or \"ns=3;i=1001\", "
+                              "or {{ node = ..., scale = ... }}")
+        if isinstance(scale, bool) or not isinstance(scale, (int, float)) or not (math.isfinite(scale) and scale != 0):
+            raise ConfigError(f"{src}: tags.{name}.scale = {scale!r}: a finite, non-zero number")
+        kind = next(t[1] for t in TAGS if t[0] == name)
+        if scale != 1.0 and kind is not float:
+            raise ConfigError(f"{src}: tags.{name}.scale: only numeric tags scale, {name} is {kind.__name__}")
+        nodes[name] = (node, float(scale))
+    return TagMap(nodes)
+
+
+def _cast(value, vt):
+    """A value in the Python type of an OPC UA variant type (a PLC's Float, Int16 or Byte for our Double or
+    Int64)."""
+    from asyncua import ua
+
+    if vt in (ua.VariantType.Float, ua.VariantType.Double):
+        return float(value)
+    if vt == ua.VariantType.Boolean:
+        return bool(value)
+    if vt == ua.VariantType.String:
+        return str(value)
+    return int(value)
 
 
 class PlcLink:
@@ -265,16 +352,19 @@ class PlcLink:
         The PLC's certificate (trusted by the operator beforehand).
     period : float
         How often the inputs are read, s.
+    tags : TagMap, optional
+        Where the tags are on the PLC (default ``loadarm plc-sim``'s).
     clock : callable
     """
 
     def __init__(self, endpoint: str, state_dir, user: str, password: str, server_certificate, *,
-                 period: float = 0.05, clock=time.monotonic):
+                 period: float = 0.05, tags: TagMap | None = None, clock=time.monotonic):
         from .security import StateDir
 
         self.endpoint, self.state = endpoint, StateDir(state_dir)
         self.user, self.password, self.server_certificate = user, password, server_certificate
         self.period, self.clock = period, clock
+        self.tags = tags or default_tag_map()
         self._inputs: dict | None = None
         self._beat, self._beat_at = None, -math.inf
         self._outputs: dict = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "out"}
@@ -328,21 +418,24 @@ class PlcLink:
         await client.set_security(SecurityPolicyBasic256Sha256, str(self.state.cert), str(self.state.key),
                                   server_certificate=str(self.server_certificate))
         async with client:
-            ns = await client.get_namespace_index(_NS)
-            node = {name: client.get_node(ua.NodeId(f"PLC.{name}", ns)) for name, *_ in TAGS}
+            node = await self.tags.resolve(client)
+            scale = {name: s for name, (_, s) in self.tags.nodes.items()}
             ins = [name for name, _, d, _, _ in TAGS if d == "in"]
             outs = [(name, kind) for name, kind, d, _, _ in TAGS if d == "out"]
+            types = {n: await node[n].read_data_type_as_variant_type() for n, _ in outs}   # the PLC's own types
             while not self._stop.is_set():
                 values = await client.read_values([node[n] for n in ins])
                 now = self.clock()
-                got = dict(zip(ins, values))
+                got = {n: v * scale[n] if scale[n] != 1.0 else v for n, v in zip(ins, values)}
                 if got["PlcHeartbeat"] != self._beat:
                     self._beat, self._beat_at = got["PlcHeartbeat"], now
                 self._inputs = got
                 self.connected.set()
                 out = self._outputs
                 await client.write_values([node[n] for n, _ in outs],
-                                          [ua.Variant(kind(out[n]), _variant(kind)) for n, kind in outs])
+                                          [ua.Variant(_cast(kind(out[n]) / scale[n] if scale[n] != 1.0
+                                                            else kind(out[n]), types[n]), types[n])
+                                           for n, kind in outs])
                 await asyncio.sleep(self.period)
 
     # --------------------------------------------------------------- the plant's members (the control thread)

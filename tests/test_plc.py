@@ -87,29 +87,41 @@ def _free_port() -> int:
     return port
 
 
-def test_across_two_processes_a_jog_moves_the_plc_s_arm_and_a_dead_plc_is_caught(tmp_path, scenario):
-    """``loadarm plc-sim`` in its own process, the controller's link trusted by it (and it by the link); an
-    operator's jog moves the PLC's arm through the link; the PLC killed: the controller marks the link dead
-    within LINK_TIMEOUT plus a read period, raises the alarm, and publishes its values as bad."""
-    from loadarm.guidance.run import ClosedLoop
-    from loadarm.plant.plc import PlcLink
+def _plc_pair(tmp_path):
+    """The controller's and the PLC's state directories, each trusting the other, the PLC's user for the
+    controller, and an ephemeral endpoint."""
     from loadarm.plant.server import APP_URI
-    from loadarm.plant.service import GuidanceService, Request
 
-    sc, model = scenario
     ctrl, plc = StateDir(tmp_path / "ctrl"), StateDir(tmp_path / "plc")
     ctrl.ensure(APP_URI)
     plc.ensure(PLC_APP_URI, "127.0.0.1")
     plc.trust(ctrl.cert)
     plc.users().add("controller", Role.ENGINEER, "pw-ctrl")
-    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
+    return ctrl, plc, f"opc.tcp://127.0.0.1:{_free_port()}"
+
+
+def _plc_process(plc, endpoint, *extra):
     proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "plc-sim", "--scenario", SCENARIO, "--endpoint",
-                             endpoint, "--state-dir", str(plc.path)], stdout=subprocess.PIPE,
+                             endpoint, "--state-dir", str(plc.path), *extra], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
+    line = proc.stdout.readline()
+    assert "simulated PLC on" in line, line + proc.stderr.read()
+    return proc
+
+
+@pytest.mark.slow
+def test_across_two_processes_a_jog_moves_the_plc_s_arm(tmp_path, scenario):
+    """``loadarm plc-sim`` in its own process, the controller's link trusted by it (and it by the link): an
+    operator's jog moves the PLC's arm through the link."""
+    from loadarm.guidance.run import ClosedLoop
+    from loadarm.plant.plc import PlcLink
+    from loadarm.plant.service import GuidanceService, Request
+
+    sc, model = scenario
+    ctrl, plc, endpoint = _plc_pair(tmp_path)
+    proc = _plc_process(plc, endpoint)
     link = service = None
     try:
-        line = proc.stdout.readline()
-        assert "simulated PLC on" in line, line + proc.stderr.read()
         link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.02)
         link.start()
         q0 = link.q.copy()
@@ -118,19 +130,54 @@ def test_across_two_processes_a_jog_moves_the_plc_s_arm_and_a_dead_plc_is_caught
         for _ in range(8):
             service.request(Request("jog", "alice", (0.0, 0.0, 0.2)))
             time.sleep(0.2)
-        q1 = link.q.copy()
-        assert np.max(np.abs(q1 - q0)) > 1e-3 and link.link_ok
-        assert service.snapshot().plant_ok
+        assert np.max(np.abs(link.q - q0)) > 1e-3 and link.link_ok and service.snapshot().plant_ok
+    finally:
+        if service is not None:
+            service.stop()
+        if link is not None:
+            link.stop()
+        proc.kill()
+        proc.wait(10)
+
+
+def test_the_plc_killed_mid_approach_is_caught_and_nothing_moves_after(tmp_path, scenario):
+    """The PLC process killed while the scenario's operator has the arm on its approach: the controller marks
+    the link dead within LINK_TIMEOUT plus a read period, raises the alarm, publishes its values as bad, stops
+    commanding motion within a cycle (manual mode, zero rates) and keeps it stopped."""
+    from loadarm.guidance.run import ClosedLoop
+    from loadarm.plant.plc import PlcLink
+    from loadarm.plant.service import GuidanceService
+
+    sc, model = scenario
+    ctrl, plc, endpoint = _plc_pair(tmp_path)
+    proc = _plc_process(plc, endpoint)
+    link = service = None
+    try:
+        link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.02)
+        link.start()
+        loop = ClosedLoop(sc, model, io=link)
+        service = GuidanceService(loop)
+        service.start()
+        t0 = time.monotonic()
+        while service.snapshot() is None or service.snapshot().mode != "APPROACH":
+            assert time.monotonic() - t0 < 10, "the approach did not start"
+            time.sleep(0.05)
+        time.sleep(1.0)
+        assert any(abs(r) > 1e-4 for r in link._outputs_rates())
         proc.kill()
         killed = time.monotonic()
         while service.snapshot().plant_ok and time.monotonic() - killed < 5.0:
-            time.sleep(0.01)
+            time.sleep(0.005)
         reaction = time.monotonic() - killed
         print(f"PLC killed: link marked dead after {reaction:.3f} s")
         assert not service.snapshot().plant_ok and reaction <= LINK_TIMEOUT + 0.2, reaction
-        assert any(e[2] == "alarm" and "PLC link lost" in e[3] for e in service.loop.events)
-        time.sleep(0.3)
-        assert np.array_equal(link.q, q_dead := link.q) and not link.link_ok and q_dead is not None
+        assert any(e[2] == "alarm" and "PLC link lost" in e[3] for e in loop.events)
+        time.sleep(2 * loop.dt + 0.05)
+        seq = service.snapshot().seq
+        for _ in range(10):                       # nothing commanded from then on
+            assert link._outputs_rates() == (0.0, 0.0, 0.0) and service.snapshot().mode == "MANUAL"
+            time.sleep(0.05)
+        assert service.snapshot().seq > seq
     finally:
         if service is not None:
             service.stop()
@@ -149,23 +196,14 @@ def test_hardware_in_the_loop_the_drift_off_across_two_processes_runs_the_same_m
     refresh its tags in time and the estimate went stale (found)."""
     from loadarm.guidance.run import ClosedLoop, run_scenario
     from loadarm.plant.plc import PlcLink
-    from loadarm.plant.server import APP_URI
     from loadarm.plant.service import GuidanceService
 
     sc, model = scenario
     want = run_scenario(sc, model).summary()["mode_sequence"]
-    ctrl, plc = StateDir(tmp_path / "ctrl"), StateDir(tmp_path / "plc")
-    ctrl.ensure(APP_URI)
-    plc.ensure(PLC_APP_URI, "127.0.0.1")
-    plc.trust(ctrl.cert)
-    plc.users().add("controller", Role.ENGINEER, "pw-ctrl")
-    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
-    proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "plc-sim", "--scenario", SCENARIO, "--endpoint",
-                             endpoint, "--state-dir", str(plc.path), "--speedup", "4"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+    ctrl, plc, endpoint = _plc_pair(tmp_path)
+    proc = _plc_process(plc, endpoint, "--speedup", "4")
     link = None
     try:
-        assert "simulated PLC on" in proc.stdout.readline()
         link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.01)
         link.start()
         loop = ClosedLoop(sc, model, io=link)
@@ -217,3 +255,50 @@ def test_a_bad_mapping_file_is_refused_naming_the_file_and_tag(tmp_path, edit, m
     with pytest.raises(ConfigError, match=match) as e:
         load_tag_map(f)
     assert str(e.value).startswith(str(f)) and "\n" not in str(e.value)
+
+
+@pytest.mark.slow
+def test_a_lost_link_reconnects_and_resynchronises_without_a_jump(tmp_path, scenario):
+    """The PLC's OPC UA server stopped (its plant running on) and started again on the same endpoint: the link
+    goes bad, comes back by itself, the controller logs it restored, and its encoders read on from where the
+    arm stands (the watchdog held it: no jump)."""
+    from loadarm.guidance.run import ClosedLoop
+    from loadarm.plant.plc import PlcLink, PlcServer
+    from loadarm.plant.service import GuidanceService
+
+    sc, model = scenario
+    ctrl, plc, endpoint = _plc_pair(tmp_path)
+    sim = PlcSimulator(sc, model, plant="kinematic")
+    server = PlcServer(sim, plc.path, endpoint)
+    server.start()
+    sim.start()
+    link = service = None
+    try:
+        link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.02)
+        link.start()
+        loop = ClosedLoop(sc, model, scripted=False, io=link)
+        service = GuidanceService(loop)
+        service.start()
+        time.sleep(0.5)
+        server.stop()
+        t0 = time.monotonic()
+        while link.link_ok and time.monotonic() - t0 < 5:
+            time.sleep(0.01)
+        assert not link.link_ok
+        q_dead = link.q.copy()
+        server = PlcServer(sim, plc.path, endpoint)
+        server.start()
+        t0 = time.monotonic()
+        while not service.snapshot().plant_ok and time.monotonic() - t0 < 10:
+            time.sleep(0.01)
+        assert service.snapshot().plant_ok and link.link_ok
+        assert np.max(np.abs(link.q - q_dead)) < 1e-9
+        kinds = [(e[2], e[3]) for e in loop.events]
+        assert ("info", "PLC link restored") in kinds
+    finally:
+        if service is not None:
+            service.stop()
+        if link is not None:
+            link.stop()
+        sim.stop()
+        server.stop()

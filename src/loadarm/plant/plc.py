@@ -486,6 +486,11 @@ class PlcLink:
                          "EStopRequest": cmd.mode.value == "ESTOP"}
         return self.q, np.full(3, np.nan)
 
+    def _outputs_rates(self) -> tuple[float, float, float]:
+        """The rates last written for the PLC (tests)."""
+        o = self._outputs
+        return (o["RatePhi_rads"], o["RateAlpha_rads"], o["RateBeta_rads"])
+
     def first_limit(self, model, sig):
         """Unknown over a link (the true flange is the PLC's)."""
         return None, ""

@@ -223,8 +223,8 @@ class GuidanceService:
         return OperatorInput(tuple(dict.fromkeys(actions)), jog)
 
     def _link_changed(self, now: float, ok: bool, live: OperatorInput) -> OperatorInput:
-        """The PLC link died (an alarm; ESD-1 if the coupler is on the flange: the PLC's watchdog has already
-        stopped the drives) or came back (its values are good again; the controller reads the arm where it is,
+        """The PLC link died (an alarm; ESD-1 if the coupler is on the flange, else the motion stopped: manual
+        mode, no jog; the PLC's watchdog stops the drives on its side) or came back (its values are good again; the controller reads the arm where it is,
         so nothing jumps)."""
         from ..guidance.controller import CONNECTED_MODES
 
@@ -235,8 +235,10 @@ class GuidanceService:
             return live
         attached = mode in CONNECTED_MODES
         self.loop.emit(now, mode.value, "alarm", "PLC link lost: its values are bad"
-                       + ("; ESD-1 initiated" if attached else "; the PLC's watchdog stops the drives"), {})
-        return OperatorInput(live.actions + (("esd",) if attached else ()), (0.0, 0.0, 0.0))
+                       + ("; ESD-1 initiated" if attached else "; motion stopped (the PLC's watchdog stops the "
+                                                               "drives)"), {})
+        self._jog, self._jog_until = (0.0, 0.0, 0.0), -math.inf
+        return OperatorInput(live.actions + (("esd",) if attached else ("manual",)), (0.0, 0.0, 0.0))
 
     def _publish(self, k: int, now: float, cmd) -> None:
         loop = self.loop

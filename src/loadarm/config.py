@@ -15,7 +15,6 @@ from __future__ import annotations
 import difflib
 import functools
 import math
-import tomllib
 import types
 import typing
 from pathlib import Path
@@ -24,7 +23,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
 
 from .errors import ConfigError
-from .files import check_depth, read_input
+from .files import check_depth, read_input, read_toml  # noqa: F401 (read_toml: config.read_toml)
 
 __all__ = [
     "Datasheet",
@@ -794,39 +793,6 @@ def parse_config(data: dict[str, Any], *, source: str = "<config>") -> Installat
         return Installation.model_validate(toml_values(data))
     except ValidationError as err:
         raise ConfigError(_format_validation_error(err, source)) from None
-
-
-def read_toml(path: str | Path, what: str = "config") -> dict[str, Any]:
-    """Read a TOML file into a mapping, with one-line errors.
-
-    Parameters
-    ----------
-    path : str or Path
-        The file.
-    what : str, optional
-        What the file is, for messages ("config", "scenario").
-
-    Returns
-    -------
-    dict
-        The parsed TOML.
-
-    Raises
-    ------
-    ConfigError
-        If the file is missing, not a regular file, larger than :data:`loadarm.files.MAX_INPUT_BYTES`,
-        unreadable, not valid TOML, or nested deeper than :data:`loadarm.files.MAX_DEPTH`.
-    """
-    p = Path(path)
-    text = read_input(p, what)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
-    except RecursionError:
-        raise ConfigError(f"{p}: not valid TOML: values nested too deeply") from None
-    check_depth(data, str(p))
-    return data
 
 
 def load_config(path: str | Path) -> Installation:

@@ -18,6 +18,7 @@ import contextlib
 import os
 import stat
 import tempfile
+import tomllib
 from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
@@ -25,7 +26,7 @@ from typing import IO, Any
 from .errors import ConfigError, OutputError
 
 __all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "read_input", "check_depth", "atomic_path",
-           "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs"]
+           "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs", "read_toml"]
 
 #: Largest input file read, bytes. An installation or scenario file is a few kilobytes.
 MAX_INPUT_BYTES = 1 << 20
@@ -89,6 +90,39 @@ def read_input(path: str | Path, what: str = "config", *, limit: int = MAX_INPUT
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{p}: {what} file is not UTF-8 text (byte {exc.start})") from None
+
+
+def read_toml(path: str | Path, what: str = "config") -> dict[str, Any]:
+    """Read a TOML file into a mapping, with one-line errors.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str, optional
+        What the file is, for messages ("config", "scenario").
+
+    Returns
+    -------
+    dict
+        The parsed TOML.
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing, not a regular file, larger than :data:`loadarm.files.MAX_INPUT_BYTES`,
+        unreadable, not valid TOML, or nested deeper than :data:`loadarm.files.MAX_DEPTH`.
+    """
+    p = Path(path)
+    text = read_input(p, what)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{p}: not valid TOML: values nested too deeply") from None
+    check_depth(data, str(p))
+    return data
 
 
 def check_depth(obj: Any, source: str, limit: int = MAX_DEPTH) -> None:

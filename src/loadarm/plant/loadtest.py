@@ -39,6 +39,22 @@ async def subscribe_all(endpoint: str, user: str, password: str, cert: str, key:
                         app_uri: str, *, clients: int = 20, seconds: float = 10.0, interval_ms: float = 100.0) -> dict:
     """``clients`` sessions, each subscribed to every guidance variable at ``interval_ms``, for ``seconds``.
 
+    Parameters
+    ----------
+    endpoint : str
+    user, password : str
+        A viewer suffices.
+    cert, key : str
+        The client's certificate and key (trusted by the server).
+    server_cert : str
+        The server's certificate.
+    app_uri : str
+        The client's application URI (its certificate's).
+    clients : int
+    seconds : float
+    interval_ms : float
+        Publishing interval.
+
     Returns
     -------
     dict
@@ -79,6 +95,12 @@ async def call_round_trips(endpoint: str, user: str, password: str, cert: str, k
                            app_uri: str, *, calls: int = 200) -> dict:
     """Method calls (``AcknowledgeAlarm``) and plain reads of one variable, timed one after the other on one
     secure session: the read is the protocol's own round trip, the peer of the call.
+
+    Parameters
+    ----------
+    endpoint, user, password, cert, key, server_cert, app_uri : str
+        As :func:`subscribe_all` (an operator: it calls).
+    calls : int
 
     Returns
     -------
@@ -183,7 +205,17 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m loadarm.plant.loadtest ENDPOINT USER PASSWORD CERT KEY SERVER_CERT APP_URI [--clients N]
-    [--seconds S]``: print :func:`subscribe_all`'s result as JSON."""
+    [--seconds S]``: print :func:`subscribe_all`'s result as JSON.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+
+    Returns
+    -------
+    int
+        Exit status.
+    """
     p = argparse.ArgumentParser(prog="python -m loadarm.plant.loadtest")
     for name in ("endpoint", "user", "password", "cert", "key", "server_cert", "app_uri"):
         p.add_argument(name)

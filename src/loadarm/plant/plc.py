@@ -269,7 +269,12 @@ class TagMap:
 
 
 def default_tag_map() -> TagMap:
-    """The tags where ``loadarm plc-sim`` serves them."""
+    """The tags where ``loadarm plc-sim`` serves them.
+
+    Returns
+    -------
+    TagMap
+    """
     return TagMap({name: (f"nsu={_NS};s=PLC.{name}", 1.0) for name, *_ in TAGS})
 
 
@@ -283,6 +288,14 @@ def load_tag_map(path) -> TagMap:
 
     Every tag of :data:`TAGS` must be mapped; unknown keys are refused.
 
+    Parameters
+    ----------
+    path : path
+
+    Returns
+    -------
+    TagMap
+
     Raises
     ------
     ConfigError
@@ -290,7 +303,7 @@ def load_tag_map(path) -> TagMap:
     """
     import re
 
-    from ..config import read_toml
+    from ..files import read_toml
     from ..errors import ConfigError
 
     data = read_toml(path, "PLC mapping")

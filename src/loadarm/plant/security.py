@@ -142,7 +142,7 @@ class Users:
             self._load()
 
     def _load(self) -> None:
-        from ..config import read_toml
+        from ..files import read_toml
 
         src = str(self.path)
         data = read_toml(self.path, "users file")
@@ -251,7 +251,16 @@ def client_certificate(folder: str | Path, name: str, app_uri: str) -> tuple[Pat
 
 
 def thumbprint(cert) -> str:
-    """SHA-1 thumbprint of a certificate, hex (OPC UA's certificate identifier)."""
+    """SHA-1 thumbprint of a certificate, hex (OPC UA's certificate identifier).
+
+    Parameters
+    ----------
+    cert : cryptography.x509.Certificate
+
+    Returns
+    -------
+    str
+    """
     from cryptography.hazmat.primitives import serialization
 
     return hashlib.sha1(cert.public_bytes(serialization.Encoding.DER)).hexdigest()

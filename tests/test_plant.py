@@ -109,7 +109,8 @@ def _free_port() -> int:
 
 @pytest.fixture(scope="module")
 def served(tmp_path_factory):
-    """loadarm's OPC UA server on an ephemeral loopback port over the drift-off scenario's simulated plant,
+    """loadarm's OPC UA server on an ephemeral loopback port over the drift-off scenario's simulated plant (the
+    kinematic arm: the hydraulic one's 1 kHz servo would take a core from the rest of the suite for the module),
     with an operator, a viewer and one trusted client certificate; stopped afterwards."""
     from loadarm.eventlog import EventLog
     from loadarm.guidance.run import ClosedLoop
@@ -125,7 +126,7 @@ def served(tmp_path_factory):
     st.trust(cert)
     sc, model = load_scenario(SCENARIO)
     log = EventLog(tmp / "events.db", run="serve-test")
-    service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=False))
+    service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=False, plant="kinematic"))
     endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
     server = OpcUaServer(service, st.path, endpoint)
     server.start()

@@ -140,6 +140,7 @@ def test_across_two_processes_a_jog_moves_the_plc_s_arm(tmp_path, scenario):
         proc.wait(10)
 
 
+@pytest.mark.slow
 def test_the_plc_killed_mid_approach_is_caught_and_nothing_moves_after(tmp_path, scenario):
     """The PLC process killed while the scenario's operator has the arm on its approach: the controller marks
     the link dead within LINK_TIMEOUT plus a read period, raises the alarm, publishes its values as bad, stops

@@ -274,6 +274,37 @@ def test_the_variables_carry_engineering_units_and_ranges(served):
     assert eu.DisplayName.Text == "deg" and (rng.Low, rng.High) == (0.0, 180.0)
 
 
+def test_the_cylinders_and_face_margins_are_those_of_the_published_pose(served):
+    """The cylinder lengths and the margin to each face the server publishes are the actuator and face
+    formulas at the pose it publishes (one snapshot: the values agree to round-off)."""
+    import math
+
+    from loadarm.actuators import cylinder_lengths
+    from loadarm.faces import FACES, face_margins
+    from loadarm.guidance.scenario import load_scenario
+
+    _, model = load_scenario(SCENARIO)
+
+    async def main():
+        c = await _client(served, "victor", "pw-victor")()
+        async with c:
+            ns, guidance, var = await _nodes(c)
+            for _ in range(20):                   # a cycle boundary may fall between the reads: read until alike
+                names = ["Cycle", "Alpha_deg", "Beta_deg", "CouplerX_m", "CouplerY_m", "CouplerZ_m",
+                         "Cylinder1Length_m", "Cylinder2Length_m", *[f"Margin_{f}_deg" for f in FACES], "Cycle"]
+                vals = await c.read_values([var(n) for n in names])
+                if vals[0] == vals[-1]:
+                    return dict(zip(names, vals))
+            raise AssertionError("the cycle kept changing")
+
+    v = asyncio.run(main())
+    c1, c2 = cylinder_lengths(model.mount, math.radians(v["Alpha_deg"]), math.radians(v["Beta_deg"]))
+    assert abs(c1 - v["Cylinder1Length_m"]) < 1e-9 and abs(c2 - v["Cylinder2Length_m"]) < 1e-9
+    m = face_margins(model, v["CouplerX_m"], v["CouplerY_m"], v["CouplerZ_m"])
+    for i, f in enumerate(FACES):
+        assert abs(math.degrees(float(m[..., i])) - v[f"Margin_{f}_deg"]) < 1e-7, f
+
+
 # --------------------------------------------------------------------------- the commands
 
 def test_user_add_and_trust_from_the_command_line(tmp_path, monkeypatch, capsys):

@@ -29,6 +29,7 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..faces import FACE_LABELS
 from .security import Role, StateDir, User
 from .service import JOG_HOLD
 
@@ -152,7 +153,10 @@ VARIABLES = (
     ("DistanceToFlange_m", ("MTR", "m", "metre"), (0.0, 200.0), "coupler to flange"),
     ("TimeToLimit_s", ("SEC", "s", "second"), (0.0, 3600.0), "design-drift time to the nearest face (-1: none)"),
     ("CycleTime_us", ("B98", "us", "microsecond"), (0.0, 1e6), "guidance cycle computing time"),
-)
+    ("Cylinder1Length_m", ("MTR", "m", "metre"), (0.0, 10.0), "cylinder 1 pin-to-pin length"),
+    ("Cylinder2Length_m", ("MTR", "m", "metre"), (0.0, 10.0), "cylinder 2 pin-to-pin length"),
+) + tuple((f"Margin_{face}_deg", ("DD", "deg", "degree"), (-180.0, 180.0), f"margin to the face: {text}")
+          for face, text in FACE_LABELS.items())
 #: Boolean and integer state variables.
 STATES = (("EstimateHealthy", bool), ("Connected", bool), ("ESDActive", bool), ("ReleaseRequested", bool),
           ("CouplerOpen", bool), ("ERSValvesClosed", bool), ("AlarmStage", int), ("AlarmStageText", str),
@@ -444,7 +448,9 @@ class OpcUaServer(SecureServer):
                   "CouplerZ_m": snap.coupler[2], "FlangeX_m": snap.flange_estimate[0],
                   "FlangeY_m": snap.flange_estimate[1], "FlangeZ_m": snap.flange_estimate[2],
                   "DistanceToFlange_m": snap.distance, "TimeToLimit_s": num(snap.time_to_limit),
-                  "CycleTime_us": snap.cycle_us}
+                  "CycleTime_us": snap.cycle_us, "Cylinder1Length_m": snap.cylinders[0],
+                  "Cylinder2Length_m": snap.cylinders[1],
+                  **{f"Margin_{f}_deg": math.degrees(v) for f, v in snap.margins.items()}}
         bad = ua.StatusCode(ua.StatusCodes.BadCommunicationError)
         for k, v in values.items():
             if not snap.plant_ok and k not in ("CycleTime_us",):      # a dead PLC link: bad, not last-known

@@ -96,6 +96,10 @@ class Snapshot:
         Cycles that started after their deadline so far.
     plant_ok : bool
         The plant's values are good (False: the PLC link is dead, they are the last ones read).
+    cylinders : tuple of float
+        Both cylinders' pin-to-pin lengths, m.
+    margins : dict of str to float
+        Margin to each face of the envelope (:data:`loadarm.faces.FACES`), rad (NaN: out of reach).
     """
 
     seq: int
@@ -117,6 +121,8 @@ class Snapshot:
     cycle_us: float = 0.0
     late: int = 0
     plant_ok: bool = True
+    cylinders: tuple[float, float] = (math.nan, math.nan)
+    margins: dict = field(default_factory=dict)
 
 
 class GuidanceService:
@@ -246,6 +252,11 @@ class GuidanceService:
         sig = loop.rec.sig
         e = loop.estimate
         ttl = float(cmd.time_to_limit)
+        from ..actuators import cylinder_lengths
+        from ..faces import FACES, face_margins
+
+        c1, c2 = cylinder_lengths(loop.model.mount, float(q[1]), float(q[2]))
+        m = face_margins(loop.model, sig["x"][k], sig["y"][k], sig["z"][k])
         self._snapshot = Snapshot(
             seq=k, t=now, mode=cmd.mode.value, q=(float(q[0]), float(q[1]), float(q[2])),
             coupler=(float(sig["x"][k]), float(sig["y"][k]), float(sig["z"][k])),
@@ -254,4 +265,5 @@ class GuidanceService:
             time_to_limit=ttl, connected=bool(cmd.connected), esd=bool(cmd.esd), release=bool(cmd.release),
             coupler_open=bool(cmd.coupler_open), ers_valves_closed=bool(loop.io.feedback.ers_valves_closed),
             alarms={tag: st.value for tag, st in loop.ctrl.state.alarms.items()},
-            cycle_us=float(loop.cycle_us[k]), late=self.late, plant_ok=self._link_ok)
+            cycle_us=float(loop.cycle_us[k]), late=self.late, plant_ok=self._link_ok,
+            cylinders=(float(c1), float(c2)), margins={f: float(m[..., i]) for i, f in enumerate(FACES)})

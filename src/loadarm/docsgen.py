@@ -113,17 +113,24 @@ def regenerate(root: str | Path = ".") -> list[Path]:
 
     root = Path(root)
     written = list(render_doc_figures(root / "docs" / "img").values())
-    tables = [(root / "docs" / "configuration.md", parameter_markdown()),
-              (root / "docs" / "ship-motion.md", berth_parameter_markdown())]
-    for page, table in tables:
+    from .plant.plc import tags_markdown
+    from .plant.server import address_space_markdown
+
+    variables, methods = address_space_markdown()
+    plant = root / "docs" / "plant-integration.md"
+    tables = [(root / "docs" / "configuration.md", parameter_markdown(), "| key | unit | default |"),
+              (root / "docs" / "ship-motion.md", berth_parameter_markdown(), "| key | unit | default |"),
+              (plant, variables, "| variable | unit | range |"), (plant, methods, "| method | arguments |"),
+              (plant, tags_markdown(), "| tag | direction |")]
+    for page, table, header in tables:
         text = page.read_text(encoding="utf-8")
-        a = text.index("| key | unit | default |")
+        a = text.index(header)
         b = text.find("\n\n", a)
         text = text[:a] + table.rstrip("\n") + (text[b:] if b >= 0 else "\n")
         page.write_text(text, encoding="utf-8")
     full = root / "examples" / "full.toml"
     full.write_text(example_toml(), encoding="utf-8")
-    return [*written, *(page for page, _ in tables), full]
+    return [*written, *dict.fromkeys(page for page, _, _ in tables), full]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -31,7 +31,7 @@ import numpy as np
 from .server import SecureServer
 
 __all__ = ["TAGS", "WATCHDOG", "LINK_TIMEOUT", "PLC_APP_URI", "PlcSimulator", "PlcServer", "PlcLink", "TagMap",
-           "load_tag_map", "default_tag_map"]
+           "load_tag_map", "default_tag_map", "tags_markdown"]
 
 #: The PLC's application URI.
 PLC_APP_URI = "urn:loadarm:plc-sim"
@@ -266,6 +266,19 @@ class TagMap:
                 text = f"ns={await client.get_namespace_index(uri)};{rest}"
             out[name] = client.get_node(ua.NodeId.from_string(text))
         return out
+
+
+def tags_markdown() -> str:
+    """The PLC tag table of docs/plant-integration.md, from :data:`TAGS` (``make docs`` writes it).
+
+    Returns
+    -------
+    str
+    """
+    rows = ["| tag | direction | unit | what |", "|---|---|---|---|"]
+    rows += [f"| `{name}` | {'PLC to controller' if d == 'in' else 'controller to PLC'} | {unit} | {what} |"
+             for name, _, d, unit, what in TAGS]
+    return "\n".join(rows) + "\n"
 
 
 def default_tag_map() -> TagMap:

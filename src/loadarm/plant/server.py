@@ -30,11 +30,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..faces import FACE_LABELS
+from ..guidance.controller import ERS_CONFIRM_WINDOW
 from .security import Role, StateDir, User
 from .service import JOG_HOLD
 
 __all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "CURRENT_USER", "RoleRuleset", "SecureServer",
-           "OpcUaServer", "address_space"]
+           "OpcUaServer", "address_space", "address_space_markdown"]
 
 #: The application URI (in the certificate's subject alternative names).
 APP_URI = "urn:loadarm:guidance"
@@ -155,7 +156,7 @@ VARIABLES = (
     ("CycleTime_us", ("B98", "us", "microsecond"), (0.0, 1e6), "guidance cycle computing time"),
     ("Cylinder1Length_m", ("MTR", "m", "metre"), (0.0, 10.0), "cylinder 1 pin-to-pin length"),
     ("Cylinder2Length_m", ("MTR", "m", "metre"), (0.0, 10.0), "cylinder 2 pin-to-pin length"),
-) + tuple((f"Margin_{face}_deg", ("DD", "deg", "degree"), (-180.0, 180.0), f"margin to the face: {text}")
+) + tuple((f"Margin_{face}_deg", ("DD", "deg", "degree"), (-180.0, 180.0), f"margin to the face, in its joint's angle (NaN: out of reach): {text}")
           for face, text in FACE_LABELS.items())
 #: Boolean and integer state variables.
 STATES = (("EstimateHealthy", bool), ("Connected", bool), ("ESDActive", bool), ("ReleaseRequested", bool),
@@ -169,7 +170,8 @@ METHODS = (("StartApproach", "start", (), "start the automatic approach to the s
            ("Stop", "stop", (), "stop (manual mode, no motion)"),
            ("EStop", "estop", (), "request the emergency stop (the PLC's hard-wired chain decides)"),
            ("ManualESD1", "esd", (), "manual ESD-1"),
-           ("ManualERS", "ers", ("Confirm",), "manual emergency release: call, then call with Confirm=true"),
+           ("ManualERS", "ers", ("Confirm",), "manual emergency release: call, then call with Confirm = true within "
+                                              f"{ERS_CONFIRM_WINDOW:g} s"),
            ("Reset", "reset", (), "reset after an emergency stop or an alarm"),
            ("AcknowledgeAlarm", "ack", (), "acknowledge every alarm"))
 #: OPC 40001-1 MachineryOperationMode and MachineryItemState of each guidance mode (jog is Setup).
@@ -188,6 +190,22 @@ def address_space() -> dict:
     from ..guidance.controller import Mode
 
     return {"variables": VARIABLES, "states": STATES, "methods": METHODS, "modes": tuple(m.value for m in Mode)}
+
+
+def address_space_markdown() -> tuple[str, str]:
+    """The tables of docs/plant-integration.md's address space, from the server's own declarations
+    (``make docs`` writes them; a test holds the page to them).
+
+    Returns
+    -------
+    variables, methods : str
+        Markdown tables.
+    """
+    var = ["| variable | unit | range | what |", "|---|---|---|---|"]
+    var += [f"| `{name}` | {sym} | {lo:g} .. {hi:g} | {what} |" for name, (_, sym, _), (lo, hi), what in VARIABLES]
+    meth = ["| method | arguments | does |", "|---|---|---|"]
+    meth += [f"| `{name}` | {', '.join(args)} | {what} |" for name, _, args, what in METHODS]
+    return "\n".join(var) + "\n", "\n".join(meth) + "\n"
 
 
 class SecureServer:

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import asyncio
 import os
-import socket
 import stat
 import time
 
@@ -100,11 +99,9 @@ def _client_cert(tmp_path, name: str, uri: str = "urn:test:client"):
 # --------------------------------------------------------------------------- the server, with real clients
 
 def _free_port() -> int:
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
+    from loadarm.plant.loadtest import free_port
+
+    return free_port()
 
 
 @pytest.fixture(scope="module")
@@ -266,8 +263,8 @@ def test_the_variables_carry_engineering_units_and_ranges(served):
         async with c:
             ns, guidance, var = await _nodes(c)
             v = var("Beta_deg")
-            eu = await (await v.get_child([f"0:EngineeringUnits"])).read_value()
-            rng = await (await v.get_child([f"0:EURange"])).read_value()
+            eu = await (await v.get_child(["0:EngineeringUnits"])).read_value()
+            rng = await (await v.get_child(["0:EURange"])).read_value()
             return eu, rng
 
     eu, rng = asyncio.run(main())

@@ -4,7 +4,6 @@ moves the PLC's arm, and the PLC killed mid-run (the controller's reaction time,
 
 from __future__ import annotations
 
-import socket
 import subprocess
 import sys
 import time
@@ -80,11 +79,9 @@ def test_an_estop_request_stops_the_drives_until_released_and_reset(scenario):
 
 
 def _free_port() -> int:
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
+    from loadarm.plant.loadtest import free_port
+
+    return free_port()
 
 
 def _plc_pair(tmp_path):

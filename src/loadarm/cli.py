@@ -917,6 +917,27 @@ def demo(
         out.print(f"samples ({name} timing): {p}")
 
 
+def _check_endpoint(name: str, value: str) -> None:
+    from urllib.parse import urlparse
+
+    url = urlparse(value)
+    if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
+        raise UserError(f"{name} must be opc.tcp://HOST:PORT, got {value!r}")
+
+
+def _realtime_scenario(scenario: Path, config: Optional[Path], speedup: float):
+    """The scenario and its model (``--config``'s if given, checked against it) of a real-time command."""
+    from .guidance.scenario import check_scenario, load_scenario
+
+    if not speedup > 0 or not math.isfinite(speedup):
+        raise UserError(f"--speedup must be a positive number, got {speedup!r}")
+    sc, model = load_scenario(scenario)
+    if config is not None:
+        model = _model(config)
+        check_scenario(sc, model, source=str(scenario))
+    return sc, model
+
+
 @app.command()
 def serve(
     scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML: the simulated plant, ship and "
@@ -952,27 +973,18 @@ def serve(
 
     Example: loadarm serve --scenario examples/scenarios/driftoff.toml --state-dir out/state
     """
-    from urllib.parse import urlparse
-
     from .eventlog import EventLog
     from .guidance.run import ClosedLoop
-    from .guidance.scenario import check_scenario, load_scenario
     from .plant.security import thumbprint, _load_certificate
     from .plant.server import OpcUaServer
     from .plant.service import GuidanceService
 
-    for name, value in (("--endpoint", endpoint), ("--plc", plc)):
-        url = urlparse(value or "opc.tcp://x:1")
-        if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
-            raise UserError(f"{name} must be opc.tcp://HOST:PORT, got {value!r}")
-    if plc is not None and (plc_cert is None or plc_password_file is None):
-        raise UserError("--plc needs --plc-cert (the PLC's certificate) and --plc-password-file")
-    if not speedup > 0 or not math.isfinite(speedup):
-        raise UserError(f"--speedup must be a positive number, got {speedup!r}")
-    sc, model = load_scenario(scenario)
-    if config is not None:
-        model = _model(config)
-        check_scenario(sc, model, source=str(scenario))
+    _check_endpoint("--endpoint", endpoint)
+    if plc is not None:
+        _check_endpoint("--plc", plc)
+        if plc_cert is None or plc_password_file is None:
+            raise UserError("--plc needs --plc-cert (the PLC's certificate) and --plc-password-file")
+    sc, model = _realtime_scenario(scenario, config, speedup)
     inst_file = None if sc.scenario.installation is None else scenario.parent / sc.scenario.installation
     _outputs({"--db": db}, [scenario, inst_file, config], force, appended=("--db",))
     from datetime import datetime, timezone
@@ -1032,20 +1044,10 @@ def plc_sim(
 
     Example: loadarm plc-sim --scenario examples/scenarios/driftoff.toml --state-dir out/plc
     """
-    from urllib.parse import urlparse
-
-    from .guidance.scenario import check_scenario, load_scenario
     from .plant.plc import PlcServer, PlcSimulator
 
-    url = urlparse(endpoint)
-    if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
-        raise UserError(f"--endpoint must be opc.tcp://HOST:PORT, got {endpoint!r}")
-    if not speedup > 0 or not math.isfinite(speedup):
-        raise UserError(f"--speedup must be a positive number, got {speedup!r}")
-    sc, model = load_scenario(scenario)
-    if config is not None:
-        model = _model(config)
-        check_scenario(sc, model, source=str(scenario))
+    _check_endpoint("--endpoint", endpoint)
+    sc, model = _realtime_scenario(scenario, config, speedup)
     sim = PlcSimulator(sc, model, speedup=speedup)
     server = PlcServer(sim, state_dir, endpoint, insecure=insecure)
     server.start()

@@ -23,7 +23,7 @@ from typing import Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
 
 from .errors import ConfigError
-from .files import check_depth, read_input, read_toml  # noqa: F401 (read_toml: config.read_toml)
+from .files import read_toml  # noqa: F401 (re-exported: config.read_toml, its home before files)
 
 __all__ = [
     "Datasheet",

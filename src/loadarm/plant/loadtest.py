@@ -10,7 +10,7 @@ import json
 import sys
 import time
 
-__all__ = ["subscribe_all", "call_round_trips", "measure_load", "main"]
+__all__ = ["subscribe_all", "call_round_trips", "measure_load", "free_port", "main"]
 
 
 async def _client(endpoint: str, user: str, password: str, cert: str, key: str, server_cert: str, app_uri: str):
@@ -126,7 +126,13 @@ async def call_round_trips(endpoint: str, user: str, password: str, cert: str, k
     return {"call_ms": call_ms, "read_ms": read_ms}
 
 
-def _free_port() -> int:
+def free_port() -> int:
+    """An ephemeral loopback port free now (for a server a test or benchmark starts).
+
+    Returns
+    -------
+    int
+    """
     import socket
 
     s = socket.socket()
@@ -176,7 +182,7 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
     st.trust(cert)
     sc, model = load_scenario(scenario)
     service = GuidanceService(ClosedLoop(sc, model))
-    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
+    endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
     server = OpcUaServer(service, st.path, endpoint)
     server.start()
     service.start()

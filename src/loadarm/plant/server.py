@@ -27,7 +27,6 @@ import logging
 import math
 import threading
 from dataclasses import dataclass
-from pathlib import Path
 
 from ..faces import FACE_LABELS
 from ..guidance.controller import ERS_CONFIRM_WINDOW

@@ -10,7 +10,10 @@ UV     := uv==0.13.9
 STAMP  := $(VENV)/.installed-test
 BSTAMP := $(VENV)/.installed-bench
 DSTAMP := $(VENV)/.installed-docs
-PYTEST_MARK := $(if $(SLOW),,-m "not slow")
+PYTEST_MARK := $(if $(SLOW),-m "not realtime",-m "not slow")
+# Tests that time real processes against the wall clock (OPC UA load, PLC link loss, hardware in the loop) run
+# after the rest, one at a time: beside another worker on a 2-core machine their deadlines measure the neighbour.
+REALTIME := $(BIN)/python -m pytest -q -p no:xdist -m realtime
 
 .PHONY: demo test test-all bench docs lock test-latest clean
 
@@ -33,9 +36,11 @@ demo: $(STAMP)
 # The suite spreads over every core (pytest-xdist): make test stays within its two minutes on 2 cores.
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n auto $(PYTEST_MARK)
+	$(if $(SLOW),$(REALTIME))
 
 test-all: $(STAMP)
-	$(BIN)/python -m pytest -q -n auto
+	$(BIN)/python -m pytest -q -n auto -m "not realtime"
+	$(REALTIME)
 
 bench: $(BSTAMP)
 	$(BIN)/python -m pytest benchmarks -q --benchmark-columns=min,median,mean,ops --benchmark-sort=name
@@ -58,7 +63,8 @@ test-latest:
 	$(PYTHON) -m venv .venv-latest
 	.venv-latest/bin/python -m pip install --quiet --upgrade pip
 	.venv-latest/bin/python -m pip install --quiet --upgrade -e '.[test]'
-	.venv-latest/bin/python -m pytest -q -n auto -p no:cacheprovider
+	.venv-latest/bin/python -m pytest -q -n auto -p no:cacheprovider -m "not realtime"
+	.venv-latest/bin/python -m pytest -q -p no:cacheprovider -p no:xdist -m realtime
 
 clean:
 	rm -rf $(VENV) .venv-latest out .pytest_cache

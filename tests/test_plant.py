@@ -389,7 +389,8 @@ class _FakeService:
         self.requests = []
         self.alarms = {tag: "normal" for tag in ANNUNCIATED}
         self.seq = 0
-        self._make = lambda: Snapshot(seq=self.seq, t=0.1 * self.seq, mode="CONNECTED", q=(0.0, 1.0, 2.0),
+        self.mode = "CONNECTED"
+        self._make = lambda: Snapshot(seq=self.seq, t=0.1 * self.seq, mode=self.mode, q=(0.0, 1.0, 2.0),
                                       coupler=(1.0, 0.0, 2.0), flange_estimate=(1.0, 0.0, 2.0), estimate_healthy=True,
                                       distance=0.0, level=0, time_to_limit=float("inf"), connected=True, esd=False,
                                       release=False, coupler_open=False, ers_valves_closed=False,
@@ -397,6 +398,10 @@ class _FakeService:
 
     def set(self, tag, state):
         self.alarms[tag] = state
+        self.seq += 1
+
+    def set_mode(self, mode):
+        self.mode = mode
         self.seq += 1
 
     def snapshot(self):
@@ -476,6 +481,72 @@ def test_alarms_are_part_9_conditions_that_an_operator_acknowledges(served):
         server.stop()
 
 
+class _Events:
+    """An asyncua subscription handler keeping the events it gets."""
+
+    def __init__(self):
+        self.events = []
+
+    def event_notification(self, event):
+        self.events.append(event)
+
+    async def wait_for(self, pred, timeout=5.0):
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < timeout:
+            hits = [e for e in self.events if pred(e)]
+            if hits:
+                return hits[-1]
+            await asyncio.sleep(0.05)
+        raise AssertionError(f"no such event among {len(self.events)}")
+
+
+def test_the_guidance_modes_are_a_finite_state_machine_with_transition_events(served):
+    """GuidanceMode is an OPC 10000-16 FiniteStateMachineType: CurrentState shows the mode's name, its Id the
+    state object and its Number that object's StateNumber; each change of mode emits a TransitionEventType event
+    (FromState, ToState, Transition) and writes LastTransition. The Machinery operation mode follows (ALARM1 is
+    Processing, MANUAL is Setup)."""
+    from asyncua import ua
+
+    from loadarm.plant.server import NAMESPACE, OpcUaServer
+
+    fake = _FakeService()
+    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
+    server = OpcUaServer(fake, served["state"].path, endpoint)
+    server.start()
+
+    async def main():
+        c = await _client(dict(served, endpoint=endpoint), "victor", "pw-victor")()
+        async with c:
+            ns = await c.get_namespace_index(NAMESPACE)
+            sm = c.get_node(ua.NodeId("Guidance.GuidanceMode", ns))
+            h = _Events()
+            sub = await c.create_subscription(50, h)
+            await sub.subscribe_events(sm, ua.NodeId(ua.ObjectIds.TransitionEventType))
+            current = await sm.get_child(["0:CurrentState"])
+            t0 = time.monotonic()
+            while (await current.read_value()).Text != "CONNECTED" and time.monotonic() - t0 < 5:
+                await asyncio.sleep(0.05)
+            fake.set_mode("ALARM1")
+            ev = await h.wait_for(lambda e: e.ToState.Text == "ALARM1")
+            assert ev.FromState.Text == "CONNECTED" and ev.Transition.Text == "CONNECTED->ALARM1"
+            assert getattr(ev, "ToState/Id") == ua.NodeId("Guidance.GuidanceMode.ALARM1", ns)
+            assert (await current.read_value()).Text == "ALARM1"
+            assert await (await current.get_child(["0:Id"])).read_value() == getattr(ev, "ToState/Id")
+            number = await c.get_node(ua.NodeId("Guidance.GuidanceMode.ALARM1", ns)).get_child(["0:StateNumber"])
+            assert await (await current.get_child(["0:Number"])).read_value() == await number.read_value()
+            assert (await (await sm.get_child(["0:LastTransition"])).read_value()).Text == "CONNECTED->ALARM1"
+            fake.set_mode("MANUAL")
+            await h.wait_for(lambda e: e.Transition.Text == "ALARM1->MANUAL")
+            op = c.get_node(ua.NodeId("MachineryBuildingBlocks.MachineryOperationMode", ns))
+            assert (await (await op.get_child(["0:CurrentState"])).read_value()).Text == "Setup"
+            assert [e.Transition.Text for e in h.events] == ["CONNECTED->ALARM1", "ALARM1->MANUAL"]
+
+    try:
+        asyncio.run(main())
+    finally:
+        server.stop()
+
+
 def test_the_controller_acknowledges_one_alarm_or_every_alarm(served):
     """``ack:TAG`` (an OPC UA Acknowledge on one condition) acknowledges that alarm only; ``ack`` every one."""
     from loadarm.alarms import AlarmState
@@ -500,12 +571,14 @@ def test_the_controller_acknowledges_one_alarm_or_every_alarm(served):
 # --------------------------------------------------------------------------- load
 
 @pytest.mark.slow
+@pytest.mark.realtime
 def test_twenty_clients_at_10_hz_do_not_make_the_guidance_cycle_late(tmp_path):
     """20 sessions in another process, each subscribed to every variable at 10 Hz for 10 s, while the
     controller runs the drift-off at 50 Hz: its cycles' p99 stays below the 20 ms period, at most one cycle in
     200 starts a period late, and the clients get their notifications (at least a variable's worth per client
     per publish). Found: in CI, with the suite's other worker on the second of two cores beside the clients'
-    process, one cycle in 650 started late; alone (make bench) none did."""
+    process, one cycle in 650 started late, and on the next run 60 in 778; alone (make bench) none did. So it is
+    marked realtime: the Makefile runs it after the rest, on its own."""
     from loadarm.plant.loadtest import measure_load
 
     r = measure_load(tmp_path, SCENARIO, seconds=10.0, clients=20)

@@ -107,6 +107,7 @@ def _plc_process(plc, endpoint, *extra):
 
 
 @pytest.mark.slow
+@pytest.mark.realtime
 def test_across_two_processes_a_jog_moves_the_plc_s_arm(tmp_path, scenario):
     """``loadarm plc-sim`` in its own process, the controller's link trusted by it (and it by the link): an
     operator's jog moves the PLC's arm through the link."""
@@ -138,6 +139,7 @@ def test_across_two_processes_a_jog_moves_the_plc_s_arm(tmp_path, scenario):
 
 
 @pytest.mark.slow
+@pytest.mark.realtime
 def test_the_plc_killed_mid_approach_is_caught_and_nothing_moves_after(tmp_path, scenario):
     """The PLC process killed while the scenario's operator has the arm on its approach: the controller marks
     the link dead within LINK_TIMEOUT plus a read period, raises the alarm, publishes its values as bad, stops
@@ -186,6 +188,7 @@ def test_the_plc_killed_mid_approach_is_caught_and_nothing_moves_after(tmp_path,
 
 
 @pytest.mark.slow
+@pytest.mark.realtime
 def test_hardware_in_the_loop_the_drift_off_across_two_processes_runs_the_same_modes(tmp_path, scenario):
     """The drift-off scenario with the controller in this process and the plant in ``loadarm plc-sim`` (both
     at 4x real time, the scenario's operator acting on the controller's side): the same mode sequence as the
@@ -256,6 +259,7 @@ def test_a_bad_mapping_file_is_refused_naming_the_file_and_tag(tmp_path, edit, m
 
 
 @pytest.mark.slow
+@pytest.mark.realtime
 def test_a_lost_link_reconnects_and_resynchronises_without_a_jump(tmp_path, scenario):
     """The PLC's OPC UA server stopped (its plant running on) and started again on the same endpoint: the link
     goes bad, comes back by itself, the controller logs it restored, and its encoders read on from where the

@@ -486,10 +486,7 @@ class OpcUaServer(SecureServer):
         for key, state in (("GuidanceMode", snap.mode), ("MachineryOperationMode",
                                                        OPERATION_MODE.get(snap.mode, "Processing")),
                            ("MachineryItemState", ITEM_STATE.get(snap.mode, "Executing"))):
-            node, states, current = nodes[key]
-            if current[0] != state:
-                await node.write_value(ua.LocalizedText(state, "en"))
-                current[0] = state
+            await nodes[key].set(state)
         for tag, state in snap.alarms.items():
             if f"Alarm.{tag}" in nodes:
                 await nodes[f"Alarm.{tag}"].write_value(state)
@@ -498,25 +495,66 @@ class OpcUaServer(SecureServer):
                 await cond.report(state)
 
 
-async def _state_machine(server, parent, ns: int, name: str, states):
-    """An OPC UA state machine (an instance of StateMachineType: its CurrentState shows the state's name) with
-    one state object (InitialStateType, then StateType, numbered) per name; returns (CurrentState node,
-    states by name, [current name]). (asyncua's helper writes CurrentState.Id as a NodeId, which its own
-    nodeset types as a string, and the write fails.)"""
+class _StateMachine:
+    """An OPC UA finite state machine (OPC 10000-16): an instance of its own subtype of FiniteStateMachineType,
+    one state object per name (InitialStateType first, then StateType, numbered from 1). Each change writes
+    CurrentState (its name, Id and Number) and LastTransition, and the machine emits a TransitionEventType event
+    (FromState, ToState, Transition "FROM->TO") that a client subscribes to on the machine's node."""
+
+    def __init__(self, node, current, current_id, current_number, last, states: dict, numbers: dict, evgen):
+        self.node, self.current, self.current_id, self.current_number = node, current, current_id, current_number
+        self.last, self.states, self.numbers, self.evgen = last, states, numbers, evgen
+        self.state: str | None = None
+
+    async def set(self, state: str) -> None:
+        """Enter ``state`` (nothing if it is the current one)."""
+        from asyncua import ua
+
+        if state == self.state:
+            return
+        before, self.state = self.state, state
+        await self.current.write_value(ua.LocalizedText(state, "en"))
+        await self.current_id.write_value(ua.Variant(self.states[state].nodeid, ua.VariantType.NodeId))
+        await self.current_number.write_value(ua.Variant(self.numbers[state], ua.VariantType.UInt32))
+        if before is None:                       # the first state is where the machine starts: no transition
+            return
+        name = f"{before}->{state}"
+        await self.last.write_value(ua.LocalizedText(name, "en"))
+        ev = self.evgen.event
+        ev.Message = ua.LocalizedText(f"{(await self.node.read_browse_name()).Name}: {name}")
+        ev.Severity = 100
+        ev.Transition = ua.LocalizedText(name, "en")
+        ev.FromState = ua.LocalizedText(before, "en")
+        setattr(ev, "FromState/Id", ua.Variant(self.states[before].nodeid, ua.VariantType.NodeId))
+        ev.ToState = ua.LocalizedText(state, "en")
+        setattr(ev, "ToState/Id", ua.Variant(self.states[state].nodeid, ua.VariantType.NodeId))
+        await self.evgen.trigger()
+
+
+async def _state_machine(server, parent, ns: int, name: str, states) -> _StateMachine:
+    """Build the :class:`_StateMachine` ``parent/name`` with ``states``."""
     from asyncua import ua
 
-    sm = await parent.add_object(ua.NodeId(f"{parent.nodeid.Identifier}.{name}", ns), ua.QualifiedName(name, ns),
-                                 objecttype=ua.NodeId(ua.ObjectIds.StateMachineType))
+    base = f"{parent.nodeid.Identifier}.{name}"
+    fsm_type = await server.get_node(ua.ObjectIds.FiniteStateMachineType).add_object_type(
+        ua.NodeId(f"{name}StateMachineType", ns), ua.QualifiedName(f"{name}StateMachineType", ns))
+    sm = await parent.add_object(ua.NodeId(base, ns), ua.QualifiedName(name, ns), objecttype=fsm_type.nodeid)
+    await sm.set_event_notifier([ua.EventNotifier.SubscribeToEvents])
     current = await sm.get_child(["0:CurrentState"])
-    out = {}
+    current_id = await current.get_child(["0:Id"])
+    current_number = await current.add_property(ua.NodeId(f"{base}.CurrentState.Number", ns),
+                                                ua.QualifiedName("Number", 0), ua.Variant(0, ua.VariantType.UInt32))
+    last = await sm.get_child(["0:LastTransition"])
+    nodes, numbers = {}, {}
     for i, st in enumerate(states):
-        node = await sm.add_object(ua.NodeId(f"{parent.nodeid.Identifier}.{name}.{st}", ns), ua.QualifiedName(st, ns),
+        node = await sm.add_object(ua.NodeId(f"{base}.{st}", ns), ua.QualifiedName(st, ns),
                                    objecttype=ua.NodeId(ua.ObjectIds.InitialStateType if i == 0
                                                         else ua.ObjectIds.StateType))
         number = await node.get_child(["0:StateNumber"])
         await number.write_value(ua.Variant(i + 1, ua.VariantType.UInt32))
-        out[st] = node
-    return current, out, [None]
+        nodes[st], numbers[st] = node, i + 1
+    evgen = await server.get_event_generator(ua.ObjectIds.TransitionEventType, sm)
+    return _StateMachine(sm, current, current_id, current_number, last, nodes, numbers, evgen)
 
 
 #: OPC UA severity (1-1000) of each annunciated alarm: the one alarm severity, scaled.

@@ -568,6 +568,35 @@ def test_the_controller_acknowledges_one_alarm_or_every_alarm(served):
     assert s.alarms["PRE_ALARM"] == AlarmState.ACKED
 
 
+# --------------------------------------------------------------------------- a run without an end
+
+def test_a_continuous_loop_keeps_the_last_window_of_its_signals(monkeypatch):
+    """``serve --plc`` without a scenario runs on: its ClosedLoop keeps the signals of the last
+    CONTINUOUS_WINDOW in a ring (cycle k in slot k % n) and the events in a bounded deque. Over the same plant
+    it gives, bit for bit, the last window of the run that keeps everything."""
+    from loadarm.guidance import run
+    from loadarm.guidance.scenario import load_scenario
+
+    sc, model = load_scenario(SCENARIO)
+    monkeypatch.setattr(run, "CONTINUOUS_WINDOW", 2.0)
+    with pytest.raises(ValueError, match="continuous needs io"):
+        run.ClosedLoop(sc, model, continuous=True)
+    ref = run.ClosedLoop(sc, model, plant="kinematic")
+    ring = run.ClosedLoop(sc, model, plant="kinematic", io=object(), continuous=True)
+    ring.io = run.SimulatedPlant(sc, model, ring.ctrl.stored, ref.n, ref.dt, "kinematic", ring.emit)
+    cycles = int(25.0 / ref.dt)                         # past the approach's start at 1 s, and 12 windows
+    for k in range(cycles):
+        ref.cycle(k)
+        ring.cycle(k)
+    assert ring.n == int(2.0 / ring.dt) + 1 and ring.slot(cycles) == cycles % ring.n
+    a, b = ref.result(), ring.result()
+    assert b.signals["t"].size == ring.n and np.all(np.diff(b.signals["t"]) > 0)
+    for name, v in b.signals.items():
+        np.testing.assert_array_equal(v, a.signals[name][cycles - ring.n:], err_msg=name)
+    assert b.events == a.events and len(a.events) > 0
+    assert {"APPROACH"} <= {e[1] for e in b.events}
+
+
 # --------------------------------------------------------------------------- load
 
 @pytest.mark.slow

@@ -97,8 +97,8 @@ def _plc_pair(tmp_path):
     return ctrl, plc, f"opc.tcp://127.0.0.1:{_free_port()}"
 
 
-def _plc_process(plc, endpoint, *extra):
-    proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "plc-sim", "--scenario", SCENARIO, "--endpoint",
+def _plc_process(plc, endpoint, *extra, plant=("--scenario", SCENARIO)):
+    proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "plc-sim", *plant, "--endpoint",
                              endpoint, "--state-dir", str(plc.path), *extra], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     line = proc.stdout.readline()
@@ -222,6 +222,79 @@ def test_hardware_in_the_loop_the_drift_off_across_two_processes_runs_the_same_m
             link.stop()
         proc.kill()
         proc.wait(10)
+
+
+@pytest.mark.slow
+@pytest.mark.realtime
+def test_serve_on_a_plc_without_a_scenario_runs_on_and_an_operator_jogs_the_plc_s_arm(tmp_path):
+    """``loadarm plc-sim --config`` (no scenario: a calm ship at the default flange) and ``loadarm serve --plc
+    --config`` (no scenario: the controller runs on until stopped) in two processes; an OPC UA client logged in
+    as an operator jogs the arm through the server, and the PLC's encoders show it moved."""
+    import asyncio
+
+    from asyncua import Client, ua
+    from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+
+    from loadarm.plant.security import client_certificate
+    from loadarm.plant.server import NAMESPACE
+
+    ctrl, plc, plc_endpoint = _plc_pair(tmp_path)
+    plc_proc = _plc_process(plc, plc_endpoint, plant=("--config", "examples/paper.toml", "--duration", "600"))
+    ctrl.users().add("alice", Role.OPERATOR, "pw-alice")
+    cert, key = client_certificate(tmp_path / "client", "client", "urn:test:client")
+    ctrl.trust(cert)
+    (tmp_path / "pw").write_text("pw-ctrl\n")
+    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
+    serve = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "serve", "--config", "examples/paper.toml",
+                              "--plc", plc_endpoint, "--plc-cert", str(plc.cert), "--plc-password-file",
+                              str(tmp_path / "pw"), "--endpoint", endpoint, "--state-dir", str(ctrl.path), "--db",
+                              str(tmp_path / "events.db")], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+    async def main():
+        for _ in range(100):                          # the server is up once its first line is printed
+            try:
+                c = Client(endpoint, timeout=5)
+                c.application_uri = "urn:test:client"
+                c.set_user("alice")
+                c.set_password("pw-alice")
+                await c.set_security(SecurityPolicyBasic256Sha256, str(cert), str(key),
+                                     server_certificate=str(ctrl.cert))
+                await c.connect()
+                break
+            except (OSError, asyncio.TimeoutError, ua.UaError):
+                await asyncio.sleep(0.2)
+        else:
+            raise AssertionError("serve did not come up: " + serve.stderr.read())
+        try:
+            ns = await c.get_namespace_index(NAMESPACE)
+            guidance = c.get_node(ua.NodeId("Guidance", ns))
+            var = (lambda name: c.get_node(ua.NodeId(f"Guidance.{name}", ns)))
+            t0 = time.monotonic()
+            while not await var("PlantLinkOK").read_value() or await var("Cycle").read_value() < 10:
+                assert time.monotonic() - t0 < 20, "the controller never read the PLC"
+                await asyncio.sleep(0.1)
+            z0 = await var("CouplerZ_m").read_value()
+            for _ in range(8):
+                await guidance.call_method(ua.QualifiedName("Jog", ns), 0.0, 0.0, 0.2)
+                await asyncio.sleep(0.2)
+            await guidance.call_method(ua.QualifiedName("Stop", ns))
+            await asyncio.sleep(0.3)
+            return z0, await var("CouplerZ_m").read_value(), await var("Mode").read_value()
+        finally:
+            await c.disconnect()
+
+    try:
+        z0, z1, mode = asyncio.run(main())
+        assert mode == "MANUAL" and z1 - z0 > 0.1, (z0, z1, mode)
+        assert serve.poll() is None, "serve ended by itself: a PLC run has no end"
+    finally:
+        for proc in (serve, plc_proc):
+            proc.terminate()
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(10)
 
 
 def _map_text(tags):

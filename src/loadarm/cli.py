@@ -925,12 +925,27 @@ def _check_endpoint(name: str, value: str) -> None:
         raise UserError(f"{name} must be opc.tcp://HOST:PORT, got {value!r}")
 
 
-def _realtime_scenario(scenario: Path, config: Optional[Path], speedup: float):
-    """The scenario and its model (``--config``'s if given, checked against it) of a real-time command."""
-    from .guidance.scenario import check_scenario, load_scenario
+def _realtime_scenario(scenario: Optional[Path], config: Optional[Path], speedup: float, command: str,
+                       duration: float | None = None):
+    """The scenario and its model (``--config``'s if given, checked against it) of a real-time command; without
+    a scenario, the default one (``duration`` long, if given) on ``--config``'s installation."""
+    from .guidance.scenario import Scenario, check_scenario, load_scenario
 
     if not speedup > 0 or not math.isfinite(speedup):
         raise UserError(f"--speedup must be a positive number, got {speedup!r}")
+    if scenario is None:
+        if config is None:
+            raise UserError(f"{command} without --scenario needs --config (the installation)")
+        from .config import in_range, range_text
+        from .guidance.scenario import ScenarioHead
+
+        if duration is not None and not in_range(ScenarioHead, "duration", duration):
+            raise UserError(f"--duration must be in {range_text(ScenarioHead, 'duration')}, got {duration!r}")
+        model = _model(config)
+        head = {"name": config.stem} if duration is None else {"name": config.stem, "duration": duration}
+        sc = Scenario.model_validate({"scenario": head})
+        check_scenario(sc, model, source=f"the default scenario on {config}")
+        return sc, model
     sc, model = load_scenario(scenario)
     if config is not None:
         model = _model(config)
@@ -940,8 +955,9 @@ def _realtime_scenario(scenario: Path, config: Optional[Path], speedup: float):
 
 @app.command()
 def serve(
-    scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML: the simulated plant, ship and "
-                                                                    "sensor the controller runs against.")],
+    scenario: Annotated[Optional[Path], typer.Option(
+        "--scenario", "-s", help="Scenario TOML: the simulated plant, ship and sensor the controller runs against "
+                                 "(with --plc: only its [guidance] and [sensor] settings and its length).")] = None,
     config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the "
                                                                           "scenario's).")] = None,
     endpoint: Annotated[str, typer.Option("--endpoint", help="OPC UA endpoint to listen on (loopback unless "
@@ -969,7 +985,8 @@ def serve(
 ) -> None:
     """Run the guidance controller in real time against a scenario's simulated plant (or a PLC) and serve it over
     OPC UA (Basic256Sha256 / Aes128 / Aes256, SignAndEncrypt; users and roles from STATE_DIR/users.toml;
-    client certificates trusted from STATE_DIR/pki/trusted). Ctrl-C stops.
+    client certificates trusted from STATE_DIR/pki/trusted). With --plc and no --scenario it runs until
+    stopped, with the default guidance and sensor settings, on --config's installation. Ctrl-C stops.
 
     Example: loadarm serve --scenario examples/scenarios/driftoff.toml --state-dir out/state
     """
@@ -984,8 +1001,11 @@ def serve(
         _check_endpoint("--plc", plc)
         if plc_cert is None or plc_password_file is None:
             raise UserError("--plc needs --plc-cert (the PLC's certificate) and --plc-password-file")
-    sc, model = _realtime_scenario(scenario, config, speedup)
-    inst_file = None if sc.scenario.installation is None else scenario.parent / sc.scenario.installation
+    elif scenario is None:
+        raise UserError("serve needs --scenario (a simulated plant) or --plc (a PLC's endpoint)")
+    sc, model = _realtime_scenario(scenario, config, speedup, "serve --plc")
+    inst_file = None if scenario is None or sc.scenario.installation is None \
+        else scenario.parent / sc.scenario.installation
     _outputs({"--db": db}, [scenario, inst_file, config], force, appended=("--db",))
     from datetime import datetime, timezone
 
@@ -1003,7 +1023,9 @@ def serve(
         link.start()
     log = EventLog(db, run=run_id)
     try:
-        service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=scripted, io=link), speedup=speedup)
+        loop = ClosedLoop(sc, model, log=log, scripted=scripted and scenario is not None, io=link,
+                          continuous=scenario is None)
+        service = GuidanceService(loop, speedup=speedup)
         server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)
         server.start()
         try:
@@ -1027,8 +1049,9 @@ def serve(
 
 @app.command("plc-sim")
 def plc_sim(
-    scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML: the plant, ship and sensor "
-                                                                    "the PLC simulates.")],
+    scenario: Annotated[Optional[Path], typer.Option(
+        "--scenario", "-s", help="Scenario TOML: the plant, ship and sensor the PLC simulates (default: a calm "
+                                 "ship at the default flange, on --config's installation).")] = None,
     config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the "
                                                                           "scenario's).")] = None,
     endpoint: Annotated[str, typer.Option("--endpoint", help="OPC UA endpoint to listen on.")] =
@@ -1037,6 +1060,7 @@ def plc_sim(
                                                                 "users.")] = Path("loadarm-plc-state"),
     insecure: Annotated[bool, typer.Option("--insecure", help="Also offer the unsecured endpoint.")] = False,
     speedup: Annotated[float, typer.Option("--speedup", help="PLC seconds per wall second (as serve's).")] = 1.0,
+    duration: Annotated[float, typer.Option("--duration", help="Seconds simulated without --scenario.")] = 3600.0,
 ) -> None:
     """A simulated PLC: the scenario's arm, valve drivers (with a watchdog on the controller's heartbeat), ERS
     valves, flange tracker and hard-wired E-stop in real time, served over OPC UA for `loadarm serve --plc`.
@@ -1047,7 +1071,7 @@ def plc_sim(
     from .plant.plc import PlcServer, PlcSimulator
 
     _check_endpoint("--endpoint", endpoint)
-    sc, model = _realtime_scenario(scenario, config, speedup)
+    sc, model = _realtime_scenario(scenario, config, speedup, "plc-sim", duration)
     sim = PlcSimulator(sc, model, speedup=speedup)
     server = PlcServer(sim, state_dir, endpoint, insecure=insecure)
     server.start()

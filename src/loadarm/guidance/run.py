@@ -15,6 +15,7 @@ same controller runs in real time with a wall clock.
 
 from __future__ import annotations
 
+import collections
 import math
 import time
 from collections.abc import Callable
@@ -558,11 +559,14 @@ class ClosedLoop:
         The scenario's operator acts (default); False: only the inputs given to :meth:`cycle`.
     io : optional
         The plant's inputs and outputs (default the scenario's :class:`SimulatedPlant`).
+    continuous : bool
+        Run without an end (a real plant through ``io``): the signals are kept for the last
+        :data:`CONTINUOUS_WINDOW` s only, cycle ``k`` in slot ``k % n``.
 
     Attributes
     ----------
     n : int
-        Cycles in the scenario's duration.
+        Cycles in the scenario's duration (continuous: slots of the signal window).
     dt : float
         Guidance cycle, s.
     ctrl : GuidanceController
@@ -575,8 +579,11 @@ class ClosedLoop:
     """
 
     def __init__(self, sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
-                 plant: str | None = None, ship=None, scripted: bool = True, io=None):
+                 plant: str | None = None, ship=None, scripted: bool = True, io=None, continuous: bool = False):
         g = sc.guidance
+        if continuous and io is None:
+            raise ValueError("continuous needs io (a plant without an end: a PLC); a simulated plant has the "
+                             "scenario's duration")
         plant = sc.scenario.plant if plant is None else plant
         if plant not in ("hydraulic", "kinematic"):
             raise ValueError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
@@ -585,8 +592,9 @@ class ClosedLoop:
         self.ctrl = GuidanceController(model, g)
         self.est = FlangeEstimator(noise=sc.sensor.noise, max_age=g.max_estimate_age)
         self.dt = 1.0 / g.rate
-        self.n = int(math.floor(sc.scenario.duration / self.dt)) + 1
-        self.events: list = []
+        self.continuous = continuous
+        self.n = int(math.floor((CONTINUOUS_WINDOW if continuous else sc.scenario.duration) / self.dt)) + 1
+        self.events: list = [] if not continuous else collections.deque(maxlen=CONTINUOUS_EVENTS)
         self._limiter = RateLimiter()
         self.io = SimulatedPlant(sc, model, self.ctrl.stored, self.n, self.dt, plant, self.emit, ship) if io is None \
             else io
@@ -600,6 +608,10 @@ class ClosedLoop:
     def time(self, k: int) -> float:
         """The time of cycle ``k``, s (a Python float: numpy scalars make every scalar operation slower)."""
         return k * self.dt
+
+    def slot(self, k: int) -> int:
+        """Where cycle ``k``'s signals are kept: ``k``, or ``k % n`` in a continuous run."""
+        return k % self.n if self.continuous else k
 
     def emit(self, t, mode, kind, reason, data) -> None:
         """Record an event (rate-limited alike events) and append it to the log."""
@@ -639,24 +651,32 @@ class ClosedLoop:
         if live is not None:
             op = OperatorInput(op.actions + live.actions, live.jog if any(live.jog) else op.jog)
         cmd = ctrl.step(now, io.q, e, op, io.feedback)
-        self.cycle_us[k] = (time.perf_counter() - t0) * 1e6
+        i = self.slot(k)
+        self.cycle_us[i] = (time.perf_counter() - t0) * 1e6
         for kind, reason, data in cmd.events:
             self.emit(now, cmd.mode.value, kind, reason, data)
         q, flange = io.step(k, now, self.dt, cmd)
-        self.rec.record(k, now, cmd, q, flange, e, self.model.arm)
-        self.clearance.watch(now, cmd, self.rec.sig["distance"][k])
+        self.rec.record(i, now, cmd, q, flange, e, self.model.arm)
+        self.clearance.watch(now, cmd, self.rec.sig["distance"][i])
         self.estimate = e
         return cmd
 
     def result(self) -> RunResult:
-        """The run's result over the cycles run so far."""
-        k = int(np.count_nonzero(np.isfinite(self.rec.sig["t"])))
-        sig = {name: v[:k] for name, v in self.rec.sig.items()}
+        """The run's result over the cycles run so far (continuous: over the signal window)."""
+        t = self.rec.sig["t"]
+        k = int(np.count_nonzero(np.isfinite(t)))
+        idx = np.argsort(t)[:k] if self.continuous else slice(0, k)       # NaN (slots not yet run) sort last
+        sig = {name: v[idx] for name, v in self.rec.sig.items()}
         al = self.model.alarms
         limit_at, limit_face = self.io.first_limit(self.model, sig)
-        return RunResult(self.sc.scenario.name, sig, self.events, self.io.overstretched, self.cycle_us[:k],
+        return RunResult(self.sc.scenario.name, sig, list(self.events), self.io.overstretched, self.cycle_us[idx],
                          tuple(math.degrees(a) for a in (al.first, al.second, al.release)), limit_at, limit_face)
 
+
+#: The signals a continuous run keeps (the last hour), s.
+CONTINUOUS_WINDOW = 3600.0
+#: The events a continuous run keeps in memory (all go to the event log).
+CONTINUOUS_EVENTS = 10_000
 
 #: How far past the end of a run the flange's own trajectory is followed to find the face it would reach, s.
 LIMIT_LOOKAHEAD = 600.0

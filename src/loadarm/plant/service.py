@@ -12,6 +12,7 @@ when the client stops renewing it, or its link drops).
 
 from __future__ import annotations
 
+import itertools
 import math
 import queue
 import threading
@@ -186,10 +187,11 @@ class GuidanceService:
             self.finished.set()
 
     def run(self) -> None:
-        """Run every cycle of the scenario on the clock (in the calling thread), until the end or :meth:`stop`."""
+        """Run every cycle of the scenario on the clock (in the calling thread), until the end (a continuous
+        loop: none) or :meth:`stop`."""
         loop = self.loop
         start = self.clock()
-        for k in range(loop.n):
+        for k in (itertools.count() if loop.continuous else range(loop.n)):
             if self._stop.is_set():
                 break
             now = loop.time(k)
@@ -250,20 +252,21 @@ class GuidanceService:
         loop = self.loop
         q = loop.io.q
         sig = loop.rec.sig
+        i = loop.slot(k)
         e = loop.estimate
         ttl = float(cmd.time_to_limit)
         from ..actuators import cylinder_lengths
         from ..faces import FACES, face_margins
 
         c1, c2 = cylinder_lengths(loop.model.mount, float(q[1]), float(q[2]))
-        m = face_margins(loop.model, sig["x"][k], sig["y"][k], sig["z"][k])
+        m = face_margins(loop.model, sig["x"][i], sig["y"][i], sig["z"][i])
         self._snapshot = Snapshot(
             seq=k, t=now, mode=cmd.mode.value, q=(float(q[0]), float(q[1]), float(q[2])),
-            coupler=(float(sig["x"][k]), float(sig["y"][k]), float(sig["z"][k])),
+            coupler=(float(sig["x"][i]), float(sig["y"][i]), float(sig["z"][i])),
             flange_estimate=tuple(float(v) for v in np.asarray(e.position, dtype=float)),
-            estimate_healthy=bool(e.healthy), distance=float(sig["distance"][k]), level=int(cmd.level),
+            estimate_healthy=bool(e.healthy), distance=float(sig["distance"][i]), level=int(cmd.level),
             time_to_limit=ttl, connected=bool(cmd.connected), esd=bool(cmd.esd), release=bool(cmd.release),
             coupler_open=bool(cmd.coupler_open), ers_valves_closed=bool(loop.io.feedback.ers_valves_closed),
             alarms={tag: st.value for tag, st in loop.ctrl.state.alarms.items()},
-            cycle_us=float(loop.cycle_us[k]), late=self.late, plant_ok=self._link_ok,
+            cycle_us=float(loop.cycle_us[i]), late=self.late, plant_ok=self._link_ok,
             cylinders=(float(c1), float(c2)), margins={f: float(m[..., i]) for i, f in enumerate(FACES)})

@@ -257,6 +257,32 @@ def test_an_untrusted_certificate_is_refused_and_kept_for_the_administrator(serv
     assert len(set(served["state"].rejected.glob("*.der")) - before) == 1
 
 
+def test_a_new_state_directory_with_no_trusted_client_starts_and_refuses_every_client(tmp_path):
+    """Found: the first start of a fresh state directory (nothing in pki/trusted yet: the documented first
+    step) failed, asyncua being unable to load an empty trust store. The server now starts and refuses every
+    client certificate, keeping it in pki/rejected for the administrator to trust."""
+    from loadarm.plant.server import OpcUaServer
+
+    st = StateDir(tmp_path / "fresh")
+    st.users().add("alice", Role.OPERATOR, "pw-alice")
+    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
+    server = OpcUaServer(_FakeService(), st.path, endpoint)
+    server.start()
+    try:
+        cert, key = _client_cert(tmp_path, "first")
+
+        async def main():
+            c = await _client({"endpoint": endpoint, "state": st, "cert": cert, "key": key}, "alice", "pw-alice")()
+            await c.connect()
+
+        with pytest.raises(Exception):
+            asyncio.run(main())
+        time.sleep(0.2)
+        assert len(list(st.rejected.glob("*.der"))) == 1
+    finally:
+        server.stop()
+
+
 def test_the_variables_carry_engineering_units_and_ranges(served):
     async def main():
         c = await _client(served, "victor", "pw-victor")()

@@ -981,6 +981,9 @@ def serve(
         "--plc-password-file", help="File whose first line is that user's password.")] = None,
     plc_map: Annotated[Optional[Path], typer.Option("--plc-map", help="Where each tag is on the PLC (TOML; "
                                                                       "default loadarm plc-sim's nodes).")] = None,
+    hmi: Annotated[Optional[str], typer.Option("--hmi", help="Serve the operator's web screen on HOST:PORT "
+                                                             "(e.g. 127.0.0.1:8080; loopback unless told "
+                                                             "otherwise).")] = None,
     force: ForceOpt = False,
 ) -> None:
     """Run the guidance controller in real time against a scenario's simulated plant (or a PLC) and serve it over
@@ -997,6 +1000,14 @@ def serve(
     from .plant.service import GuidanceService
 
     _check_endpoint("--endpoint", endpoint)
+    hmi_address = None
+    if hmi is not None:
+        from .hmi.app import parse_hmi_address
+
+        try:
+            hmi_address = parse_hmi_address(hmi)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
     if plc is not None:
         _check_endpoint("--plc", plc)
         if plc_cert is None or plc_password_file is None:
@@ -1028,7 +1039,17 @@ def serve(
         service = GuidanceService(loop, speedup=speedup)
         server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)
         server.start()
+        screen = None
         try:
+            if hmi_address is not None:
+                from .hmi.app import HmiServer, create_app
+
+                screen = HmiServer(create_app(service, state_dir, model, name=sc.scenario.name), *hmi_address)
+                try:
+                    screen.start()
+                except OSError as exc:
+                    raise UserError(str(exc)) from None
+                out.print(f"operator's screen on {screen.url} (users from {server.state.users_file})")
             cert = _load_certificate(server.state.cert)
             out.print(f"OPC UA server on {endpoint} ({'with' if insecure else 'no'} unsecured endpoint); "
                       f"certificate {server.state.cert} (SHA-1 {thumbprint(cert)})")
@@ -1037,6 +1058,8 @@ def serve(
             out.print(f"events to {db} (run {run_id}); Ctrl-C stops")
             service.run()
         finally:
+            if screen is not None:
+                screen.stop()
             server.stop()
     finally:
         log.close()

@@ -519,6 +519,15 @@ class SimulatedPlant:
         return self.arm.servo_fault
 
     @property
+    def pressures(self) -> tuple[float, float, float, float, float]:
+        """Chamber pressures ``pA1, pB1, pA2, pB2`` and the supply pressure, Pa (NaN: the kinematic arm)."""
+        servo = self.arm.servo
+        if servo is None:
+            return (math.nan,) * 5
+        y = servo.state.y
+        return float(y[4]), float(y[5]), float(y[6]), float(y[7]), float(y[12])
+
+    @property
     def overstretched(self) -> float | None:
         return self.arm.overstretched
 

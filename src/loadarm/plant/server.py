@@ -114,15 +114,21 @@ def _user_manager(users):
 
 def _validator(state: StateDir):
     """The client-certificate check: trusted (in ``pki/trusted``), in its validity period, a client's; a
-    refused certificate is copied to ``pki/rejected``."""
+    refused certificate is copied to ``pki/rejected``. An empty trust list refuses every client (found: asyncua
+    cannot load an empty store, and the first start of a new state directory failed)."""
+    from asyncua import ua
     from asyncua.crypto.truststore import TrustStore
     from asyncua.crypto.validator import CertificateValidator, CertificateValidatorOptions as O
 
+    state.trusted.mkdir(parents=True, exist_ok=True)
+    empty = not any(p.is_file() for p in state.trusted.iterdir())
     store = TrustStore([state.trusted], [])
     check = CertificateValidator(O.TRUSTED_VALIDATION | O.PEER_CLIENT, store)
 
     async def validate(cert, app_description):
         try:
+            if empty:
+                raise ua.UaStatusCodeError(ua.StatusCodes.BadCertificateUntrusted)
             await check(cert, app_description)
         except Exception:
             from cryptography.hazmat.primitives import serialization
@@ -134,7 +140,7 @@ def _validator(state: StateDir):
             _log.warning("OPC UA client certificate refused (copied to %s)", state.rejected)
             raise
 
-    return store, validate
+    return store, validate, empty
 
 
 # --------------------------------------------------------------------------- the address space
@@ -288,8 +294,9 @@ class SecureServer:
         policies = _policies() + ([ua.SecurityPolicyType.NoSecurity] if self.insecure else [])
         server.set_security_policy(policies, permission_ruleset=RoleRuleset())
         server.set_identity_tokens([ua.AnonymousIdentityToken, ua.UserNameIdentityToken])
-        store, validate = _validator(self.state)
-        await store.load()
+        store, validate, empty = _validator(self.state)
+        if not empty:
+            await store.load()
         server.set_certificate_validator(validate)
         nodes = await self._build(server)
         async with server:

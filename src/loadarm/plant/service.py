@@ -31,7 +31,8 @@ JOG_HOLD = 0.5
 #: The operator's requests and the controller actions they become (``jog`` carries a velocity).
 ACTIONS = {"start": ("start",), "connect": ("connect",), "disconnect": ("disconnect",), "stop": ("manual",),
            "jog": ("manual",), "estop": ("estop",), "esd": ("esd",), "ers": ("ers",),
-           "ers_confirm": ("ers_confirm",), "reset": ("reset",), "ack": ("ack",), "auto": ("auto",)}
+           "ers_confirm": ("ers_confirm",), "reset": ("reset",), "ack": ("ack",), "auto": ("auto",),
+           "shelve": (), "unshelve": ()}      # the screen's shelving: logged here, kept by the HMI (loadarm.hmi)
 
 
 @dataclass(frozen=True)
@@ -62,8 +63,11 @@ class Request:
             raise ValueError(f"jog must be three finite velocities, got {self.jog!r}")
         from ..guidance.controller import ANNUNCIATED
 
-        if self.tag and (self.action != "ack" or self.tag not in ANNUNCIATED):
-            raise ValueError(f"tag must be one of {', '.join(ANNUNCIATED)} with action 'ack', got {self.tag!r}")
+        if self.tag and (self.action not in ("ack", "shelve", "unshelve") or self.tag not in ANNUNCIATED):
+            raise ValueError(f"tag must be one of {', '.join(ANNUNCIATED)} with action 'ack', 'shelve' or "
+                             f"'unshelve', got {self.tag!r}")
+        if self.action in ("shelve", "unshelve") and not self.tag:
+            raise ValueError(f"{self.action} needs the alarm's tag")
 
 
 @dataclass(frozen=True)
@@ -101,6 +105,11 @@ class Snapshot:
         Both cylinders' pin-to-pin lengths, m.
     margins : dict of str to float
         Margin to each face of the envelope (:data:`loadarm.faces.FACES`), rad (NaN: out of reach).
+    flange_velocity : tuple of float
+        The estimate's velocity, m/s.
+    pressures : tuple of float
+        Chamber pressures ``pA1, pB1, pA2, pB2`` and the supply pressure, Pa (NaN: a plant without them, the
+        kinematic one or a PLC that does not report them).
     """
 
     seq: int
@@ -124,6 +133,8 @@ class Snapshot:
     plant_ok: bool = True
     cylinders: tuple[float, float] = (math.nan, math.nan)
     margins: dict = field(default_factory=dict)
+    flange_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    pressures: tuple[float, float, float, float, float] = (math.nan,) * 5
 
 
 class GuidanceService:
@@ -214,7 +225,7 @@ class GuidanceService:
                 req = self._requests.get_nowait()
             except queue.Empty:
                 break
-            actions.extend((f"ack:{req.tag}",) if req.tag else ACTIONS[req.action])
+            actions.extend((f"ack:{req.tag}",) if req.tag and req.action == "ack" else ACTIONS[req.action])
             if req.action == "jog":
                 self._jog, self._jog_until = req.jog, now + JOG_HOLD
             elif req.action in ("stop", "estop"):
@@ -269,4 +280,6 @@ class GuidanceService:
             coupler_open=bool(cmd.coupler_open), ers_valves_closed=bool(loop.io.feedback.ers_valves_closed),
             alarms={tag: st.value for tag, st in loop.ctrl.state.alarms.items()},
             cycle_us=float(loop.cycle_us[i]), late=self.late, plant_ok=self._link_ok,
-            cylinders=(float(c1), float(c2)), margins={f: float(m[..., i]) for i, f in enumerate(FACES)})
+            cylinders=(float(c1), float(c2)), margins={f: float(m[..., i]) for i, f in enumerate(FACES)},
+            flange_velocity=tuple(float(v) for v in np.asarray(e.velocity, dtype=float)),
+            pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)))

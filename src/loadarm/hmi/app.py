@@ -6,7 +6,6 @@ reference read and its requests go through a queue).
 Every asset is in the package (``static/``): no CDN, no external font. The page's Content-Security-Policy
 allows its own origin only."""
 
-from __future__ import annotations
 
 import asyncio
 import json
@@ -67,7 +66,7 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     from fastapi.responses import FileResponse, JSONResponse
     from fastapi.staticfiles import StaticFiles
 
-    from ..plant.service import Request
+    from ..plant.service import JOG_HOLD, Request
 
     state = StateDir(state_dir)
     users = state.users()
@@ -102,8 +101,8 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     @app.get("/api/session")
     async def get_session(request: HttpRequest):
         _, s = current(request)
-        if s is None:
-            return JSONResponse({"detail": "not logged in"}, status_code=401)
+        if s is None:                     # not an error: the page shows the login (no console error either)
+            return {"user": None, "name": name}
         return session_json(s)
 
     @app.post("/api/login")
@@ -163,7 +162,7 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
         if s.role < COMMANDS[action]:
             return False, f"refused: {action} needs the {COMMANDS[action].name.lower()} role, " \
                           f"{s.user} is {s.role.name.lower()}"
-        tag = msg.get("tag") or ""
+        tag = (msg.get("tag") or "") if action in ("ack", "shelve", "unshelve") else ""
         try:
             jog = tuple(float(v) for v in msg.get("jog", (0.0, 0.0, 0.0)))
             req = Request(action, s.user, jog if action == "jog" else (0.0, 0.0, 0.0), tag=tag)
@@ -223,7 +222,9 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
                     break
                 ok, message = command(s, msg)
                 if ok and msg.get("action") == "jog":
-                    jogging["until"] = time.monotonic() + 0.5
+                    jogging["until"] = time.monotonic() + JOG_HOLD
+                elif ok and msg.get("action") in ("stop", "estop"):
+                    jogging["until"] = -math.inf
                 await websocket.send_text(json.dumps({"type": "ack", "seq": seq, "ok": ok, "message": message}))
         except WebSocketDisconnect:
             pass
@@ -283,7 +284,7 @@ class HmiServer:
         sock.listen(64)
         self.port = sock.getsockname()[1]
         self._server = uvicorn.Server(uvicorn.Config(self.app, log_level="warning", lifespan="off",
-                                                     ws="websockets", access_log=False))
+                                                     ws="websockets-sansio", access_log=False))
         started = threading.Event()
 
         def run():

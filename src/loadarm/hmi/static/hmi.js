@@ -26,7 +26,7 @@ async function api(path, options = {}) {
 
 async function boot() {
   const r = await api("/api/session");
-  if (r.status === 200) { await start(r.body); } else { showLogin(""); }
+  if (r.status === 200 && r.body.user) { await start(r.body); } else { showLogin(""); }
 }
 
 function showLogin(message) {
@@ -85,7 +85,7 @@ function connect() {
     setTimeout(async () => {
       if (!hmi.session) { return; }
       const r = await api("/api/session");
-      if (r.status === 200) { connect(); } else { showLogin("session ended: log in again"); }
+      if (r.status === 200 && r.body.user) { connect(); } else { showLogin("session ended: log in again"); }
     }, 1000);
   };
 }
@@ -325,8 +325,8 @@ function drawBars(f) {
                   slew_neg: g.slew.limit - g.slew.first};
   for (const face of g.faces) {
     const v = f.margins[face];
-    box.appendChild(bar(`margin ${face}`, v === null ? null : v * DEG, "deg", 0, 90,
-                        (normal[face] || 5 / DEG) * DEG, 90, 1));
+    box.appendChild(bar(`margin ${face}`, v === null ? null : v * DEG, "deg", 0, 180,
+                        (normal[face] || 5 / DEG) * DEG, 180, 1));
   }
 }
 

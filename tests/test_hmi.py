@@ -1,0 +1,308 @@
+"""The operator's web screen (issue 15) without a browser: logins, cookies, CSRF, the login limit, the WebSocket's
+frames and acknowledged commands, roles, the dead-man on a dropped screen, the alarm list and shelving, and
+the assets (nothing from outside). The browser tests are in tests/test_hmi_browser.py."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+
+import pytest
+
+from loadarm.plant.security import Role, StateDir
+
+SCENARIO = "examples/scenarios/driftoff.toml"
+
+
+class FakeClock:
+    def __init__(self, t=1000.0):
+        self.t = t
+
+    def __call__(self):
+        return self.t
+
+
+class FakeService:
+    """A guidance service whose snapshot the test sets; it records the requests it gets."""
+
+    def __init__(self):
+        from loadarm.guidance.controller import ANNUNCIATED
+
+        self.requests = []
+        self.seq = 0
+        self.alarms = {tag: "normal" for tag in ANNUNCIATED}
+        self.mode = "MANUAL"
+        self.t = 0.0
+
+    def snapshot(self):
+        from loadarm.plant.service import Snapshot
+
+        return Snapshot(seq=self.seq, t=self.t, mode=self.mode, q=(0.0, 1.0, 2.0), coupler=(10.0, 0.0, 2.0),
+                        flange_estimate=(10.0, 0.0, 2.0), estimate_healthy=True, distance=0.0, level=0,
+                        time_to_limit=math.inf, connected=False, esd=False, release=False, coupler_open=False,
+                        ers_valves_closed=False, alarms=dict(self.alarms),
+                        margins={"beta_max": math.nan, "slew_pos": 0.3})
+
+    def request(self, req):
+        self.requests.append(req)
+
+    def step(self, **kw):
+        for k, v in kw.items():
+            setattr(self, k, v)
+        self.seq += 1
+
+
+@pytest.fixture
+def app_env(tmp_path, model):
+    from fastapi.testclient import TestClient
+
+    from loadarm.hmi.app import create_app
+
+    st = StateDir(tmp_path / "state")
+    st.users().add("alice", Role.OPERATOR, "pw-alice")
+    st.users().add("victor", Role.VIEWER, "pw-victor")
+    service, clock = FakeService(), FakeClock()
+    app = create_app(service, st.path, model, clock=clock, frame_rate=100.0, name="test")
+    client = TestClient(app)                   # host "testserver", for HTTP and the WebSocket alike
+    return {"client": client, "service": service, "clock": clock, "app": app}
+
+
+def _login(client, user="alice", password="pw-alice"):
+    r = client.post("/api/login", json={"user": user, "password": password})
+    assert r.status_code == 200, r.text
+    return r.json()
+
+
+ORIGIN = {"origin": "http://testserver"}
+
+
+def test_login_sets_an_http_only_same_site_strict_cookie_and_a_csrf_token(app_env):
+    c = app_env["client"]
+    assert c.get("/api/session").json()["user"] is None
+    assert c.get("/api/geometry").status_code == 401
+    r = c.post("/api/login", json={"user": "alice", "password": "pw-alice"})
+    cookie = r.headers["set-cookie"]
+    assert "loadarm_session=" in cookie and "HttpOnly" in cookie and "SameSite=strict" in cookie
+    body = r.json()
+    assert body["user"] == "alice" and body["role"] == "operator" and len(body["csrf"]) >= 32
+    assert c.get("/api/session").json()["csrf"] == body["csrf"]
+    assert c.get("/api/geometry").json()["b"] > 0
+    assert "default-src 'self'" in r.headers["content-security-policy"]
+    # logout needs the CSRF token: a forged form post cannot end the session
+    assert c.post("/api/logout").status_code == 403
+    assert c.post("/api/logout", headers={"X-CSRF-Token": body["csrf"]}).status_code == 200
+    assert c.get("/api/session").json()["user"] is None
+
+
+@pytest.mark.parametrize("body", [{"user": "alice"}, {"user": 1, "password": "x"}, "not json"])
+def test_a_malformed_login_is_a_400_not_a_traceback(app_env, body):
+    c = app_env["client"]
+    r = c.post("/api/login", json=body) if isinstance(body, dict) else c.post("/api/login", content=body)
+    assert r.status_code == 400 and "user" in r.json()["detail"]
+
+
+def test_failed_logins_are_limited_per_user_then_allowed_after_the_window(app_env):
+    from loadarm.hmi.sessions import LOGIN_FAILURES, LOGIN_WINDOW
+
+    c, clock = app_env["client"], app_env["clock"]
+    for _ in range(LOGIN_FAILURES):
+        assert c.post("/api/login", json={"user": "alice", "password": "wrong"}).status_code == 401
+    r = c.post("/api/login", json={"user": "alice", "password": "pw-alice"})      # even the right one: refused
+    assert r.status_code == 429 and int(r.headers["retry-after"]) == math.ceil(LOGIN_WINDOW)
+    clock.t += LOGIN_WINDOW / 2
+    assert c.post("/api/login", json={"user": "alice", "password": "pw-alice"}).status_code == 429
+    clock.t += LOGIN_WINDOW / 2 + 0.01
+    assert c.post("/api/login", json={"user": "alice", "password": "pw-alice"}).status_code == 200
+
+
+def test_a_session_unused_for_a_shift_ends(app_env):
+    from loadarm.hmi.sessions import SESSION_IDLE
+
+    c, clock = app_env["client"], app_env["clock"]
+    _login(c)
+    clock.t += SESSION_IDLE - 1
+    assert c.get("/api/session").json()["user"] == "alice"          # used: renewed
+    clock.t += SESSION_IDLE + 1
+    assert c.get("/api/session").json()["user"] is None
+
+
+def test_the_websocket_refuses_no_session_and_another_origin(app_env):
+    from starlette.websockets import WebSocketDisconnect
+
+    c = app_env["client"]
+    with pytest.raises(WebSocketDisconnect) as e:
+        with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+            ws.receive_text()
+    assert e.value.code == 4403
+    _login(c)
+    with pytest.raises(WebSocketDisconnect) as e:
+        with c.websocket_connect("/ws", headers={"origin": "http://evil.example"}) as ws:
+            ws.receive_text()
+    assert e.value.code == 4403
+
+
+def _frame(ws):
+    while True:
+        msg = json.loads(ws.receive_text())
+        if msg["type"] == "state":
+            return msg
+
+
+def _ack(ws):
+    while True:
+        msg = json.loads(ws.receive_text())
+        if msg["type"] == "ack":
+            return msg
+
+
+def test_frames_carry_a_sequence_number_and_json_safe_values(app_env):
+    c, service = app_env["client"], app_env["service"]
+    _login(c)
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        f = _frame(ws)
+        service.step(t=0.02)
+        g = _frame(ws)
+        while g["seq"] == f["seq"]:
+            g = _frame(ws)
+    assert g["seq"] == f["seq"] + 1 and f["mode"] == "MANUAL"
+    assert f["time_to_limit"] is None and f["margins"]["beta_max"] is None and f["margins"]["slew_pos"] == 0.3
+    assert f["pressures"] == [None] * 5 and f["alarms"] == []
+
+
+def test_an_operator_s_commands_are_acknowledged_by_sequence_and_reach_the_controller_with_the_user(app_env):
+    c, service = app_env["client"], app_env["service"]
+    csrf = _login(c)["csrf"]
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        ws.send_text(json.dumps({"type": "cmd", "seq": 7, "action": "jog", "jog": [0, 0, 0.1], "csrf": csrf}))
+        a = _ack(ws)
+        assert a == {"type": "ack", "seq": 7, "ok": True, "message": "jog sent"}
+        ws.send_text(json.dumps({"type": "cmd", "seq": 8, "action": "estop", "csrf": "forged"}))
+        a = _ack(ws)
+        assert a["seq"] == 8 and not a["ok"] and "CSRF" in a["message"]
+        ws.send_text(json.dumps({"type": "cmd", "seq": 9, "action": "launch", "csrf": csrf}))
+        assert "unknown command" in _ack(ws)["message"]
+        ws.send_text(json.dumps({"type": "cmd", "seq": 10, "action": "jog", "jog": [0, "x", 0], "csrf": csrf}))
+        assert not _ack(ws)["ok"]
+        ws.send_text("{not json")
+        assert _ack(ws) == {"type": "ack", "seq": None, "ok": False, "message": "not a command"}
+        ws.send_text(json.dumps({"type": "cmd", "seq": 11, "action": "stop", "csrf": csrf}))
+        assert _ack(ws)["ok"]
+    assert [(r.action, r.user, r.jog) for r in service.requests] == [("jog", "alice", (0.0, 0.0, 0.1)),
+                                                                     ("stop", "alice", (0.0, 0.0, 0.0))]
+
+
+def test_a_viewer_can_request_esd_1_and_nothing_else(app_env):
+    from loadarm.hmi.app import COMMANDS
+
+    c, service = app_env["client"], app_env["service"]
+    s = _login(c, "victor", "pw-victor")
+    assert s["commands"] == ["esd"]
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        for i, action in enumerate(sorted(COMMANDS)):
+            ws.send_text(json.dumps({"type": "cmd", "seq": i, "action": action, "csrf": s["csrf"], "tag": "ESD1",
+                                     "seconds": 60}))
+            a = _ack(ws)
+            assert a["ok"] == (action == "esd"), (action, a)
+            if action != "esd":
+                assert "needs the operator role, victor is viewer" in a["message"]
+    assert [(r.action, r.user) for r in service.requests] == [("esd", "victor")]
+
+
+def test_a_screen_dropped_mid_jog_stops_the_jog(app_env):
+    """The dead-man across the network: the page stops its jog when the key or button is released, and if the
+    connection drops instead, the server asks the controller to stop (the controller's own 0.5 s jog hold
+    would stop it too)."""
+    c, service = app_env["client"], app_env["service"]
+    csrf = _login(c)["csrf"]
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        ws.send_text(json.dumps({"type": "cmd", "seq": 1, "action": "jog", "jog": [0.1, 0, 0], "csrf": csrf}))
+        assert _ack(ws)["ok"]
+    assert [r.action for r in service.requests] == ["jog", "stop"]
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:          # no jog: a closed screen asks nothing
+        _frame(ws)
+    assert [r.action for r in service.requests] == ["jog", "stop"]
+
+
+def test_alarms_are_listed_by_priority_with_their_time_and_can_be_shelved_for_a_limited_time(app_env):
+    from loadarm.hmi.state import SHELVE_MAX
+
+    c, service = app_env["client"], app_env["service"]
+    csrf = _login(c)["csrf"]
+    service.step(t=10.0, alarms={**service.alarms, "PRE_ALARM": "unacknowledged"})
+    service.step(t=12.0, alarms={**service.alarms, "ESD1": "unacknowledged"})
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        f = _frame(ws)
+        assert [(a["tag"], a["priority_name"], a["state"]) for a in f["alarms"]] == [
+            ("ESD1", "medium", "unacknowledged"), ("PRE_ALARM", "low", "unacknowledged")]
+        assert f["alarms"][0]["raised_at"] == 12.0
+        ws.send_text(json.dumps({"type": "cmd", "seq": 1, "action": "shelve", "tag": "PRE_ALARM",
+                                 "seconds": SHELVE_MAX + 1, "csrf": csrf}))
+        assert not _ack(ws)["ok"]
+        ws.send_text(json.dumps({"type": "cmd", "seq": 2, "action": "shelve", "tag": "SECOND", "seconds": 60,
+                                 "csrf": csrf}))
+        assert "SECOND is not active" in _ack(ws)["message"]
+        ws.send_text(json.dumps({"type": "cmd", "seq": 3, "action": "shelve", "tag": "PRE_ALARM", "seconds": 60,
+                                 "csrf": csrf}))
+        assert _ack(ws)["ok"]
+        service.step(t=13.0)
+        f = _frame(ws)
+        while f["seq"] != service.seq:
+            f = _frame(ws)
+        assert [a["tag"] for a in f["alarms"]] == ["ESD1"]
+        assert [(a["tag"], a["shelved_until"]) for a in f["shelved"]] == [("PRE_ALARM", 72.0)]
+        service.step(t=72.0)                       # the shelving's time is up: back in the list
+        f = _frame(ws)
+        while f["seq"] != service.seq:
+            f = _frame(ws)
+        assert [a["tag"] for a in f["alarms"]] == ["ESD1", "PRE_ALARM"] and f["shelved"] == []
+    assert [(r.action, r.tag) for r in service.requests] == [("shelve", "PRE_ALARM")]
+
+
+def test_the_alarm_book_on_its_own():
+    from loadarm.hmi.state import AlarmBook, priority
+
+    assert [priority(t)[1] for t in ("RELEASE", "SECOND", "ESD1", "PRE_ALARM")] == ["critical", "high", "medium",
+                                                                                  "low"]
+    b = AlarmBook()
+    assert b.update(1.0, {"ESD1": "unacknowledged"})[0].raised_at == 1.0
+    assert b.update(5.0, {"ESD1": "acknowledged"})[0].raised_at == 1.0            # raised once, not re-raised
+    assert b.shelve("ESD1", 5.0, float("nan"), {"ESD1": "acknowledged"})
+    assert b.shelve("ESD1", 5.0, 30, {"ESD1": "acknowledged"}) == ""
+    assert b.update(6.0, {"ESD1": "acknowledged"})[0].shelved_until == 35.0
+    assert b.update(7.0, {"ESD1": "normal"}) == []                                 # normal: forgotten
+    assert b.update(8.0, {"ESD1": "unacknowledged"})[0].shelved_until is None      # a new activation shows
+    assert b.unshelve("ESD1") == "ESD1 is not shelved"
+
+
+def test_the_assets_are_all_in_the_package_and_ask_nothing_from_outside():
+    from loadarm.hmi.app import _static_dir
+
+    files = sorted(_static_dir().iterdir())
+    assert {f.name for f in files} >= {"index.html", "hmi.js", "hmi.css"}
+    for f in files:
+        text = f.read_text()
+        urls = [u for u in re.findall(r"(?:https?:)?//[\w.-]+\.\w+[^\s\"')]*", text)
+                if not u.startswith("http://www.w3.org/2000/svg")]
+        assert not urls, (f.name, urls)
+
+
+def test_the_frame_of_a_real_snapshot_is_json(model):
+    """The service's own snapshot (the drift-off on the hydraulic plant, a few cycles) makes a frame that JSON
+    carries: pressures in Pa from the servo, the geometry's zones ordered by reach."""
+    from loadarm.guidance.run import ClosedLoop
+    from loadarm.guidance.scenario import load_scenario
+    from loadarm.hmi.state import AlarmBook, frame, geometry
+    from loadarm.plant.service import GuidanceService
+
+    sc, m = load_scenario(SCENARIO)
+    service = GuidanceService(ClosedLoop(sc, m, scripted=False), clock=lambda: 0.0, sleep=lambda s: None)
+    loop = service.loop
+    for k in range(5):
+        service._publish(k, loop.time(k), loop.cycle(k))
+    snap = service.snapshot()
+    f = json.loads(json.dumps(frame(snap, m, AlarmBook().update(snap.t, snap.alarms), sent_at=0.0)))
+    assert all(p is not None and 1e5 < p < 400e5 for p in f["pressures"]), f["pressures"]
+    g = geometry(m)
+    reach = [z["from_r"] for z in g["zones"]] + [g["zones"][-1]["to_r"]]
+    assert reach == sorted(reach) and g["sequence_time"] > m.sequence.esd_time

@@ -225,6 +225,9 @@ class GuidanceService:
                 req = self._requests.get_nowait()
             except queue.Empty:
                 break
+            if req.action == "jog" and req.jog == self._jog and now < self._jog_until:
+                self._jog_until = now + JOG_HOLD       # a held jog renewed: one action, logged once
+                continue
             actions.extend((f"ack:{req.tag}",) if req.tag and req.action == "ack" else ACTIONS[req.action])
             if req.action == "jog":
                 self._jog, self._jog_until = req.jog, now + JOG_HOLD

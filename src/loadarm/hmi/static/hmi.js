@@ -12,7 +12,8 @@ const MODES = ["STORED", "APPROACH", "HOLD", "STANDOFF", "CONNECTED", "ALARM1", 
 const SVGNS = "http://www.w3.org/2000/svg";
 const $ = (id) => document.getElementById(id);
 
-const hmi = {session: null, geo: null, ws: null, lastFrameAt: 0, lastSeq: null, frames: 0, cmdSeq: 0,
+const hmi = {session: null, geo: null, ws: null, lastFrameAt: 0, lastSeq: null, lastSeqAt: 0, frames: 0, cmdSeq: 0,
+             history: [], seenAlarms: [], seenModes: [],
              pending: new Map(), jog: null, jogTimer: null, flange0: null, frame: null, rate: 0,
              rateCount: 0, rateSince: performance.now()};
 window.hmi = hmi;               // for the browser tests
@@ -115,7 +116,10 @@ function showAck(seq, ok, text) {
 // ------------------------------------------------------------------ commands
 for (const b of document.querySelectorAll("#controls button[data-action]")) {
   if (b.id === "ers") { continue; }
-  b.addEventListener("click", () => send(b.dataset.action));
+  b.addEventListener("click", () => {
+    if (b.dataset.action === "estop" || b.dataset.action === "stop") { stopJog(false); }   // no renewal after
+    send(b.dataset.action);
+  });
 }
 $("ers").addEventListener("click", () => { send("ers"); $("ers-dialog").showModal(); });
 $("ers-dialog").addEventListener("close", () => {
@@ -161,7 +165,13 @@ window.addEventListener("blur", () => stopJog());
 // ------------------------------------------------------------------ frames
 function onFrame(f) {
   hmi.lastFrameAt = performance.now();
+  if (f.seq !== hmi.lastSeq) { hmi.lastSeqAt = hmi.lastFrameAt; }
+  else if (hmi.lastFrameAt - hmi.lastSeqAt > STALE_MS) { return; }   // the controller stalled: keep the greying
   hmi.lastSeq = f.seq;
+  hmi.history.push({seq: f.seq, at: hmi.lastFrameAt, mode: f.mode, coupler: f.coupler});
+  if (hmi.history.length > 600) { hmi.history.shift(); }
+  for (const a of f.alarms) { if (!hmi.seenAlarms.includes(a.tag)) { hmi.seenAlarms.push(a.tag); } }
+  if (hmi.seenModes[hmi.seenModes.length - 1] !== f.mode) { hmi.seenModes.push(f.mode); }
   hmi.frames += 1;
   hmi.frame = f;
   hmi.rateCount += 1;
@@ -180,14 +190,15 @@ function onFrame(f) {
   drawAlarms(f);
 }
 
-setInterval(() => {
+setInterval(() => {          // the stale-data watchdog: no frame, or frames with no new controller cycle
   if ($("screen").hidden || hmi.lastFrameAt === 0) { return; }
-  const age = performance.now() - hmi.lastFrameAt;
+  const now = performance.now(), age = now - hmi.lastSeqAt;
   if (age > STALE_MS) {
     document.body.classList.add("stale");
     const b = $("stale-banner");
     b.hidden = false;
-    b.textContent = `NO LIVE DATA: last update ${(age / 1000).toFixed(1)} s ago (cycle ${hmi.lastSeq}); ` +
+    const why = now - hmi.lastFrameAt > STALE_MS ? "no frame from the server" : "the controller has not cycled";
+    b.textContent = `NO LIVE DATA: ${why} for ${(age / 1000).toFixed(1)} s (last cycle ${hmi.lastSeq}); ` +
                     "the values shown are not the plant's now";
   }
 }, 200);
@@ -358,6 +369,11 @@ function drawTables(f) {
 }
 
 function drawAlarms(f) {
+  // Rebuilt only when the list changes: rows rebuilt at every frame would swallow a click whose press and
+  // release fall on two different buttons (found: an acknowledge lost that way in the browser test).
+  const key = JSON.stringify([f.alarms.map((a) => [a.tag, a.state]), f.shelved.map((a) => [a.tag, a.state])]);
+  if (key === hmi.alarmKey) { return; }
+  hmi.alarmKey = key;
   const canAck = hmi.session.commands.includes("ack"), canShelve = hmi.session.commands.includes("shelve");
   const tbody = document.querySelector("#alarms tbody");
   tbody.textContent = "";

@@ -1,0 +1,89 @@
+"""Driving the operator's screen in a real browser: Debian's Chromium through Playwright (its own browser download
+cannot work offline, so ``executable_path``). The browser tests use it, and ``make docs`` takes the screenshots
+of docs/hmi.md with :func:`tour`."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+from pathlib import Path
+
+__all__ = ["CHROMIUM_HINT", "find_chromium", "launch", "log_in", "wait_for", "tour"]
+
+#: What to do when no Chromium is found.
+CHROMIUM_HINT = ("no Chromium found: install Debian's (`apt-get install chromium`) or set LOADARM_CHROMIUM to a "
+                 "Chromium or Chrome executable")
+
+#: Chromium's flags here: headless, no sandbox as root, and none of its own network traffic (on a closed
+#: network its background connections fail, many at a time).
+_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+         "--disable-component-update", "--disable-sync", "--disable-default-apps"]
+
+
+def find_chromium() -> str | None:
+    """The Chromium to drive: ``$LOADARM_CHROMIUM``, else ``chromium`` or ``chromium-browser`` on the PATH."""
+    env = os.environ.get("LOADARM_CHROMIUM")
+    if env:
+        return env if Path(env).is_file() else None
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def launch(playwright, executable: str | None = None):
+    """A headless Chromium browser (Playwright's ``Browser``)."""
+    exe = executable or find_chromium()
+    if exe is None:
+        raise FileNotFoundError(CHROMIUM_HINT)
+    return playwright.chromium.launch(executable_path=exe, headless=True, args=_ARGS)
+
+
+def wait_for(page, js: str, timeout: float = 10.0, what: str = ""):
+    """Poll a JS expression on ``page`` until it is truthy; return its value (AssertionError after ``timeout``)."""
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        v = page.evaluate(js)
+        if v:
+            return v
+        time.sleep(0.05)
+    raise AssertionError(f"timed out after {timeout:g} s waiting for {what or js}")
+
+
+def log_in(page, url: str, user: str, password: str) -> None:
+    """Open the screen and log in; returns once the first frame has been drawn."""
+    page.goto(url)
+    page.fill("#login-user", user)
+    page.fill("#login-password", password)
+    page.click("#login-button")
+    page.wait_for_selector("#screen:not([hidden])")
+    wait_for(page, "window.hmi && hmi.frames > 0", what="the first frame")
+
+
+def tour(page, url: str, user: str, password: str, out_dir: Path | None, *, timeout: float = 120.0) -> dict:
+    """Watch a scripted run (the drift-off) on the screen: the modes in the order the screen showed them, the
+    alarms in the order they first appeared, and a screenshot ``hmi-MODE.png`` of each mode it was in when
+    polled (every mode at real time; a fast run may change mode during a screenshot) in ``out_dir``.
+
+    Returns
+    -------
+    dict
+        ``modes`` and ``alarms`` (lists of str), ``shots`` (paths).
+    """
+    log_in(page, url, user, password)
+    modes, shots = [], []              # the modes polled here (for the screenshots); the page keeps them all
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        mode = page.evaluate("hmi.frame && hmi.frame.mode")
+        if mode and (not modes or modes[-1] != mode):
+            modes.append(mode)
+            if out_dir is not None:
+                path = Path(out_dir) / f"hmi-{mode.lower()}.png"
+                page.screenshot(path=str(path))
+                shots.append(path)
+        if mode == "RETURN":
+            break
+        time.sleep(0.05)
+    return {"modes": page.evaluate("hmi.seenModes"), "alarms": page.evaluate("hmi.seenAlarms"), "shots": shots}

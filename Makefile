@@ -35,7 +35,7 @@ demo: $(STAMP)
 
 # The suite spreads over every core (pytest-xdist): make test stays within its two minutes on 2 cores.
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n auto $(PYTEST_MARK)
+	$(BIN)/python -m pytest -q -n auto --dist worksteal $(PYTEST_MARK)
 	$(if $(SLOW),$(REALTIME))
 
 test-all: $(STAMP)

@@ -83,26 +83,19 @@ def page(browser):
     ctx.close()
 
 
-def test_the_page_loads_with_no_console_error_and_no_request_outside(screen, page):
+def test_the_page_loads_with_no_console_error_and_no_request_outside_and_updates_at_10_hz(screen, page):
     s = screen()
     log_in(page, s.url, "alice", "pw-alice")
-    wait_for(page, "hmi.frames >= 20", what="20 frames")
+    wait_for(page, "hmi.frames >= 30", what="30 frames")
+    hist = page.evaluate("hmi.history.slice(-25).map(h => [h.seq, h.at])")
+    rate = (len(hist) - 1) / ((hist[-1][1] - hist[0][1]) / 1000)
+    assert rate >= 10, rate                              # measured here: 19-20 Hz (FRAME_RATE 20)
+    assert all(b[0] > a[0] for a, b in zip(hist, hist[1:]))
     assert page.errors == []
     outside = [u for u in page.requests if not (u.startswith(s.url) or u.startswith("ws://127.0.0.1")
                                                  or u.startswith("data:"))]
     assert outside == [], outside
     assert page.inner_text("#who") == "alice (operator)" and page.is_visible("#estop")
-
-
-def test_the_screen_updates_at_10_hz_or_more_with_rising_sequence_numbers(screen, page):
-    s = screen()
-    log_in(page, s.url, "alice", "pw-alice")
-    time.sleep(2.5)
-    hist = page.evaluate("hmi.history.map(h => [h.seq, h.at])")
-    recent = [h for h in hist if h[1] >= hist[-1][1] - 2000]
-    rate = (len(recent) - 1) / ((recent[-1][1] - recent[0][1]) / 1000)
-    assert rate >= 10, rate
-    assert all(b[0] > a[0] for a, b in zip(recent, recent[1:]))
 
 
 def _coupler_z(page):
@@ -118,23 +111,23 @@ def test_the_jog_pad_moves_the_coupler_and_the_dead_man_stops_it(screen, page):
     btn = page.locator(".jogbtn[data-jog='0,0,1']")
     btn.hover()
     page.mouse.down()
-    time.sleep(1.5)
+    time.sleep(1.0)
     z1 = _coupler_z(page)
     page.mouse.up()
-    time.sleep(0.4)
+    time.sleep(0.3)
     z2 = _coupler_z(page)
-    time.sleep(0.6)
+    time.sleep(0.4)
     z3 = _coupler_z(page)
-    assert z1 - z0 > 0.05, (z0, z1)                      # 0.15 m/s asked; the joint rate limits give ~0.07
+    assert z1 - z0 > 0.03, (z0, z1)                      # 0.15 m/s asked; the joint rate limits give ~0.07
     assert abs(z3 - z2) < 1e-3, (z2, z3)
     page.keyboard.down("PageUp")
-    time.sleep(1.0)
+    time.sleep(0.8)
     z4 = _coupler_z(page)
     page.keyboard.up("PageUp")
-    time.sleep(0.4)
+    time.sleep(0.3)
     z5 = _coupler_z(page)
-    time.sleep(0.6)
-    assert z4 - z3 > 0.05 and abs(_coupler_z(page) - z5) < 1e-3
+    time.sleep(0.4)
+    assert z4 - z3 > 0.03 and abs(_coupler_z(page) - z5) < 1e-3
     ops = [e[4] for e in s.loop.events if e[2] == "operator" and "action" in e[4]]
     assert {o["user"] for o in ops} == {"alice"} and [o["action"] for o in ops].count("jog") == 2   # held: once
 

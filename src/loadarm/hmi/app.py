@@ -61,6 +61,10 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
         Frames per second to each screen.
     name : str
         Shown in the title.
+
+    Returns
+    -------
+    FastAPI
     """
     from fastapi import FastAPI, Request as HttpRequest, WebSocket, WebSocketDisconnect
     from fastapi.responses import FileResponse, JSONResponse
@@ -238,7 +242,23 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
 
 
 def parse_hmi_address(text: str) -> tuple[str, int]:
-    """``HOST:PORT`` (``[::1]:PORT`` for IPv6) of ``--hmi``; ValueError naming what is wrong."""
+    """The address of ``--hmi``.
+
+    Parameters
+    ----------
+    text : str
+        ``HOST:PORT`` (``[::1]:PORT`` for IPv6).
+
+    Returns
+    -------
+    host : str
+    port : int
+
+    Raises
+    ------
+    ValueError
+        Naming what is wrong.
+    """
     host, sep, port = text.rpartition(":")
     if not sep or not host:
         raise ValueError(f"--hmi must be HOST:PORT (e.g. 127.0.0.1:8080), got {text!r}")

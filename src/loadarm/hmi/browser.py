@@ -22,7 +22,14 @@ _ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "-
 
 
 def find_chromium() -> str | None:
-    """The Chromium to drive: ``$LOADARM_CHROMIUM``, else ``chromium`` or ``chromium-browser`` on the PATH."""
+    """The Chromium to drive.
+
+    Returns
+    -------
+    str or None
+        ``$LOADARM_CHROMIUM``, else ``chromium``, ``chromium-browser`` or ``google-chrome`` on the PATH; None if
+        there is none.
+    """
     env = os.environ.get("LOADARM_CHROMIUM")
     if env:
         return env if Path(env).is_file() else None
@@ -34,7 +41,24 @@ def find_chromium() -> str | None:
 
 
 def launch(playwright, executable: str | None = None):
-    """A headless Chromium browser (Playwright's ``Browser``)."""
+    """A headless Chromium.
+
+    Parameters
+    ----------
+    playwright : Playwright
+        From ``sync_playwright()``.
+    executable : str, optional
+        The browser (default :func:`find_chromium`'s).
+
+    Returns
+    -------
+    Browser
+
+    Raises
+    ------
+    FileNotFoundError
+        With :data:`CHROMIUM_HINT` when there is no Chromium.
+    """
     exe = executable or find_chromium()
     if exe is None:
         raise FileNotFoundError(CHROMIUM_HINT)
@@ -42,7 +66,28 @@ def launch(playwright, executable: str | None = None):
 
 
 def wait_for(page, js: str, timeout: float = 10.0, what: str = ""):
-    """Poll a JS expression on ``page`` until it is truthy; return its value (AssertionError after ``timeout``)."""
+    """Poll a JS expression on a page until it is truthy.
+
+    Parameters
+    ----------
+    page : Page
+    js : str
+        The expression.
+    timeout : float
+        s.
+    what : str
+        For the message.
+
+    Returns
+    -------
+    object
+        The expression's value.
+
+    Raises
+    ------
+    AssertionError
+        After ``timeout``.
+    """
     t0 = time.monotonic()
     while time.monotonic() - t0 < timeout:
         v = page.evaluate(js)
@@ -53,7 +98,15 @@ def wait_for(page, js: str, timeout: float = 10.0, what: str = ""):
 
 
 def log_in(page, url: str, user: str, password: str) -> None:
-    """Open the screen and log in; returns once the first frame has been drawn."""
+    """Open the screen and log in; return once the first frame has been drawn.
+
+    Parameters
+    ----------
+    page : Page
+    url : str
+        The HMI's address.
+    user, password : str
+    """
     page.goto(url)
     page.fill("#login-user", user)
     page.fill("#login-password", password)
@@ -66,6 +119,17 @@ def tour(page, url: str, user: str, password: str, out_dir: Path | None, *, time
     """Watch a scripted run (the drift-off) on the screen: the modes in the order the screen showed them, the
     alarms in the order they first appeared, and a screenshot ``hmi-MODE.png`` of each mode it was in when
     polled (every mode at real time; a fast run may change mode during a screenshot) in ``out_dir``.
+
+    Parameters
+    ----------
+    page : Page
+    url : str
+        The HMI's address.
+    user, password : str
+    out_dir : Path or None
+        Where the screenshots go (None: none taken).
+    timeout : float
+        The longest the run is watched, s.
 
     Returns
     -------

@@ -20,8 +20,21 @@ PRIORITIES = (("critical", 900), ("high", 700), ("medium", 500), ("low", 1))
 
 
 def priority(tag: str) -> tuple[int, str]:
-    """An annunciated alarm's priority: ``(rank, name)``, rank 1 the most urgent, from its OPC UA severity (the
-    one alarm severity, :data:`loadarm.plant.server.CONDITION_SEVERITY`)."""
+    """An annunciated alarm's priority, from its OPC UA severity (the one alarm severity,
+    :data:`loadarm.plant.server.CONDITION_SEVERITY`).
+
+    Parameters
+    ----------
+    tag : str
+        The alarm.
+
+    Returns
+    -------
+    rank : int
+        1 the most urgent.
+    name : str
+        ``critical``, ``high``, ``medium`` or ``low``.
+    """
     from ..plant.server import CONDITION_SEVERITY
 
     sev = CONDITION_SEVERITY.get(tag, 500)
@@ -116,7 +129,17 @@ class AlarmBook:
 def geometry(model) -> dict:
     """The drawing's fixed geometry, SI: arm lengths, the alarm angles, the reach of each alarm zone from the
     inboard hinge (bands in the side view), the berth box, the slew limits, and the time the emergency sequence
-    needs (ESD-1, ERS valves, release, margin: a time to limit above it is in the normal range)."""
+    needs (ESD-1, ERS valves, release, margin: a time to limit above it is in the normal range).
+
+    Parameters
+    ----------
+    model : ArmModel
+
+    Returns
+    -------
+    dict
+        JSON-ready.
+    """
     arm, al = model.arm, model.alarms
 
     def reach(beta: float) -> float:          # hinge to coupler at elbow angle beta (law of cosines)
@@ -155,6 +178,11 @@ def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float) -> dict:
         :meth:`AlarmBook.update` for this snapshot.
     sent_at : float
         The HMI server's wall clock, s (the page measures staleness against its own).
+
+    Returns
+    -------
+    dict
+        JSON-ready (``type`` "state", ``seq`` the controller's cycle).
     """
     arm = model.arm
     phi, alpha, beta = snap.q

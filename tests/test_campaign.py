@@ -79,6 +79,7 @@ def test_a_campaign_is_repeatable_and_draws_within_the_ranges(tmp_path):
     assert "release margin, min" in str(s)
 
 
+@pytest.mark.slow                      # 3.5-5 s: to keep make test under two minutes with the HMI's browser tests
 def test_campaign_cli_refuses_typos_and_reports_json(capsys, tmp_path):
     sc = _short_driftoff(tmp_path)
     assert main(["campaign", "-s", str(sc), "-n", "1", "--vary", "drift.sped=0.1:0.2"]) == 2

@@ -328,6 +328,7 @@ def test_plan_warns_when_a_cylinder_passes_its_end_stop(capsys, tmp_path):
     assert code == 2 and "cylinder 2 passes its end stop" in err
 
 
+@pytest.mark.slow                      # 3.4 s: to keep make test under two minutes with the HMI's browser tests
 def test_json_floats_have_no_noise(capsys, tmp_path):
     code, out, _ = run(capsys, "run", "-s", str(PAPER_TOML.parent / "scenarios" / "driftoff.toml"), "--no-db",
                        "--json", "--plant", "kinematic")

@@ -14,7 +14,8 @@ from loadarm.plant.security import Role, StateDir
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
-pytestmark = pytest.mark.skipif(find_chromium() is None, reason=CHROMIUM_HINT)
+pytestmark = [pytest.mark.skipif(find_chromium() is None, reason=CHROMIUM_HINT),
+              pytest.mark.xdist_group("browser")]      # one worker, one browser
 
 
 @pytest.fixture(scope="module")
@@ -98,6 +99,14 @@ def test_the_page_loads_with_no_console_error_and_no_request_outside_and_updates
     assert page.inner_text("#who") == "alice (operator)" and page.is_visible("#estop")
 
 
+def _until(pred, what, timeout=5.0):
+    """The controller takes a request at its next cycle (the screen's acknowledgement says it was queued)."""
+    t0 = time.monotonic()
+    while not pred():
+        assert time.monotonic() - t0 < timeout, f"timed out waiting for {what}"
+        time.sleep(0.02)
+
+
 def _coupler_z(page):
     return page.evaluate("hmi.frame.coupler[2]")
 
@@ -151,8 +160,8 @@ def test_e_stop_stops_the_arm_within_one_update(screen, page):
     after = [z for m, z in hist[first + 1:]]
     assert after and max(after) - min(after) < 1e-3
     assert page.evaluate("hmi.frame.mode") == "ESTOP"          # the key's release (a stop) does not clear it
-    assert any(e[2] == "operator" and e[4].get("action") == "estop" and e[4]["user"] == "alice"
-               for e in s.loop.events)
+    _until(lambda: any(e[2] == "operator" and e[4].get("action") == "estop" and e[4]["user"] == "alice"
+                       for e in list(s.loop.events)), "alice's E-stop in the log")
 
 
 def test_a_viewer_sees_everything_and_can_press_only_esd_1(screen, page):
@@ -168,8 +177,8 @@ def test_a_viewer_sees_everything_and_can_press_only_esd_1(screen, page):
     assert page.evaluate("hmi.frame.mode") != "ESTOP"
     page.click("#esd")
     wait_for(page, "document.getElementById('ack').textContent.includes('esd sent')", what="esd acknowledged")
-    assert any(e[2] == "operator" and e[4].get("user") == "victor" and e[4]["action"] == "esd"
-               for e in s.loop.events)
+    _until(lambda: any(e[2] == "operator" and e[4].get("user") == "victor" and e[4]["action"] == "esd"
+                       for e in list(s.loop.events)), "victor's ESD-1 in the log")
 
 
 def test_a_stale_controller_or_a_lost_server_greys_the_view_and_says_so(screen, page):
@@ -205,6 +214,6 @@ def test_the_drift_off_on_the_screen_alarms_in_order_acknowledged_and_a_screensh
     # acknowledged: kept in the list while active, gone if it had returned to normal meanwhile
     wait_for(page, "(hmi.frame.alarms.find(a => a.tag === 'RELEASE') || {state: 'acknowledged'}).state"
                    " === 'acknowledged'", what="RELEASE acknowledged")
-    assert any(e[4].get("action") == "ack" and e[4].get("tag") == "RELEASE" and e[4]["user"] == "alice"
-               for e in s.loop.events)
+    _until(lambda: any(e[4].get("action") == "ack" and e[4].get("tag") == "RELEASE" and e[4]["user"] == "alice"
+                       for e in list(s.loop.events)), "alice's acknowledge in the log")
     assert page.errors == []

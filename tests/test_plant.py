@@ -18,6 +18,9 @@ from loadarm.plant.security import Role, StateDir, Users, hash_password, verify_
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
+#: One worker of the parallel suite takes the module: its servers are module fixtures (seconds each to start).
+pytestmark = pytest.mark.xdist_group("plant")
+
 
 # --------------------------------------------------------------------------- users and certificates
 
@@ -257,19 +260,25 @@ def test_an_untrusted_certificate_is_refused_and_kept_for_the_administrator(serv
     assert len(set(served["state"].rejected.glob("*.der")) - before) == 1
 
 
-def test_a_new_state_directory_with_no_trusted_client_starts_and_refuses_every_client(tmp_path):
+def test_a_new_state_directory_with_no_trusted_client_starts_and_refuses_every_client(tmp_path, served):
     """Found: the first start of a fresh state directory (nothing in pki/trusted yet: the documented first
     step) failed, asyncua being unable to load an empty trust store. The server now starts and refuses every
     client certificate, keeping it in pki/rejected for the administrator to trust."""
     from loadarm.plant.server import OpcUaServer
 
+    import shutil
+
     st = StateDir(tmp_path / "fresh")
     st.users().add("alice", Role.OPERATOR, "pw-alice")
+    st.cert.parent.mkdir(parents=True, exist_ok=True)           # the served server's keys: no RSA key made
+    shutil.copy(served["state"].cert, st.cert)
+    shutil.copy(served["state"].key, st.key)
+    os.chmod(st.key, 0o600)
     endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
     server = OpcUaServer(_FakeService(), st.path, endpoint)
     server.start()
     try:
-        cert, key = _client_cert(tmp_path, "first")
+        cert, key = served["cert"], served["key"]          # trusted by served, not by the fresh one
 
         async def main():
             c = await _client({"endpoint": endpoint, "state": st, "cert": cert, "key": key}, "alice", "pw-alice")()
@@ -278,7 +287,7 @@ def test_a_new_state_directory_with_no_trusted_client_starts_and_refuses_every_c
         with pytest.raises(Exception):
             asyncio.run(main())
         time.sleep(0.2)
-        assert len(list(st.rejected.glob("*.der"))) == 1
+        assert len(list(st.rejected.glob("*.der"))) == 1 and not list(st.trusted.iterdir())
     finally:
         server.stop()
 

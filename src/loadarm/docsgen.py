@@ -14,15 +14,21 @@ Run ``python -m loadarm.docsgen [--check]`` from the repository root.
 from __future__ import annotations
 
 import sys
+import shutil
 from pathlib import Path
 
-__all__ = ["DOC_FIGURES", "render_doc_figures", "regenerate", "compare_figures"]
+__all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "render_doc_figures", "hmi_screenshots", "regenerate",
+           "compare_figures"]
 
 #: The figures the docs show (file names in docs/img); the paper's case draws them.
 DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
                "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
                "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
                "operability.png")
+
+#: The operator's screen in docs/hmi.md: screenshots a real browser takes of the scripted drift-off
+#: (:func:`hmi_screenshots`; not compared pixel by pixel: a live screen's clock and noise differ each run).
+HMI_SCREENSHOTS = ("hmi-approach.png", "hmi-connected.png", "hmi-alarm1.png", "hmi-release.png")
 
 #: Root-mean-square difference (0-255 grey levels) tolerated between a committed and a redrawn figure:
 #: anti-aliasing may differ by a pixel across FreeType builds; any change of a curve, label or legend is far
@@ -95,6 +101,66 @@ def compare_figures(committed: str | Path, fresh: dict[str, Path], tol: float = 
     return bad
 
 
+def hmi_screenshots(dest: str | Path, *, speedup: float = 4.0) -> list[Path]:
+    """Screenshots of the operator's screen in each mode of the scripted drift-off (the hydraulic plant, at
+    ``speedup``), taken in Debian's Chromium; only :data:`HMI_SCREENSHOTS` are kept.
+
+    Parameters
+    ----------
+    dest : str or Path
+        Where they go.
+    speedup : float
+        Run seconds per wall second.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Raises
+    ------
+    FileNotFoundError
+        No Chromium (the message says how to install it).
+    """
+    import tempfile
+
+    from playwright.sync_api import sync_playwright
+
+    from .guidance.run import ClosedLoop
+    from .guidance.scenario import load_scenario
+    from .hmi.app import HmiServer, create_app
+    from .hmi.browser import launch, tour
+    from .plant.security import Role, StateDir
+    from .plant.service import GuidanceService
+
+    dest = Path(dest)
+    with tempfile.TemporaryDirectory() as tmp:
+        st = StateDir(Path(tmp) / "state")
+        st.users().add("operator", Role.OPERATOR, "docs-only")
+        sc, model = load_scenario(Path(__file__).parent / "examples" / "scenarios" / "driftoff.toml")
+        service = GuidanceService(ClosedLoop(sc, model), speedup=speedup)
+        server = HmiServer(create_app(service, st.path, model, name=sc.scenario.name), "127.0.0.1", 0)
+        server.start()
+        service.start()
+        try:
+            with sync_playwright() as p:
+                browser = launch(p)
+                page = browser.new_page(viewport={"width": 1400, "height": 900})
+                got = tour(page, server.url, "operator", "docs-only", Path(tmp))
+                browser.close()
+        finally:
+            service.stop()
+            server.stop()
+        out = []
+        for name in HMI_SCREENSHOTS:
+            shot = Path(tmp) / name
+            if not shot.exists():
+                raise RuntimeError(f"the screen never showed {name} (modes seen: {got['modes']})")
+            dest.mkdir(parents=True, exist_ok=True)
+            out.append(Path(shutil.copy(shot, dest / name)))
+    return out
+
+
 def regenerate(root: str | Path = ".") -> list[Path]:
     """Rewrite the generated parts of the docs under ``root``.
 
@@ -113,6 +179,12 @@ def regenerate(root: str | Path = ".") -> list[Path]:
 
     root = Path(root)
     written = list(render_doc_figures(root / "docs" / "img").values())
+    from .hmi.browser import find_chromium
+
+    if find_chromium() is not None:
+        written += hmi_screenshots(root / "docs" / "img")
+    else:
+        print("docs/img/hmi-*.png kept: no Chromium to take them (apt-get install chromium)")
     from .plant.plc import tags_markdown
     from .plant.server import address_space_markdown
 

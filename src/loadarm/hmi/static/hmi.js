@@ -231,6 +231,7 @@ function arcPath(P, cx, cy, r, a0, a1) {
 }
 
 const ZONE_LEVEL = {2: 0, 3: 1, 4: 2};       // alarm level (ESD-1, second, release) to its band
+const ZONE_PRIORITY = ["p3", "p2", "p1"];    // each band's alarm colour (the alarm's priority), when active
 
 function drawSide(f) {
   const g = hmi.geo, svg = $("side");
@@ -247,7 +248,7 @@ function drawSide(f) {
     const r = 0.5 * (z.from_r + z.to_r);
     const [ox] = P(0, g.a), [wx] = P(z.to_r - z.from_r, g.a);
     const active = ZONE_LEVEL[f.level] === i;
-    el("path", {d: arcPath(P, 0, g.a, r, -1.4, 0.9), class: `zone zone${i}` + (active ? " active" : ""),
+    el("path", {d: arcPath(P, 0, g.a, r, -1.4, 0.9), class: `zone zone${i}` + (active ? ` active ${ZONE_PRIORITY[i]}` : ""),
                 "stroke-width": Math.max(2, wx - ox)}, svg);
     const [lx, ly] = P(r * Math.cos(-1.4), g.a + r * Math.sin(-1.4));
     el("text", {x: lx + 3, y: ly}, svg, z.name);
@@ -301,7 +302,8 @@ function drawTop(f) {
     if (speed > 0.01) {
       const [tx, ty] = P(f.flange[0] + 60 * v[0], f.flange[1] + 60 * v[1]);
       el("line", {x1: fx, y1: fy, x2: tx, y2: ty, class: "drift"}, svg);
-      el("text", {x: tx + 4, y: ty}, svg, `drift ${speed.toFixed(2)} m/s (1 min)`);
+      el("text", {x: tx > 240 ? tx - 4 : tx + 4, y: ty - 6, "text-anchor": tx > 240 ? "end" : "start"}, svg,
+         `drift ${speed.toFixed(2)} m/s (1 min)`);
     }
   }
 }

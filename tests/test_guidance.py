@@ -41,19 +41,12 @@ def runs():
     return _Runs()
 
 
-#: The tests of the stock runs go to one worker of the parallel suite (each run takes seconds; found: both
-#: workers ran all four, 15-18 s each).
-RUNS = pytest.mark.xdist_group("stock-runs")
-
-
-@RUNS
 def test_calm_connects_without_alarm(runs):
     s = runs["calm"][2].summary()
     assert s["mode_sequence"] == ["STORED", "APPROACH", "STANDOFF", "CONNECTED"]
     assert s["alarm1_s"] is None and s["overstretched_s"] is None
 
 
-@RUNS
 def test_hs15_tracks_the_moving_flange_without_false_alarm(runs):
     sc, _, r = runs["hs15"]
     s = r.summary()
@@ -66,7 +59,6 @@ def test_hs15_tracks_the_moving_flange_without_false_alarm(runs):
     assert so.sum() > 100 and np.percentile(err, 95) < 0.3
 
 
-@RUNS
 def test_driftoff_alarms_in_order_and_releases_before_the_limit(model, runs):
     sc, inst, r = runs["driftoff"]
     s = r.summary()
@@ -89,7 +81,6 @@ def test_driftoff_alarms_in_order_and_releases_before_the_limit(model, runs):
     assert s["connected_s"] == pytest.approx(s["release_complete_s"] - connected_at, abs=1.5 / sc.guidance.rate)
 
 
-@RUNS
 def test_dropout_stops_the_arm_within_one_cycle(runs):
     sc, _, r = runs["dropout"]
     sig = r.signals
@@ -1063,7 +1054,6 @@ def test_stuck_ers_valves_keep_the_coupler_closed_and_say_so():
     assert v["overstretched_s"] is not None and t_fault < v["overstretched_s"] - 10.0
 
 
-@RUNS
 def test_after_an_emergency_release_the_drives_start_from_the_real_state(model, runs):
     from loadarm.hydraulics.servo import HydraulicArm
 

@@ -287,6 +287,45 @@ def test_the_assets_are_all_in_the_package_and_ask_nothing_from_outside():
         assert not urls, (f.name, urls)
 
 
+@pytest.mark.slow
+def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_path):
+    """What a new user runs: ``loadarm serve --scenario driftoff.toml --hmi 127.0.0.1:PORT`` in its own process;
+    the page, its assets and a login answer on that port, and Ctrl-C (SIGINT) stops it (exit 130, the
+    shell's code for an interrupt, after stopping both servers)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    import httpx
+
+    from loadarm.plant.loadtest import free_port
+
+    st = StateDir(tmp_path / "state")
+    st.users().add("alice", Role.OPERATOR, "pw-alice")
+    port, opc = free_port(), free_port()
+    proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "serve", "--scenario", SCENARIO, "--state-dir",
+                             str(st.path), "--endpoint", f"opc.tcp://127.0.0.1:{opc}", "--hmi", f"127.0.0.1:{port}",
+                             "--db", str(tmp_path / "events.db"), "--scripted"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        assert f"operator's screen on http://127.0.0.1:{port}/" in line, line + proc.stderr.read()
+        with httpx.Client(base_url=f"http://127.0.0.1:{port}") as c:
+            assert "<title>loadarm HMI</title>" in c.get("/").text
+            assert c.get("/static/hmi.js").status_code == 200
+            assert c.post("/api/login", json={"user": "alice", "password": "pw-alice"}).json()["role"] == "operator"
+            assert c.get("/api/geometry").json()["a"] > 0
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            code = proc.wait(15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            raise
+    assert code == 130, proc.stderr.read()
+
+
 def test_the_frame_of_a_real_snapshot_is_json(model):
     """The service's own snapshot (the drift-off on the hydraulic plant, a few cycles) makes a frame that JSON
     carries: pressures in Pa from the servo, the geometry's zones ordered by reach."""

@@ -14,8 +14,7 @@ from loadarm.plant.security import Role, StateDir
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
-pytestmark = [pytest.mark.skipif(find_chromium() is None, reason=CHROMIUM_HINT),
-              pytest.mark.xdist_group("browser")]      # one worker, one browser
+pytestmark = pytest.mark.skipif(find_chromium() is None, reason=CHROMIUM_HINT)
 
 
 @pytest.fixture(scope="module")

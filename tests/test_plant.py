@@ -18,9 +18,6 @@ from loadarm.plant.security import Role, StateDir, Users, hash_password, verify_
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
-#: One worker of the parallel suite takes the module: its servers are module fixtures (seconds each to start).
-pytestmark = pytest.mark.xdist_group("plant")
-
 
 # --------------------------------------------------------------------------- users and certificates
 
@@ -359,7 +356,9 @@ def test_user_add_and_trust_from_the_command_line(tmp_path, monkeypatch, capsys)
 @pytest.mark.parametrize("args, match", [
     (["--endpoint", "http://127.0.0.1:4840"], "--endpoint must be opc.tcp://HOST:PORT"),
     (["--endpoint", "opc.tcp://127.0.0.1"], "--endpoint must be opc.tcp://HOST:PORT"),
-    (["--speedup", "0"], "--speedup must be a positive number")])
+    (["--speedup", "0"], "--speedup must be a positive number"),
+    (["--hmi", "8080"], "--hmi must be HOST:PORT"),
+    (["--hmi", "127.0.0.1:99999"], "--hmi port must be in [0, 65535]")])
 def test_serve_refuses_a_bad_endpoint_or_speed_in_one_line(tmp_path, capsys, args, match):
     from loadarm.cli import main
 

@@ -345,3 +345,94 @@ def test_the_frame_of_a_real_snapshot_is_json(model):
     g = geometry(m)
     reach = [z["from_r"] for z in g["zones"]] + [g["zones"][-1]["to_r"]]
     assert reach == sorted(reach) and g["sequence_time"] > m.sequence.esd_time
+
+
+# --------------------------------------------------------------------------- replay
+
+@pytest.fixture(scope="module")
+def logged_run(tmp_path_factory):
+    """The drift-off (kinematic plant) written to an event log, and its events."""
+    from loadarm.eventlog import EventLog
+    from loadarm.guidance.run import run_scenario
+    from loadarm.guidance.scenario import load_scenario
+
+    db = tmp_path_factory.mktemp("replay") / "events.db"
+    sc, model = load_scenario(SCENARIO)
+    with EventLog(db, run="driftoff-replay") as log:
+        result = run_scenario(sc, model, log=log, plant="kinematic")
+    with EventLog.open_existing(db) as log:
+        events = log.query(run="driftoff-replay")
+    return {"db": db, "events": events, "result": result, "model": model}
+
+
+def test_a_replay_shows_the_logged_sample_at_its_cursor_and_the_alarms_raised_when_logged(logged_run):
+    from loadarm.errors import EventLogError
+    from loadarm.hmi.replay import ReplayService
+    from loadarm.slew import forward3d
+
+    clock = FakeClock(0.0)
+    r = ReplayService(logged_run["events"], logged_run["model"], clock=clock)
+    assert (r.t0, r.t1) == (0.0, 320.0) and r.snapshot().mode == "STORED"
+    clock.t += 10.0                                      # playing at 1x from the start
+    assert r.snapshot().t == 10.0
+    r.seek(236.5)
+    snap = r.snapshot()
+    sample = next(e for e in logged_run["events"] if e.kind == "sample" and e.t == snap.t)
+    assert snap.t == 236.0 and snap.mode == sample.state
+    assert snap.coupler == tuple(float(v) for v in forward3d(logged_run["model"].arm, *snap.q))
+    esd = logged_run["result"].first("alarm", "ALARM1")
+    raised = r.raised_at(snap)
+    assert snap.alarms["ESD1"] != "normal" and esd <= raised["ESD1"] < esd + 1.0     # the first sample after it
+    r.pause()
+    clock.t += 100.0
+    assert r.cursor() == 236.5
+    r.play(10.0)
+    clock.t += 100.0
+    assert r.cursor() == 320.0                           # stops at the end
+    for bad in (float("nan"), "x"):
+        with pytest.raises(ValueError, match="seek needs a finite run time"):
+            r.seek(bad)
+    with pytest.raises(ValueError, match=r"speed in \(0, 100\]"):
+        r.play(0)
+    with pytest.raises(PermissionError):
+        r.request(None)
+    with pytest.raises(EventLogError, match="no state samples"):
+        ReplayService([e for e in logged_run["events"] if e.kind != "sample"], logged_run["model"])
+
+
+def test_the_replay_screen_has_a_slider_and_takes_no_command(tmp_path, logged_run):
+    from fastapi.testclient import TestClient
+
+    from loadarm.hmi.app import create_app
+    from loadarm.hmi.replay import ReplayService
+
+    st = StateDir(tmp_path / "state")
+    st.users().add("alice", Role.OPERATOR, "pw-alice")
+    r = ReplayService(logged_run["events"], logged_run["model"], clock=FakeClock(0.0))
+    c = TestClient(create_app(r, st.path, logged_run["model"], frame_rate=100.0))
+    s = _login(c)
+    assert s["replay"] is True and s["commands"] == []
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        assert _frame(ws)["replay"] == {"t": 0.0, "t0": 0.0, "t1": 320.0, "playing": True, "speed": 1.0}
+        ws.send_text(json.dumps({"type": "seek", "seq": 1, "t": 212.0}))
+        assert _ack(ws) == {"type": "ack", "seq": 1, "ok": True, "message": "seek at 212.0 s"}
+        f = _frame(ws)
+        while f["t"] != 212.0:
+            f = _frame(ws)
+        assert f["mode"] == "ALARM1" and [a["tag"] for a in f["alarms"]] == ["ESD1"]
+        ws.send_text(json.dumps({"type": "play", "seq": 2, "speed": 1000}))
+        assert not _ack(ws)["ok"]
+        ws.send_text(json.dumps({"type": "cmd", "seq": 3, "action": "estop", "csrf": s["csrf"]}))
+        assert _ack(ws)["message"] == "refused: a replay takes no command"
+
+
+@pytest.mark.parametrize("args, match", [
+    ([], "--replay needs --hmi HOST:PORT"),
+    (["--hmi", "127.0.0.1:0"], "--replay needs --config (or --scenario)"),
+    (["--hmi", "127.0.0.1:0", "--config", "examples/paper.toml", "--run", "nope"], "--run 'nope': no such run")])
+def test_serve_replay_refuses_what_it_cannot_replay_in_one_line(capsys, tmp_path, logged_run, args, match):
+    from loadarm.cli import main
+
+    assert main(["serve", "--replay", str(logged_run["db"]), "--state-dir", str(tmp_path / "s"), *args]) == 2
+    err = capsys.readouterr().err
+    assert match in err and err.count("\n") == 1

@@ -216,3 +216,33 @@ def test_the_drift_off_on_the_screen_alarms_in_order_acknowledged_and_a_screensh
     _until(lambda: any(e[4].get("action") == "ack" and e[4].get("tag") == "RELEASE" and e[4]["user"] == "alice"
                        for e in list(s.loop.events)), "alice's acknowledge in the log")
     assert page.errors == []
+
+
+def test_the_replay_s_time_slider_moves_the_screen_through_the_logged_run(state, page, tmp_path):
+    """``serve --replay``'s screen over the drift-off's event log: the replay bar shows, every command is
+    disabled, and moving the slider to 238 s shows the release with its alarms as logged."""
+    from loadarm.eventlog import EventLog
+    from loadarm.guidance.run import run_scenario
+    from loadarm.guidance.scenario import load_scenario
+    from loadarm.hmi.app import HmiServer, create_app
+    from loadarm.hmi.replay import ReplayService
+
+    sc, model = load_scenario(SCENARIO)
+    with EventLog(tmp_path / "events.db", run="r") as log:
+        run_scenario(sc, model, log=log, plant="kinematic")
+    with EventLog.open_existing(tmp_path / "events.db") as log:
+        service = ReplayService(log.query(run="r"), model)
+    server = HmiServer(create_app(service, state.path, model, name="replay"), "127.0.0.1", 0)
+    server.start()
+    try:
+        log_in(page, server.url, "alice", "pw-alice")
+        assert page.is_visible("#replay-bar")
+        assert page.evaluate("[...document.querySelectorAll('#controls button')].every(b => b.disabled)")
+        page.evaluate("const s = document.getElementById('replay-slider'); s.value = 238; "
+                      "s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change'))")
+        wait_for(page, "hmi.frame.t >= 238 && hmi.frame.t < 239", what="the frame at 238 s")
+        assert page.evaluate("hmi.frame.mode") == "RELEASE"
+        assert page.evaluate("hmi.frame.alarms.map(a => a.tag)") == ["RELEASE", "SECOND", "ESD1"]
+        assert not page.evaluate("document.body.classList.contains('stale')") and page.errors == []
+    finally:
+        server.stop()

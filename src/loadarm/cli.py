@@ -984,6 +984,10 @@ def serve(
     hmi: Annotated[Optional[str], typer.Option("--hmi", help="Serve the operator's web screen on HOST:PORT "
                                                              "(e.g. 127.0.0.1:8080; loopback unless told "
                                                              "otherwise).")] = None,
+    replay: Annotated[Optional[Path], typer.Option("--replay", help="Replay a logged run on the screen (an "
+                                                                    "event log; needs --hmi) instead of "
+                                                                    "running the controller.")] = None,
+    run_id: Annotated[Optional[str], typer.Option("--run", help="The run to replay (default the latest).")] = None,
     force: ForceOpt = False,
 ) -> None:
     """Run the guidance controller in real time against a scenario's simulated plant (or a PLC) and serve it over
@@ -1008,6 +1012,8 @@ def serve(
             hmi_address = parse_hmi_address(hmi)
         except ValueError as exc:
             raise UserError(str(exc)) from None
+    if replay is not None:
+        return _serve_replay(replay, run_id, scenario, config, state_dir, hmi_address)
     if plc is not None:
         _check_endpoint("--plc", plc)
         if plc_cert is None or plc_password_file is None:
@@ -1068,6 +1074,54 @@ def serve(
     snap = service.snapshot()
     if snap is not None:
         out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")
+
+
+def _serve_replay(db: Path, run_id: Optional[str], scenario: Optional[Path], config: Optional[Path], state_dir: Path,
+                  hmi_address) -> None:
+    """``serve --replay``: the screen over a logged run (no controller, no OPC UA server), until Ctrl-C."""
+    import time as _time
+
+    from .eventlog import EventLog
+    from .hmi.app import HmiServer, create_app
+    from .hmi.replay import ReplayService
+    from .plant.security import StateDir
+
+    if hmi_address is None:
+        raise UserError("--replay needs --hmi HOST:PORT (the screen it replays on)")
+    if scenario is None and config is None:
+        raise UserError("--replay needs --config (or --scenario): the installation the run was made on")
+    model = _model(config) if config is not None else _realtime_scenario(scenario, None, 1.0, "serve")[1]
+    log = EventLog.open_existing(db)
+    try:
+        events = log.query(run=run_id) if run_id is not None else log.query()
+    finally:
+        log.close()
+    if run_id is None:
+        samples = [e for e in events if e.kind == "sample"]
+        if not samples:
+            raise UserError(f"--replay {db}: no run with state samples in the log")
+        run_id = samples[-1].run
+        events = [e for e in events if e.run == run_id]
+    if not events:
+        raise UserError(f"--run {run_id!r}: no such run in {db}")
+    service = ReplayService(events, model)
+    users = StateDir(state_dir).users()
+    if len(users) == 0:
+        raise UserError(f"--state-dir {state_dir}: no users to log in with (add one: loadarm user add NAME "
+                        f"--role viewer --state-dir {state_dir})")
+    screen = HmiServer(create_app(service, state_dir, model, name=f"replay of {run_id}"), *hmi_address)
+    try:
+        screen.start()
+    except OSError as exc:
+        raise UserError(str(exc)) from None
+    try:
+        out.print(f"replay of run {run_id} ({service.t0:.0f}-{service.t1:.0f} s, {len(service.samples)} samples) "
+                  f"on {screen.url}; Ctrl-C stops", soft_wrap=True)
+        sys.stdout.flush()
+        while True:
+            _time.sleep(0.5)
+    finally:
+        screen.stop()
 
 
 @app.command("plc-sim")

@@ -665,7 +665,8 @@ class ClosedLoop:
         for kind, reason, data in cmd.events:
             self.emit(now, cmd.mode.value, kind, reason, data)
         q, flange = io.step(k, now, self.dt, cmd)
-        self.rec.record(i, now, cmd, q, flange, e, self.model.arm)
+        self.rec.record(i, now, cmd, q, flange, e, self.model.arm, ctrl.state.alarms,
+                        bool(io.feedback.ers_valves_closed))
         self.clearance.watch(now, cmd, self.rec.sig["distance"][i])
         self.estimate = e
         return cmd
@@ -743,7 +744,8 @@ class _Recorder:
                                                      "level", "ttl", "connected")}
         self.log, self.sample_every, self.next_sample = log, sample_every, 0.0
 
-    def record(self, k: int, now: float, cmd, q: np.ndarray, f: np.ndarray, e, arm) -> None:
+    def record(self, k: int, now: float, cmd, q: np.ndarray, f: np.ndarray, e, arm, alarms=None,
+               ers_valves_closed: bool = False) -> None:
         sig = self.sig
         p = forward3d(arm, *q)
         sig["t"][k] = now
@@ -759,7 +761,13 @@ class _Recorder:
         sig["ttl"][k] = cmd.time_to_limit if math.isfinite(cmd.time_to_limit) else np.nan
         sig["connected"][k] = 1.0 if cmd.connected else 0.0
         if self.log is not None and now >= self.next_sample:
+            ttl = float(cmd.time_to_limit)
             self.log.append(now, cmd.mode.value, "sample", "state sample", phi=float(q[0]), alpha=float(q[1]),
                             beta=float(q[2]), distance=float(sig["distance"][k]), healthy=bool(e.healthy),
-                            connected=bool(cmd.connected))
+                            connected=bool(cmd.connected), flange=[float(v) if math.isfinite(v) else None for v in e.position],
+                            level=int(cmd.level), ttl=ttl if math.isfinite(ttl) else None, esd=bool(cmd.esd),
+                            release=bool(cmd.release), coupler_open=bool(cmd.coupler_open),
+                            ers_valves_closed=ers_valves_closed,
+                            alarms={tag: st.value for tag, st in (alarms or {}).items()
+                                    if st.value != "normal"})
             self.next_sample += self.sample_every

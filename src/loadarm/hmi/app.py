@@ -94,9 +94,11 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
         token = request.cookies.get(COOKIE)
         return token, sessions.get(token)
 
+    replay = hasattr(service, "seek")              # a logged run (loadarm.hmi.replay): no commands, a slider
+
     def session_json(s) -> dict:
-        return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": name,
-                "commands": sorted(c for c, r in COMMANDS.items() if s.role >= r)}
+        return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": name, "replay": replay,
+                "commands": [] if replay else sorted(c for c, r in COMMANDS.items() if s.role >= r)}
 
     @app.get("/")
     async def index():
@@ -153,7 +155,8 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     def alarms_for(snap):
         with lock:
             if cache["seq"] != snap.seq:
-                cache["seq"], cache["alarms"] = snap.seq, book.update(snap.t, snap.alarms)
+                raised = service.raised_at(snap) if replay else None
+                cache["seq"], cache["alarms"] = snap.seq, book.update(snap.t, snap.alarms, raised)
             return cache["alarms"]
 
     def command(s, msg: dict) -> tuple[bool, str]:
@@ -161,6 +164,8 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
         action = msg.get("action")
         if not s.csrf_ok(msg.get("csrf")):
             return False, "refused: no valid CSRF token"
+        if replay:
+            return False, "refused: a replay takes no command"
         if action not in COMMANDS:
             return False, f"unknown command {action!r}"
         if s.role < COMMANDS[action]:
@@ -203,6 +208,8 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
                 now = time.monotonic()
                 if snap is not None and (snap.seq != last_seq or now - last_sent >= KEEPALIVE):
                     f = frame(snap, model, alarms_for(snap), sent_at=wall())
+                    if replay:
+                        f["replay"] = service.replay_state()
                     await websocket.send_text(json.dumps(f))
                     last_seq, last_sent = snap.seq, now
                 await asyncio.sleep(1.0 / frame_rate)
@@ -214,6 +221,11 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
                 try:
                     msg = json.loads(text)
                     seq = msg.get("seq") if isinstance(msg, dict) else None
+                    if replay and isinstance(msg, dict) and msg.get("type") in ("seek", "play", "pause"):
+                        ok, message = _replay_control(service, msg)
+                        await websocket.send_text(json.dumps({"type": "ack", "seq": seq, "ok": ok,
+                                                              "message": message}))
+                        continue
                     if not isinstance(msg, dict) or msg.get("type") != "cmd":
                         raise ValueError
                 except ValueError:
@@ -239,6 +251,20 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
 
     app.mount("/static", StaticFiles(directory=_static_dir()), name="static")
     return app
+
+
+def _replay_control(service, msg: dict) -> tuple[bool, str]:
+    """A replay's slider and buttons: seek to a run time, play at a speed, pause."""
+    try:
+        if msg["type"] == "seek":
+            service.seek(msg.get("t"))
+        elif msg["type"] == "play":
+            service.play(msg.get("speed", 1.0))
+        else:
+            service.pause()
+    except ValueError as exc:
+        return False, f"refused: {exc}"
+    return True, f"{msg['type']} at {service.cursor():.1f} s"
 
 
 def parse_hmi_address(text: str) -> tuple[str, int]:

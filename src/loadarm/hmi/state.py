@@ -88,9 +88,9 @@ class AlarmBook:
         self.raised: dict[str, float] = {}
         self.shelved: dict[str, float] = {}
 
-    def update(self, t: float, alarms: dict) -> list[AlarmEntry]:
+    def update(self, t: float, alarms: dict, raised: dict | None = None) -> list[AlarmEntry]:
         """The list at run time ``t`` for the controller's alarm states ``alarms`` (tag to state), most urgent
-        first, then newest first."""
+        first, then newest first; ``raised`` gives when each was raised where known (a replay's log)."""
         from ..plant.server import CONDITION_TEXT
 
         out = []
@@ -99,6 +99,8 @@ class AlarmBook:
                 self.raised.pop(tag, None)
                 self.shelved.pop(tag, None)
                 continue
+            if raised and tag in raised:
+                self.raised[tag] = raised[tag]
             self.raised.setdefault(tag, t)
             until = self.shelved.get(tag)
             if until is not None and t >= until:

@@ -91,6 +91,36 @@ function connect() {
   };
 }
 
+function control(type, extra = {}) {          // a replay's cursor: seek, play, pause
+  if (!hmi.ws || hmi.ws.readyState !== WebSocket.OPEN) { return; }
+  const seq = ++hmi.cmdSeq;
+  hmi.pending.set(seq, {action: type, at: performance.now()});
+  hmi.ws.send(JSON.stringify(Object.assign({type, seq}, extra)));
+}
+
+$("replay-slider").addEventListener("input", () => { hmi.dragging = true; });
+$("replay-slider").addEventListener("change", () => {
+  hmi.dragging = false;
+  control("seek", {t: Number($("replay-slider").value)});
+});
+$("replay-play").addEventListener("click", () => {
+  if (hmi.frame && hmi.frame.replay && hmi.frame.replay.playing) { control("pause"); }
+  else { control("play", {speed: Number($("replay-speed").value)}); }
+});
+$("replay-speed").addEventListener("change", () => {
+  if (hmi.frame && hmi.frame.replay && hmi.frame.replay.playing) { control("play", {speed: Number($("replay-speed").value)}); }
+});
+
+function drawReplay(r) {
+  $("replay-bar").hidden = false;
+  const s = $("replay-slider");
+  s.min = r.t0; s.max = r.t1;
+  if (!hmi.dragging) { s.value = r.t; }
+  $("replay-time").textContent = `${r.t.toFixed(1)} s of ${r.t0.toFixed(0)}-${r.t1.toFixed(0)} s` +
+    (r.playing ? ` · playing ${r.speed}x` : " · paused");
+  $("replay-play").textContent = r.playing ? "Pause" : "Play";
+}
+
 function send(action, extra = {}) {
   if (!hmi.ws || hmi.ws.readyState !== WebSocket.OPEN) { showAck(null, false, `${action}: not connected`); return; }
   const seq = ++hmi.cmdSeq;
@@ -102,7 +132,7 @@ function send(action, extra = {}) {
 function onAck(msg) {
   const p = hmi.pending.get(msg.seq);
   hmi.pending.delete(msg.seq);
-  if (p && p.action === "jog" && msg.ok) { return; }        // a held jog's renewals are not news
+  if (p && (p.action === "jog" || p.action === "seek") && msg.ok) { return; }   // renewals and drags: not news
   showAck(msg.seq, msg.ok, msg.message);
 }
 
@@ -165,7 +195,7 @@ window.addEventListener("blur", () => stopJog());
 // ------------------------------------------------------------------ frames
 function onFrame(f) {
   hmi.lastFrameAt = performance.now();
-  if (f.seq !== hmi.lastSeq) { hmi.lastSeqAt = hmi.lastFrameAt; }
+  if (f.seq !== hmi.lastSeq || f.replay) { hmi.lastSeqAt = hmi.lastFrameAt; }   // a replay: frames are the life
   else if (hmi.lastFrameAt - hmi.lastSeqAt > STALE_MS) { return; }   // the controller stalled: keep the greying
   hmi.lastSeq = f.seq;
   hmi.history.push({seq: f.seq, at: hmi.lastFrameAt, mode: f.mode, coupler: f.coupler});
@@ -182,6 +212,10 @@ function onFrame(f) {
   $("link").textContent = (f.plant_ok ? "live" : "PLC LINK LOST: plant values bad") +
     ` · cycle ${f.seq} · t ${f.t.toFixed(1)} s · ${hmi.rate.toFixed(0)} Hz`;
   document.body.dataset.mode = f.mode;
+  if (f.replay) {
+    drawReplay(f.replay);
+    $("link").textContent = `replay · sample ${f.seq} · t ${f.t.toFixed(1)} s`;
+  }
   for (const el of document.querySelectorAll("#modes span")) { el.classList.toggle("current", el.textContent === f.mode); }
   drawSide(f);
   drawTop(f);

@@ -1,0 +1,125 @@
+"""Replaying a logged run on the operator's screen (``loadarm serve --replay DB --run ID --hmi ...``): the run's
+once-a-second state samples as snapshots, at a cursor in run time that plays at a speed or is moved by the
+screen's time slider. Read-only: a replay takes no command."""
+
+import math
+import threading
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from ..errors import EventLogError
+
+__all__ = ["ReplayService"]
+
+
+class ReplayService:
+    """What :func:`loadarm.hmi.app.create_app` needs of a service (``snapshot``, ``request``), over a logged
+    run, plus the cursor the screen moves (``seek``, ``play``, ``pause``, ``replay_state``).
+
+    Parameters
+    ----------
+    events : list of loadarm.eventlog.Event
+        One run's events, in order.
+    model : ArmModel
+        The installation the run was made on (for the coupler's position and the margins from the joints).
+    clock : callable
+        Monotonic seconds (injected: tests pass a fake).
+
+    Raises
+    ------
+    EventLogError
+        The run has no state samples.
+    """
+
+    def __init__(self, events, model, *, clock: Callable[[], float] = time.monotonic):
+        self.samples = [e for e in events if e.kind == "sample"]
+        if not self.samples:
+            raise EventLogError("the run has no state samples to replay (they are logged once a second by "
+                                "loadarm run and loadarm serve)")
+        self.model, self.clock = model, clock
+        self.times = np.array([e.t for e in self.samples])
+        self.t0, self.t1 = float(self.times[0]), float(self.times[-1])
+        self._lock = threading.Lock()
+        self._at, self._since, self.speed, self.playing = self.t0, clock(), 1.0, True
+        self._cache: dict[int, object] = {}
+        from ..guidance.controller import ANNUNCIATED
+
+        # each sample's alarms (every annunciated one, normal if not logged) and when each active one was raised
+        self._alarms, self._raised, since = [], [], {}
+        for e in self.samples:
+            states = {tag: "normal" for tag in ANNUNCIATED}
+            states.update(e.data.get("alarms", {}))
+            since = {tag: since.get(tag, e.t) for tag, st in states.items() if st != "normal"}
+            self._alarms.append(states)
+            self._raised.append(dict(since))
+
+    def cursor(self) -> float:
+        """The run time shown now, s (it stops at the run's end)."""
+        with self._lock:
+            t = self._at + (self.clock() - self._since) * self.speed if self.playing else self._at
+        return min(max(t, self.t0), self.t1)
+
+    def seek(self, t: float) -> None:
+        """Show run time ``t`` (clamped to the run; a non-finite ``t`` is refused)."""
+        if not (isinstance(t, (int, float)) and math.isfinite(t)):
+            raise ValueError(f"seek needs a finite run time in s, got {t!r}")
+        with self._lock:
+            self._at, self._since = min(max(float(t), self.t0), self.t1), self.clock()
+
+    def play(self, speed: float = 1.0) -> None:
+        """Play from the cursor at ``speed`` run seconds per second (0 < speed <= 100)."""
+        if not (isinstance(speed, (int, float)) and math.isfinite(speed) and 0 < speed <= 100):
+            raise ValueError(f"play needs a speed in (0, 100], got {speed!r}")
+        at = self.cursor()
+        with self._lock:
+            self._at, self._since, self.speed, self.playing = at, self.clock(), float(speed), True
+
+    def pause(self) -> None:
+        at = self.cursor()
+        with self._lock:
+            self._at, self.playing = at, False
+
+    def replay_state(self) -> dict:
+        """The slider's state: ``t`` (the cursor), ``t0``, ``t1``, ``playing``, ``speed``."""
+        return {"t": self.cursor(), "t0": self.t0, "t1": self.t1, "playing": self.playing, "speed": self.speed}
+
+    def raised_at(self, snap) -> dict:
+        """When each alarm active in ``snap`` (one of :meth:`snapshot`'s) was raised, run time s."""
+        return self._raised[snap.seq]
+
+    def request(self, req) -> None:
+        raise PermissionError("a replay takes no command")
+
+    def snapshot(self):
+        """The sample at or before the cursor as a :class:`loadarm.plant.service.Snapshot` (its ``seq`` the
+        sample's index)."""
+        i = int(np.searchsorted(self.times, self.cursor(), side="right")) - 1
+        i = max(i, 0)
+        snap = self._cache.get(i)
+        if snap is None:
+            snap = self._cache[i] = self._snapshot(i)
+        return snap
+
+    def _snapshot(self, i: int):
+        from ..actuators import cylinder_lengths
+        from ..faces import FACES, face_margins
+        from ..plant.service import Snapshot
+        from ..slew import forward3d
+
+        e = self.samples[i]
+        d = e.data
+        q = (float(d.get("phi", math.nan)), float(d.get("alpha", math.nan)), float(d.get("beta", math.nan)))
+        x, y, z = (float(v) for v in forward3d(self.model.arm, *q))
+        c1, c2 = cylinder_lengths(self.model.mount, q[1], q[2])
+        m = face_margins(self.model, x, y, z)
+        flange = tuple(math.nan if v is None else float(v) for v in d.get("flange", (None, None, None)))
+        ttl = d.get("ttl")
+        return Snapshot(seq=i, t=float(e.t), mode=e.state, q=q, coupler=(x, y, z), flange_estimate=flange,
+                        estimate_healthy=bool(d.get("healthy", False)), distance=float(d.get("distance", math.nan)),
+                        level=int(d.get("level", 0)), time_to_limit=math.inf if ttl is None else float(ttl),
+                        connected=bool(d.get("connected", False)), esd=bool(d.get("esd", False)),
+                        release=bool(d.get("release", False)), coupler_open=bool(d.get("coupler_open", False)),
+                        ers_valves_closed=bool(d.get("ers_valves_closed", False)), alarms=dict(self._alarms[i]), cylinders=(float(c1), float(c2)),
+                        margins={f: float(m[..., k]) for k, f in enumerate(FACES)})

@@ -441,3 +441,54 @@ def test_opc_ua_round_trip_notifications_and_the_cycle_under_load(results, tmp_p
     results["guidance cycle p99 with 20 clients [us]"] = float(during)
     results["ratio guidance cycle p99 with / without 20 clients"] = float(during / before)
     assert r["late"] == 0, f"{r['late']} guidance cycles started late under the load"
+
+
+def test_the_operator_screen_s_update_rate_and_latency(results, tmp_path):
+    """The operator's screen (issue 15) in Debian's Chromium over the scripted drift-off (hydraulic plant, 4x):
+    the frame rate the page reached against the server's FRAME_RATE, and the end-to-end latency from the
+    controller's publication of a mode change (ALARM1, ALARM2, RELEASE, ...) to the first frame that shows it
+    on the screen, against the frame period (one clock on one machine). Skipped without Chromium."""
+    import time
+
+    from loadarm.guidance.run import ClosedLoop
+    from loadarm.guidance.scenario import load_scenario
+    from loadarm.hmi.app import FRAME_RATE, HmiServer, create_app
+    from loadarm.hmi.browser import CHROMIUM_HINT, find_chromium, launch, log_in, tour
+    from loadarm.plant.security import Role, StateDir
+    from loadarm.plant.service import GuidanceService
+
+    if find_chromium() is None:
+        pytest.skip(CHROMIUM_HINT)
+    from playwright.sync_api import sync_playwright
+
+    st = StateDir(tmp_path / "state")
+    st.users().add("alice", Role.OPERATOR, "pw")
+    sc, model = load_scenario(ROOT / "examples" / "scenarios" / "driftoff.toml")
+    service = GuidanceService(ClosedLoop(sc, model), speedup=4.0)
+    server = HmiServer(create_app(service, st.path, model), "127.0.0.1", 0)
+    server.start()
+    service.start()
+    try:
+        with sync_playwright() as p:
+            browser = launch(p)
+            page = browser.new_page()
+            got = tour(page, server.url, "alice", "pw", None)
+            hist = page.evaluate("hmi.history.map(h => [h.at, h.latency])")
+            arrivals = page.evaluate("hmi.modeArrivals")
+            browser.close()
+    finally:
+        service.stop()
+        server.stop()
+    at = np.array([h[0] for h in hist]) / 1000
+    rate = (at.size - 1) / (at[-1] - at[0])
+    published = dict((m, w) for m, w in reversed(service.mode_changes))          # the first of each
+    lat = np.array([a - published[m] for m, a in arrivals[1:] if m in published]) * 1000
+    age = np.array([h[1] for h in hist if h[1] is not None]) * 1000
+    period = 1000 / FRAME_RATE
+    results["screen frames per second reached"] = rate
+    results["ratio screen frame rate / FRAME_RATE"] = rate / FRAME_RATE
+    results["mode change to screen, median [ms]"] = float(np.median(lat))
+    results["mode change to screen, max [ms]"] = float(np.max(lat))
+    results["ratio mode-change latency median / frame period"] = float(np.median(lat) / period)
+    results["age of the state shown, median [ms]"] = float(np.median(age))
+    assert got["modes"][-1] == "RETURN" and rate >= 10 and np.max(lat) < 4 * period, (rate, lat)

@@ -110,6 +110,8 @@ class Snapshot:
     pressures : tuple of float
         Chamber pressures ``pA1, pB1, pA2, pB2`` and the supply pressure, Pa (NaN: a plant without them, the
         kinematic one or a PLC that does not report them).
+    wall : float
+        Wall-clock time the cycle was published, s since the epoch (for the screen's end-to-end latency).
     """
 
     seq: int
@@ -135,6 +137,7 @@ class Snapshot:
     margins: dict = field(default_factory=dict)
     flange_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     pressures: tuple[float, float, float, float, float] = (math.nan,) * 5
+    wall: float = math.nan
 
 
 class GuidanceService:
@@ -165,6 +168,9 @@ class GuidanceService:
         self._jog_until = -math.inf
         self.late = 0
         self._link_ok = True
+        #: Wall-clock time each mode change was published, ``[(mode, s since the epoch)]`` (the screen's
+        #: latency is measured against it).
+        self.mode_changes: list[tuple[str, float]] = []
         self.finished = threading.Event()
         self.error: BaseException | None = None
 
@@ -285,4 +291,6 @@ class GuidanceService:
             cycle_us=float(loop.cycle_us[i]), late=self.late, plant_ok=self._link_ok,
             cylinders=(float(c1), float(c2)), margins={f: float(m[..., i]) for i, f in enumerate(FACES)},
             flange_velocity=tuple(float(v) for v in np.asarray(e.velocity, dtype=float)),
-            pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)))
+            pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)), wall=time.time())
+        if not self.mode_changes or self.mode_changes[-1][0] != cmd.mode.value:
+            self.mode_changes.append((cmd.mode.value, self._snapshot.wall))

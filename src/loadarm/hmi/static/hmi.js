@@ -13,7 +13,7 @@ const SVGNS = "http://www.w3.org/2000/svg";
 const $ = (id) => document.getElementById(id);
 
 const hmi = {session: null, geo: null, ws: null, lastFrameAt: 0, lastSeq: null, lastSeqAt: 0, frames: 0, cmdSeq: 0,
-             history: [], seenAlarms: [], seenModes: [],
+             history: [], seenAlarms: [], seenModes: [], modeArrivals: [],
              pending: new Map(), jog: null, jogTimer: null, flange0: null, frame: null, rate: 0,
              rateCount: 0, rateSince: performance.now()};
 window.hmi = hmi;               // for the browser tests
@@ -198,10 +198,16 @@ function onFrame(f) {
   if (f.seq !== hmi.lastSeq || f.replay) { hmi.lastSeqAt = hmi.lastFrameAt; }   // a replay: frames are the life
   else if (hmi.lastFrameAt - hmi.lastSeqAt > STALE_MS) { return; }   // the controller stalled: keep the greying
   hmi.lastSeq = f.seq;
-  hmi.history.push({seq: f.seq, at: hmi.lastFrameAt, mode: f.mode, coupler: f.coupler});
+  // end to end: the controller's publication of the cycle to this frame's arrival (one clock on one machine;
+  // across machines it needs their clocks synchronised)
+  const latency = f.published_at === null ? null : Date.now() / 1000 - f.published_at;
+  hmi.history.push({seq: f.seq, at: hmi.lastFrameAt, mode: f.mode, coupler: f.coupler, latency});
   if (hmi.history.length > 600) { hmi.history.shift(); }
   for (const a of f.alarms) { if (!hmi.seenAlarms.includes(a.tag)) { hmi.seenAlarms.push(a.tag); } }
-  if (hmi.seenModes[hmi.seenModes.length - 1] !== f.mode) { hmi.seenModes.push(f.mode); }
+  if (hmi.seenModes[hmi.seenModes.length - 1] !== f.mode) {
+    hmi.seenModes.push(f.mode);
+    hmi.modeArrivals.push([f.mode, Date.now() / 1000]);        // when each mode change reached the screen
+  }
   hmi.frames += 1;
   hmi.frame = f;
   hmi.rateCount += 1;

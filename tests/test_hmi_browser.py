@@ -246,3 +246,27 @@ def test_the_replay_s_time_slider_moves_the_screen_through_the_logged_run(state,
         assert not page.evaluate("document.body.classList.contains('stale')") and page.errors == []
     finally:
         server.stop()
+
+
+@pytest.mark.slow
+def test_a_manual_ers_from_the_screen_asks_for_a_confirmation_and_releases_only_after_the_valves(screen, page):
+    """Connected (the scripted drift-off at 8x, before its drift): the ERS button opens a confirmation; Cancel
+    sends nothing more; Confirm releases the coupler. On every frame the screen showed, the coupler was open
+    only with the ERS valves confirmed closed."""
+    s = screen(scripted=True, speedup=8.0)
+    log_in(page, s.url, "alice", "pw-alice")
+    wait_for(page, "hmi.frame.mode === 'CONNECTED'", timeout=60.0, what="the connection")
+    page.click("#ers")
+    assert page.is_visible("#ers-dialog")
+    page.click("#ers-cancel")
+    time.sleep(0.3)
+    assert page.evaluate("hmi.frame.mode") == "CONNECTED"
+    page.click("#ers")
+    page.click("#ers-confirm")
+    wait_for(page, "['ALARM1', 'RELEASE', 'RETURN'].includes(hmi.frame.mode)", timeout=10.0, what="the release")
+    wait_for(page, "hmi.frame.coupler_open || hmi.frame.mode === 'RETURN'", timeout=30.0, what="the coupler open")
+    hist = page.evaluate("hmi.history.map(h => [h.open, h.valves])")
+    assert all(valves for open_, valves in hist if open_)
+    _until(lambda: any(e[4].get("action") == "ers_confirm" and e[4]["user"] == "alice" for e in list(s.loop.events)),
+           "alice's confirmation in the log")
+    assert page.errors == []

@@ -1061,6 +1061,9 @@ def serve(
                       f"certificate {server.state.cert} (SHA-1 {thumbprint(cert)})")
             users = server.state.users()
             out.print(f"{len(users)} user(s) in {server.state.users_file}; trusted clients in {server.state.trusted}")
+            if len(users) == 0:
+                out.print(f"no one can log in yet: add a user with loadarm user add NAME --role operator "
+                          f"--state-dir {state_dir}", soft_wrap=True)
             out.print(f"events to {db} (run {run_id}); Ctrl-C stops")
             service.run()
         finally:

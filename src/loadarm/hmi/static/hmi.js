@@ -201,7 +201,8 @@ function onFrame(f) {
   // end to end: the controller's publication of the cycle to this frame's arrival (one clock on one machine;
   // across machines it needs their clocks synchronised)
   const latency = f.published_at === null ? null : Date.now() / 1000 - f.published_at;
-  hmi.history.push({seq: f.seq, at: hmi.lastFrameAt, mode: f.mode, coupler: f.coupler, latency});
+  hmi.history.push({seq: f.seq, at: hmi.lastFrameAt, mode: f.mode, coupler: f.coupler, latency,
+                    open: f.coupler_open, valves: f.ers_valves_closed});
   if (hmi.history.length > 600) { hmi.history.shift(); }
   for (const a of f.alarms) { if (!hmi.seenAlarms.includes(a.tag)) { hmi.seenAlarms.push(a.tag); } }
   if (hmi.seenModes[hmi.seenModes.length - 1] !== f.mode) {

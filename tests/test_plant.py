@@ -445,6 +445,25 @@ class _FakeService:
         self.requests.append(req)
 
 
+class _Events:
+    """An asyncua subscription handler keeping the events it gets."""
+
+    def __init__(self):
+        self.events = []
+
+    def event_notification(self, event):
+        self.events.append(event)
+
+    async def wait_for(self, pred, timeout=5.0):
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < timeout:
+            hits = [e for e in self.events if pred(e)]
+            if hits:
+                return hits[-1]
+            await asyncio.sleep(0.05)
+        raise AssertionError(f"no such event among {len(self.events)}")
+
+
 @pytest.fixture(scope="module")
 def fake_served(served):
     """loadarm's OPC UA server over a :class:`_FakeService` (alarm states and modes the tests set), with the
@@ -471,33 +490,17 @@ def test_alarms_are_part_9_conditions_that_an_operator_acknowledges(fake_served)
     fake, sv = fake_served["fake"], fake_served
     fake.requests.clear()
 
-    class Handler:
-        def __init__(self):
-            self.events = []
-
-        def event_notification(self, event):
-            self.events.append(event)
-
-    async def wait_for(handler, pred, timeout=5.0):
-        t0 = time.monotonic()
-        while time.monotonic() - t0 < timeout:
-            hits = [e for e in handler.events if pred(e)]
-            if hits:
-                return hits[-1]
-            await asyncio.sleep(0.05)
-        raise AssertionError(f"no such event among {len(handler.events)}")
-
     async def main():
         c = await _client(sv, "alice", "pw-alice")()
         v = await _client(sv, "victor", "pw-victor")()
         async with c, v:
             ns = await c.get_namespace_index(NAMESPACE)
             guidance = c.get_node(ua.NodeId("Guidance", ns))
-            h = Handler()
+            h = _Events()
             sub = await c.create_subscription(50, h)
             await sub.subscribe_events(guidance, ua.NodeId(ua.ObjectIds.AlarmConditionType))
             fake.set("ESD1", "unacknowledged")
-            ev = await wait_for(h, lambda e: e.ConditionName == "ESD1")
+            ev = await h.wait_for(lambda e: e.ConditionName == "ESD1")
             assert getattr(ev, "ActiveState/Id") is True and getattr(ev, "AckedState/Id") is False and ev.Retain
             assert ev.Severity == CONDITION_SEVERITY["ESD1"]
             cond = c.get_node(ua.NodeId("Guidance.Alarms.ESD1", ns))
@@ -507,39 +510,20 @@ def test_alarms_are_part_9_conditions_that_an_operator_acknowledges(fake_served)
             await cond.call_method(ack, ev.EventId, ua.LocalizedText("seen"))
             assert [(r.action, r.user, r.tag) for r in fake.requests] == [("ack", "alice", "ESD1")]
             fake.set("ESD1", "acknowledged")
-            ev2 = await wait_for(h, lambda e: e.ConditionName == "ESD1" and getattr(e, "AckedState/Id"))
+            ev2 = await h.wait_for(lambda e: e.ConditionName == "ESD1" and getattr(e, "AckedState/Id"))
             assert getattr(ev2, "ActiveState/Id") is True and ev2.Retain
             with pytest.raises(ua.uaerrors.BadConditionBranchAlreadyAcked):
                 await cond.call_method(ack, ev2.EventId, ua.LocalizedText("again"))
             n = len(h.events)
             await c.nodes.server.call_method(ua.NodeId(ua.ObjectIds.ConditionType_ConditionRefresh),
                                              ua.Variant(sub.subscription_id, ua.VariantType.UInt32))
-            replay = await wait_for(h, lambda e: e in h.events[n:] and getattr(e, "ConditionName", None) == "ESD1")
+            replay = await h.wait_for(lambda e: e in h.events[n:] and getattr(e, "ConditionName", None) == "ESD1")
             assert getattr(replay, "AckedState/Id") is True
             fake.set("ESD1", "normal")
-            ev3 = await wait_for(h, lambda e: e.ConditionName == "ESD1" and not getattr(e, "ActiveState/Id"))
+            ev3 = await h.wait_for(lambda e: e.ConditionName == "ESD1" and not getattr(e, "ActiveState/Id"))
             assert not ev3.Retain
 
     asyncio.run(main())
-
-
-class _Events:
-    """An asyncua subscription handler keeping the events it gets."""
-
-    def __init__(self):
-        self.events = []
-
-    def event_notification(self, event):
-        self.events.append(event)
-
-    async def wait_for(self, pred, timeout=5.0):
-        t0 = time.monotonic()
-        while time.monotonic() - t0 < timeout:
-            hits = [e for e in self.events if pred(e)]
-            if hits:
-                return hits[-1]
-            await asyncio.sleep(0.05)
-        raise AssertionError(f"no such event among {len(self.events)}")
 
 
 def test_the_guidance_modes_are_a_finite_state_machine_with_transition_events(fake_served):

@@ -252,6 +252,29 @@ def test_the_measured_drift_forecast_matches_the_crossing_time(model, speed, acc
 
 
 @settings(max_examples=examples(25), deadline=None)
+@given(st.floats(0.16, 0.6), st.floats(0.0, 0.02), st.floats(-180, 180))
+def test_the_time_to_each_face_comes_from_the_same_scan_and_is_never_late(model, speed, accel, direction_deg):
+    """The forecast's time to each face (the operator's screen shows them), from the scan that finds the
+    nearest: the nearest is the forecast's own time (never later than the true crossing); the others are no
+    earlier than it, within the horizon, nearest first."""
+    from loadarm.faces import FACES
+
+    ang = math.radians(direction_deg)
+    d = np.array([math.cos(ang), math.sin(ang), 0.0])
+    mon, p = _fed_monitor(model, np.array([11.0, 0.0, 1.0]), speed * d, accel * d)
+    f = mon.time_to_limit(p, 40.0)
+    by = dict(f.by_face)
+    if not f.face:
+        assert by == {}
+        return
+    assert by[f.face] == f.time and min(by.values()) == f.time and set(by) <= set(FACES)
+    assert [t for _, t in f.by_face] == sorted(t for _, t in f.by_face)
+    assert all(0.0 <= t <= 40.0 for t in by.values())
+    truth = _crossing_time(model, p, speed * d + accel * d * 60.0, accel * d, 40.0)
+    assert f.time <= truth + 1e-9
+
+
+@settings(max_examples=examples(25), deadline=None)
 @given(st.floats(0.02, 0.5), st.floats(0.02, 0.5))
 def test_faster_drift_alarms_earlier(model, v_slow, v_fast):
     """The faster of two drifts through the same point now is forecast to reach the face no later. (Found by the

@@ -147,6 +147,8 @@ class Command:
         Forecast time to the nearest face of the envelope, s (``inf`` when none is in sight or not attached).
     events : tuple of (kind, reason, data)
         Events of this cycle, for the event log.
+    time_to_faces : tuple of (str, float)
+        The forecast's time to each face it crossed within its horizon, nearest first (:class:`LimitForecast`).
     """
 
     mode: Mode
@@ -159,6 +161,7 @@ class Command:
     level: Severity = Severity.NORMAL
     time_to_limit: float = math.inf
     events: tuple = ()
+    time_to_faces: tuple = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -455,10 +458,11 @@ class GuidanceController:
         s = self.state
         attached = self.attached()
         ttl = s.forecast.time if (attached and s.forecast is not None) else math.inf
+        faces = s.forecast.by_face if (attached and s.forecast is not None) else ()
         return Command(s.mode, tuple(float(v) for v in rates), attached, s.esd_since is not None,
                        s.release_since is not None, s.valves_cmd_since is not None,
                        s.release_started_at is not None, s.level if attached else Severity.NORMAL, ttl,
-                       tuple(s.events))
+                       tuple(s.events), faces)
 
     def attached(self) -> bool:
         """Whether the coupler is on the flange (a connected mode, or an emergency stop taken from one).

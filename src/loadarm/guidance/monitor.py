@@ -350,11 +350,15 @@ class LimitForecast:
         The face (:data:`loadarm.faces.FACES`), ``""`` if none.
     route : str
         ``"measured drift"`` or ``"design drift"``.
+    by_face : tuple of (str, float)
+        The time to each face crossed within the horizon, s, from the same scan: the nearest one's to the
+        resolution, the others' the last scan time still inside (at most the scan's step early: never late).
     """
 
     time: float
     face: str
     route: str
+    by_face: tuple = ()
 
 
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -467,20 +471,28 @@ class EnvelopeMonitor:
         m = face_margins(self.model, pts[..., 0], pts[..., 1], pts[..., 2])
         return first_face(m)
 
-    def _first_crossing(self, points, horizon: float) -> tuple[float, str, int]:
+    def _first_crossing(self, points, horizon: float) -> tuple[float, str, int, dict]:
         """First time any of ``points(tau)`` (shape (T, K, 3) for times ``tau``) lies past a face: a coarse scan
-        at :attr:`step`, then bisection to :attr:`resolution`; returns the last time found inside, the face and
-        the index of the point that crossed it (``inf, "", -1`` if none within the horizon)."""
+        at :attr:`step`, then bisection to :attr:`resolution`; returns the last time found inside, the face, the
+        index of the point that crossed it (``inf, "", -1`` if none within the horizon) and, from the coarse
+        scan, the last time inside before each face crossed (the first face's refined)."""
         tau = np.arange(0.0, horizon + self.step, self.step)
         outside, face = self._outside(points(tau))
         rows = np.flatnonzero(outside.any(axis=1))
         if rows.size == 0:
-            return math.inf, "", -1
+            return math.inf, "", -1, {}
+        by_face = {}
+        for j, name in enumerate(FACES):
+            crossed = np.flatnonzero((outside & (face == j)).any(axis=1))
+            if crossed.size:
+                r = int(crossed[0])
+                by_face[name] = float(tau[r - 1]) if r > 0 else 0.0
         i = int(rows[0])
         k = int(np.flatnonzero(outside[i])[0])
         hit = (FACES[int(face[i, k])], k)
         if i == 0:
-            return 0.0, hit[0], hit[1]
+            by_face[hit[0]] = 0.0
+            return 0.0, hit[0], hit[1], by_face
         lo, hi = float(tau[i - 1]), float(tau[i])
         while hi - lo > self.resolution + 1e-12:
             mid = 0.5 * (lo + hi)
@@ -491,7 +503,8 @@ class EnvelopeMonitor:
                 hit = (FACES[int(f[0, k])], k)
             else:
                 lo = mid
-        return lo, hit[0], hit[1]
+        by_face[hit[0]] = lo
+        return lo, hit[0], hit[1], by_face
 
     def time_to_limit(self, p_now, horizon: float, *, alarmed: bool = False, now: float | None = None) -> LimitForecast:
         """Earliest time the flange could cross a face within ``horizon`` seconds.
@@ -543,12 +556,13 @@ class EnvelopeMonitor:
             def points(tau):
                 return np.concatenate([design(tau)] + [r(tau) for r in routes], axis=1)   # one evaluation
 
-        t, face, k = self._first_crossing(points, horizon)
+        t, face, k, by_face = self._first_crossing(points, horizon)
         if not face:
             return LimitForecast(math.inf, "", "")
+        faces = tuple(sorted(by_face.items(), key=lambda kv: kv[1]))
         if k < n_design:
-            return LimitForecast(t, face, "design drift")
-        return LimitForecast(t, face, "measured drift" if k < n_design + len(_CORNERS) else "velocity step")
+            return LimitForecast(t, face, "design drift", faces)
+        return LimitForecast(t, face, "measured drift" if k < n_design + len(_CORNERS) else "velocity step", faces)
 
     def _measured(self, est: DriftEstimate, age: float):
         """The measured route of one drift estimate: ``tau`` (shape (T,)) to the corners of its box (T, 8, 3).

@@ -201,6 +201,7 @@ def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float) -> dict:
         "plant_ok": snap.plant_ok, "late": snap.late, "cycle_us": _num(snap.cycle_us),
         "cylinders": [_num(v) for v in snap.cylinders],
         "margins": {f: _num(v) for f, v in snap.margins.items()},
+        "time_to_faces": {f: _num(v) for f, v in snap.time_to_faces.items()},
         "pressures": [_num(v) for v in snap.pressures],
         "alarms": [a.to_dict() for a in alarms if a.shelved_until is None],
         "shelved": [a.to_dict() for a in alarms if a.shelved_until is not None],

@@ -112,6 +112,8 @@ class Snapshot:
         kinematic one or a PLC that does not report them).
     wall : float
         Wall-clock time the cycle was published, s since the epoch (for the screen's end-to-end latency).
+    time_to_faces : dict of str to float
+        The forecast's time to each face it crossed within its horizon, s (absent: none in sight).
     """
 
     seq: int
@@ -138,6 +140,7 @@ class Snapshot:
     flange_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     pressures: tuple[float, float, float, float, float] = (math.nan,) * 5
     wall: float = math.nan
+    time_to_faces: dict = field(default_factory=dict)
 
 
 class GuidanceService:
@@ -291,6 +294,7 @@ class GuidanceService:
             cycle_us=float(loop.cycle_us[i]), late=self.late, plant_ok=self._link_ok,
             cylinders=(float(c1), float(c2)), margins={f: float(m[..., i]) for i, f in enumerate(FACES)},
             flange_velocity=tuple(float(v) for v in np.asarray(e.velocity, dtype=float)),
-            pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)), wall=time.time())
+            pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)), wall=time.time(),
+            time_to_faces={f: float(t) for f, t in cmd.time_to_faces})
         if not self.mode_changes or self.mode_changes[-1][0] != cmd.mode.value:
             self.mode_changes.append((cmd.mode.value, self._snapshot.wall))

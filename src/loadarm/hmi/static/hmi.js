@@ -381,6 +381,10 @@ function drawBars(f) {
     const v = f.margins[face];
     box.appendChild(bar(`margin ${face}`, v === null ? null : v * DEG, "deg", 0, 180,
                         (normal[face] || 5 / DEG) * DEG, 180, 1));
+    const t = face in f.time_to_faces ? f.time_to_faces[face] : null;   // none: not within the forecast's horizon
+    const b = bar(`time to ${face}`, t, "s", 0, 120, g.sequence_time, 120, 0);
+    b.classList.add("face-time");
+    box.appendChild(b);
   }
 }
 

@@ -209,6 +209,20 @@ def test_a_viewer_can_request_esd_1_and_nothing_else(app_env):
     assert [(r.action, r.user) for r in service.requests] == [("esd", "victor")]
 
 
+def test_a_screen_whose_session_ends_gets_no_more_frames(app_env):
+    from starlette.websockets import WebSocketDisconnect
+
+    c = app_env["client"]
+    csrf = _login(c)["csrf"]
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        _frame(ws)
+        assert c.post("/api/logout", headers={"X-CSRF-Token": csrf}).status_code == 200
+        with pytest.raises(WebSocketDisconnect) as e:
+            for _ in range(100):
+                ws.receive_text()
+        assert e.value.code == 4401
+
+
 def test_a_screen_dropped_mid_jog_stops_the_jog(app_env):
     """The dead-man across the network: the page stops its jog when the key or button is released, and if the
     connection drops instead, the server asks the controller to stop (the controller's own 0.5 s jog hold
@@ -424,6 +438,9 @@ def test_the_replay_screen_has_a_slider_and_takes_no_command(tmp_path, logged_ru
         assert not _ack(ws)["ok"]
         ws.send_text(json.dumps({"type": "cmd", "seq": 3, "action": "estop", "csrf": s["csrf"]}))
         assert _ack(ws)["message"] == "refused: a replay takes no command"
+        with c.websocket_connect("/ws", headers=ORIGIN) as other:        # another screen: its own slider
+            assert _frame(other)["t"] == 0.0
+        assert _frame(ws)["t"] == 212.0
 
 
 @pytest.mark.parametrize("args, match", [

@@ -94,7 +94,7 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
         token = request.cookies.get(COOKIE)
         return token, sessions.get(token)
 
-    replay = hasattr(service, "seek")              # a logged run (loadarm.hmi.replay): no commands, a slider
+    replay = hasattr(service, "new_cursor")        # a logged run (loadarm.hmi.replay): no commands, a slider
 
     def session_json(s) -> dict:
         return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": name, "replay": replay,
@@ -200,16 +200,21 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
             return
         await websocket.accept()
         jogging = {"until": -math.inf}
+        cursor = service.new_cursor() if replay else None      # each screen moves its own slider
+        token = websocket.cookies.get(COOKIE)
 
         async def push():
             last_seq, last_sent = None, -math.inf
             while True:
-                snap = service.snapshot()
+                snap = service.snapshot(cursor) if replay else service.snapshot()
                 now = time.monotonic()
                 if snap is not None and (snap.seq != last_seq or now - last_sent >= KEEPALIVE):
+                    if sessions.get(token) is None:       # the session ended (logout, idle): no more frames
+                        await websocket.close(code=4401)
+                        return
                     f = frame(snap, model, alarms_for(snap), sent_at=wall())
                     if replay:
-                        f["replay"] = service.replay_state()
+                        f["replay"] = cursor.state()
                     await websocket.send_text(json.dumps(f))
                     last_seq, last_sent = snap.seq, now
                 await asyncio.sleep(1.0 / frame_rate)
@@ -222,7 +227,7 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
                     msg = json.loads(text)
                     seq = msg.get("seq") if isinstance(msg, dict) else None
                     if replay and isinstance(msg, dict) and msg.get("type") in ("seek", "play", "pause"):
-                        ok, message = _replay_control(service, msg)
+                        ok, message = _replay_control(cursor, msg)
                         await websocket.send_text(json.dumps({"type": "ack", "seq": seq, "ok": ok,
                                                               "message": message}))
                         continue
@@ -253,18 +258,18 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     return app
 
 
-def _replay_control(service, msg: dict) -> tuple[bool, str]:
-    """A replay's slider and buttons: seek to a run time, play at a speed, pause."""
+def _replay_control(cursor, msg: dict) -> tuple[bool, str]:
+    """A replay's slider and buttons on one screen's cursor: seek to a run time, play at a speed, pause."""
     try:
         if msg["type"] == "seek":
-            service.seek(msg.get("t"))
+            cursor.seek(msg.get("t"))
         elif msg["type"] == "play":
-            service.play(msg.get("speed", 1.0))
+            cursor.play(msg.get("speed", 1.0))
         else:
-            service.pause()
+            cursor.pause()
     except ValueError as exc:
         return False, f"refused: {exc}"
-    return True, f"{msg['type']} at {service.cursor():.1f} s"
+    return True, f"{msg['type']} at {cursor.cursor():.1f} s"
 
 
 def parse_hmi_address(text: str) -> tuple[str, int]:

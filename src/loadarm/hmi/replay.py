@@ -11,7 +11,7 @@ import numpy as np
 
 from ..errors import EventLogError
 
-__all__ = ["ReplayService"]
+__all__ = ["ReplayService", "ReplayCursor"]
 
 
 class ReplayService:
@@ -41,8 +41,7 @@ class ReplayService:
         self.model, self.clock = model, clock
         self.times = np.array([e.t for e in self.samples])
         self.t0, self.t1 = float(self.times[0]), float(self.times[-1])
-        self._lock = threading.Lock()
-        self._at, self._since, self.speed, self.playing = self.t0, clock(), 1.0, True
+        self._cursor = ReplayCursor(self.t0, self.t1, clock)
         self._cache: dict[int, object] = {}
         from ..guidance.controller import ANNUNCIATED
 
@@ -55,35 +54,29 @@ class ReplayService:
             self._alarms.append(states)
             self._raised.append(dict(since))
 
+    def new_cursor(self) -> "ReplayCursor":
+        """A cursor of its own (each screen moves its own slider), at the run's start, playing at 1x."""
+        return ReplayCursor(self.t0, self.t1, self.clock)
+
     def cursor(self) -> float:
-        """The run time shown now, s (it stops at the run's end)."""
-        with self._lock:
-            t = self._at + (self.clock() - self._since) * self.speed if self.playing else self._at
-        return min(max(t, self.t0), self.t1)
+        """The default cursor's run time, s."""
+        return self._cursor.cursor()
 
     def seek(self, t: float) -> None:
-        """Show run time ``t`` (clamped to the run; a non-finite ``t`` is refused)."""
-        if not (isinstance(t, (int, float)) and math.isfinite(t)):
-            raise ValueError(f"seek needs a finite run time in s, got {t!r}")
-        with self._lock:
-            self._at, self._since = min(max(float(t), self.t0), self.t1), self.clock()
+        """Move the default cursor (:meth:`ReplayCursor.seek`)."""
+        self._cursor.seek(t)
 
     def play(self, speed: float = 1.0) -> None:
-        """Play from the cursor at ``speed`` run seconds per second (0 < speed <= 100)."""
-        if not (isinstance(speed, (int, float)) and math.isfinite(speed) and 0 < speed <= 100):
-            raise ValueError(f"play needs a speed in (0, 100], got {speed!r}")
-        at = self.cursor()
-        with self._lock:
-            self._at, self._since, self.speed, self.playing = at, self.clock(), float(speed), True
+        """Play the default cursor (:meth:`ReplayCursor.play`)."""
+        self._cursor.play(speed)
 
     def pause(self) -> None:
-        at = self.cursor()
-        with self._lock:
-            self._at, self.playing = at, False
+        """Pause the default cursor."""
+        self._cursor.pause()
 
-    def replay_state(self) -> dict:
-        """The slider's state: ``t`` (the cursor), ``t0``, ``t1``, ``playing``, ``speed``."""
-        return {"t": self.cursor(), "t0": self.t0, "t1": self.t1, "playing": self.playing, "speed": self.speed}
+    def replay_state(self, cursor: "ReplayCursor | None" = None) -> dict:
+        """A cursor's slider state (default the service's own)."""
+        return (cursor or self._cursor).state()
 
     def raised_at(self, snap) -> dict:
         """When each alarm active in ``snap`` (one of :meth:`snapshot`'s) was raised, run time s."""
@@ -92,10 +85,10 @@ class ReplayService:
     def request(self, req) -> None:
         raise PermissionError("a replay takes no command")
 
-    def snapshot(self):
-        """The sample at or before the cursor as a :class:`loadarm.plant.service.Snapshot` (its ``seq`` the
-        sample's index)."""
-        i = int(np.searchsorted(self.times, self.cursor(), side="right")) - 1
+    def snapshot(self, cursor: "ReplayCursor | None" = None):
+        """The sample at or before a cursor (default the service's own) as a
+        :class:`loadarm.plant.service.Snapshot` (its ``seq`` the sample's index)."""
+        i = int(np.searchsorted(self.times, (cursor or self._cursor).cursor(), side="right")) - 1
         i = max(i, 0)
         snap = self._cache.get(i)
         if snap is None:
@@ -123,3 +116,51 @@ class ReplayService:
                         release=bool(d.get("release", False)), coupler_open=bool(d.get("coupler_open", False)),
                         ers_valves_closed=bool(d.get("ers_valves_closed", False)), alarms=dict(self._alarms[i]), cylinders=(float(c1), float(c2)),
                         margins={f: float(m[..., k]) for k, f in enumerate(FACES)})
+
+
+class ReplayCursor:
+    """A point in a replayed run's time that plays at a speed or stands, moved by one screen's slider.
+
+    Parameters
+    ----------
+    t0, t1 : float
+        The run's first and last sample times, s.
+    clock : callable
+        Monotonic seconds.
+    """
+
+    def __init__(self, t0: float, t1: float, clock: Callable[[], float]):
+        self.t0, self.t1, self.clock = t0, t1, clock
+        self._lock = threading.Lock()
+        self._at, self._since, self.speed, self.playing = t0, clock(), 1.0, True
+
+    def cursor(self) -> float:
+        """The run time shown now, s (it stops at the run's end)."""
+        with self._lock:
+            t = self._at + (self.clock() - self._since) * self.speed if self.playing else self._at
+        return min(max(t, self.t0), self.t1)
+
+    def seek(self, t: float) -> None:
+        """Show run time ``t`` (clamped to the run; a non-finite ``t`` is refused)."""
+        if not (isinstance(t, (int, float)) and math.isfinite(t)):
+            raise ValueError(f"seek needs a finite run time in s, got {t!r}")
+        with self._lock:
+            self._at, self._since = min(max(float(t), self.t0), self.t1), self.clock()
+
+    def play(self, speed: float = 1.0) -> None:
+        """Play from the cursor at ``speed`` run seconds per second (0 < speed <= 100)."""
+        if not (isinstance(speed, (int, float)) and math.isfinite(speed) and 0 < speed <= 100):
+            raise ValueError(f"play needs a speed in (0, 100], got {speed!r}")
+        at = self.cursor()
+        with self._lock:
+            self._at, self._since, self.speed, self.playing = at, self.clock(), float(speed), True
+
+    def pause(self) -> None:
+        """Stand at the cursor."""
+        at = self.cursor()
+        with self._lock:
+            self._at, self.playing = at, False
+
+    def state(self) -> dict:
+        """The slider's state: ``t`` (the cursor), ``t0``, ``t1``, ``playing``, ``speed``."""
+        return {"t": self.cursor(), "t0": self.t0, "t1": self.t1, "playing": self.playing, "speed": self.speed}

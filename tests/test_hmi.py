@@ -453,3 +453,17 @@ def test_serve_replay_refuses_what_it_cannot_replay_in_one_line(capsys, tmp_path
     assert main(["serve", "--replay", str(logged_run["db"]), "--state-dir", str(tmp_path / "s"), *args]) == 2
     err = capsys.readouterr().err
     assert match in err and err.count("\n") == 1
+
+
+def test_alarm_colours_are_used_for_alarms_only():
+    """ISA-101: the alarm colours (--p1..--p4) appear only in the alarm list's priorities and on an active
+    alarm's band in the side view; nothing else on the screen uses them, and the script sets no colour."""
+    from loadarm.hmi.app import _static_dir
+
+    css = (_static_dir() / "hmi.css").read_text()
+    css = re.sub(r"/\*.*?\*/", "", css, flags=re.S)
+    rules = re.findall(r"([^{}]+)\{([^}]*)\}", css)
+    users = [sel.strip() for sel, body in rules if re.search(r"var\(--p[1-4]\)", body)]
+    assert users and all(("tr.alarm" in u and ".prio" in u) or ".zone.active" in u for u in users), users
+    js = (_static_dir() / "hmi.js").read_text()
+    assert not re.search(r"#[0-9a-fA-F]{6}\b", js.replace('fill: "#303030"', "")), "the script sets a colour"

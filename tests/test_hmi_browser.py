@@ -270,3 +270,22 @@ def test_a_manual_ers_from_the_screen_asks_for_a_confirmation_and_releases_only_
     _until(lambda: any(e[4].get("action") == "ers_confirm" and e[4]["user"] == "alice" for e in list(s.loop.events)),
            "alice's confirmation in the log")
     assert page.errors == []
+
+
+@pytest.mark.slow
+def test_a_new_operator_approaches_connects_and_sees_the_drift_off_from_the_buttons(screen, page):
+    """The issue's user (at 8x): the drift-off without its script; the operator presses Start approach, waits
+    for the standoff, presses Connect, and sees ESD-1, the second alarm and the release arrive, in order,
+    ending in RETURN."""
+    s = screen(speedup=8.0)
+    log_in(page, s.url, "alice", "pw-alice")
+    page.click("button[data-action='start']")
+    wait_for(page, "hmi.frame.mode === 'STANDOFF'", timeout=60.0, what="the standoff")
+    page.click("button[data-action='connect']")
+    wait_for(page, "hmi.frame.mode === 'CONNECTED'", timeout=10.0, what="the connection")
+    wait_for(page, "hmi.frame.mode === 'RETURN'", timeout=60.0, what="the release and the return")
+    modes = page.evaluate("hmi.seenModes")
+    assert modes[modes.index("CONNECTED"):] == ["CONNECTED", "ALARM1", "ALARM2", "RELEASE", "RETURN"], modes
+    assert [a for a in page.evaluate("hmi.seenAlarms") if a in ("ESD1", "SECOND", "RELEASE")] == [
+        "ESD1", "SECOND", "RELEASE"]
+    assert page.errors == []

@@ -379,6 +379,7 @@ def logged_run(tmp_path_factory):
     return {"db": db, "events": events, "result": result, "model": model}
 
 
+@pytest.mark.slow                      # the logged drift-off: seconds (make test SLOW=1, CI)
 def test_a_replay_shows_the_logged_sample_at_its_cursor_and_the_alarms_raised_when_logged(logged_run):
     from loadarm.errors import EventLogError
     from loadarm.hmi.replay import ReplayService
@@ -414,6 +415,7 @@ def test_a_replay_shows_the_logged_sample_at_its_cursor_and_the_alarms_raised_wh
         ReplayService([e for e in logged_run["events"] if e.kind != "sample"], logged_run["model"])
 
 
+@pytest.mark.slow                      # the logged drift-off: seconds (make test SLOW=1, CI)
 def test_the_replay_screen_has_a_slider_and_takes_no_command(tmp_path, logged_run):
     from fastapi.testclient import TestClient
 
@@ -443,6 +445,7 @@ def test_the_replay_screen_has_a_slider_and_takes_no_command(tmp_path, logged_ru
         assert _frame(ws)["t"] == 212.0
 
 
+@pytest.mark.slow                      # the logged drift-off: seconds (make test SLOW=1, CI)
 @pytest.mark.parametrize("args, match", [
     ([], "--replay needs --hmi HOST:PORT"),
     (["--hmi", "127.0.0.1:0"], "--replay needs --config (or --scenario)"),

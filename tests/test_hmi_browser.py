@@ -1,7 +1,8 @@
 """The operator's screen in a real browser (issue 15): Debian's Chromium driven by Playwright against
 ``loadarm serve``'s HMI on an ephemeral loopback port, over the real guidance service (the drift-off scenario,
 kinematic plant). Skipped with the reason when no Chromium is installed (`apt-get install chromium`); CI
-installs it (.ci/run)."""
+installs it (.ci/run). `make test` runs the page load and the E-stop; the rest, seconds each, are in the slow
+suite (`make test SLOW=1`, CI) to keep it within two minutes on two cores."""
 
 from __future__ import annotations
 
@@ -110,6 +111,7 @@ def _coupler_z(page):
     return page.evaluate("hmi.frame.coupler[2]")
 
 
+@pytest.mark.slow
 def test_the_jog_pad_moves_the_coupler_and_the_dead_man_stops_it(screen, page):
     """Held, the z+ button (and the PageUp key) raises the coupler; released, it stops within the next
     updates (the page sends a stop; the controller would drop the jog after 0.5 s anyway)."""
@@ -163,6 +165,7 @@ def test_e_stop_stops_the_arm_within_one_update(screen, page):
                        for e in list(s.loop.events)), "alice's E-stop in the log")
 
 
+@pytest.mark.slow
 def test_a_viewer_sees_everything_and_can_press_only_esd_1(screen, page):
     s = screen()
     log_in(page, s.url, "victor", "pw-victor")
@@ -180,6 +183,7 @@ def test_a_viewer_sees_everything_and_can_press_only_esd_1(screen, page):
                        for e in list(s.loop.events)), "victor's ESD-1 in the log")
 
 
+@pytest.mark.slow
 def test_a_stale_controller_or_a_lost_server_greys_the_view_and_says_so(screen, page):
     s = screen()
     log_in(page, s.url, "alice", "pw-alice")
@@ -218,6 +222,7 @@ def test_the_drift_off_on_the_screen_alarms_in_order_acknowledged_and_a_screensh
     assert page.errors == []
 
 
+@pytest.mark.slow
 def test_the_replay_s_time_slider_moves_the_screen_through_the_logged_run(state, page, tmp_path):
     """``serve --replay``'s screen over the drift-off's event log: the replay bar shows, every command is
     disabled, and moving the slider to 238 s shows the release with its alarms as logged."""

@@ -257,6 +257,7 @@ def test_an_untrusted_certificate_is_refused_and_kept_for_the_administrator(serv
     assert len(set(served["state"].rejected.glob("*.der")) - before) == 1
 
 
+@pytest.mark.slow                      # a server of its own: 4 s (make test SLOW=1, CI)
 def test_a_new_state_directory_with_no_trusted_client_starts_and_refuses_every_client(tmp_path, served):
     """Found: the first start of a fresh state directory (nothing in pki/trusted yet: the documented first
     step) failed, asyncua being unable to load an empty trust store. The server now starts and refuses every

@@ -503,6 +503,7 @@ class EnvelopeMonitor:
                 hit = (FACES[int(f[0, k])], k)
             else:
                 lo = mid
+        by_face = {f: max(t, lo) for f, t in by_face.items()}   # no face is crossed before the first one
         by_face[hit[0]] = lo
         return lo, hit[0], hit[1], by_face
 

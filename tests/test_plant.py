@@ -359,6 +359,7 @@ def test_user_add_and_trust_from_the_command_line(tmp_path, monkeypatch, capsys)
     (["--endpoint", "opc.tcp://127.0.0.1"], "--endpoint must be opc.tcp://HOST:PORT"),
     (["--speedup", "0"], "--speedup must be a positive number"),
     (["--hmi", "8080"], "--hmi must be HOST:PORT"),
+
     (["--hmi", "127.0.0.1:99999"], "--hmi port must be in [0, 65535]")])
 def test_serve_refuses_a_bad_endpoint_or_speed_in_one_line(tmp_path, capsys, args, match):
     from loadarm.cli import main
@@ -367,6 +368,15 @@ def test_serve_refuses_a_bad_endpoint_or_speed_in_one_line(tmp_path, capsys, arg
                  str(tmp_path / "e.db"), *args]) == 2
     err = capsys.readouterr().err
     assert match in err and err.count("\n") == 1
+
+
+def test_serve_on_a_plc_refuses_a_script_it_has_not_got(tmp_path, capsys):
+    from loadarm.cli import main
+
+    assert main(["serve", "--config", "examples/paper.toml", "--plc", "opc.tcp://127.0.0.1:4841", "--plc-cert",
+                 "c.der", "--plc-password-file", "pw", "--scripted", "--state-dir", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert "--scripted needs --scenario" in err and err.count("\n") == 1
 
 
 def test_the_docs_list_the_whole_address_space():

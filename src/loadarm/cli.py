@@ -1020,6 +1020,8 @@ def serve(
             raise UserError("--plc needs --plc-cert (the PLC's certificate) and --plc-password-file")
     elif scenario is None:
         raise UserError("serve needs --scenario (a simulated plant) or --plc (a PLC's endpoint)")
+    if scripted and scenario is None:
+        raise UserError("--scripted needs --scenario (its operator is the scenario's)")
     sc, model = _realtime_scenario(scenario, config, speedup, "serve --plc")
     inst_file = None if scenario is None or sc.scenario.installation is None \
         else scenario.parent / sc.scenario.installation
@@ -1040,7 +1042,7 @@ def serve(
         link.start()
     log = EventLog(db, run=run_id)
     try:
-        loop = ClosedLoop(sc, model, log=log, scripted=scripted and scenario is not None, io=link,
+        loop = ClosedLoop(sc, model, log=log, scripted=scripted, io=link,
                           continuous=scenario is None)
         service = GuidanceService(loop, speedup=speedup)
         server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)

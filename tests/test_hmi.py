@@ -470,3 +470,20 @@ def test_alarm_colours_are_used_for_alarms_only():
     assert users and all(("tr.alarm" in u and ".prio" in u) or ".zone.active" in u for u in users), users
     js = (_static_dir() / "hmi.js").read_text()
     assert not re.search(r"#[0-9a-fA-F]{6}\b", js.replace('fill: "#303030"', "")), "the script sets a colour"
+
+
+def test_a_replay_refuses_a_damaged_sample_naming_it(model):
+    """The replay takes the same check as ``loadarm log --png`` (:func:`loadarm.eventlog.check_samples`): a
+    hand-edited sample is refused, naming the event, not drawn from (its frames would have died in the
+    server's sender)."""
+    from loadarm.errors import EventLogError
+    from loadarm.eventlog import Event
+    from loadarm.hmi.replay import ReplayService
+
+    good = {"phi": 0.0, "alpha": 1.0, "beta": 2.0, "distance": 1.0}
+    ok = Event(1, "r", 0.0, "", "STORED", "sample", "state sample", good)
+    assert ReplayService([ok], model).snapshot().mode == "STORED"
+    with pytest.raises(EventLogError, match="event id 2: a sample needs a finite number 'alpha', got 'x'"):
+        ReplayService([ok, Event(2, "r", 1.0, "", "STORED", "sample", "", {**good, "alpha": "x"})], model)
+    with pytest.raises(EventLogError, match="event id 3: state 'NOPE' is not a guidance mode"):
+        ReplayService([ok, Event(3, "r", 1.0, "", "NOPE", "sample", "", good)], model)

@@ -833,25 +833,27 @@ def log_cmd(
         out.print(f"timeline written to {str(png)}")
 
 
+def _latest_run(events, empty: str) -> tuple[str, list]:
+    """The log's latest run with state samples and its events (several runs in one log: the latest is
+    replayed, or one chosen with --run); ``empty`` is the error when there is none."""
+    samples = [e for e in events if e.kind == "sample"]
+    if not samples:
+        raise UserError(empty)
+    run = samples[-1].run
+    return run, [e for e in events if e.run == run]
+
+
 def _replay_png(png: Path, events) -> None:
     import numpy as np
 
+    from .eventlog import check_samples
     from .guidance.run import MODES
     from .plotting import save, timeline_figure
 
+    last_run, events = _latest_run(events, "the log has no state samples to replay (was it written by loadarm "
+                                           "run?)")
     samples = [e for e in events if e.kind == "sample"]
-    if not samples:
-        raise UserError("the log has no state samples to replay (was it written by loadarm run?)")
-    last_run = samples[-1].run            # several runs in one log: replay the latest (or choose with --run)
-    events = [e for e in events if e.run == last_run]
-    samples = [e for e in samples if e.run == last_run]
-    for e in samples:                   # a damaged or hand-edited sample is named, not trusted (found: KeyError)
-        if e.state not in MODES:
-            raise UserError(f"event id {e.id}: state {e.state!r} is not a guidance mode ({', '.join(MODES)})")
-        for key in ("beta", "phi", "distance"):
-            v = e.data.get(key)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise UserError(f"event id {e.id}: a sample needs a finite number '{key}', got {v!r}")
+    check_samples(samples, ("beta", "phi", "distance"), MODES)
     t = np.array([e.t for e in samples])
     mode = np.array([MODES.index(e.state) for e in samples])
     beta = np.array([e.data["beta"] for e in samples], dtype=float)
@@ -1102,11 +1104,7 @@ def _serve_replay(db: Path, run_id: Optional[str], scenario: Optional[Path], con
     finally:
         log.close()
     if run_id is None:
-        samples = [e for e in events if e.kind == "sample"]
-        if not samples:
-            raise UserError(f"--replay {db}: no run with state samples in the log")
-        run_id = samples[-1].run
-        events = [e for e in events if e.run == run_id]
+        run_id, events = _latest_run(events, f"--replay {db}: no run with state samples in the log")
     if not events:
         raise UserError(f"--run {run_id!r}: no such run in {db}")
     service = ReplayService(events, model)

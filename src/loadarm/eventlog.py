@@ -34,7 +34,7 @@ from typing import Any, Iterable
 
 from .errors import EventLogError
 
-__all__ = ["Event", "EventLog", "EventLogError", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS", "APPLICATION_ID",
+__all__ = ["Event", "EventLog", "EventLogError", "check_samples", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS", "APPLICATION_ID",
            "SCHEMA_VERSION"]
 
 #: Event kinds.
@@ -318,6 +318,32 @@ class EventLog:
             If the file does not exist, is empty, or is not a loadarm event log.
         """
         return EventLog(path, _readonly=True)
+
+
+def check_samples(samples, keys, modes) -> None:
+    """Refuse a damaged or hand-edited state sample before it is replayed: its state must be one of ``modes``
+    and each of ``keys`` a finite number (found: a KeyError from a hand-edited log).
+
+    Parameters
+    ----------
+    samples : iterable of Event
+    keys : iterable of str
+        The data every sample must carry.
+    modes : sequence of str
+        The guidance modes.
+
+    Raises
+    ------
+    EventLogError
+        Naming the event's id, the field and the value.
+    """
+    for e in samples:
+        if e.state not in modes:
+            raise EventLogError(f"event id {e.id}: state {e.state!r} is not a guidance mode ({', '.join(modes)})")
+        for key in keys:
+            v = e.data.get(key)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise EventLogError(f"event id {e.id}: a sample needs a finite number '{key}', got {v!r}")
 
 
 def _sqlite_reason(exc: sqlite3.Error) -> str:

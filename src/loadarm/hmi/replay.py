@@ -30,14 +30,18 @@ class ReplayService:
     Raises
     ------
     EventLogError
-        The run has no state samples.
+        The run has no state samples, or one is damaged (:func:`loadarm.eventlog.check_samples`).
     """
 
     def __init__(self, events, model, *, clock: Callable[[], float] = time.monotonic):
+        from ..eventlog import check_samples
+        from ..guidance.run import MODES
+
         self.samples = [e for e in events if e.kind == "sample"]
         if not self.samples:
             raise EventLogError("the run has no state samples to replay (they are logged once a second by "
                                 "loadarm run and loadarm serve)")
+        check_samples(self.samples, ("phi", "alpha", "beta", "distance"), MODES)
         self.model, self.clock = model, clock
         self.times = np.array([e.t for e in self.samples])
         self.t0, self.t1 = float(self.times[0]), float(self.times[-1])

@@ -487,3 +487,29 @@ def test_a_replay_refuses_a_damaged_sample_naming_it(model):
         ReplayService([ok, Event(2, "r", 1.0, "", "STORED", "sample", "", {**good, "alpha": "x"})], model)
     with pytest.raises(EventLogError, match="event id 3: state 'NOPE' is not a guidance mode"):
         ReplayService([ok, Event(3, "r", 1.0, "", "NOPE", "sample", "", good)], model)
+
+
+def test_the_hmi_page_states_the_figures_the_code_uses():
+    """docs/hmi.md's figures are the code's: shelving, the login limit, the session's idle end, the frame rate,
+    the jog's hold, the forecast's resolution and step, the page's stale limit and shelving request."""
+    import inspect
+    from pathlib import Path
+
+    from loadarm.guidance.monitor import EnvelopeMonitor
+    from loadarm.hmi.app import FRAME_RATE, _static_dir
+    from loadarm.hmi.sessions import LOGIN_FAILURES, LOGIN_WINDOW, SESSION_IDLE
+    from loadarm.hmi.state import SHELVE_MAX
+    from loadarm.plant.service import JOG_HOLD
+
+    doc = " ".join((Path(__file__).parents[1] / "docs" / "hmi.md").read_text().split())
+    js = (_static_dir() / "hmi.js").read_text()
+    defaults = inspect.signature(EnvelopeMonitor).parameters
+    stale = int(re.search(r"const STALE_MS = (\d+);", js).group(1)) / 1000
+    shelve = int(re.search(r"const SHELVE_S = (\d+);", js).group(1))
+    for text in (f"for at most {SHELVE_MAX:g} s (the button asks for {shelve // 60} minutes)",
+                 f"after {LOGIN_FAILURES} failures in {LOGIN_WINDOW:g} s", f"unused for {SESSION_IDLE / 3600:g} hours",
+                 f"a frame at up to {FRAME_RATE:g} Hz", f"not renewed within {JOG_HOLD:g} s",
+                 f"the nearest to 1/{1 / defaults['resolution'].default:g} s",
+                 f"the scan's {defaults['step'].default:g} s step"):
+        assert text in doc, text
+    assert stale < 1.2                                  # the banner's example is past the watchdog's limit

@@ -4,6 +4,7 @@ moves the PLC's arm, and the PLC killed mid-run (the controller's reaction time,
 
 from __future__ import annotations
 
+import contextlib
 import subprocess
 import sys
 import time
@@ -106,29 +107,25 @@ def _plc_process(plc, endpoint, *extra, plant=("--scenario", SCENARIO)):
     return proc
 
 
-@pytest.mark.slow
-@pytest.mark.realtime
-def test_across_two_processes_a_jog_moves_the_plc_s_arm(tmp_path, scenario):
-    """``loadarm plc-sim`` in its own process, the controller's link trusted by it (and it by the link): an
-    operator's jog moves the PLC's arm through the link."""
+@contextlib.contextmanager
+def _controller_on_plc_sim(tmp_path, scenario, *plc_args, period=0.02, speedup=1.0, **loop_kw):
+    """``loadarm plc-sim`` (the drift-off) in its own process, the controller's link to it, and a guidance
+    service on that link, not yet started; yields ``(loop, service, link, proc)``, then stops the service,
+    the link and the process."""
     from loadarm.guidance.run import ClosedLoop
     from loadarm.plant.plc import PlcLink
-    from loadarm.plant.service import GuidanceService, Request
+    from loadarm.plant.service import GuidanceService
 
     sc, model = scenario
     ctrl, plc, endpoint = _plc_pair(tmp_path)
-    proc = _plc_process(plc, endpoint)
+    proc = _plc_process(plc, endpoint, *plc_args)
     link = service = None
     try:
-        link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.02)
+        link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=period)
         link.start()
-        q0 = link.q.copy()
-        service = GuidanceService(ClosedLoop(sc, model, scripted=False, io=link))
-        service.start()
-        for _ in range(8):
-            service.request(Request("jog", "alice", (0.0, 0.0, 0.2)))
-            time.sleep(0.2)
-        assert np.max(np.abs(link.q - q0)) > 1e-3 and link.link_ok and service.snapshot().plant_ok
+        loop = ClosedLoop(sc, model, io=link, **loop_kw)
+        service = GuidanceService(loop, speedup=speedup)
+        yield loop, service, link, proc
     finally:
         if service is not None:
             service.stop()
@@ -140,23 +137,27 @@ def test_across_two_processes_a_jog_moves_the_plc_s_arm(tmp_path, scenario):
 
 @pytest.mark.slow
 @pytest.mark.realtime
+def test_across_two_processes_a_jog_moves_the_plc_s_arm(tmp_path, scenario):
+    """``loadarm plc-sim`` in its own process, the controller's link trusted by it (and it by the link): an
+    operator's jog moves the PLC's arm through the link."""
+    from loadarm.plant.service import Request
+
+    with _controller_on_plc_sim(tmp_path, scenario, scripted=False) as (loop, service, link, proc):
+        q0 = link.q.copy()
+        service.start()
+        for _ in range(8):
+            service.request(Request("jog", "alice", (0.0, 0.0, 0.2)))
+            time.sleep(0.2)
+        assert np.max(np.abs(link.q - q0)) > 1e-3 and link.link_ok and service.snapshot().plant_ok
+
+
+@pytest.mark.slow
+@pytest.mark.realtime
 def test_the_plc_killed_mid_approach_is_caught_and_nothing_moves_after(tmp_path, scenario):
     """The PLC process killed while the scenario's operator has the arm on its approach: the controller marks
     the link dead within LINK_TIMEOUT plus a read period, raises the alarm, publishes its values as bad, stops
     commanding motion within a cycle (manual mode, zero rates) and keeps it stopped."""
-    from loadarm.guidance.run import ClosedLoop
-    from loadarm.plant.plc import PlcLink
-    from loadarm.plant.service import GuidanceService
-
-    sc, model = scenario
-    ctrl, plc, endpoint = _plc_pair(tmp_path)
-    proc = _plc_process(plc, endpoint)
-    link = service = None
-    try:
-        link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.02)
-        link.start()
-        loop = ClosedLoop(sc, model, io=link)
-        service = GuidanceService(loop)
+    with _controller_on_plc_sim(tmp_path, scenario) as (loop, service, link, proc):
         service.start()
         t0 = time.monotonic()
         while service.snapshot() is None or service.snapshot().mode != "APPROACH":
@@ -178,13 +179,6 @@ def test_the_plc_killed_mid_approach_is_caught_and_nothing_moves_after(tmp_path,
             assert link._outputs_rates() == (0.0, 0.0, 0.0) and service.snapshot().mode == "MANUAL"
             time.sleep(0.05)
         assert service.snapshot().seq > seq
-    finally:
-        if service is not None:
-            service.stop()
-        if link is not None:
-            link.stop()
-        proc.kill()
-        proc.wait(10)
 
 
 @pytest.mark.slow
@@ -195,33 +189,20 @@ def test_hardware_in_the_loop_the_drift_off_across_two_processes_runs_the_same_m
     run in one process (the controller's alarms came from the estimate of the readings that crossed the
     link, through the PLC's buffer of its last readings). 4x, not faster: at 8x the Python PLC's server did not
     refresh its tags in time and the estimate went stale (found)."""
-    from loadarm.guidance.run import ClosedLoop, run_scenario
-    from loadarm.plant.plc import PlcLink
-    from loadarm.plant.service import GuidanceService
+    from pathlib import Path
+
+    from loadarm.guidance.run import run_scenario
 
     sc, model = scenario
     want = run_scenario(sc, model).summary()["mode_sequence"]
-    ctrl, plc, endpoint = _plc_pair(tmp_path)
-    proc = _plc_process(plc, endpoint, "--speedup", "4")
-    link = None
-    try:
-        link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.01)
-        link.start()
-        loop = ClosedLoop(sc, model, io=link)
-        service = GuidanceService(loop, speedup=4.0)
+    with _controller_on_plc_sim(tmp_path, scenario, "--speedup", "4", period=0.01, speedup=4.0) as (loop, service,
+                                                                                                    link, proc):
         service.start()
         assert service.finished.wait(sc.scenario.duration / 4 + 60)
         assert service.error is None
         got = loop.result().summary()["mode_sequence"]
         assert got == want, (got, want)
-        from pathlib import Path
-
         assert ", ".join(want) in Path("docs/plant-integration.md").read_text().replace("\n", " ")
-    finally:
-        if link is not None:
-            link.stop()
-        proc.kill()
-        proc.wait(10)
 
 
 @pytest.mark.slow

@@ -107,6 +107,15 @@ def _until(pred, what, timeout=5.0):
         time.sleep(0.02)
 
 
+def _logged(screen, user, action, tag=None):
+    """Wait until the controller's log has ``user``'s operator ``action`` (on alarm ``tag``)."""
+    def found():
+        return any(e[2] == "operator" and e[4].get("user") == user and e[4].get("action") == action
+                   and (tag is None or e[4].get("tag") == tag) for e in list(screen.loop.events))
+
+    _until(found, f"{user}'s {action} in the log")
+
+
 def _coupler_z(page):
     return page.evaluate("hmi.frame.coupler[2]")
 
@@ -161,8 +170,7 @@ def test_e_stop_stops_the_arm_within_one_update(screen, page):
     after = [z for m, z in hist[first + 1:]]
     assert after and max(after) - min(after) < 1e-3
     assert page.evaluate("hmi.frame.mode") == "ESTOP"          # the key's release (a stop) does not clear it
-    _until(lambda: any(e[2] == "operator" and e[4].get("action") == "estop" and e[4]["user"] == "alice"
-                       for e in list(s.loop.events)), "alice's E-stop in the log")
+    _logged(s, "alice", "estop")
 
 
 @pytest.mark.slow
@@ -179,8 +187,7 @@ def test_a_viewer_sees_everything_and_can_press_only_esd_1(screen, page):
     assert page.evaluate("hmi.frame.mode") != "ESTOP"
     page.click("#esd")
     wait_for(page, "document.getElementById('ack').textContent.includes('esd sent')", what="esd acknowledged")
-    _until(lambda: any(e[2] == "operator" and e[4].get("user") == "victor" and e[4]["action"] == "esd"
-                       for e in list(s.loop.events)), "victor's ESD-1 in the log")
+    _logged(s, "victor", "esd")
 
 
 @pytest.mark.slow
@@ -217,8 +224,7 @@ def test_the_drift_off_on_the_screen_alarms_in_order_acknowledged_and_a_screensh
     # acknowledged: kept in the list while active, gone if it had returned to normal meanwhile
     wait_for(page, "(hmi.frame.alarms.find(a => a.tag === 'RELEASE') || {state: 'acknowledged'}).state"
                    " === 'acknowledged'", what="RELEASE acknowledged")
-    _until(lambda: any(e[4].get("action") == "ack" and e[4].get("tag") == "RELEASE" and e[4]["user"] == "alice"
-                       for e in list(s.loop.events)), "alice's acknowledge in the log")
+    _logged(s, "alice", "ack", tag="RELEASE")
     assert page.errors == []
 
 
@@ -272,8 +278,7 @@ def test_a_manual_ers_from_the_screen_asks_for_a_confirmation_and_releases_only_
     wait_for(page, "hmi.frame.coupler_open || hmi.frame.mode === 'RETURN'", timeout=30.0, what="the coupler open")
     hist = page.evaluate("hmi.history.map(h => [h.open, h.valves])")
     assert all(valves for open_, valves in hist if open_)
-    _until(lambda: any(e[4].get("action") == "ers_confirm" and e[4]["user"] == "alice" for e in list(s.loop.events)),
-           "alice's confirmation in the log")
+    _logged(s, "alice", "ers_confirm")
     assert page.errors == []
 
 

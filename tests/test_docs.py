@@ -82,9 +82,10 @@ def scratch(tmp_path_factory):
     return d
 
 
-#: Commands that take seconds (compiling the moored ship, a mooring analysis, a Dask cluster): checked in the slow
-#: suite (CI runs it), to keep `make test` under two minutes.
-SLOW_COMMANDS = {"alarms", "operability", "hydro"}
+#: Commands that take seconds (compiling the moored ship, a mooring analysis, a Dask cluster, a scenario on the
+#: hydraulic plant with its log and figure: 10 s): checked in the slow suite (CI runs it), to keep `make test` under
+#: two minutes. The scenarios themselves are checked in the fast suite by tests/test_guidance.py.
+SLOW_COMMANDS = {"alarms", "operability", "hydro", "run"}
 
 
 @pytest.mark.parametrize("cmd", [pytest.param(c, marks=pytest.mark.slow) if c.argv[1] in SLOW_COMMANDS else c

@@ -47,6 +47,7 @@ def test_calm_connects_without_alarm(runs):
     assert s["alarm1_s"] is None and s["overstretched_s"] is None
 
 
+@pytest.mark.slow  # 8 s: the hydraulic plant under an Hs 1.5 m sea (CI runs it)
 def test_hs15_tracks_the_moving_flange_without_false_alarm(runs):
     sc, _, r = runs["hs15"]
     s = r.summary()

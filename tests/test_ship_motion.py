@@ -171,7 +171,7 @@ def test_free_decay_loses_the_energy_its_damping_dissipates(ship, berth):
     xs, vs, ten = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, len(mo.names)))
     _lf_integrate(x0, np.zeros(3), np.zeros((n, 3)), 1, DT, int(round(ship.lf_step / DT)), np.linalg.inv(ship.mass_lf),
                   ship.damping_lf,
-                  mo.fairlead, mo.height, mo.bollard, mo.ea, mo.l0, mo.alive, mo.alive, n + 1, mo.fender_y,
+                  mo.lines, mo.alive, mo.alive, n + 1, mo.fender_y,
                   mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side, mo.psi0, mo.origin, 0.0, 0.0,
                   ship.current_kx, ship.current_ky, 0.2 * ship.length, xs, vs, ten)
     k = stiffness(mo, ship.eq0)
@@ -318,10 +318,9 @@ def test_the_kernels_current_is_the_vectorised_formula(ship, speed, direction, v
     x = ship.eq0 + np.array([0.0, 0.0, psi])
     cx, cy = speed * math.cos(direction), speed * math.sin(direction)
     zero = np.zeros((3, 3))
-    a = _lf_rhs(x[0], x[1], x[2], vx, vy, 0.0, 0.0, 0.0, 0.0, np.eye(3), zero, mo.fairlead, mo.height, mo.bollard,
-                mo.ea, mo.l0, mo.alive, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side,
+    a = _lf_rhs(x[0], x[1], x[2], vx, vy, 0.0, 0.0, 0.0, 0.0, np.eye(3), zero, mo.lines, mo.alive, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side,
                 mo.psi0, mo.origin, (cx, cy, ship.current_kx, ship.current_ky, loads.E_C * ship.length),
-                np.zeros(3), np.zeros(3), np.zeros(len(mo.names)))
+                np.zeros(3), np.zeros(3), np.zeros(len(mo.names)), np.empty((3, len(mo.names))))
     got = np.array(a) - restoring_force(mo, x)[0]
     heading = mo.psi0 + psi
     rx, ry = cx - vx, cy - vy

@@ -129,17 +129,17 @@ def _synth(coef: np.ndarray, n: int) -> np.ndarray:
     return irfft(c, n, axis=-1) * n / 2
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, fair, height, boll, ea, l0, alive, fy, fdefl, fload,
-            fn, side, psi0, origin, current, xbuf, out_f, ten):
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, lines, alive, fy, fdefl, fload, fn, side, psi0, origin,
+            current, xbuf, out_f, ten, per_line):
     """Acceleration (3 floats) of the low-frequency pose: scalars in and out, no allocation (the integration
     calls it four times a step). ``current`` is ``(vx, vy, kx, ky, el)``: the current's velocity and the ship's
     current-load factors. Inlined into the integrator (no reference counting of its arrays per call: found,
     about 0.5 us a call; fewer than 30 arguments, or Python passes them as ``*args``, which numba cannot
-    inline)."""
+    inline). ``lines`` is :attr:`loadarm.ship.mooring.Moorings.lines`, ``per_line`` a (3, n) scratch."""
     cur_vx, cur_vy, kx, ky, el = current
     xbuf[0], xbuf[1], xbuf[2] = x0, x1, x2
-    _restoring(xbuf, fair, height, boll, ea, l0, alive, fy, fdefl, fload, fn, side, psi0, origin, out_f, ten)
+    _restoring(xbuf, lines, alive, fy, fdefl, fload, fn, side, psi0, origin, out_f, ten, per_line)
     psi = psi0 + x2
     c, s = math.cos(psi), math.sin(psi)
     # external ship-frame load rotated to the berth frame
@@ -165,9 +165,9 @@ def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, fair, height, boll, 
             minv[2, 0] * fx + minv[2, 1] * fyy + minv[2, 2] * mz)
 
 
-@njit(cache=True, nogil=True)
-def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, fair, height, boll, ea, l0, alive0, alive1, i_part, fy,
-                  fdefl, fload, fn, side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xs, vs, tens):
+@njit(cache=True, nogil=True, error_model="numpy")
+def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, lines, alive0, alive1, i_part, fy, fdefl, fload, fn,
+                  side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xs, vs, tens):
     """RK4 of the low-frequency pose, ``stride`` output samples per step (the load taken at its samples at the
     step's start, middle and end: it is low-passed first, :data:`LF_CUTOFF`); the samples between from the cubic
     Hermite of the step's ends (error of order ``(w h)^4 / 384``: below 1e-4 of the motion for the 19 s and longer
@@ -175,15 +175,16 @@ def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, fair, height, b
     the lines part (``i_part``: from there ``alive1``) and at the last sample. The tensions between two steps are
     filled once the next step's first stage has the end's. Empty ``vs`` and ``tens`` (no rows): the pose alone.
     ``f_ship`` holds the load at every ``every``-th output sample (:func:`_load_every`: only the samples the
-    stages read)."""
+    stages read). ``lines`` is :attr:`loadarm.ship.mooring.Moorings.lines`."""
     n = xs.shape[0]
     rates = vs.shape[0] > 0
     current = (cur_vx, cur_vy, kx, ky, el)
-    nl = fair.shape[0]
+    nl = lines.shape[1]
     out_f = np.zeros(3)
     ten = np.zeros(nl)
     ten0 = np.zeros(nl)
     xbuf = np.zeros(3)
+    per_line = np.empty((3, nl))
     a0, a1, a2 = x0[0], x0[1], x0[2]
     b0, b1, b2 = v0[0], v0[1], v0[2]
     k = 0
@@ -194,8 +195,8 @@ def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, fair, height, b
         if rates:
             vs[k, 0], vs[k, 1], vs[k, 2] = b0, b1, b2
         p0, p1, p2 = f_ship[k // every, 0], f_ship[k // every, 1], f_ship[k // every, 2]
-        k1 = _lf_rhs(a0, a1, a2, b0, b1, b2, p0, p1, p2, minv, damp, fair, height, boll, ea, l0, alive, fy, fdefl,
-                     fload, fn, side, psi0, origin, current, xbuf, out_f, ten)
+        k1 = _lf_rhs(a0, a1, a2, b0, b1, b2, p0, p1, p2, minv, damp, lines, alive, fy, fdefl,
+                     fload, fn, side, psi0, origin, current, xbuf, out_f, ten, per_line)
         if rates:
             for j in range(nl):                  # the first stage is at the step's own pose: its tensions
                 tens[k, j] = ten[j]
@@ -226,16 +227,16 @@ def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, fair, height, b
         h = 0.5 * big
         x20, x21, x22 = a0 + h * b0, a1 + h * b1, a2 + h * b2
         v20, v21, v22 = b0 + h * k1[0], b1 + h * k1[1], b2 + h * k1[2]
-        k2s = _lf_rhs(x20, x21, x22, v20, v21, v22, m0, m1, m2, minv, damp, fair, height, boll, ea, l0, alive, fy,
-                      fdefl, fload, fn, side, psi0, origin, current, xbuf, out_f, ten)
+        k2s = _lf_rhs(x20, x21, x22, v20, v21, v22, m0, m1, m2, minv, damp, lines, alive, fy,
+                      fdefl, fload, fn, side, psi0, origin, current, xbuf, out_f, ten, per_line)
         x30, x31, x32 = a0 + h * v20, a1 + h * v21, a2 + h * v22
         v30, v31, v32 = b0 + h * k2s[0], b1 + h * k2s[1], b2 + h * k2s[2]
-        k3 = _lf_rhs(x30, x31, x32, v30, v31, v32, m0, m1, m2, minv, damp, fair, height, boll, ea, l0, alive, fy,
-                     fdefl, fload, fn, side, psi0, origin, current, xbuf, out_f, ten)
+        k3 = _lf_rhs(x30, x31, x32, v30, v31, v32, m0, m1, m2, minv, damp, lines, alive, fy,
+                     fdefl, fload, fn, side, psi0, origin, current, xbuf, out_f, ten, per_line)
         x40, x41, x42 = a0 + big * v30, a1 + big * v31, a2 + big * v32
         v40, v41, v42 = b0 + big * k3[0], b1 + big * k3[1], b2 + big * k3[2]
-        k4 = _lf_rhs(x40, x41, x42, v40, v41, v42, q0, q1, q2, minv, damp, fair, height, boll, ea, l0, alive, fy,
-                     fdefl, fload, fn, side, psi0, origin, current, xbuf, out_f, ten)
+        k4 = _lf_rhs(x40, x41, x42, v40, v41, v42, q0, q1, q2, minv, damp, lines, alive, fy,
+                     fdefl, fload, fn, side, psi0, origin, current, xbuf, out_f, ten, per_line)
         c0 = a0 + big / 6 * (b0 + 2 * v20 + 2 * v30 + v40)
         c1 = a1 + big / 6 * (b1 + 2 * v21 + 2 * v31 + v41)
         c2 = a2 + big / 6 * (b2 + 2 * v22 + 2 * v32 + v42)
@@ -550,7 +551,7 @@ def _lf_motion(ship: ShipModel, env: Environment, f_ship: np.ndarray, every: int
     tension = np.empty((n_out if rates else 0, len(mo.names)))
     cur = math.radians(env.current_direction_deg)
     _lf_integrate(eq.copy(), np.zeros(3), f_ship, every, dt, _lf_stride(ship, dt),
-                  np.linalg.inv(ship.mass_lf), ship.damping_lf, mo.fairlead, mo.height, mo.bollard, mo.ea, mo.l0,
+                  np.linalg.inv(ship.mass_lf), ship.damping_lf, mo.lines,
                   alive0, alive1, i_part, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side,
                   mo.psi0, mo.origin, env.current_speed * math.cos(cur), env.current_speed * math.sin(cur),
                   ship.current_kx, ship.current_ky, E_C * ship.length, pose, pose_v, tension)

@@ -320,7 +320,7 @@ def test_the_kernels_current_is_the_vectorised_formula(ship, speed, direction, v
     zero = np.zeros((3, 3))
     a = _lf_rhs(x[0], x[1], x[2], vx, vy, 0.0, 0.0, 0.0, 0.0, np.eye(3), zero, mo.lines, mo.alive, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side,
                 mo.psi0, mo.origin, (cx, cy, ship.current_kx, ship.current_ky, loads.E_C * ship.length),
-                np.zeros(3), np.zeros(3), np.zeros(len(mo.names)), np.empty((3, len(mo.names))))
+                np.zeros(3), np.zeros(len(mo.names)), np.empty((3, len(mo.names))))
     got = np.array(a) - restoring_force(mo, x)[0]
     heading = mo.psi0 + psi
     rx, ry = cx - vx, cy - vy

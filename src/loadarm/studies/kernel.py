@@ -66,7 +66,7 @@ def breakout_time(distance, speed: float, accel: float) -> np.ndarray:
     return np.where(d <= knee, np.sqrt(2 * np.maximum(d, 0.0) / accel), d / speed + speed / (2 * accel))
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _breakout_time(d, speed, accel):
     """:func:`breakout_time` of one distance (a test holds it to the vectorised rule, bit for bit)."""
     if d <= speed * speed / (2 * accel):
@@ -74,7 +74,7 @@ def _breakout_time(d, speed, accel):
     return d / speed + speed / (2 * accel)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _time_to_limit(h, v, drift):
     """The design-drift time to a face from the least horizontal and vertical ray distances ``h`` and ``v``;
     ``drift`` is ``(cap, cap_v, speed, acceleration, vertical_speed)``; a distance at its cap is beyond every
@@ -143,7 +143,7 @@ class FloorTable:
                                              axis=-1))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _cell(x, lo, spacing, m):
     """Grid cell and fraction of a coordinate (clamped to the grid's ``m`` nodes), and whether it is on it."""
     u = min(max((x - lo) / spacing, 0.0), m - 1.0)
@@ -151,7 +151,7 @@ def _cell(x, lo, spacing, m):
     return j, u - j, lo - 1e-9 <= x <= lo + spacing * (m - 1) + 1e-9
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def _point(hv, origin, spacing, x, y, z):
     """Trilinear interpolation of ``hv[(nx, ny, nz, 2)]`` at one point, coordinates clamped to the grid (the
     nearest edge value beyond it, as ``map_coordinates(mode="nearest")``): (horizontal, vertical, inside to
@@ -173,7 +173,7 @@ def _point(hv, origin, spacing, x, y, z):
     return out0, out1, okx and oky and okz
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _trilinear(hv, origin, spacing, p, h, v, inside):
     """:func:`_point` at every point of ``p``."""
     for i in range(p.shape[0]):
@@ -318,7 +318,7 @@ _zone = njit(cache=True, nogil=True)(zone_level)
 _past = njit(cache=True, nogil=True)(past_a_face)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _samples(phi, alpha, beta, x, y, z, beta_thr, slew_thr, phi_rng, alpha_rng, beta_rng, hv, origin, spacing,
              drift, level, ttl, inside):
     """Per sample of the record, in one pass: the position alarm level (beta and slew; unreachable: release),
@@ -350,7 +350,7 @@ def _samples(phi, alpha, beta, x, y, z, beta_thr, slew_thr, phi_rng, alpha_rng, 
     return bmax, smax, outside, zmin, zmax
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _times_to_limit(h, v, drift, ttl):
     """:func:`_time_to_limit` at every sample (for the samples beyond the table, their rays cast)."""
     for i in range(h.shape[0]):

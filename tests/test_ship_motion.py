@@ -80,6 +80,25 @@ def test_spreading_integrates_to_one_and_samples_follow_it(s):
     assert np.mean(np.cos(draws - 0.3)) == pytest.approx(m, abs=0.005)        # 5 standard errors
 
 
+@given(st.integers(0, 2 ** 32 - 1), st.integers(1, 5000), st.data())
+@settings(max_examples=60, deadline=None)
+def test_skipped_draws_are_the_draws_not_kept(seed, n, data):
+    """The sea's draws skip the tail they do not keep (PCG64's advance): the kept draws and the generator's
+    state after are those of drawing all ``n`` (an MT19937 generator, which cannot skip, draws them)."""
+    keep = data.draw(st.integers(0, n))
+    for make in (np.random.PCG64, np.random.MT19937):
+        a, b = np.random.Generator(make(seed)), np.random.Generator(make(seed))
+        assert np.array_equal(loads.uniform_draws(a, n, keep), b.uniform(0.0, 1.0, n)[:keep])
+        assert a.random() == b.random()
+
+
+def test_the_direction_table_is_shared_and_read_only():
+    g1, c1 = loads._direction_cdf(4.0)
+    g2, c2 = loads._direction_cdf(4.0)
+    assert g1 is g2 and c1 is c2 and not c1.flags.writeable and not g1.flags.writeable
+    assert c1[0] == 0.0 and c1[-1] == 1.0 and np.all(np.diff(c1) >= 0)
+
+
 def test_jonswap_normalised():
     w = np.linspace(0.05, 6.0, 20000)
     assert 4 * math.sqrt(np.trapezoid(loads.jonswap(w, 1.5, 9.0), w)) == pytest.approx(1.5, rel=0.01)

@@ -27,7 +27,7 @@ from scipy.fft import irfft, next_fast_len, rfft
 
 from ..berth import Environment
 from ..results import Metric, Result
-from .loads import E_C, current_force, jonswap, npd_spectrum, sample_directions, wind_force
+from .loads import E_C, current_force, jonswap, npd_spectrum, sample_directions, uniform_draws, wind_force
 from .model import ShipModel
 from .mooring import _restoring
 
@@ -100,7 +100,7 @@ def wave_components(env: Environment, n: int, dt: float, rng: np.random.Generato
     keep = int(np.searchsorted(w, omega_max, side="right"))
     a = np.sqrt(2.0 * jonswap(w[:keep], env.hs, env.tp, gamma) * dw)
     direction = sample_directions(rng, w.size, math.radians(env.wave_direction_deg), env.spreading, keep=keep)
-    phase = rng.uniform(0.0, 2 * math.pi, w.size)[:keep]
+    phase = 2 * math.pi * uniform_draws(rng, w.size, keep)    # as rng.uniform(0, 2 pi, w.size)[:keep]
     return WaveComponents(w[:keep], a, direction, phase, n)
 
 
@@ -460,7 +460,8 @@ def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
         # the density is separable, S(w) D(theta): the double trapezoid as two weighted contractions
         sw = jonswap(w, env.hs, env.tp) * _MEAN_DRIFT_WEIGHTS[0]
         dth = spreading(th, math.radians(env.wave_direction_deg), env.spreading) * _MEAN_DRIFT_WEIGHTS[1]
-        f = f + 2 * (sw @ np.tensordot(ship.mean_drift_grid, dth, axes=([1], [0])))
+        grid = ship.mean_drift_grid                                  # (frequency, direction, 3)
+        f = f + 2 * (dth @ (sw @ grid.reshape(sw.size, -1)).reshape(dth.size, 3))   # two matrix-vector products
     c, s = math.cos(psi), math.sin(psi)
     return np.array([c * f[0] - s * f[1], s * f[0] + c * f[1], f[2]])
 

@@ -139,6 +139,31 @@ def test_natural_periods_from_hydrostatics(ship):
     assert 8 < p["heave_s"] < 14 and 15 < p["roll_s"] < 30 and 8 < p["pitch_s"] < 13
 
 
+def test_the_mean_drift_is_cached_by_what_it_depends_on(tmp_path, monkeypatch, ship):
+    """The cached far-field drift is capytaine's, bit for bit; other RAOs get another file; a damaged file is
+    computed again and replaced; a cache that cannot be written still gives the drift."""
+    monkeypatch.setenv("LOADARM_CACHE", str(tmp_path / "c"))
+    h, rao = ship.hydro, ship.rao
+    direct = hydro.mean_drift(h, rao)
+    assert np.array_equal(hydro.cached_mean_drift(h, rao), direct)
+    [f] = list((tmp_path / "c").glob("drift-*.npy"))
+    assert np.array_equal(hydro.cached_mean_drift(h, rao), direct)            # from the file
+    hydro.cached_mean_drift(h, rao * 1.01)
+    assert len(list((tmp_path / "c").glob("drift-*.npy"))) == 2
+    f.write_bytes(b"not an array")
+    assert np.array_equal(hydro.cached_mean_drift(h, rao), direct)
+    assert np.array_equal(np.load(f), direct)
+    monkeypatch.setenv("LOADARM_CACHE", str(tmp_path / "file"))
+    (tmp_path / "file").write_text("a file where the cache folder would be")
+    assert np.array_equal(hydro.cached_mean_drift(h, rao), direct)
+
+
+def test_the_key_reads_capytaine_s_major_version_from_its_metadata():
+    import capytaine
+
+    assert hydro._capytaine_major() == capytaine.__version__.split(".")[0]
+
+
 def test_nothing_stored_is_refused_with_the_command_to_run(tmp_path, monkeypatch, berth):
     monkeypatch.setenv("LOADARM_CACHE", str(tmp_path))
     spec = hydro.hydro_spec(berth.ship, 33.0)

@@ -16,7 +16,8 @@ What is stored is the solver's output, keyed by a hash of every input (hull dime
 water depth, mesh resolution, the frequency and heading grids, capytaine's major version). The motion RAOs
 and the mean drift coefficients are derived at load time (:func:`rao`, :func:`mean_drift`) because they
 also depend on the roll damping that potential flow lacks (a fraction of critical, declared in the berth
-file), which is cheap to change.
+file) and the moorings, which are cheap to change; the mean drift (3 s) is cached in its turn under a hash of
+the RAOs (:func:`cached_mean_drift`).
 
 Headings are solved over [0, pi]; the hull is symmetric port-starboard, so (pi, 2 pi) follows by mirroring
 (sway, roll and yaw change sign). Frequencies above the grid's top give zero response (short waves do not move
@@ -42,7 +43,8 @@ from ..errors import ConfigError
 from .hull import hull_mesh
 
 __all__ = ["HydroSpec", "Hydro", "hydro_spec", "solve_hydro", "load_hydro", "cache_dir", "G", "DOFS",
-           "OMEGA", "HEADINGS_DEG", "SHIPPED", "HYDRO_FORMAT", "save_hydro"]
+           "OMEGA", "HEADINGS_DEG", "SHIPPED", "HYDRO_FORMAT", "save_hydro", "cached_mean_drift",
+           "DRIFT_FORMAT"]
 
 G = 9.80665
 DOFS = ("Surge", "Sway", "Heave", "Roll", "Pitch", "Yaw")
@@ -87,11 +89,17 @@ class HydroSpec:
         -------
         str
         """
-        import capytaine
-
-        d = dict(self.__dict__, format=HYDRO_FORMAT, capytaine=capytaine.__version__.split(".")[0])
+        d = dict(self.__dict__, format=HYDRO_FORMAT, capytaine=_capytaine_major())
         blob = json.dumps(d, sort_keys=True, default=list).encode()
         return hashlib.sha256(blob).hexdigest()[:16]
+
+
+def _capytaine_major() -> str:
+    """capytaine's major version, from its installed metadata (found: importing capytaine for it took 1.5 s of
+    every ship's compilation)."""
+    from importlib.metadata import version
+
+    return version("capytaine").split(".")[0]
 
 
 def hydro_spec(ship: ShipSection, water_depth: float, *, nx: int = 64, nz: int = 10,
@@ -197,11 +205,21 @@ def _shipped(key: str) -> Path | None:
 
 
 def _open(path: Path):
+    """The stored dataset, complex variables joined again (their real and imaginary parts are stored along a
+    ``complex`` dimension, as capytaine's ``separate_complex_values`` wrote them; joined here without
+    importing capytaine, which took 1.5 s of every ship's compilation)."""
     import xarray as xr
-    from capytaine.io.xarray import merge_complex_values
 
     with xr.open_dataset(path) as ds:
-        return merge_complex_values(ds.load())
+        ds = ds.load()
+    if "complex" not in ds.coords:
+        return ds
+    for name in list(ds.data_vars):
+        da = ds[name]
+        if "complex" in da.dims:
+            ds[name] = xr.DataArray(da.sel(complex="re").data + 1j * da.sel(complex="im").data,
+                                    dims=[d for d in da.dims if d != "complex"])
+    return ds.drop_vars("complex")
 
 
 @dataclass(frozen=True)
@@ -371,6 +389,47 @@ def rao(h: Hydro, *, damping: np.ndarray | None = None, stiffness: np.ndarray | 
     cx = np.zeros((6, 6)) if stiffness is None else stiffness
     z = -w ** 2 * (h.inertia + h.added_mass) - 1j * w * (h.damping + bx) + h.stiffness + cx   # (nw, 6, 6)
     return np.linalg.solve(z[:, None], h.excitation[..., None])[..., 0]
+
+
+#: Bump when :func:`mean_drift` changes what it computes (its cached results are keyed with it).
+DRIFT_FORMAT = 1
+
+
+def cached_mean_drift(h: Hydro, motion: np.ndarray) -> np.ndarray:
+    """:func:`mean_drift`, kept in :func:`cache_dir` under a hash of everything it depends on (the coefficients'
+    key, the RAOs' bytes, :data:`DRIFT_FORMAT`, capytaine's major version): found, capytaine's far-field drift
+    was 3 s of the 5 s every compilation of a ship took, the same each time. A cached file that cannot be read
+    or does not fit is computed again and replaced; a cache that cannot be written is left as it is.
+
+    Parameters
+    ----------
+    h : Hydro
+    motion : ndarray (nw, nb, 6), complex
+
+    Returns
+    -------
+    ndarray (nw, nb, 3)
+    """
+    from ..files import atomic_open
+
+    motion = np.ascontiguousarray(motion, dtype=complex)
+    digest = hashlib.sha256(f"{h.key}|{DRIFT_FORMAT}|{_capytaine_major()}|{motion.shape}".encode())
+    digest.update(motion.tobytes())
+    path = cache_dir() / f"drift-{digest.hexdigest()[:16]}.npy"
+    shape = (h.omega.size, h.heading.size, 3)
+    try:
+        out = np.load(path, allow_pickle=False)
+        if out.shape == shape and out.dtype == np.float64 and np.all(np.isfinite(out)):
+            return out
+    except (OSError, ValueError, EOFError):
+        pass
+    out = mean_drift(h, motion)
+    try:
+        with atomic_open(path, "wb") as fh:
+            np.save(fh, out, allow_pickle=False)
+    except OSError:
+        pass
+    return out
 
 
 def mean_drift(h: Hydro, motion: np.ndarray) -> np.ndarray:

@@ -244,7 +244,7 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, s
     d6 = np.zeros((6, 6))
     d6[3, 3] = _hydro.roll_damping(h, s.roll_damping_ratio)
     motion = _hydro.rao(h, damping=d6, stiffness=k6)
-    drift_cog = _hydro.mean_drift(h, motion)
+    drift_cog = _hydro.cached_mean_drift(h, motion)
     # yaw moment about midships: N_mid = N_cog + lcg Y
     drift = drift_cog.copy()
     drift[..., 2] += s.lcg * drift_cog[..., 1]

@@ -378,6 +378,19 @@ def test_past_a_face_is_face_margins_on_positions(model):
     got = np.array([past_a_face(f, a, b, lim.phi, lim.alpha, lim.beta) for f, a, b in zip(q.phi, q.alpha, q.beta)])
     want = first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2]))[0]
     assert 100 < want.sum() < 1900 and np.array_equal(got, want)
+    # the same rule on arrays, as the envelope's ray marches take it
+    from loadarm.faces import past_a_face_at
+
+    assert np.array_equal(past_a_face_at(model, p[:, 0], p[:, 1], p[:, 2]), want)
+    # and on the faces themselves: joints at their limits, a margin of exactly zero (inside)
+    from loadarm.slew import forward3d
+
+    edge = np.array(np.meshgrid(lim.phi, lim.alpha, lim.beta, indexing="ij")).reshape(3, -1)
+    x, y, z = forward3d(model.arm, *edge)
+    q = inverse3d(model.arm, x, y, z, check=False)
+    exact = np.array([past_a_face(f, a, b, lim.phi, lim.alpha, lim.beta) for f, a, b in zip(q.phi, q.alpha, q.beta)])
+    assert np.array_equal(past_a_face_at(model, x, y, z), first_face(face_margins(model, x, y, z))[0])
+    assert np.array_equal(exact, first_face(face_margins(model, x, y, z))[0])
 
 
 @settings(max_examples=examples(100), deadline=None)

@@ -37,7 +37,7 @@ import numpy as np
 from .check import _first_crossing, esd_lead
 from .errors import ConfigError
 from .envelope import berth_box
-from .faces import FACE_LABELS, FACES, breakout_distance, face_margins, first_face
+from .faces import FACE_LABELS, FACES, breakout_distance, face_margins, first_face, past_a_face_at
 from .results import Metric, Result
 from .slew import inverse3d
 
@@ -387,7 +387,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
                           "the nominal flange lies inside the attached envelope: " + "; ".join(warnings))
 
     def past_face(pts):
-        return first_face(face_margins(model, pts[:, 0], pts[:, 1], pts[:, 2]))[0]
+        return past_a_face_at(model, pts[:, 0], pts[:, 1], pts[:, 2])
 
 
     # the mooring analysis: intact (the berth's environment, and turned towards each horizontal face) and

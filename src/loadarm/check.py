@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .alarms import UNREACHABLE, Severity, beta_severity, slew_severity
-from .faces import FACE_LABELS, FACES, breakout_distance, face_margins, first_face
+from .faces import FACE_LABELS, FACES, breakout_distance, face_margins, first_face, past_a_face_at
 from .results import Metric, Result
 from .slew import inverse3d
 
@@ -267,7 +267,7 @@ def design_check(model) -> CheckResult:
     L1, Lr = esd_lead(seq), release_lead(seq)
 
     def past_face(pts):
-        return first_face(face_margins(model, pts[:, 0], pts[:, 1], pts[:, 2]))[0]
+        return past_a_face_at(model, pts[:, 0], pts[:, 1], pts[:, 2])
 
     def in_first_alarm(pts):               # the customer's position alarms, as the envelope and monitor classify
         q = inverse3d(model.arm, pts[:, 0], pts[:, 1], pts[:, 2], check=False)

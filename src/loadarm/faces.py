@@ -16,7 +16,8 @@ import numpy as np
 
 from .slew import inverse3d
 
-__all__ = ["FACES", "FACE_LABELS", "face_margins", "first_face", "past_a_face", "breakout_distance"]
+__all__ = ["FACES", "FACE_LABELS", "face_margins", "first_face", "past_a_face", "past_a_face_at",
+           "breakout_distance"]
 
 #: The faces, in the order of the last axis of :func:`face_margins`.
 FACES = ("beta_max", "beta_min", "alpha_max", "alpha_min", "slew_pos", "slew_neg")
@@ -85,24 +86,44 @@ def first_face(margins: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.take_along_axis(margins, face[..., None], axis=-1)[..., 0] < 0, face
 
 
-def past_a_face(phi: float, alpha: float, beta: float, phi_range, alpha_range, beta_range) -> bool:
-    """Whether one set of joint angles is past a face: the rule of :func:`face_margins` and :func:`first_face`
-    (a margin below zero, NaN unreachable) on plain floats, for a compiled per-sample loop (the operability
-    kernel compiles it with numba); a test holds it to the vectorised pair.
+def past_a_face(phi, alpha, beta, phi_range, alpha_range, beta_range):
+    """Whether joint angles are past a face: the rule of :func:`face_margins` and :func:`first_face` (a margin
+    below zero, NaN unreachable), on plain floats or arrays alike: the operability kernel compiles it with numba
+    for its per-sample loop, the envelope's ray marches call it on arrays (:func:`past_a_face_at`); a test holds
+    it to the vectorised pair.
 
     Parameters
     ----------
-    phi, alpha, beta : float
+    phi, alpha, beta : float or ndarray
         rad.
     phi_range, alpha_range, beta_range : tuple of float
         The joint limits, rad.
 
     Returns
     -------
-    bool
+    bool or ndarray of bool
     """
-    return not (beta_range[0] <= beta <= beta_range[1] and alpha_range[0] <= alpha <= alpha_range[1]
-                and phi_range[0] <= phi <= phi_range[1])
+    return np.logical_not((beta_range[0] <= beta) & (beta <= beta_range[1]) & (alpha_range[0] <= alpha)
+                          & (alpha <= alpha_range[1]) & (phi_range[0] <= phi) & (phi <= phi_range[1]))
+
+
+def past_a_face_at(model, x, y, z) -> np.ndarray:
+    """Whether coupler positions are past a face (``first_face(face_margins(...))[0]`` without the margins:
+    found, stacking six margins and taking their least was a third of every ray march over the envelope).
+
+    Parameters
+    ----------
+    model : ArmModel
+    x, y, z : float or ndarray
+        m.
+
+    Returns
+    -------
+    ndarray of bool
+    """
+    q = inverse3d(model.arm, x, y, z, check=False)
+    lim = model.joint_limits
+    return np.asarray(past_a_face(q.phi, q.alpha, q.beta, tuple(lim.phi), tuple(lim.alpha), tuple(lim.beta)))
 
 
 def breakout_distance(t, speed: float, accel: float) -> np.ndarray:

@@ -32,7 +32,7 @@ from numba import njit
 
 from ..alarms import BETA_TOL_RAD, LEVEL_RELEASE, UNREACHABLE, zone_level
 from ..check import esd_lead
-from ..faces import breakout_distance, face_margins, first_face, past_a_face
+from ..faces import breakout_distance, past_a_face, past_a_face_at
 from ..slew import inverse3d
 
 __all__ = ["FloorTable", "floor_table", "ray_distances", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS",
@@ -196,7 +196,7 @@ def ray_distances(model, pts: np.ndarray, cap: float, cap_v: float) -> np.ndarra
     ndarray (N, 10)
     """
     def outside(p):
-        return first_face(face_margins(model, p[..., 0], p[..., 1], p[..., 2]))[0]
+        return past_a_face_at(model, p[..., 0], p[..., 1], p[..., 2])
 
     dist = np.empty((pts.shape[0], N_DIRECTIONS))
     inside0 = ~outside(pts)

@@ -224,8 +224,9 @@ def plan_chunks(n: int, chunks: int) -> list[tuple[int, int]]:
 # --------------------------------------------------------------------------- worker side
 
 
-def _chunk_task(compiled: tuple, rows: list[dict], settings: OperabilitySettings, path: str) -> str:
-    """A Dask task: run the chunk's states and write them to ``path`` (atomically); return the path.
+def _chunk_task(compiled: tuple, rows: list[dict], settings: OperabilitySettings, path: str):
+    """A Dask task: run the chunk's states and write them to ``path`` (atomically, for a run that resumes);
+    return them (a ``pandas.DataFrame``: found, reading the chunks back was half of a study's last second).
 
     ``compiled`` is ``(model, ship, table, x_bearing_deg, base_env)``: compiled once by the client and
     scattered to every worker (found: each worker compiling the ship, its mean drift by capytaine, and the
@@ -234,9 +235,9 @@ def _chunk_task(compiled: tuple, rows: list[dict], settings: OperabilitySettings
     import pandas as pd
 
     model, ship, table, x_bearing_deg, base_env = compiled
-    res = run_states(model, ship, table, rows, settings, x_bearing_deg, base_env)
-    write_parquet(pd.DataFrame(res, columns=list(COLUMNS)), path)
-    return path
+    res = pd.DataFrame(run_states(model, ship, table, rows, settings, x_bearing_deg, base_env), columns=list(COLUMNS))
+    write_parquet(res, path)
+    return res
 
 
 # --------------------------------------------------------------------------- result
@@ -430,6 +431,7 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     plan = plan_chunks(len(rows), settings.chunks)
     _check_manifest(chunk_dir, _manifest(config, berth, metocean, hours, settings, plan), fresh)
     todo = [(k, a, b) for k, (a, b) in enumerate(plan) if not (chunk_dir / f"chunk-{k:05d}.parquet").is_file()]
+    done = {}
     t0 = time.perf_counter()
     n_workers = 0
     if todo:
@@ -456,7 +458,8 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
                     dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL,
                     # no dashboard, but the scheduler's health/metrics HTTP server: an ephemeral loopback port
                     # (found: it took 8787, so two studies at once collided and warned)
-                    scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})))
+                    scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                    preload=["loadarm.studies._worker"])))
             stack.callback(lambda: _close_client(connecting))
             if ship is None:
                 ship = compile_ship(bf, source=str(berth))
@@ -471,8 +474,8 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
             if progress:
                 with contextlib.redirect_stdout(sys.stderr):   # Dask's text bar writes to stdout
                     dask_progress(futures)
-            client.gather(futures)
-    parts = [pd.read_parquet(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
+            done = dict(zip((k for k, _, _ in todo), client.gather(futures)))
+    parts = [done[k] if k in done else pd.read_parquet(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
     table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(COLUMNS))
     write_parquet(table, out)
     return OperabilityResult(table, gaps.to_dict(), time.perf_counter() - t0, n_workers)

@@ -92,6 +92,22 @@ def test_skipped_draws_are_the_draws_not_kept(seed, n, data):
         assert a.random() == b.random()
 
 
+@given(st.lists(st.tuples(st.floats(0.0, 1e3), st.floats(-1e4, 1e4)), min_size=1, max_size=300))
+@settings(max_examples=60, deadline=None)
+def test_the_compiled_phasors_are_numpy_s_bit_for_bit(pairs):
+    from loadarm.ship.motion import _phasors
+
+    amp, phase = (np.array(v) for v in zip(*pairs))
+    out = np.empty(amp.size, dtype=complex)
+    _phasors(amp, phase, out)
+    want = np.empty(amp.size, dtype=complex)
+    np.cos(phase, out=want.real)
+    np.sin(phase, out=want.imag)
+    want.imag *= -1
+    assert np.array_equal(out, amp * want)
+    assert np.allclose(out, amp * np.exp(-1j * phase), rtol=1e-15, atol=1e-12)
+
+
 def test_the_direction_table_is_shared_and_read_only():
     g1, c1 = loads._direction_cdf(4.0)
     g2, c2 = loads._direction_cdf(4.0)

@@ -133,24 +133,14 @@ def _synth(coef: np.ndarray, n: int) -> np.ndarray:
     return irfft(c, n, axis=-1, norm="forward")
 
 
-def _unit_phasors(phase: np.ndarray) -> np.ndarray:
-    """``exp(-i phase)`` as ``cos(phase) - i sin(phase)`` (bit for bit the same; found: NumPy's complex ``exp``
-    was a third slower than the two real functions).
-
-    Parameters
-    ----------
-    phase : ndarray
-        rad.
-
-    Returns
-    -------
-    ndarray, complex
-    """
-    out = np.empty(phase.shape, dtype=complex)
-    np.cos(phase, out=out.real)
-    np.sin(phase, out=out.imag)
-    np.negative(out.imag, out=out.imag)
-    return out
+@njit(cache=True, nogil=True, error_model="numpy")
+def _phasors(amplitude, phase, out):
+    """``out = amplitude * exp(-i phase)``, one compiled pass (the compiler takes each component's cosine and
+    sine in one ``sincos`` call: bit for bit NumPy's ``amplitude * (cos - i sin)``; found, NumPy's complex
+    ``exp`` was 1.6 times slower, its ``cos`` and ``sin`` apart 1.3 times)."""
+    for i in range(phase.shape[0]):
+        p = phase[i]
+        out[i] = complex(amplitude[i] * math.cos(p), -(amplitude[i] * math.sin(p)))
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
@@ -544,7 +534,9 @@ def _lf_load(ship: ShipModel, env: Environment, comp: WaveComponents, beta, n: i
         df = 1.0 / (n * dt)
         f = df * np.arange(1, n // 2)
         amp = np.sqrt(2.0 * npd_spectrum(f, env.wind_speed) * df)
-        gust = _synth(amp * _unit_phasors(rng.uniform(0, 2 * math.pi, f.size)), n)
+        coef = np.empty(f.size, dtype=complex)
+        _phasors(amp, rng.uniform(0, 2 * math.pi, f.size), coef)
+        gust = _synth(coef, n)
         speed = np.maximum(env.wind_speed + gust, 0.0)
         # the wind load is the square of the speed times a constant vector (the direction is the mean wind's):
         # one transform of the square instead of three of the loads

@@ -108,6 +108,34 @@ def test_the_compiled_phasors_are_numpy_s_bit_for_bit(pairs):
     assert np.allclose(out, amp * np.exp(-1j * phase), rtol=1e-15, atol=1e-12)
 
 
+@given(st.integers(0, 2 ** 32 - 1))
+@settings(max_examples=30, deadline=None)
+def test_the_compiled_table_interpolation_is_the_vectorised_sum(seed):
+    """_interp_heading's compiled pass against the gather-and-weigh expression on NumPy arrays, bit for bit,
+    over frequencies below, inside and above the grid and headings of any turn."""
+    from loadarm.ship.motion import _interp_heading
+
+    rng = np.random.default_rng(seed)
+    heading = np.sort(rng.choice(np.linspace(0, 2 * math.pi, 40, endpoint=False), 7, replace=False))
+    grid = np.sort(rng.uniform(0.1, 2.0, 9))
+    table = rng.normal(size=(9, 7, 4)) + 1j * rng.normal(size=(9, 7, 4))
+    w = rng.uniform(0.0, 2.5, 200)
+    beta = rng.uniform(-20, 20, 200)
+    bb = np.mod(beta, 2 * math.pi)
+    hp = np.concatenate([heading, [2 * math.pi]])
+    j = np.clip(np.searchsorted(hp, bb, side="right") - 1, 0, heading.size - 1)
+    fb = ((bb - hp[j]) / (hp[j + 1] - hp[j]))[:, None]
+    j1 = (j + 1) % heading.size
+    wi = np.clip(w, grid[0], grid[-1])
+    i = np.clip(np.searchsorted(grid, wi, side="right") - 1, 0, grid.size - 2)
+    fw = ((wi - grid[i]) / (grid[i + 1] - grid[i]))[:, None]
+    want = ((1 - fw) * ((1 - fb) * table[i, j] + fb * table[i, j1])
+            + fw * ((1 - fb) * table[i + 1, j] + fb * table[i + 1, j1]))
+    want[w > grid[-1]] = 0
+    assert np.array_equal(_interp_heading(table, heading, grid, w, beta), want)
+    assert np.array_equal(_interp_heading(table.real.copy(), heading, grid, w, beta), want.real)
+
+
 def test_the_direction_table_is_shared_and_read_only():
     g1, c1 = loads._direction_cdf(4.0)
     g2, c2 = loads._direction_cdf(4.0)

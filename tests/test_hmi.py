@@ -305,7 +305,7 @@ def test_the_assets_are_all_in_the_package_and_ask_nothing_from_outside():
 def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_path):
     """What a new user runs: ``loadarm serve --scenario driftoff.toml --hmi 127.0.0.1:PORT`` in its own process;
     the page, its assets and a login answer on that port, and Ctrl-C (SIGINT) stops it (exit 130, the
-    shell's code for an interrupt, after stopping both servers)."""
+    shell's code for an interrupt, after stopping both servers and saying where the controller stopped)."""
     import signal
     import subprocess
     import sys
@@ -337,7 +337,9 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
         except subprocess.TimeoutExpired:
             proc.kill()
             raise
-    assert code == 130, proc.stderr.read()
+    rest, err = proc.stdout.read(), proc.stderr.read()
+    assert code == 130, err
+    assert "stopped at t = " in rest and " late cycles" in rest, rest + err
 
 
 def test_the_frame_of_a_real_snapshot_is_json(model):

@@ -1032,6 +1032,7 @@ def serve(
 
     run_id = f"serve:{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
     link = None
+    interrupted = False
     if plc is not None:
         from .files import read_input
         from .plant.plc import PlcLink, load_tag_map
@@ -1069,7 +1070,10 @@ def serve(
                 out.print(f"no one can log in yet: add a user with loadarm user add NAME --role operator "
                           f"--state-dir {state_dir}", soft_wrap=True)
             out.print(f"events to {db} (run {run_id}); Ctrl-C stops")
-            service.run()
+            try:
+                service.run()
+            except KeyboardInterrupt:        # the documented way to stop: say where, then exit 130
+                interrupted = True
         finally:
             if screen is not None:
                 screen.stop()
@@ -1081,6 +1085,8 @@ def serve(
     snap = service.snapshot()
     if snap is not None:
         out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")
+    if interrupted:
+        raise KeyboardInterrupt
 
 
 def _serve_replay(db: Path, run_id: Optional[str], scenario: Optional[Path], config: Optional[Path], state_dir: Path,

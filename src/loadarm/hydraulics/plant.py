@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from .._numba import njit
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
 from ..actuators import pin_lengths as _pin_lengths

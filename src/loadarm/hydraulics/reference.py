@@ -16,7 +16,7 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numba import njit
+from .._numba import njit
 from scipy.integrate import solve_ivp
 
 from ..trajectory import Plan

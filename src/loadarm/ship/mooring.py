@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numba import njit
+from .._numba import njit
 
 from ..berth import Berth
 from ..errors import ConfigError
@@ -191,7 +191,7 @@ def _restoring(x, y, c, s, lines, alive, fy, fdefl, fload, fn, side, origin, out
         gys[i] = gy
         mzs[i] = rx * gy - ry * gx
     fx = fyy = mz = 0.0
-    for i in range(gxs.shape[0]):
+    for i in range(gxs.shape[0]):       # (found: ranging over lines.shape[1] here kept the loop above scalar)
         fx += gxs[i]
         fyy += gys[i]
         mz += mzs[i]

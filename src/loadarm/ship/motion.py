@@ -22,7 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from .._numba import njit
 from scipy.fft import irfft, next_fast_len, rfft
 
 from ..berth import Environment

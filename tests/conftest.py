@@ -33,6 +33,47 @@ def _private_hydro_cache(tmp_path_factory):
         os.environ["LOADARM_CACHE"] = old
 
 
+def _cpu_idle(window: float) -> float:
+    """This machine's idle fraction over ``window`` seconds (/proc/stat; 1.0 where there is none)."""
+    import time
+
+    def read():
+        try:
+            with open("/proc/stat") as fh:
+                v = [int(x) for x in fh.readline().split()[1:]]
+        except OSError:
+            return None
+        return sum(v), v[3] + (v[4] if len(v) > 4 else 0)
+
+    a = read()
+    time.sleep(window)
+    b = read()
+    if a is None or b is None or b[0] == a[0]:
+        return 1.0
+    return (b[1] - a[1]) / (b[0] - a[0])
+
+
+@pytest.fixture(autouse=True)
+def _a_quiet_machine_for_realtime_tests(request):
+    """A test that times real processes on the wall clock starts once the machine is quiet: the idle fraction
+    at least 0.8 over two half-seconds running, for at most 30 s (found: in CI, right after the parallel part of
+    the suite, the 20-client load test saw 13-17 late cycles in two runs, and none alone); if it never is, the
+    busy processes are named in the test's output and the test runs all the same."""
+    if request.node.get_closest_marker("realtime") is None:
+        yield
+        return
+    import subprocess
+    import time
+
+    quiet, t0 = 0, time.monotonic()
+    while quiet < 2 and time.monotonic() - t0 < 30.0:
+        quiet = quiet + 1 if _cpu_idle(0.5) >= 0.8 else 0
+    if quiet < 2:
+        ps = subprocess.run(["ps", "-eo", "pid,pcpu,etime,args", "--sort=-pcpu"], capture_output=True, text=True)
+        print("the machine was still busy after 30 s:\n" + "\n".join(ps.stdout.splitlines()[:8]))
+    yield
+
+
 @pytest.fixture(scope="session")
 def inst():
     return load_config(PAPER_TOML)

@@ -81,7 +81,7 @@ def test_spreading_integrates_to_one_and_samples_follow_it(s):
 
 
 @given(st.integers(0, 2 ** 32 - 1), st.integers(1, 5000), st.data())
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 def test_skipped_draws_are_the_draws_not_kept(seed, n, data):
     """The sea's draws skip the tail they do not keep (PCG64's advance): the kept draws and the generator's
     state after are those of drawing all ``n`` (an MT19937 generator, which cannot skip, draws them)."""
@@ -93,7 +93,7 @@ def test_skipped_draws_are_the_draws_not_kept(seed, n, data):
 
 
 @given(st.lists(st.tuples(st.floats(0.0, 1e3), st.floats(-1e4, 1e4)), min_size=1, max_size=300))
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=examples(60), deadline=None)
 def test_the_compiled_phasors_are_numpy_s_bit_for_bit(pairs):
     from loadarm.ship.motion import _phasors
 
@@ -109,7 +109,7 @@ def test_the_compiled_phasors_are_numpy_s_bit_for_bit(pairs):
 
 
 @given(st.integers(0, 2 ** 32 - 1))
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=examples(30), deadline=None)
 def test_the_compiled_table_interpolation_is_the_vectorised_sum(seed):
     """_interp_heading's compiled pass against the gather-and-weigh expression on NumPy arrays, bit for bit,
     over frequencies below, inside and above the grid and headings of any turn."""

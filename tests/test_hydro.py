@@ -158,6 +158,18 @@ def test_the_mean_drift_is_cached_by_what_it_depends_on(tmp_path, monkeypatch, s
     assert np.array_equal(hydro.cached_mean_drift(h, rao), direct)
 
 
+def test_the_stored_coefficients_are_joined_as_capytaine_joins_them(berth):
+    """hydro._open joins the stored real and imaginary parts without importing capytaine: the same dataset as
+    capytaine's merge_complex_values, every variable and coordinate."""
+    import xarray as xr
+    from capytaine.io.xarray import merge_complex_values
+
+    path = hydro._shipped(hydro.hydro_spec(berth.ship, berth.berth.water_depth).key())
+    with xr.open_dataset(path) as ds:
+        want = merge_complex_values(ds.load())
+    assert hydro._open(path).identical(want)
+
+
 def test_the_key_reads_capytaine_s_major_version_from_its_metadata():
     import capytaine
 

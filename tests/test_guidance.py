@@ -1111,6 +1111,44 @@ def test_a_coupler_that_does_not_clear_the_manifold_raises_an_alarm():
     assert not ok
 
 
+def test_over_a_plant_that_does_not_know_the_true_flange_the_clearance_is_watched_on_the_estimate():
+    """Over a PLC the plant returns no true flange (NaN): found, the clearance watch then took NaN for the
+    distance and raised "not clear of the ship's manifold (nan m ...)" 30 s after every release. The drift-off
+    on the kinematic plant with the true flange hidden from the loop: the release clears the coupler by the
+    estimate, and no alarm; with the estimate unhealthy too, the alarm says the flange position is unknown."""
+    from loadarm.guidance.controller import Command
+    from loadarm.guidance.run import CLEARANCE_TIME, ClosedLoop, _ClearanceWatch
+
+    class NoTruth:                                           # the PLC link's answer: encoders, no true flange
+        def __init__(self, io):
+            self._io = io
+
+        def __getattr__(self, name):
+            return getattr(self._io, name)
+
+        def step(self, k, now, dt, cmd):
+            q, _ = self._io.step(k, now, dt, cmd)
+            return q, np.full(3, np.nan)
+
+    sc, model = load_scenario(SCEN / "driftoff.toml")
+    sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"plant": "kinematic"})})
+    loop = ClosedLoop(sc, model)
+    loop.io = NoTruth(loop.io)
+    for k in range(loop.n):
+        loop.cycle(k)
+    r = loop.result()
+    t_rel = r.first("command", "release complete")
+    assert t_rel is not None and sc.scenario.duration - t_rel > CLEARANCE_TIME      # the watch had its 30 s
+    assert np.isnan(r.signals["distance"]).all()
+    assert r.first("alarm", "not clear of the ship's manifold") is None, r.events
+    seen = []
+    w = _ClearanceWatch(lambda *a: seen.append(a))
+    w.watch(0.0, Command(Mode.RELEASE, (0, 0, 0), True, True, True), 0.0)
+    for k in range(1, 2000):                                  # released, then nothing known of the flange
+        w.watch(0.02 * k, Command(Mode.RETURN, (0, 0, 0), False, False, False), math.nan)
+    assert len(seen) == 1 and "flange position unknown" in seen[0][3] and "nan" not in seen[0][3]
+
+
 def test_a_scripted_manual_ers_releases_the_calm_ship_after_the_valves_close():
     """The operator's manual ERS from the scenario file: armed at 150 s, confirmed 2 s later; ESD-1 at once, the
     coupler opens only after the ERS valves' limit switches, then the arm returns."""

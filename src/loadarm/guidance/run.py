@@ -667,9 +667,19 @@ class ClosedLoop:
         q, flange = io.step(k, now, self.dt, cmd)
         self.rec.record(i, now, cmd, q, flange, e, self.model.arm, ctrl.state.alarms,
                         bool(io.feedback.ers_valves_closed))
-        self.clearance.watch(now, cmd, self.rec.sig["distance"][i])
+        self.clearance.watch(now, cmd, self._clearance(i, e))
         self.estimate = e
         return cmd
+
+    def _clearance(self, i: int, e) -> float:
+        """The coupler's distance from the flange at slot ``i``: from the true flange where the plant knows it (a
+        simulation), else from the sensor's estimate while it is healthy (a PLC: found, the watch took the NaN of
+        the unknown true flange and raised a false "not clear" alarm after every release), else NaN (unknown)."""
+        sig = self.rec.sig
+        d = float(sig["distance"][i])
+        if math.isnan(d) and e.healthy:
+            d = math.dist((float(sig["x"][i]), float(sig["y"][i]), float(sig["z"][i])), e.position)
+        return d
 
     def result(self) -> RunResult:
         """The run's result over the cycles run so far (continuous: over the signal window)."""
@@ -713,7 +723,9 @@ def _first_limit(model: ArmModel, sig: dict, flange: np.ndarray, motion) -> tupl
 
 class _ClearanceWatch:
     """After a release the coupler must be :data:`MANIFOLD_CLEARANCE` from the flange within
-    :data:`CLEARANCE_TIME`; otherwise an alarm (the arm may strike the ship's manifold)."""
+    :data:`CLEARANCE_TIME`; otherwise an alarm (the arm may strike the ship's manifold). A distance of NaN is
+    unknown (no flange position): unknown at the deadline raises the alarm too, saying so (the operator must see
+    the coupler clear)."""
 
     def __init__(self, emit: Callable):
         self.emit = emit
@@ -731,8 +743,10 @@ class _ClearanceWatch:
             self.done = True
         elif now - self.released_at > CLEARANCE_TIME:
             self.done = True
+            where = ("flange position unknown" if math.isnan(distance)
+                     else f"{distance:.2f} m from the flange")
             self.emit(now, cmd.mode.value, "alarm", f"coupler not clear of the ship's manifold {CLEARANCE_TIME:g} s "
-                      f"after the release ({distance:.2f} m from the flange, {MANIFOLD_CLEARANCE:g} m needed)", {})
+                      f"after the release ({where}, {MANIFOLD_CLEARANCE:g} m needed)", {})
 
 
 class _Recorder:

@@ -311,7 +311,7 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
     import sys
     import time
 
-    import httpx
+    import httpx2 as httpx
 
     from loadarm.plant.loadtest import free_port
 

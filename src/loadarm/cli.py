@@ -724,6 +724,7 @@ def operability(
 
     Example: loadarm operability --config examples/paper.toml --berth examples/berths/lng150k.toml --metocean examples/metocean/sample.csv --hours 48 --duration-per-state 600
     """
+    from .results import format_rows
     from .studies.operability import OperabilitySettings, run_operability
 
     _outputs({"--png": png, "--out": out_file}, [config, berth, metocean], force)
@@ -741,7 +742,7 @@ def operability(
     if as_json:
         _json(res.to_dict())
     else:
-        out.print(str(res.summary()))
+        out.print(format_rows(res.headline()))
         out.print(f"per-state results: {out_file}")
 
 

@@ -318,23 +318,10 @@ class ReportData:
 
 
 def _operability_rows(od: dict) -> list[dict]:
-    """The operability section's headline table from its summary."""
-    months = od["downtime_by_month"]
-    worst = max(months, key=months.get) if months else None
-    best = min(months, key=months.get) if months else None
-    rows = [("metocean record", od["metocean"]), ("hourly sea states", f"{od['states']}"),
-            ("downtime", f"{100 * od['downtime_fraction']:.1f} % ({od['states'] - od['operable_h']} h)"),
-            ("hours the arm could not connect", f"{od['not_connectable_h']} h"),
-            ("ESD-1 per year (at the record's rate)", f"{od['esd1_per_year']:.1f}"),
-            ("releases per year (at the record's rate)", f"{od['releases_per_year']:.1f}"),
-            ("largest beta", f"{od['max_beta_deg']:.1f} deg")]
-    if worst is not None:
-        rows += [("worst month", f"{worst}: {100 * months[worst]:.1f} %"),
-                 ("best month", f"{best}: {100 * months[best]:.1f} %")]
-    gaps = od["gaps"]
-    if gaps and gaps["usable_hours"] < gaps["hours"]:
-        rows.append(("gaps in the record (skipped, never filled)",
-                     f"{gaps['hours'] - gaps['usable_hours']} h, the longest {gaps['longest_gap_h']} h"))
+    """The operability section's headline table from its summary (the rows ``loadarm operability`` prints)."""
+    from .studies.operability import headline_rows
+
+    rows = [("metocean record", od["metocean"])] + headline_rows(od)
     return [{"k": k, "v": v} for k, v in rows]
 
 

@@ -106,9 +106,22 @@ class Summary(dict):
         return [(m.label, m.format(self.get(m.key))) for m in self.metrics if m.key in self]
 
     def __str__(self) -> str:
-        rows = self.rows()
-        width = max((len(label) for label, _ in rows), default=0)
-        return "\n".join(f"{label:<{width}}  {text}" for label, text in rows)
+        return format_rows(self.rows())
+
+
+def format_rows(rows: list[tuple[str, str]]) -> str:
+    """``(label, text)`` rows as the console prints them: labels left-aligned in one column.
+
+    Parameters
+    ----------
+    rows : list of tuple of str
+
+    Returns
+    -------
+    str
+    """
+    width = max((len(label) for label, _ in rows), default=0)
+    return "\n".join(f"{label:<{width}}  {text}" for label, text in rows)
 
 
 class Result:

@@ -25,10 +25,10 @@ import numpy as np
 
 from ..alarms import Severity
 from ..errors import ConfigError
-from ..results import Metric, Result
+from ..results import Metric, Result, Summary
 
 __all__ = ["OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
-           "plan_chunks", "write_parquet", "COLUMNS"]
+           "plan_chunks", "write_parquet", "COLUMNS", "headline_rows"]
 
 #: The environment of the local cluster's worker processes (start a cluster of your own's workers with the same):
 #: single-threaded numerical libraries (one worker process per core), glibc keeping freed memory (Dask's default
@@ -254,7 +254,7 @@ class OperabilityResult(Result):
 
     METRICS = (
         Metric("states", "sea states", "", "d"),
-        Metric("downtime_fraction", "downtime", "", ".4f"),
+        Metric("downtime_fraction", "downtime", "%", ".1f", scale=100.0),
         Metric("operable_h", "hours operable", "h", ".0f"),
         Metric("not_connectable_h", "hours the arm could not connect", "h", ".0f"),
         Metric("esd1_per_year", "ESD-1 per year", "", ".1f"),
@@ -302,10 +302,46 @@ class OperabilityResult(Result):
                 "downtime_by_wind": [{"wind_speed_ms": str(k), "downtime_fraction": float(v)}
                                      for k, v in wind.mean().items()]}
 
+    def headline(self) -> list[tuple[str, str]]:
+        """The headline as ``(label, text)`` rows (:func:`headline_rows` of :meth:`to_dict`): what
+        ``loadarm operability`` prints.
+
+        Returns
+        -------
+        list of tuple of str
+        """
+        return headline_rows(self.to_dict())
+
     def _figure(self):
         from ..plotting import operability_figure
 
         return operability_figure(self)
+
+
+def headline_rows(d: dict) -> list[tuple[str, str]]:
+    """The operability's headline as ``(label, text)`` rows, from :meth:`OperabilityResult.to_dict` (or the
+    report's copy of it, without the machine's wall time): the declared metrics it holds, then the worst and the
+    best month and the record's gaps. One formatting for ``loadarm operability`` and the report.
+
+    Parameters
+    ----------
+    d : dict
+
+    Returns
+    -------
+    list of tuple of str
+    """
+    rows = Summary(d, OperabilityResult.METRICS).rows()
+    months = d.get("downtime_by_month") or {}
+    if months:
+        worst, best = max(months, key=months.get), min(months, key=months.get)
+        rows += [("worst month", f"{worst}: {100 * months[worst]:.1f} %"),
+                 ("best month", f"{best}: {100 * months[best]:.1f} %")]
+    gaps = d.get("gaps") or {}
+    if gaps and gaps["usable_hours"] < gaps["hours"]:
+        rows.append(("gaps in the record (skipped, never filled)",
+                     f"{gaps['hours'] - gaps['usable_hours']} h, the longest {gaps['longest_gap_h']} h"))
+    return rows
 
 
 def _box(model, tide_lo: float, tide_hi: float):

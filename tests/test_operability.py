@@ -474,3 +474,26 @@ def test_relative_record_is_the_vectorised_offset_and_std(seed, n):
     std = relative_record(flange, ref, off, out)
     assert np.array_equal(out.T, off + (flange - ref))
     assert np.allclose(std, np.std(flange, axis=0), rtol=1e-12, atol=1e-15)
+
+
+_coords = st.one_of(st.floats(-60.0, 60.0), st.floats(allow_nan=True, allow_infinity=True))
+
+
+@settings(max_examples=examples(300), deadline=None)
+@given(pts=st.lists(st.tuples(_coords, _coords, _coords), min_size=1, max_size=64),
+       lengths=st.tuples(st.floats(0.5, 30.0), st.floats(0.5, 30.0), st.floats(0.5, 30.0)))
+def test_the_record_s_inverse_kinematics_is_inverse3d_bit_for_bit(pts, lengths):
+    """kernel.record_ik (the arithmetic in one compiled routine, NumPy's arctangents) against
+    slew.inverse3d, unchecked, over any arm and any point (out of reach, huge, tiny, infinite, NaN: the same
+    NaN where it gives NaN): bit for bit, so the kernel's angles are the closed loop's."""
+    from loadarm.geometry import Arm
+    from loadarm.slew import inverse3d
+    from loadarm.studies.kernel import record_ik
+
+    arm = Arm(*lengths)
+    x, y, z = (np.ascontiguousarray(v, dtype=float) for v in np.array(pts, dtype=float).T)
+    with np.errstate(all="ignore"):
+        want = inverse3d(arm, x, y, z, check=False)
+    got = record_ik(arm, x, y, z)
+    for name, w, g in zip(("phi", "alpha", "beta"), want, got):
+        assert np.array_equal(w, g, equal_nan=True), (name, w, g)

@@ -359,23 +359,18 @@ def _operability(tmp_path, met, chunks, workers, name):
 def test_operability_synthetic_year_on_the_local_cluster(results, tmp_path):
     """Issue 13: a synthetic year (seed 1), one hour a state at 10 Hz, through the default LocalCluster (every
     core), against the kernel's own cost of the same states on the same workers (a sample of 60 states timed
-    in this process), and the physical floor."""
-    from loadarm.studies.metocean import synthetic_metocean, write_metocean_csv
-    from loadarm.studies.operability import run_states
-
-    met = write_metocean_csv(synthetic_metocean(8760, seed=1), tmp_path / "year.csv")
-    r, wall = _operability(tmp_path, met, 100, None, "year")
-    d = r.to_dict()
-    workers = d["workers"]
-    # the kernel's cost per state, measured on a sample of the same record in this process
+    in this process just before the year and again just after it, the mean of the two: found, this machine's
+    speed drifted by a third within minutes, and a sample taken after the year alone measured another
+    machine), and the physical floor."""
     from loadarm.berth import load_berth
     from loadarm.compiler import compile_model
     from loadarm.config import load_config
     from loadarm.ship.model import compile_ship
     from loadarm.studies.kernel import floor_table
-    from loadarm.studies.metocean import read_metocean
-    from loadarm.studies.operability import OperabilitySettings, _box
+    from loadarm.studies.metocean import read_metocean, synthetic_metocean, write_metocean_csv
+    from loadarm.studies.operability import OperabilitySettings, _box, run_states
 
+    met = write_metocean_csv(synthetic_metocean(8760, seed=1), tmp_path / "year.csv")
     ds, _ = read_metocean(met)
     model = compile_model(load_config(ROOT / "examples" / "paper.toml"))
     b = load_berth(ROOT / "examples" / "berths" / "lng150k.toml")
@@ -386,16 +381,25 @@ def test_operability_synthetic_year_on_the_local_cluster(results, tmp_path):
     rows = [{"index": int(i), "time": ds["time"].values[i], **{k: float(ds[k].values[i]) for k in names}}
             for i in range(0, 8760, 146)]
     st_ = OperabilitySettings().resolved(load_config(ROOT / "examples" / "paper.toml").operability)
-    run_states(model, ship, table, rows[:1], st_, b.berth.x_bearing_deg, b.environment)
-    t0 = time.perf_counter()
-    run_states(model, ship, table, rows, st_, b.berth.x_bearing_deg, b.environment)
-    per_state = (time.perf_counter() - t0) / len(rows)
-    ideal = 8760 * per_state / workers
+
+    def per_state():
+        t0 = time.perf_counter()
+        run_states(model, ship, table, rows, st_, b.berth.x_bearing_deg, b.environment)
+        return (time.perf_counter() - t0) / len(rows)
+
+    run_states(model, ship, table, rows[:1], st_, b.berth.x_bearing_deg, b.environment)     # compiled, warm
+    before = per_state()
+    r, wall = _operability(tmp_path, met, 100, None, "year")
+    after = per_state()
+    d = r.to_dict()
+    workers = d["workers"]
+    ideal = 8760 * 0.5 * (before + after) / workers
     floor = 8760 * 36001 * 3 * 8 * 2 / _copy_bandwidth()           # the flange records written and read once
     results["synthetic year, LocalCluster wall [s] (goal 60 s)"] = wall
     results["synthetic year: workers"] = workers
     results["synthetic year: downtime fraction"] = d["downtime_fraction"]
-    results["kernel per state in one process, 60-state sample [ms]"] = per_state * 1e3
+    results["kernel per state in one process, before the year [ms]"] = before * 1e3
+    results["kernel per state in one process, after the year [ms]"] = after * 1e3
     results["ratio year wall / kernel cost over the workers"] = wall / ideal
     results["physical floor: flange records' memory traffic [s]"] = floor
     results["ratio year wall / physical floor"] = wall / floor

@@ -136,6 +136,26 @@ def test_the_report_plans_each_timing_law_once(monkeypatch, tmp_path):
     assert data.model == compile_model(parse_config(d))
 
 
+def test_a_moored_scenario_at_the_report_s_berth_takes_the_report_s_ship(monkeypatch):
+    """Found: the demo compiled the example ship twice, once for the berth section and again for the moored
+    break-out scenario at the same berth. Now the scenario takes the report's ship (one compilation); a
+    scenario of the simple ship takes none."""
+    import loadarm.report as rep
+    import loadarm.ship.model as sm
+    from loadarm.config import parse_config
+
+    compiled, runs = [], {}
+    monkeypatch.setattr(sm, "compile_ship", lambda *a, **k: compiled.append(object()) or compiled[-1])
+    monkeypatch.setattr(rep, "run_scenario", lambda sc, model, ship=None: runs.setdefault(sc.scenario.name, ship))
+    d = load_config(PAPER_TOML).model_dump()
+    d["report"]["scenarios"] = ["scenarios/breakout.toml", "scenarios/calm.toml"]
+    data = rep.ReportData(parse_config(d), PAPER_TOML)
+    data.scenarios
+    assert len(compiled) == 1 and len(runs) == 2
+    moored = [name for name, ship in runs.items() if ship is not None]
+    assert len(moored) == 1 and runs[moored[0]] is data.ship is compiled[0] and len(compiled) == 1
+
+
 @pytest.mark.slow
 def test_report_with_a_berth_has_the_moored_ship_and_its_alarm_design(tmp_path):
     """An installation naming a [report] berth: the report's berth section (ship summary, RAOs, the alarm

@@ -253,14 +253,17 @@ class ReportData:
 
     @cached_property
     def scenarios(self) -> dict:
-        """``name -> RunResult`` of each listed scenario, run on this installation."""
+        """``name -> RunResult`` of each listed scenario, run on this installation (a moored scenario at the
+        report's own berth takes the ship the report compiled: found, the demo compiled it twice)."""
         from .guidance.scenario import parse_scenario, resolve_berth
 
         out = {}
         for f in self.scenario_files:
             self._progress(f"scenario {f.stem}")
             sc = resolve_berth(parse_scenario(read_toml(f, "scenario"), source=str(f)), f)
-            out[f.stem] = run_scenario(sc, self.model)
+            same_berth = (sc.ship.model == "moored" and self.berth_file is not None
+                          and Path(sc.ship.berth).resolve() == self.berth_file.resolve())
+            out[f.stem] = run_scenario(sc, self.model, ship=self.ship if same_berth else None)
         return out
 
     @cached_property

@@ -101,7 +101,11 @@ def test_static_offset_under_a_small_steady_load_follows_the_stiffness(mo, load)
 
 def _python_newton(mo, load, alive, eta0, tol=1.0, max_iter=100, max_offset=50.0):
     """The damped Newton as it was written in Python before it was compiled (the route it is held to): the
-    residual and the stiffness from the public restoring_force and stiffness."""
+    residual and the stiffness from the public restoring_force and stiffness. The step by SciPy's LAPACK
+    ``dgesv``, the routine numba's ``np.linalg.solve`` calls (NumPy's ``solve`` may be another LAPACK build:
+    they agreed here, but a test across machines should not depend on two builds agreeing to the last bit)."""
+    from scipy.linalg.lapack import dgesv
+
     scale = np.array([1.0, 1.0, 0.01])
     eta = np.array(eta0, dtype=float)
 
@@ -113,9 +117,8 @@ def _python_newton(mo, load, alive, eta0, tol=1.0, max_iter=100, max_offset=50.0
         if np.max(np.abs(r)) < tol:
             return eta
         k = stiffness(mo, eta, alive) * scale[:, None]
-        try:
-            step = np.linalg.solve(k + 1e-6 * np.max(np.abs(k)) * np.eye(3), r)
-        except np.linalg.LinAlgError:
+        _, _, step, info = dgesv(k + 1e-6 * np.max(np.abs(k)) * np.eye(3), r)
+        if info != 0:                                        # singular
             break
         a = 1.0
         while a > 1e-4:

@@ -420,7 +420,7 @@ def _ik_arguments(x, y, z, a, b, c, sb, cb, sa, ca):
 
 def record_ik(arm, x: np.ndarray, y: np.ndarray, z: np.ndarray):
     """:func:`loadarm.slew.inverse3d` (elbow up, unchecked: NaN out of reach) of a record, bit for bit, faster:
-    its arithmetic in one compiled pass (:func:`_ik_arguments`), its three arctangents NumPy's SIMD ones (a
+    its arithmetic in one compiled routine (:func:`_ik_arguments`), its three arctangents NumPy's SIMD ones (a
     compiled scalar ``atan2`` was four times slower). Found: the vectorised expression's twenty-odd passes over
     the record and its ``hypot`` were two thirds of the inverse kinematics' cost.
 

@@ -390,3 +390,27 @@ def test_bad_metocean_records_are_refused_before_any_cluster(capsys, tmp_path):
     refused(capsys, "operability", "--config", CFG, "--berth", BERTH,
             "--metocean", ROOT / "examples" / "metocean" / "sample.csv", "--duration-per-state", "5",
             "--out", tmp_path / "r.parquet", contains=["--duration-per-state must be in [10, 3600] s"])
+
+
+@pytest.mark.parametrize("command", ["operability", "campaign"])
+def test_a_scheduler_address_that_is_not_one_is_refused_naming_it(capsys, tmp_path, command):
+    """`--scheduler` with no port: one line naming the option and the address, exit 2 (found: Dask's own words
+    alone, which named neither), before any state or run is computed."""
+    if command == "operability":
+        args = ["operability", "--config", PAPER_TOML, "--berth", ROOT / "examples" / "berths" / "lng150k.toml",
+                "--metocean", ROOT / "examples" / "metocean" / "sample.csv", "--hours", "2",
+                "--out", tmp_path / "op.parquet"]
+    else:
+        args = ["campaign", "--scenario", ROOT / "examples" / "scenarios" / "calm.toml", "--seeds", "2"]
+    refused(capsys, *args, "--scheduler", "nonsense", contains=("--scheduler nonsense", "no Dask scheduler"))
+
+
+def test_a_silent_scheduler_address_is_refused_in_time_naming_it():
+    """Nothing listening at the address: refused after the timeout, naming the option and the address."""
+    from loadarm.cluster import connect_scheduler
+    from loadarm.errors import ConfigError
+    from loadarm.plant.loadtest import free_port
+
+    address = f"tcp://127.0.0.1:{free_port()}"
+    with pytest.raises(ConfigError, match=f"--scheduler {address}: no Dask scheduler reachable"):
+        connect_scheduler(address, timeout=1.0)

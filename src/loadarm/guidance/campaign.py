@@ -344,10 +344,12 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     chunks = [jobs[i:i + batch] for i in range(0, len(jobs), batch)]
     done: list[CampaignRun] = []
     if scheduler is not None:
-        from distributed import Client, as_completed as dask_completed
+        from distributed import as_completed as dask_completed
+
+        from ..cluster import connect_scheduler
 
         path = str(Path(scenario).resolve())
-        with Client(scheduler) as client:
+        with connect_scheduler(scheduler) as client:
             futures = [client.submit(_run_batch, path, plant, chunk, retries=2, pure=False) for chunk in chunks]
             for fut in dask_completed(futures):
                 done.extend(fut.result())

@@ -479,6 +479,8 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         import dask
         from distributed import Client, LocalCluster, progress as dask_progress
 
+        from ..cluster import connect_scheduler
+
         # the local cluster's worker processes: one thread, numba and BLAS single-threaded, and they keep freed
         # memory (found: Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536, which also freezes glibc's mmap threshold
         # at 128 KiB, so every large temporary was mapped, faulted in and unmapped again: a year took 339 s with
@@ -489,7 +491,7 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
             # the cluster starts (its workers spawn and import) while this process compiles the ship and the
             # table once, to send them to every worker (found: the two in turn cost a month's run 4-5 s)
             connecting = stack.enter_context(ThreadPoolExecutor(1)).submit(
-                lambda: Client(scheduler) if scheduler is not None else Client(LocalCluster(
+                lambda: connect_scheduler(scheduler) if scheduler is not None else Client(LocalCluster(
                     n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                     dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL,
                     # no dashboard, but the scheduler's health/metrics HTTP server: an ephemeral loopback port

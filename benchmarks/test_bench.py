@@ -468,12 +468,9 @@ def test_the_operator_screen_s_update_rate_and_latency(results, tmp_path):
     on the screen, against the frame period (one clock on one machine). Skipped without Chromium."""
     import time
 
-    from loadarm.guidance.run import ClosedLoop
-    from loadarm.guidance.scenario import load_scenario
-    from loadarm.hmi.app import FRAME_RATE, HmiServer, create_app
-    from loadarm.hmi.browser import CHROMIUM_HINT, find_chromium, launch, log_in, tour
+    from loadarm.hmi.app import FRAME_RATE
+    from loadarm.hmi.browser import CHROMIUM_HINT, find_chromium, launch, scenario_screen, tour
     from loadarm.plant.security import Role, StateDir
-    from loadarm.plant.service import GuidanceService
 
     if find_chromium() is None:
         pytest.skip(CHROMIUM_HINT)
@@ -481,22 +478,14 @@ def test_the_operator_screen_s_update_rate_and_latency(results, tmp_path):
 
     st = StateDir(tmp_path / "state")
     st.users().add("alice", Role.OPERATOR, "pw")
-    sc, model = load_scenario(ROOT / "examples" / "scenarios" / "driftoff.toml")
-    service = GuidanceService(ClosedLoop(sc, model), speedup=4.0)
-    server = HmiServer(create_app(service, st.path, model), "127.0.0.1", 0)
-    server.start()
-    service.start()
-    try:
-        with sync_playwright() as p:
-            browser = launch(p)
-            page = browser.new_page()
-            got = tour(page, server.url, "alice", "pw", None)
-            hist = page.evaluate("hmi.history.map(h => [h.at, h.latency])")
-            arrivals = page.evaluate("hmi.modeArrivals")
-            browser.close()
-    finally:
-        service.stop()
-        server.stop()
+    with scenario_screen(ROOT / "examples" / "scenarios" / "driftoff.toml", st.path, speedup=4.0) as (
+            service, server), sync_playwright() as p:
+        browser = launch(p)
+        page = browser.new_page()
+        got = tour(page, server.url, "alice", "pw", None)
+        hist = page.evaluate("hmi.history.map(h => [h.at, h.latency])")
+        arrivals = page.evaluate("hmi.modeArrivals")
+        browser.close()
     at = np.array([h[0] for h in hist]) / 1000
     rate = (at.size - 1) / (at[-1] - at[0])
     published = dict((m, w) for m, w in reversed(service.mode_changes))          # the first of each

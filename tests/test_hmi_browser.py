@@ -40,22 +40,18 @@ class Screen:
     """The guidance service (its own thread) and the HMI server (uvicorn in its own) over the drift-off."""
 
     def __init__(self, state, *, scripted=False, speedup=1.0):
-        from loadarm.guidance.run import ClosedLoop
-        from loadarm.guidance.scenario import load_scenario
-        from loadarm.hmi.app import HmiServer, create_app
-        from loadarm.plant.service import GuidanceService
+        from contextlib import ExitStack
 
-        sc, model = load_scenario(SCENARIO)
-        self.loop = ClosedLoop(sc, model, scripted=scripted, plant="kinematic")
-        self.service = GuidanceService(self.loop, speedup=speedup)
-        self.server = HmiServer(create_app(self.service, state.path, model, name="drift-off"), "127.0.0.1", 0)
-        self.server.start()
-        self.service.start()
-        self.url = self.server.url
+        from loadarm.hmi.browser import scenario_screen
+
+        self._stack = ExitStack()
+        self.service, self.server = self._stack.enter_context(
+            scenario_screen(SCENARIO, state.path, speedup=speedup, scripted=scripted, plant="kinematic",
+                            name="drift-off"))
+        self.loop, self.url = self.service.loop, self.server.url
 
     def close(self):
-        self.service.stop()
-        self.server.stop()
+        self._stack.close()
 
 
 @pytest.fixture

@@ -126,31 +126,19 @@ def hmi_screenshots(dest: str | Path, *, speedup: float = 4.0) -> list[Path]:
 
     from playwright.sync_api import sync_playwright
 
-    from .guidance.run import ClosedLoop
-    from .guidance.scenario import load_scenario
-    from .hmi.app import HmiServer, create_app
-    from .hmi.browser import launch, tour
+    from .hmi.browser import launch, scenario_screen, tour
     from .plant.security import Role, StateDir
-    from .plant.service import GuidanceService
 
     dest = Path(dest)
     with tempfile.TemporaryDirectory() as tmp:
         st = StateDir(Path(tmp) / "state")
         st.users().add("operator", Role.OPERATOR, "docs-only")
-        sc, model = load_scenario(Path(__file__).parent / "examples" / "scenarios" / "driftoff.toml")
-        service = GuidanceService(ClosedLoop(sc, model), speedup=speedup)
-        server = HmiServer(create_app(service, st.path, model, name=sc.scenario.name), "127.0.0.1", 0)
-        server.start()
-        service.start()
-        try:
-            with sync_playwright() as p:
-                browser = launch(p)
-                page = browser.new_page(viewport={"width": 1400, "height": 900})
-                got = tour(page, server.url, "operator", "docs-only", Path(tmp))
-                browser.close()
-        finally:
-            service.stop()
-            server.stop()
+        with scenario_screen(Path(__file__).parent / "examples" / "scenarios" / "driftoff.toml", st.path,
+                             speedup=speedup) as (_service, server), sync_playwright() as p:
+            browser = launch(p)
+            page = browser.new_page(viewport={"width": 1400, "height": 900})
+            got = tour(page, server.url, "operator", "docs-only", Path(tmp))
+            browser.close()
         out = []
         for name in HMI_SCREENSHOTS:
             shot = Path(tmp) / name

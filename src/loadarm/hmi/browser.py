@@ -4,12 +4,13 @@ of docs/hmi.md with :func:`tour`."""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import time
 from pathlib import Path
 
-__all__ = ["CHROMIUM_HINT", "find_chromium", "launch", "log_in", "wait_for", "tour"]
+__all__ = ["CHROMIUM_HINT", "find_chromium", "launch", "log_in", "wait_for", "tour", "scenario_screen"]
 
 #: What to do when no Chromium is found.
 CHROMIUM_HINT = ("no Chromium found: install Debian's (`apt-get install chromium`) or set LOADARM_CHROMIUM to a "
@@ -151,3 +152,47 @@ def tour(page, url: str, user: str, password: str, out_dir: Path | None, *, time
             break
         time.sleep(0.05)
     return {"modes": page.evaluate("hmi.seenModes"), "alarms": page.evaluate("hmi.seenAlarms"), "shots": shots}
+
+
+@contextlib.contextmanager
+def scenario_screen(scenario, state_dir, *, speedup: float = 1.0, scripted: bool = True, plant: str | None = None,
+                    name: str | None = None):
+    """A screen to drive: the guidance service over a scenario (its own thread, on the wall clock) and the HMI
+    server on it (uvicorn in its own, loopback, an ephemeral port), both started; both stopped on leaving. The
+    browser tests, ``make docs``'s screenshots and the bench each used to build this themselves.
+
+    Parameters
+    ----------
+    scenario : path
+        Scenario TOML.
+    state_dir : path
+        The server's state directory (users, certificates).
+    speedup : float
+        The service's clock against the wall's.
+    scripted : bool
+        Run the scenario's scripted operator too.
+    plant : {'hydraulic', 'kinematic'}, optional
+        Default the scenario's.
+    name : str, optional
+        Shown on the screen (default the scenario's name).
+
+    Yields
+    ------
+    (GuidanceService, HmiServer)
+        ``service.loop`` is the run; ``server.url`` the screen's address.
+    """
+    from ..guidance.run import ClosedLoop
+    from ..guidance.scenario import load_scenario
+    from ..plant.service import GuidanceService
+    from .app import HmiServer, create_app
+
+    sc, model = load_scenario(scenario)
+    service = GuidanceService(ClosedLoop(sc, model, scripted=scripted, plant=plant), speedup=speedup)
+    server = HmiServer(create_app(service, state_dir, model, name=name or sc.scenario.name), "127.0.0.1", 0)
+    server.start()
+    try:
+        service.start()
+        yield service, server
+    finally:
+        service.stop()
+        server.stop()

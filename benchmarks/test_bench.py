@@ -12,8 +12,8 @@ round (the least disturbed by other load), so a ratio compares like with like.
   importing NumPy takes 0.07 s);
 * guidance cycle: median <= 2x and 99th percentile <= 6x those of a fixed control-like workload (a
   4-state Kalman update in NumPy) timed between the cycles (measured 2026-11-23 with the connected-mode monitor:
-  1.1x and 4.4x; 2026-12-02, AMD EPYC VM: 1.24-1.39x and 2.9-3.2x; the cycle's tail is longer because cycles with a sensor reading, a drift fit, a forecast of the
-  faces, a mode change or an event do more work);
+  1.1x and 4.4x; 2026-12-02, AMD EPYC VM: 1.24-1.39x and 2.9-3.2x; the cycle's tail is longer because cycles
+  with a sensor reading, a drift fit, a forecast of the faces, a mode change or an event do more work);
 * campaigns: runs per second on every core >= 1.4x one process (same runs, same run; skipped on one core);
 * moored ship: 30 minutes of the moored ship's motion at 10 Hz (cached hydrodynamics: slow drift, gusts, lines,
   fenders, first-order waves, the flange) <= 5 % of the guidance loop's own cost for the same 30 minutes

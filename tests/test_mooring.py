@@ -99,9 +99,33 @@ def test_static_offset_under_a_small_steady_load_follows_the_stiffness(mo, load)
     assert np.allclose(eq - eq0, np.linalg.solve(k, load), rtol=0.03, atol=1e-5)
 
 
+def _python_stiffness(mo, eta, alive):
+    """Central differences of the public restoring_force, as stiffness was written in Python before it was
+    compiled (the route it is held to)."""
+    from loadarm.ship.mooring import STEP
+
+    k = np.empty((3, 3))
+    for j in range(3):
+        d = np.zeros(3)
+        d[j] = STEP[j]
+        k[:, j] = -(restoring_force(mo, eta + d, alive)[0] - restoring_force(mo, eta - d, alive)[0]) / (2 * STEP[j])
+    return k
+
+
+@settings(max_examples=examples(150), deadline=None)
+@given(eta=st.tuples(st.floats(-3.0, 3.0), st.floats(-3.0, 3.0), st.floats(-0.05, 0.05)), parted=st.integers(0, 6))
+def test_the_compiled_stiffness_is_the_python_central_differences_bit_for_bit(mo, eta, parted):
+    """stiffness (compiled, shared with the equilibrium's Newton) against the central differences of
+    restoring_force written in Python, at poses with lines slack and taut, fenders touched or not."""
+    alive = mo.alive.copy()
+    alive[:parted] = False
+    eta = np.array(eta)
+    assert np.array_equal(stiffness(mo, eta, alive), _python_stiffness(mo, eta, alive))
+
+
 def _python_newton(mo, load, alive, eta0, tol=1.0, max_iter=100, max_offset=50.0):
     """The damped Newton as it was written in Python before it was compiled (the route it is held to): the
-    residual and the stiffness from the public restoring_force and stiffness. The step by SciPy's LAPACK
+    residual and the stiffness from the public restoring_force. The step by SciPy's LAPACK
     ``dgesv``, the routine numba's ``np.linalg.solve`` calls (NumPy's ``solve`` may be another LAPACK build:
     they agreed here, but a test across machines should not depend on two builds agreeing to the last bit)."""
     from scipy.linalg.lapack import dgesv
@@ -116,7 +140,7 @@ def _python_newton(mo, load, alive, eta0, tol=1.0, max_iter=100, max_offset=50.0
     for _ in range(max_iter):
         if np.max(np.abs(r)) < tol:
             return eta
-        k = stiffness(mo, eta, alive) * scale[:, None]
+        k = _python_stiffness(mo, eta, alive) * scale[:, None]
         _, _, step, info = dgesv(k + 1e-6 * np.max(np.abs(k)) * np.eye(3), r)
         if info != 0:                                        # singular
             break

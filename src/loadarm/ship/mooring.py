@@ -254,8 +254,30 @@ def line_tensions(mo: Moorings, eta, alive=None) -> np.ndarray:
 STEP = np.array([1e-3, 1e-3, 1e-5])
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _stiffness(eta, psi0, lines, alive, fy, fdefl, fload, fn, side, origin, step_d, k):
+    """``k = -dF/d eta`` at the pose ``eta`` by central differences of the restoring force (steps ``step_d``),
+    written into ``k`` (3, 3): :func:`stiffness`, and each iteration of :func:`_newton`."""
+    nl = lines.shape[1]
+    ten, per_line = np.zeros(nl), np.empty((3, nl))
+    fp, fm, e = np.empty(3), np.empty(3), np.empty(3)
+    for j in range(3):
+        e[:] = eta
+        e[j] = eta[j] + step_d[j]
+        psi = psi0 + e[2]
+        _restoring(e[0], e[1], math.cos(psi), math.sin(psi), lines, alive, fy, fdefl, fload, fn, side, origin, fp,
+                   ten, per_line)
+        e[j] = eta[j] - step_d[j]
+        psi = psi0 + e[2]
+        _restoring(e[0], e[1], math.cos(psi), math.sin(psi), lines, alive, fy, fdefl, fload, fn, side, origin, fm,
+                   ten, per_line)
+        for q in range(3):
+            k[q, j] = -(fp[q] - fm[q]) / (2 * step_d[j])
+
+
 def stiffness(mo: Moorings, eta, alive=None) -> np.ndarray:
-    """Tangent stiffness ``K = -dF/d eta`` at a pose (central differences of :func:`restoring_force`).
+    """Tangent stiffness ``K = -dF/d eta`` at a pose (central differences of :func:`restoring_force`, compiled:
+    :func:`_stiffness`, which the equilibrium's Newton takes too).
 
     Parameters
     ----------
@@ -268,12 +290,10 @@ def stiffness(mo: Moorings, eta, alive=None) -> np.ndarray:
     ndarray (3, 3)
         Units N/m, N/rad, N m/m, N m/rad.
     """
-    eta = np.asarray(eta, dtype=float)
     k = np.empty((3, 3))
-    for j in range(3):
-        d = np.zeros(3)
-        d[j] = STEP[j]
-        k[:, j] = -(restoring_force(mo, eta + d, alive)[0] - restoring_force(mo, eta - d, alive)[0]) / (2 * STEP[j])
+    _stiffness(np.array(eta, dtype=float), float(mo.psi0), mo.lines,
+               mo.alive if alive is None else np.asarray(alive, dtype=bool), mo.fender_y, mo.fender_defl,
+               mo.fender_load, mo.fender_npts, mo.side, mo.origin, STEP, k)
     return k
 
 
@@ -290,14 +310,14 @@ def _force_scaled(e0, e1, e2, load, scale, psi0, lines, alive, fy, fdefl, fload,
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _newton(eta, load, tol, max_iter, max_offset, psi0, lines, alive, fy, fdefl, fload, fn, side, origin, step_d):
-    """:func:`equilibrium`'s damped Newton, compiled: the tangent stiffness by central differences
-    (:func:`stiffness`, rows scaled as the residual), the step by LAPACK's solve, halved until the residual
+    """:func:`equilibrium`'s damped Newton, compiled: the tangent stiffness (:func:`_stiffness`, rows scaled as
+    the residual), the step by LAPACK's solve, halved until the residual
     falls. ``eta`` is updated in place. Returns the outcome (0 converged, 1 gave up: beyond ``max_offset`` or
     out of iterations, 2 singular stiffness) and the last (scaled) residual."""
     nl = lines.shape[1]
     out, ten, per_line = np.zeros(3), np.zeros(nl), np.empty((3, nl))
-    scale, ones, zeros = np.array([1.0, 1.0, 0.01]), np.ones(3), np.zeros(3)
-    r, rt, rp, rm = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
+    scale = np.array([1.0, 1.0, 0.01])
+    r, rt = np.empty(3), np.empty(3)
     k, e = np.empty((3, 3)), np.empty(3)
     _force_scaled(eta[0], eta[1], eta[2], load, scale, psi0, lines, alive, fy, fdefl, fload, fn, side, origin,
                   out, ten, per_line, r)
@@ -305,16 +325,10 @@ def _newton(eta, load, tol, max_iter, max_offset, psi0, lines, alive, fy, fdefl,
         r_norm = np.max(np.abs(r))
         if r_norm < tol:
             return 0, r
-        for j in range(3):
-            e[:] = eta
-            e[j] = eta[j] + step_d[j]
-            _force_scaled(e[0], e[1], e[2], zeros, ones, psi0, lines, alive, fy, fdefl, fload, fn, side, origin,
-                          out, ten, per_line, rp)
-            e[j] = eta[j] - step_d[j]
-            _force_scaled(e[0], e[1], e[2], zeros, ones, psi0, lines, alive, fy, fdefl, fload, fn, side, origin,
-                          out, ten, per_line, rm)
-            for q in range(3):
-                k[q, j] = -(rp[q] - rm[q]) / (2 * step_d[j]) * scale[q]
+        _stiffness(eta, psi0, lines, alive, fy, fdefl, fload, fn, side, origin, step_d, k)
+        for q in range(3):                        # rows scaled as the residual
+            for j in range(3):
+                k[q, j] *= scale[q]
         a_mat = k.copy()
         reg = 1e-6 * np.max(np.abs(k))
         for q in range(3):

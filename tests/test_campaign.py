@@ -4,6 +4,7 @@ import dataclasses
 import json
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -33,19 +34,51 @@ def test_parse_vary_refuses_malformed_ranges():
 def test_judge_counts_each_failure_on_its_own():
     base = dict(coupler_opening_s=100.0, valves_confirmed_s=99.0, limit_s=110.0, release_complete_s=103.0,
                 alarm1_s=89.0, overstretched_s=None, release_margin_s=7.0, limit_face="beta_max", duration_s=120.0,
-                connected_s=80.0)
+                connected_s=80.0, failures=[])
     ok = _judge(1, {}, base)
     assert ok.connected_s == 80.0
-    assert not (ok.overstretched or ok.opened_on_live_product or ok.false_alarm or ok.missed_alarm)
-    assert _judge(1, {}, {**base, "coupler_opening_s": 98.0}).opened_on_live_product
-    assert _judge(1, {}, {**base, "valves_confirmed_s": None}).opened_on_live_product
-    assert _judge(1, {}, {**base, "release_complete_s": 111.0}).missed_alarm
-    assert _judge(1, {}, {**base, "release_complete_s": None, "coupler_opening_s": None}).missed_alarm
+    assert not (ok.overstretched or ok.overstretched_before_isolation or ok.opened_on_live_product
+                or ok.false_alarm or ok.missed_alarm)
+    assert _judge(1, {}, {**base, "failures": ["opened_on_live_product"]}).opened_on_live_product
+    assert _judge(1, {}, {**base, "failures": ["missed_alarm"]}).missed_alarm
     assert _judge(1, {}, {**base, "limit_s": None}).false_alarm
-    # the run ended before the face (a slow drift): neither false nor missed, whatever the release had done
     late = _judge(1, {}, {**base, "limit_s": 130.0, "release_complete_s": None, "coupler_opening_s": None})
     assert not (late.false_alarm or late.missed_alarm)
-    assert _judge(1, {}, {**base, "overstretched_s": 111.0}).overstretched
+    after = _judge(1, {}, {**base, "failures": ["overstretch"]})
+    assert after.overstretched and not after.overstretched_before_isolation
+    live = _judge(1, {}, {**base, "failures": ["overstretch_before_isolation", "missed_alarm"]})
+    assert live.overstretched and live.overstretched_before_isolation and live.missed_alarm
+
+
+def _result(events, overstretched_at=None, limit_at=None, t_end=120.0):
+    """A run's result with just the events and times its verdict reads."""
+    from loadarm.guidance.run import RunResult
+
+    t = np.arange(0.0, t_end + 0.05, 0.1)
+    sig = {k: np.zeros_like(t) for k in ("mode", "x", "y", "z", "connected", "distance", "beta", "phi")}
+    sig["t"] = t
+    return RunResult("r", sig, [(tt, "X", kind, reason, {}) for tt, kind, reason in events], overstretched_at,
+                     np.zeros(0), limit_at=limit_at, limit_face="beta_max")
+
+
+def test_a_run_names_each_failure_and_its_time():
+    """One rule for the verdict (RunResult.failures), read by the run, its exit status and the campaign."""
+    good = [(99.0, "interlock", "ERS valves confirmed closed (limit switches): the coupler may open"),
+            (100.0, "command", "ERS-2: coupler opening (ERS valves confirmed closed)"),
+            (103.0, "command", "ERS-2 release complete: coupler free")]
+    assert _result(good, limit_at=110.0).failures() == () and _result(good, limit_at=110.0).verdict() == "pass"
+    # found (issue 25): at a 0.7 m/s step the arm overstretched 2.5 s before the valves confirmed, and the run
+    # reported "release complete" as if nothing had happened
+    live = _result(good, overstretched_at=96.5, limit_at=96.5)
+    assert live.failures() == ("overstretch_before_isolation", "missed_alarm")
+    assert live.verdict().startswith("FAILED: the arm overstretched before the ERS valves were confirmed closed "
+                                     "(live product) at 96.50 s, 2.50 s before the confirmation")
+    after = _result(good, overstretched_at=101.0, limit_at=101.0)
+    assert after.failures() == ("overstretch", "missed_alarm")
+    never = _result([], overstretched_at=50.0, limit_at=50.0)
+    assert never.failures()[0] == "overstretch_before_isolation"
+    opened = [(98.0, "command", "ERS-2: coupler opening (ERS valves confirmed closed)")] + [good[0], good[2]]
+    assert "opened_on_live_product" in _result(opened, limit_at=110.0).failures()
 
 
 def _short_driftoff(tmp_path, **drift):

@@ -63,10 +63,12 @@ def test_hs15_tracks_the_moving_flange_without_false_alarm(runs):
 def test_driftoff_alarms_in_order_and_releases_before_the_limit(model, runs):
     sc, inst, r = runs["driftoff"]
     s = r.summary()
-    assert s["alarm1_s"] < s["alarm2_s"] < s["release_s"] < s["release_complete_s"]
-    assert s["overstretched_s"] is None
-    assert s["mode_sequence"][:8] == ["STORED", "APPROACH", "STANDOFF", "CONNECTED", "ALARM1", "ALARM2", "RELEASE",
-                                      "RETURN"]
+    # the stages in order; the break-out test's forecast may pass the second alarm and the release in one cycle
+    assert s["alarm1_s"] < s["alarm2_s"] <= s["release_s"] < s["release_complete_s"]
+    assert s["overstretched_s"] is None and s["verdict"] == "pass"
+    seq = s["mode_sequence"]
+    assert seq[:5] == ["STORED", "APPROACH", "STANDOFF", "CONNECTED", "ALARM1"] and seq[-2:] == ["RELEASE", "RETURN"]
+    assert set(seq[5:-2]) <= {"ALARM2"}
     # at release completion the arm is still short of its hard limit (stroke end / full stretch)
     ctrl = GuidanceController(model, sc.guidance)
     k = int(np.searchsorted(r.signals["t"], s["release_complete_s"]))
@@ -478,15 +480,18 @@ def test_stage_leads_follow_the_sequence_times(model):
 
     q = model.sequence
     full = stage_leads(q)
-    assert full[Severity.RELEASE] == q.ers_valve_time + q.erc_release_time + q.margin
+    # until the limit switches confirm, the valves count at the worst their timeout allows (issue 25)
+    assert full[Severity.RELEASE] == q.ers_valve_time + q.ers_valve_timeout + q.erc_release_time + q.margin
     assert full[Severity.SECOND] == full[Severity.RELEASE] + q.margin
-    assert full[Severity.ESD1] == max(q.esd_time, q.ers_valve_time) + q.erc_release_time + q.margin
-    assert Severity.PRE_ALARM not in full                 # no pre-alarm unless configured
+    assert full[Severity.ESD1] == (max(q.esd_time, q.ers_valve_time + q.ers_valve_timeout) + q.erc_release_time
+                                   + q.margin)
+    assert full[Severity.PRE_ALARM] == full[Severity.ESD1] + q.pre_alarm_lead      # on by default (30 s)
+    import dataclasses
+    assert Severity.PRE_ALARM not in stage_leads(dataclasses.replace(q, pre_alarm_lead=0.0))
     half = stage_leads(q, valves_left=4.0)
     assert half[Severity.RELEASE] == 4.0 + q.erc_release_time + q.margin
     closed = stage_leads(q, valves_left=0.0, release_left=1.0)
     assert closed[Severity.RELEASE] == 1.0 + q.margin
-    import dataclasses
     pre = stage_leads(dataclasses.replace(q, pre_alarm_lead=20.0))
     assert pre[Severity.PRE_ALARM] == full[Severity.ESD1] + 20.0
 
@@ -697,7 +702,7 @@ def test_rule_alarm_escalation_steps_through_every_stage_and_commands_esd_and_er
     q_release = (0.0, 1.0, c.thr.beta_release + 0.01)        # beyond the release angle at once
     c.rule_alarm_escalation(_cycle(c, q=q_release))
     kinds = [(k, r.split(":")[0]) for k, r, _ in c.state.events]
-    assert [r for k, r in kinds if k == "alarm"] == ["ALARM1", "ALARM2", "RELEASE"]
+    assert [r for k, r in kinds if k == "alarm"] == ["PRE-ALARM", "ALARM1", "ALARM2", "RELEASE"]
     assert any(r.startswith("ESD-1") for k, r in kinds if k == "command")
     assert any(r.startswith("ERS-2") for k, r in kinds if k == "command")
     assert c.state.mode == Mode.RELEASE and c.state.esd_since == 1.0 and c.state.release_since == 1.0
@@ -739,8 +744,9 @@ def test_step_is_a_dispatcher_over_named_rules_and_one_handler_per_mode(model):
     import inspect
 
     c = _ctrl(model)
-    assert c.SAFETY_RULES == ("rule_emergency_stop", "rule_manual_emergency", "rule_alarm_escalation",
-                              "rule_emergency_release_sequence", "rule_annunciate")
+    assert c.SAFETY_RULES == ("rule_emergency_stop", "rule_manual_emergency", "rule_sensor_fault",
+                              "rule_alarm_escalation", "rule_ers_switches", "rule_emergency_release_sequence",
+                              "rule_annunciate")
     assert set(c.HANDLERS) == set(Mode) and all(callable(getattr(c, h)) for h in c.HANDLERS.values())
     src = inspect.getsource(GuidanceController.step)
     assert src.count("if ") == 0 and "for rule in self.SAFETY_RULES" in src
@@ -813,7 +819,7 @@ def _release_run(model, ers_valve_time=10.0, estop_at=None, until=60.0, actions=
         qq = q(now) if callable(q) else q
         cmd = c.step(now, qq, _est((14.0, 0.0, 1.0)), OperatorInput(actions.get(now, ())), fb)
         out += [(now, kind, reason) for kind, reason, _ in cmd.events]
-        fb = PlantFeedback(ers_valves_closed=valves.step(now, cmd.close_ers_valves))
+        fb = PlantFeedback(ers_switches=valves.step(now, cmd.close_ers_valves))
         assert not cmd.coupler_open or c.state.valves_closed_at is not None or not c.attached()
     return c, out
 

@@ -15,10 +15,11 @@ stage):
    No alarm may fire inside it (no false alarm in the design weather).
 3. **Break-out** (every line parted at once, the ship from rest at the edge of the allowance): the distance
    ``s(tau)`` it drifts in time ``tau`` under the same loads, the envelope over the seeds. The first alarm
-   (ESD-1) is set at the allowance's edge; the release (ERS-2) where the ship is ``ers_valve_time`` later (the
-   coupler never opens before the ERS valves are confirmed closed); the second alarm half-way in time. The
-   design holds when the ship is still inside the face ``erc_release_time + margin`` after the release, and
-   ``esd_lead`` (``max(esd_time, ers_valve_time) + erc_release_time + margin``) after ESD-1.
+   (ESD-1) is set at the allowance's edge; the release (ERS-2) where the ship is ``ers_valve_time +
+   ers_valve_timeout`` later (the coupler never opens before the ERS valves are confirmed closed, which may be
+   as late as their timeout allows); the second alarm half-way in time. The design holds when the ship is still
+   inside the face ``erc_release_time + margin`` after the release, and ``esd_lead`` (``max(esd_time,
+   ers_valve_time + ers_valve_timeout) + erc_release_time + margin``) after ESD-1.
 
 Thresholds are the arm's own coordinates: beta (off the berth), slew (along it, the worse side). Vertical faces
 (alpha) have no angle alarms in the installation: their allowance and the tide over the sequence
@@ -34,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .check import _first_crossing, esd_lead
+from .check import _first_crossing, esd_lead, valve_worst_time
 from .errors import ConfigError
 from .envelope import berth_box
 from .faces import FACE_LABELS, FACES, breakout_distance, face_margins, first_face, past_a_face_at
@@ -360,7 +361,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
 
     seq = model.sequence
     lead1 = esd_lead(seq)
-    t_rel = seq.ers_valve_time
+    t_rel = valve_worst_time(seq)
     t_free = t_rel + seq.erc_release_time + seq.margin
     n = settings.seeds
     calm, _, _ = _flange(ship, ship.eq0[None], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
@@ -545,6 +546,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
     rec["design_drift_speed_ms"] = speed
     rec["design_drift_acceleration_ms2"] = accel
     sequence = {"esd_time_s": seq.esd_time, "ers_valve_time_s": seq.ers_valve_time,
+                "ers_valve_timeout_s": seq.ers_valve_timeout, "valves_worst_s": t_rel,
                 "erc_release_time_s": seq.erc_release_time, "margin_s": seq.margin, "esd_lead_s": lead1}
     return AlarmDesign(tuple(rows), rec, sequence, ship.natural_periods(), mean_offset, tau_main, s_main,
                        (box.x_near, x_conn_far, box.y_low, box.y_high), tuple(problems), tuple(warnings), (fx, fz), model.arm,

@@ -8,11 +8,16 @@ down) and finds, per direction:
 * ``alarm_at``: where the first alarm (ESD-1) fires at the latest: at the customer's position alarm (beta or
   slew first-alarm angle) or at the design-drift floor, ``needed`` before the face, whichever comes first;
   ``needed = D(esd_lead)`` is the distance the ship covers breaking out from rest at the design acceleration
-  up to the design speed during the first alarm's lead ``max(esd_time, ers_valve_time) + erc_release_time +
-  margin`` (vertically: the design vertical speed times the lead);
+  up to the design speed during the first alarm's lead ``max(esd_time, ers_valve_time + ers_valve_timeout) +
+  erc_release_time + margin`` (vertically: the design vertical speed times the lead);
 * ``max_speed``: the largest drift speed, already reached when the ship passes ``alarm_at``, whose release
   still completes with the margin before the face: ``(available - alarm_at) / (ers_valve_time +
-  erc_release_time + margin)``;
+  ers_valve_timeout + erc_release_time + margin)``.
+
+The ERS valves count at their worst: the coupler waits for their limit switches, which may confirm as late as
+the fault timeout allows (``ers_valve_time + ers_valve_timeout``, :func:`valve_worst_time`); a guarantee that
+took the nominal closing time was lost to a slow valve inside its timeout (issue 25: 0.27 m/s, a valve 4 s
+slow, the arm overstretched 0.34 s before the coupler was free);
 * ``max_accel``: the largest break-out acceleration (from rest at ``alarm_at``, up to the design speed) for
   which the same holds.
 
@@ -37,7 +42,7 @@ from .results import Metric, Result
 from .slew import inverse3d
 
 __all__ = ["DIRECTIONS", "DirectionCheck", "CheckResult", "CHECK_METRICS", "design_check", "esd_lead",
-           "release_lead", "accumulator_usable_volume"]
+           "release_lead", "valve_worst_time", "accumulator_usable_volume", "retraction_oil", "MANIFOLD_CLEARANCE"]
 
 #: Directions a ship can drift, as (name, unit vector, horizontal).
 DIRECTIONS = (
@@ -50,7 +55,29 @@ DIRECTIONS = (
 )
 
 _REACH = 40.0          # m: the farthest a ray is walked (beyond any arm's reach)
+#: Distance the coupler must put between itself and the ship's flange after a release, m (clear of the
+#: manifold's spool piece and the ship's rail); with the HPU tripped the accumulator drives that retraction.
+MANIFOLD_CLEARANCE = 1.0
 _STEP = 0.01           # m: ray sampling before the bisection
+
+
+def valve_worst_time(seq) -> float:
+    """The latest the ERS valves may confirm closed after their command without a fault, s.
+
+    Until the limit switches confirm, every lead assumes this worst case: a valve slower than nominal but
+    inside its timeout is not a fault, and the coupler waits for it.
+
+    Parameters
+    ----------
+    seq : record
+        The installation's ``[sequence]``.
+
+    Returns
+    -------
+    float
+        ``ers_valve_time + ers_valve_timeout``.
+    """
+    return seq.ers_valve_time + seq.ers_valve_timeout
 
 
 def esd_lead(seq) -> float:
@@ -64,13 +91,13 @@ def esd_lead(seq) -> float:
     Returns
     -------
     float
-        ``max(esd_time, ers_valve_time) + erc_release_time + margin``.
+        ``max(esd_time, ers_valve_time + ers_valve_timeout) + erc_release_time + margin``.
     """
-    return max(seq.esd_time, seq.ers_valve_time) + seq.erc_release_time + seq.margin
+    return max(seq.esd_time, valve_worst_time(seq)) + seq.erc_release_time + seq.margin
 
 
 def release_lead(seq) -> float:
-    """Time from ESD-1 to the coupler free, with the margin, s.
+    """Time from ESD-1 to the coupler free at the latest, with the margin, s.
 
     Parameters
     ----------
@@ -80,9 +107,9 @@ def release_lead(seq) -> float:
     Returns
     -------
     float
-        ``ers_valve_time + erc_release_time + margin``.
+        ``ers_valve_time + ers_valve_timeout + erc_release_time + margin``.
     """
-    return seq.ers_valve_time + seq.erc_release_time + seq.margin
+    return valve_worst_time(seq) + seq.erc_release_time + seq.margin
 
 
 def accumulator_usable_volume(volume: float, precharge: float, charged: float, minimum: float,
@@ -107,6 +134,67 @@ def accumulator_usable_volume(volume: float, precharge: float, charged: float, m
     """
     v1 = volume * precharge / charged
     return v1 * (charged / minimum) ** (1.0 / n) - v1
+
+
+def cylinder_oil(model, q0, q1) -> float:
+    """Oil the two cylinders draw from the supply to move the arm from joints ``q0`` to ``q1``, m^3: the filling
+    chamber's swept volume (the piston side extending, the annulus retracting).
+
+    Parameters
+    ----------
+    model : ArmModel
+        Mounting and ``cylinder_area`` (piston, annulus).
+    q0, q1 : sequence of float
+        Joint angles (slew, alpha, beta), rad.
+
+    Returns
+    -------
+    float
+    """
+    from .actuators import cylinder_lengths
+
+    r0 = np.array(cylinder_lengths(model.mount, q0[1], q0[2]), dtype=float)
+    r1 = np.array(cylinder_lengths(model.mount, q1[1], q1[2]), dtype=float)
+    piston, annulus = model.cylinder_area
+    dr = r1 - r0
+    return float(np.sum(np.where(dr > 0, piston * dr, -annulus * dr)))
+
+
+def retraction_oil(model, clearance: float = MANIFOLD_CLEARANCE) -> float:
+    """Oil the drives need to retract the coupler ``clearance`` metres from the flange along its return path
+    (straight towards the stored position), from the worst flange the arm may be released at, m^3.
+
+    The flanges tried are the nominal one and the datasheet box's corners inside the arm's joint limits; the
+    retraction runs on the ERS accumulator when the HPU has tripped (the ship may not carry itself away: a drift
+    along the berth leaves the manifold under the coupler).
+
+    Parameters
+    ----------
+    model : ArmModel
+    clearance : float
+        Retraction, m.
+
+    Returns
+    -------
+    float
+    """
+    from .envelope import berth_box
+
+    box = berth_box(model.datasheet)
+    fx, fz = model.approach.flange
+    sx, sz = model.approach.stored
+    stored = np.array([sx, 0.0, sz])
+    worst = 0.0
+    for x, z in ((fx, fz), (box.x_near, box.y_low), (box.x_near, box.y_high), (box.x_far, box.y_low),
+                 (box.x_far, box.y_high)):
+        p0 = np.array([x, 0.0, z])
+        d = stored - p0
+        p1 = p0 + clearance * d / max(float(np.linalg.norm(d)), 1e-9)
+        q0, q1 = (inverse3d(model.arm, *p, check=False) for p in (p0, p1))
+        qs = [(float(q.phi), float(q.alpha), float(q.beta)) for q in (q0, q1)]
+        if all(np.all(np.isfinite(q)) and model.joint_limits.contains(q) for q in qs):
+            worst = max(worst, cylinder_oil(model, *qs))
+    return worst
 
 
 @dataclass(frozen=True, slots=True)
@@ -161,6 +249,10 @@ CHECK_METRICS = (
     Metric("min_max_speed", "largest drift absorbed in every direction", "m/s", ".3f"),
     Metric("accumulator_usable_l", "ERS accumulator, usable oil", "L", ".2f", scale=1e3),
     Metric("accumulator_needed_l", "ERS accumulator, needed (with safety factor)", "L", ".2f", scale=1e3),
+    Metric("retraction_oil_l", "of which the retraction clear of the manifold", "L", ".2f", scale=1e3),
+    Metric("surge_peak_bar", "ERS valve closure at design flow, peak pressure", "bar g", ".2f", scale=1e-5),
+    Metric("surge_route", "surge decided by"),
+    Metric("design_pressure_bar", "the arm's design pressure", "bar g", ".1f", scale=1e-5),
 )
 
 
@@ -181,8 +273,12 @@ class CheckResult(Result):
     problems : tuple of str
         Why the installation is refused (empty when it passes).
     accumulator_usable, accumulator_needed : float
-        Oil the ERS accumulator delivers after an HPU trip, and what the ERS needs with its safety factor,
-        m^3.
+        Oil the ERS accumulator delivers after an HPU trip, and what the ERS and the retraction clear of the
+        manifold need with its safety factor, m^3.
+    retraction_oil : float
+        Of that (before the factor), the retraction's own, m^3 (:func:`retraction_oil`).
+    surge : SurgeResult or None
+        The surge of the ERS valves' closure at design flow (:func:`loadarm.surge.surge_check`).
     """
 
     flange: tuple
@@ -195,6 +291,8 @@ class CheckResult(Result):
     problems: tuple
     accumulator_usable: float = math.nan
     accumulator_needed: float = math.nan
+    retraction_oil: float = math.nan
+    surge: object = None
 
     METRICS = CHECK_METRICS
 
@@ -215,6 +313,11 @@ class CheckResult(Result):
             "min_max_speed": min(r.max_speed for r in self.rows),
             "accumulator_usable_l": self.accumulator_usable,
             "accumulator_needed_l": self.accumulator_needed,
+            "retraction_oil_l": self.retraction_oil,
+            "surge_peak_bar": None if self.surge is None else self.surge.judged_pressure,
+            "surge_route": None if self.surge is None else self.surge.route,
+            "design_pressure_bar": None if self.surge is None else self.surge.design_pressure,
+            "surge": None if self.surge is None else self.surge.to_dict(),
             "directions": [{"direction": r.direction, "face": r.face, "available_m": r.available,
                             "angle_alarm_m": r.angle_alarm, "needed_m": r.needed, "alarm_at_m": r.alarm_at,
                             "max_speed": r.max_speed,
@@ -314,10 +417,21 @@ def design_check(model) -> CheckResult:
     acc = model.accumulator
     usable = accumulator_usable_volume(acc.volume, acc.precharge, acc.charged_pressure, acc.min_pressure,
                                        acc.polytropic_index)
-    needed = acc.required_volume * acc.safety_factor
+    retract = retraction_oil(model)
+    needed = (acc.required_volume + retract) * acc.safety_factor
     if usable < needed:
         problems.append(f"the ERS accumulator delivers {usable * 1e3:.2f} L from {acc.charged_pressure / 1e5:g} to "
-                        f"{acc.min_pressure / 1e5:g} bar, the ERS needs {needed * 1e3:.2f} L with its safety factor: "
-                        "after an HPU trip the release could not complete")
+                        f"{acc.min_pressure / 1e5:g} bar, the ERS and the retraction clear of the manifold need "
+                        f"{needed * 1e3:.2f} L with its safety factor ({retract * 1e3:.2f} L the retraction): after an "
+                        "HPU trip the arm could not release and retract")
+    surge = None
+    if model.transfer is not None:
+        from .surge import surge_check
+
+        surge = surge_check(model.transfer, seq.ers_valve_time)
+        if not surge.ok:
+            problems.append(f"the ERS valves closing in {seq.ers_valve_time:g} s at the design flow "
+                            f"({model.transfer.design_flow * 3600:.0f} m^3/h, the ship's ESD valves open, {surge.route}): "
+                            + "; ".join(surge.problems))
     return CheckResult(tuple(float(v) for v in p0), tuple(rows), L1, Lr, dd.speed, dd.acceleration,
-                       dd.vertical_speed, tuple(problems), usable, needed)
+                       dd.vertical_speed, tuple(problems), usable, needed, retract, surge)

@@ -551,22 +551,36 @@ def run(
     s = res.summary()
     if as_json:
         _json(s)
-        return
+    else:
+        _print_run(s, None if log is None else f"  events logged to {db} (run {run_id})")
+    if s["failures"]:
+        raise typer.Exit(1)                      # the safety chain failed: a script must not read success
+
+
+def _print_run(s: dict, logged: str | None) -> None:
+    """``loadarm run``'s text: the verdict, the sequence and its times."""
     out.print(f"scenario {s['scenario']}: {' -> '.join(s['mode_sequence'])}")
+    out.print(f"  verdict: {s['verdict']}")
+    over = s["overstretched_s"]
     for key in ("alarm1_s", "alarm2_s", "release_s", "release_complete_s", "overstretched_s"):
         if s[key] is not None:
-            out.print(f"  {key[:-2].replace('_', ' ')} at {s[key]:.2f} s")
+            late = " (after the arm overstretched)" if key == "release_complete_s" and over is not None \
+                and s[key] > over else ""
+            out.print(f"  {key[:-2].replace('_', ' ')} at {s[key]:.2f} s{late}")
     if s["valves_confirmed_s"] is not None:
         out.print(f"  ERS valves confirmed closed at {s['valves_confirmed_s']:.2f} s"
                   + ("" if s["coupler_opening_s"] is None else f", coupler opening at {s['coupler_opening_s']:.2f} s"))
     if s["release_margin_s"] is not None:
-        out.print(f"  release complete {s['release_margin_s']:.2f} s before the flange reached the "
+        m = s["release_margin_s"]
+        out.print(f"  release complete {abs(m):.2f} s {'before' if m >= 0 else 'AFTER'} the flange reached the "
                   f"{s['limit_face']} face" + ("" if s["cleared_s"] is None
                                                else f"; coupler clear of the manifold at {s['cleared_s']:.2f} s"))
+    if s["retracted_s"] is not None:
+        out.print(f"  arm retracted clear of its release point at {s['retracted_s']:.2f} s")
     out.print(f"  max beta {s['max_beta_deg']:.1f} deg, max |slew| {s['max_abs_slew_deg']:.1f} deg, {s['events']} events"
               f"; controller cycle median {s['cycle_us_median']:.0f} us, p99 {s['cycle_us_p99']:.0f} us")
-    if log is not None:
-        out.print(f"  events logged to {db} (run {run_id})")
+    if logged:
+        out.print(logged)
 
 
 @app.command()

@@ -29,7 +29,7 @@ __all__ = ["compile_model", "RECORD_SECTIONS", "MIN_STROKE"]
 #: ``arm`` -> :class:`~loadarm.geometry.Arm`, ``alarms`` -> :class:`~loadarm.alarms.AlarmAngles`,
 #: ``slew`` -> :class:`~loadarm.model.SlewLimits`; ``sizing`` and ``report`` are read at the edge only).
 RECORD_SECTIONS = ("datasheet", "actuators", "approach", "masses", "cylinders", "pump", "valve", "encoder",
-                   "controller", "sequence", "design_drift", "accumulator")
+                   "controller", "sequence", "design_drift", "accumulator", "transfer")
 
 
 def _record_type(key: str, section: type[BaseModel]) -> type:

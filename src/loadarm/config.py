@@ -454,10 +454,26 @@ class Valve(_Section):
 
 
 class Encoder(_Section):
-    """Displacement encoder on each cylinder (paper Fig. 11)."""
+    """Displacement encoder on each cylinder (paper Fig. 11), and the joint-angle sensors' redundancy."""
 
     resolution: float = _param(1e-5, unit="m", gt=0, le=0.01, source="10 um magnetostrictive position sensor",
                                description="quantisation step of the cylinder length reading")
+    redundancy: Literal["none", "dual", "cylinder"] = Field(
+        "cylinder", description="second channel of each joint angle, voted against the angle encoder: none; dual "
+                                "(two angle encoders per axis); cylinder (alpha and beta from the cylinder-length "
+                                "transducers through the pin geometry, two encoders on the slew)",
+        json_schema_extra={"unit": "1", "source": "IEC 61508 / ISO 13849 practice: no single sensor failure may hide "
+                                                  "the arm's position from its alarms; the cylinders "
+                                                  "already carry length transducers (paper Fig. 11)"})
+    discrepancy_deg: float = _param(0.5, unit="deg", gt=0, le=10,
+                                    source="engineering choice: 10x the cylinder channel's error from the 10 um "
+                                           "resolution and pin tolerances, about 0.15 m at the coupler",
+                                    description="largest difference between the two channels of an axis")
+    discrepancy_time: float = _param(0.5, unit="s", gt=0, le=10, source="engineering choice: five 10 Hz cycles",
+                                     description="how long the channels may disagree before one is judged")
+    frozen_time: float = _param(2.0, unit="s", gt=0, le=60, source="engineering choice: 20 cycles unchanged while "
+                                                                   "the other channel moves",
+                                description="a channel unchanged this long while the other moves is frozen")
 
 
 class Controller(_Section):
@@ -544,8 +560,9 @@ class Sequence(_Section):
     """The emergency shutdown and release sequence of the berth (ESD-1 -> ERS valves closed -> ERS-2), seconds.
 
     The connected-mode alarms are set from these times (see docs/guidance.md): the first alarm (ESD-1) must
-    leave ``max(esd_time, ers_valve_time) + erc_release_time + margin`` before any limit of the arm, the
-    release (ERS-2) ``ers_valve_time`` still to run + ``erc_release_time + margin``.
+    leave ``max(esd_time, ers_valve_time + ers_valve_timeout) + erc_release_time + margin`` before any limit of
+    the arm, the release (ERS-2) what is left of ``ers_valve_time + ers_valve_timeout`` + ``erc_release_time +
+    margin``: until their limit switches confirm, the valves count at the worst their timeout allows.
     """
 
     esd_time: float = _param(30.0, unit="s", gt=0, le=60,
@@ -553,19 +570,30 @@ class Sequence(_Section):
                              description="ESD-1: transfer pumps stopped and the ESD valves of ship and shore closed "
                                          "within this time")
     ers_valve_time: float = _param(10.0, unit="s", gt=0, le=60,
-                                   source="ERS double-block valves (supplier's figure, typically 5-10 s); EN 1474-1 / "
-                                          "ISO 16904: closed before the coupling releases",
+                                   source="conservative: suppliers quote about 5 s for the ERS double-block valves; "
+                                          "EN 1474-1 / ISO 16904: closed before the coupling releases",
                                    description="from ESD-1 until the ERS valves' limit switches confirm them closed")
     ers_valve_timeout: float = _param(5.0, unit="s", gt=0, le=60, source="engineering choice: half the closing time",
                                       description="ERS valves not confirmed closed this long after ers_valve_time: "
                                                   "valve fault alarm (the coupler stays closed)")
     erc_release_time: float = _param(3.0, unit="s", gt=0, le=30,
-                                     source="powered emergency release coupling (PERC): a few seconds",
+                                     source="conservative: suppliers quote 1-2 s for the powered emergency release "
+                                            "coupling (PERC)",
                                      description="ERS-2: from the release command to the coupler free")
     margin: float = _param(2.0, unit="s", ge=0, le=60, source="engineering margin",
                            description="time margin added to every stage's lead time")
-    pre_alarm_lead: float = _param(0.0, unit="s", ge=0, le=600, source="optional (0 = no pre-alarm)",
+    pre_alarm_lead: float = _param(30.0, unit="s", ge=0, le=600,
+                                   source="the ESD-1 time (IGC Code 18.10: 30 s): time for the operator to stop the "
+                                          "transfer in a controlled way before ESD-1 trips it (ISA-18.2 / EEMUA 191: "
+                                          "an alarm leaves time for the operator's response); 0 = no pre-alarm",
                                    description="the pre-alarm (warning only) fires this long before ESD-1 would")
+    ers_valves_close_at: Literal["esd1", "ers2"] = Field(
+        "esd1", description="when the ERS valves are commanded closed: esd1 (with the ESD valves at ESD-1, OCIMF 1999 "
+                            "loading-arm specification) or ers2 (only at the release, SIGTTO ESD guidance); with "
+                            "ers2 the release stage leads by the whole valve time",
+        json_schema_extra={"unit": "1", "source": "OCIMF, Design and Construction Specification for Marine Loading "
+                                                  "Arms (1999); SIGTTO, ESD Arrangements and Linked Ship/Shore "
+                                                  "Systems for Liquefied Gas Carriers (2009); docs/guidance.md"})
     drain_time: float = _param(30.0, unit="s", gt=0, le=3600,
                                source="terminal's procedure (gravity drain or nitrogen purge of the outboard arm)",
                                description="controlled disconnection: draining the arm after the ERS valves close")
@@ -592,9 +620,12 @@ class DesignDrift(_Section):
 
 
 class Accumulator(_Section):
-    """The ERS accumulator: it closes the ERS valves and releases the coupler when the HPU has tripped."""
+    """The ERS accumulator: it closes the ERS valves, releases the coupler and retracts the arm clear of the
+    manifold when the HPU has tripped."""
 
-    volume: float = _param(10.0e-3, unit="m^3", gt=0, le=1, source="10 L bladder accumulator (supplier's size)",
+    volume: float = _param(25.0e-3, unit="m^3", gt=0, le=1,
+                           source="25 L bladder accumulator (a supplier's size): the ERS valves, the PERC and the "
+                                  "arm's retraction clear of the manifold after an HPU trip (loadarm check)",
                            description="gas volume at precharge (nominal size)")
     precharge: float = _param(90.0e5, unit="Pa", gt=0, le=500e5,
                               source="about 0.9 x the minimum working pressure (usual bladder practice)",
@@ -623,6 +654,45 @@ class Accumulator(_Section):
         return self
 
 
+class Transfer(_Section):
+    """The product transfer through the arm: what the surge of the ERS valves' closure at design flow is checked
+    with (``loadarm check``, :mod:`loadarm.surge`): the valves close with the ship's ESD valves still open and
+    the shore pumps running (OCIMF 1999: the ERS valves close at ESD-1)."""
+
+    design_flow: float = _param(4000.0 / 3600.0, unit="m^3/s", gt=0, le=10,
+                                source="a 16-inch LNG arm's rated flow, about 4000 m^3/h (supplier datasheets)",
+                                description="design flow through the arm")
+    bore: float = _param(0.3968, unit="m", gt=0, le=2, source="16-inch Sch 10S stainless pipe (ASME B36.19M: "
+                                                               "406.4 mm outside, 4.78 mm wall)",
+                         description="inner diameter of the line and the arm")
+    density: float = _param(460.0, unit="kg/m^3", gt=0, le=2000,
+                            source="LNG at -160 degC, 448-470 kg/m^3 by composition (GERG-2008)",
+                            description="product density")
+    wave_speed: float = _param(1220.0, unit="m/s", gt=0, le=3000,
+                               source="Korteweg: LNG's speed of sound 1370-1420 m/s (isentropic bulk modulus "
+                                      "about 0.9 GPa, GERG-2008) in a 16-inch Sch 10S steel line anchored upstream",
+                               description="pressure wave speed in the filled line")
+    line_length: float = _param(1000.0, unit="m", gt=0, le=20000,
+                                source="engineering estimate: shore line from the tank pumps along the trestle",
+                                description="length of the line upstream of the ERS valves")
+    friction_factor: float = _param(0.011, unit="1", ge=0, le=0.1,
+                                    source="Colebrook at Re about 1.3e7, roughness 0.015-0.045 mm",
+                                    description="Darcy friction factor of the line")
+    operating_pressure: float = _param(8.0e5, unit="Pa", ge=0, le=100e5,
+                                       source="engineering estimate: 5-10 bar g at the arm during loading",
+                                       description="gauge pressure at the ERS valves in steady flow")
+    design_pressure: float = _param(20.0e5, unit="Pa", gt=0, le=200e5,
+                                    source="LNG loading arms are rated about 15-20 bar g (supplier datasheets, "
+                                           "EN 1474-1 / ISO 16904); 20 bar g taken",
+                                    description="the arm's design pressure (gauge)")
+    closure_law: Literal["linear", "quadratic"] = Field(
+        "linear", description="how the ERS valve's effective opening falls over its closing time (the larger peak "
+                              "of the two for the defaults)",
+        json_schema_extra={"unit": "1", "source": "Wylie & Streeter, Fluid Transients in Systems (1993); a full-bore "
+                                                  "ball valve cuts the flow late in its travel: enter its own "
+                                                  "characteristic (docs/guidance.md)"})
+
+
 class Installation(_Section):
     """One marine loading arm at one berth: everything loadarm needs to plan."""
 
@@ -642,6 +712,7 @@ class Installation(_Section):
     sequence: Sequence = Field(default_factory=Sequence)
     design_drift: DesignDrift = Field(default_factory=DesignDrift)
     accumulator: Accumulator = Field(default_factory=Accumulator)
+    transfer: Transfer = Field(default_factory=Transfer)
     operability: Operability = Field(default_factory=Operability)
     report: Report = Field(default_factory=Report)
 

@@ -79,7 +79,7 @@ class ArmModel:
         Piston and annulus areas, m^2.
     cylinder_speed_limit : tuple of float
         Largest extension speed of each cylinder, m/s (valve or half the pump, over the piston area).
-    datasheet, actuators, approach, masses, cylinders, pump, valve, encoder, controller, sequence, design_drift, accumulator : record
+    datasheet, actuators, approach, masses, cylinders, pump, valve, encoder, controller, sequence, design_drift, accumulator, transfer : record
         The parameter groups as plain frozen records, SI units, keys as in the configuration.
     mass : MassModel
         The arm's lumps at the configured product fill.
@@ -107,6 +107,7 @@ class ArmModel:
     sequence: Any
     design_drift: Any
     accumulator: Any
+    transfer: Any = None
     mass: Any = None
     lagrange: Any = None
 

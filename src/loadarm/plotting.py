@@ -751,10 +751,10 @@ def alarm_design_figure(design) -> Figure:
     seq = design.sequence
     t, s = design.breakout_t, design.breakout_s
     bx.plot(t, off.allowance_m + s, color="0.2", lw=1.5, label="break-out drift from the allowance's edge")
-    t_rel = seq["ers_valve_time_s"]
+    t_rel = seq["valves_worst_s"]          # the valves confirmed at the latest their timeout allows
     t_free = t_rel + seq["erc_release_time_s"] + seq["margin_s"]
     for tt, label, sev in ((0.0, "ESD-1", Severity.ESD1), (0.5 * t_rel, "second alarm", Severity.SECOND),
-                           (t_rel, "ERS-2 (valves closed)", Severity.RELEASE)):
+                           (t_rel, "ERS-2 (valves closed, at the latest)", Severity.RELEASE)):
         bx.axvline(tt, color=_SEVERITY_COLOURS[sev], lw=1.5, label=f"{label} at {tt:g} s")
     bx.axvline(t_free, color="0.4", ls=":", label=f"coupler free + margin at {t_free:g} s")
     bx.axvline(seq["esd_lead_s"], color="0.4", ls="-.", label=f"ESD-1 lead {seq['esd_lead_s']:g} s")
@@ -834,3 +834,57 @@ def operability_figure(result) -> Figure:
     cx.legend(fontsize=8, loc="upper right")
     fig.tight_layout()
     return fig
+
+
+# --- surge (water hammer) of the ERS valve's closure: loadarm.surge ----------------------------------------------
+
+def surge_figure(result) -> Figure:
+    """Pressure at the ERS valve against time, with the design pressure and Joukowsky's bound.
+
+    Parameters
+    ----------
+    result : loadarm.surge.SurgeResult
+
+    Returns
+    -------
+    Figure
+    """
+    from matplotlib.figure import Figure as _Figure
+
+    bar = 1e-5
+    fig = _Figure(figsize=(10, 5.5), layout="constrained")
+    ax = top = fig.add_subplot(1, 1, 1)
+    t_end = result.delay + result.closure_time + 4.0 * result.round_trip
+    if result.t.size:
+        t_end = float(result.t[-1])
+        ax.plot(result.t, result.valve_pressure * bar, color="0.1", lw=1.4, label="pressure at the valve (MOC)")
+        ax.plot(result.peak_time, result.peak_pressure * bar, "o", color="tab:red", ms=5,
+                label=f"peak {result.peak_pressure * bar:.2f} bar g at {result.peak_time:.2f} s")
+        bx = top = ax.twinx()
+        bx.plot(result.t, result.opening, color="0.55", lw=1.0, ls=":", label=f"valve opening ({result.law})")
+        bx.set_ylim(0.0, 1.05)
+        bx.set_ylabel("effective opening tau [-]")
+        extra = bx.get_legend_handles_labels()
+    else:
+        ax.text(0.35, 0.65, "passed on Joukowsky's bound alone: no transient computed", transform=ax.transAxes,
+                ha="center", va="center", fontsize=9, color="0.3")
+        extra = ([], [])
+    if np.isfinite(result.design_pressure):
+        ax.axhline(result.design_pressure * bar, color="tab:red", ls="--",
+                   label=f"design pressure {result.design_pressure * bar:.2f} bar g")
+    ax.axhline(result.bound * bar, color="0.4", ls="-.",
+               label=f"Joukowsky's bound {result.bound * bar:.2f} bar g (pump + rho a v)")
+    ax.axhline(result.operating_pressure * bar, color="0.6", lw=0.8,
+               label=f"steady flow {result.operating_pressure * bar:.2f} bar g")
+    ax.axvspan(result.delay, result.delay + result.closure_time, color="0.92", zorder=0, label="valve closing")
+    ax.set_xlim(0.0, t_end)
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("pressure [bar g]")
+    handles, labels = ax.get_legend_handles_labels()
+    top.legend(handles + extra[0], labels + extra[1], fontsize=8, loc="center right")
+    verdict = "passes" if result.ok else "REFUSED"
+    ax.set_title(f"ERS valve closure in {result.closure_time:g} s ({result.route}): {verdict}")
+    return fig
+
+
+__all__ += ["surge_figure"]

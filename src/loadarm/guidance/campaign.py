@@ -8,6 +8,8 @@ the range (seeded too, so a campaign is repeatable). Keys are dotted scenario ke
 Every run is judged on what matters at the jetty:
 
 * **overstretch**: the attached arm was driven past a face of its envelope (the failure the alarms exist for);
+* **overstretch before isolation**: of those, the ones before the ERS valves were confirmed closed (product still
+  live in the arm: the worst case, a spill);
 * **opened on live product**: the coupler began to open before the ERS valves were confirmed closed;
 * **false alarm**: the first alarm (ESD-1) or worse was raised in a run where the flange never reaches a face
   (in the run, or on its own trajectory up to 10 minutes after it);
@@ -105,6 +107,8 @@ class CampaignRun:
     draws : dict of str to float
         The varied parameters' values.
     overstretched : bool
+    overstretched_before_isolation : bool
+        Overstretched before the ERS valves were confirmed closed (or with none).
     opened_on_live_product : bool
     false_alarm : bool
     missed_alarm : bool
@@ -121,6 +125,7 @@ class CampaignRun:
     seed: int
     draws: dict
     overstretched: bool
+    overstretched_before_isolation: bool
     opened_on_live_product: bool
     false_alarm: bool
     missed_alarm: bool
@@ -133,15 +138,16 @@ class CampaignRun:
 
 
 def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
-    """The verdict from a run's summary values."""
-    opened, confirmed = v["coupler_opening_s"], v["valves_confirmed_s"]
+    """The verdict from a run's summary values (its failures are the run's own, :meth:`RunResult.failures`)."""
+    fails = set(v["failures"])
     limit, done, alarm1 = v["limit_s"], v["release_complete_s"], v["alarm1_s"]
     return CampaignRun(
         seed=seed, draws=draws,
-        overstretched=v["overstretched_s"] is not None,
-        opened_on_live_product=bool(opened is not None and (confirmed is None or opened < confirmed)),
+        overstretched=bool(fails & {"overstretch", "overstretch_before_isolation"}),
+        overstretched_before_isolation="overstretch_before_isolation" in fails,
+        opened_on_live_product="opened_on_live_product" in fails,
         false_alarm=bool(alarm1 is not None and limit is None),
-        missed_alarm=bool(limit is not None and limit <= v["duration_s"] and (done is None or done > limit)),
+        missed_alarm="missed_alarm" in fails,
         alarm1_s=alarm1, release_complete_s=done, limit_s=limit, release_margin_s=v["release_margin_s"],
         limit_face=v["limit_face"], connected_s=v["connected_s"])
 
@@ -223,6 +229,7 @@ CAMPAIGN_METRICS = (
     Metric("connected_runs", "runs that connected", "", "d"),
     Metric("connected_h", "time connected, all runs", "h", ".1f"),
     Metric("overstretches", "overstretches", "", "d"),
+    Metric("overstretches_before_isolation", "overstretch before isolation (product live)", "", "d"),
     Metric("opened_on_live_product", "coupler opened before the ERS valves closed", "", "d"),
     Metric("false_alarms", "false alarms (ESD-1 without reaching a face)", "", "d"),
     Metric("missed_alarms", "missed alarms (face reached before the release completed)", "", "d"),
@@ -271,6 +278,7 @@ class CampaignResult(Result):
             "connected_h": sum(r.connected_s for r in runs) / 3600.0,
             "varied": [f"{v.key}={v.lo:g}:{v.hi:g}" for v in self.varied],
             "overstretches": sum(r.overstretched for r in runs),
+            "overstretches_before_isolation": sum(r.overstretched_before_isolation for r in runs),
             "opened_on_live_product": sum(r.opened_on_live_product for r in runs),
             "false_alarms": sum(r.false_alarm for r in runs),
             "missed_alarms": sum(r.missed_alarm for r in runs),

@@ -25,8 +25,12 @@ Safety rules (each tested):
   the nearest face of the envelope from the measured and the design drift
   (:class:`~loadarm.guidance.monitor.EnvelopeMonitor`) against the sequence still to run, whichever is more
   severe;
-* the coupler opens only after the plant confirms the ERS valves closed (limit switches); a valve that does
-  not confirm in time is a fault alarm and the coupler stays closed.
+* the coupler opens only after the plant confirms the ERS valves closed: both of their independent closed
+  limit switches (a single switch that fails "closed" would open the coupler on live product); switches that
+  disagree are a fault alarm, and a valve that does not confirm in time is one too; the coupler stays closed;
+* the joint angles are voted from two channels per axis (:mod:`loadarm.guidance.voting`): a frozen, drifting or
+  failed sensor is an alarm and the other channel is used; with an axis that cannot be voted the controller
+  fails safe: ESD-1 while attached, no motion otherwise.
 """
 
 from __future__ import annotations
@@ -38,6 +42,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..check import valve_worst_time
+from .voting import AXES, VoteState, reset_votes, vote
 from ..alarms import AlarmState, AlarmThresholds, Severity, next_alarm_state
 from ..geometry import Arm
 from ..kinematics import ROUNDOFF_M, jacobian_entries
@@ -79,8 +85,12 @@ SEVERITY_OF_MODE = {m: sev for sev, m in MODE_OF_SEVERITY.items()}
 MODE_OF_SEVERITY[Severity.PRE_ALARM] = Mode.CONNECTED       # a warning only: the mode stays
 #: The stages the connected-mode monitoring raises, in order.
 ALARM_STAGES = (Severity.PRE_ALARM, Severity.ESD1, Severity.SECOND, Severity.RELEASE)
-#: The annunciated alarms (ISA-18.2 states each): the stages and the ERS valve fault.
-ANNUNCIATED = ("PRE_ALARM", "ESD1", "SECOND", "RELEASE", "ERS_VALVE_FAULT")
+#: The annunciated alarms (ISA-18.2 states each): the stages, the ERS valve fault, the ERS limit switches'
+#: discrepancy and the joint-angle sensors' fault.
+ANNUNCIATED = ("PRE_ALARM", "ESD1", "SECOND", "RELEASE", "ERS_VALVE_FAULT", "ERS_SWITCH_FAULT", "SENSOR_FAULT")
+#: The two ERS closed limit switches may disagree this long (one made a little before the other as the valves
+#: seat), s; longer is a switch fault.
+ERS_SWITCH_DISCREPANCY = 2.0
 #: A manual ERS must be confirmed within this time, s.
 ERS_CONFIRM_WINDOW = 10.0
 #: An alarm condition counts as cleared only after staying clear this long, s (ISA-18.2 off-delay: no
@@ -113,11 +123,20 @@ class PlantFeedback:
 
     Attributes
     ----------
-    ers_valves_closed : bool
-        Both ERS valves' closed limit switches are made.
+    ers_switches : tuple of bool
+        Each closed limit switch of the ERS valves (two independent ones in the field; a PLC that votes them
+        itself reports one).
+    angles : tuple of float or None
+        The joint angles' second channel (slew, alpha, beta), rad, beside the encoders' (None: no redundancy).
     """
 
-    ers_valves_closed: bool = False
+    ers_switches: tuple = ()
+    angles: tuple | None = None
+
+    @property
+    def ers_valves_closed(self) -> bool:
+        """Every closed limit switch made (and at least one reported)."""
+        return bool(self.ers_switches) and all(self.ers_switches)
 
 
 @dataclass(frozen=True, slots=True)
@@ -248,6 +267,12 @@ class GuidanceState:
         Every annunciated alarm is normal (the annunciator's fast path).
     resume : Mode
         Mode to resume after an emergency stop.
+    switches_odd_since : float or None
+        Since when the ERS limit switches disagree, s.
+    switch_fault : bool
+        They have disagreed longer than :data:`ERS_SWITCH_DISCREPANCY` (until they agree again).
+    votes : VoteState
+        The joint-angle voter's memory.
     events : list
         Events of the current cycle.
     """
@@ -275,6 +300,9 @@ class GuidanceState:
     last_active: dict = field(default_factory=lambda: {tag: -math.inf for tag in ANNUNCIATED})
     quiet: bool = True
     resume: Mode = Mode.APPROACH
+    switches_odd_since: float | None = None
+    switch_fault: bool = False
+    votes: VoteState = field(default_factory=VoteState)
     events: list = field(default_factory=list)
 
 
@@ -317,6 +345,9 @@ class GuidanceController:
         # the drift fit, the velocity-step test and the forecast go to three different cycles when the guidance
         # runs at least three cycles per fit sample; slower, all three run in the sample's cycle
         self.spread = per_sample >= 3
+        enc = model.encoder
+        self.angle_tol = math.radians(enc.discrepancy_deg)
+        self.vote_persist, self.frozen_time = enc.discrepancy_time, enc.frozen_time
         self.state = GuidanceState() if state is None else state
 
     # ---------------------------------------------------------------- helpers
@@ -444,14 +475,38 @@ class GuidanceController:
         -------
         Command
         """
-        cyc = Cycle(now, tuple(float(v) for v in q), est, op, frozenset(op.actions), self.dt_nominal, fb)
         self.state.events = []
+        acts = frozenset(op.actions)
+        cyc = Cycle(now, self._voted(now, q, est, fb, acts), est, op, acts, self.dt_nominal, fb)
         for action in op.actions:
             self._event("operator", action)
         for rule in self.SAFETY_RULES:
             getattr(self, rule)(cyc)
         rates = getattr(self, self.HANDLERS[self.state.mode])(cyc)
         return self._command(self.rule_no_motion_when_held_or_attached(rates))
+
+    def _voted(self, now: float, q, est: Estimate, fb: PlantFeedback, acts: frozenset) -> tuple:
+        """The joint angles to use: the encoders voted against the second channel (:mod:`.voting`), the
+        flange tracker's inverse kinematics the third opinion while attached; each channel found wrong is an
+        alarm. Without a second channel, the encoders as they are."""
+        q = tuple(float(v) for v in q)
+        if fb.angles is None:
+            return q
+        st = self.state.votes
+        channels = (q, tuple(float(v) for v in fb.angles))
+        if "reset" in acts:
+            for j in reset_votes(st, channels, tol=self.angle_tol):
+                self._event("info", f"{AXES[j]} angle sensors agree again: both trusted after the operator's reset")
+        ref = None
+        if self.attached() and est.healthy:         # out of reach: NaN, no opinion (found: check=True raised)
+            qq = inverse3d(self.arm, *est.position, check=False)
+            ref = (float(qq.phi), float(qq.alpha), float(qq.beta))
+        v = vote(st, now, channels, ref, tol=self.angle_tol, persist=self.vote_persist, frozen_time=self.frozen_time)
+        for j, why in v.found:
+            used = "" if st.lost[j] else "; using the other channel"
+            self._event("alarm", f"SENSOR FAULT: {AXES[j]} angle {why}{used}", severity=int(Severity.SECOND),
+                        severity_label="fault", axis=AXES[j])
+        return v.q
 
     def _command(self, rates) -> Command:
         """This cycle's command from the state and the final rates."""
@@ -476,8 +531,50 @@ class GuidanceController:
 
     # ---------------------------------------------------------------- safety rules, in this order
     #: Named rules run every cycle before the mode handler, in this order.
-    SAFETY_RULES = ("rule_emergency_stop", "rule_manual_emergency", "rule_alarm_escalation",
-                    "rule_emergency_release_sequence", "rule_annunciate")
+    SAFETY_RULES = ("rule_emergency_stop", "rule_manual_emergency", "rule_sensor_fault", "rule_alarm_escalation",
+                    "rule_ers_switches", "rule_emergency_release_sequence", "rule_annunciate")
+
+    def rule_sensor_fault(self, cyc: "Cycle") -> None:
+        """An axis whose angle sensors cannot be voted (:mod:`loadarm.guidance.voting`) while attached: ESD-1
+        (the position alarms and the time to limit can no longer be trusted; the release stays armed on what
+        can). Detached, :meth:`rule_no_motion_when_held_or_attached` stops the arm on any sensor fault.
+
+        Parameters
+        ----------
+        cyc : Cycle
+            This cycle's inputs.
+        """
+        st = self.state.votes
+        if st.status == "lost" and self.attached() and self.state.raised < Severity.ESD1:
+            axes = ", ".join(AXES[j] for j in range(3) if st.lost[j])
+            why = f"{axes} angle sensors disagree and cannot be voted: the position alarms cannot be trusted"
+            self._command_esd1(cyc.now, why)
+            self._raise(cyc.now, cyc.q, Severity.ESD1, why)
+
+    def rule_ers_switches(self, cyc: "Cycle") -> None:
+        """The ERS valves' two closed limit switches must agree: one made and the other not for longer than
+        :data:`ERS_SWITCH_DISCREPANCY` is a switch fault alarm (in any mode: a switch stuck "closed" is found
+        while the valves are open, before it matters). The valves count as closed only with both made
+        (:attr:`PlantFeedback.ers_valves_closed`), so a false "closed" never opens the coupler.
+
+        Parameters
+        ----------
+        cyc : Cycle
+            This cycle's inputs.
+        """
+        s, sw = self.state, cyc.fb.ers_switches
+        if not (len(sw) > 1 and any(sw) and not all(sw)):
+            s.switches_odd_since, s.switch_fault = None, False
+            return
+        if s.switches_odd_since is None:
+            s.switches_odd_since = cyc.now
+        if not s.switch_fault and cyc.now - s.switches_odd_since > ERS_SWITCH_DISCREPANCY:
+            s.switch_fault = True
+            made = ", ".join(f"switch {i + 1} {'closed' if v else 'open'}" for i, v in enumerate(sw))
+            self._event("alarm", f"ERS SWITCH FAULT: the ERS valves' closed limit switches disagree ({made}) for "
+                                 f"{cyc.now - s.switches_odd_since:.1f} s: the valves are not taken as closed and the "
+                                 "coupler stays closed until both confirm", severity=int(Severity.SECOND),
+                        severity_label="fault")
 
     def rule_emergency_stop(self, cyc: "Cycle") -> None:
         """E-stop from any mode, in this very cycle (the mode to resume is kept). It stops the drives; when
@@ -528,12 +625,14 @@ class GuidanceController:
             s.ers_armed_at = None
 
     def _leads(self, now: float) -> dict:
+        """The stage leads now: while the ERS valves are unconfirmed, the time left to their timeout (the worst
+        case it allows; found: counting the nominal closing time, a valve 4 s slow ate the release margin)."""
         s, q = self.state, self.seq
         valves_left = None
         if s.valves_closed_at is not None:
             valves_left = 0.0
         elif s.valves_cmd_since is not None:
-            valves_left = s.valves_cmd_since + q.ers_valve_time - now
+            valves_left = s.valves_cmd_since + valve_worst_time(q) - now
         release_left = None if s.release_started_at is None else s.release_started_at + q.erc_release_time - now
         return stage_leads(q, valves_left=valves_left, release_left=release_left)
 
@@ -563,9 +662,12 @@ class GuidanceController:
         f = s.forecast
         if math.isfinite(f.time):
             for stage in sorted(s.leads, reverse=True):
-                if f.time <= s.leads[stage]:
+                # the pre-alarm warns of a drift the monitor sees: the measured routes only
+                t = f.measured if stage == Severity.PRE_ALARM else f.time
+                if t <= s.leads[stage]:
                     if stage > level:
-                        level, why = stage, (f"{f.route}: {f.face} face in {f.time:.1f} s, the {stage.label} "
+                        route = f.route if t == f.time else "measured drift"
+                        level, why = stage, (f"{route}: {f.face} face in {t:.1f} s, the {stage.label} "
                                              f"needs {s.leads[stage]:.1f} s")
                     break
         return level, why
@@ -588,6 +690,7 @@ class GuidanceController:
             self._command_esd1(now, why)
         if level >= Severity.RELEASE and s.release_since is None:
             s.release_since = now
+            self._close_ers_valves(now)
             self._event("command", "ERS-2 requested: release the coupler once the ERS valves are confirmed closed")
         new = MODE_OF_SEVERITY[level]
         if new == Mode.CONNECTED:                # the pre-alarm is a warning: the mode stays
@@ -615,11 +718,17 @@ class GuidanceController:
 
     def _command_esd1(self, now: float, why: str) -> None:
         s = self.state
+        with_valves = self.seq.ers_valves_close_at == "esd1"
         if s.esd_since is None:
             s.esd_since = now
-            self._event("command", f"ESD-1: stop transfer pumps, close ESD and ERS valves ({why})")
-        if s.valves_cmd_since is None:
-            s.valves_cmd_since = now
+            valves = "and ERS valves" if with_valves else "valves (the ERS valves close at ERS-2)"
+            self._event("command", f"ESD-1: stop transfer pumps, close ESD {valves} ({why})")
+        if with_valves:
+            self._close_ers_valves(now)
+
+    def _close_ers_valves(self, now: float) -> None:
+        if self.state.valves_cmd_since is None:
+            self.state.valves_cmd_since = now
 
     def rule_emergency_release_sequence(self, cyc: "Cycle") -> None:
         """ERS valves confirmed closed (the plant's limit switches) -> ERS-2, in any mode while attached (an
@@ -682,11 +791,12 @@ class GuidanceController:
         """
         s, now = self.state, cyc.now
         level = s.level if self.attached() else Severity.NORMAL
-        if level == Severity.NORMAL and not s.valve_fault and s.quiet:
+        sensor = s.votes.status != "ok"
+        if level == Severity.NORMAL and not (s.valve_fault or s.switch_fault or sensor) and s.quiet:
             return                               # nothing present, nothing to acknowledge (all normal): fast path
         present = {"PRE_ALARM": level >= Severity.PRE_ALARM and self.seq.pre_alarm_lead > 0, "ESD1": level >= Severity.ESD1,
                    "SECOND": level >= Severity.SECOND, "RELEASE": level >= Severity.RELEASE,
-                   "ERS_VALVE_FAULT": s.valve_fault}
+                   "ERS_VALVE_FAULT": s.valve_fault, "ERS_SWITCH_FAULT": s.switch_fault, "SENSOR_FAULT": sensor}
         ack_all = "ack" in cyc.acts
         for tag in ANNUNCIATED:
             if present[tag]:
@@ -750,7 +860,8 @@ class GuidanceController:
         return True
 
     def rule_no_motion_when_held_or_attached(self, rates) -> np.ndarray:
-        """Zero rates in ESTOP and HOLD, and while attached (the actuators are free; the ship moves the arm).
+        """Zero rates in ESTOP and HOLD, while attached (the actuators are free; the ship moves the arm) and with
+        an angle sensor fault (the voted angles stand on one channel, or none).
 
         Parameters
         ----------
@@ -762,7 +873,16 @@ class GuidanceController:
         ndarray
             The command actually sent.
         """
-        if self.state.mode in (Mode.ESTOP, Mode.HOLD) or self.state.mode in CONNECTED_MODES:
+        s = self.state
+        if s.mode in (Mode.ESTOP, Mode.HOLD) or s.mode in CONNECTED_MODES:
+            return np.zeros(3)
+        status = s.votes.status
+        # an axis without a vote: no motion at all; one channel rejected: no new approach, but the retraction
+        # after a release (clear of the manifold) and the operator's jog go on, on the healthy channel
+        if status == "lost" or (status == "degraded" and s.mode in (Mode.APPROACH, Mode.STANDOFF)):
+            if s.refused != "sensor":
+                self._event("info", f"motion stopped in {s.mode.value}: angle sensor fault (reset once both agree)")
+                s.refused = "sensor"
             return np.zeros(3)
         return np.asarray(rates, dtype=float)
 
@@ -809,6 +929,10 @@ class GuidanceController:
         elif "start" in cyc.acts:               # only a fresh operator action starts anything
             if not est.healthy:
                 self._refuse(f"no fresh flange estimate ({est.reason})")
+            elif self.state.switch_fault:       # the interlock's own sensors must agree before a transfer
+                self._refuse("the ERS valves' closed limit switches disagree (ERS_SWITCH_FAULT)")
+            elif self.state.votes.status != "ok":
+                self._refuse("an angle sensor is faulty (SENSOR_FAULT): reset once both channels agree")
             else:
                 why_not = self.target_ok(self.standoff_point(np.array(est.position)))
                 if why_not:

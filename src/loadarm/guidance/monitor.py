@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..alarms import Severity
-from ..check import esd_lead
+from ..check import esd_lead, valve_worst_time
 from ..faces import FACES, breakout_distance, face_margins, first_face
 
 __all__ = ["FIT_PERIOD", "stage_leads", "DriftEstimate", "DriftFit", "LimitForecast", "EnvelopeMonitor"]
@@ -45,19 +45,19 @@ def stage_leads(seq, *, valves_left: float | None = None, release_left: float | 
         The installation's ``[sequence]`` (``esd_time``, ``ers_valve_time``, ``erc_release_time``, ``margin``,
         ``pre_alarm_lead``).
     valves_left : float, optional
-        Time until the ERS valves are confirmed closed, s (default: the whole ``ers_valve_time``, ESD-1 not yet
-        commanded; 0 once confirmed).
+        Time until the ERS valves are confirmed closed at the latest, s (default: the whole
+        ``ers_valve_time + ers_valve_timeout``, ESD-1 not yet commanded; 0 once confirmed).
     release_left : float, optional
         Time until the coupler is free, s (default: the whole ``erc_release_time``, not yet opening).
 
     Returns
     -------
     dict of Severity to float
-        ``RELEASE``: the ERS valves still to close, the release and the margin; ``SECOND``: that plus the
+        ``RELEASE``: the ERS valves still to close (at their worst), the release and the margin; ``SECOND``: that plus the
         margin again; ``ESD1``: the whole sequence (ESD-1 complete, valves closed, release) plus the margin;
         ``PRE_ALARM``: that plus ``pre_alarm_lead`` (only when it is > 0).
     """
-    v = seq.ers_valve_time if valves_left is None else max(valves_left, 0.0)
+    v = valve_worst_time(seq) if valves_left is None else max(valves_left, 0.0)
     r = seq.erc_release_time if release_left is None else max(release_left, 0.0)
     release = v + r + seq.margin
     leads = {Severity.RELEASE: release, Severity.SECOND: release + seq.margin, Severity.ESD1: esd_lead(seq)}
@@ -134,6 +134,20 @@ class DriftFit:
     #: without waves would otherwise divide rounding noise by rounding noise).
     STEP_MIN = 0.02
 
+    #: Candidate ages of a break-out (an acceleration change: every line parted, the ship accelerating from its
+    #: drift), s: from 2 s to 30 s, every 0.4 s.
+    BREAKOUT_AGES = np.arange(2.0, 30.0 + 1e-9, 0.4)
+    #: Standardised acceleration change above which a break-out is taken as real (:meth:`breakout_statistic`;
+    #: calibrated on seas without one, docs/guidance.md section 5).
+    BREAKOUT_Z = 12.0
+    #: Smallest acceleration change taken as a break-out, m/s^2 (a fifth of the example berth's design 0.01).
+    BREAKOUT_MIN = 0.002
+    #: The waves' share of a hinge's curvature over a segment of age ``c``: ``k s_x / c^2`` for the test's
+    #: curvature-only hinge and for the estimate's velocity-and-curvature hinge (whose curvature the free
+    #: velocity change makes wander more). Calibrated on seas without a drift (Hs 0.5-1.5 m, the kinematic and
+    #: the moored ship): with these the largest no-drift statistic is about 5 on the kinematic ship (docs/guidance.md).
+    BREAKOUT_WAVE_K = (2.0 * math.sqrt(2.0), 8.0 * math.sqrt(2.0))
+
     def __init__(self, window: float, period: float = FIT_PERIOD, correlation: float = 2.0):
         self.n = max(int(round(window / period)), 8)
         self.period = period
@@ -155,6 +169,21 @@ class DriftFit:
         dXs = np.diff(Xs, axis=1)
         self.step_dgram = np.einsum("cni,cnj->cij", dXs, dXs)   # (C, 4, 4)
         self.step_ends = np.ascontiguousarray(Xs[:, [0, -1], :])  # (C, 2, 4): rows at both ends of the window
+        # break-out candidates: an acceleration change at age c, tested with the curvature hinge
+        # ``da h^2 / 2`` (h = max(0, tau + c)), estimated with ``dv h + da h^2 / 2``
+        mb = np.unique(np.round(self.BREAKOUT_AGES / period).astype(int))
+        self.bo_m = mb[(mb >= 3) & (mb <= self.n // 2)]
+        self.bo_ages = self.bo_m * period
+        h = period * np.maximum(0, np.arange(self.n)[None, :] - (self.n - 1 - self.bo_m[:, None]))
+        base = np.broadcast_to(self.X, (self.bo_m.size, self.n, 3))
+        Xb = np.concatenate([base, 0.5 * (h * h)[:, :, None]], axis=2)                  # (C, N, 4): the test
+        self.bo_XT = np.ascontiguousarray(np.swapaxes(Xb, 1, 2))                        # (C, 4, N)
+        self.bo_cov = np.linalg.inv(self.bo_XT @ Xb)
+        ddX = np.diff(Xb, n=2, axis=1)                          # (C, N - 2, 4): the second differences
+        self.bo_ddXT = np.ascontiguousarray(np.swapaxes(ddX, 1, 2))
+        self.bo_ddgram = self.bo_ddXT @ ddX
+        self.bo_X5 = np.concatenate([base, h[:, :, None], 0.5 * (h * h)[:, :, None]], axis=2)  # (C, N, 5)
+        self.bo_cov5 = np.linalg.inv(np.swapaxes(self.bo_X5, 1, 2) @ self.bo_X5)
         self.count = 0
         self.next_t: float | None = None
         self.t_last = math.nan
@@ -337,6 +366,100 @@ class DriftFit:
             age = max(age, c)
         return DriftEstimate(p, v, a, sp, sv, sa, wave, step_age=age)
 
+    def breakout_statistic(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The acceleration-change test over the full window, for every candidate age (needs a full window).
+
+        The window refitted with a hinge ``da h^2 / 2``, ``h = max(0, tau + c)``, added (a break-out: the ship
+        accelerating from its drift since ``c`` seconds ago); the velocity-step test's hinge is linear and sees a
+        break-out from rest late and too slow (found: at 0.01 m/s^2 to 0.27 m/s it estimated 0.08 m/s 15 s in,
+        where the ship made 0.15 m/s, and ESD-1 came 17 s before the face). A velocity step passes this test
+        too; :meth:`breakout_estimate` then fits the velocity change beside the curvature, so that a step is not
+        extrapolated as a large acceleration (found: it was, and the stock drift-off released 24 s early).
+
+        Returns
+        -------
+        z : ndarray, shape (C, 3)
+            Standardised acceleration change per candidate age and axis.
+        coef : ndarray, shape (C, 4, 3)
+            The curvature-hinge fits: rows position, velocity, acceleration before the change, acceleration
+            change.
+        sda : ndarray, shape (C, 3)
+            The standard deviation the acceleration change was divided by, m/s^2.
+        rss : ndarray, shape (C, 3)
+            The hinge fits' residual sums of squares, m^2.
+
+        Notes
+        -----
+        As for velocity steps, waves make a short segment's curvature wander far more than white noise: over a
+        segment of age ``c`` short against the wave period it is the wave's own acceleration, over a longer one
+        about ``2 sqrt(2) s_x / c^2`` (a parabola through two wave positions ``c`` apart). The change is divided
+        by the larger of the formal standard deviation (times :attr:`correlation`) and ``min(s_a, 2 sqrt(2) s_x
+        / c^2)``, with ``s_x`` and ``s_a`` the standard deviations of the hinge fit's residuals and of their
+        second rate. The residual sums come from the normal equations, as in :meth:`step_statistic`.
+        """
+        y = self.buf
+        xty = self.bo_XT @ y                                    # (C, 4, 3)
+        coef = self.bo_cov @ xty
+        rss = np.maximum(np.sum(y * y, axis=0) - np.sum(coef * xty, axis=1), 0.0)
+        ddy = np.diff(y, n=2, axis=0)
+        ddxty = self.bo_ddXT @ ddy
+        ssdd = np.maximum(np.sum(ddy * ddy, axis=0)
+                          + np.sum(coef * (self.bo_ddgram @ coef - 2.0 * ddxty), axis=1), 0.0)
+        s_x = np.sqrt(rss / (self.n - 4))
+        s_a = np.sqrt(ssdd / (self.n - 2)) / (self.period * self.period)
+        formal = self.correlation * s_x * np.sqrt(self.bo_cov[:, 3, 3])[:, None]
+        wave = np.minimum(s_a, self.BREAKOUT_WAVE_K[0] * s_x / (self.bo_ages[:, None] ** 2))
+        sda = np.maximum(formal, wave)
+        return np.abs(coef[:, 3, :]) / np.where(sda > 0, sda, np.inf), coef, sda, rss
+
+    def breakout_estimate(self) -> DriftEstimate | None:
+        """The drift after a break-out, if the window shows one (:attr:`BREAKOUT_Z`); else None.
+
+        Per axis where the acceleration change is significant, the hinge fit of the most significant age gives
+        the position, velocity and acceleration now; the other axes keep the plain fit.
+
+        Returns
+        -------
+        DriftEstimate or None
+            With ``step_age`` set to the break-out's age.
+        """
+        if self.count < self.n or self.bo_ages.size == 0:
+            return None
+        z, coef, _, rss = self.breakout_statistic()
+        best = np.argmax(z, axis=0)
+        cols = np.arange(3)
+        axes = np.flatnonzero((z[best, cols] > self.BREAKOUT_Z) & (np.abs(coef[best, 3, cols]) > self.BREAKOUT_MIN))
+        if axes.size == 0:
+            return None
+        # the onset's age: the best-fitting candidate (least squares; the most significant one is biased young,
+        # found: 8 s for a break-out 11.8 s old, and the acceleration twice the true one)
+        best = np.argmin(rss, axis=0)
+        plain = self.estimate()
+        p, v, a = plain.p.copy(), plain.v.copy(), plain.a.copy()
+        sp, sv, sa, wave = plain.sigma_p.copy(), plain.sigma_v.copy(), plain.sigma_a.copy(), plain.wave.copy()
+        age = 0.0
+        for ax in axes:
+            i = int(best[ax])
+            c = float(self.bo_ages[i])
+            X, cov = self.bo_X5[i], self.bo_cov5[i]
+            y = self.buf[:, ax]
+            b = cov @ (X.T @ y)                                 # the velocity and acceleration change at age c
+            res = y - X @ b
+            s = math.sqrt(float(res @ res) / (self.n - 5))
+            dd = np.diff(res, n=2)
+            s_a = math.sqrt(float(dd @ dd) / (self.n - 2)) / (self.period * self.period)
+            g_p = np.array([1.0, 0.0, 0.0, c, 0.5 * c * c])     # d(position now)/d(coef)
+            g_v = np.array([0.0, 1.0, 0.0, 1.0, c])
+            g_a = np.array([0.0, 0.0, 1.0, 0.0, 1.0])
+            p[ax], v[ax], a[ax] = float(g_p @ b), float(g_v @ b), float(g_a @ b)
+            sp[ax] = self.correlation * s * math.sqrt(float(g_p @ cov @ g_p))
+            sv[ax] = self.correlation * s * math.sqrt(float(g_v @ cov @ g_v))
+            sa[ax] = max(self.correlation * s * math.sqrt(float(g_a @ cov @ g_a)),
+                         min(s_a, self.BREAKOUT_WAVE_K[1] * s / (c * c)))
+            wave[ax] = float(np.max(np.abs(res)))
+            age = max(age, c)
+        return DriftEstimate(p, v, a, sp, sv, sa, wave, step_age=age)
+
 
 @dataclass(frozen=True, slots=True)
 class LimitForecast:
@@ -349,16 +472,21 @@ class LimitForecast:
     face : str
         The face (:data:`loadarm.faces.FACES`), ``""`` if none.
     route : str
-        ``"measured drift"`` or ``"design drift"``.
+        ``"design drift"``, ``"measured drift"``, ``"velocity step"`` or ``"break-out"``.
     by_face : tuple of (str, float)
         The time to each face crossed within the horizon, s, from the same scan: the nearest one's to the
         resolution, the others' the last scan time still inside (at most the scan's step early: never late).
+    measured : float
+        The time to the first face by the measured routes alone (drift, velocity step, break-out), s (``inf``
+        when none crosses within the horizon): what the pre-alarm, a warning of a drift actually seen, is
+        raised on (the design floor alone would make it a standing alarm at the nominal flange).
     """
 
     time: float
     face: str
     route: str
     by_face: tuple = ()
+    measured: float = math.inf
 
 
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -404,6 +532,7 @@ class EnvelopeMonitor:
         self.est_t = math.nan
         self.est_alarmed = False
         self.step_est: DriftEstimate | None = None
+        self.breakout_est: DriftEstimate | None = None
         self.step_t = math.nan
         self.step_pending = False
 
@@ -411,7 +540,7 @@ class EnvelopeMonitor:
         """A new connection: forget the drift history."""
         self.fit.reset()
         self.est, self.est_t, self.est_alarmed = None, math.nan, False
-        self.step_est, self.step_t, self.step_pending = None, math.nan, False
+        self.step_est, self.breakout_est, self.step_t, self.step_pending = None, None, math.nan, False
 
     def observe(self, t: float, p) -> bool:
         """Feed the attached flange position (from the encoders).
@@ -457,14 +586,17 @@ class EnvelopeMonitor:
         return est
 
     def test_step(self) -> DriftEstimate | None:
-        """Test the window for a velocity step (:meth:`DriftFit.step_estimate`) and keep the result for the
-        forecasts, as of the window's newest sample.
+        """Test the window for a velocity step (:meth:`DriftFit.step_estimate`) and for a break-out
+        (:meth:`DriftFit.breakout_estimate`) and keep the results for the forecasts, as of the window's newest
+        sample.
 
         Returns
         -------
         DriftEstimate or None
+            The velocity step's estimate (the break-out's is :attr:`breakout_est`).
         """
         self.step_est, self.step_t, self.step_pending = self.fit.step_estimate(), self.fit.t_last, False
+        self.breakout_est = self.fit.breakout_estimate()
         return self.step_est
 
     def _outside(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -545,14 +677,21 @@ class EnvelopeMonitor:
                                    base + d_v[:, None, None] * dirs_v[None]], axis=1)
 
         n_design = self.dirs_h.shape[0] + 2
-        routes = []
+        routes, names = [], []
         if est is not None:
             routes.append(self._measured(est, age))
-            if self.step_est is not None:
-                routes.append(self._measured(self.step_est, 0.0 if now is None else max(now - self.step_t, 0.0)))
+            names.append("measured drift")
+            step_age = 0.0 if now is None else max(now - self.step_t, 0.0)
+            for name, e in (("velocity step", self.step_est), ("break-out", self.breakout_est)):
+                if e is not None:
+                    routes.append(self._measured(e, step_age))
+                    names.append(name)
         if not routes:
             points = design
         else:
+
+            def measured(tau):
+                return np.concatenate([r(tau) for r in routes], axis=1)
 
             def points(tau):
                 return np.concatenate([design(tau)] + [r(tau) for r in routes], axis=1)   # one evaluation
@@ -562,8 +701,9 @@ class EnvelopeMonitor:
             return LimitForecast(math.inf, "", "")
         faces = tuple(sorted(by_face.items(), key=lambda kv: kv[1]))
         if k < n_design:
-            return LimitForecast(t, face, "design drift", faces)
-        return LimitForecast(t, face, "measured drift" if k < n_design + len(_CORNERS) else "velocity step", faces)
+            t_m = self._first_crossing(measured, horizon)[0] if routes else math.inf
+            return LimitForecast(t, face, "design drift", faces, t_m)
+        return LimitForecast(t, face, names[(k - n_design) // len(_CORNERS)], faces, t)
 
     def _measured(self, est: DriftEstimate, age: float):
         """The measured route of one drift estimate: ``tau`` (shape (T,)) to the corners of its box (T, 8, 3).

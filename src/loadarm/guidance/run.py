@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..check import MANIFOLD_CLEARANCE
 from ..eventlog import EventLog, RateLimiter
 from ..faces import FACES, face_margins, first_face
 from ..slew import forward3d, inverse3d, reach_mask3d
@@ -37,12 +38,11 @@ from .ship import flange_motion
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from ..model import ArmModel
 
-__all__ = ["RUN_METRICS", "RunResult", "run_scenario", "ClosedLoop", "SimulatedPlant", "ScriptedOperator", "ArmPlant", "ErsValves", "wall_clock_pacer",
+__all__ = ["RUN_METRICS", "FAILURES", "RunResult", "run_scenario", "ClosedLoop", "SimulatedPlant", "ScriptedOperator", "ArmPlant", "ErsValves", "wall_clock_pacer",
            "MODES", "MANIFOLD_CLEARANCE"]
 
-#: Distance the coupler must put between itself and the ship's flange after a release, m (clear of the
-#: manifold's spool piece and the ship's rail), and the time it has to do so, s.
-MANIFOLD_CLEARANCE = 1.0
+#: The time the coupler has to put :data:`loadarm.check.MANIFOLD_CLEARANCE` between itself and the ship's flange
+#: after a release, s.
 CLEARANCE_TIME = 30.0
 
 
@@ -75,9 +75,19 @@ def wall_clock_pacer(speedup: float = 1.0) -> Callable[[float], None]:
 MODES = tuple(m.value for m in Mode)
 
 
+#: The ways a run fails the safety chain, declared once (codes; the words are for people): the run's verdict, the
+#: campaign's counters and ``loadarm run``'s exit status all read these.
+FAILURES = {
+    "overstretch_before_isolation": "the arm overstretched before the ERS valves were confirmed closed (live product)",
+    "overstretch": "the arm overstretched",
+    "opened_on_live_product": "the coupler began to open before the ERS valves were confirmed closed",
+    "missed_alarm": "the flange reached a face before the release completed",
+}
+
 #: The headline numbers of a guidance run, declared once.
 RUN_METRICS = (
     Metric("scenario", "scenario"),
+    Metric("verdict", "verdict"),
     Metric("duration_s", "simulated", "s", ".1f"),
     Metric("final_mode", "final mode"),
     Metric("alarm1_s", "first alarm (ESD-1)", "s", ".2f", none="-"),
@@ -87,6 +97,7 @@ RUN_METRICS = (
     Metric("overstretched_s", "overstretched", "s", ".2f", none="no"),
     Metric("release_margin_s", "release margin to the limit", "s", ".2f", none="-"),
     Metric("cleared_s", "coupler clear of the manifold", "s", ".2f", none="-"),
+    Metric("retracted_s", "arm retracted clear of its release point", "s", ".2f", none="-"),
     Metric("connected_s", "time connected", "s", ".1f"),
     Metric("max_beta_deg", "max beta", "deg", ".1f"),
     Metric("max_abs_slew_deg", "max |slew|", "deg", ".1f"),
@@ -154,6 +165,51 @@ class RunResult(Result):
             return None
         return self.limit_at - t_rel
 
+    def failures(self) -> tuple[str, ...]:
+        """How the run failed the safety chain: codes of :data:`FAILURES` (empty: it held).
+
+        An overstretch is ``overstretch_before_isolation`` when it came before the ERS valves' confirmation (or
+        with none), product still live in the arm; ``missed_alarm`` is a face reached within the run before the
+        release completed (the attached arm overstretched, or would have).
+
+        Returns
+        -------
+        tuple of str
+        """
+        out = []
+        confirmed = self.first("interlock", "ERS valves confirmed closed")
+        if self.overstretched_at is not None:
+            live = confirmed is None or self.overstretched_at < confirmed
+            out.append("overstretch_before_isolation" if live else "overstretch")
+        opened = self.first("command", "coupler opening")
+        if opened is not None and (confirmed is None or opened < confirmed):
+            out.append("opened_on_live_product")
+        done, limit = self.first("command", "release complete"), self.limit_at
+        if limit is not None and limit <= float(self.signals["t"][-1]) and (done is None or done > limit):
+            out.append("missed_alarm")
+        return tuple(out)
+
+    def verdict(self) -> str:
+        """``"pass"``, or ``"FAILED: "`` and what failed, in words (:data:`FAILURES`), with its times.
+
+        Returns
+        -------
+        str
+        """
+        fails = self.failures()
+        if not fails:
+            return "pass"
+        words = []
+        for code in fails:
+            text = FAILURES[code]
+            if code.startswith("overstretch"):
+                confirmed = self.first("interlock", "ERS valves confirmed closed")
+                text += f" at {self.overstretched_at:.2f} s" + (
+                    "" if confirmed is None or code == "overstretch"
+                    else f", {confirmed - self.overstretched_at:.2f} s before the confirmation")
+            words.append(text)
+        return "FAILED: " + "; ".join(words)
+
     def cleared_at(self) -> float | None:
         """First time after the release the coupler is :data:`MANIFOLD_CLEARANCE` from the flange, s.
 
@@ -168,6 +224,23 @@ class RunResult(Result):
         ok = np.flatnonzero((s["t"] >= t_rel) & (s["distance"] >= MANIFOLD_CLEARANCE))
         return float(s["t"][ok[0]]) if ok.size else None
 
+    def retracted_at(self) -> float | None:
+        """First time after the release the coupler is :data:`~loadarm.check.MANIFOLD_CLEARANCE` from where it was
+        released, s: the arm itself moved clear (the flange may also have left on its own, :meth:`cleared_at`).
+
+        Returns
+        -------
+        float or None
+        """
+        t_rel = self.first("command", "release complete")
+        if t_rel is None:
+            return None
+        s = self.signals
+        k0 = int(np.searchsorted(s["t"], t_rel))
+        p = np.stack([s["x"][k0:], s["y"][k0:], s["z"][k0:]], axis=1)
+        ok = np.flatnonzero(np.linalg.norm(p - p[0], axis=1) >= MANIFOLD_CLEARANCE)
+        return float(s["t"][k0 + ok[0]]) if ok.size else None
+
     def _figure(self):
         from ..plotting import run_timeline_figure
 
@@ -180,6 +253,8 @@ class RunResult(Result):
         seq = [modes[0]] + [m for a, m in zip(modes, modes[1:]) if m != a]
         return {
             "scenario": self.name,
+            "verdict": self.verdict(),
+            "failures": list(self.failures()),
             "duration_s": float(s["t"][-1]),
             "mode_sequence": seq,
             "final_mode": modes[-1],
@@ -194,6 +269,7 @@ class RunResult(Result):
             "valves_confirmed_s": self.first("interlock", "ERS valves confirmed closed"),
             "coupler_opening_s": self.first("command", "coupler opening"),
             "cleared_s": self.cleared_at(),
+            "retracted_s": self.retracted_at(),
             "connected_s": float(np.sum(np.diff(s["t"]) * (s["connected"][:-1] > 0))),
             "max_beta_deg": float(np.degrees(np.nanmax(s["beta"]))),
             "max_abs_slew_deg": float(np.degrees(np.nanmax(np.abs(s["phi"])))),
@@ -281,8 +357,9 @@ class ArmPlant:
     emit : callable
         ``emit(t, mode, kind, reason, data)`` for the plant's own events (overstretch, servo fault, HPU trip).
     hpu_trip_at : float, optional
-        Time the hydraulic power unit trips: from then on the drives cannot move the arm (the ERS valves and
-        the coupler's release run on their accumulator, see :func:`loadarm.check.accumulator_check`).
+        Time the hydraulic power unit trips: from then on the ERS valves, the coupler's release and the drives
+        run on the ERS accumulator (:func:`loadarm.check.design_check` sizes it), the drives until its oil is
+        spent.
 
     Notes
     -----
@@ -309,6 +386,14 @@ class ArmPlant:
         self.was_released = False
         self.hpu_trip_at = hpu_trip_at
         self.hpu_tripped = False
+        self.model = model
+        from ..check import accumulator_usable_volume
+
+        acc = model.accumulator
+        #: Oil left for the drives after an HPU trip, m^3: the accumulator's usable volume less what the ERS
+        #: valves and the coupler's release take first.
+        self.oil_left = accumulator_usable_volume(acc.volume, acc.precharge, acc.charged_pressure, acc.min_pressure,
+                                                  acc.polytropic_index) - acc.required_volume
         self.overstretched: float | None = None
 
     def step(self, now: float, dt: float, cmd, f: np.ndarray) -> np.ndarray:
@@ -330,19 +415,34 @@ class ArmPlant:
         """
         if self.hpu_trip_at is not None and now >= self.hpu_trip_at and not self.hpu_tripped:
             self.hpu_tripped = True
-            self.emit(now, cmd.mode.value, "alarm", "HPU trip: the drives have no pressure; the ERS valves and the "
-                      "coupler's release run on the accumulator", {})
+            self.emit(now, cmd.mode.value, "alarm", "HPU trip: the pumps have stopped; the ERS valves, the "
+                      "coupler's release and the retraction run on the accumulator", {})
         if cmd.connected:
             q_before = self.q.copy()
             self._follow_flange(now, cmd, f)
             self.attached_rates = (self.q - q_before) / dt
         elif self.hpu_tripped:
-            pass                          # no pressure: the arm stays where it is (brakes / load-holding valves)
+            self._drive_on_accumulator(now, dt, cmd)
         else:
             self._drive(now, dt, cmd)
         self.was_connected = cmd.connected
         self.was_released = cmd.release if cmd.connected else self.was_released
         return self.q
+
+    def _drive_on_accumulator(self, now: float, dt: float, cmd) -> None:
+        """With the HPU tripped the drives run on what the ERS left in the accumulator, metered by the oil the
+        cylinders draw (:func:`loadarm.check.cylinder_oil`); once it is spent the arm stays where it is (brakes,
+        load-holding valves). The supply pressure is taken as held above the minimum working pressure until
+        then (the accumulator's usable volume is counted down to it)."""
+        if self.oil_left <= 0.0:
+            return
+        from ..check import cylinder_oil
+
+        q0 = self.q.copy()
+        self._drive(now, dt, cmd)
+        self.oil_left -= cylinder_oil(self.model, q0, self.q)
+        if self.oil_left <= 0.0:
+            self.emit(now, cmd.mode.value, "alarm", "ERS accumulator spent: the arm stops where it is", {})
 
     def _follow_flange(self, now: float, cmd, f: np.ndarray) -> None:
         arm = self.arm
@@ -384,24 +484,29 @@ class ArmPlant:
 
 
 class ErsValves:
-    """The ERS double-block valves and their closed limit switches (plant side).
+    """The ERS double-block valves and their two independent closed limit switches (plant side).
 
     Parameters
     ----------
     closing_time : float
         From the close command to both limit switches made, s (the installation's ``ers_valve_time``).
     stuck : bool
-        Fault: the valves never confirm closed.
+        Fault: the valves never close.
     delay : float
         Fault: extra closing time, s.
+    false_closed_at : float or None
+        Fault: from this time the first switch reads closed whatever the valves do (the case two switches exist
+        for: with one, the coupler would open on live product), s.
     """
 
-    def __init__(self, closing_time: float, *, stuck: bool = False, delay: float = 0.0):
+    def __init__(self, closing_time: float, *, stuck: bool = False, delay: float = 0.0,
+                 false_closed_at: float | None = None):
         self.closing_time = closing_time + delay
         self.stuck = stuck
+        self.false_closed_at = false_closed_at
         self.since: float | None = None
 
-    def step(self, now: float, close: bool) -> bool:
+    def step(self, now: float, close: bool) -> tuple[bool, bool]:
         """Advance to ``now`` under the command; report the limit switches.
 
         Parameters
@@ -413,15 +518,94 @@ class ErsValves:
 
         Returns
         -------
-        bool
-            Closed and confirmed.
+        tuple of bool
+            Each closed limit switch made.
         """
         if not close:
             self.since = None
-            return False
-        if self.since is None:
-            self.since = now
-        return (not self.stuck) and now - self.since >= self.closing_time - 1e-9
+            closed = False
+        else:
+            if self.since is None:
+                self.since = now
+            closed = (not self.stuck) and now - self.since >= self.closing_time - 1e-9
+        false = self.false_closed_at is not None and now >= self.false_closed_at - 1e-9
+        return (True if false else closed, closed)
+
+
+class AngleSensors:
+    """The joint-angle sensors (plant side): each axis's angle encoder (the primary channel, which the scenario's
+    encoder fault strikes) and its second channel, per the installation's ``[encoder] redundancy``
+    (:mod:`loadarm.guidance.voting`).
+
+    Parameters
+    ----------
+    model : ArmModel
+        Mounting (the cylinder channel), ``encoder`` record (redundancy, resolution).
+    faults : Faults
+        The scenario's ``[faults]`` (``encoder_fault``, ``encoder_fault_axis``, ``encoder_fault_at``,
+        ``encoder_drift_rate_deg``).
+    """
+
+    def __init__(self, model: ArmModel, faults):
+        from .voting import AXES
+
+        self.mount, self.enc = model.mount, model.encoder
+        self.fault, self.at = faults.encoder_fault, faults.encoder_fault_at
+        self.axis = AXES.index(faults.encoder_fault_axis)
+        self.rate = math.radians(faults.encoder_drift_rate_deg)
+        self.held: float | None = None
+
+    def primary(self, now: float, q) -> np.ndarray:
+        """The angle encoders' readings at ``now``, rad.
+
+        Parameters
+        ----------
+        now : float
+            Time, s.
+        q : array_like, shape (3,)
+            The true joint angles, rad.
+
+        Returns
+        -------
+        ndarray, shape (3,)
+        """
+        out = np.array(q, dtype=float)
+        if self.fault == "none" or now < self.at - 1e-9:
+            return out
+        j = self.axis
+        if self.fault == "frozen":
+            if self.held is None:
+                self.held = float(out[j])
+            out[j] = self.held
+        elif self.fault == "drift":
+            out[j] += self.rate * (now - self.at)
+        else:
+            out[j] = math.nan
+        return out
+
+    def second(self, q) -> tuple | None:
+        """The second channel's readings, rad (None without redundancy).
+
+        Parameters
+        ----------
+        q : array_like, shape (3,)
+            The true joint angles, rad.
+
+        Returns
+        -------
+        tuple of float or None
+        """
+        red = self.enc.redundancy
+        if red == "none":
+            return None
+        if red == "dual":
+            return tuple(float(v) for v in q)
+        from ..actuators import cylinder_lengths, joint_angles_from_cylinders
+
+        res = self.enc.resolution
+        r1, r2 = cylinder_lengths(self.mount, q[1], q[2])
+        a, b = joint_angles_from_cylinders(self.mount, np.round(r1 / res) * res, np.round(r2 / res) * res)
+        return (float(q[0]), float(a), float(b))
 
 
 def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
@@ -505,14 +689,17 @@ class SimulatedPlant:
         self.arm = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, emit,
                             hpu_trip_at=sc.faults.hpu_trip_at)
         self.valves = ErsValves(model.sequence.ers_valve_time, stuck=sc.faults.ers_valve_stuck,
-                                delay=sc.faults.ers_valve_delay)
-        self.feedback = PlantFeedback()
+                                delay=sc.faults.ers_valve_delay, false_closed_at=sc.faults.ers_switch_false_closed_at)
+        self.sensors = AngleSensors(model, sc.faults)
+        self.feedback = PlantFeedback(angles=self.sensors.second(self.arm.q))
+        self._t = 0.0
         self._ir = 0
 
     @property
     def q(self) -> np.ndarray:
-        """Joint angles (slew, alpha, beta), rad: the encoders."""
-        return self.arm.q
+        """Joint angles (slew, alpha, beta), rad: the angle encoders (the primary channel; the second is in
+        :attr:`feedback`)."""
+        return self.sensors.primary(self._t, self.arm.q)
 
     @property
     def servo_fault(self) -> bool:
@@ -541,9 +728,13 @@ class SimulatedPlant:
         return out
 
     def step(self, k: int, now: float, dt: float, cmd) -> tuple[np.ndarray, np.ndarray]:
-        """Apply cycle ``k``'s command: the ERS valves, then the arm; returns the joints and the true flange."""
-        self.feedback = PlantFeedback(ers_valves_closed=self.valves.step(now, cmd.close_ers_valves))
-        return self.arm.step(now, dt, cmd, self.flange[k]), self.flange[k]
+        """Apply cycle ``k``'s command: the ERS valves, then the arm; returns the true joints and the true
+        flange (the sensors' readings of the new pose are the next cycle's :attr:`q` and :attr:`feedback`)."""
+        switches = self.valves.step(now, cmd.close_ers_valves)
+        q = self.arm.step(now, dt, cmd, self.flange[k])
+        self._t = now + dt
+        self.feedback = PlantFeedback(ers_switches=switches, angles=self.sensors.second(q))
+        return q, self.flange[k]
 
     def first_limit(self, model: ArmModel, sig: dict) -> tuple[float | None, str]:
         """The first time the true flange is past a face after the connection (:func:`_first_limit`)."""

@@ -176,7 +176,19 @@ class Faults(_S):
                                     description="extra closing time of the ERS valves beyond ers_valve_time")
     hpu_trip_at: float | None = _param(None, unit="s", ge=0, source="none by default",
                                        description="time the hydraulic power unit trips: the drives stop, the "
-                                                   "ERS runs on its accumulator")
+                                                   "ERS and the retraction run on its accumulator")
+    ers_switch_false_closed_at: float | None = _param(None, unit="s", ge=0, source="fault injection (none by default)",
+                                                      description="from this time one of the two ERS valve closed "
+                                                                  "limit switches reads closed whatever the valves do")
+    encoder_fault: Literal["none", "frozen", "drift", "failed"] = Field(
+        "none", description="fault of one joint-angle encoder (the primary channel of encoder_fault_axis): frozen "
+                            "at its reading, drifting at encoder_drift_rate_deg, or failed (no reading)",
+        json_schema_extra={"unit": "", "source": "fault injection"})
+    encoder_fault_axis: Literal["slew", "alpha", "beta"] = Field(
+        "beta", description="the axis whose encoder fails", json_schema_extra={"unit": "", "source": "fault injection"})
+    encoder_fault_at: float = _param(0.0, unit="s", ge=0, source="fault injection", description="time the encoder fails")
+    encoder_drift_rate_deg: float = _param(0.2, unit="deg/s", ge=-10, le=10, source="fault injection",
+                                           description="how fast a drifting encoder's reading walks away")
 
 
 class EnvironmentOverride(_S):
@@ -473,7 +485,8 @@ def check_drift_window(g: Guidance, seq, *, source: str = "<guidance>") -> None:
     if w > 2 * lead:
         raise ConfigError(
             f"{source}: guidance.drift_window = {w:g} s is too slow for the sequence it protects (at most twice the "
-            f"first alarm's lead, max(esd_time, ers_valve_time) + erc_release_time + margin = {lead:g} s): a drift "
+            f"first alarm's lead, max(esd_time, ers_valve_time + ers_valve_timeout) + erc_release_time + margin = "
+            f"{lead:g} s): a drift "
             f"would reach the limit before the fit saw it; valid range (5, {2 * lead:g}] s")
 
 

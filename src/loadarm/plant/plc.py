@@ -482,7 +482,9 @@ class PlcLink:
         from ..guidance.controller import PlantFeedback
 
         i = self._inputs
-        return PlantFeedback(ers_valves_closed=bool(i and self.link_ok and i["ERSValvesClosed"]))
+        # the PLC reads both closed limit switches and votes them itself (it owns the ERS interlock); one signal
+        # here, and the angles are its encoders' (no second channel over the link)
+        return PlantFeedback(ers_switches=(bool(i and self.link_ok and i["ERSValvesClosed"]),))
 
     def arrived(self, now: float):
         """The tracker's new readings since the last call, from the PLC's buffer (their times moved onto the

@@ -565,11 +565,14 @@ async def _state_machine(server, parent, ns: int, name: str, states) -> _StateMa
 
 
 #: OPC UA severity (1-1000) of each annunciated alarm: the one alarm severity, scaled.
-CONDITION_SEVERITY = {"PRE_ALARM": 300, "ESD1": 600, "SECOND": 800, "RELEASE": 1000, "ERS_VALVE_FAULT": 800}
+CONDITION_SEVERITY = {"PRE_ALARM": 300, "ESD1": 600, "SECOND": 800, "RELEASE": 1000, "ERS_VALVE_FAULT": 800,
+                      "ERS_SWITCH_FAULT": 800, "SENSOR_FAULT": 800}
 #: What each annunciated alarm means, for its condition's message.
 CONDITION_TEXT = {"PRE_ALARM": "pre-alarm: the flange nears the ESD-1 threshold", "ESD1": "ESD-1: pumps stopped, "
                   "ERS valves closing", "SECOND": "second alarm: release imminent", "RELEASE": "ERS-2: release of the "
-                  "coupler", "ERS_VALVE_FAULT": "ERS valves not confirmed closed in time"}
+                  "coupler", "ERS_VALVE_FAULT": "ERS valves not confirmed closed in time",
+                  "ERS_SWITCH_FAULT": "ERS valves' closed limit switches disagree",
+                  "SENSOR_FAULT": "a joint-angle sensor is frozen, drifting or failed"}
 
 
 class _Condition:

@@ -31,7 +31,7 @@ import numpy as np
 from .._numba import njit
 
 from ..alarms import BETA_TOL_RAD, LEVEL_RELEASE, UNREACHABLE, zone_level
-from ..check import esd_lead
+from ..check import esd_lead, valve_worst_time
 from ..faces import breakout_distance, past_a_face, past_a_face_at
 
 __all__ = ["FloorTable", "floor_table", "ray_distances", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS",
@@ -246,8 +246,10 @@ def floor_table(model, lo, hi, *, spacing: float = 0.2) -> FloorTable:
 
 
 @njit(cache=True, nogil=True)
-def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1):
-    """The alarm sequence over one record: returns (stage reached, i_esd1, i_release, min time-to-limit)."""
+def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1, valve_worst):
+    """The alarm sequence over one record: returns (stage reached, i_esd1, i_release, min time-to-limit). The
+    valves confirm ``ers_valve_time`` after ESD-1 (intact valves); until then the leads count ``valve_worst``
+    (:func:`loadarm.check.valve_worst_time`) from ESD-1, as the controller does."""
     n = level.shape[0]
     raised = 0
     i_esd = -1
@@ -260,9 +262,10 @@ def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1):
         lv = level[i]
         # the leads of the stages, shrinking once ESD-1 runs (valves closing)
         if i_esd >= 0:
-            valves_left = max(i_esd * dt + ers_valve_time - t, 0.0)
+            confirmed = t >= i_esd * dt + ers_valve_time - 1e-9
+            valves_left = 0.0 if confirmed else max(i_esd * dt + valve_worst - t, 0.0)
         else:
-            valves_left = ers_valve_time
+            valves_left = valve_worst
         rel_lead = valves_left + erc_release_time + margin
         sec_lead = rel_lead + margin
         esd_lead_now = max(lead_esd1, sec_lead)
@@ -489,7 +492,7 @@ def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> Record
         ttl[away] = t_away
     seq = model.sequence
     stage, i1, ir, tmin = _scan(level, ttl, dt, seq.ers_valve_time, seq.erc_release_time, seq.margin,
-                                esd_lead(seq))
+                                esd_lead(seq), valve_worst_time(seq))
     return RecordMonitor(int(stage), i1 * dt if i1 >= 0 else math.nan, ir * dt if ir >= 0 else math.nan,
                          float(np.degrees(bmax)), float(np.degrees(smax)), float(zmax - zmin), float(tmin),
                          bool(outside))

@@ -1,0 +1,212 @@
+"""Redundant joint-angle sensors: detect a frozen, drifting or failed channel, vote, and say when no vote is possible.
+
+One encoder per axis feeding the forward kinematics is a single point of failure: a frozen beta encoder hides the
+elbow's stretch from every position alarm and from the time-to-limit monitor. The installation's ``[encoder]
+redundancy`` gives each axis a second channel (:func:`loadarm.guidance.run.AngleSensors`):
+
+* ``dual``: two angle encoders per axis;
+* ``cylinder``: the angle encoder against the angle the cylinder-length transducer gives through the pin
+  geometry (:func:`loadarm.actuators.joint_angles_from_cylinders`) for alpha and beta, two encoders on the slew.
+
+Each cycle :func:`vote` compares the two channels of each axis:
+
+* a channel that reads NaN or infinity has **failed** (a broken wire, a dead encoder), at once;
+* a channel whose value has not changed for ``frozen_time`` while the other moved by more than a tenth of the
+  tolerance is **frozen**;
+* channels further apart than the tolerance for ``persist`` seconds disagree (a **drifting** channel, or a frozen
+  one the other has left behind): the third opinion, the flange tracker's estimate through the inverse kinematics
+  (only while the coupler is on the flange), names the channel that is wrong; without it no vote is possible and
+  the axis is **lost**.
+
+A channel found wrong stays rejected (latched) until the operator's reset while the two agree again: a sensor that
+failed once is not trusted again without a look. The controller (:mod:`loadarm.guidance.controller`) takes the
+voted angles; with an axis lost it fails safe (ESD-1 while attached, no motion otherwise).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["AXES", "VoteState", "Vote", "vote", "reset_votes"]
+
+#: The axes, in the order of the joint vector.
+AXES = ("slew", "alpha", "beta")
+#: A channel's channel names, by index.
+CHANNELS = ("primary", "second")
+
+
+@dataclass
+class VoteState:
+    """What the voter remembers between cycles (mutable, like the controller's state).
+
+    Attributes
+    ----------
+    rejected : list of (int or None)
+        Per axis: the channel found wrong (0 primary, 1 second), latched; None if neither.
+    lost : list of bool
+        Per axis: the channels disagree and nothing tells which is right.
+    odd_since : list of (float or None)
+        Per axis: since when the channels disagree, s.
+    last : ndarray, shape (2, 3)
+        Each channel's last reading, rad.
+    changed_at : ndarray, shape (2, 3)
+        When each channel's reading last changed, s.
+    other_at_change : ndarray, shape (2, 3)
+        The other channel's reading at that time, rad.
+    why : list of str
+        Per axis: why the channel was rejected or the axis lost (for the operator).
+    """
+
+    rejected: list = field(default_factory=lambda: [None, None, None])
+    lost: list = field(default_factory=lambda: [False, False, False])
+    odd_since: list = field(default_factory=lambda: [None, None, None])
+    last: np.ndarray = field(default_factory=lambda: np.full((2, 3), np.nan))
+    changed_at: np.ndarray = field(default_factory=lambda: np.zeros((2, 3)))
+    other_at_change: np.ndarray = field(default_factory=lambda: np.full((2, 3), np.nan))
+    why: list = field(default_factory=lambda: ["", "", ""])
+
+    @property
+    def status(self) -> str:
+        """``"ok"``, ``"degraded"`` (a channel rejected, the other used) or ``"lost"`` (an axis without a vote)."""
+        if any(self.lost):
+            return "lost"
+        return "degraded" if any(r is not None for r in self.rejected) else "ok"
+
+
+@dataclass(frozen=True, slots=True)
+class Vote:
+    """One cycle's vote.
+
+    Attributes
+    ----------
+    q : tuple of float
+        The angles to use (slew, alpha, beta), rad.
+    found : tuple of (int, str)
+        Axes whose channel was rejected or which were lost this cycle, with the reason (for the event log).
+    """
+
+    q: tuple
+    found: tuple = ()
+
+
+def _frozen(st: VoteState, now: float, ch: np.ndarray, j: int, tol: float, frozen_time: float) -> int | None:
+    """The channel of axis ``j`` frozen (unchanged while the other moved), or None."""
+    for c in (0, 1):
+        if ch[c, j] != st.last[c, j]:
+            st.last[c, j], st.changed_at[c, j], st.other_at_change[c, j] = ch[c, j], now, ch[1 - c, j]
+    for c in (0, 1):
+        moved = abs(ch[1 - c, j] - st.other_at_change[c, j])
+        if now - st.changed_at[c, j] >= frozen_time and moved > 0.1 * tol:
+            return c
+    return None
+
+
+def _judge_axis(st: VoteState, now: float, ch: np.ndarray, j: int, ref, tol: float, persist: float,
+                frozen_time: float) -> str:
+    """Judge axis ``j``: reject a channel or lose the axis; returns why ("" if nothing new)."""
+    a, b = float(ch[0, j]), float(ch[1, j])
+    finite = (math.isfinite(a), math.isfinite(b))
+    if not all(finite):
+        if not any(finite):
+            return "both channels failed (no reading)"
+        st.rejected[j] = 0 if not finite[0] else 1
+        return f"{CHANNELS[st.rejected[j]]} channel failed (no reading)"
+    frozen = _frozen(st, now, ch, j, tol, frozen_time)
+    if frozen is not None:
+        st.rejected[j] = frozen
+        return (f"{CHANNELS[frozen]} channel frozen (unchanged for {now - st.changed_at[frozen, j]:.1f} s while the "
+                f"other moved {math.degrees(abs(ch[1 - frozen, j] - st.other_at_change[frozen, j])):.2f} deg)")
+    if abs(a - b) <= tol:
+        st.odd_since[j] = None
+        return ""
+    if st.odd_since[j] is None:
+        st.odd_since[j] = now
+    if now - st.odd_since[j] < persist:
+        return ""
+    gap = f"{math.degrees(abs(a - b)):.2f} deg apart for {now - st.odd_since[j]:.1f} s"
+    if ref is not None and math.isfinite(ref[j]):
+        da, db = abs(a - ref[j]), abs(b - ref[j])
+        if min(da, db) <= tol:
+            c = st.rejected[j] = 0 if da > db else 1
+            still = now - st.changed_at[c, j]
+            what = f"frozen (unchanged for {still:.1f} s)" if st.changed_at[c, j] <= st.odd_since[j] else "drifted"
+            return f"{CHANNELS[c]} channel {what} ({gap}; the flange tracker agrees with the other)"
+    return f"channels disagree ({gap}) and nothing tells which is right"
+
+
+def vote(st: VoteState, now: float, channels, ref=None, *, tol: float, persist: float,
+         frozen_time: float) -> Vote:
+    """Vote this cycle's angles from two channels per axis.
+
+    Parameters
+    ----------
+    st : VoteState
+        The voter's memory (updated).
+    now : float
+        Time, s.
+    channels : array_like, shape (2, 3)
+        The primary and the second channel's readings (slew, alpha, beta), rad.
+    ref : array_like, shape (3,), optional
+        A third opinion: the flange tracker's estimate through the inverse kinematics, rad (while attached).
+    tol : float
+        Largest difference between two healthy channels, rad.
+    persist : float
+        How long a difference must last before a channel is judged, s (no verdict on one noisy sample).
+    frozen_time : float
+        How long a channel may read the same value while the other moves, s.
+
+    Returns
+    -------
+    Vote
+    """
+    ch = np.asarray(channels, dtype=float)
+    found = []
+    q = []
+    for j in range(3):
+        if st.rejected[j] is None and not st.lost[j]:
+            why = _judge_axis(st, now, ch, j, ref, tol, persist, frozen_time)
+            if why:
+                if st.rejected[j] is None:
+                    st.lost[j] = True
+                st.why[j] = why
+                found.append((j, why))
+        elif st.lost[j]:                         # the tracker or the frozen test may settle it later
+            why = _judge_axis(st, now, ch, j, ref, tol, persist, frozen_time)
+            if st.rejected[j] is not None:
+                st.lost[j] = False
+                st.why[j] = why
+                found.append((j, why))
+        use = 1 if st.rejected[j] == 0 else 0
+        q.append(float(ch[use, j]))
+    return Vote(tuple(q), tuple(found))
+
+
+def reset_votes(st: VoteState, channels, *, tol: float) -> list[int]:
+    """The operator's reset: trust again each axis whose two channels agree now.
+
+    Parameters
+    ----------
+    st : VoteState
+    channels : array_like, shape (2, 3)
+        The readings now, rad.
+    tol : float
+        Agreement tolerance, rad.
+
+    Returns
+    -------
+    list of int
+        The axes trusted again.
+    """
+    ch = np.asarray(channels, dtype=float)
+    back = []
+    for j in range(3):
+        if (st.rejected[j] is not None or st.lost[j]) and np.all(np.isfinite(ch[:, j])) \
+                and abs(ch[0, j] - ch[1, j]) <= tol:
+            st.rejected[j], st.lost[j], st.odd_since[j], st.why[j] = None, False, None, ""
+            st.changed_at[:, j] = np.nan        # restart the frozen test from the next reading
+            st.last[:, j] = np.nan
+            back.append(j)
+    return back

@@ -26,6 +26,9 @@ from .eventlog import KINDS
 
 EXIT_CODES = "Exit codes: 0 ok, 1 internal error (a bug; LOADARM_DEBUG=1 shows the traceback), 2 bad input, 130 interrupted."
 
+#: Exit status of `loadarm run` when the run's verdict is FAILED (0 success, 1 internal error, 2 bad input).
+SAFETY_FAILED = 3
+
 app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
                   help="Automatic guidance of marine loading arms: sizing, envelope, straight-line approach, "
                        "hydraulics, live guidance, event log, report.",
@@ -554,7 +557,7 @@ def run(
     else:
         _print_run(s, None if log is None else f"  events logged to {db} (run {run_id})")
     if s["failures"]:
-        raise typer.Exit(1)                      # the safety chain failed: a script must not read success
+        raise typer.Exit(SAFETY_FAILED)          # the safety chain failed: a script must not read success
 
 
 def _print_run(s: dict, logged: str | None) -> None:
@@ -1247,7 +1250,7 @@ def main(argv: list[str] | None = None) -> int:
     Returns
     -------
     int
-        0 ok, 1 internal error, 2 bad input, 130 interrupted.
+        0 ok, 1 internal error, 2 bad input, 3 a run whose verdict is FAILED (``loadarm run``), 130 interrupted.
     """
     args = sys.argv[1:] if argv is None else argv
     try:

@@ -498,9 +498,11 @@ class GuidanceController:
             for j in reset_votes(st, channels, tol=self.angle_tol):
                 self._event("info", f"{AXES[j]} angle sensors agree again: both trusted after the operator's reset")
         ref = None
-        if self.attached() and est.healthy:         # out of reach: NaN, no opinion (found: check=True raised)
-            qq = inverse3d(self.arm, *est.position, check=False)
-            ref = (float(qq.phi), float(qq.alpha), float(qq.beta))
+        if self.attached() and est.healthy:
+
+            def ref():                              # out of reach: NaN, no opinion (found: check=True raised)
+                qq = inverse3d(self.arm, *est.position, check=False)
+                return (float(qq.phi), float(qq.alpha), float(qq.beta))
         v = vote(st, now, channels, ref, tol=self.angle_tol, persist=self.vote_persist, frozen_time=self.frozen_time)
         for j, why in v.found:
             used = "" if st.lost[j] else "; using the other channel"

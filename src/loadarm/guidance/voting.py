@@ -92,6 +92,18 @@ class Vote:
     found: tuple = ()
 
 
+class _Lazy:
+    """A third opinion computed on first use (the inverse kinematics costs more than the whole vote)."""
+
+    def __init__(self, fn):
+        self.fn, self.value, self.done = fn, None, False
+
+    def get(self):
+        if not self.done:
+            self.value, self.done = self.fn(), True
+        return self.value
+
+
 def _frozen(st: VoteState, now: float, ch: np.ndarray, j: int, tol: float, frozen_time: float) -> int | None:
     """The channel of axis ``j`` frozen (unchanged while the other moved), or None."""
     for c in (0, 1):
@@ -127,6 +139,8 @@ def _judge_axis(st: VoteState, now: float, ch: np.ndarray, j: int, ref, tol: flo
     if now - st.odd_since[j] < persist:
         return ""
     gap = f"{math.degrees(abs(a - b)):.2f} deg apart for {now - st.odd_since[j]:.1f} s"
+    if isinstance(ref, _Lazy):
+        ref = ref.get()
     if ref is not None and math.isfinite(ref[j]):
         da, db = abs(a - ref[j]), abs(b - ref[j])
         if min(da, db) <= tol:
@@ -149,8 +163,9 @@ def vote(st: VoteState, now: float, channels, ref=None, *, tol: float, persist: 
         Time, s.
     channels : array_like, shape (2, 3)
         The primary and the second channel's readings (slew, alpha, beta), rad.
-    ref : array_like, shape (3,), optional
-        A third opinion: the flange tracker's estimate through the inverse kinematics, rad (while attached).
+    ref : array_like, shape (3,), or callable, optional
+        A third opinion: the flange tracker's estimate through the inverse kinematics, rad (while attached); a
+        callable returning it (or None) is called only when a disagreement needs it, at most once.
     tol : float
         Largest difference between two healthy channels, rad.
     persist : float
@@ -165,6 +180,8 @@ def vote(st: VoteState, now: float, channels, ref=None, *, tol: float, persist: 
     ch = np.asarray(channels, dtype=float)
     found = []
     q = []
+    if callable(ref):
+        ref = _Lazy(ref)
     for j in range(3):
         if st.rejected[j] is None and not st.lost[j]:
             why = _judge_axis(st, now, ch, j, ref, tol, persist, frozen_time)

@@ -246,13 +246,15 @@ def floor_table(model, lo, hi, *, spacing: float = 0.2) -> FloorTable:
 
 
 @njit(cache=True, nogil=True)
-def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1, valve_worst):
+def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1, valve_worst, close_at_release):
     """The alarm sequence over one record: returns (stage reached, i_esd1, i_release, min time-to-limit). The
-    valves confirm ``ers_valve_time`` after ESD-1 (intact valves); until then the leads count ``valve_worst``
-    (:func:`loadarm.check.valve_worst_time`) from ESD-1, as the controller does."""
+    valves are commanded at ESD-1 (``close_at_release``: at the release request, ``ers_valves_close_at =
+    "ers2"``) and confirm ``ers_valve_time`` later (intact valves); until then the leads count ``valve_worst``
+    (:func:`loadarm.check.valve_worst_time`) from the command, as the controller does."""
     n = level.shape[0]
     raised = 0
     i_esd = -1
+    i_cmd = -1
     i_rel = -1
     ttl_min = np.inf
     for i in range(n):
@@ -260,10 +262,10 @@ def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1, v
         if ttl[i] < ttl_min:
             ttl_min = ttl[i]
         lv = level[i]
-        # the leads of the stages, shrinking once ESD-1 runs (valves closing)
-        if i_esd >= 0:
-            confirmed = t >= i_esd * dt + ers_valve_time - 1e-9
-            valves_left = 0.0 if confirmed else max(i_esd * dt + valve_worst - t, 0.0)
+        # the leads of the stages, shrinking once the valves are closing
+        confirmed = i_cmd >= 0 and t >= i_cmd * dt + ers_valve_time - 1e-9
+        if i_cmd >= 0:
+            valves_left = 0.0 if confirmed else max(i_cmd * dt + valve_worst - t, 0.0)
         else:
             valves_left = valve_worst
         rel_lead = valves_left + erc_release_time + margin
@@ -280,7 +282,9 @@ def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1, v
             raised = lv
         if raised >= 2 and i_esd < 0:
             i_esd = i
-        if raised >= 4 and i_rel < 0 and i_esd >= 0 and t >= i_esd * dt + ers_valve_time - 1e-9:
+        if i_cmd < 0 and ((raised >= 2 and not close_at_release) or raised >= 4):
+            i_cmd = i
+        if raised >= 4 and i_rel < 0 and i_cmd >= 0 and t >= i_cmd * dt + ers_valve_time - 1e-9:
             i_rel = i
     return raised, i_esd, i_rel, ttl_min
 
@@ -492,7 +496,7 @@ def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> Record
         ttl[away] = t_away
     seq = model.sequence
     stage, i1, ir, tmin = _scan(level, ttl, dt, seq.ers_valve_time, seq.erc_release_time, seq.margin,
-                                esd_lead(seq), valve_worst_time(seq))
+                                esd_lead(seq), valve_worst_time(seq), seq.ers_valves_close_at == "ers2")
     return RecordMonitor(int(stage), i1 * dt if i1 >= 0 else math.nan, ir * dt if ir >= 0 else math.nan,
                          float(np.degrees(bmax)), float(np.degrees(smax)), float(zmax - zmin), float(tmin),
                          bool(outside))

@@ -759,6 +759,14 @@ class GuidanceController:
                 self._event("alarm", f"ERS VALVE FAULT: not confirmed closed {now - s.valves_cmd_since:.1f} s after "
                                      "the command; the coupler stays closed (product may be live)",
                             severity=int(Severity.RELEASE), severity_label="fault")
+        if s.valves_closed_at is not None and s.release_started_at is None and (
+                not cyc.fb.ers_valves_closed or s.switch_fault):
+            # found (review): a confirmation latched at +10 s opened the coupler at ERS-2 a minute later although
+            # a switch had dropped since; the coupler opens only on switches that say closed in that very cycle
+            s.valves_closed_at = None
+            self._event("alarm", "ERS valves no longer confirmed closed (a limit switch dropped): the coupler stays "
+                                 "closed", severity=int(Severity.SECOND), severity_label="fault")
+            return
         if s.release_since is None or s.valves_closed_at is None:
             return
         if s.release_started_at is None:

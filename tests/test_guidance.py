@@ -1068,9 +1068,13 @@ def test_an_hpu_trip_during_a_driftoff_does_not_stop_the_release():
     assert r.first("alarm", "HPU trip") == 215.0
     assert v["release_complete_s"] is not None and v["overstretched_s"] is None and v["release_margin_s"] > 0
     assert v["coupler_opening_s"] >= v["valves_confirmed_s"]
-    # no pressure: the drives cannot retract the arm; the ship drifting away clears the manifold
-    k = int(np.searchsorted(r.signals["t"], v["release_complete_s"]))
-    assert np.ptp(r.signals["beta"][k + 1:]) < 1e-12 and v["cleared_s"] is not None
+    # the drives retract the arm on what the ERS left in the accumulator (issue 25; before, they could not move
+    # and only the ship drifting away cleared the manifold), then stop where the oil runs out
+    assert v["cleared_s"] is not None and v["retracted_s"] is not None
+    spent = r.first("alarm", "ERS accumulator spent")
+    assert spent is not None and spent > v["retracted_s"]
+    k = int(np.searchsorted(r.signals["t"], spent))
+    assert np.ptp(r.signals["beta"][k + 1:]) < 1e-12
 
 
 @pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it

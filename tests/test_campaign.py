@@ -79,6 +79,12 @@ def test_a_run_names_each_failure_and_its_time():
     assert never.failures()[0] == "overstretch_before_isolation"
     opened = [(98.0, "command", "ERS-2: coupler opening (ERS valves confirmed closed)")] + [good[0], good[2]]
     assert "opened_on_live_product" in _result(opened, limit_at=110.0).failures()
+    # found (review): the flange passing a face after a controlled disconnection is no missed alarm; attached, it is
+    away = _result([], limit_at=60.0)                          # the coupler was never on the flange at 60 s
+    assert away.failures() == ()
+    on = _result([], limit_at=60.0)
+    on.signals["connected"][:] = 1.0
+    assert on.failures() == ("missed_alarm",)
 
 
 def _short_driftoff(tmp_path, **drift):

@@ -185,9 +185,17 @@ class RunResult(Result):
         if opened is not None and (confirmed is None or opened < confirmed):
             out.append("opened_on_live_product")
         done, limit = self.first("command", "release complete"), self.limit_at
-        if limit is not None and limit <= float(self.signals["t"][-1]) and (done is None or done > limit):
+        if limit is not None and limit <= float(self.signals["t"][-1]) and (done is None or done > limit) \
+                and (done is not None or self._attached_at(limit)):
+            # found (review): a face the flange passed after a controlled disconnection failed the run
             out.append("missed_alarm")
         return tuple(out)
+
+    def _attached_at(self, t: float) -> bool:
+        """Whether the coupler was on the flange at time ``t`` (the last cycle at or before it)."""
+        s = self.signals
+        k = int(np.searchsorted(s["t"], t, side="right")) - 1
+        return bool(k >= 0 and s["connected"][k] > 0)
 
     def verdict(self) -> str:
         """``"pass"``, or ``"FAILED: "`` and what failed, in words (:data:`FAILURES`), with its times.

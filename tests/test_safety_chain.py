@@ -369,3 +369,18 @@ def test_the_slow_valve_campaign_table_holds_on_a_fresh_sample():
     step = run_campaign(SCEN / "step07.toml", 1, first_seed=1000, workers=1).to_dict()
     cited("docs/guidance.md", f"| `step07.toml` (0.7 m/s step, beyond the design; kinematic) | 1 | 1, "
                               f"{step['connected_h']:.1f} h | 1 | 1 | 0 | 0 | 1 | 1 | {step['margin_min_s']:.2f} |")
+
+
+def test_the_cylinder_channel_saturates_at_the_pins_ends(model):
+    """The second channel of a joint at the flat-triangle end of its pins reads the end, never an impossible length
+    (a quantised reading past it made the inverse raise)."""
+    from loadarm.actuators import joint_angles_from_cylinders, length_limits
+    from loadarm.guidance.run import AngleSensors
+
+    sens = AngleSensors(model, Scenario().faults)
+    lim = length_limits(model.mount)
+    for r1 in lim["r_ac1"]:
+        for r2 in lim["r_ac2"]:
+            a, b = joint_angles_from_cylinders(model.mount, r1, r2)
+            phi, a2, b2 = sens.second((0.3, float(a), float(b)))
+            assert phi == 0.3 and abs(a2 - float(a)) < 1e-2 and abs(b2 - float(b)) < 1e-2

@@ -557,7 +557,10 @@ class AngleSensors:
     def __init__(self, model: ArmModel, faults):
         from .voting import AXES
 
+        from ..actuators import length_limits
+
         self.mount, self.enc = model.mount, model.encoder
+        self.limits = length_limits(model.mount)
         self.fault, self.at = faults.encoder_fault, faults.encoder_fault_at
         self.axis = AXES.index(faults.encoder_fault_axis)
         self.rate = math.radians(faults.encoder_drift_rate_deg)
@@ -612,7 +615,11 @@ class AngleSensors:
 
         res = self.enc.resolution
         r1, r2 = cylinder_lengths(self.mount, q[1], q[2])
-        a, b = joint_angles_from_cylinders(self.mount, np.round(r1 / res) * res, np.round(r2 / res) * res)
+        lo, hi = self.limits["r_ac1"], self.limits["r_ac2"]
+        # a transducer saturates at the pins' geometric ends (found: a quantised reading half a step past a flat
+        # triangle made the inverse raise, which would stop the plant)
+        a, b = joint_angles_from_cylinders(self.mount, min(max(float(np.round(r1 / res) * res), lo[0]), lo[1]),
+                                           min(max(float(np.round(r2 / res) * res), hi[0]), hi[1]))
         return (float(q[0]), float(a), float(b))
 
 

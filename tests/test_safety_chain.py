@@ -111,6 +111,7 @@ def test_a_run_that_holds_exits_0_with_its_verdict(capsys):
     assert code == 0 and "verdict: pass" in capsys.readouterr().out
 
 
+@pytest.mark.slow          # a whole closed-loop run; its logic has fast unit tests above
 def test_the_campaign_counts_the_step_as_an_overstretch_before_isolation(capsys):
     res = run_campaign(SCEN / "step07.toml", 1, first_seed=1000, workers=1)
     d = res.to_dict()
@@ -215,6 +216,7 @@ def test_an_encoder_fault_while_attached_is_found_alarmed_and_outvoted(fault):
     assert "SENSOR_FAULT: unacknowledged" in states
 
 
+@pytest.mark.slow          # a whole closed-loop run; its logic has fast unit tests above
 def test_without_redundancy_a_frozen_encoder_hides_the_drift_off():
     """Why the second channel exists: the same frozen beta encoder with `[encoder] redundancy = "none"` leaves
     the monitor blind, and the arm overstretches on live product."""
@@ -276,6 +278,7 @@ def test_a_switch_fault_refuses_the_approach(model):
     assert cmd.mode == Mode.STORED and any("limit switches disagree" in r for _, r, _ in cmd.events)
 
 
+@pytest.mark.slow          # a whole closed-loop run; its logic has fast unit tests above
 def test_the_false_switch_scenario_keeps_the_coupler_closed():
     r, _ = _run("ers_switch")
     v = r.to_dict()

@@ -226,12 +226,14 @@ def test_run_and_log(capsys, tmp_path):
     code, out, _ = run(capsys, "run", "--scenario", SCEN, "--db", str(db), "--json", "--png", str(png))
     assert code == 0
     d = json.loads(out)
-    assert d["alarm1_s"] < d["alarm2_s"] < d["release_s"] and d["overstretched_s"] is None
+    # the second alarm and the release may come in one cycle: the release lead counts the ERS valves at their
+    # worst (issue 25), so a break-out seen late passes both stages at once; they are still logged in order
+    assert d["alarm1_s"] < d["alarm2_s"] <= d["release_s"] and d["overstretched_s"] is None
     assert png.read_bytes()[:4] == b"\x89PNG"
     code, out, _ = run(capsys, "log", "--db", str(db), "--kind", "alarm", "--json")
     assert code == 0
     alarms = json.loads(out)
-    assert [a["reason"].split(":")[0] for a in alarms] == ["ALARM1", "ALARM2", "RELEASE"]
+    assert [a["reason"].split(":")[0] for a in alarms] == ["PRE-ALARM", "ALARM1", "ALARM2", "RELEASE"]
     code, out, _ = run(capsys, "log", "--db", str(db), "--since", "240", "--png", str(tmp_path / "replay.png"))
     assert code == 0 and "events" in out and (tmp_path / "replay.png").exists()
     # a second run into the same log: filter by run id
@@ -240,7 +242,7 @@ def test_run_and_log(capsys, tmp_path):
     runs = sorted({a["run"] for a in json.loads(out)})
     assert len(runs) == 2
     code, out, _ = run(capsys, "log", "--db", str(db), "--kind", "alarm", "--run", runs[0], "--json")
-    assert len(json.loads(out)) == 3
+    assert len(json.loads(out)) == 4
 
 
 @pytest.mark.parametrize("args,fragment", [

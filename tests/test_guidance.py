@@ -403,10 +403,12 @@ def test_waves_alone_make_no_velocity_step():
 
 
 @pytest.mark.slow
-def test_a_long_swell_is_taken_for_steps_without_a_false_alarm_at_the_hs15_flange():
-    """The step test's stated limit (docs/guidance.md section 5): waves long against the 60 s window look like
-    steps. The statistic without a step at Hs 2 m, 5 seeds each, for Tp up to 20 s and at 25 and 30 s, quoted
-    in the docs; and the closed loop at Tp 30 s raises no alarm at the Hs 1.5 m scenario's flange (3 seeds)."""
+def test_a_long_swell_is_taken_for_steps_and_break_outs_the_limit_quoted_in_the_docs():
+    """The step and break-out tests' stated limit (docs/guidance.md section 5): waves long against the 60 s
+    window look like steps and curvature. The statistics without a drift at Hs 2 m, 5 seeds each, for Tp up to
+    20 s and at 25 and 30 s, quoted in the docs; the closed loop at Tp 25 s raises no alarm at the Hs 1.5 m
+    scenario's flange (3 seeds), and what it does at Tp 30 s is quoted (found in CI: with the break-out test the
+    claim "no alarm at Tp 30 s" no longer held; ESD-1 came in 2 of 3 seeds)."""
     from loadarm.guidance.monitor import DriftFit
     from loadarm.guidance.ship import flange_motion
 
@@ -416,9 +418,9 @@ def test_a_long_swell_is_taken_for_steps_without_a_false_alarm_at_the_hs15_flang
         return sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"seed": seed, "plant": "kinematic"}),
                                      "waves": sc.waves.model_copy(update={"hs": 2.0, "tp": tp})})
 
-    top = {}
+    step, bo = {}, {}
     for tp in (4.0, 6.0, 12.0, 16.0, 20.0, 25.0, 30.0):
-        z = 0.0
+        z = zb = 0.0
         for seed in range(5):
             t = np.arange(0.0, 600.0, 0.2)
             f = DriftFit(60.0)
@@ -426,16 +428,23 @@ def test_a_long_swell_is_taken_for_steps_without_a_false_alarm_at_the_hs15_flang
                 f.push(float(ti), pi)
                 if f.count >= f.n:
                     z = max(z, float(f.step_statistic()[0].max()))
-        top[tp] = z
-    short = max(v for k, v in top.items() if k <= 20.0)
-    assert short < DriftFit.STEP_Z
+                    zz, coef, _, _ = f.breakout_statistic()      # as breakout_estimate counts it
+                    zb = max(zb, float(np.max(np.where(np.abs(coef[:, 3, :]) > f.BREAKOUT_MIN, zz, 0.0))))
+        step[tp], bo[tp] = z, zb
+    short = max(v for k, v in step.items() if k <= 20.0)
+    short_bo = max(v for k, v in bo.items() if k <= 25.0)
+    assert short < DriftFit.STEP_Z and short_bo < DriftFit.BREAKOUT_Z
     from .test_doc_numbers import cited
 
     cited("docs/guidance.md", f"At Hs 2 m the statistic without a step stays below {math.ceil(short * 10) / 10:.1f} "
-                              f"up to Tp 20 s, but reaches {top[25.0]:.0f} at Tp 25 s and {top[30.0]:.0f} at Tp 30 s")
+                              f"up to Tp 20 s, but reaches {step[25.0]:.0f} at Tp 25 s and {step[30.0]:.0f} at Tp 30 s")
     for seed in range(3):
-        v = run_scenario(with_sea(seed, 30.0), model).to_dict()
+        v = run_scenario(with_sea(seed, 25.0), model).to_dict()
         assert v["alarm1_s"] is None and v["connected_s"] > 300.0, v
+    alarmed = sum(run_scenario(with_sea(seed, 30.0), model).to_dict()["alarm1_s"] is not None for seed in range(3))
+    cited("docs/guidance.md", f"without a drift it stays below {math.ceil(short_bo * 10) / 10:.1f} up to Tp 25 s "
+                              f"(no alarm in 3 seeds at the Hs 1.5 m scenario's flange) but reaches "
+                              f"{bo[30.0]:.0f} at Tp 30 s, where the closed loop raised ESD-1 in {alarmed} of 3 seeds")
 
 
 @pytest.mark.parametrize("rate", [2.0, 4.0, 7.0])

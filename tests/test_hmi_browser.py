@@ -6,6 +6,7 @@ suite (`make test SLOW=1`, CI) to keep it within two minutes on two cores."""
 
 from __future__ import annotations
 
+import math
 import time
 
 import pytest
@@ -200,6 +201,19 @@ def test_a_stale_controller_or_a_lost_server_greys_the_view_and_says_so(screen, 
     assert "reconnecting" in page.inner_text("#link")
 
 
+ORDER = ("STORED", "APPROACH", "STANDOFF", "CONNECTED", "ALARM1", "ALARM2", "RELEASE", "RETURN")
+
+
+def _in_order(modes):
+    """The modes the screen showed come in the sequence's order, from the connection through ESD-1 and the
+    release to the return. ALARM2 may be skipped: the release lead counts the ERS valves at their worst until
+    they confirm (issue 25), so a break-out seen late raises the second alarm and the release in one cycle
+    (found in CI: the stock drift-off now goes ALARM1 -> RELEASE)."""
+    idx = [ORDER.index(m) for m in modes]
+    assert idx == sorted(set(idx)), modes
+    assert {"CONNECTED", "ALARM1", "RELEASE", "RETURN"} <= set(modes), modes
+
+
 @pytest.mark.slow
 def test_the_drift_off_on_the_screen_alarms_in_order_acknowledged_and_a_screenshot_of_each_mode(
         screen, page, tmp_path):
@@ -211,8 +225,7 @@ def test_the_drift_off_on_the_screen_alarms_in_order_acknowledged_and_a_screensh
 
     s = screen(scripted=True, speedup=8.0)
     got = tour(page, s.url, "alice", "pw-alice", tmp_path)
-    assert got["modes"] == ["STORED", "APPROACH", "STANDOFF", "CONNECTED", "ALARM1", "ALARM2", "RELEASE",
-                            "RETURN"][-len(got["modes"]):] and "ALARM1" in got["modes"], got["modes"]
+    _in_order(got["modes"])
     assert [a for a in got["alarms"] if a in ("ESD1", "SECOND", "RELEASE")] == ["ESD1", "SECOND", "RELEASE"]
     assert len(got["shots"]) >= 4 and all(p.stat().st_size > 10_000 for p in got["shots"])
     assert page.evaluate("hmi.frame.alarms.find(a => a.tag === 'RELEASE').state").endswith("unacknowledged")
@@ -227,7 +240,7 @@ def test_the_drift_off_on_the_screen_alarms_in_order_acknowledged_and_a_screensh
 @pytest.mark.slow
 def test_the_replay_s_time_slider_moves_the_screen_through_the_logged_run(state, page, tmp_path):
     """``serve --replay``'s screen over the drift-off's event log: the replay bar shows, every command is
-    disabled, and moving the slider to 238 s shows the release with its alarms as logged."""
+    disabled, and moving the slider into the release shows it with its alarms as logged."""
     from loadarm.eventlog import EventLog
     from loadarm.guidance.run import run_scenario
     from loadarm.guidance.scenario import load_scenario
@@ -236,7 +249,12 @@ def test_the_replay_s_time_slider_moves_the_screen_through_the_logged_run(state,
 
     sc, model = load_scenario(SCENARIO)
     with EventLog(tmp_path / "events.db", run="r") as log:
-        run_scenario(sc, model, log=log, plant="kinematic")
+        res = run_scenario(sc, model, log=log, plant="kinematic")
+    # a whole second inside the release, before the return (found: a fixed 238 s fell in RETURN once the lead
+    # counted the ERS valves' timeout and the release came earlier)
+    t_rel, t_ret = res.first("alarm", "RELEASE"), res.first("mode", "-> RETURN")
+    t = math.ceil(t_rel + 1.0)
+    assert t + 1.0 < t_ret, (t_rel, t_ret)
     with EventLog.open_existing(tmp_path / "events.db") as log:
         service = ReplayService(log.query(run="r"), model)
     server = HmiServer(create_app(service, state.path, model, name="replay"), "127.0.0.1", 0)
@@ -245,11 +263,11 @@ def test_the_replay_s_time_slider_moves_the_screen_through_the_logged_run(state,
         log_in(page, server.url, "alice", "pw-alice")
         assert page.is_visible("#replay-bar")
         assert page.evaluate("[...document.querySelectorAll('#controls button')].every(b => b.disabled)")
-        page.evaluate("const s = document.getElementById('replay-slider'); s.value = 238; "
+        page.evaluate(f"const s = document.getElementById('replay-slider'); s.value = {t}; "
                       "s.dispatchEvent(new Event('input')); s.dispatchEvent(new Event('change'))")
-        wait_for(page, "hmi.frame.t >= 238 && hmi.frame.t < 239", what="the frame at 238 s")
+        wait_for(page, f"hmi.frame.t >= {t} && hmi.frame.t < {t + 1}", what=f"the frame at {t} s")
         assert page.evaluate("hmi.frame.mode") == "RELEASE"
-        assert page.evaluate("hmi.frame.alarms.map(a => a.tag)") == ["RELEASE", "SECOND", "ESD1"]
+        assert page.evaluate("hmi.frame.alarms.map(a => a.tag)") == ["RELEASE", "SECOND", "ESD1", "PRE_ALARM"]
         assert not page.evaluate("document.body.classList.contains('stale')") and page.errors == []
     finally:
         server.stop()
@@ -291,7 +309,7 @@ def test_a_new_operator_approaches_connects_and_sees_the_drift_off_from_the_butt
     wait_for(page, "hmi.frame.mode === 'CONNECTED'", timeout=10.0, what="the connection")
     wait_for(page, "hmi.frame.mode === 'RETURN'", timeout=60.0, what="the release and the return")
     modes = page.evaluate("hmi.seenModes")
-    assert modes[modes.index("CONNECTED"):] == ["CONNECTED", "ALARM1", "ALARM2", "RELEASE", "RETURN"], modes
+    _in_order(modes)
     assert [a for a in page.evaluate("hmi.seenAlarms") if a in ("ESD1", "SECOND", "RELEASE")] == [
         "ESD1", "SECOND", "RELEASE"]
     assert page.errors == []

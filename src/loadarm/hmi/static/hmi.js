@@ -204,7 +204,9 @@ function onFrame(f) {
   hmi.history.push({seq: f.seq, at: hmi.lastFrameAt, mode: f.mode, coupler: f.coupler, latency,
                     open: f.coupler_open, valves: f.ers_valves_closed});
   if (hmi.history.length > 600) { hmi.history.shift(); }
-  for (const a of f.alarms) { if (!hmi.seenAlarms.includes(a.tag)) { hmi.seenAlarms.push(a.tag); } }
+  // in the order raised; alarms raised in one cycle in escalation order (the less urgent first), not the list's
+  const raised = [...f.alarms].sort((x, y) => (x.raised_at - y.raised_at) || (y.priority - x.priority));
+  for (const a of raised) { if (!hmi.seenAlarms.includes(a.tag)) { hmi.seenAlarms.push(a.tag); } }
   if (hmi.seenModes[hmi.seenModes.length - 1] !== f.mode) {
     hmi.seenModes.push(f.mode);
     hmi.modeArrivals.push([f.mode, Date.now() / 1000]);        // when each mode change reached the screen

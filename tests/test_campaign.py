@@ -57,15 +57,17 @@ def _result(events, overstretched_at=None, limit_at=None, t_end=120.0):
     t = np.arange(0.0, t_end + 0.05, 0.1)
     sig = {k: np.zeros_like(t) for k in ("mode", "x", "y", "z", "connected", "distance", "beta", "phi")}
     sig["t"] = t
-    return RunResult("r", sig, [(tt, "X", kind, reason, {}) for tt, kind, reason in events], overstretched_at,
+    from loadarm.vocab import event_label
+
+    return RunResult("r", sig, [(tt, "X", kind, event_label(code), {"code": code}) for tt, kind, code in events],
+                     overstretched_at,
                      np.zeros(0), limit_at=limit_at, limit_face="beta_max")
 
 
 def test_a_run_names_each_failure_and_its_time():
     """One rule for the verdict (RunResult.failures), read by the run, its exit status and the campaign."""
-    good = [(99.0, "interlock", "ERS valves confirmed closed (limit switches): the coupler may open"),
-            (100.0, "command", "ERS-2: coupler opening (ERS valves confirmed closed)"),
-            (103.0, "command", "ERS-2 release complete: coupler free")]
+    good = [(99.0, "interlock", "interlock.valves_confirmed"), (100.0, "command", "command.coupler_opening"),
+            (103.0, "command", "command.release_complete")]
     assert _result(good, limit_at=110.0).failures() == () and _result(good, limit_at=110.0).verdict() == "pass"
     # found (issue 25): at a 0.7 m/s step the arm overstretched 2.5 s before the valves confirmed, and the run
     # reported "release complete" as if nothing had happened
@@ -77,7 +79,7 @@ def test_a_run_names_each_failure_and_its_time():
     assert after.failures() == ("overstretch", "missed_alarm")
     never = _result([], overstretched_at=50.0, limit_at=50.0)
     assert never.failures()[0] == "overstretch_before_isolation"
-    opened = [(98.0, "command", "ERS-2: coupler opening (ERS valves confirmed closed)")] + [good[0], good[2]]
+    opened = [(98.0, "command", "command.coupler_opening")] + [good[0], good[2]]
     assert "opened_on_live_product" in _result(opened, limit_at=110.0).failures()
     # found (review): the flange passing a face after a controlled disconnection is no missed alarm; attached, it is
     away = _result([], limit_at=60.0)                          # the coupler was never on the flange at 60 s

@@ -211,8 +211,9 @@ def test_anonymous_may_read_but_not_call_or_write(served):
         async with c:
             ns, guidance, var = await _nodes(c)
             mode = await var("Mode").read_value()
-            with pytest.raises(ua.uaerrors.BadUserAccessDenied):
-                await guidance.call_method(ua.QualifiedName("EStop", ns))
+            for name in ("EStop", "ManualESD1"):
+                with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+                    await guidance.call_method(ua.QualifiedName(name, ns))
             with pytest.raises(ua.uaerrors.BadUserAccessDenied):
                 await var("Mode").write_value("ESTOP")
             return mode
@@ -220,7 +221,11 @@ def test_anonymous_may_read_but_not_call_or_write(served):
     assert asyncio.run(main()) in {"STORED", "MANUAL"}
 
 
-def test_a_viewer_cannot_call_a_method(served):
+def test_a_viewer_may_request_esd1_and_nothing_else(served):
+    """The one role table (loadarm.vocab.ACTION_TABLE), as the screen serves it: a signed-in viewer (the ship's
+    side) may request ESD-1 and no other method; the request reaches the controller under the viewer's name
+    (not connected here, so the controller logs it and refuses it). An anonymous session may request nothing
+    (test_anonymous_may_read_but_not_call_or_write)."""
     from asyncua import ua
 
     async def main():
@@ -228,10 +233,19 @@ def test_a_viewer_cannot_call_a_method(served):
         async with c:
             ns, guidance, var = await _nodes(c)
             await var("Beta_deg").read_value()
+            for name in ("StartApproach", "EStop", "Reset", "AcknowledgeAlarm"):
+                with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+                    await guidance.call_method(ua.QualifiedName(name, ns))
             with pytest.raises(ua.uaerrors.BadUserAccessDenied):
-                await guidance.call_method(ua.QualifiedName("StartApproach", ns))
+                await guidance.call_method(ua.QualifiedName("ManualERS", ns), ua.Variant(True))
+            await guidance.call_method(ua.QualifiedName("ManualESD1", ns))
+            with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+                await var("Mode").write_value("ESTOP")
+            await asyncio.sleep(0.3)
 
     asyncio.run(main())
+    ops = [e for e in served["service"].loop.events if e[2] == "operator" and e[4].get("user") == "victor"]
+    assert [e[4]["action"] for e in ops] == ["esd"]
 
 
 def test_a_wrong_password_is_refused(served):

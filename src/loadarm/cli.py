@@ -23,6 +23,7 @@ import typer
 from .config import Installation, load_config
 from .errors import LoadarmError
 from .eventlog import KINDS
+from .vocab import alarm_label
 
 EXIT_CODES = "Exit codes: 0 ok, 1 internal error (a bug; LOADARM_DEBUG=1 shows the traceback), 2 bad input, 130 interrupted."
 
@@ -877,7 +878,7 @@ def _replay_png(png: Path, events) -> None:
     beta = np.array([e.data["beta"] for e in samples], dtype=float)
     phi = np.array([e.data["phi"] for e in samples], dtype=float)
     dist = np.array([e.data["distance"] for e in samples], dtype=float)
-    alarms = [(e.t, e.reason.split(":")[0]) for e in events if e.kind == "alarm"]
+    alarms = [(e.t, alarm_label(e.data)) for e in events if e.kind == "alarm"]
     save(timeline_figure(t, mode, beta, phi, dist, MODES, alarms=alarms,
                          title=f"Guidance timeline of {last_run} (replayed from the log)"), png)
 

@@ -3,9 +3,11 @@
 While the coupler is on the flange the ship moves the arm. It is overstretched when the flange leaves the
 arm's reach or drives a joint past its range: the elbow angle ``beta`` past cylinder 2's stroke end (or the
 fully stretched arm) or below its retracted end (the coupler pushed towards the jetty), the inboard angle
-``alpha`` past either end of cylinder 1's stroke (the flange too high or too low), or the slew past its limit
+``alpha`` past either end of cylinder 1's stroke (alpha from the upward vertical: the flange too low at its
+largest, too high at its smallest), or the slew past its limit
 either way. :func:`face_margins` measures every face at once, vectorised, in the face's own coordinate; the
 guidance monitor, the design check (:mod:`loadarm.check`) and the run's overstretch detection all use it.
+The faces' codes and words are declared once, in :mod:`loadarm.vocab`.
 """
 
 from __future__ import annotations
@@ -15,22 +17,10 @@ import math
 import numpy as np
 
 from .slew import inverse3d
+from .vocab import FACE_LABELS, FACES
 
 __all__ = ["FACES", "FACE_LABELS", "face_margins", "first_face", "past_a_face", "past_a_face_at",
            "breakout_distance"]
-
-#: The faces, in the order of the last axis of :func:`face_margins`.
-FACES = ("beta_max", "beta_min", "alpha_max", "alpha_min", "slew_pos", "slew_neg")
-#: What each face means on the jetty.
-FACE_LABELS = {
-    "beta_max": "arm stretched (beta at cylinder 2's extended end)",
-    "beta_min": "arm folded (beta at cylinder 2's retracted end, coupler towards the jetty)",
-    "alpha_max": "inboard arm up (alpha at cylinder 1's end: flange too high)",
-    "alpha_min": "inboard arm down (alpha at cylinder 1's other end: flange too low)",
-    "slew_pos": "slew at its limit (+y, along the berth)",
-    "slew_neg": "slew at its limit (-y, along the berth)",
-}
-
 
 def face_margins(model, x, y, z, *, q=None) -> np.ndarray:
     """Signed margin of coupler positions to every face, in the face's own coordinate (rad).

@@ -24,6 +24,7 @@ from .envelope import zone_radii  # noqa: E402
 from .geometry import Arm  # noqa: E402
 from .kinematics import elbow_position, forward, inverse_paper  # noqa: E402
 from .trajectory import Plan  # noqa: E402
+from .vocab import alarm_label  # noqa: E402
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
@@ -644,7 +645,7 @@ def run_timeline_figure(result) -> Figure:
     from .guidance.run import MODES
 
     s = result.signals
-    alarms = [(t, reason.split(":")[0]) for t, _, kind, reason, _ in result.events if kind == "alarm"]
+    alarms = [(t, alarm_label(data)) for t, _, kind, _, data in result.events if kind == "alarm"]
     thr = result.beta_thresholds_deg
     ttl = s.get("ttl")
     return timeline_figure(s["t"], s["mode"], s["beta"], s["phi"], s["distance"], MODES, alarms=alarms,

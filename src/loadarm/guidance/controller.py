@@ -48,6 +48,7 @@ from ..alarms import AlarmState, AlarmThresholds, Severity, next_alarm_state
 from ..geometry import Arm
 from ..kinematics import ROUNDOFF_M, jacobian_entries
 from ..slew import forward3d, inverse3d, reach_mask3d
+from ..vocab import ANNUNCIATED, CONDITION_TEXT, STAGE_EVENT, event_label
 from .monitor import FIT_PERIOD, EnvelopeMonitor, LimitForecast, stage_leads
 from .scenario import Guidance, check_drift_window
 from .sensor import Estimate
@@ -85,9 +86,6 @@ SEVERITY_OF_MODE = {m: sev for sev, m in MODE_OF_SEVERITY.items()}
 MODE_OF_SEVERITY[Severity.PRE_ALARM] = Mode.CONNECTED       # a warning only: the mode stays
 #: The stages the connected-mode monitoring raises, in order.
 ALARM_STAGES = (Severity.PRE_ALARM, Severity.ESD1, Severity.SECOND, Severity.RELEASE)
-#: The annunciated alarms (ISA-18.2 states each): the stages, the ERS valve fault, the ERS limit switches'
-#: discrepancy and the joint-angle sensors' fault.
-ANNUNCIATED = ("PRE_ALARM", "ESD1", "SECOND", "RELEASE", "ERS_VALVE_FAULT", "ERS_SWITCH_FAULT", "SENSOR_FAULT")
 #: The two ERS closed limit switches may disagree this long (one made a little before the other as the valves
 #: seat), s; longer is a switch fault.
 ERS_SWITCH_DISCREPANCY = 2.0
@@ -506,8 +504,8 @@ class GuidanceController:
         v = vote(st, now, channels, ref, tol=self.angle_tol, persist=self.vote_persist, frozen_time=self.frozen_time)
         for j, why in v.found:
             used = "" if st.lost[j] else "; using the other channel"
-            self._event("alarm", f"SENSOR FAULT: {AXES[j]} angle {why}{used}", severity=int(Severity.SECOND),
-                        severity_label="fault", axis=AXES[j])
+            self._event("alarm", f"{event_label('fault.sensor')}: {AXES[j]} angle {why}{used}", code="fault.sensor",
+                        severity=int(Severity.SECOND), severity_label="fault", axis=AXES[j])
         return v.q
 
     def _command(self, rates) -> Command:
@@ -573,10 +571,10 @@ class GuidanceController:
         if not s.switch_fault and cyc.now - s.switches_odd_since > ERS_SWITCH_DISCREPANCY:
             s.switch_fault = True
             made = ", ".join(f"switch {i + 1} {'closed' if v else 'open'}" for i, v in enumerate(sw))
-            self._event("alarm", f"ERS SWITCH FAULT: the ERS valves' closed limit switches disagree ({made}) for "
+            self._event("alarm", f"{event_label('fault.ers_switch')}: the {CONDITION_TEXT['ERS_SWITCH_FAULT']} ({made}) for "
                                  f"{cyc.now - s.switches_odd_since:.1f} s: the valves are not taken as closed and the "
-                                 "coupler stays closed until both confirm", severity=int(Severity.SECOND),
-                        severity_label="fault")
+                                 "coupler stays closed until both confirm", code="fault.ers_switch",
+                        severity=int(Severity.SECOND), severity_label="fault")
 
     def rule_emergency_stop(self, cyc: "Cycle") -> None:
         """E-stop from any mode, in this very cycle (the mode to resume is kept). It stops the drives; when
@@ -684,8 +682,9 @@ class GuidanceController:
             if stage == Severity.PRE_ALARM and self.seq.pre_alarm_lead <= 0:
                 continue                         # no pre-alarm configured
             if s.raised < stage <= level:
-                name = "PRE-ALARM" if stage == Severity.PRE_ALARM else MODE_OF_SEVERITY[stage].value
-                self._event("alarm", f"{name}: {why}", severity=int(stage), severity_label=stage.label,
+                code = STAGE_EVENT[stage]
+                self._event("alarm", f"{event_label(code)}: {why}", code=code, severity=int(stage),
+                            severity_label=stage.label,
                             beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]))
         s.raised = level
         if level >= Severity.ESD1:
@@ -752,28 +751,31 @@ class GuidanceController:
             if cyc.fb.ers_valves_closed:
                 s.valves_closed_at = now
                 s.valve_fault = False
-                self._event("interlock", "ERS valves confirmed closed (limit switches): the coupler may open",
-                            after_s=now - s.valves_cmd_since)
+                self._event("interlock", f"{event_label('interlock.valves_confirmed')} (limit switches): the coupler "
+                                         "may open", code="interlock.valves_confirmed", after_s=now - s.valves_cmd_since)
             elif not s.valve_fault and now - s.valves_cmd_since > q.ers_valve_time + q.ers_valve_timeout:
                 s.valve_fault = True
-                self._event("alarm", f"ERS VALVE FAULT: not confirmed closed {now - s.valves_cmd_since:.1f} s after "
-                                     "the command; the coupler stays closed (product may be live)",
+                self._event("alarm", f"{event_label('fault.ers_valve')}: not confirmed closed "
+                                     f"{now - s.valves_cmd_since:.1f} s after the command; the coupler stays closed "
+                                     "(product may be live)", code="fault.ers_valve",
                             severity=int(Severity.RELEASE), severity_label="fault")
         if s.valves_closed_at is not None and s.release_started_at is None and (
                 not cyc.fb.ers_valves_closed or s.switch_fault):
             # found (review): a confirmation latched at +10 s opened the coupler at ERS-2 a minute later although
             # a switch had dropped since; the coupler opens only on switches that say closed in that very cycle
             s.valves_closed_at = None
-            self._event("alarm", "ERS valves no longer confirmed closed (a limit switch dropped): the coupler stays "
-                                 "closed", severity=int(Severity.SECOND), severity_label="fault")
+            self._event("alarm", f"{event_label('fault.ers_unconfirmed')}: the coupler stays closed",
+                        code="fault.ers_unconfirmed", severity=int(Severity.SECOND), severity_label="fault")
             return
         if s.release_since is None or s.valves_closed_at is None:
             return
         if s.release_started_at is None:
             s.release_started_at = now
-            self._event("command", "ERS-2: coupler opening (ERS valves confirmed closed)")
+            self._event("command", f"{event_label('command.coupler_opening')} (ERS valves confirmed closed)",
+                        code="command.coupler_opening")
         if now - s.release_started_at >= q.erc_release_time:
-            self._event("command", "ERS-2 release complete: coupler free")
+            self._event("command", f"{event_label('command.release_complete')}: coupler free",
+                        code="command.release_complete")
             self._detach()
             if s.mode == Mode.ESTOP:
                 s.resume = Mode.RETURN           # drives stay stopped until the operator resets
@@ -940,7 +942,7 @@ class GuidanceController:
             if not est.healthy:
                 self._refuse(f"no fresh flange estimate ({est.reason})")
             elif self.state.switch_fault:       # the interlock's own sensors must agree before a transfer
-                self._refuse("the ERS valves' closed limit switches disagree (ERS_SWITCH_FAULT)")
+                self._refuse(f"the {CONDITION_TEXT['ERS_SWITCH_FAULT']} (ERS_SWITCH_FAULT)")
             elif self.state.votes.status != "ok":
                 self._refuse("an angle sensor is faulty (SENSOR_FAULT): reset once both channels agree")
             else:

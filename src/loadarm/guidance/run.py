@@ -28,6 +28,7 @@ from ..check import MANIFOLD_CLEARANCE
 from ..eventlog import EventLog, RateLimiter
 from ..faces import FACES, face_margins, first_face
 from ..slew import forward3d, inverse3d, reach_mask3d
+from ..vocab import STAGE_EVENT, event_label
 from ..alarms import Severity
 from ..results import Metric, Result
 from .controller import SEVERITY_OF_MODE, Command, GuidanceController, Mode, OperatorInput, PlantFeedback
@@ -146,9 +147,27 @@ class RunResult(Result):
     METRICS = RUN_METRICS
 
     def first(self, kind: str, contains: str = "") -> float | None:
-        """Time of the first event of a kind whose reason contains a text, s (None if none)."""
+        """Time of the first event of a kind whose reason contains a text, s (None if none); for reading a run
+        by eye. Metrics read codes (:meth:`first_code`)."""
         for t, _, k, reason, _ in self.events:
             if k == kind and contains in reason:
+                return t
+        return None
+
+    def first_code(self, code: str) -> float | None:
+        """Time of the first event with an event code (:data:`loadarm.vocab.EVENT_TABLE`), s (None if none).
+
+        Parameters
+        ----------
+        code : str
+            E.g. ``"stage.esd1"``, ``"command.release_complete"``.
+
+        Returns
+        -------
+        float or None
+        """
+        for t, _, _, _, data in self.events:
+            if data and data.get("code") == code:
                 return t
         return None
 
@@ -160,7 +179,7 @@ class RunResult(Result):
         -------
         float or None
         """
-        t_rel = self.first("command", "release complete")
+        t_rel = self.first_code("command.release_complete")
         if t_rel is None or self.limit_at is None:
             return None
         return self.limit_at - t_rel
@@ -177,14 +196,14 @@ class RunResult(Result):
         tuple of str
         """
         out = []
-        confirmed = self.first("interlock", "ERS valves confirmed closed")
+        confirmed = self.first_code("interlock.valves_confirmed")
         if self.overstretched_at is not None:
             live = confirmed is None or self.overstretched_at < confirmed
             out.append("overstretch_before_isolation" if live else "overstretch")
-        opened = self.first("command", "coupler opening")
+        opened = self.first_code("command.coupler_opening")
         if opened is not None and (confirmed is None or opened < confirmed):
             out.append("opened_on_live_product")
-        done, limit = self.first("command", "release complete"), self.limit_at
+        done, limit = self.first_code("command.release_complete"), self.limit_at
         if limit is not None and limit <= float(self.signals["t"][-1]) and (done is None or done > limit) \
                 and (done is not None or self._attached_at(limit)):
             # found (review): a face the flange passed after a controlled disconnection failed the run
@@ -211,7 +230,7 @@ class RunResult(Result):
         for code in fails:
             text = FAILURES[code]
             if code.startswith("overstretch"):
-                confirmed = self.first("interlock", "ERS valves confirmed closed")
+                confirmed = self.first_code("interlock.valves_confirmed")
                 text += f" at {self.overstretched_at:.2f} s" + (
                     "" if confirmed is None or code == "overstretch"
                     else f", {confirmed - self.overstretched_at:.2f} s before the confirmation")
@@ -225,7 +244,7 @@ class RunResult(Result):
         -------
         float or None
         """
-        t_rel = self.first("command", "release complete")
+        t_rel = self.first_code("command.release_complete")
         if t_rel is None:
             return None
         s = self.signals
@@ -240,7 +259,7 @@ class RunResult(Result):
         -------
         float or None
         """
-        t_rel = self.first("command", "release complete")
+        t_rel = self.first_code("command.release_complete")
         if t_rel is None:
             return None
         s = self.signals
@@ -266,16 +285,16 @@ class RunResult(Result):
             "duration_s": float(s["t"][-1]),
             "mode_sequence": seq,
             "final_mode": modes[-1],
-            "alarm1_s": self.first("alarm", "ALARM1"),
-            "alarm2_s": self.first("alarm", "ALARM2"),
-            "release_s": self.first("alarm", "RELEASE"),
-            "release_complete_s": self.first("command", "release complete"),
+            "alarm1_s": self.first_code("stage.esd1"),
+            "alarm2_s": self.first_code("stage.second"),
+            "release_s": self.first_code("stage.release"),
+            "release_complete_s": self.first_code("command.release_complete"),
             "overstretched_s": self.overstretched_at,
             "limit_s": self.limit_at,
             "limit_face": self.limit_face,
             "release_margin_s": self.release_margin(),
-            "valves_confirmed_s": self.first("interlock", "ERS valves confirmed closed"),
-            "coupler_opening_s": self.first("command", "coupler opening"),
+            "valves_confirmed_s": self.first_code("interlock.valves_confirmed"),
+            "coupler_opening_s": self.first_code("command.coupler_opening"),
             "cleared_s": self.cleared_at(),
             "retracted_s": self.retracted_at(),
             "connected_s": float(np.sum(np.diff(s["t"]) * (s["connected"][:-1] > 0))),
@@ -423,8 +442,9 @@ class ArmPlant:
         """
         if self.hpu_trip_at is not None and now >= self.hpu_trip_at and not self.hpu_tripped:
             self.hpu_tripped = True
-            self.emit(now, cmd.mode.value, "alarm", "HPU trip: the pumps have stopped; the ERS valves, the "
-                      "coupler's release and the retraction run on the accumulator", {})
+            self.emit(now, cmd.mode.value, "alarm", f"{event_label('fault.hpu_trip')}: the pumps have stopped; the "
+                      "ERS valves, the coupler's release and the retraction run on the accumulator",
+                      {"code": "fault.hpu_trip"})
         if cmd.connected:
             q_before = self.q.copy()
             self._follow_flange(now, cmd, f)
@@ -450,7 +470,8 @@ class ArmPlant:
         self._drive(now, dt, cmd)
         self.oil_left -= cylinder_oil(self.model, q0, self.q)
         if self.oil_left <= 0.0:
-            self.emit(now, cmd.mode.value, "alarm", "ERS accumulator spent: the arm stops where it is", {})
+            self.emit(now, cmd.mode.value, "alarm", f"{event_label('fault.accumulator_spent')}: the arm stops where "
+                      "it is", {"code": "fault.accumulator_spent"})
 
     def _follow_flange(self, now: float, cmd, f: np.ndarray) -> None:
         arm = self.arm
@@ -463,8 +484,9 @@ class ArmPlant:
                 self.q = q_new
         if not inside and self.overstretched is None:
             self.overstretched = now
-            self.emit(now, cmd.mode.value, "alarm", "ARM OVERSTRETCHED: the attached flange is beyond the arm's "
-                      "reach or a joint / cylinder stroke limit", {"flange": [float(v) for v in f]})
+            self.emit(now, cmd.mode.value, "alarm", f"{event_label('fault.overstretched')}: the attached flange is "
+                      "beyond the arm's reach or a joint / cylinder stroke limit",
+                      {"code": "fault.overstretched", "flange": [float(v) for v in f]})
 
     def _drive(self, now: float, dt: float, cmd) -> None:
         lim, q = self.lim, self.q
@@ -484,7 +506,7 @@ class ArmPlant:
             a_new, b_new = self.servo.step(dt, (cmd.rates[1], cmd.rates[2]))
         except SimulationError as exc:
             if not self.servo_fault:
-                self.emit(now, cmd.mode.value, "alarm", f"hydraulic servo fault: {exc}", {})
+                self.emit(now, cmd.mode.value, "alarm", f"{event_label('fault.servo')}: {exc}", {"code": "fault.servo"})
             self.servo_fault = True
             self.servo.reset(q[1], q[2])
             a_new, b_new = q[1], q[2]
@@ -951,8 +973,8 @@ class _ClearanceWatch:
             self.done = True
             where = ("flange position unknown" if math.isnan(distance)
                      else f"{distance:.2f} m from the flange")
-            self.emit(now, cmd.mode.value, "alarm", f"coupler not clear of the ship's manifold {CLEARANCE_TIME:g} s "
-                      f"after the release ({where}, {MANIFOLD_CLEARANCE:g} m needed)", {})
+            self.emit(now, cmd.mode.value, "alarm", f"{event_label('fault.not_clear')}: {CLEARANCE_TIME:g} s after "
+                      f"the release ({where}, {MANIFOLD_CLEARANCE:g} m needed)", {"code": "fault.not_clear"})
 
 
 class _Recorder:

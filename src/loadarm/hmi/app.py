@@ -18,16 +18,12 @@ from importlib import resources
 from pathlib import Path
 
 from ..plant.security import Role, StateDir
+from ..vocab import COMMANDS, TAGGED_ACTIONS
 from .sessions import COOKIE, LoginLimiter, Sessions
 from .state import AlarmBook, frame, geometry
 
 __all__ = ["COMMANDS", "FRAME_RATE", "create_app", "HmiServer", "parse_hmi_address"]
 
-#: The screen's commands and the least role each needs. A viewer (the ship's side) has its own ESD-1 request
-#: (the ship-shore link) and nothing else.
-COMMANDS = {"start": Role.OPERATOR, "connect": Role.OPERATOR, "jog": Role.OPERATOR, "stop": Role.OPERATOR,
-            "estop": Role.OPERATOR, "esd": Role.VIEWER, "ers": Role.OPERATOR, "ers_confirm": Role.OPERATOR,
-            "reset": Role.OPERATOR, "ack": Role.OPERATOR, "shelve": Role.OPERATOR, "unshelve": Role.OPERATOR}
 #: Frames per second pushed to each screen (at most: a frame goes only when the controller has a new cycle).
 FRAME_RATE = 20.0
 #: A frame is sent at least this often even if the controller's cycle did not change, s (the page's own
@@ -171,7 +167,7 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
         if s.role < COMMANDS[action]:
             return False, f"refused: {action} needs the {COMMANDS[action].name.lower()} role, " \
                           f"{s.user} is {s.role.name.lower()}"
-        tag = (msg.get("tag") or "") if action in ("ack", "shelve", "unshelve") else ""
+        tag = (msg.get("tag") or "") if action in TAGGED_ACTIONS else ""
         try:
             jog = tuple(float(v) for v in msg.get("jog", (0.0, 0.0, 0.0)))
             req = Request(action, s.user, jog if action == "jog" else (0.0, 0.0, 0.0), tag=tag)

@@ -10,6 +10,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ..errors import EventLogError
+from ..vocab import ANNUNCIATED
 
 __all__ = ["ReplayService", "ReplayCursor"]
 
@@ -47,8 +48,6 @@ class ReplayService:
         self.t0, self.t1 = float(self.times[0]), float(self.times[-1])
         self._cursor = ReplayCursor(self.t0, self.t1, clock)
         self._cache: dict[int, object] = {}
-        from ..guidance.controller import ANNUNCIATED
-
         # each sample's alarms (every annunciated one, normal if not logged) and when each active one was raised
         self._alarms, self._raised, since = [], [], {}
         for e in self.samples:

@@ -8,41 +8,12 @@ import math
 from dataclasses import dataclass
 
 from ..alarms import AlarmState, Severity
-from ..faces import FACES
+from ..vocab import CONDITION_TEXT, FACES, PRIORITIES, priority
 
 __all__ = ["PRIORITIES", "SHELVE_MAX", "AlarmBook", "AlarmEntry", "geometry", "frame", "priority"]
 
 #: The longest an operator may shelve an alarm, s (ISA-18.2: shelving is time-limited; the alarm comes back).
 SHELVE_MAX = 600.0
-
-#: ISA-18.2 priorities, most urgent first, with the OPC UA severity (1-1000) each starts at.
-PRIORITIES = (("critical", 900), ("high", 700), ("medium", 500), ("low", 1))
-
-
-def priority(tag: str) -> tuple[int, str]:
-    """An annunciated alarm's priority, from its OPC UA severity (the one alarm severity,
-    :data:`loadarm.plant.server.CONDITION_SEVERITY`).
-
-    Parameters
-    ----------
-    tag : str
-        The alarm.
-
-    Returns
-    -------
-    rank : int
-        1 the most urgent.
-    name : str
-        ``critical``, ``high``, ``medium`` or ``low``.
-    """
-    from ..plant.server import CONDITION_SEVERITY
-
-    sev = CONDITION_SEVERITY.get(tag, 500)
-    for rank, (name, floor) in enumerate(PRIORITIES, start=1):
-        if sev >= floor:
-            return rank, name
-    return len(PRIORITIES), PRIORITIES[-1][0]
-
 
 @dataclass(frozen=True)
 class AlarmEntry:
@@ -91,8 +62,6 @@ class AlarmBook:
     def update(self, t: float, alarms: dict, raised: dict | None = None) -> list[AlarmEntry]:
         """The list at run time ``t`` for the controller's alarm states ``alarms`` (tag to state), most urgent
         first, then newest first; ``raised`` gives when each was raised where known (a replay's log)."""
-        from ..plant.server import CONDITION_TEXT
-
         out = []
         for tag, state in alarms.items():
             if state == AlarmState.NORMAL.value:

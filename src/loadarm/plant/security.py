@@ -20,7 +20,6 @@ interactive-login cost) and compared in constant time.
 
 from __future__ import annotations
 
-import enum
 import functools
 import hashlib
 import hmac
@@ -32,6 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import ConfigError
+from ..vocab import Role
 
 __all__ = ["Role", "User", "Users", "StateDir", "hash_password", "verify_password", "SCRYPT", "client_certificate",
            "thumbprint"]
@@ -40,28 +40,6 @@ __all__ = ["Role", "User", "Users", "StateDir", "hash_password", "verify_passwor
 SCRYPT = (2 ** 14, 8, 1)
 SALT_BYTES = 16
 _NAME = re.compile(r"^[A-Za-z0-9_.@-]{1,64}$")
-
-
-class Role(enum.IntEnum):
-    """What a user may do; each role includes the ones below it."""
-
-    VIEWER = 1
-    OPERATOR = 2
-    ENGINEER = 3
-
-    @classmethod
-    def parse(cls, text: str, source: str = "role") -> "Role":
-        """The role named ``text`` (case-insensitive).
-
-        Raises
-        ------
-        ConfigError
-            Naming the allowed roles.
-        """
-        try:
-            return cls[str(text).upper()]
-        except KeyError:
-            raise ConfigError(f"{source}: unknown role {text!r}; one of viewer, operator, engineer") from None
 
 
 @dataclass(frozen=True)

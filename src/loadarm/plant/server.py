@@ -6,9 +6,10 @@
   made on first start); a client's must be in ``pki/trusted/`` (read at start: a certificate copied there is
   trusted after a restart); a refused one is copied to ``pki/rejected/`` for the administrator.
 * **Users**: user name and password against the users file (scrypt), or anonymous. The roles
-  (:class:`loadarm.plant.security.Role`) are enforced per request by :class:`RoleRuleset`: anonymous and viewers
-  browse, read and subscribe; operators also call methods; engineers also write. Everything else is refused
-  with ``BadUserAccessDenied``.
+  (:class:`loadarm.vocab.Role`) are enforced per request by :class:`RoleRuleset` and per method by the one
+  action table (:data:`loadarm.vocab.ACTION_TABLE`, which the screen serves too): anonymous sessions browse,
+  read and subscribe; a signed-in viewer may also request ESD-1 (ManualESD1); operators call every method;
+  engineers also write. Everything else is refused with ``BadUserAccessDenied``.
 * **Who called**: asyncua passes no user to a method callback. The ruleset sees every request with its
   session's user first, in the connection's own task, which then awaits the call: the user is put in a
   context variable there (:data:`CURRENT_USER`), which the callback reads in the same task.
@@ -28,7 +29,7 @@ import math
 import threading
 from dataclasses import dataclass
 
-from ..faces import FACE_LABELS
+from ..vocab import ANNUNCIATED, CONDITION_SEVERITY, CONDITION_TEXT, FACE_LABELS, METHODS as _METHODS, action_role
 from ..guidance.controller import ERS_CONFIRM_WINDOW
 from .security import Role, StateDir, User
 from .service import JOG_HOLD
@@ -61,7 +62,9 @@ def _policies():
 
 
 def _request_ids():
-    """Request types by the least role that may send them."""
+    """Request types each kind of session may send: an anonymous one (key None) views only; a signed-in viewer
+    may also call, and each method then checks the action's own role (:data:`loadarm.vocab.ACTION_TABLE`: a
+    viewer's one request is ESD-1); an engineer may also write and read history."""
     from asyncua import ua
     from asyncua.crypto.permission_rules import USER_TYPES
 
@@ -70,11 +73,12 @@ def _request_ids():
     call = {ua.NodeId(ua.ObjectIds.CallRequest_Encoding_DefaultBinary)}
     history = {ua.NodeId(ua.ObjectIds.HistoryReadRequest_Encoding_DefaultBinary)}
     view = every - write - call
-    return {Role.VIEWER: view, Role.OPERATOR: view | call, Role.ENGINEER: view | call | write | history}
+    return {None: view, Role.VIEWER: view | call, Role.OPERATOR: view | call,
+            Role.ENGINEER: view | call | write | history}
 
 
 class RoleRuleset:
-    """asyncua permission ruleset by loadarm role; anonymous sessions are viewers. Records the request's user
+    """asyncua permission ruleset by loadarm role; anonymous sessions view only. Records the request's user
     in :data:`CURRENT_USER` (see the module's notes)."""
 
     def __init__(self):
@@ -87,9 +91,10 @@ class RoleRuleset:
         return action_type_id in self._allowed[role]
 
 
-def _role(user) -> Role:
+def _role(user) -> Role | None:
+    """The signed-in user's role; None for an anonymous session."""
     who = getattr(user, "loadarm", None)
-    return who.role if who is not None else Role.VIEWER
+    return who.role if who is not None else None
 
 
 def _user_manager(users):
@@ -167,18 +172,10 @@ VARIABLES = (
 STATES = (("EstimateHealthy", bool), ("Connected", bool), ("ESDActive", bool), ("ReleaseRequested", bool),
           ("CouplerOpen", bool), ("ERSValvesClosed", bool), ("AlarmStage", int), ("AlarmStageText", str),
           ("Mode", str), ("Cycle", int), ("LateCycles", int), ("PlantLinkOK", bool))
-#: Methods: browse name, request action, input arguments, what it does.
-METHODS = (("StartApproach", "start", (), "start the automatic approach to the standoff"),
-           ("Connect", "connect", (), "connect the coupler at the standoff"),
-           ("Disconnect", "disconnect", (), "controlled disconnection"),
-           ("Jog", "jog", ("vx", "vy", "vz"), f"jog the coupler (m/s) for {JOG_HOLD:g} s; renew to keep moving"),
-           ("Stop", "stop", (), "stop (manual mode, no motion)"),
-           ("EStop", "estop", (), "request the emergency stop (the PLC's hard-wired chain decides)"),
-           ("ManualESD1", "esd", (), "manual ESD-1"),
-           ("ManualERS", "ers", ("Confirm",), "manual emergency release: call, then call with Confirm = true within "
-                                              f"{ERS_CONFIRM_WINDOW:g} s"),
-           ("Reset", "reset", (), "reset after an emergency stop or an alarm"),
-           ("AcknowledgeAlarm", "ack", (), "acknowledge every alarm"))
+#: Methods: browse name, request action, input arguments, what it does (the one action table,
+#: :data:`loadarm.vocab.ACTION_TABLE`, with the service's jog hold and the controller's ERS window filled in).
+METHODS = tuple((name, action, args, what.format(jog_hold=JOG_HOLD, ers_window=ERS_CONFIRM_WINDOW))
+                for name, action, args, what in _METHODS)
 #: OPC 40001-1 MachineryOperationMode and MachineryItemState of each guidance mode (jog is Setup).
 OPERATION_MODE = {"STORED": "None", "MANUAL": "Setup", "ESTOP": "None"}
 ITEM_STATE = {"STORED": "NotExecuting", "HOLD": "NotExecuting", "ESTOP": "OutOfService", "MANUAL": "Executing"}
@@ -402,8 +399,6 @@ class OpcUaServer(SecureServer):
 
     @staticmethod
     def _alarm_tags():
-        from ..guidance.controller import ANNUNCIATED
-
         return ANNUNCIATED
 
     def _acknowledge(self, conditions: dict):
@@ -420,7 +415,7 @@ class OpcUaServer(SecureServer):
         async def acknowledge(parent, *values):
             user = CURRENT_USER.get()
             who = getattr(user, "loadarm", None)
-            if who is None or who.role < Role.OPERATOR:
+            if who is None or who.role < action_role("ack"):
                 return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
             tag = by_node.get(parent)
             if tag is None:
@@ -442,9 +437,10 @@ class OpcUaServer(SecureServer):
         async def method(parent, *values):
             user = CURRENT_USER.get()
             who = getattr(user, "loadarm", None)
-            if who is None or who.role < Role.OPERATOR:          # the ruleset refused it already; twice is safe
-                return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
             vals = [v.Value for v in values]
+            asked = "ers_confirm" if action == "ers" and vals and bool(vals[0]) else action
+            if who is None or who.role < action_role(asked):      # the one role table (loadarm.vocab)
+                return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
             try:
                 if action == "jog":
                     req = Request("jog", who.name, tuple(float(v) for v in vals))
@@ -562,17 +558,6 @@ async def _state_machine(server, parent, ns: int, name: str, states) -> _StateMa
         nodes[st], numbers[st] = node, i + 1
     evgen = await server.get_event_generator(ua.ObjectIds.TransitionEventType, sm)
     return _StateMachine(sm, current, current_id, current_number, last, nodes, numbers, evgen)
-
-
-#: OPC UA severity (1-1000) of each annunciated alarm: the one alarm severity, scaled.
-CONDITION_SEVERITY = {"PRE_ALARM": 300, "ESD1": 600, "SECOND": 800, "RELEASE": 1000, "ERS_VALVE_FAULT": 800,
-                      "ERS_SWITCH_FAULT": 800, "SENSOR_FAULT": 800}
-#: What each annunciated alarm means, for its condition's message.
-CONDITION_TEXT = {"PRE_ALARM": "pre-alarm: the flange nears the ESD-1 threshold", "ESD1": "ESD-1: pumps stopped, "
-                  "ERS valves closing", "SECOND": "second alarm: release imminent", "RELEASE": "ERS-2: release of the "
-                  "coupler", "ERS_VALVE_FAULT": "ERS valves not confirmed closed in time",
-                  "ERS_SWITCH_FAULT": "ERS valves' closed limit switches disagree",
-                  "SENSOR_FAULT": "a joint-angle sensor is frozen, drifting or failed"}
 
 
 class _Condition:

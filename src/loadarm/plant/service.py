@@ -23,18 +23,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..guidance.controller import OperatorInput
+from ..vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
 
 __all__ = ["ACTIONS", "JOG_HOLD", "Request", "Snapshot", "GuidanceService"]
 
 #: How long one jog request moves the arm unless renewed, s.
 JOG_HOLD = 0.5
-#: The operator's requests and the controller actions they become (``jog`` carries a velocity).
-ACTIONS = {"start": ("start",), "connect": ("connect",), "disconnect": ("disconnect",), "stop": ("manual",),
-           "jog": ("manual",), "estop": ("estop",), "esd": ("esd",), "ers": ("ers",),
-           "ers_confirm": ("ers_confirm",), "reset": ("reset",), "ack": ("ack",), "auto": ("auto",),
-           "shelve": (), "unshelve": ()}      # the screen's shelving: logged here, kept by the HMI (loadarm.hmi)
-
-
 @dataclass(frozen=True)
 class Request:
     """One operator request.
@@ -61,9 +55,7 @@ class Request:
             raise ValueError(f"action must be one of {', '.join(ACTIONS)}, got {self.action!r}")
         if len(self.jog) != 3 or not all(math.isfinite(v) for v in self.jog):
             raise ValueError(f"jog must be three finite velocities, got {self.jog!r}")
-        from ..guidance.controller import ANNUNCIATED
-
-        if self.tag and (self.action not in ("ack", "shelve", "unshelve") or self.tag not in ANNUNCIATED):
+        if self.tag and (self.action not in TAGGED_ACTIONS or self.tag not in ANNUNCIATED):
             raise ValueError(f"tag must be one of {', '.join(ANNUNCIATED)} with action 'ack', 'shelve' or "
                              f"'unshelve', got {self.tag!r}")
         if self.action in ("shelve", "unshelve") and not self.tag:
@@ -265,9 +257,9 @@ class GuidanceService:
             self.loop.emit(now, mode.value, "info", "PLC link restored", {})
             return live
         attached = mode in CONNECTED_MODES
-        self.loop.emit(now, mode.value, "alarm", "PLC link lost: its values are bad"
+        self.loop.emit(now, mode.value, "alarm", f"{event_label('fault.plc_link')}: its values are bad"
                        + ("; ESD-1 initiated" if attached else "; motion stopped (the PLC's watchdog stops the "
-                                                               "drives)"), {})
+                                                               "drives)"), {"code": "fault.plc_link"})
         self._jog, self._jog_until = (0.0, 0.0, 0.0), -math.inf
         return OperatorInput(live.actions + (("esd",) if attached else ("manual",)), (0.0, 0.0, 0.0))
 

@@ -1,0 +1,371 @@
+"""The safety vocabulary, declared once: the envelope's faces, the annunciated alarms, the roles and the
+operator's actions with the one rule of who may request what.
+
+Everything that names a face, an alarm or an action (the controller, the design check, alarm design, the
+OPC UA server, the operator's screen, the report) reads these tables; none keeps a list of its own
+(``tests/test_vocab.py`` fails on a second declaration of a face text, an alarm text or an action table).
+
+* :data:`FACE_TABLE`: each face of the attached envelope with the operator's words, the joint and end it is,
+  and the flange motion that brings it nearer (a property test holds the words to the geometry);
+* :data:`CONDITIONS`: each annunciated alarm with its alarm stage, OPC UA severity, ISA-18.2 priority and text;
+* :class:`Role` and :data:`ACTION_TABLE`: each operator request, what the controller does with it, the least
+  role that may ask for it and where it is offered (the screen, an OPC UA method). The screen and the
+  OPC UA server both serve this one table;
+* :data:`EVENT_TABLE`: the event codes. An event carries its code in its data; its text starts with the code's
+  label and adds the values. Metrics, figures and the CLI read the code.
+
+The role rule (written down here, served by both interfaces): viewing needs a signed-in user or an anonymous
+OPC UA session; every request needs a signed-in user of the action's role. ESD-1 is open to a signed-in
+viewer (the ship's side, by the ship-shore link): it only stops the transfer and closes valves, as any
+person on the jetty may by the hard-wired ESD push button. An anonymous session may request nothing.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass
+
+from .alarms import Severity
+from .errors import ConfigError
+
+__all__ = ["Face", "FACE_TABLE", "FACES", "FACE_LABELS", "FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
+           "CONDITION_SEVERITY", "CONDITION_TEXT", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
+           "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
+           "EVENTS", "STAGE_EVENT", "event_label", "alarm_label"]
+
+
+@dataclass(frozen=True, slots=True)
+class Face:
+    """One face of the attached envelope.
+
+    Attributes
+    ----------
+    name : str
+        The code (``beta_max``, ...), in the order of :func:`loadarm.faces.face_margins`' last axis.
+    words : str
+        The operator's words: what the arm looks like there and what the flange did.
+    detail : str
+        The joint and the cylinder end, for the engineer.
+    joint : str
+        ``beta``, ``alpha`` or ``slew``.
+    end : str
+        ``max`` or ``min``: the joint's upper or lower limit.
+    towards : tuple of float
+        A flange motion (unit vector in the jetty frame, x off the berth, y along it, z up) that brings this
+        face nearer wherever the arm can reach (held by ``tests/test_vocab.py``; ``beta`` faces: radially, out
+        or in, marked by a zero vector and :attr:`radial`).
+    radial : int
+        +1: moving the flange away from the inboard pivot brings the face nearer; -1: towards it; 0: use
+        :attr:`towards`.
+    unit : str
+        The unit of the face's margin (the joint angle's).
+    """
+
+    name: str
+    words: str
+    detail: str
+    joint: str
+    end: str
+    towards: tuple[float, float, float]
+    radial: int = 0
+    unit: str = "rad"
+
+    @property
+    def label(self) -> str:
+        """Words and detail together, as the design check and the OPC UA margins describe the face."""
+        return f"{self.words} ({self.detail})"
+
+
+#: The faces. Alpha is the inboard arm's angle from the upward vertical: it is largest when the inboard arm
+#: is lowest, i.e. at the lowest flange (the paper's corner table: 10 deg at the highest flange, 117 deg at
+#: the lowest), so ``alpha_max`` is the flange too low and ``alpha_min`` the flange too high.
+FACE_TABLE: tuple[Face, ...] = (
+    Face("beta_max", "arm stretched: flange too far out", "beta at cylinder 2's extended end",
+         "beta", "max", (0.0, 0.0, 0.0), radial=+1),
+    Face("beta_min", "arm folded: flange too close in", "beta at cylinder 2's retracted end, coupler towards "
+         "the jetty", "beta", "min", (0.0, 0.0, 0.0), radial=-1),
+    Face("alpha_max", "inboard arm down: flange too low", "alpha at cylinder 1's end, inboard arm far from "
+         "the vertical", "alpha", "max", (0.0, 0.0, -1.0)),
+    Face("alpha_min", "inboard arm up: flange too high", "alpha at cylinder 1's other end, inboard arm near "
+         "the vertical", "alpha", "min", (0.0, 0.0, 1.0)),
+    Face("slew_pos", "slewed to its limit: flange too far along the berth, +y", "slew at its positive limit",
+         "slew", "max", (0.0, 1.0, 0.0)),
+    Face("slew_neg", "slewed to its limit: flange too far along the berth, -y", "slew at its negative limit",
+         "slew", "min", (0.0, -1.0, 0.0)),
+)
+#: The face codes, in the order of :func:`loadarm.faces.face_margins`' last axis.
+FACES: tuple[str, ...] = tuple(f.name for f in FACE_TABLE)
+#: The operator's words of each face.
+FACE_WORDS: dict[str, str] = {f.name: f.words for f in FACE_TABLE}
+#: Words and detail of each face (the design check's refusals, the OPC UA margins' descriptions).
+FACE_LABELS: dict[str, str] = {f.name: f.label for f in FACE_TABLE}
+
+
+#: ISA-18.2 priorities, most urgent first, with the OPC UA severity (1-1000) each starts at.
+PRIORITIES: tuple[tuple[str, int], ...] = (("critical", 900), ("high", 700), ("medium", 500), ("low", 1))
+
+
+@dataclass(frozen=True, slots=True)
+class Condition:
+    """One annunciated alarm.
+
+    Attributes
+    ----------
+    tag : str
+        The code the controller, the event log, the OPC UA condition and the screen use.
+    stage : Severity or None
+        The connected-mode alarm stage it annunciates (None: an equipment fault).
+    severity : int
+        OPC UA severity, 1-1000 (the ISA-18.2 priority follows from it: :func:`priority`).
+    text : str
+        What it means, for the condition's message and the screen's alarm list.
+    """
+
+    tag: str
+    stage: Severity | None
+    severity: int
+    text: str
+
+    @property
+    def priority(self) -> tuple[int, str]:
+        """ISA-18.2 priority: rank (1 the most urgent) and name."""
+        for rank, (name, floor) in enumerate(PRIORITIES, start=1):
+            if self.severity >= floor:
+                return rank, name
+        return len(PRIORITIES), PRIORITIES[-1][0]
+
+
+#: The annunciated alarms, in the order the controller keeps them.
+CONDITIONS: tuple[Condition, ...] = (
+    Condition("PRE_ALARM", Severity.PRE_ALARM, 300, "pre-alarm: the flange nears the ESD-1 threshold"),
+    Condition("ESD1", Severity.ESD1, 600, "ESD-1: pumps stopped, ERS valves closing"),
+    Condition("SECOND", Severity.SECOND, 800, "second alarm: release imminent"),
+    Condition("RELEASE", Severity.RELEASE, 1000, "ERS-2: release of the coupler"),
+    Condition("ERS_VALVE_FAULT", None, 800, "ERS valves not confirmed closed in time"),
+    Condition("ERS_SWITCH_FAULT", None, 800, "ERS valves' closed limit switches disagree"),
+    Condition("SENSOR_FAULT", None, 800, "a joint-angle sensor is frozen, drifting or failed"),
+)
+_BY_TAG = {c.tag: c for c in CONDITIONS}
+#: The annunciated alarms' tags.
+ANNUNCIATED: tuple[str, ...] = tuple(c.tag for c in CONDITIONS)
+#: OPC UA severity (1-1000) of each annunciated alarm.
+CONDITION_SEVERITY: dict[str, int] = {c.tag: c.severity for c in CONDITIONS}
+#: What each annunciated alarm means.
+CONDITION_TEXT: dict[str, str] = {c.tag: c.text for c in CONDITIONS}
+
+
+def priority(tag: str) -> tuple[int, str]:
+    """An annunciated alarm's ISA-18.2 priority.
+
+    Parameters
+    ----------
+    tag : str
+        One of :data:`ANNUNCIATED`.
+
+    Returns
+    -------
+    rank : int
+        1 the most urgent.
+    name : str
+        ``critical``, ``high``, ``medium`` or ``low``.
+
+    Raises
+    ------
+    KeyError
+        For a tag that is not annunciated.
+    """
+    return _BY_TAG[tag].priority
+
+
+class Role(enum.IntEnum):
+    """What a signed-in user may do; each role includes the ones below it."""
+
+    VIEWER = 1
+    OPERATOR = 2
+    ENGINEER = 3
+
+    @classmethod
+    def parse(cls, text: str, source: str = "role") -> "Role":
+        """The role named ``text`` (case-insensitive).
+
+        Raises
+        ------
+        ConfigError
+            Naming the allowed roles.
+        """
+        try:
+            return cls[str(text).upper()]
+        except KeyError:
+            raise ConfigError(f"{source}: unknown role {text!r}; one of viewer, operator, engineer") from None
+
+
+@dataclass(frozen=True, slots=True)
+class Action:
+    """One operator request.
+
+    Attributes
+    ----------
+    name : str
+        The request's code (the screen's command, the service's :class:`loadarm.plant.service.Request`).
+    controller : tuple of str
+        The controller actions it becomes (empty: kept by the screen, logged only).
+    role : Role
+        The least role that may request it.
+    screen : bool
+        Offered on the operator's screen.
+    method : str or None
+        The OPC UA method that requests it (None: not offered there).
+    args : tuple of str
+        The OPC UA method's input arguments.
+    what : str
+        What it does, for the method's description and the docs (``{jog_hold}`` and ``{ers_window}`` are
+        filled in by the server with the service's and the controller's values).
+    """
+
+    name: str
+    controller: tuple[str, ...]
+    role: Role
+    screen: bool
+    method: str | None = None
+    args: tuple[str, ...] = ()
+    what: str = ""
+
+
+#: Every operator request and who may make it, where. ``ers`` asks; ``ers_confirm`` confirms within the
+#: controller's window (the OPC UA method ManualERS takes both, by its Confirm argument).
+ACTION_TABLE: tuple[Action, ...] = (
+    Action("start", ("start",), Role.OPERATOR, True, "StartApproach", (), "start the automatic approach to the "
+           "standoff"),
+    Action("connect", ("connect",), Role.OPERATOR, True, "Connect", (), "connect the coupler at the standoff"),
+    Action("disconnect", ("disconnect",), Role.OPERATOR, False, "Disconnect", (), "controlled disconnection"),
+    Action("jog", ("manual",), Role.OPERATOR, True, "Jog", ("vx", "vy", "vz"), "jog the coupler (m/s) for "
+           "{jog_hold:g} s; renew to keep moving"),
+    Action("stop", ("manual",), Role.OPERATOR, True, "Stop", (), "stop (manual mode, no motion)"),
+    Action("estop", ("estop",), Role.OPERATOR, True, "EStop", (), "request the emergency stop (the PLC's "
+           "hard-wired chain decides)"),
+    Action("esd", ("esd",), Role.VIEWER, True, "ManualESD1", (), "manual ESD-1"),
+    Action("ers", ("ers",), Role.OPERATOR, True, "ManualERS", ("Confirm",), "manual emergency release: call, "
+           "then call with Confirm = true within {ers_window:g} s"),
+    Action("ers_confirm", ("ers_confirm",), Role.OPERATOR, True),
+    Action("reset", ("reset",), Role.OPERATOR, True, "Reset", (), "reset after an emergency stop or an alarm"),
+    Action("ack", ("ack",), Role.OPERATOR, True, "AcknowledgeAlarm", (), "acknowledge every alarm"),
+    Action("auto", ("auto",), Role.OPERATOR, False),
+    Action("shelve", (), Role.OPERATOR, True),
+    Action("unshelve", (), Role.OPERATOR, True),
+)
+_ACTION = {a.name: a for a in ACTION_TABLE}
+#: Request to the controller actions it becomes.
+ACTIONS: dict[str, tuple[str, ...]] = {a.name: a.controller for a in ACTION_TABLE}
+#: The screen's commands and the least role each needs.
+COMMANDS: dict[str, Role] = {a.name: a.role for a in ACTION_TABLE if a.screen}
+#: The OPC UA methods: (browse name, request, input arguments, description).
+METHODS: tuple[tuple[str, str, tuple[str, ...], str], ...] = tuple(
+    (a.method, a.name, a.args, a.what) for a in ACTION_TABLE if a.method)
+#: The requests that may name one alarm (``tag``).
+TAGGED_ACTIONS: tuple[str, ...] = ("ack", "shelve", "unshelve")
+
+
+def action_role(name: str) -> Role:
+    """The least role that may request an action.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`ACTIONS`.
+
+    Returns
+    -------
+    Role
+
+    Raises
+    ------
+    KeyError
+        For an action that is not declared.
+    """
+    return _ACTION[name].role
+
+
+@dataclass(frozen=True, slots=True)
+class EventCode:
+    """One kind of event the metrics, figures, the CLI and the screen read by its code (never by its text).
+
+    Attributes
+    ----------
+    code : str
+        The code, carried in the event's data as ``code``.
+    kind : str
+        The event log's kind (:data:`loadarm.eventlog.KINDS`).
+    label : str
+        The short name the event's text starts with and the figures mark it by.
+    stage : Severity or None
+        The alarm stage it raises, for the stage events.
+    """
+
+    code: str
+    kind: str
+    label: str
+    stage: Severity | None = None
+
+
+#: The events read by code: the alarm stages, the equipment faults, the ERS interlock and the release.
+EVENT_TABLE: tuple[EventCode, ...] = (
+    EventCode("stage.pre_alarm", "alarm", "PRE-ALARM", Severity.PRE_ALARM),
+    EventCode("stage.esd1", "alarm", "ALARM1", Severity.ESD1),
+    EventCode("stage.second", "alarm", "ALARM2", Severity.SECOND),
+    EventCode("stage.release", "alarm", "RELEASE", Severity.RELEASE),
+    EventCode("fault.sensor", "alarm", "SENSOR FAULT"),
+    EventCode("fault.ers_switch", "alarm", "ERS SWITCH FAULT"),
+    EventCode("fault.ers_valve", "alarm", "ERS VALVE FAULT"),
+    EventCode("fault.ers_unconfirmed", "alarm", "ERS valves no longer confirmed closed (a limit switch dropped)"),
+    EventCode("fault.plc_link", "alarm", "PLC link lost"),
+    EventCode("fault.hpu_trip", "alarm", "HPU trip"),
+    EventCode("fault.accumulator_spent", "alarm", "ERS accumulator spent"),
+    EventCode("fault.overstretched", "alarm", "ARM OVERSTRETCHED"),
+    EventCode("fault.servo", "alarm", "hydraulic servo fault"),
+    EventCode("fault.not_clear", "alarm", "coupler not clear of the ship's manifold"),
+    EventCode("interlock.valves_confirmed", "interlock", "ERS valves confirmed closed"),
+    EventCode("command.coupler_opening", "command", "ERS-2: coupler opening"),
+    EventCode("command.release_complete", "command", "ERS-2 release complete"),
+)
+#: Code to its record.
+EVENTS: dict[str, EventCode] = {e.code: e for e in EVENT_TABLE}
+#: The code of each connected-mode alarm stage's event.
+STAGE_EVENT: dict[Severity, str] = {e.stage: e.code for e in EVENT_TABLE if e.stage is not None}
+
+
+def event_label(code: str) -> str:
+    """The short name of an event code.
+
+    Parameters
+    ----------
+    code : str
+        One of :data:`EVENTS`.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    KeyError
+        For a code that is not declared.
+    """
+    return EVENTS[code].label
+
+
+def alarm_label(data: dict | None) -> str:
+    """The label an alarm event is marked by in figures.
+
+    Parameters
+    ----------
+    data : dict or None
+        The event's data.
+
+    Returns
+    -------
+    str
+        Its code's label (:func:`event_label`), or ``"alarm"`` for an event that carries no declared code (a
+        log written before event codes).
+    """
+    code = (data or {}).get("code")
+    return EVENTS[code].label if code in EVENTS else "alarm"

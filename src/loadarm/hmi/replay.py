@@ -48,12 +48,16 @@ class ReplayService:
         self.t0, self.t1 = float(self.times[0]), float(self.times[-1])
         self._cursor = ReplayCursor(self.t0, self.t1, clock)
         self._cache: dict[int, object] = {}
-        # each sample's alarms (every annunciated one, normal if not logged) and when each active one was raised
+        # each sample's alarms (every annunciated one, normal if not logged) and when each active one was raised:
+        # at its logged transition out of normal (found: the 1 Hz sample after it, ESD-1 shown at 212.0 s where
+        # the log has 211.2 s), or at the first sample showing it in a log without those transitions
+        raises = _raise_times(events)
         self._alarms, self._raised, since = [], [], {}
         for e in self.samples:
             states = {tag: "normal" for tag in ANNUNCIATED}
             states.update(e.data.get("alarms", {}))
-            since = {tag: since.get(tag, e.t) for tag, st in states.items() if st != "normal"}
+            since = {tag: since.get(tag, _raised_by(raises.get(tag, ()), e.t)) for tag, st in states.items()
+                     if st != "normal"}
             self._alarms.append(states)
             self._raised.append(dict(since))
 
@@ -119,6 +123,28 @@ class ReplayService:
                         release=bool(d.get("release", False)), coupler_open=bool(d.get("coupler_open", False)),
                         ers_valves_closed=bool(d.get("ers_valves_closed", False)), alarms=dict(self._alarms[i]), cylinders=(float(c1), float(c2)),
                         margins={f: float(m[..., k]) for k, f in enumerate(FACES)})
+
+
+def _raise_times(events) -> dict[str, list[float]]:
+    """Each alarm's logged transitions out of normal, run time s, in order (its ``alarm_state`` events)."""
+    out: dict[str, list[float]] = {}
+    last: dict[str, str] = {}
+    for e in events:
+        if e.kind != "alarm_state":
+            continue
+        tag, st = e.data.get("tag"), e.data.get("alarm_state")
+        if tag is None or st is None:
+            continue
+        if st != "normal" and last.get(tag, "normal") == "normal":
+            out.setdefault(tag, []).append(float(e.t))
+        last[tag] = st
+    return out
+
+
+def _raised_by(times, t: float) -> float:
+    """The last of an alarm's raise times at or before ``t`` (``t`` itself when the log has none)."""
+    k = int(np.searchsorted(np.asarray(times, dtype=float), t, side="right")) - 1
+    return float(times[k]) if k >= 0 else float(t)
 
 
 class ReplayCursor:

@@ -37,8 +37,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .alarms import UNREACHABLE, Severity, beta_severity, slew_severity
-from .faces import FACE_LABELS, FACES, breakout_distance, face_margins, first_face, past_a_face_at
+from .faces import (FACE_LABELS, FACES, RAY_REACH as _REACH, breakout_distance, face_margins, first_face,
+                    past_a_face_at, ray_crossing)
 from .results import Metric, Result
+from .sequence import esd_lead, release_lead, valve_worst_time
 from .slew import inverse3d
 
 __all__ = ["DIRECTIONS", "DirectionCheck", "CheckResult", "CHECK_METRICS", "design_check", "esd_lead",
@@ -54,62 +56,9 @@ DIRECTIONS = (
     ("down (-z)", (0.0, 0.0, -1.0), False),
 )
 
-_REACH = 40.0          # m: the farthest a ray is walked (beyond any arm's reach)
 #: Distance the coupler must put between itself and the ship's flange after a release, m (clear of the
 #: manifold's spool piece and the ship's rail); with the HPU tripped the accumulator drives that retraction.
 MANIFOLD_CLEARANCE = 1.0
-_STEP = 0.01           # m: ray sampling before the bisection
-
-
-def valve_worst_time(seq) -> float:
-    """The latest the ERS valves may confirm closed after their command without a fault, s.
-
-    Until the limit switches confirm, every lead assumes this worst case: a valve slower than nominal but
-    inside its timeout is not a fault, and the coupler waits for it.
-
-    Parameters
-    ----------
-    seq : record
-        The installation's ``[sequence]``.
-
-    Returns
-    -------
-    float
-        ``ers_valve_time + ers_valve_timeout``.
-    """
-    return seq.ers_valve_time + seq.ers_valve_timeout
-
-
-def esd_lead(seq) -> float:
-    """Time the first alarm (ESD-1) must leave before any face, s.
-
-    Parameters
-    ----------
-    seq : record
-        The installation's ``[sequence]``.
-
-    Returns
-    -------
-    float
-        ``max(esd_time, ers_valve_time + ers_valve_timeout) + erc_release_time + margin``.
-    """
-    return max(seq.esd_time, valve_worst_time(seq)) + seq.erc_release_time + seq.margin
-
-
-def release_lead(seq) -> float:
-    """Time from ESD-1 to the coupler free at the latest, with the margin, s.
-
-    Parameters
-    ----------
-    seq : record
-        The installation's ``[sequence]``.
-
-    Returns
-    -------
-    float
-        ``ers_valve_time + ers_valve_timeout + erc_release_time + margin``.
-    """
-    return valve_worst_time(seq) + seq.erc_release_time + seq.margin
 
 
 def accumulator_usable_volume(volume: float, precharge: float, charged: float, minimum: float,
@@ -332,26 +281,6 @@ class CheckResult(Result):
         return check_figure(self)
 
 
-def _first_crossing(model, p0: np.ndarray, d: np.ndarray, outside) -> float | None:
-    """Smallest s in [0, 40] m with ``outside(p0 + s d)``, to 1e-6 m (None if none)."""
-    s = np.arange(0.0, _REACH + _STEP, _STEP)
-    pts = p0 + s[:, None] * d
-    hit = np.flatnonzero(outside(pts))
-    if hit.size == 0:
-        return None
-    i = int(hit[0])
-    if i == 0:
-        return 0.0
-    lo, hi = float(s[i - 1]), float(s[i])
-    while hi - lo > 1e-6:
-        mid = 0.5 * (lo + hi)
-        if bool(outside((p0 + mid * d)[None])[0]):
-            hi = mid
-        else:
-            lo = mid
-    return hi
-
-
 def design_check(model) -> CheckResult:
     """Check the installation's alarm settings against its design drift, per direction.
 
@@ -380,13 +309,13 @@ def design_check(model) -> CheckResult:
     rows, problems = [], []
     for name, vec, horizontal in DIRECTIONS:
         d = np.array(vec)
-        avail = _first_crossing(model, p0, d, past_face)
+        avail = ray_crossing(model, p0, d, past_face)
         face = ""
         if avail is None:
             avail = _REACH
         else:
             face = FACES[int(first_face(face_margins(model, *(p0 + (avail + 1e-6) * d)))[1])]
-        angle = _first_crossing(model, p0, d, in_first_alarm)
+        angle = ray_crossing(model, p0, d, in_first_alarm)
         angle = angle if angle is not None and angle < avail else None
         if horizontal:
             needed = float(breakout_distance(L1, dd.speed, dd.acceleration))

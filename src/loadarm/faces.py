@@ -20,7 +20,12 @@ from .slew import inverse3d
 from .vocab import FACE_LABELS, FACES
 
 __all__ = ["FACES", "FACE_LABELS", "face_margins", "first_face", "past_a_face", "past_a_face_at",
-           "breakout_distance"]
+           "breakout_distance", "ray_crossing", "RAY_REACH", "RAY_STEP"]
+
+#: The farthest a ray from the flange is walked, m (beyond any arm's reach).
+RAY_REACH = 40.0
+#: A ray's sampling before the bisection, m.
+RAY_STEP = 0.01
 
 def face_margins(model, x, y, z, *, q=None) -> np.ndarray:
     """Signed margin of coupler positions to every face, in the face's own coordinate (rad).
@@ -138,3 +143,42 @@ def breakout_distance(t, speed: float, accel: float) -> np.ndarray:
         return speed * t
     t_acc = speed / accel
     return np.where(t < t_acc, 0.5 * accel * t * t, speed * t - 0.5 * speed * t_acc)
+
+
+def ray_crossing(model, p0: np.ndarray, d: np.ndarray, outside) -> float | None:
+    """Smallest distance along a ray at which a condition first holds: the design check's, alarm design's and
+    the operability table's walk from the flange (one routine for all three).
+
+    Parameters
+    ----------
+    model : ArmModel
+        Unused by the walk itself; kept so that callers pass the model the condition is about.
+    p0 : ndarray, shape (3,)
+        Start, m.
+    d : ndarray, shape (3,)
+        Unit direction.
+    outside : callable
+        ``outside(points)`` for points of shape (N, 3): a boolean array (e.g. past a face).
+
+    Returns
+    -------
+    float or None
+        The distance in [0, :data:`RAY_REACH`] m to 1e-6 m (sampled at :data:`RAY_STEP`, then bisected), None if
+        the condition never holds on the ray.
+    """
+    s = np.arange(0.0, RAY_REACH + RAY_STEP, RAY_STEP)
+    pts = p0 + s[:, None] * d
+    hit = np.flatnonzero(outside(pts))
+    if hit.size == 0:
+        return None
+    i = int(hit[0])
+    if i == 0:
+        return 0.0
+    lo, hi = float(s[i - 1]), float(s[i])
+    while hi - lo > 1e-6:
+        mid = 0.5 * (lo + hi)
+        if bool(outside((p0 + mid * d)[None])[0]):
+            hi = mid
+        else:
+            lo = mid
+    return hi

@@ -42,7 +42,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..check import valve_worst_time
+from ..sequence import stage_of, valve_worst_time
 from .voting import AXES, VoteState, reset_votes, vote
 from ..alarms import AlarmState, AlarmThresholds, Severity, next_alarm_state
 from ..geometry import Arm
@@ -661,15 +661,14 @@ class GuidanceController:
             s.next_forecast = now + mon.fit.period
         f = s.forecast
         if math.isfinite(f.time):
-            for stage in sorted(s.leads, reverse=True):
-                # the pre-alarm warns of a drift the monitor sees: the measured routes only
+            ld = s.leads                         # the one rule (loadarm.sequence.stage_of): the pre-alarm warns
+            stage = Severity(stage_of(f.time, f.measured, ld[Severity.RELEASE], ld[Severity.SECOND],  # of a drift
+                                      ld[Severity.ESD1], ld.get(Severity.PRE_ALARM, -math.inf)))   # it sees
+            if stage > level:
                 t = f.measured if stage == Severity.PRE_ALARM else f.time
-                if t <= s.leads[stage]:
-                    if stage > level:
-                        route = f.route if t == f.time else "measured drift"
-                        level, why = stage, (f"{route}: {f.face} face in {t:.1f} s, the {stage.label} "
-                                             f"needs {s.leads[stage]:.1f} s")
-                    break
+                route = f.route if t == f.time else "measured drift"
+                level, why = stage, (f"{route}: {f.face} face in {t:.1f} s, the {stage.label} "
+                                     f"needs {ld[stage]:.1f} s")
         return level, why
 
     def _raise(self, now: float, q, level: Severity, why: str) -> None:

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..alarms import Severity
-from ..check import esd_lead, valve_worst_time
+from ..sequence import esd_lead, lead_values, valve_worst_time
 from ..faces import FACES, breakout_distance, face_margins, first_face
 
 __all__ = ["FIT_PERIOD", "stage_leads", "DriftEstimate", "DriftFit", "LimitForecast", "EnvelopeMonitor"]
@@ -57,13 +57,12 @@ def stage_leads(seq, *, valves_left: float | None = None, release_left: float | 
         margin again; ``ESD1``: the whole sequence (ESD-1 complete, valves closed, release) plus the margin;
         ``PRE_ALARM``: that plus ``pre_alarm_lead`` (only when it is > 0).
     """
-    v = valve_worst_time(seq) if valves_left is None else max(valves_left, 0.0)
-    r = seq.erc_release_time if release_left is None else max(release_left, 0.0)
-    release = v + r + seq.margin
-    leads = {Severity.RELEASE: release, Severity.SECOND: release + seq.margin, Severity.ESD1: esd_lead(seq)}
-    leads[Severity.ESD1] = max(leads[Severity.ESD1], leads[Severity.SECOND])
+    v = valve_worst_time(seq) if valves_left is None else valves_left
+    r = seq.erc_release_time if release_left is None else release_left
+    release, second, esd1, pre = lead_values(v, r, seq.margin, esd_lead(seq), seq.pre_alarm_lead)
+    leads = {Severity.RELEASE: release, Severity.SECOND: second, Severity.ESD1: esd1}
     if seq.pre_alarm_lead > 0:
-        leads[Severity.PRE_ALARM] = leads[Severity.ESD1] + seq.pre_alarm_lead
+        leads[Severity.PRE_ALARM] = pre
     return leads
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from ..check import esd_lead
+from ..sequence import esd_lead
 from ..config import _format_validation_error, _param, load_config, paper_installation, read_toml, toml_values
 from ..errors import ConfigError
 

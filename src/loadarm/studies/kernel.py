@@ -31,7 +31,7 @@ import numpy as np
 from .._numba import njit
 
 from ..alarms import BETA_TOL_RAD, LEVEL_RELEASE, UNREACHABLE, zone_level
-from ..check import esd_lead, valve_worst_time
+from ..sequence import esd_lead, lead_values, stage_of, valve_worst_time
 from ..faces import breakout_distance, past_a_face, past_a_face_at
 
 __all__ = ["FloorTable", "floor_table", "ray_distances", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS",
@@ -245,12 +245,17 @@ def floor_table(model, lo, hi, *, spacing: float = 0.2) -> FloorTable:
     return FloorTable(lo, spacing, dist.reshape(*n, N_DIRECTIONS), cap, cap_v)
 
 
+_lead_values = njit(cache=True, nogil=True, inline="always")(lead_values)
+_stage_of = njit(cache=True, nogil=True, inline="always")(stage_of)
+
+
 @njit(cache=True, nogil=True)
 def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1, valve_worst, close_at_release):
     """The alarm sequence over one record: returns (stage reached, i_esd1, i_release, min time-to-limit). The
     valves are commanded at ESD-1 (``close_at_release``: at the release request, ``ers_valves_close_at =
     "ers2"``) and confirm ``ers_valve_time`` later (intact valves); until then the leads count ``valve_worst``
-    (:func:`loadarm.check.valve_worst_time`) from the command, as the controller does."""
+    (:func:`loadarm.sequence.valve_worst_time`) from the command, as the controller does; the leads and the stage
+    are :func:`loadarm.sequence.lead_values` and :func:`loadarm.sequence.stage_of`, compiled."""
     n = level.shape[0]
     raised = 0
     i_esd = -1
@@ -262,22 +267,16 @@ def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1, v
         if ttl[i] < ttl_min:
             ttl_min = ttl[i]
         lv = level[i]
-        # the leads of the stages, shrinking once the valves are closing
+        # the leads of the stages, shrinking once the valves are closing (loadarm.sequence, compiled)
         confirmed = i_cmd >= 0 and t >= i_cmd * dt + ers_valve_time - 1e-9
         if i_cmd >= 0:
             valves_left = 0.0 if confirmed else max(i_cmd * dt + valve_worst - t, 0.0)
         else:
             valves_left = valve_worst
-        rel_lead = valves_left + erc_release_time + margin
-        sec_lead = rel_lead + margin
-        esd_lead_now = max(lead_esd1, sec_lead)
-        tt = ttl[i]
-        if tt <= rel_lead:
-            lv = max(lv, 4)
-        elif tt <= sec_lead:
-            lv = max(lv, 3)
-        elif tt <= esd_lead_now:
-            lv = max(lv, 2)
+        rel_lead, sec_lead, esd_lead_now, pre = _lead_values(valves_left, erc_release_time, margin, lead_esd1, 0.0)
+        # no measured route here (the design drift's table): the pre-alarm, which warns of a drift the monitor
+        # measures, is the live monitor's alone
+        lv = max(lv, _stage_of(ttl[i], np.inf, rel_lead, sec_lead, esd_lead_now, pre))
         if lv > raised:
             raised = lv
         if raised >= 2 and i_esd < 0:

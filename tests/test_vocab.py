@@ -153,3 +153,16 @@ def test_a_run_reads_its_events_by_code_so_rewording_changes_no_metric():
     a, b = r.to_dict(), reworded.to_dict()
     assert a == b and a["alarm1_s"] is not None and a["release_complete_s"] is not None
     assert a["valves_confirmed_s"] <= a["coupler_opening_s"] < a["release_complete_s"]
+
+
+def test_importing_the_figures_chooses_no_backend():
+    """Found (issue 26): ``loadarm.plotting`` called ``matplotlib.use("Agg")`` on import, overriding a notebook
+    user's backend. A user's backend stays theirs, and a figure still saves without a screen."""
+    import subprocess
+    import sys
+
+    code = ("import matplotlib; matplotlib.use('svg'); import loadarm.plotting as p, loadarm.report; "
+            "import io; fig, ax = p.subplots(figsize=(2, 2)); ax.plot([0, 1]); b = io.BytesIO(); "
+            "fig.savefig(b, format='png'); assert b.getvalue()[:4] == b'\\x89PNG'; print(matplotlib.get_backend())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip() == "svg", out.stderr

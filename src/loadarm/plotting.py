@@ -1,8 +1,9 @@
 """Figures equivalent to the paper's Figs 4, 6, 8, 9 and 10, plus arm snapshots.
 
-Every function returns a :class:`matplotlib.figure.Figure` and never shows it;
-the Agg backend is used so this works on a machine with no screen. Degrees
-appear only here, on axis labels.
+Every function returns a :class:`matplotlib.figure.Figure` and never shows it.
+The figures are made without pyplot (:func:`subplots`): no backend is chosen at
+import, so a notebook user's stays theirs, and a machine with no screen needs
+none (a figure saves through Agg). Degrees appear only here, on axis labels.
 """
 
 from __future__ import annotations
@@ -11,25 +12,40 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle, Wedge
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.patches import Rectangle, Wedge  # noqa: E402
-
-from .alarms import Severity  # noqa: E402
-from .envelope import zone_radii  # noqa: E402
-from .geometry import Arm  # noqa: E402
-from .kinematics import elbow_position, forward, inverse_paper  # noqa: E402
-from .trajectory import Plan  # noqa: E402
-from .vocab import alarm_label  # noqa: E402
+from .alarms import Severity
+from .envelope import zone_radii
+from .geometry import Arm
+from .kinematics import elbow_position, forward, inverse_paper
+from .trajectory import Plan
+from .vocab import alarm_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from .model import ArmModel
 
-__all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
+
+def subplots(*args, figsize=None, **kw):
+    """A new figure and its axes, without pyplot (no backend chosen, no global figure kept).
+
+    Parameters
+    ----------
+    *args, **kw
+        As :meth:`matplotlib.figure.Figure.subplots` (rows, columns, ``sharex``, ``gridspec_kw``, ...).
+    figsize : tuple of float, optional
+        Inches.
+
+    Returns
+    -------
+    fig : Figure
+    axes : Axes or ndarray of Axes
+    """
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(*args, **kw)
+
+__all__ = ["subplots", "envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
            "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure", "simulation_figure",
            "timing_comparison_figure", "timeline_figure", "run_timeline_figure", "check_figure", "save"]
 
@@ -67,7 +83,7 @@ def envelope_figure(model: ArmModel, plan: Plan | None = None, arm: Arm | None =
     alarms = model.alarms
     radii = zone_radii(arm, alarms)
     box = model.berth
-    fig, ax = plt.subplots(figsize=(11.5, 7.5))
+    fig, ax = subplots(figsize=(11.5, 7.5))
     top = (0.0, arm.a)
     bands = [
         (radii["r_min"], radii["first"], Severity.NORMAL, f"<= {math.degrees(model.alarms.first):g} deg"),
@@ -122,7 +138,7 @@ def alpha_beta_figure(plans: dict[str, Plan]) -> Figure:
     -------
     Figure
     """
-    fig, ax = plt.subplots(figsize=(6, 4.5))
+    fig, ax = subplots(figsize=(6, 4.5))
     for label, plan in plans.items():
         ax.plot(np.degrees(plan.beta), np.degrees(plan.alpha), label=label)
     ax.set_xlabel("beta [deg]")
@@ -154,7 +170,7 @@ def angles_time_figure(model: ArmModel, plan: Plan) -> Figure:
     """
     arm = model.arm
     qp = inverse_paper(arm, plan.x, plan.y)
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = subplots(figsize=(7, 4.5))
     ax.plot(plan.t, np.degrees(plan.alpha), label="alpha, closed form")
     ax.plot(plan.t, np.degrees(plan.beta), label="beta, closed form")
     step = max(1, plan.t.size // 25)
@@ -211,7 +227,7 @@ def _law_lines(ax, series: dict[str, tuple], quantity: str = "", style: str = "-
 
 def _pair_figure(plans: dict[str, Plan], first: str, second: str, ylabel: str, title: str) -> Figure:
     """Two time series of every plan on one axis (solid: ``first``, dashed: ``second``)."""
-    fig, ax = plt.subplots(figsize=(7, 4.5))
+    fig, ax = subplots(figsize=(7, 4.5))
     _law_lines(ax, {law: (p.t, getattr(p, first)) for law, p in plans.items()}, first, "-")
     _law_lines(ax, {law: (p.t, getattr(p, second)) for law, p in plans.items()}, second, "--")
     ax.set_xlabel("t [s]")
@@ -270,7 +286,7 @@ def timing_figure(plans: dict[str, Plan], max_speed: float) -> Figure:
     -------
     Figure
     """
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, ax = subplots(figsize=(7, 4))
     _law_lines(ax, {law: (p.t, np.hypot(p.vx, p.vy)) for law, p in plans.items()}, "path speed", "-")
     _law_lines(ax, {law: (p.t, np.abs(p.vx)) for law, p in plans.items()}, "horizontal speed", ":")
     ax.axhline(max_speed, color="k", lw=1, ls="-.", label=f"max_speed {max_speed:g} m/s")
@@ -309,7 +325,7 @@ def save(fig: Figure, path: str | Path, dpi: int = 110) -> Path:
         with atomic_open(p, "wb") as fh:          # a reader never sees half a PNG; the mark tells it is loadarm's
             fig.savefig(fh, dpi=dpi, format="png", metadata={"Software": f"{SIGNATURE} {__version__}"})
     finally:
-        plt.close(fig)
+        fig.clear()                               # no pyplot: nothing else holds the figure
     return p
 
 
@@ -326,7 +342,7 @@ def verification_figure(result) -> Figure:
     Figure
     """
     r = result
-    fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(14, 4.3))
+    fig, (ax1, ax2, ax3) = subplots(1, 3, figsize=(14, 4.3))
     step = max(1, r.t.size // 30)
     for name, cf, mj in (("alpha", r.alpha_cf, r.alpha_mj), ("beta", r.beta_cf, r.beta_mj)):
         ax1.plot(r.t, np.degrees(cf), label=f"{name}, closed form")
@@ -370,7 +386,7 @@ def residual_torque_figure(result) -> Figure:
     Figure
     """
     g = result.grid
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8))
+    fig, axes = subplots(1, 2, figsize=(12, 4.8))
     for ax, name, res in ((axes[0], "inboard joint (alpha)", result.residual_alpha),
                           (axes[1], "elbow joint (beta)", result.residual_beta)):
         worst = np.max(np.abs(res), axis=0) / 1e3
@@ -399,7 +415,7 @@ def loads_figure(loads: dict) -> Figure:
     -------
     Figure
     """
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 4.3))
+    fig, (ax1, ax2) = subplots(1, 2, figsize=(13, 4.3))
     for label, ld in loads.items():
         ax1.plot(ld.t, ld.force1 / 1e3, label=f"F1, {label}")
         ax1.plot(ld.t, ld.force2 / 1e3, "--", label=f"F2, {label}")
@@ -430,7 +446,7 @@ def simulation_figure(result) -> Figure:
     """
     s = result.signals
     t = s["t"]
-    fig, ax = plt.subplots(3, 2, figsize=(13, 10), sharex=True)
+    fig, ax = subplots(3, 2, figsize=(13, 10), sharex=True)
     ax[0, 0].plot(t, result.deviation * 1e3)
     ax[0, 0].set_ylabel("deviation from the line [mm]")
     ax[0, 0].set_title(f"coupler off the straight line: max {result.metrics['max_deviation_mm']:.1f} mm, "
@@ -480,7 +496,7 @@ def timing_comparison_figure(results: dict) -> Figure:
     -------
     Figure
     """
-    fig, ax = plt.subplots(figsize=(8, 4.2))
+    fig, ax = subplots(figsize=(8, 4.2))
     _law_lines(ax, {f"{law}: max {r.metrics['max_deviation_mm']:.1f} mm": (r.signals["t"], r.deviation * 1e3)
                     for law, r in results.items()})
     ax.set_xlabel("t [s]")
@@ -525,7 +541,7 @@ def timeline_figure(t, mode, beta, phi, distance, modes, *, alarms=None, title: 
     Figure
     """
     n = 4 if ttl is None else 5
-    fig, ax = plt.subplots(n, 1, figsize=(11, 9 + 2 * (n - 4)), sharex=True,
+    fig, ax = subplots(n, 1, figsize=(11, 9 + 2 * (n - 4)), sharex=True,
                            gridspec_kw={"height_ratios": [1.3] + [1] * (n - 1)})
     ax[0].step(t, mode, where="post")
     ax[0].set_yticks(range(len(modes)))
@@ -575,7 +591,7 @@ def sizing_figure(result) -> Figure:
     -------
     Figure
     """
-    fig, ax = plt.subplots(figsize=(6.5, 6))
+    fig, ax = subplots(figsize=(6.5, 6))
     psi = np.linspace(0.0, math.pi / 2, 721)
     rho = result.r_alarm / np.sqrt(1.0 - np.sin(2 * psi) * math.cos(result.beta_alarm))
     ax.plot(rho * np.cos(psi), rho * np.sin(psi), color="C0", label="Eq. 2 at the first-alarm angle")
@@ -614,7 +630,7 @@ def plan3d_figure(plan) -> Figure:
     -------
     Figure
     """
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(12, 4.2))
+    fig, (ax1, ax2) = subplots(1, 2, figsize=(12, 4.2))
     for name, v in (("slew", plan.phi), ("alpha", plan.alpha), ("beta", plan.beta)):
         ax1.plot(plan.t, np.degrees(v), label=name)
     ax1.set_ylabel("angle [deg]")
@@ -667,7 +683,7 @@ def check_figure(result) -> Figure:
     Figure
     """
     rows = result.rows
-    fig, ax = plt.subplots(figsize=(9, 0.6 * len(rows) + 1.8))
+    fig, ax = subplots(figsize=(9, 0.6 * len(rows) + 1.8))
     y = np.arange(len(rows))[::-1]
     for yi, r in zip(y, rows):
         bad = not r.ok
@@ -715,7 +731,7 @@ def alarm_design_figure(design) -> Figure:
     from matplotlib.patches import Rectangle as _Rect
 
     arm = design.arm
-    fig, (ax, bx) = plt.subplots(1, 2, figsize=(12, 5.2), gridspec_kw={"width_ratios": [1.3, 1]})
+    fig, (ax, bx) = subplots(1, 2, figsize=(12, 5.2), gridspec_kw={"width_ratios": [1.3, 1]})
     x0, x1, z0, z1 = design.flanging_area
     off = design.rows[0]
     ups = [r for r in design.rows if r.vector[2] > 0]
@@ -787,7 +803,7 @@ def operability_figure(result) -> Figure:
     df = result.table.copy()
     t = pd.DatetimeIndex(df["time"])
     df.index = t
-    fig = plt.figure(figsize=(12, 7.5))
+    fig = Figure(figsize=(12, 7.5))
     gs = fig.add_gridspec(2, 2, height_ratios=[1, 1])
     ax = fig.add_subplot(gs[0, 0])
     monthly = df["down"].groupby(t.to_period("M")).mean()

@@ -293,9 +293,9 @@ class CampaignResult(Result):
         }
 
     def _figure(self):
-        import matplotlib.pyplot as plt
+        from ..plotting import subplots
 
-        fig, ax = plt.subplots(figsize=(7, 3.5))
+        fig, ax = subplots(figsize=(7, 3.5))
         m = [r.release_margin_s for r in self.runs if r.release_margin_s is not None]
         if m:
             ax.hist(m, bins=min(40, max(5, len(m) // 5)), color="0.5", edgecolor="0.2")

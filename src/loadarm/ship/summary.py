@@ -86,10 +86,10 @@ def rao_figure(ship: ShipModel):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
+    from ..plotting import subplots
 
     h = ship.hydro
-    fig, axes = plt.subplots(2, 3, figsize=(11, 6), sharex=True)
+    fig, axes = subplots(2, 3, figsize=(11, 6), sharex=True)
     period = 2 * math.pi / h.omega
     for j, ax in enumerate(axes.ravel()):
         for deg, style in ((90, "-"), (135, "--"), (180, ":")):

@@ -330,6 +330,14 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
             assert c.get("/static/hmi.js").status_code == 200
             assert c.post("/api/login", json={"user": "alice", "password": "pw-alice"}).json()["role"] == "operator"
             assert c.get("/api/geometry").json()["a"] > 0
+        # Ctrl-C once the server says it stops on it (found in CI under load: a SIGINT sent while the OPC UA
+        # server was still starting, after the screen already answered, left the process hanging past 15 s)
+        started = [line]
+        for _ in range(20):
+            started.append(proc.stdout.readline())
+            if "Ctrl-C stops" in started[-1] or not started[-1]:
+                break
+        assert "Ctrl-C stops" in started[-1], "".join(started)
     finally:
         proc.send_signal(signal.SIGINT)
         try:

@@ -55,7 +55,7 @@ def test_the_table_s_ray_distances_match_direct_ray_casting(model, table):
         p = table.origin + table.spacing * idx
         for j, d in enumerate(_DIRS):
             cap = table.cap if j < 8 else table.cap_v
-            direct = ray_crossing(model, p, d, outside)
+            direct = ray_crossing(p, d, outside)
             want = cap if direct is None or direct > cap else direct
             assert table.dist[tuple(idx) + (j,)] == pytest.approx(want, abs=2e-3), (p, d)
 

@@ -443,7 +443,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
             tau_main, s_main = tau, s
         avail = {}
         for ci, c in enumerate(corners):
-            a = ray_crossing(model, c, d, past_face)
+            a = ray_crossing(c, d, past_face)
             avail[ci] = 40.0 if a is None else a
         s_rel, s_sec, s_free, s_lead = (_s_at(tau, s, t) for t in (t_rel, 0.5 * t_rel, t_free, lead1))
         v_rel = float(np.interp(min(t_rel, tau[-1]), tau[1:], np.diff(s) / np.diff(tau)))
@@ -482,8 +482,8 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
             # each corner with these thresholds: where they fire, and whether the coupler is free in time
             short, worst = -math.inf, 0
             for ci, c in enumerate(corners):
-                s1 = ray_crossing(model, c, d, lambda p, ang=ang: ang(p) >= first) or 0.0
-                sr = ray_crossing(model, c, d, lambda p, ang=ang: ang(p) >= release)
+                s1 = ray_crossing(c, d, lambda p, ang=ang: ang(p) >= first) or 0.0
+                sr = ray_crossing(c, d, lambda p, ang=ang: ang(p) >= release)
                 if sr is None or sr >= avail[ci]:
                     if short < math.inf:
                         short, worst = math.inf, ci
@@ -504,7 +504,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
             short, worst = short_floor, worst_f
         c = corners[worst]
         face = ""
-        hit = ray_crossing(model, c, d, past_face)
+        hit = ray_crossing(c, d, past_face)
         if hit is not None:
             face = FACES[int(first_face(face_margins(model, *(c + (hit + 1e-6) * d)))[1])]
         ok = bool(short_floor <= 0)

@@ -309,13 +309,13 @@ def design_check(model) -> CheckResult:
     rows, problems = [], []
     for name, vec, horizontal in DIRECTIONS:
         d = np.array(vec)
-        avail = ray_crossing(model, p0, d, past_face)
+        avail = ray_crossing(p0, d, past_face)
         face = ""
         if avail is None:
             avail = _REACH
         else:
             face = FACES[int(first_face(face_margins(model, *(p0 + (avail + 1e-6) * d)))[1])]
-        angle = ray_crossing(model, p0, d, in_first_alarm)
+        angle = ray_crossing(p0, d, in_first_alarm)
         angle = angle if angle is not None and angle < avail else None
         if horizontal:
             needed = float(breakout_distance(L1, dd.speed, dd.acceleration))

@@ -145,14 +145,12 @@ def breakout_distance(t, speed: float, accel: float) -> np.ndarray:
     return np.where(t < t_acc, 0.5 * accel * t * t, speed * t - 0.5 * speed * t_acc)
 
 
-def ray_crossing(model, p0: np.ndarray, d: np.ndarray, outside) -> float | None:
+def ray_crossing(p0: np.ndarray, d: np.ndarray, outside) -> float | None:
     """Smallest distance along a ray at which a condition first holds: the design check's, alarm design's and
     the operability table's walk from the flange (one routine for all three).
 
     Parameters
     ----------
-    model : ArmModel
-        Unused by the walk itself; kept so that callers pass the model the condition is about.
     p0 : ndarray, shape (3,)
         Start, m.
     d : ndarray, shape (3,)

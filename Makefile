@@ -48,7 +48,7 @@ bench: $(BSTAMP)
 
 # Regenerate every figure in docs/img and the generated blocks of README.md and docs/*.md.
 docs: $(STAMP)
-	$(BIN)/python -m loadarm.docsgen
+	$(BIN)/python -m loadarm.present.docsgen
 
 # Refresh the lock on purpose: newest releases that satisfy pyproject.toml, for every platform and
 # Python >= 3.11. Commit the result after `make test-all` passes with it.

@@ -43,13 +43,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from loadarm.compiler import compile_model
-from loadarm.actuators import solve_ik_cylinders
-from loadarm.config import paper_installation
-from loadarm.geometry import Arm, Mounting
-from loadarm.kinematics import forward
-from loadarm.path import StraightPath
-from loadarm.trajectory import plan_approach
+from loadarm.params.compiler import compile_model
+from loadarm.arm.actuators import solve_ik_cylinders
+from loadarm.params.config import paper_installation
+from loadarm.arm.geometry import Arm, Mounting
+from loadarm.arm.kinematics import forward
+from loadarm.design.path import StraightPath
+from loadarm.design.trajectory import plan_approach
 
 ROOT = Path(__file__).resolve().parents[1]
 ARM = Arm(7.0, 12.0, 8.2)
@@ -147,7 +147,7 @@ def test_zz_peer_ratio(results):
 
 
 def _paper_plan_no_settle():
-    from loadarm.config import parse_config
+    from loadarm.params.config import parse_config
 
     d = paper_installation().model_dump()
     d["controller"]["settle_time"] = 0.0
@@ -203,8 +203,8 @@ def test_guidance_controller_cycle_p99(results):
     workload between every two cycles (the run's pacing hook, outside the cycle's own timing): found, with the
     workload timed after the run the median ratio was 1.1x one run and 2.4x the next, this machine's speed
     drifting between the two halves."""
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario
 
     sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
     times = []
@@ -229,8 +229,8 @@ def test_guidance_controller_cycle_p99(results):
 
 
 def test_thirty_minute_scenario_in_seconds(results):
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario, parse_scenario
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario, parse_scenario
 
     sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
     d = sc.model_dump()
@@ -245,7 +245,7 @@ def test_thirty_minute_scenario_in_seconds(results):
 
 def test_campaign_throughput_on_every_core(results, tmp_path):
     """`loadarm campaign` spreads runs over a process pool: its throughput against the same runs in one process."""
-    from loadarm.guidance.campaign import run_campaign
+    from loadarm.studies.campaign import run_campaign
 
     workers = os.cpu_count() or 1
     if workers < 2:
@@ -274,9 +274,9 @@ def test_campaign_throughput_on_every_core(results, tmp_path):
 def test_moored_motion_thirty_minutes_against_the_guidance_loop(results):
     """The moored ship's 30 minutes at 10 Hz, best of 5, against the guidance loop's cycles for the same 30
     minutes (its median cycle times the 90 000 cycles at 50 Hz, from a run timed in the same session)."""
-    from loadarm.berth import load_berth
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario
+    from loadarm.params.berth import load_berth
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario
     from loadarm.ship.model import compile_ship
     from loadarm.ship.motion import simulate
 
@@ -299,7 +299,8 @@ def test_moored_motion_thirty_minutes_against_the_guidance_loop(results):
 
 def _hour_state():
     """The moored Hs 1.5 m scenario as a one-hour sea state: the scenario, its model, ship and environment."""
-    from loadarm.guidance.scenario import load_scenario, moored_ship, scenario_environment
+    from loadarm.params.scenario import load_scenario, scenario_environment
+    from loadarm.ship.model import moored_ship
 
     sc0, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15_moored.toml")
     d = sc0.model_dump()
@@ -313,7 +314,7 @@ def test_operability_kernel_against_loadarm_run(results):
     """Issue 13: the batched kernel's cost of one hourly state (the flange's hour by FFT and the low-frequency
     integration, then the monitoring: what a Dask task does per state) against `loadarm run` of that hour with
     the kinematic plant, same sea and seed."""
-    from loadarm.guidance.run import run_scenario
+    from loadarm.sim.loop import run_scenario
     from loadarm.ship.motion import DT, flange_positions
     from loadarm.studies.kernel import floor_table, monitor_record
     from loadarm.studies.operability import _box
@@ -370,9 +371,9 @@ def test_operability_synthetic_year_on_the_local_cluster(results, tmp_path):
     in this process just before the year and again just after it, the mean of the two: found, this machine's
     speed drifted by a third within minutes, and a sample taken after the year alone measured another
     machine), and the physical floor."""
-    from loadarm.berth import load_berth
-    from loadarm.compiler import compile_model
-    from loadarm.config import load_config
+    from loadarm.params.berth import load_berth
+    from loadarm.params.compiler import compile_model
+    from loadarm.params.config import load_config
     from loadarm.ship.model import compile_ship
     from loadarm.studies.kernel import floor_table
     from loadarm.studies.metocean import read_metocean, synthetic_metocean, write_metocean_csv
@@ -442,7 +443,7 @@ def test_opc_ua_round_trip_notifications_and_the_cycle_under_load(results, tmp_p
     on the same session (the protocol's own), data-change notifications delivered per second and per CPU
     second of the serving process, and the guidance cycle's p99 with 20 clients subscribed to every variable
     at 10 Hz against its p99 without them (reported; no cycle may start late)."""
-    from loadarm.plant.loadtest import measure_load
+    from loadarm.testing.loadtest import measure_load
 
     r = measure_load(tmp_path, ROOT / "examples" / "scenarios" / "driftoff.toml", seconds=10.0, clients=20,
                      calls=300)
@@ -469,8 +470,8 @@ def test_the_operator_screen_s_update_rate_and_latency(results, tmp_path):
     import time
 
     from loadarm.hmi.app import FRAME_RATE
-    from loadarm.hmi.browser import CHROMIUM_HINT, find_chromium, launch, scenario_screen, tour
-    from loadarm.plant.security import Role, StateDir
+    from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, launch, scenario_screen, tour
+    from loadarm.opcua.security import Role, StateDir
 
     if find_chromium() is None:
         pytest.skip(CHROMIUM_HINT)

@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, settings
 
-from loadarm.compiler import compile_model
-from loadarm.config import load_config, paper_installation
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import load_config, paper_installation
 
 settings.register_profile("ci", derandomize=True, deadline=None, max_examples=300,
                           suppress_health_check=[HealthCheck.too_slow])

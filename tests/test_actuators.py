@@ -7,11 +7,11 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from loadarm.actuators import (cylinder_lengths, cylinder_rates, joint_angles_from_cylinders, length_limits,
-                               valve_voltages)
+from loadarm.arm.actuators import (cylinder_lengths, cylinder_rates, joint_angles_from_cylinders, length_limits,
+    valve_voltages)
 from loadarm.errors import ActuatorError, ValveRangeError
-from loadarm.geometry import Arm, Mounting
-from loadarm.kinematics import forward, inverse
+from loadarm.arm.geometry import Arm, Mounting
+from loadarm.arm.kinematics import forward, inverse
 
 
 def _pins(arm, m, alpha, beta):
@@ -110,7 +110,7 @@ def test_paper_strokes(arm, mount):
 
 @given(st.floats(0.5, 40), st.floats(0.5, 40), st.floats(0.5, 40), st.integers(1, 40000))
 def test_fused_solver_equals_separate_routes(a, b, c, n):
-    from loadarm.actuators import solve_ik_cylinders
+    from loadarm.arm.actuators import solve_ik_cylinders
     arm = Arm(a, b, c)
     m = Mounting(1.0, 1.2, 1.5, 0.5)
     rng = np.random.default_rng(n)
@@ -129,7 +129,7 @@ def test_fused_solver_equals_separate_routes(a, b, c, n):
 
 
 def test_fused_solver_refuses_unreachable_and_bad_shapes(arm, mount):
-    from loadarm.actuators import solve_ik_cylinders
+    from loadarm.arm.actuators import solve_ik_cylinders
     from loadarm.errors import UnreachableError
     with pytest.raises(UnreachableError, match="beyond the arm's reach"):
         solve_ik_cylinders(arm, mount, np.array([5.0, 40.0]), np.array([5.0, 0.0]))
@@ -140,8 +140,8 @@ def test_fused_solver_refuses_unreachable_and_bad_shapes(arm, mount):
 
 
 def test_coupler_from_encoder_readings_along_the_paper_plan(model, arm, mount):
-    from loadarm.actuators import coupler_from_cylinders
-    from loadarm.trajectory import plan_approach
+    from loadarm.arm.actuators import coupler_from_cylinders
+    from loadarm.design.trajectory import plan_approach
     p = plan_approach(model, samples=101)
     x, y = coupler_from_cylinders(arm, mount, p.r_ac1, p.r_ac2)
     assert np.max(np.hypot(x - p.x, y - p.y)) < 1e-9

@@ -7,7 +7,7 @@ import tomllib
 
 import pytest
 
-from loadarm.berth import RHO_SEA, berth_parameter_markdown, load_berth, parse_berth
+from loadarm.params.berth import RHO_SEA, berth_parameter_markdown, load_berth, parse_berth
 from loadarm.errors import ConfigError
 
 from .conftest import ROOT
@@ -83,4 +83,4 @@ def test_the_cli_refuses_a_bad_berth_file_like_any_input(tmp_path):
 
 def test_ship_motion_doc_table_is_up_to_date():
     doc = (ROOT / "docs" / "ship-motion.md").read_text()
-    assert berth_parameter_markdown() in doc, "regenerate with: python -m loadarm.docsgen"
+    assert berth_parameter_markdown() in doc, "regenerate with: python -m loadarm.present.docsgen"

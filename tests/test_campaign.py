@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.check import design_check
+from loadarm.design.check import design_check
 from loadarm.cli import main
 from loadarm.errors import ConfigError
-from loadarm.guidance.campaign import _judge, parse_vary, run_campaign
-from loadarm.guidance.run import run_scenario
-from loadarm.guidance.scenario import load_scenario
+from loadarm.studies.campaign import _judge, parse_vary, run_campaign
+from loadarm.sim.loop import run_scenario
+from loadarm.params.scenario import load_scenario
 
 from .conftest import ROOT
 from .hypo import examples
@@ -52,7 +52,7 @@ def test_judge_counts_each_failure_on_its_own():
 
 def _result(events, overstretched_at=None, limit_at=None, t_end=120.0):
     """A run's result with just the events and times its verdict reads."""
-    from loadarm.guidance.run import RunResult
+    from loadarm.sim.loop import RunResult
 
     t = np.arange(0.0, t_end + 0.05, 0.1)
     sig = {k: np.zeros_like(t) for k in ("mode", "x", "y", "z", "connected", "distance", "beta", "phi")}

@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.check import accumulator_usable_volume, design_check, esd_lead, release_lead
+from loadarm.design.check import accumulator_usable_volume, design_check, esd_lead, release_lead
 from loadarm.cli import main
-from loadarm.faces import FACES, breakout_distance, face_margins, first_face
+from loadarm.arm.faces import FACES, breakout_distance, face_margins, first_face
 
 from .conftest import PAPER_TOML
 from .hypo import examples
@@ -34,7 +34,7 @@ def test_paper_case_passes_with_the_worked_example_numbers(model):
 
 def test_available_distance_agrees_with_an_independent_walk(model):
     """Independent route: step 1 mm along each ray with the scalar inverse kinematics and the joint limits."""
-    from loadarm.slew import inverse3d
+    from loadarm.arm.slew import inverse3d
 
     lim = model.joint_limits
     c = design_check(model)

@@ -6,7 +6,7 @@ import tomllib
 
 import pytest
 
-from loadarm.config import Installation, load_config, parameter_table, parse_config
+from loadarm.params.config import Installation, load_config, parameter_table, parse_config
 from loadarm.errors import ConfigError
 
 from .conftest import PAPER_TOML
@@ -20,7 +20,7 @@ def test_example_file_is_the_paper_case(inst, paper):
     """examples/paper.toml is the paper's case; it adds only the scenarios its report runs."""
     assert inst.model_dump(exclude={"report"}) == paper.model_dump(exclude={"report"})
     assert inst.report.scenarios and paper.report.scenarios == ()
-    from loadarm.report import is_paper_case
+    from loadarm.present.report import is_paper_case
     assert is_paper_case(inst) and is_paper_case(paper)
     d = inst.model_dump()
     d["arm"]["outboard"] = 8.3
@@ -178,20 +178,20 @@ def test_non_finite_points_rejected():
 
 
 def test_configuration_doc_is_up_to_date():
-    from loadarm.config import parameter_markdown
+    from loadarm.params.config import parameter_markdown
     from .conftest import ROOT
     doc = (ROOT / "docs" / "configuration.md").read_text()
-    assert parameter_markdown() in doc, "regenerate the table with: python -m loadarm.config"
+    assert parameter_markdown() in doc, "regenerate the table with: python -m loadarm.params.config"
 
 
 def test_full_example_lists_every_key_and_equals_the_paper_case(paper):
-    from loadarm.config import load_config
+    from loadarm.params.config import load_config
     from .conftest import ROOT
-    from loadarm.config import example_toml
+    from loadarm.params.config import example_toml
     full = load_config(ROOT / "examples" / "full.toml")
     assert full == paper
     assert (ROOT / "examples" / "full.toml").read_text() == example_toml(), \
-        "regenerate with: python -m loadarm.config --example > examples/full.toml"
+        "regenerate with: python -m loadarm.params.config --example > examples/full.toml"
     text = (ROOT / "examples" / "full.toml").read_text()
     for row in parameter_table():
         section, key = row["key"].split(".")
@@ -220,7 +220,7 @@ def test_operability_settings_are_declared_and_checked(key, value, rng):
 def test_operability_overrides_are_held_to_the_declared_ranges(key, value, rng):
     """OperabilitySettings (the command line's overrides) takes its ranges from the [operability] declaration
     (found: its own copy had no upper bound on connect_motion_limit, so 6 m passed), and the range ends pass."""
-    from loadarm.config import Operability, param_range
+    from loadarm.params.config import Operability, param_range
     from loadarm.studies.operability import OperabilitySettings
 
     with pytest.raises(ConfigError, match=re.escape(f"must be in {rng}, got")):

@@ -9,14 +9,14 @@ import math
 
 import pytest
 
-from loadarm.compiler import compile_model
-from loadarm.config import load_config
-from loadarm.envelope import zone_radii
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import load_config
+from loadarm.arm.envelope import zone_radii
 from loadarm.errors import UnreachableError
-from loadarm.geometry import Arm
-from loadarm.kinematics import inverse
-from loadarm.sizing import check_corners, size_arm, size_installation
-from loadarm.trajectory import plan_approach
+from loadarm.arm.geometry import Arm
+from loadarm.arm.kinematics import inverse
+from loadarm.design.sizing import check_corners, size_arm, size_installation
+from loadarm.design.trajectory import plan_approach
 
 from .conftest import PAPER_TOML, ROOT
 
@@ -86,8 +86,8 @@ def test_approach_refusal_message(paper):
 
 @pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_guidance_page_driftoff_row():
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario
 
     import numpy as np
 
@@ -106,7 +106,7 @@ def test_guidance_page_driftoff_row():
 
 def test_guidance_page_worked_example_and_check_numbers(paper):
     """docs/guidance.md section 6's worked example and section 6's accumulator numbers, recomputed."""
-    from loadarm.check import design_check
+    from loadarm.design.check import design_check
 
     c = design_check(compile_model(paper))
     off = c.rows[0]
@@ -127,9 +127,9 @@ def test_readme_accuracy_claims(paper):
     (2e-9 deg, 2e-8 mm). The program must be at least that good."""
     import numpy as np
 
-    from loadarm.actuators import solve_ik_cylinders
-    from loadarm.kinematics import forward
-    from loadarm.multibody import verify_kinematics
+    from loadarm.arm.actuators import solve_ik_cylinders
+    from loadarm.arm.kinematics import forward
+    from loadarm.design.multibody import verify_kinematics
 
     cited("README.md", "7e-15 m round-trip error")
     cited("README.md", "match the closed form to 2e-9 deg and 2e-8 mm")
@@ -148,7 +148,7 @@ def test_readme_accuracy_claims(paper):
 def test_campaign_tables_hold_on_a_fresh_sample():
     """docs/guidance.md section 9 quotes 1000-seed campaigns (too long for the suite): the zeros it states are
     checked against a fresh sample of other seeds here."""
-    from loadarm.guidance.campaign import run_campaign
+    from loadarm.studies.campaign import run_campaign
 
     page = doc("docs/guidance.md")
     assert ("| `driftoff.toml` (drift 0.15 m/s at 10 deg, Hs 0.5 m; hydraulic) | 1000 | 1000, 33.5 h | 0 | 0 | 0 | 0 "
@@ -166,8 +166,8 @@ def test_campaign_tables_hold_on_a_fresh_sample():
 def test_ship_motion_page_breakout_scenario():
     """docs/ship-motion.md section 9: the break-out scenario (every line parts, the ship drifts off under its own
     loads) runs the whole sequence and releases with the margin it cites, before any face."""
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario
 
     sc, model = load_scenario(ROOT / "examples" / "scenarios" / "breakout.toml")
     s = run_scenario(sc, model).summary()
@@ -181,7 +181,7 @@ def test_ship_motion_page_verification_numbers():
     """docs/ship-motion.md section 7: the beam-sea drift at the shortest waves and the long-wave heave RAO."""
     import numpy as np
 
-    from loadarm.berth import RHO_SEA, load_berth
+    from loadarm.params.berth import RHO_SEA, load_berth
     from loadarm.ship import hydro
     from loadarm.ship.model import compile_ship
 

@@ -119,7 +119,7 @@ def test_every_figure_in_the_docs_is_generated():
     """Every image the docs show is in docs/img and drawn by `make docs`; nothing else sits in docs/img."""
     import re as _re
 
-    from loadarm.docsgen import DOC_FIGURES, HMI_SCREENSHOTS
+    from loadarm.present.docsgen import DOC_FIGURES, HMI_SCREENSHOTS
 
     DOC_FIGURES = DOC_FIGURES + HMI_SCREENSHOTS              # the screen's: taken in a real browser (make docs)
     shown = set()
@@ -132,7 +132,7 @@ def test_every_figure_in_the_docs_is_generated():
 @pytest.mark.slow
 def test_committed_figures_match_what_the_code_draws(tmp_path):
     """Redraw every docs figure from the paper's case and compare with the committed PNG (`make docs`)."""
-    from loadarm.docsgen import compare_figures, render_doc_figures
+    from loadarm.present.docsgen import compare_figures, render_doc_figures
 
     bad = compare_figures(ROOT / "docs" / "img", render_doc_figures(tmp_path))
     assert not bad, "stale figures (run `make docs`): " + "; ".join(bad)

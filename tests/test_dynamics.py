@@ -12,16 +12,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.compiler import compile_model
-from loadarm.balancing import balance_counterweights, envelope_grid
-from loadarm.config import parse_config
-from loadarm.dynamics import (G, chamber_pressures, cylinder_areas, cylinder_forces, joint_torques, mass_model,
-                              moment_arms, static_torques)
-from loadarm.geometry import Mounting
-from loadarm.kinematics import elbow_position, forward
-from loadarm.loads import actuator_loads
-from loadarm.multibody import inverse_dynamics, mujoco_moment_arms
-from loadarm.trajectory import plan_approach
+from loadarm.params.compiler import compile_model
+from loadarm.design.balancing import balance_counterweights, envelope_grid
+from loadarm.params.config import parse_config
+from loadarm.arm.dynamics import (G, chamber_pressures, cylinder_areas, cylinder_forces, joint_torques, mass_model,
+    moment_arms, static_torques)
+from loadarm.arm.geometry import Mounting
+from loadarm.arm.kinematics import elbow_position, forward
+from loadarm.design.loads import actuator_loads
+from loadarm.design.multibody import inverse_dynamics, mujoco_moment_arms
+from loadarm.design.trajectory import plan_approach
 
 from .hypo import examples
 
@@ -55,7 +55,7 @@ def test_coupler_lump_sits_at_the_coupler(model):
 
 @given(st.floats(-1.0, 2.5), st.floats(0.05, 3.0), st.sampled_from([0.0, 0.5, 1.0]))
 def test_static_torque_is_the_gradient_of_potential_energy(alpha, beta, fill):
-    from loadarm.config import paper_installation
+    from loadarm.params.config import paper_installation
     mm = mass_model(compile_model(paper_installation()), fill=fill)
     ta, tb = static_torques(mm, alpha, beta)
     h = 1e-6
@@ -91,7 +91,7 @@ def test_power_equals_rate_of_mechanical_energy(model):
 @settings(max_examples=examples(25))
 @given(st.integers(0, 10_000))
 def test_inverse_dynamics_matches_mujoco(seed):
-    from loadarm.config import paper_installation
+    from loadarm.params.config import paper_installation
     inst = paper_installation()
     model = compile_model(inst)
     rng = np.random.default_rng(seed)
@@ -108,7 +108,7 @@ def test_inverse_dynamics_matches_mujoco(seed):
 
 
 def test_moment_arms_match_mujoco_tendon_jacobian_and_finite_differences(model, mount):
-    from loadarm.actuators import cylinder_lengths
+    from loadarm.arm.actuators import cylinder_lengths
     mm = mass_model(model)
     alpha = np.linspace(0.05, 2.5, 12)
     beta = np.linspace(0.1, 2.9, 12)

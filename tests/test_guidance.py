@@ -7,17 +7,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.compiler import compile_model
+from loadarm.params.compiler import compile_model
 from loadarm.errors import ConfigError
 from loadarm.eventlog import EventLog
-from loadarm.alarms import AlarmThresholds, Severity
-from loadarm.guidance.controller import (Cycle, GuidanceController, GuidanceState, Mode,
-                                         OperatorInput)
-from loadarm.guidance.run import MODES, run_scenario
-from loadarm.guidance.scenario import Scenario, load_scenario, parse_scenario
-from loadarm.guidance.sensor import Estimate, FlangeEstimator
-from loadarm.guidance.ship import flange_motion, jonswap
-from loadarm.slew import forward3d, inverse3d
+from loadarm.arm.alarms import AlarmThresholds
+from loadarm.vocab import Severity
+from loadarm.guidance.controller import Cycle, GuidanceController, GuidanceState, Mode, OperatorInput
+from loadarm.guidance.controller import MODES
+from loadarm.sim.loop import run_scenario
+from loadarm.params.scenario import Scenario, load_scenario, parse_scenario
+from loadarm.guidance.estimator import Estimate, FlangeEstimator
+from loadarm.ship.flange import flange_motion, jonswap
+from loadarm.arm.slew import forward3d, inverse3d
 
 from .conftest import ROOT
 
@@ -191,7 +192,7 @@ def test_emergency_stop_from_any_mode(model):
 @settings(max_examples=examples(200))
 @given(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1))
 def test_commands_never_cross_a_joint_or_stroke_limit(u0, u1, u2, w0, w1, w2):
-    from loadarm.config import paper_installation
+    from loadarm.params.config import paper_installation
     c = _ctrl(compile_model(paper_installation()))
     lims = (c.lim.phi, c.lim.alpha, c.lim.beta)
     q = tuple(lo + (hi - lo) * (0.5 + 0.5 * u) for (lo, hi), u in zip(lims, (u0, u1, u2)))
@@ -217,7 +218,7 @@ def _fed_monitor(model, p0, v, a, window=60.0, t_end=None):
 
 def _crossing_time(model, p, v, a, horizon):
     """Independent route: bisection on the faces along the quadratic path."""
-    from loadarm.faces import face_margins, first_face
+    from loadarm.arm.faces import face_margins, first_face
 
     def out(t):
         q = p + v * t + 0.5 * a * t * t
@@ -260,7 +261,7 @@ def test_the_time_to_each_face_comes_from_the_same_scan_and_is_never_late(model,
     """The forecast's time to each face (the operator's screen shows them), from the scan that finds the
     nearest: the nearest is the forecast's own time (never later than the true crossing); the others are no
     earlier than it, within the horizon, nearest first."""
-    from loadarm.faces import FACES
+    from loadarm.arm.faces import FACES
 
     ang = math.radians(direction_deg)
     d = np.array([math.cos(ang), math.sin(ang), 0.0])
@@ -331,7 +332,7 @@ def test_the_step_statistic_sums_match_the_residuals(seed, wave, v, age, period)
 
 def _drift_windows(name, seed, t0, t1, **drift):
     """The true flange path of a shipped scenario (seeded waves), sampled every 0.2 s from t0 to t1."""
-    from loadarm.guidance.ship import flange_motion
+    from loadarm.ship.flange import flange_motion
 
     sc, _ = load_scenario(ROOT / "examples" / "scenarios" / name)
     upd = {"scenario": sc.scenario.model_copy(update={"seed": seed})}
@@ -350,7 +351,7 @@ def test_a_velocity_step_is_seen_within_seconds_and_never_forecast_late(model, s
     forecast is then inside ESD-1's lead (so ESD-1 fires at once), and once the true flange (waves included) is
     within the release lead of the face, the forecast is late by less than the sequence's margin (measured: at
     most 1.0 s over 40 seeds; the first estimates after a step are from a few seconds of data)."""
-    from loadarm.faces import face_margins, first_face
+    from loadarm.arm.faces import face_margins, first_face
     from loadarm.guidance.monitor import EnvelopeMonitor
 
     from loadarm.guidance.monitor import stage_leads
@@ -410,7 +411,7 @@ def test_a_long_swell_is_taken_for_steps_and_break_outs_the_limit_quoted_in_the_
     scenario's flange (3 seeds), and what it does at Tp 30 s is quoted (found in CI: with the break-out test the
     claim "no alarm at Tp 30 s" no longer held; ESD-1 came in 2 of 3 seeds)."""
     from loadarm.guidance.monitor import DriftFit
-    from loadarm.guidance.ship import flange_motion
+    from loadarm.ship.flange import flange_motion
 
     sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
 
@@ -465,7 +466,7 @@ def test_the_drift_monitor_forecasts_at_any_guidance_rate(rate):
 def test_the_design_floor_needs_no_history(model):
     """Right after the connection (no fitted drift yet) the design break-out from where the flange is sets the
     time to the limit: checked against the break-out distance along the worst horizontal direction."""
-    from loadarm.faces import breakout_distance
+    from loadarm.arm.faces import breakout_distance
     from loadarm.guidance.monitor import EnvelopeMonitor
 
     mon = EnvelopeMonitor(model, 60.0)
@@ -477,7 +478,7 @@ def test_the_design_floor_needs_no_history(model):
     straight = _crossing_time(model, p, np.zeros(3), np.zeros(3), 0.0)   # inside now
     assert straight == math.inf
     # along +x the break-out reaches the face at the first t with p + D(t) e_x outside
-    from loadarm.faces import face_margins, first_face
+    from loadarm.arm.faces import face_margins, first_face
     outside = [bool(first_face(face_margins(model, 13.0 + breakout_distance(t, dd.speed, dd.acceleration), 0.0,
                                             1.0))[0]) for t in tt]
     t_x = tt[outside.index(True) - 1]
@@ -611,8 +612,8 @@ def test_scenario_validation(tmp_path):
     bad.write_text("[guidance]\nstandoff = 0\n")
     with pytest.raises(ConfigError, match=r"guidance.standoff = 0: .*valid range \(0, 10\] m"):
         load_scenario(bad)
-    from loadarm.config import parse_config
-    from loadarm.config import load_config
+    from loadarm.params.config import parse_config
+    from loadarm.params.config import load_config
     d = load_config(SCEN.parent / "paper.toml").model_dump()
     d["slew"]["first_deg"] = 39.0
     with pytest.raises(ConfigError, match="slew angles must increase"):
@@ -625,7 +626,7 @@ def test_scenario_validation(tmp_path):
 def test_same_controller_runs_in_real_time():
     import time as _time
 
-    from loadarm.guidance.run import wall_clock_pacer
+    from loadarm.sim.loop import wall_clock_pacer
     sc, inst = load_scenario(SCEN / "calm.toml")
     d = sc.model_dump()
     d["scenario"]["duration"] = 1.5
@@ -664,9 +665,9 @@ def test_controller_jacobian_is_the_kinematics_jacobian(phi, alpha, beta):
     back, is kinematics.jacobian to the bit; and the whole matrix matches finite differences of forward3d
     (tolerance 1e-7 m/rad: central differences with h = 1e-6 rad on a 20 m arm carry ~4e-9 m/rad of
     rounding and ~2e-11 of truncation)."""
-    from loadarm.config import paper_installation
-    from loadarm.kinematics import jacobian
-    from loadarm.slew import forward3d
+    from loadarm.params.config import paper_installation
+    from loadarm.arm.kinematics import jacobian
+    from loadarm.arm.slew import forward3d
 
     c = _ctrl(compile_model(paper_installation()))
     J3 = c._jacobian3d(phi, alpha, beta)
@@ -765,7 +766,7 @@ def test_scripted_operator_presses_on_cue():
     """run_scenario's stages are testable alone: the operator script fires each action in one cycle."""
     from types import SimpleNamespace as NS
 
-    from loadarm.guidance.run import ScriptedOperator
+    from loadarm.sim.loop import ScriptedOperator
 
     op = NS(start=1.0, connect_after=2.0, disconnect_at=None, estop_at=5.0, reset_at=None, ack_at=None, esd_at=None,
             ers_at=None, ers_confirm_after=2.0, jog=((7.0, 8.0, 0.1, 0.0, 0.0),))
@@ -783,7 +784,7 @@ def test_scripted_operator_presses_on_cue():
 
 def test_arm_plant_follows_the_flange_and_reports_overstretch(model):
     from loadarm.guidance.controller import Command
-    from loadarm.guidance.run import ArmPlant
+    from loadarm.sim.loop import ArmPlant
 
     seen = []
     c = _ctrl(model)
@@ -812,7 +813,7 @@ def _release_run(model, ers_valve_time=10.0, estop_at=None, until=60.0, actions=
     """Attached arm held beyond the release angle from t = 0 (or at ``q``), with the ERS valves of the plant;
     returns the controller and the events (t, kind, reason)."""
     from loadarm.guidance.controller import PlantFeedback
-    from loadarm.guidance.run import ErsValves
+    from loadarm.sim.loop import ErsValves
 
     m = _with_sequence(model, ers_valve_time=ers_valve_time)
     c = GuidanceController(m, Scenario().guidance, GuidanceState(mode=Mode.CONNECTED))
@@ -961,8 +962,8 @@ def test_a_refused_start_is_forgotten(model):
 def test_a_blind_drift_filter_and_an_unreachable_release_angle_are_refused(tmp_path):
     """Found: drift_filter = 600 s was accepted (the speed alarm blind; now the drift fit's window); release_deg = 175 beyond cylinder 2's
     stroke end (167 deg) was not cross-checked."""
-    from loadarm.compiler import compile_model
-    from loadarm.config import load_config
+    from loadarm.params.compiler import compile_model
+    from loadarm.params.config import load_config
     from loadarm.errors import ConfigError
 
     bad = tmp_path / "slow.toml"
@@ -1047,7 +1048,7 @@ def test_a_second_flange_and_outlier_bursts_never_make_a_healthy_wrong_estimate(
 def test_the_nis_bound_is_the_chi_square_quantile_and_an_inconsistent_filter_is_unhealthy():
     from scipy.stats import chi2
 
-    from loadarm.guidance.sensor import NIS_MEAN_999, NIS_WINDOW
+    from loadarm.guidance.estimator import NIS_MEAN_999, NIS_WINDOW
 
     assert NIS_MEAN_999 == pytest.approx(chi2.ppf(0.999, 3 * NIS_WINDOW) / NIS_WINDOW, abs=1e-4)
     # readings four times noisier than the filter believes: gated rarely, but the innovations are too big
@@ -1113,7 +1114,7 @@ def test_after_an_emergency_release_the_drives_start_from_the_real_state(model, 
 
 def test_a_coupler_that_does_not_clear_the_manifold_raises_an_alarm():
     from loadarm.guidance.controller import Command
-    from loadarm.guidance.run import CLEARANCE_TIME, _ClearanceWatch
+    from loadarm.sim.loop import CLEARANCE_TIME, _ClearanceWatch
 
     seen = []
     w = _ClearanceWatch(lambda *a: seen.append(a))
@@ -1136,7 +1137,7 @@ def test_over_a_plant_that_does_not_know_the_true_flange_the_clearance_is_watche
     on the kinematic plant with the true flange hidden from the loop: the release clears the coupler by the
     estimate, and no alarm; with the estimate unhealthy too, the alarm says the flange position is unknown."""
     from loadarm.guidance.controller import Command
-    from loadarm.guidance.run import CLEARANCE_TIME, ClosedLoop, _ClearanceWatch
+    from loadarm.sim.loop import CLEARANCE_TIME, ClosedLoop, _ClearanceWatch
 
     class NoTruth:                                           # the PLC link's answer: encoders, no true flange
         def __init__(self, io):

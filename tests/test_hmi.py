@@ -10,7 +10,7 @@ import re
 
 import pytest
 
-from loadarm.plant.security import Role, StateDir
+from loadarm.opcua.security import Role, StateDir
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
@@ -36,7 +36,7 @@ class FakeService:
         self.t = 0.0
 
     def snapshot(self):
-        from loadarm.plant.service import Snapshot
+        from loadarm.opcua.service import Snapshot
 
         return Snapshot(seq=self.seq, t=self.t, mode=self.mode, q=(0.0, 1.0, 2.0), coupler=(10.0, 0.0, 2.0),
                         flange_estimate=(10.0, 0.0, 2.0), estimate_healthy=True, distance=0.0, level=0,
@@ -309,11 +309,10 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
     import signal
     import subprocess
     import sys
-    import time
 
     import httpx2 as httpx
 
-    from loadarm.plant.loadtest import free_port
+    from loadarm.testing.loadtest import free_port
 
     st = StateDir(tmp_path / "state")
     st.users().add("alice", Role.OPERATOR, "pw-alice")
@@ -353,10 +352,10 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
 def test_the_frame_of_a_real_snapshot_is_json(model):
     """The service's own snapshot (the drift-off on the hydraulic plant, a few cycles) makes a frame that JSON
     carries: pressures in Pa from the servo, the geometry's zones ordered by reach."""
-    from loadarm.guidance.run import ClosedLoop
-    from loadarm.guidance.scenario import load_scenario
+    from loadarm.sim.loop import ClosedLoop
+    from loadarm.params.scenario import load_scenario
     from loadarm.hmi.state import AlarmBook, frame, geometry
-    from loadarm.plant.service import GuidanceService
+    from loadarm.opcua.service import GuidanceService
 
     sc, m = load_scenario(SCENARIO)
     service = GuidanceService(ClosedLoop(sc, m, scripted=False), clock=lambda: 0.0, sleep=lambda s: None)
@@ -377,8 +376,8 @@ def test_the_frame_of_a_real_snapshot_is_json(model):
 def logged_run(tmp_path_factory):
     """The drift-off (kinematic plant) written to an event log, and its events."""
     from loadarm.eventlog import EventLog
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario
 
     db = tmp_path_factory.mktemp("replay") / "events.db"
     sc, model = load_scenario(SCENARIO)
@@ -393,7 +392,7 @@ def logged_run(tmp_path_factory):
 def test_a_replay_shows_the_logged_sample_at_its_cursor_and_the_alarms_raised_when_logged(logged_run):
     from loadarm.errors import EventLogError
     from loadarm.hmi.replay import ReplayService
-    from loadarm.slew import forward3d
+    from loadarm.arm.slew import forward3d
 
     clock = FakeClock(0.0)
     r = ReplayService(logged_run["events"], logged_run["model"], clock=clock)
@@ -518,7 +517,7 @@ def test_the_hmi_page_states_the_figures_the_code_uses():
     from loadarm.hmi.app import FRAME_RATE, _static_dir
     from loadarm.hmi.sessions import LOGIN_FAILURES, LOGIN_WINDOW, SESSION_IDLE
     from loadarm.hmi.state import SHELVE_MAX
-    from loadarm.plant.service import JOG_HOLD
+    from loadarm.opcua.service import JOG_HOLD
 
     doc = " ".join((Path(__file__).parents[1] / "docs" / "hmi.md").read_text().split())
     js = (_static_dir() / "hmi.js").read_text()

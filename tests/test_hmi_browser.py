@@ -11,8 +11,8 @@ import time
 
 import pytest
 
-from loadarm.hmi.browser import CHROMIUM_HINT, find_chromium, launch, log_in, wait_for
-from loadarm.plant.security import Role, StateDir
+from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, launch, log_in, wait_for
+from loadarm.opcua.security import Role, StateDir
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
@@ -43,7 +43,7 @@ class Screen:
     def __init__(self, state, *, scripted=False, speedup=1.0):
         from contextlib import ExitStack
 
-        from loadarm.hmi.browser import scenario_screen
+        from loadarm.testing.browser import scenario_screen
 
         self._stack = ExitStack()
         self.service, self.server = self._stack.enter_context(
@@ -221,7 +221,7 @@ def test_the_drift_off_on_the_screen_alarms_in_order_acknowledged_and_a_screensh
     second and release in that order; the operator acknowledges the release alarm from the list (found: the
     list rebuilt at every frame lost that click); a screenshot of each mode polled is saved (make docs takes
     those of docs/hmi.md)."""
-    from loadarm.hmi.browser import tour
+    from loadarm.testing.browser import tour
 
     s = screen(scripted=True, speedup=8.0)
     got = tour(page, s.url, "alice", "pw-alice", tmp_path)
@@ -242,8 +242,8 @@ def test_the_replay_s_time_slider_moves_the_screen_through_the_logged_run(state,
     """``serve --replay``'s screen over the drift-off's event log: the replay bar shows, every command is
     disabled, and moving the slider into the release shows it with its alarms as logged."""
     from loadarm.eventlog import EventLog
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario
     from loadarm.hmi.app import HmiServer, create_app
     from loadarm.hmi.replay import ReplayService
 

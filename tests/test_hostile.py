@@ -103,8 +103,8 @@ def test_the_wave_motion_of_a_day_is_computed_in_bounded_memory():
     """Found: `[waves] hs = 1.5` over a day built a (times, 3, components) array of tens of gigabytes. The
     motion is now summed in chunks: the same numbers (bit for bit, on a sample) in memory bounded by the chunk
     and the output, far below the whole array's."""
-    from loadarm.guidance.scenario import load_scenario
-    from loadarm.guidance.ship import WAVE_CHUNK, flange_motion
+    from loadarm.params.scenario import load_scenario
+    from loadarm.ship.flange import WAVE_CHUNK, flange_motion
 
     sc, _ = load_scenario(SCEN / "hs15.toml")
     m = flange_motion(sc)
@@ -123,8 +123,8 @@ def test_the_wave_motion_of_a_day_is_computed_in_bounded_memory():
 def test_the_run_memory_estimate_covers_what_a_run_allocates():
     """The estimate that refuses a run is checked against tracemalloc: the extra memory a run takes for
     twice the duration is at most the estimate's difference."""
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario, run_memory
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario, run_memory
 
     sc, model = load_scenario(SCEN / "calm.toml")
 
@@ -407,9 +407,9 @@ def test_a_scheduler_address_that_is_not_one_is_refused_naming_it(capsys, tmp_pa
 
 def test_a_silent_scheduler_address_is_refused_in_time_naming_it():
     """Nothing listening at the address: refused after the timeout, naming the option and the address."""
-    from loadarm.cluster import connect_scheduler
+    from loadarm.studies.cluster import connect_scheduler
     from loadarm.errors import ConfigError
-    from loadarm.plant.loadtest import free_port
+    from loadarm.testing.loadtest import free_port
 
     address = f"tcp://127.0.0.1:{free_port()}"
     with pytest.raises(ConfigError, match=f"--scheduler {address}: no Dask scheduler reachable"):

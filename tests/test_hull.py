@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.berth import RHO_SEA, load_berth
+from loadarm.params.berth import RHO_SEA, load_berth
 from loadarm.ship.hull import _g, _x_shape, hull_mesh
 
 from .conftest import ROOT

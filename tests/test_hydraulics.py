@@ -19,15 +19,15 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from loadarm.compiler import compile_model
-from loadarm.config import parse_config
-from loadarm.dynamics import cylinder_areas, mass_model, moment_arms, static_torques
-from loadarm.hydraulics import plant
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import parse_config
+from loadarm.arm.dynamics import cylinder_areas, mass_model, moment_arms, static_torques
+from loadarm.hydraulics import circuit as plant
 from loadarm.hydraulics.components import (effective_opening, orifice_flow, orifice_slope, pump_flow, relief_flow,
-                                           spool_discretisation, valve_coefficient, valve_flows)
+    spool_discretisation, valve_coefficient, valve_flows)
 from loadarm.hydraulics.reference import cylinder_rig, reference_simulation
 from loadarm.hydraulics.simulate import SimulationError, simulate_approach, simulate_hold
-from loadarm.trajectory import plan_approach
+from loadarm.design.trajectory import plan_approach
 
 
 def test_valve_flow_matches_the_orifice_equation(inst):
@@ -155,7 +155,7 @@ def test_hold_from_static_pressures_does_not_move(model):
 
 @pytest.fixture(scope="module")
 def smooth_run(request):
-    from loadarm.config import paper_installation
+    from loadarm.params.config import paper_installation
     inst = paper_installation()
     model = compile_model(inst)
     plan = plan_approach(model, timing="smooth", samples=2001)
@@ -270,7 +270,7 @@ def test_plant_geometry_is_the_vectorised_formula_bit_for_bit(model):
     same bits as the NumPy route, over the whole joint range including nearly closed pin triangles
     (alpha -> pi, beta -> 0). Only the trigonometric inputs may differ between NumPy and libm (<= 1 ulp), so
     the plant's full _geometry is held to 1e-14 m of actuators.cylinder_lengths / moment_arms."""
-    from loadarm.actuators import cylinder_lengths, moment_arms, pin_lengths, pin_moment_arms
+    from loadarm.arm.actuators import cylinder_lengths, moment_arms, pin_lengths, pin_moment_arms
     from loadarm.hydraulics.simulate import pack_parameters
 
     P = pack_parameters(model)

@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from loadarm.berth import RHO_SEA, load_berth
+from loadarm.params.berth import RHO_SEA, load_berth
 from loadarm.errors import ConfigError
 from loadarm.ship import hydro
 from loadarm.ship.hull import hull_mesh

@@ -13,9 +13,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from loadarm.errors import UnreachableError
-from loadarm.geometry import Arm
-from loadarm.kinematics import (check_reachable, elbow_position, forward, inverse, inverse_paper, jacobian,
-                                joint_rates, reach_mask)
+from loadarm.arm.geometry import Arm
+from loadarm.arm.kinematics import (check_reachable, elbow_position, forward, inverse, inverse_paper, jacobian,
+    joint_rates, reach_mask)
 
 POS_TOL = 1e-9
 
@@ -166,7 +166,7 @@ def test_joint_rates_refuse_singular_pose(arm):
 
 
 def test_solve_ik_reports_instead_of_raising(arm):
-    from loadarm.kinematics import solve_ik
+    from loadarm.arm.kinematics import solve_ik
     sol = solve_ik(arm, [10.0, 30.0, 1.0, np.nan], [2.0, 0.0, 7.0, 1.0])
     alpha, beta, ok = sol
     assert ok.tolist() == [True, False, False, False] and not sol.all_ok

@@ -10,10 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.berth import load_berth
+from loadarm.params.berth import load_berth
 from loadarm.errors import ConfigError
 from loadarm.ship.mooring import (MooringEquilibriumError, compile_moorings, equilibrium, line_tensions,
-                                  restoring_force, stiffness)
+    restoring_force, stiffness)
 
 from .hypo import examples
 

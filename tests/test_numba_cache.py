@@ -17,7 +17,7 @@ from numba.core.registry import CPUDispatcher
 
 from loadarm import _numba
 
-MODULES = ["loadarm.ship.mooring", "loadarm.ship.motion", "loadarm.studies.kernel", "loadarm.hydraulics.plant",
+MODULES = ["loadarm.ship.mooring", "loadarm.ship.motion", "loadarm.studies.kernel", "loadarm.hydraulics.circuit",
            "loadarm.hydraulics.components", "loadarm.hydraulics.reference"]
 
 

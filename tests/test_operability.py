@@ -10,10 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.faces import ray_crossing
-from loadarm.compiler import compile_model
-from loadarm.config import load_config
-from loadarm.faces import breakout_distance, face_margins, first_face
+from loadarm.arm.faces import ray_crossing
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import load_config
+from loadarm.arm.faces import breakout_distance, face_margins, first_face
 from loadarm.studies.kernel import _DIRS, breakout_time, floor_table, monitor_record
 
 from .hypo import examples
@@ -87,8 +87,8 @@ def test_a_breakout_runs_the_whole_sequence(model):
 def test_position_alarms_come_from_the_angles():
     """A flange held just past the customer's first-alarm beta raises ESD-1 at once, with a design drift so slow
     (0.02 m/s at 0.001 m/s^2: 0.5 m in the ESD-1 lead) that the floor alone would stay quiet there."""
-    from loadarm.config import parse_config, read_toml
-    from loadarm.slew import inverse3d
+    from loadarm.params.config import parse_config, read_toml
+    from loadarm.arm.slew import inverse3d
 
     data = read_toml(PAPER)
     data["design_drift"] = {"speed": 0.02, "acceleration": 0.001, "vertical_speed": 0.001}
@@ -139,9 +139,10 @@ def test_the_kernel_agrees_with_loadarm_run(flange, hs, seed):
     against the batched kernel on the same flange motion from the connection on: the same alarm stage, the same
     largest beta within 0.1 deg (measured: 0.001 deg), ESD-1 within 0.1 s (measured: 0.02 s). The four states
     were chosen before running: calm and rough at the nominal flange, and two flanges near the first alarm."""
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario, moored_ship
-    from loadarm.guidance.ship import flange_motion
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario
+    from loadarm.ship.model import moored_ship
+    from loadarm.ship.flange import flange_motion
 
     sc0, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15_moored.toml")
     d = sc0.model_dump()
@@ -333,7 +334,8 @@ def test_the_compiled_levels_and_faces_are_the_vectorised_rules(model, beta, phi
     """The per-sample pass (kernel._samples, compiling alarms.zone_level and faces.past_a_face) gives exactly the
     levels of beta_severity and slew_severity (unreachable: release) and the faces of face_margins/first_face,
     including angles on a threshold (``near``: the samples put on the thresholds and limits themselves)."""
-    from loadarm.alarms import Severity, beta_severity, slew_severity
+    from loadarm.vocab import Severity
+    from loadarm.arm.alarms import beta_severity, slew_severity
     from loadarm.studies.kernel import _samples
 
     al, sl, lim = model.alarms, model.slew, model.joint_limits
@@ -367,8 +369,8 @@ def test_the_compiled_levels_and_faces_are_the_vectorised_rules(model, beta, phi
 def test_past_a_face_is_face_margins_on_positions(model):
     """The scalar face rule on the joints of 2000 positions around the nominal flange (some beyond every face,
     some out of reach) against face_margins/first_face on the same positions."""
-    from loadarm.faces import past_a_face
-    from loadarm.slew import inverse3d
+    from loadarm.arm.faces import past_a_face
+    from loadarm.arm.slew import inverse3d
 
     rng = np.random.default_rng(3)
     fx, fz = model.approach.flange
@@ -379,11 +381,11 @@ def test_past_a_face_is_face_margins_on_positions(model):
     want = first_face(face_margins(model, p[:, 0], p[:, 1], p[:, 2]))[0]
     assert 100 < want.sum() < 1900 and np.array_equal(got, want)
     # the same rule on arrays, as the envelope's ray marches take it
-    from loadarm.faces import past_a_face_at
+    from loadarm.arm.faces import past_a_face_at
 
     assert np.array_equal(past_a_face_at(model, p[:, 0], p[:, 1], p[:, 2]), want)
     # and on the faces themselves: joints at their limits, a margin of exactly zero (inside)
-    from loadarm.slew import forward3d
+    from loadarm.arm.slew import forward3d
 
     edge = np.array(np.meshgrid(lim.phi, lim.alpha, lim.beta, indexing="ij")).reshape(3, -1)
     x, y, z = forward3d(model.arm, *edge)
@@ -486,8 +488,8 @@ def test_the_record_s_inverse_kinematics_is_inverse3d_bit_for_bit(pts, lengths):
     """kernel.record_ik (the arithmetic in one compiled routine, NumPy's arctangents) against
     slew.inverse3d, unchecked, over any arm and any point (out of reach, huge, tiny, infinite, NaN: the same
     NaN where it gives NaN): bit for bit, so the kernel's angles are the closed loop's."""
-    from loadarm.geometry import Arm
-    from loadarm.slew import inverse3d
+    from loadarm.arm.geometry import Arm
+    from loadarm.arm.slew import inverse3d
     from loadarm.studies.kernel import record_ik
 
     arm = Arm(*lengths)

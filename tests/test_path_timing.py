@@ -9,10 +9,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from loadarm.errors import PathError, TimingError, UnreachableError
-from loadarm.geometry import Arm
-from loadarm.kinematics import reach_mask
-from loadarm.path import StraightPath
-from loadarm.timing import PaperTiming, TrapezoidTiming, make_timing
+from loadarm.arm.geometry import Arm
+from loadarm.arm.kinematics import reach_mask
+from loadarm.design.path import StraightPath
+from loadarm.design.timing import PaperTiming, TrapezoidTiming, make_timing
 
 
 def test_path_evaluation_matches_eq4():

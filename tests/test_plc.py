@@ -12,9 +12,9 @@ import time
 import numpy as np
 import pytest
 
-from loadarm.guidance.scenario import load_scenario
-from loadarm.plant.plc import LINK_TIMEOUT, PLC_APP_URI, WATCHDOG, PlcSimulator
-from loadarm.plant.security import Role, StateDir
+from loadarm.params.scenario import load_scenario
+from loadarm.opcua.plc import LINK_TIMEOUT, PLC_APP_URI, WATCHDOG, PlcSimulator
+from loadarm.opcua.security import Role, StateDir
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
@@ -80,7 +80,7 @@ def test_an_estop_request_stops_the_drives_until_released_and_reset(scenario):
 
 
 def _free_port() -> int:
-    from loadarm.plant.loadtest import free_port
+    from loadarm.testing.loadtest import free_port
 
     return free_port()
 
@@ -88,7 +88,7 @@ def _free_port() -> int:
 def _plc_pair(tmp_path):
     """The controller's and the PLC's state directories, each trusting the other, the PLC's user for the
     controller, and an ephemeral endpoint."""
-    from loadarm.plant.server import APP_URI
+    from loadarm.opcua.server import APP_URI
 
     ctrl, plc = StateDir(tmp_path / "ctrl"), StateDir(tmp_path / "plc")
     ctrl.ensure(APP_URI)
@@ -112,9 +112,9 @@ def _controller_on_plc_sim(tmp_path, scenario, *plc_args, period=0.02, speedup=1
     """``loadarm plc-sim`` (the drift-off) in its own process, the controller's link to it, and a guidance
     service on that link, not yet started; yields ``(loop, service, link, proc)``, then stops the service,
     the link and the process."""
-    from loadarm.guidance.run import ClosedLoop
-    from loadarm.plant.plc import PlcLink
-    from loadarm.plant.service import GuidanceService
+    from loadarm.sim.loop import ClosedLoop
+    from loadarm.opcua.plc import PlcLink
+    from loadarm.opcua.service import GuidanceService
 
     sc, model = scenario
     ctrl, plc, endpoint = _plc_pair(tmp_path)
@@ -140,7 +140,7 @@ def _controller_on_plc_sim(tmp_path, scenario, *plc_args, period=0.02, speedup=1
 def test_across_two_processes_a_jog_moves_the_plc_s_arm(tmp_path, scenario):
     """``loadarm plc-sim`` in its own process, the controller's link trusted by it (and it by the link): an
     operator's jog moves the PLC's arm through the link."""
-    from loadarm.plant.service import Request
+    from loadarm.opcua.service import Request
 
     with _controller_on_plc_sim(tmp_path, scenario, scripted=False) as (loop, service, link, proc):
         q0 = link.q.copy()
@@ -191,7 +191,7 @@ def test_hardware_in_the_loop_the_drift_off_across_two_processes_runs_the_same_m
     refresh its tags in time and the estimate went stale (found)."""
     from pathlib import Path
 
-    from loadarm.guidance.run import run_scenario
+    from loadarm.sim.loop import run_scenario
 
     sc, model = scenario
     want = run_scenario(sc, model).summary()["mode_sequence"]
@@ -216,8 +216,8 @@ def test_serve_on_a_plc_without_a_scenario_runs_on_and_an_operator_jogs_the_plc_
     from asyncua import Client, ua
     from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
 
-    from loadarm.plant.security import client_certificate
-    from loadarm.plant.server import NAMESPACE
+    from loadarm.opcua.security import client_certificate
+    from loadarm.opcua.server import NAMESPACE
 
     ctrl, plc, plc_endpoint = _plc_pair(tmp_path)
     plc_proc = _plc_process(plc, plc_endpoint, plant=("--config", "examples/paper.toml", "--duration", "600"))
@@ -284,7 +284,7 @@ def _map_text(tags):
 
 
 def test_a_mapping_file_round_trips_and_scales(tmp_path):
-    from loadarm.plant.plc import default_tag_map, load_tag_map
+    from loadarm.opcua.plc import default_tag_map, load_tag_map
 
     m = default_tag_map().nodes
     m["Alpha_rad"] = ("ns=3;s=MLA.Inboard.Angle", 0.0174533)
@@ -301,7 +301,7 @@ def test_a_mapping_file_round_trips_and_scales(tmp_path):
     (lambda m: m.update(Connected=("ns=1;s=x", 2.0)), "only numeric tags scale, Connected is bool")])
 def test_a_bad_mapping_file_is_refused_naming_the_file_and_tag(tmp_path, edit, match):
     from loadarm.errors import ConfigError
-    from loadarm.plant.plc import default_tag_map, load_tag_map
+    from loadarm.opcua.plc import default_tag_map, load_tag_map
 
     m = default_tag_map().nodes
     edit(m)
@@ -318,9 +318,9 @@ def test_a_lost_link_reconnects_and_resynchronises_without_a_jump(tmp_path, scen
     """The PLC's OPC UA server stopped (its plant running on) and started again on the same endpoint: the link
     goes bad, comes back by itself, the controller logs it restored, and its encoders read on from where the
     arm stands (the watchdog held it: no jump)."""
-    from loadarm.guidance.run import ClosedLoop
-    from loadarm.plant.plc import PlcLink, PlcServer
-    from loadarm.plant.service import GuidanceService
+    from loadarm.sim.loop import ClosedLoop
+    from loadarm.opcua.plc import PlcLink, PlcServer
+    from loadarm.opcua.service import GuidanceService
 
     sc, model = scenario
     ctrl, plc, endpoint = _plc_pair(tmp_path)

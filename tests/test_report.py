@@ -7,8 +7,8 @@ from datetime import datetime, timezone
 
 import pytest
 
-from loadarm.config import load_config
-from loadarm.report import build_report
+from loadarm.params.config import load_config
+from loadarm.present.report import build_report
 
 from .conftest import PAPER_TOML, ROOT
 
@@ -68,7 +68,7 @@ def test_parameters_in_engineering_units_left_aligned_text(own_report):
 
 @pytest.mark.slow
 def test_paper_case_keeps_its_comparison(tmp_path):
-    from loadarm.config import parse_config
+    from loadarm.params.config import parse_config
 
     d = load_config(PAPER_TOML).model_dump()
     d["report"]["scenarios"] = []
@@ -79,7 +79,7 @@ def test_paper_case_keeps_its_comparison(tmp_path):
 
 def test_report_html_is_a_template_that_escapes_user_text(own_report, tmp_path):
     """The HTML layer is an autoescaped Jinja2 template: a file name or title cannot inject markup."""
-    from loadarm.report import _template
+    from loadarm.present.report import _template
 
     files, html, _ = own_report
     assert _template().environment.autoescape("report.html.j2") is True
@@ -121,9 +121,9 @@ def _render_minimal():
 
 def test_the_report_plans_each_timing_law_once(monkeypatch, tmp_path):
     """Found: build_report planned seven times. Now one plan per law serves every section."""
-    import loadarm.report as rep
-    from loadarm.compiler import compile_model
-    from loadarm.config import parse_config
+    import loadarm.present.report as rep
+    from loadarm.params.compiler import compile_model
+    from loadarm.params.config import parse_config
 
     calls = []
     real = rep.plan_approach
@@ -140,12 +140,11 @@ def test_a_moored_scenario_at_the_report_s_berth_takes_the_report_s_ship(monkeyp
     """Found: the demo compiled the example ship twice, once for the berth section and again for the moored
     break-out scenario at the same berth. Now the scenario takes the report's ship (one compilation); a
     scenario of the simple ship takes none."""
-    import loadarm.report as rep
-    import loadarm.ship.model as sm
-    from loadarm.config import parse_config
+    import loadarm.present.report as rep
+    from loadarm.params.config import parse_config
 
     compiled, runs = [], {}
-    monkeypatch.setattr(sm, "compile_ship", lambda *a, **k: compiled.append(object()) or compiled[-1])
+    monkeypatch.setattr(rep, "compile_ship", lambda *a, **k: compiled.append(object()) or compiled[-1])
     monkeypatch.setattr(rep, "run_scenario", lambda sc, model, ship=None: runs.setdefault(sc.scenario.name, ship))
     d = load_config(PAPER_TOML).model_dump()
     d["report"]["scenarios"] = ["scenarios/breakout.toml", "scenarios/calm.toml"]

@@ -10,17 +10,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.alarms import Severity
-from loadarm.check import MANIFOLD_CLEARANCE, design_check, valve_worst_time
+from loadarm.vocab import Severity
+from loadarm.design.check import MANIFOLD_CLEARANCE, design_check, valve_worst_time
 from loadarm.cli import main
-from loadarm.guidance.campaign import run_campaign
-from loadarm.guidance.controller import (ERS_SWITCH_DISCREPANCY, Cycle, GuidanceController, GuidanceState, Mode,
-                                         OperatorInput, PlantFeedback)
-from loadarm.guidance.run import CLEARANCE_TIME, run_scenario
-from loadarm.guidance.scenario import Scenario, load_scenario
-from loadarm.guidance.sensor import Estimate
+from loadarm.studies.campaign import run_campaign
+from loadarm.guidance.controller import (ERS_SWITCH_DISCREPANCY, GuidanceController, GuidanceState, Mode,
+    OperatorInput, PlantFeedback)
+from loadarm.sim.loop import CLEARANCE_TIME, run_scenario
+from loadarm.params.scenario import Scenario, load_scenario
+from loadarm.guidance.estimator import Estimate
 from loadarm.guidance.voting import VoteState, reset_votes, vote
-from loadarm.slew import inverse3d
+from loadarm.arm.slew import inverse3d
 
 from .conftest import ROOT
 from .hypo import examples
@@ -358,7 +358,7 @@ def test_the_pre_alarm_is_on_by_default_and_never_stands_at_the_nominal_flange(m
 def test_the_slow_valve_campaign_table_holds_on_a_fresh_sample():
     """docs/guidance.md section 9 quotes the 1000-seed hold-out (53 minutes): its zeros and its floor, the design
     margin, on fresh seeds; and the step's row."""
-    from loadarm.guidance.campaign import parse_vary
+    from loadarm.studies.campaign import parse_vary
 
     from .test_doc_numbers import cited
 
@@ -377,8 +377,8 @@ def test_the_slow_valve_campaign_table_holds_on_a_fresh_sample():
 def test_the_cylinder_channel_saturates_at_the_pins_ends(model):
     """The second channel of a joint at the flat-triangle end of its pins reads the end, never an impossible length
     (a quantised reading past it made the inverse raise)."""
-    from loadarm.actuators import joint_angles_from_cylinders, length_limits
-    from loadarm.guidance.run import AngleSensors
+    from loadarm.arm.actuators import joint_angles_from_cylinders, length_limits
+    from loadarm.sim.loop import AngleSensors
 
     sens = AngleSensors(model, Scenario().faults)
     lim = length_limits(model.mount)

@@ -1,4 +1,4 @@
-"""The emergency sequence written once (loadarm.sequence): the operability kernel's compiled scan and the live
+"""The emergency sequence written once (loadarm.arm.sequence): the operability kernel's compiled scan and the live
 monitor's leads, stepped as the controller steps them, reach the same stage at the same samples."""
 
 import dataclasses
@@ -8,9 +8,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.alarms import Severity
+from loadarm.vocab import Severity
 from loadarm.guidance.monitor import stage_leads
-from loadarm.sequence import esd_lead, lead_values, release_lead, stage_of, valve_worst_time
+from loadarm.arm.sequence import esd_lead, lead_values, release_lead, stage_of, valve_worst_time
 from loadarm.studies.kernel import _scan
 
 from .hypo import examples

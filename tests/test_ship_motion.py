@@ -10,13 +10,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.berth import load_berth
+from loadarm.params.berth import load_berth
 from loadarm.errors import ConfigError
-from loadarm.guidance.scenario import load_scenario, parse_scenario
-from loadarm.guidance.ship import flange_motion
+from loadarm.params.scenario import load_scenario, parse_scenario
+from loadarm.ship.flange import flange_motion
 from loadarm.ship import loads
 from loadarm.ship.model import compile_ship
-from loadarm.ship.motion import DT, MIN_RECORD, _flange, _interp_heading, simulate
+from loadarm.ship.hydro import interp_heading
+from loadarm.ship.motion import DT, MIN_RECORD, _flange, simulate
 
 from .hypo import examples
 
@@ -111,9 +112,8 @@ def test_the_compiled_phasors_are_numpy_s_bit_for_bit(pairs):
 @given(st.integers(0, 2 ** 32 - 1))
 @settings(max_examples=examples(30), deadline=None)
 def test_the_compiled_table_interpolation_is_the_vectorised_sum(seed):
-    """_interp_heading's compiled pass against the gather-and-weigh expression on NumPy arrays, bit for bit,
+    """interp_heading's compiled pass against the gather-and-weigh expression on NumPy arrays, bit for bit,
     over frequencies below, inside and above the grid and headings of any turn."""
-    from loadarm.ship.motion import _interp_heading
 
     rng = np.random.default_rng(seed)
     heading = np.sort(rng.choice(np.linspace(0, 2 * math.pi, 40, endpoint=False), 7, replace=False))
@@ -132,8 +132,8 @@ def test_the_compiled_table_interpolation_is_the_vectorised_sum(seed):
     want = ((1 - fw) * ((1 - fb) * table[i, j] + fb * table[i, j1])
             + fw * ((1 - fb) * table[i + 1, j] + fb * table[i + 1, j1]))
     want[w > grid[-1]] = 0
-    assert np.array_equal(_interp_heading(table, heading, grid, w, beta), want)
-    assert np.array_equal(_interp_heading(table.real.copy(), heading, grid, w, beta), want.real)
+    assert np.array_equal(interp_heading(table, heading, grid, w, beta), want)
+    assert np.array_equal(interp_heading(table.real.copy(), heading, grid, w, beta), want.real)
 
 
 def test_the_direction_table_is_shared_and_read_only():
@@ -187,7 +187,7 @@ def test_wave_synthesis_is_exact_over_its_period(ship, berth):
 
     comp = wave_components(env, n, DT, np.random.default_rng(5))
     h = ship.hydro
-    r = _interp_heading(ship.rao, h.heading, h.omega, comp.omega, comp.direction - ship.psi0)
+    r = interp_heading(ship.rao, h.heading, h.omega, comp.omega, comp.direction - ship.psi0)
     exact = np.sum(comp.amplitude[:, None] ** 2 * np.abs(r) ** 2, axis=0) / 2
     assert np.allclose(np.mean(m.wave ** 2, axis=0), exact, rtol=1e-9)
     assert np.allclose(np.mean(m.wave, axis=0), 0.0, atol=1e-12)
@@ -209,7 +209,7 @@ def test_wave_motion_matches_the_rao_weighted_spectrum(ship, berth):
     th = np.linspace(-math.pi, math.pi, 181)
     dens = loads.jonswap(w, env.hs, env.tp)[:, None] * loads.spreading(th, math.radians(30.0), 4.0)[None, :]
     beta = (th[None, :] - ship.psi0) * np.ones_like(w)[:, None]
-    r = _interp_heading(ship.rao, h.heading, h.omega, np.repeat(w, th.size), beta.ravel()).reshape(w.size,
+    r = interp_heading(ship.rao, h.heading, h.omega, np.repeat(w, th.size), beta.ravel()).reshape(w.size,
                                                                                                    th.size, 6)
     m0 = np.trapezoid(np.trapezoid(dens[..., None] * np.abs(r) ** 2, th, axis=1), w, axis=0)
     se = var.std(axis=0, ddof=1) / math.sqrt(len(var))
@@ -300,7 +300,7 @@ def test_flange_moves_rigidly_with_the_ship(ship):
 
 @pytest.fixture(scope="module")
 def moored():
-    from loadarm.guidance.scenario import moored_ship
+    from loadarm.ship.model import moored_ship
 
     sc, _ = load_scenario("examples/scenarios/hs15_moored.toml")
     return sc, flange_motion(sc, moored_ship(sc))
@@ -360,7 +360,7 @@ def test_fenders_too_stiff_to_integrate_are_refused_naming_the_file(berth):
     0.2 s integration up into NaN; it is refused with the file, the fender and the allowed stiffness."""
     data = berth.model_dump()
     data["fenders"] = tuple(dict(f, load=tuple(v * 1e6 for v in f["load"])) for f in data["fenders"])
-    from loadarm.berth import Berth
+    from loadarm.params.berth import Berth
 
     bad = Berth.model_validate(data)
     with pytest.raises(ConfigError, match=r"mine.toml: the lines and fenders are too stiff.*'F1'.*at most"):
@@ -411,7 +411,7 @@ def test_the_coarse_low_frequency_step_is_accurate(ship, berth):
 def test_stiffer_moorings_get_a_finer_step(berth):
     """omega_max h <= 0.5: lines ten times stiffer (steel wire rather than HMPE with tails) halve the step or
     more; the step stays a multiple of the 0.1 s output step."""
-    from loadarm.berth import Berth
+    from loadarm.params.berth import Berth
 
     data = berth.model_dump()
     data["moorings"] = tuple(dict(m, axial_stiffness=m["axial_stiffness"] * 10) for m in data["moorings"])

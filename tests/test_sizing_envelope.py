@@ -7,12 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.alarms import UNREACHABLE, AlarmAngles, Severity, beta_severity, severity_label, slew_severity
-from loadarm.envelope import berth_box, classify_point, zone_radii
+from loadarm.vocab import UNREACHABLE, Severity, severity_label
+from loadarm.arm.alarms import AlarmAngles, beta_severity, slew_severity
+from loadarm.arm.envelope import berth_box, classify_point, zone_radii
 from loadarm.errors import SizingError
-from loadarm.geometry import Arm
-from loadarm.kinematics import forward
-from loadarm.sizing import alarm_radius, check_corners, first_alarm_corner, size_arm, size_installation
+from loadarm.arm.geometry import Arm
+from loadarm.arm.kinematics import forward
+from loadarm.design.sizing import alarm_radius, check_corners, first_alarm_corner, size_arm, size_installation
 
 from .hypo import examples
 
@@ -151,7 +152,7 @@ def test_one_severity_type_orders_every_stage():
     assert list(Severity) == sorted(Severity) and [s.name for s in Severity] == [
         "NORMAL", "PRE_ALARM", "ESD1", "SECOND", "RELEASE"]
     assert UNREACHABLE < min(Severity) and severity_label(UNREACHABLE) == "unreachable"
-    from loadarm.model import SlewLimits
+    from loadarm.arm.model import SlewLimits
     sl = SlewLimits(*np.radians([40.0, 30.0, 34.0, 37.0, 2.0]))
     assert slew_severity(np.radians([0.0, -30.5, 35.0, -37.0]), sl).tolist() == [
         Severity.NORMAL, Severity.ESD1, Severity.SECOND, Severity.RELEASE]

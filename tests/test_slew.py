@@ -8,9 +8,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from loadarm.errors import UnreachableError
-from loadarm.geometry import Arm
-from loadarm.kinematics import forward, inverse
-from loadarm.slew import forward3d, inverse3d, reach_mask3d
+from loadarm.arm.geometry import Arm
+from loadarm.arm.kinematics import forward, inverse
+from loadarm.arm.slew import forward3d, inverse3d, reach_mask3d
 
 
 @given(st.floats(1, 30), st.floats(1, 30), st.floats(1, 30), st.floats(-math.pi + 1e-3, math.pi - 1e-3),

@@ -1,4 +1,4 @@
-"""The ERS valve's surge check (loadarm.surge), each result against a route that does not share its code.
+"""The ERS valve's surge check (loadarm.design.surge), each result against a route that does not share its code.
 
 The MOC model is checked against Joukowsky's relation (instantaneous closure), Allievi's chain equations (a
 scalar delay recursion solved with a root finder), Allievi's slow-closure formula and the rigid-column ODE
@@ -18,8 +18,8 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from loadarm.surge import (CLOSURE_LAWS, SurgeResult, joukowsky, michaud, moc_valve_closure, pipe_wave_speed,
-                           surge_check, valve_opening)
+from loadarm.design.surge import (CLOSURE_LAWS, SurgeResult, joukowsky, michaud, moc_valve_closure, pipe_wave_speed,
+    surge_check, valve_opening)
 
 from .hypo import examples
 

@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from loadarm.compiler import compile_model
-from loadarm.config import parse_config
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import parse_config
 from loadarm.errors import PathError, UnreachableError, ValveRangeError
-from loadarm.kinematics import forward
-from loadarm.trajectory import plan_approach
+from loadarm.arm.kinematics import forward
+from loadarm.design.trajectory import plan_approach
 
 from .conftest import ROOT
 
@@ -109,7 +109,7 @@ def test_joint_accelerations_match_finite_differences(model):
 
 @pytest.mark.parametrize("law", ["paper", "smooth", "optimal"])
 def test_3d_plan_in_the_vertical_plane_is_the_2d_plan(model, law):
-    from loadarm.trajectory import plan_approach_3d
+    from loadarm.design.trajectory import plan_approach_3d
     p2 = plan_approach(model, timing=law, samples=301)
     p3 = plan_approach_3d(model, timing=law, samples=301)
     assert p3.duration == p2.duration
@@ -120,8 +120,8 @@ def test_3d_plan_in_the_vertical_plane_is_the_2d_plan(model, law):
 
 
 def test_3d_plan_slews_and_its_rates_are_consistent(model):
-    from loadarm.slew import forward3d
-    from loadarm.trajectory import plan_approach_3d
+    from loadarm.arm.slew import forward3d
+    from loadarm.design.trajectory import plan_approach_3d
     p = plan_approach_3d(model, target=(12.0, 6.0, 1.0), samples=8001)
     x, y, z = forward3d(model.arm, p.phi, p.alpha, p.beta)
     assert np.max(np.abs(x - p.x)) < 1e-9 and np.max(np.abs(y - p.y)) < 1e-9 and np.max(np.abs(z - p.z)) < 1e-9
@@ -133,7 +133,7 @@ def test_3d_plan_slews_and_its_rates_are_consistent(model):
 
 def test_3d_plan_refusals(model):
     from loadarm.errors import PathError
-    from loadarm.trajectory import plan_approach_3d
+    from loadarm.design.trajectory import plan_approach_3d
     with pytest.raises(PathError, match="beyond the slew limit"):
         plan_approach_3d(model, target=(5.0, 12.0, 1.0))
     with pytest.raises(UnreachableError, match="leaves the reachable workspace"):
@@ -148,21 +148,21 @@ def test_results_are_data_with_summary_to_dict_and_plot(model):
 
     from matplotlib.figure import Figure
 
-    from loadarm.balancing import balance_counterweights
+    from loadarm.design.balancing import balance_counterweights
     from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
-    from loadarm.loads import actuator_loads
-    from loadarm.multibody import verify_kinematics
+    from loadarm.design.loads import actuator_loads
+    from loadarm.design.multibody import verify_kinematics
     from loadarm.results import Summary
 
     plan = plan_approach(model, timing="smooth", samples=101)
     sim = simulate_approach(model, plan_approach(model, timing="smooth", samples=2001))
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario
 
     sc, smodel = load_scenario(ROOT / "examples" / "scenarios" / "calm.toml")
     sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"duration": 20.0, "plant": "kinematic"})})
-    from loadarm.sizing import size_arm
-    from loadarm.trajectory import plan_approach_3d
+    from loadarm.design.sizing import size_arm
+    from loadarm.design.trajectory import plan_approach_3d
 
     results = [plan, actuator_loads(model, plan), balance_counterweights(model, spacing=1.0),
                verify_kinematics(model, plan_approach(model, timing="paper", samples=21)), sim,

@@ -10,10 +10,10 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from loadarm.alarms import Severity
-from loadarm.faces import face_margins
-from loadarm.vocab import (ACTION_TABLE, ANNUNCIATED, COMMANDS, CONDITIONS, FACE_LABELS, FACE_TABLE, FACES,
-                           METHODS, Role, priority)
+from loadarm.vocab import Severity
+from loadarm.arm.faces import face_margins
+from loadarm.vocab import (ACTION_TABLE, ANNUNCIATED, COMMANDS, CONDITIONS, FACE_LABELS, FACE_TABLE, FACES, METHODS,
+    Role, priority)
 
 from .hypo import examples
 
@@ -31,7 +31,7 @@ def test_each_faces_words_say_which_flange_motion_brings_it_nearer(inst, model, 
     of alpha_max and alpha_min were swapped (alpha is measured from the upward vertical and is largest at the
     lowest flange); this fails on them. (Far above the box, with the outboard arm raised, alpha's sense
     against the flange's height turns: the words describe the berth, not every pose.)"""
-    from loadarm.envelope import berth_box
+    from loadarm.arm.envelope import berth_box
 
     box = berth_box(inst.datasheet)
     fx, fy, fz = fractions
@@ -82,7 +82,7 @@ def test_every_alarm_stage_is_annunciated_once_and_more_severe_stages_rank_highe
 def test_one_role_table_for_the_screen_and_the_opc_ua_methods():
     """The screen's commands and the OPC UA methods both come from the action table; a viewer's one request
     is ESD-1, on both."""
-    from loadarm.plant.server import METHODS as SERVED
+    from loadarm.opcua.server import METHODS as SERVED
 
     assert {n for n, r in COMMANDS.items() if r == Role.VIEWER} == {"esd"}
     assert [m[:3] for m in SERVED] == [m[:3] for m in METHODS]
@@ -138,8 +138,8 @@ def test_a_run_reads_its_events_by_code_so_rewording_changes_no_metric():
     stage and release event carries a declared code."""
     import dataclasses
 
-    from loadarm.guidance.run import run_scenario
-    from loadarm.guidance.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import load_scenario
     from loadarm.vocab import EVENTS
 
     from .conftest import PAPER_TOML
@@ -156,12 +156,13 @@ def test_a_run_reads_its_events_by_code_so_rewording_changes_no_metric():
 
 
 def test_importing_the_figures_chooses_no_backend():
-    """Found (issue 26): ``loadarm.plotting`` called ``matplotlib.use("Agg")`` on import, overriding a notebook
+    """Found (issue 26): the figure module (then ``loadarm.plotting``) called ``matplotlib.use("Agg")`` on import, overriding a notebook
     user's backend. A user's backend stays theirs, and a figure still saves without a screen."""
     import subprocess
     import sys
 
-    code = ("import matplotlib; matplotlib.use('svg'); import loadarm.plotting as p, loadarm.report; "
+    code = ("import matplotlib; matplotlib.use('svg'); import loadarm.figures as p, loadarm.present.report; "
+            "import loadarm.design.plots, loadarm.sim.plots, loadarm.studies.plots, loadarm.hydraulics.plots; "
             "import io; fig, ax = p.subplots(figsize=(2, 2)); ax.plot([0, 1]); b = io.BytesIO(); "
             "fig.savefig(b, format='png'); assert b.getvalue()[:4] == b'\\x89PNG'; print(matplotlib.get_backend())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)

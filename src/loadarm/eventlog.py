@@ -32,7 +32,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Iterable
 
-from .errors import EventLogError
+from loadarm.errors import EventLogError
 
 __all__ = ["Event", "EventLog", "EventLogError", "check_samples", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS", "APPLICATION_ID",
            "SCHEMA_VERSION"]

@@ -23,7 +23,7 @@ from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import IO, Any
 
-from .errors import ConfigError, OutputError
+from loadarm.errors import ConfigError, OutputError
 
 __all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "read_input", "check_depth", "atomic_path",
            "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs", "read_toml"]

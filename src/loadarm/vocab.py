@@ -25,10 +25,32 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-from .alarms import Severity
-from .errors import ConfigError
+from loadarm.errors import ConfigError
 
-__all__ = ["Face", "FACE_TABLE", "FACES", "FACE_LABELS", "FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
+#: Classification of a position the arm cannot reach (not a severity).
+UNREACHABLE = -1
+
+
+_LABELS = {UNREACHABLE: "unreachable", 0: "normal", 1: "pre-alarm", 2: "first alarm (ESD-1)", 3: "second alarm",
+           4: "release (ERS-2)"}
+
+
+class Severity(enum.IntEnum):
+    """Ordered alarm severity, the same everywhere."""
+
+    NORMAL = 0
+    PRE_ALARM = 1
+    ESD1 = 2
+    SECOND = 3
+    RELEASE = 4
+
+    @property
+    def label(self) -> str:
+        """Short human label, as used in tables, logs and the report."""
+        return _LABELS[int(self)]
+
+
+__all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "FACES", "FACE_LABELS", "FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
            "CONDITION_SEVERITY", "CONDITION_TEXT", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
            "EVENTS", "STAGE_EVENT", "event_label", "alarm_label"]
@@ -41,7 +63,7 @@ class Face:
     Attributes
     ----------
     name : str
-        The code (``beta_max``, ...), in the order of :func:`loadarm.faces.face_margins`' last axis.
+        The code (``beta_max``, ...), in the order of :func:`loadarm.arm.faces.face_margins`' last axis.
     words : str
         The operator's words: what the arm looks like there and what the flange did.
     detail : str
@@ -93,7 +115,7 @@ FACE_TABLE: tuple[Face, ...] = (
     Face("slew_neg", "slewed to its limit: flange too far along the berth, -y", "slew at its negative limit",
          "slew", "min", (0.0, -1.0, 0.0)),
 )
-#: The face codes, in the order of :func:`loadarm.faces.face_margins`' last axis.
+#: The face codes, in the order of :func:`loadarm.arm.faces.face_margins`' last axis.
 FACES: tuple[str, ...] = tuple(f.name for f in FACE_TABLE)
 #: The operator's words of each face.
 FACE_WORDS: dict[str, str] = {f.name: f.words for f in FACE_TABLE}
@@ -206,7 +228,7 @@ class Action:
     Attributes
     ----------
     name : str
-        The request's code (the screen's command, the service's :class:`loadarm.plant.service.Request`).
+        The request's code (the screen's command, the service's :class:`loadarm.opcua.service.Request`).
     controller : tuple of str
         The controller actions it becomes (empty: kept by the screen, logged only).
     role : Role
@@ -369,3 +391,18 @@ def alarm_label(data: dict | None) -> str:
     """
     code = (data or {}).get("code")
     return EVENTS[code].label if code in EVENTS else "alarm"
+
+
+def severity_label(value: int) -> str:
+    """Label of a classification value: a :class:`Severity` or :data:`UNREACHABLE`.
+
+    Parameters
+    ----------
+    value : int
+        The value.
+
+    Returns
+    -------
+    str
+    """
+    return _LABELS[int(value)]

@@ -21,7 +21,7 @@ Safety rules (each tested):
 * emergency stop from any mode: zero rates in the same cycle;
 * joint and stroke limits: a command that would cross a limit within the next
   cycle is cut to stop at it;
-* while attached: the customer's position alarms (:class:`~loadarm.alarms.AlarmThresholds`) and the time to
+* while attached: the customer's position alarms (:class:`~loadarm.arm.alarms.AlarmThresholds`) and the time to
   the nearest face of the envelope from the measured and the design drift
   (:class:`~loadarm.guidance.monitor.EnvelopeMonitor`) against the sequence still to run, whichever is more
   severe;
@@ -42,19 +42,20 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..sequence import stage_of, valve_worst_time
-from .voting import AXES, VoteState, reset_votes, vote
-from ..alarms import AlarmState, AlarmThresholds, Severity, next_alarm_state
-from ..geometry import Arm
-from ..kinematics import ROUNDOFF_M, jacobian_entries
-from ..slew import forward3d, inverse3d, reach_mask3d
-from ..vocab import ANNUNCIATED, CONDITION_TEXT, STAGE_EVENT, event_label
-from .monitor import FIT_PERIOD, EnvelopeMonitor, LimitForecast, stage_leads
-from .scenario import Guidance, check_drift_window
-from .sensor import Estimate
+from loadarm.arm.sequence import stage_of, valve_worst_time
+from loadarm.guidance.voting import AXES, VoteState, reset_votes, vote
+from loadarm.arm.alarms import AlarmState, AlarmThresholds, next_alarm_state
+from loadarm.vocab import Severity
+from loadarm.arm.geometry import Arm
+from loadarm.arm.kinematics import ROUNDOFF_M, jacobian_entries
+from loadarm.arm.slew import forward3d, inverse3d, reach_mask3d
+from loadarm.vocab import ANNUNCIATED, CONDITION_TEXT, STAGE_EVENT, event_label
+from loadarm.guidance.monitor import FIT_PERIOD, EnvelopeMonitor, LimitForecast, stage_leads
+from loadarm.params.scenario import Guidance, check_drift_window
+from loadarm.guidance.estimator import Estimate
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
-    from ..model import ArmModel
+    from loadarm.arm.model import ArmModel
 
 __all__ = ["Mode", "Command", "OperatorInput", "PlantFeedback", "Cycle", "GuidanceState", "GuidanceController",
            "ANNUNCIATED", "ERS_CONFIRM_WINDOW", "ALARM_OFF_DELAY"]
@@ -661,7 +662,7 @@ class GuidanceController:
             s.next_forecast = now + mon.fit.period
         f = s.forecast
         if math.isfinite(f.time):
-            ld = s.leads                         # the one rule (loadarm.sequence.stage_of): the pre-alarm warns
+            ld = s.leads                         # the one rule (loadarm.arm.sequence.stage_of): the pre-alarm warns
             stage = Severity(stage_of(f.time, f.measured, ld[Severity.RELEASE], ld[Severity.SECOND],  # of a drift
                                       ld[Severity.ESD1], ld.get(Severity.PRE_ALARM, -math.inf)))   # it sees
             if stage > level:
@@ -1045,3 +1046,6 @@ class GuidanceController:
     def _refuse(self, why: str) -> None:
         """A refused command is logged once and forgotten: nothing starts later without a new action."""
         self._event("info", f"approach refused: {why}")
+
+
+MODES = tuple(m.value for m in Mode)

@@ -5,7 +5,7 @@ measured joint angles). The monitor keeps a window of those positions and fits, 
 acceleration drift ``p + v t + a t^2 / 2`` by least squares (:class:`DriftFit`): exact for a drift at constant
 acceleration (no lag, unlike a low-pass filter), with the waves averaged out over the window; the residual
 gives the wave excursion and the fit's uncertainty. From it :meth:`EnvelopeMonitor.time_to_limit` predicts
-when the flange would first cross a face of the arm's envelope (:mod:`loadarm.faces`), two ways, and keeps the
+when the flange would first cross a face of the arm's envelope (:mod:`loadarm.arm.faces`), two ways, and keeps the
 earlier:
 
 * **measured drift**: the fitted drift extrapolated (a decelerating drift stops at its vertex), widened by the
@@ -26,9 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..alarms import Severity
-from ..sequence import esd_lead, lead_values, valve_worst_time
-from ..faces import FACES, breakout_distance, face_margins, first_face
+from loadarm.vocab import Severity
+from loadarm.arm.sequence import esd_lead, lead_values, valve_worst_time
+from loadarm.arm.faces import FACES, breakout_distance, face_margins, first_face
 
 __all__ = ["FIT_PERIOD", "stage_leads", "DriftEstimate", "DriftFit", "LimitForecast", "EnvelopeMonitor"]
 
@@ -469,7 +469,7 @@ class LimitForecast:
     time : float
         Time to the first face, s (``inf`` beyond the horizon).
     face : str
-        The face (:data:`loadarm.faces.FACES`), ``""`` if none.
+        The face (:data:`loadarm.arm.faces.FACES`), ``""`` if none.
     route : str
         ``"design drift"``, ``"measured drift"``, ``"velocity step"`` or ``"break-out"``.
     by_face : tuple of (str, float)

@@ -2,11 +2,11 @@
 
 One encoder per axis feeding the forward kinematics is a single point of failure: a frozen beta encoder hides the
 elbow's stretch from every position alarm and from the time-to-limit monitor. The installation's ``[encoder]
-redundancy`` gives each axis a second channel (:func:`loadarm.guidance.run.AngleSensors`):
+redundancy`` gives each axis a second channel (:func:`loadarm.sim.loop.AngleSensors`):
 
 * ``dual``: two angle encoders per axis;
 * ``cylinder``: the angle encoder against the angle the cylinder-length transducer gives through the pin
-  geometry (:func:`loadarm.actuators.joint_angles_from_cylinders`) for alpha and beta, two encoders on the slew.
+  geometry (:func:`loadarm.arm.actuators.joint_angles_from_cylinders`) for alpha and beta, two encoders on the slew.
 
 Each cycle :func:`vote` compares the two channels of each axis:
 

@@ -1,5 +1,5 @@
 """The operator's web screen: a FastAPI application (login, session cookie, CSRF, a WebSocket of live frames and
-commands) over a :class:`loadarm.plant.service.GuidanceService`, and :class:`HmiServer`, uvicorn in its own
+commands) over a :class:`loadarm.opcua.service.GuidanceService`, and :class:`HmiServer`, uvicorn in its own
 thread (the guidance loop keeps its thread; nothing here blocks the event loop: the service's snapshot is a
 reference read and its requests go through a queue).
 
@@ -17,10 +17,11 @@ from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 
-from ..plant.security import Role, StateDir
-from ..vocab import COMMANDS, TAGGED_ACTIONS
-from .sessions import COOKIE, LoginLimiter, Sessions
-from .state import AlarmBook, frame, geometry
+from loadarm.opcua.security import StateDir
+from loadarm.vocab import COMMANDS, TAGGED_ACTIONS
+from loadarm.hmi.sessions import COOKIE, LoginLimiter, Sessions
+from loadarm.hmi.state import AlarmBook, frame, geometry
+from loadarm.opcua.service import JOG_HOLD, Request
 
 __all__ = ["COMMANDS", "FRAME_RATE", "create_app", "HmiServer", "parse_hmi_address"]
 
@@ -66,7 +67,6 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     from fastapi.responses import FileResponse, JSONResponse
     from fastapi.staticfiles import StaticFiles
 
-    from ..plant.service import JOG_HOLD, Request
 
     state = StateDir(state_dir)
     users = state.users()

@@ -9,8 +9,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..errors import EventLogError
-from ..vocab import ANNUNCIATED
+from loadarm.errors import EventLogError
+from loadarm.vocab import ANNUNCIATED
+from loadarm.eventlog import check_samples
+from loadarm.guidance.controller import MODES
+from loadarm.arm.actuators import cylinder_lengths
+from loadarm.arm.faces import FACES, face_margins
+from loadarm.opcua.service import Snapshot
+from loadarm.arm.slew import forward3d
 
 __all__ = ["ReplayService", "ReplayCursor"]
 
@@ -35,8 +41,6 @@ class ReplayService:
     """
 
     def __init__(self, events, model, *, clock: Callable[[], float] = time.monotonic):
-        from ..eventlog import check_samples
-        from ..guidance.run import MODES
 
         self.samples = [e for e in events if e.kind == "sample"]
         if not self.samples:
@@ -94,7 +98,7 @@ class ReplayService:
 
     def snapshot(self, cursor: "ReplayCursor | None" = None):
         """The sample at or before a cursor (default the service's own) as a
-        :class:`loadarm.plant.service.Snapshot` (its ``seq`` the sample's index)."""
+        :class:`loadarm.opcua.service.Snapshot` (its ``seq`` the sample's index)."""
         i = int(np.searchsorted(self.times, (cursor or self._cursor).cursor(), side="right")) - 1
         i = max(i, 0)
         snap = self._cache.get(i)
@@ -103,10 +107,6 @@ class ReplayService:
         return snap
 
     def _snapshot(self, i: int):
-        from ..actuators import cylinder_lengths
-        from ..faces import FACES, face_margins
-        from ..plant.service import Snapshot
-        from ..slew import forward3d
 
         e = self.samples[i]
         d = e.data

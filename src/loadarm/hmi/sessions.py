@@ -11,7 +11,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ..plant.security import Role
+from loadarm.opcua.security import Role
 
 __all__ = ["COOKIE", "SESSION_IDLE", "LOGIN_FAILURES", "LOGIN_WINDOW", "Session", "Sessions", "LoginLimiter"]
 

@@ -7,8 +7,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..alarms import AlarmState, Severity
-from ..vocab import CONDITION_TEXT, FACES, PRIORITIES, priority
+from loadarm.arm.alarms import AlarmState
+from loadarm.vocab import Severity
+from loadarm.vocab import CONDITION_TEXT, FACES, PRIORITIES, priority
 
 __all__ = ["PRIORITIES", "SHELVE_MAX", "AlarmBook", "AlarmEntry", "geometry", "frame", "priority"]
 
@@ -26,7 +27,7 @@ class AlarmEntry:
         1 (critical) to 4 (low).
     priority_name : str
     state : str
-        :class:`loadarm.alarms.AlarmState` value: unacknowledged, acknowledged, returned-to-normal unacknowledged.
+        :class:`loadarm.arm.alarms.AlarmState` value: unacknowledged, acknowledged, returned-to-normal unacknowledged.
     raised_at : float
         Run time it became active, s.
     shelved_until : float or None
@@ -143,7 +144,7 @@ def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float) -> dict:
 
     Parameters
     ----------
-    snap : loadarm.plant.service.Snapshot
+    snap : loadarm.opcua.service.Snapshot
     model : ArmModel
     alarms : list of AlarmEntry
         :meth:`AlarmBook.update` for this snapshot.

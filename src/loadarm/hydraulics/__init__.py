@@ -3,7 +3,7 @@
 * :mod:`~loadarm.hydraulics.components`: one law per component (pump with
   compensator and relief, 4/3-way proportional valve, cylinder friction and
   end stops, the spool's exact discretisation);
-* :mod:`~loadarm.hydraulics.plant`: the compiled closed loop (PID with
+* :mod:`~loadarm.hydraulics.circuit`: the compiled closed loop (PID with
   feed-forward, encoder, both drives, the arm's dynamics) and the same plant as
   a continuous right-hand side;
 * :mod:`~loadarm.hydraulics.simulate`: runs a plan through it and reports.

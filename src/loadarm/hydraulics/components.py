@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from .._numba import njit
+from loadarm._numba import njit
 from scipy.linalg import expm
 
 __all__ = ["orifice_flow", "orifice_slope", "valve_flows", "effective_opening", "pump_flow", "relief_flow",

@@ -1,7 +1,7 @@
 """Reference routes for validating the fast simulator.
 
 * :func:`reference_simulation`: the same closed loop (same controller code,
-  same plant equations via :func:`~loadarm.hydraulics.plant.plant_rhs`) with
+  same plant equations via :func:`~loadarm.hydraulics.circuit.plant_rhs`) with
   the plant integrated by SciPy's ``solve_ivp`` (adaptive, stiff-capable)
   between control samples. Slow, accurate: the naive route of the benchmark
   and the reference traces of the tests.
@@ -16,15 +16,16 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from .._numba import njit
+from loadarm._numba import njit
 from scipy.integrate import solve_ivp
 
-from ..trajectory import Plan
-from . import plant
-from .components import cylinder_friction, end_stop_force, valve_flows
+from loadarm.design.trajectory import Plan
+from loadarm.hydraulics import circuit as plant
+from loadarm.hydraulics.components import cylinder_friction, end_stop_force, valve_flows
+from loadarm.hydraulics.simulate import _references, initial_state, pack_parameters
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
-    from ..model import ArmModel
+    from loadarm.arm.model import ArmModel
 
 __all__ = ["reference_simulation", "cylinder_rig"]
 
@@ -54,7 +55,6 @@ def reference_simulation(model: ArmModel, plan: Plan, t_end: float, *, fill: flo
         ``t`` and the state signals ``alpha, beta, alpha_dot, beta_dot, pA1, pB1, pA2, pB2, ps, u1, u2`` at
         every control sample.
     """
-    from .simulate import _references, initial_state, pack_parameters
 
     if not t_end > 0:
         raise ValueError(f"t_end must be > 0 s, got {t_end!r}")
@@ -148,7 +148,6 @@ def cylinder_rig(model: ArmModel, *, mass: float, duration: float, x0: float, sp
     dict of str to ndarray
         ``t, x, v, pA, pB``.
     """
-    from .simulate import pack_parameters
 
     P = pack_parameters(model)
     for key, val in (overrides or {}).items():

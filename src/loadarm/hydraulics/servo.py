@@ -6,7 +6,7 @@ guidance cycles. Each cycle the guidance controller's joint-rate command is
 turned into cylinder references for the next stretch (lengths from Eqs
 12-13 along the commanded joint path, speeds through the moment arms, forces
 from the static holding torques for the model-based feed-forward) and the
-compiled loop of :mod:`loadarm.hydraulics.plant` runs them at the control
+compiled loop of :mod:`loadarm.hydraulics.circuit` runs them at the control
 rate. The slew drive is not hydraulic here (kinematic, rate-limited).
 """
 
@@ -17,12 +17,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..dynamics import G, lagrange_constants, mass_model
-from . import plant
-from .simulate import SimulationError, initial_state, pack_parameters
+from loadarm.arm.dynamics import G, lagrange_constants, mass_model
+from loadarm.hydraulics import circuit as plant
+from loadarm.hydraulics.simulate import SimulationError, initial_state, pack_parameters
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
-    from ..model import ArmModel
+    from loadarm.arm.model import ArmModel
 
 __all__ = ["HydraulicArm"]
 

@@ -18,17 +18,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..dynamics import (G, chamber_pressures, lagrange_constants, mass_model, moment_arms,
-                        static_torques)
-from ..errors import LoadarmError
-from ..results import Metric, Result
-from ..kinematics import forward
-from ..trajectory import Plan
-from . import plant
-from .components import spool_discretisation, valve_coefficient
+from loadarm.arm.dynamics import G, chamber_pressures, lagrange_constants, mass_model, moment_arms, static_torques
+from loadarm.errors import LoadarmError
+from loadarm.results import Metric, Result
+from loadarm.arm.kinematics import forward
+from loadarm.design.trajectory import Plan
+from loadarm.hydraulics import circuit as plant
+from loadarm.hydraulics.components import spool_discretisation, valve_coefficient
+from loadarm.design.loads import actuator_loads
+from loadarm.hydraulics.plots import simulation_figure
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
-    from ..model import ArmModel
+    from loadarm.arm.model import ArmModel
 
 __all__ = ["SIMULATION_METRICS", "SimulationError", "SimulationResult", "pack_parameters", "initial_state", "simulate_approach",
            "simulate_hold", "stable_substeps"]
@@ -261,7 +262,6 @@ class SimulationResult(Result):
         return dict(self.metrics)
 
     def _figure(self):
-        from ..plotting import simulation_figure
 
         return simulation_figure(self)
 
@@ -290,7 +290,6 @@ def _mech_energy(model, fill, a, b, ad, bd):
 
 def _references(model: ArmModel, plan: Plan, n_steps: int, fill: float | None):
     """Cylinder length, speed and force references at every control step (held after the plan ends)."""
-    from ..loads import actuator_loads
 
     dt = 1.0 / model.controller.rate
     tk = np.arange(n_steps + 1) * dt

@@ -11,7 +11,7 @@ with u the distance into the entrance or run over its length. ``p`` is solved so
 the draft gives the ship's block coefficient (``displacement / (rho L B T)``), so the hull carries the ship's
 displacement, not a box's. The mesh spans keel to deck, so it crosses the waterline (a BEM solver clips it; a
 hull whose top face lies on the waterline has no waterplane for hydrostatics). Vertices are in the ship frame
-of :mod:`loadarm.berth` (x forward of midships, y to port, z above the keel).
+of :mod:`loadarm.params.berth` (x forward of midships, y to port, z above the keel).
 """
 
 from __future__ import annotations
@@ -151,7 +151,7 @@ def hull_mesh(length: float, beam: float, draft: float, depth: float, block_coef
     length, beam, draft, depth : float
         L between perpendiculars, B, T, D, m.
     block_coefficient : float
-        Cb of the loading condition (:data:`loadarm.berth.RHO_SEA` and the displacement give it).
+        Cb of the loading condition (:data:`loadarm.params.berth.RHO_SEA` and the displacement give it).
     nx, nz : int
         Panels along the length and, on each side, from the keel to the draft (the sides above the draft get
         ``max(2, nz // 3)`` more).

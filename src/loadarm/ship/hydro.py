@@ -38,9 +38,12 @@ from typing import Callable
 
 import numpy as np
 
-from ..berth import RHO_SEA, ShipSection
-from ..errors import ConfigError
-from .hull import hull_mesh
+from loadarm._numba import njit
+from loadarm.params.berth import RHO_SEA, ShipSection
+from loadarm.errors import ConfigError
+from loadarm.ship.hull import hull_mesh
+from loadarm.files import atomic_path
+from loadarm.files import atomic_open
 
 __all__ = ["HydroSpec", "Hydro", "hydro_spec", "solve_hydro", "load_hydro", "cache_dir", "G", "DOFS",
            "OMEGA", "HEADINGS_DEG", "SHIPPED", "HYDRO_FORMAT", "save_hydro", "cached_mean_drift",
@@ -337,7 +340,6 @@ def save_hydro(ds, path: str | Path) -> Path:
     -------
     Path
     """
-    from ..files import atomic_path
 
     p = Path(path)
     with atomic_path(p) as tmp:
@@ -410,7 +412,6 @@ def cached_mean_drift(h: Hydro, motion: np.ndarray) -> np.ndarray:
     -------
     ndarray (nw, nb, 3)
     """
-    from ..files import atomic_open
 
     motion = np.ascontiguousarray(motion, dtype=complex)
     digest = hashlib.sha256(f"{h.key}|{DRIFT_FORMAT}|{_capytaine_major()}|{motion.shape}".encode())
@@ -469,3 +470,46 @@ def mean_drift(h: Hydro, motion: np.ndarray) -> np.ndarray:
     inner = (h.heading[:n_solved] > 1e-9) & (h.heading[:n_solved] < math.pi - 1e-9)
     out[:, n_solved:] = out[:, :n_solved][:, inner][:, ::-1] * np.array([1.0, -1.0, -1.0])
     return out
+
+
+def interp_heading(table: np.ndarray, heading: np.ndarray, omega_grid: np.ndarray, w: np.ndarray,
+                   beta: np.ndarray) -> np.ndarray:
+    """Bilinear interpolation of ``table[(nw, nb, ...)]`` at (w, beta); zero above the grid's top frequency,
+    the lowest frequency's value below it; headings periodic."""
+    nb = heading.size
+    bb = np.mod(beta, 2 * math.pi)
+    hp = np.concatenate([heading, [2 * math.pi]])
+    j = np.clip(np.searchsorted(hp, bb, side="right") - 1, 0, nb - 1)
+    fb = (bb - hp[j]) / (hp[j + 1] - hp[j])
+    j1 = (j + 1) % nb
+    wi = np.clip(w, omega_grid[0], omega_grid[-1])
+    i = np.clip(np.searchsorted(omega_grid, wi, side="right") - 1, 0, omega_grid.size - 2)
+    fw = (wi - omega_grid[i]) / (omega_grid[i + 1] - omega_grid[i])
+    flat = table.reshape(table.shape[0], table.shape[1], -1)
+    out = np.empty((w.size, flat.shape[2]), dtype=table.dtype)
+    _bilinear(flat, i, j, j1, fw, fb, w > omega_grid[-1], out)
+    return out.reshape((w.size,) + table.shape[2:])
+
+
+@njit(cache=True, nogil=True)
+def _bilinear(table, i, j, j1, fw, fb, above, out):
+    """The weighted sum of :func:`interp_heading` (``table[(nw, nb, m)]`` at cells ``i, j`` with weights ``fw,
+    fb``; zero where ``above``), in the vectorised expression's order (bit for bit), one compiled pass: found,
+    its four gathers and their temporaries were most of the sea's coefficients' cost."""
+    for k in range(out.shape[0]):
+        if above[k]:
+            for m in range(out.shape[1]):
+                out[k, m] = 0
+            continue
+        a, b, c, u, v = i[k], j[k], j1[k], fw[k], fb[k]
+        for m in range(out.shape[1]):
+            out[k, m] = ((1 - u) * ((1 - v) * table[a, b, m] + v * table[a, c, m])
+                         + u * ((1 - v) * table[a + 1, b, m] + v * table[a + 1, c, m]))
+
+
+#: The grid :func:`mean_load` integrates the mean drift over: frequency (0.01 rad/s; the spectra are smooth on
+#: it), rad/s, and the direction the waves travel, berth frame (5 deg), rad.
+MEAN_DRIFT_OMEGA = np.linspace(0.05, 2.5, 246)
+
+
+MEAN_DRIFT_DIRECTION = np.linspace(-math.pi, math.pi, 73)

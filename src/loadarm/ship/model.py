@@ -1,4 +1,4 @@
-"""The moored ship compiled once (like the arm's :class:`loadarm.model.ArmModel`): hydrodynamics, moorings,
+"""The moored ship compiled once (like the arm's :class:`loadarm.arm.model.ArmModel`): hydrodynamics, moorings,
 RAOs and drift coefficients at the calm equilibrium, the low-frequency mass and damping, the load factors.
 
 :func:`compile_ship` reads nothing from disk but the cached coefficients (:func:`loadarm.ship.hydro.load_hydro`);
@@ -14,16 +14,21 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..berth import RHO_SEA, Berth
-from . import hydro as _hydro
-from .loads import current_coefficients
-from ..errors import ConfigError
-from .mooring import Moorings, compile_moorings, equilibrium, stiffness
+from loadarm.params.berth import RHO_SEA, Berth, load_berth
+from loadarm.ship import hydro as _hydro
+from loadarm.ship.loads import current_coefficients
+from loadarm.errors import ConfigError
+from loadarm.ship.mooring import Moorings, compile_moorings, equilibrium, stiffness
+from loadarm.ship.hydro import MEAN_DRIFT_DIRECTION, MEAN_DRIFT_OMEGA, interp_heading
 
-__all__ = ["ShipModel", "compile_ship", "LF_DOFS", "midships_transform", "lf_step", "LF_STEP", "LF_MAX_STEP"]
+if TYPE_CHECKING:
+    from loadarm.params.scenario import Scenario
+
+__all__ = ["ShipModel", "compile_ship", "moored_ship", "LF_DOFS", "midships_transform", "lf_step", "LF_STEP", "LF_MAX_STEP"]
 
 #: The ship-frame DOFs of the low-frequency motion, indices into the six of :data:`loadarm.ship.hydro.DOFS`.
 LF_DOFS = (0, 1, 5)
@@ -115,11 +120,10 @@ class ShipModel:
         """The drift coefficients on :func:`loadarm.ship.motion.mean_load`'s grid, (246, 73, 3), read-only,
         interpolated once per ship (the coefficients and the grid never change; every sea state of a study
         reuses them)."""
-        from .motion import MEAN_DRIFT_DIRECTION, MEAN_DRIFT_OMEGA, _interp_heading
 
         w, th = MEAN_DRIFT_OMEGA, MEAN_DRIFT_DIRECTION
         beta = (th[None, :] - self.psi0) * np.ones_like(w)[:, None]
-        grid = _interp_heading(self.drift, self.hydro.heading, self.hydro.omega, np.repeat(w, th.size),
+        grid = interp_heading(self.drift, self.hydro.heading, self.hydro.omega, np.repeat(w, th.size),
                                beta.ravel()).reshape(w.size, th.size, 3)
         grid.setflags(write=False)
         return grid
@@ -268,3 +272,23 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, s
                      water_depth=berth.berth.water_depth, lf_damping_ratio=s.lf_damping_ratio,
                      manifold_tolerance=berth.berth.manifold_tolerance, names=mo.names,
                      environment=berth.environment, lf_step=lf_step(mo, h))
+
+
+def moored_ship(sc: "Scenario") -> "ShipModel | None":
+    """Read a moored scenario's berth file and compile its ship (the edge of a moored run; a campaign compiles
+    once per batch and passes it on).
+
+    Parameters
+    ----------
+    sc : Scenario
+        With ``[ship] model = "moored"`` and its berth path made absolute
+        (:func:`loadarm.params.scenario.resolve_berth`).
+
+    Returns
+    -------
+    ShipModel or None
+        None for ``model = "simple"``.
+    """
+    if sc.ship.model != "moored":
+        return None
+    return compile_ship(load_berth(sc.ship.berth), source=sc.ship.berth)

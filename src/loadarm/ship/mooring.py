@@ -2,7 +2,7 @@
 (issue 12, item 3).
 
 The ship's low-frequency pose is ``eta = (x, y, psi)``: the displacement of midships in the berth frame of
-:mod:`loadarm.berth` from its reference position (the side against the fender faces, midships at
+:mod:`loadarm.params.berth` from its reference position (the side against the fender faces, midships at
 ``[berth] ship_y``) and the change of heading, rad, counter-clockwise seen from above. At the reference the bow
 points along berth +y (port side to) or -y (starboard side to).
 
@@ -24,10 +24,10 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from .._numba import njit
+from loadarm._numba import njit
 
-from ..berth import Berth
-from ..errors import ConfigError
+from loadarm.params.berth import Berth
+from loadarm.errors import ConfigError
 
 __all__ = ["Moorings", "compile_moorings", "restoring_force", "equilibrium", "stiffness", "line_tensions",
            "MooringEquilibriumError"]

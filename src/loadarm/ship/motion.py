@@ -22,14 +22,18 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from .._numba import njit
+from loadarm._numba import njit
 from scipy.fft import irfft, next_fast_len, rfft
 
-from ..berth import Environment
-from ..results import Metric, Result
-from .loads import E_C, current_force, jonswap, npd_spectrum, sample_directions, uniform_draws, wind_force
-from .model import ShipModel
-from .mooring import _restoring
+from loadarm.params.berth import Environment
+from loadarm.results import Metric, Result
+from loadarm.ship.loads import E_C, current_force, jonswap, npd_spectrum, sample_directions, uniform_draws, wind_force
+from loadarm.ship.hydro import MEAN_DRIFT_DIRECTION, MEAN_DRIFT_OMEGA, interp_heading
+from loadarm.ship.model import ShipModel
+from loadarm.ship.mooring import _restoring
+from loadarm.ship.loads import spreading
+from loadarm.ship.mooring import equilibrium
+from loadarm.ship.mooring import line_tensions
 
 __all__ = ["ShipMotion", "simulate", "flange_positions", "mean_load", "MIN_RECORD", "DT", "wave_components",
            "fft_length"]
@@ -41,41 +45,6 @@ DT = 0.1
 #: Loads on the low-frequency motion are low-passed at this frequency, rad/s (a 10 s period: twice the highest
 #: moored natural frequency of a large ship, and well above slow drift's difference frequencies).
 LF_CUTOFF = 0.6
-
-
-def _interp_heading(table: np.ndarray, heading: np.ndarray, omega_grid: np.ndarray, w: np.ndarray,
-                    beta: np.ndarray) -> np.ndarray:
-    """Bilinear interpolation of ``table[(nw, nb, ...)]`` at (w, beta); zero above the grid's top frequency,
-    the lowest frequency's value below it; headings periodic."""
-    nb = heading.size
-    bb = np.mod(beta, 2 * math.pi)
-    hp = np.concatenate([heading, [2 * math.pi]])
-    j = np.clip(np.searchsorted(hp, bb, side="right") - 1, 0, nb - 1)
-    fb = (bb - hp[j]) / (hp[j + 1] - hp[j])
-    j1 = (j + 1) % nb
-    wi = np.clip(w, omega_grid[0], omega_grid[-1])
-    i = np.clip(np.searchsorted(omega_grid, wi, side="right") - 1, 0, omega_grid.size - 2)
-    fw = (wi - omega_grid[i]) / (omega_grid[i + 1] - omega_grid[i])
-    flat = table.reshape(table.shape[0], table.shape[1], -1)
-    out = np.empty((w.size, flat.shape[2]), dtype=table.dtype)
-    _bilinear(flat, i, j, j1, fw, fb, w > omega_grid[-1], out)
-    return out.reshape((w.size,) + table.shape[2:])
-
-
-@njit(cache=True, nogil=True)
-def _bilinear(table, i, j, j1, fw, fb, above, out):
-    """The weighted sum of :func:`_interp_heading` (``table[(nw, nb, m)]`` at cells ``i, j`` with weights ``fw,
-    fb``; zero where ``above``), in the vectorised expression's order (bit for bit), one compiled pass: found,
-    its four gathers and their temporaries were most of the sea's coefficients' cost."""
-    for k in range(out.shape[0]):
-        if above[k]:
-            for m in range(out.shape[1]):
-                out[k, m] = 0
-            continue
-        a, b, c, u, v = i[k], j[k], j1[k], fw[k], fb[k]
-        for m in range(out.shape[1]):
-            out[k, m] = ((1 - u) * ((1 - v) * table[a, b, m] + v * table[a, c, m])
-                         + u * ((1 - v) * table[a + 1, b, m] + v * table[a + 1, c, m]))
 
 
 @dataclass(frozen=True)
@@ -458,7 +427,6 @@ def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
     f = f + current_force(ship.current_kx, ship.current_ky, ship.length, env.current_speed,
                           math.radians(env.current_direction_deg) - psi)
     if env.hs > 0:
-        from .loads import spreading
 
         w, th = MEAN_DRIFT_OMEGA, MEAN_DRIFT_DIRECTION
         # the density is separable, S(w) D(theta): the double trapezoid as two weighted contractions
@@ -468,12 +436,6 @@ def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
         f = f + 2 * (dth @ (sw @ grid.reshape(sw.size, -1)).reshape(dth.size, 3))   # two matrix-vector products
     c, s = math.cos(psi), math.sin(psi)
     return np.array([c * f[0] - s * f[1], s * f[0] + c * f[1], f[2]])
-
-
-#: The grid :func:`mean_load` integrates the mean drift over: frequency (0.01 rad/s; the spectra are smooth on
-#: it), rad/s, and the direction the waves travel, berth frame (5 deg), rad.
-MEAN_DRIFT_OMEGA = np.linspace(0.05, 2.5, 246)
-MEAN_DRIFT_DIRECTION = np.linspace(-math.pi, math.pi, 73)
 
 
 def _trapezoid_weights(x: np.ndarray) -> np.ndarray:
@@ -486,8 +448,6 @@ def _trapezoid_weights(x: np.ndarray) -> np.ndarray:
 
 
 _MEAN_DRIFT_WEIGHTS = (_trapezoid_weights(MEAN_DRIFT_OMEGA), _trapezoid_weights(MEAN_DRIFT_DIRECTION))
-
-
 
 
 def _lengths(duration: float, dt: float) -> tuple[int, int]:
@@ -508,7 +468,7 @@ def _sea(ship: ShipModel, env: Environment, n: int, dt: float, rng: np.random.Ge
 def _wave_coefficients(ship: ShipModel, comp: WaveComponents, beta, z) -> np.ndarray:
     """Complex amplitudes of the first-order motion of the centre of gravity, (6, components), ship frame."""
     h = ship.hydro
-    return (_interp_heading(ship.rao, h.heading, h.omega, comp.omega, beta) * z[:, None]).T
+    return (interp_heading(ship.rao, h.heading, h.omega, comp.omega, beta) * z[:, None]).T
 
 
 def _load_every(n: int, n_out: int, stride: int, i_part: int) -> int:
@@ -534,7 +494,7 @@ def _lf_load(ship: ShipModel, env: Environment, comp: WaveComponents, beta, n: i
     k_cut = int(np.searchsorted(2 * math.pi * np.fft.rfftfreq(n, dt), LF_CUTOFF, side="right"))
     band = np.zeros((3, k_cut), dtype=complex)                 # the low-passed load's FFT bins, as on n samples
     if env.hs > 0:
-        tt = _interp_heading(ship.drift, h.heading, h.omega, comp.omega, beta)                  # (nc, 3)
+        tt = interp_heading(ship.drift, h.heading, h.omega, comp.omega, beta)                  # (nc, 3)
         mean_j = np.sum(comp.amplitude[:, None] ** 2 * tt, axis=0)
         coef = (comp.amplitude[:, None] * np.sqrt(np.abs(tt))).T * np.exp(-1j * comp.phase)
         # Newman's square has nothing above twice the highest component (bin 2K): on m >= 2K + k_cut samples of
@@ -618,7 +578,6 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
     ConfigError
         A parted line that is not in the berth, or no mean equilibrium (the moorings cannot hold the ship).
     """
-    from .mooring import equilibrium
 
     n_out, n = _lengths(duration, dt)
     mo = ship.moorings
@@ -643,7 +602,6 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
     else:
         pose = np.tile(eq, (n_out, 1))
         pose_v = np.zeros((n_out, 3))
-        from .mooring import line_tensions
 
         tension = np.tile(line_tensions(mo, eq), (n_out, 1))
     flange, flange_v, angles = _flange(ship, pose, pose_v, wave, wave_v)
@@ -678,7 +636,6 @@ def flange_positions(ship: ShipModel, env: Environment, duration: float, *, seed
     reference : ndarray (3,)
         The flange at the mean equilibrium, calm water.
     """
-    from .mooring import equilibrium
 
     n_out, n = _lengths(duration, dt)
     mo = ship.moorings

@@ -8,12 +8,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..berth import Environment
-from ..results import Metric, Result
-from .hydro import DOFS
-from .model import ShipModel
-from .mooring import equilibrium, line_tensions, stiffness
-from .motion import mean_load
+from loadarm.params.berth import Environment
+from loadarm.results import Metric, Result
+from loadarm.ship.hydro import DOFS
+from loadarm.ship.model import ShipModel
+from loadarm.ship.mooring import equilibrium, line_tensions, stiffness
+from loadarm.ship.motion import mean_load
+from loadarm.figures import subplots
 
 __all__ = ["ShipSummary", "ship_summary"]
 
@@ -86,7 +87,6 @@ def rao_figure(ship: ShipModel):
     -------
     matplotlib.figure.Figure
     """
-    from ..plotting import subplots
 
     h = ship.hydro
     fig, axes = subplots(2, 3, figsize=(11, 6), sharex=True)

@@ -6,5 +6,5 @@ Importing it has no other effect."""
 import pandas  # noqa: F401
 import pyarrow.parquet  # noqa: F401
 
-from ..ship import model, motion  # noqa: F401
-from . import kernel, operability  # noqa: F401
+from loadarm.ship import model, motion  # noqa: F401
+from loadarm.studies import kernel, operability  # noqa: F401

@@ -6,7 +6,7 @@ For one sea state the moored ship's flange moves (:func:`loadarm.ship.motion.sim
 kinematics of the flange, vectorised over the whole record. The monitor's two alarm criteria are evaluated on
 every sample at once:
 
-* **position**: the customer's beta and slew angles (:func:`loadarm.alarms.beta_severity`, ``slew_severity``);
+* **position**: the customer's beta and slew angles (:func:`loadarm.arm.alarms.beta_severity`, ``slew_severity``);
 * **design drift** (the floor of :class:`loadarm.guidance.monitor.EnvelopeMonitor`): the time a break-out from
   the flange's position at the design acceleration up to the design speed, along the monitor's eight horizontal
   directions, or the design vertical speed up and down, takes to reach a face. It depends on the position only,
@@ -28,11 +28,13 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from .._numba import njit
+from loadarm._numba import njit
 
-from ..alarms import BETA_TOL_RAD, LEVEL_RELEASE, UNREACHABLE, zone_level
-from ..sequence import esd_lead, lead_values, stage_of, valve_worst_time
-from ..faces import breakout_distance, past_a_face, past_a_face_at
+from loadarm.arm.alarms import BETA_TOL_RAD, LEVEL_RELEASE, zone_level
+from loadarm.vocab import UNREACHABLE
+from loadarm.arm.sequence import esd_lead, lead_values, stage_of, valve_worst_time
+from loadarm.arm.faces import breakout_distance, past_a_face, past_a_face_at
+from loadarm.arm.slew import JointAngles3D
 
 __all__ = ["FloorTable", "floor_table", "ray_distances", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS",
            "relative_record", "record_ik"]
@@ -46,7 +48,7 @@ _DIRS = np.concatenate([np.stack([np.cos(_ANG), np.sin(_ANG), np.zeros(8)], axis
 
 def breakout_time(distance, speed: float, accel: float) -> np.ndarray:
     """Time a break-out from rest at ``accel`` up to ``speed`` takes to cover ``distance`` (the inverse of
-    :func:`loadarm.faces.breakout_distance`).
+    :func:`loadarm.arm.faces.breakout_distance`).
 
     Parameters
     ----------
@@ -254,8 +256,8 @@ def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1, v
     """The alarm sequence over one record: returns (stage reached, i_esd1, i_release, min time-to-limit). The
     valves are commanded at ESD-1 (``close_at_release``: at the release request, ``ers_valves_close_at =
     "ers2"``) and confirm ``ers_valve_time`` later (intact valves); until then the leads count ``valve_worst``
-    (:func:`loadarm.sequence.valve_worst_time`) from the command, as the controller does; the leads and the stage
-    are :func:`loadarm.sequence.lead_values` and :func:`loadarm.sequence.stage_of`, compiled."""
+    (:func:`loadarm.arm.sequence.valve_worst_time`) from the command, as the controller does; the leads and the stage
+    are :func:`loadarm.arm.sequence.lead_values` and :func:`loadarm.arm.sequence.stage_of`, compiled."""
     n = level.shape[0]
     raised = 0
     i_esd = -1
@@ -267,7 +269,7 @@ def _scan(level, ttl, dt, ers_valve_time, erc_release_time, margin, lead_esd1, v
         if ttl[i] < ttl_min:
             ttl_min = ttl[i]
         lv = level[i]
-        # the leads of the stages, shrinking once the valves are closing (loadarm.sequence, compiled)
+        # the leads of the stages, shrinking once the valves are closing (loadarm.arm.sequence, compiled)
         confirmed = i_cmd >= 0 and t >= i_cmd * dt + ers_valve_time - 1e-9
         if i_cmd >= 0:
             valves_left = 0.0 if confirmed else max(i_cmd * dt + valve_worst - t, 0.0)
@@ -295,7 +297,7 @@ class RecordMonitor:
     Attributes
     ----------
     stage : int
-        Most severe alarm stage (:class:`loadarm.alarms.Severity`).
+        Most severe alarm stage (:class:`loadarm.arm.alarms.Severity`).
     esd1_s, release_s : float
         When ESD-1 and the release fired (NaN: never).
     max_beta_deg, max_slew_deg : float
@@ -399,7 +401,7 @@ def relative_record(flange, reference, offset, out):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _ik_arguments(x, y, z, a, b, c, sb, cb, sa, ca):
-    """The arguments of the elbow's two arctangents in :func:`loadarm.slew.inverse3d` (elbow up) at every
+    """The arguments of the elbow's two arctangents in :func:`loadarm.arm.slew.inverse3d` (elbow up) at every
     sample, in one compiled routine: its arithmetic in its order, bit for bit (``sb``, ``cb``, ``sa``, ``ca``
     written; NaN where a point is out of reach, as there). The planar radius first (libm's ``hypot``, as
     NumPy's, kept in ``sb``), then the rest in a loop without calls, which the compiler vectorises."""
@@ -425,7 +427,7 @@ def _ik_arguments(x, y, z, a, b, c, sb, cb, sa, ca):
 
 
 def record_ik(arm, x: np.ndarray, y: np.ndarray, z: np.ndarray):
-    """:func:`loadarm.slew.inverse3d` (elbow up, unchecked: NaN out of reach) of a record, bit for bit, faster:
+    """:func:`loadarm.arm.slew.inverse3d` (elbow up, unchecked: NaN out of reach) of a record, bit for bit, faster:
     its arithmetic in one compiled routine (:func:`_ik_arguments`), its three arctangents NumPy's SIMD ones (a
     compiled scalar ``atan2`` was four times slower). Found: the vectorised expression's twenty-odd passes over
     the record and its ``hypot`` were two thirds of the inverse kinematics' cost.
@@ -440,7 +442,6 @@ def record_ik(arm, x: np.ndarray, y: np.ndarray, z: np.ndarray):
     -------
     JointAngles3D
     """
-    from ..slew import JointAngles3D
 
     n = x.shape[0]
     sb, cb, sa, ca = np.empty(n), np.empty(n), np.empty(n), np.empty(n)

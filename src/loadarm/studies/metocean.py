@@ -22,7 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ConfigError
+from loadarm.errors import ConfigError
+from loadarm import __version__
+from loadarm.files import SIGNATURE, atomic_write
 
 __all__ = ["VARIABLES", "GapReport", "read_metocean", "validate_metocean", "synthetic_metocean",
            "write_metocean_csv", "berth_directions", "compass_to_berth", "MetoceanError"]
@@ -280,8 +282,6 @@ def write_metocean_csv(ds, path: str | Path) -> Path:
     """
     import pandas as pd
 
-    from .. import __version__
-    from ..files import SIGNATURE, atomic_write
 
     cols = [v for v in VARIABLES if v in ds]
     df = pd.DataFrame({v: np.round(ds[v].values, 3) for v in cols})

@@ -23,9 +23,25 @@ from pathlib import Path
 
 import numpy as np
 
-from ..alarms import Severity
-from ..errors import ConfigError
-from ..results import Metric, Result, Summary
+from loadarm.vocab import Severity
+from loadarm.errors import ConfigError
+from loadarm.results import Metric, Result, Summary
+from loadarm.studies.metocean import compass_to_berth
+from loadarm.ship.motion import DT, flange_positions
+from loadarm.studies.kernel import monitor_record, relative_record
+from loadarm import __version__
+from loadarm.files import SIGNATURE
+from loadarm.files import atomic_open
+from loadarm.files import atomic_write
+from loadarm.studies.metocean import read_metocean
+from loadarm.params.berth import load_berth
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import load_config
+from loadarm.ship.model import compile_ship
+from loadarm.studies.kernel import floor_table
+from loadarm.studies.cluster import connect_scheduler
+from loadarm.params.config import Operability, in_range, range_text
+from loadarm.studies.plots import operability_figure
 
 __all__ = ["OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
            "plan_chunks", "write_parquet", "COLUMNS", "headline_rows"]
@@ -71,7 +87,6 @@ class OperabilitySettings:
     chunks: int = 100
 
     def __post_init__(self):
-        from ..config import Operability, in_range, range_text
 
         # the ranges are those declared for [operability] (found: written here again, connect_motion_limit
         # had lost its upper bound)
@@ -86,7 +101,7 @@ class OperabilitySettings:
 
         Parameters
         ----------
-        section : loadarm.config.Operability
+        section : loadarm.params.config.Operability
 
         Returns
         -------
@@ -115,7 +130,6 @@ def state_environment(base, row: dict, x_bearing_deg: float):
     -------
     Environment
     """
-    from .metocean import compass_to_berth
 
     def turn(to_bearing):
         return float(compass_to_berth(to_bearing, x_bearing_deg))
@@ -148,8 +162,6 @@ def run_states(model, ship, table, rows: list[dict], settings: OperabilitySettin
     list of dict
         One row per state (:data:`COLUMNS`).
     """
-    from ..ship.motion import DT, flange_positions
-    from .kernel import monitor_record, relative_record
 
     if settings.duration_per_state is None or settings.connect_motion_limit is None:
         raise ValueError("run_states needs resolved settings (OperabilitySettings.resolved)")
@@ -192,10 +204,7 @@ def write_parquet(df, path: str | Path) -> Path:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from .. import __version__
-    from ..files import SIGNATURE
 
-    from ..files import atomic_open
 
     table = pa.Table.from_pandas(df, preserve_index=False)
     meta = dict(table.schema.metadata or {})
@@ -313,7 +322,6 @@ class OperabilityResult(Result):
         return headline_rows(self.to_dict())
 
     def _figure(self):
-        from ..plotting import operability_figure
 
         return operability_figure(self)
 
@@ -357,7 +365,6 @@ def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, pla
     import hashlib
     import json
 
-    from .. import __version__
 
     h = hashlib.sha256()
     for f in (config, berth, metocean):
@@ -382,7 +389,6 @@ def _check_manifest(chunk_dir: Path, digest: str, fresh: bool) -> None:
                               "loadarm code); remove the folder, or pass --force to start again")
         for f in stale:
             f.unlink()
-    from ..files import atomic_write
 
     atomic_write(manifest, digest + "\n")
 
@@ -438,7 +444,6 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
 
     import pandas as pd
 
-    from .metocean import read_metocean
 
     ds, gaps = read_metocean(metocean)
     use = np.flatnonzero(ds["usable"].values)
@@ -452,11 +457,6 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     times = pd.DatetimeIndex(ds["time"].values[use])
     rows = [{"index": int(i), "time": times[j], **{k: float(values[k][j]) for k in names}}
             for j, i in enumerate(use)]
-    from ..berth import load_berth
-    from ..compiler import compile_model
-    from ..config import load_config
-    from ..ship.model import compile_ship
-    from .kernel import floor_table
 
     inst = load_config(config)
     settings = settings.resolved(inst.operability)
@@ -479,7 +479,6 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         import dask
         from distributed import Client, LocalCluster, progress as dask_progress
 
-        from ..cluster import connect_scheduler
 
         # the local cluster's worker processes: one thread, numba and BLAS single-threaded, and they keep freed
         # memory (found: Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536, which also freezes glibc's mmap threshold

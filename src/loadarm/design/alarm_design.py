@@ -1,0 +1,554 @@
+"""Alarm settings designed from the moored ship (issue 12, item 6): where to set the alarms on this berth, for
+this ship.
+
+The method stacks, along each direction towards a face of the attached arm's envelope (:mod:`loadarm.arm.faces`),
+what the industry stacks (Lanquetin's combined method; Choi et al. 2018 stack the mooring analysis's drift per
+stage):
+
+1. **Flanging area**: every flange position at which the arm may connect (the datasheet's box: berthing-line
+   distances C to D, heights H to I above the low tide, :func:`loadarm.arm.envelope.berth_box`; along the berth
+   the berth file's ``manifold_tolerance`` either side of the arm's centre line), corner by corner, and the
+   installation's nominal flange. Corners outside the attached envelope are reported and left out.
+2. **Drift allowance** (intact moorings): the largest excursion of the flange towards the face in the design
+   environment (``[environment]`` of the berth file), from the calm equilibrium, over several seeds of a
+   3-hour sea state (:func:`loadarm.ship.motion.simulate`: slow drift, gusts, first-order waves, static offset).
+   No alarm may fire inside it (no false alarm in the design weather).
+3. **Break-out** (every line parted at once, the ship from rest at the edge of the allowance): the distance
+   ``s(tau)`` it drifts in time ``tau`` under the same loads, the envelope over the seeds. The first alarm
+   (ESD-1) is set at the allowance's edge; the release (ERS-2) where the ship is ``ers_valve_time +
+   ers_valve_timeout`` later (the coupler never opens before the ERS valves are confirmed closed, which may be
+   as late as their timeout allows); the second alarm half-way in time. The design holds when the ship is still
+   inside the face ``erc_release_time + margin`` after the release, and ``esd_lead`` (``max(esd_time,
+   ers_valve_time + ers_valve_timeout) + erc_release_time + margin``) after ESD-1.
+
+Thresholds are the arm's own coordinates: beta (off the berth), slew (along it, the worse side). Vertical faces
+(alpha) have no angle alarms in the installation: their allowance and the tide over the sequence
+(``[design_drift] vertical_speed``) are checked and reported. Each threshold is the largest over the flanging
+area's corners of the angle at the stage's distance (the alarm must not fire early at any corner); each corner
+is then checked with those thresholds. A face the arm cannot protect is refused with its shortfall.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from loadarm.arm.sequence import esd_lead, valve_worst_time
+from loadarm.errors import ConfigError
+from loadarm.arm.envelope import berth_box
+from loadarm.arm.faces import (FACE_LABELS, FACES, breakout_distance, face_margins, first_face, past_a_face_at,
+    ray_crossing)
+from loadarm.results import Metric, Result
+from loadarm.arm.slew import inverse3d
+from loadarm.ship.motion import _flange, simulate
+from loadarm.design.plots import alarm_design_figure
+
+__all__ = ["FaceDesign", "AlarmDesign", "design_alarms", "DesignSettings", "breakout_curve"]
+
+
+@dataclass(frozen=True)
+class DesignSettings:
+    """How the mooring analysis behind the design is run.
+
+    Attributes
+    ----------
+    seeds : int
+        Realisations of the design sea state (the envelope over them is used).
+    intact_duration : float
+        Duration of each intact realisation, s (3 hours: the usual short-term sea state).
+    breakout_window : float
+        How long the break-out is followed, s.
+    part_time : float
+        When the lines part in the break-out realisations, s (after the start-up transient).
+    """
+
+    seeds: int = 5
+    intact_duration: float = 10800.0
+    breakout_window: float = 180.0
+    part_time: float = 120.0
+
+
+@dataclass(frozen=True)
+class FaceDesign:
+    """The design along one direction (distances from the flanging area's worst corner, m)."""
+
+    direction: str
+    vector: tuple[float, float, float]
+    face: str
+    available_m: float
+    allowance_m: float
+    intact_speed_ms: float
+    second_m: float
+    release_m: float
+    free_m: float
+    lead_m: float
+    breakout_speed_at_release_ms: float
+    coordinate: str
+    first: float | None
+    second: float | None
+    release: float | None
+    limit: float | None
+    ok: bool
+    shortfall_m: float
+    corner: tuple[float, float, float]
+    case: str = ""
+    position_shortfall_m: float = 0.0
+    floor: float | None = None
+
+    @property
+    def esd_m(self) -> float:
+        """Where ESD-1 fires in the stacking: at the drift allowance's edge, m."""
+        return self.allowance_m
+
+    @property
+    def short_case(self) -> str:
+        """The design case in a word (for tables): break-out, fenders or tide."""
+        return self.case.split(":")[0].split(" ")[0] if self.case.startswith("break") else \
+            ("tide" if self.case.startswith("tide") else "fenders")
+
+    def to_dict(self) -> dict:
+        """Row as JSON (angles in degrees, keys with units).
+
+        Returns
+        -------
+        dict
+        """
+        deg = (lambda v: None if v is None else math.degrees(v))
+        return {"direction": self.direction, "face": self.face, "design_case": self.case,
+                "worst_corner_m": list(self.corner),
+                "available_m": self.available_m, "drift_allowance_m": self.allowance_m,
+                "intact_speed_max_ms": self.intact_speed_ms, "esd1_at_m": self.esd_m,
+                "second_at_m": self.second_m, "release_at_m": self.release_m, "coupler_free_at_m": self.free_m,
+                "esd_lead_reach_m": self.lead_m, "breakout_speed_at_release_ms": self.breakout_speed_at_release_ms,
+                "coordinate": self.coordinate, "first_deg": deg(self.first), "second_deg": deg(self.second),
+                "release_deg": deg(self.release), "limit_deg": deg(self.limit), "ok": self.ok,
+                "shortfall_m": self.shortfall_m, "position_alarms_shortfall_m": self.position_shortfall_m}
+
+
+@dataclass(frozen=True)
+class AlarmDesign(Result):
+    """The alarm design of an arm at a berth (``loadarm alarms``)."""
+
+    rows: tuple[FaceDesign, ...]
+    recommended: dict
+    sequence: dict
+    natural_periods: dict
+    mean_offset: tuple[float, float, float]
+    breakout_t: np.ndarray
+    breakout_s: np.ndarray
+    flanging_area: tuple[float, float, float, float]
+    problems: tuple[str, ...]
+    warnings: tuple[str, ...]
+    nominal_flange: tuple[float, float]
+    arm: object = field(repr=False)
+    joint_limits: object = field(repr=False)
+
+    METRICS = (
+        Metric("ok", "design holds"),
+        Metric("first_beta_deg", "ESD-1 (first alarm) beta", "deg", ".1f"),
+        Metric("second_beta_deg", "second alarm beta", "deg", ".1f"),
+        Metric("release_beta_deg", "ERS-2 (release) beta", "deg", ".1f"),
+        Metric("first_slew_deg", "ESD-1 slew", "deg", ".1f"),
+        Metric("second_slew_deg", "second alarm slew", "deg", ".1f"),
+        Metric("release_slew_deg", "ERS-2 slew", "deg", ".1f"),
+        Metric("drift_allowance_off_berth_m", "drift allowance off the berth (intact)", "m", ".2f"),
+        Metric("breakout_speed_at_release_ms", "break-out speed at the release", "m/s", ".3f"),
+        Metric("esd_lead_s", "ESD-1 lead (sequence)", "s", ".1f"),
+    )
+
+    @property
+    def ok(self) -> bool:
+        """No face refused."""
+        return not self.problems
+
+    def _values(self) -> dict:
+        off = self.rows[0]
+        return {"ok": self.ok, **self.recommended, "drift_allowance_off_berth_m": off.allowance_m,
+                "breakout_speed_at_release_ms": off.breakout_speed_at_release_ms,
+                "esd_lead_s": self.sequence["esd_lead_s"]}
+
+    def to_dict(self) -> dict:
+        """Everything the JSON output carries.
+
+        Returns
+        -------
+        dict
+        """
+        return {"ok": self.ok, "recommended": dict(self.recommended), "sequence": dict(self.sequence),
+                "natural_periods_s": {k.removesuffix("_s"): v for k, v in self.natural_periods.items()},
+                "mean_offset_m": list(self.mean_offset),
+                "design_drift": {"drift_allowance_off_berth_m": self.rows[0].allowance_m,
+                                 "intact_speed_max_ms": max(r.intact_speed_ms for r in self.rows),
+                                 "breakout_speed_at_release_ms": self.rows[0].breakout_speed_at_release_ms,
+                                 "breakout_distance_in_esd_lead_m": self.rows[0].lead_m - self.rows[0].allowance_m},
+                "faces": [r.to_dict() for r in self.rows], "alarms_toml": self.toml(), "problems": list(self.problems),
+                "warnings": list(self.warnings)}
+
+    def toml(self) -> str:
+        """The recommended settings as ``[alarms]`` and ``[slew]`` blocks to paste into the installation.
+
+        Returns
+        -------
+        str
+        """
+        r = self.recommended
+        lines = ["[alarms]"]
+        for k in ("first", "second", "release"):
+            v = r.get(f"{k}_beta_deg")
+            if v is not None:
+                lines.append(f"{k}_deg = {v:.1f}")
+        lines.append("")
+        lines.append("[slew]")
+        for k in ("first", "second", "release"):
+            v = r.get(f"{k}_slew_deg")
+            if v is not None:
+                lines.append(f"{k}_deg = {v:.1f}")
+        lines += ["", "[design_drift]", f"speed = {r['design_drift_speed_ms']:.2f}",
+                  f"acceleration = {r['design_drift_acceleration_ms2']:.3f}"]
+        return "\n".join(lines) + "\n"
+
+    def _figure(self):
+
+        return alarm_design_figure(self)
+
+
+def breakout_curve(flange: np.ndarray, t: np.ndarray, part_time: float, d: np.ndarray, window: float):
+    """Distance drifted towards ``d`` since the lines parted, as a non-decreasing envelope.
+
+    Parameters
+    ----------
+    flange : ndarray (seeds, n, 3)
+        Flange positions of the break-out realisations.
+    t : ndarray (n,)
+    part_time, window : float
+    d : ndarray (3,)
+        Unit direction.
+
+    Returns
+    -------
+    tau, s : ndarray
+        Time since the parting (s) and the envelope over the seeds of the distance (m, from 0).
+    """
+    k0 = int(np.searchsorted(t, part_time))
+    k1 = min(t.size, k0 + int(round(window / (t[1] - t[0]))) + 1)
+    proj = (flange[:, k0:k1] - flange[:, k0:k0 + 1]) @ d
+    s = np.maximum.accumulate(np.maximum(np.max(proj, axis=0), 0.0))
+    return t[k0:k1] - t[k0], s
+
+
+#: Start of the break-out fit, s after the lines part.
+FIT_FROM = 2.0
+
+
+def design_drift_fit(curves, horizon: float) -> tuple[float, float]:
+    """The owner's design drift (speed, break-out acceleration) that covers the break-out curves: the distance
+    of :func:`loadarm.arm.faces.breakout_distance` is at least each curve's over ``[0, horizon]``. The acceleration
+    covers the start (``max 2 s / t^2`` from :data:`FIT_FROM` s: the ship's slow motion when the lines part makes
+    the first second linear, not quadratic), then the speed is the least that covers the rest within 1 cm
+    (bisection), both rounded up (to 0.001 m/s^2, 0.01 m/s).
+
+    Parameters
+    ----------
+    curves : list of (tau, s)
+    horizon : float
+        s.
+
+    Returns
+    -------
+    speed, acceleration : float
+        m/s, m/s^2.
+    """
+    acc = 1e-4
+    for tau, s in curves:
+        k = (tau >= FIT_FROM) & (tau <= horizon)
+        if np.any(k):
+            acc = max(acc, float(np.max(2 * s[k] / tau[k] ** 2)))
+    acc = math.ceil(acc * 1000 - 1e-9) / 1000
+    lo, hi = 0.0, 5.0
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if all(np.all(breakout_distance(tau[k], mid, acc) >= s[k] - 0.01)
+               for tau, s in curves for k in [(tau >= FIT_FROM) & (tau <= horizon)]):
+            hi = mid
+        else:
+            lo = mid
+    return max(math.ceil(hi * 100 - 1e-9) / 100, 0.01), acc
+
+
+def _tau_at(tau: np.ndarray, s: np.ndarray, dist: float) -> float:
+    """First time the envelope reaches ``dist`` (inf if never within the window)."""
+    i = np.flatnonzero(s >= dist)
+    if i.size == 0:
+        return math.inf
+    j = int(i[0])
+    if j == 0:
+        return 0.0
+    return float(np.interp(dist, s[j - 1:j + 1], tau[j - 1:j + 1]))
+
+
+def _s_at(tau: np.ndarray, s: np.ndarray, time: float) -> float:
+    if not math.isfinite(time):
+        return math.inf
+    if time > tau[-1]:
+        # past the window: extrapolate at the last speed (the drift keeps going)
+        v = (s[-1] - s[-11]) / (tau[-1] - tau[-11]) if s.size > 11 else 0.0
+        return float(s[-1] + v * (time - tau[-1]))
+    return float(np.interp(time, tau, s))
+
+
+#: Directions towards the faces: name, unit vector (installation frame), the arm coordinate whose alarms guard
+#: it, and how the ship gets there ("breakout": the lines part with the design environment turned towards it;
+#: "fenders": the fenders stop it, intact motion only; "vertical": tide and loading at the design vertical speed).
+_DIRECTIONS = (
+    ("off the berth (+x)", (1.0, 0.0, 0.0), "beta", "breakout"),
+    ("along the berth (+y)", (0.0, 1.0, 0.0), "slew", "breakout"),
+    ("along the berth (-y)", (0.0, -1.0, 0.0), "slew", "breakout"),
+    ("towards the jetty (-x)", (-1.0, 0.0, 0.0), None, "fenders"),
+    ("up (+z)", (0.0, 0.0, 1.0), None, "vertical"),
+    ("down (-z)", (0.0, 0.0, -1.0), None, "vertical"),
+)
+
+
+def _towards(env, vec):
+    """The environment with wind, current and waves all turned towards a horizontal direction."""
+    ang = math.degrees(math.atan2(vec[1], vec[0]))
+    return env.model_copy(update={"wind_direction_deg": ang, "current_direction_deg": ang,
+                                  "wave_direction_deg": ang})
+
+
+def _round_thresholds(first: float, second: float, release: float, floor: float) -> tuple[float, float, float]:
+    """To 0.1 deg (radians in and out): ESD-1 and the release rounded down (earlier), unless that puts ESD-1
+    inside the drift allowance (then up); the second alarm to the nearest."""
+    def down(v):
+        return math.radians(math.floor(10 * math.degrees(v) + 1e-9) / 10)
+
+    def up(v):
+        return math.radians(math.ceil(10 * math.degrees(v) - 1e-9) / 10)
+
+    f = down(first)
+    if f < floor:
+        f = up(floor)
+    r = max(down(release), f)
+    return f, min(max(math.radians(round(10 * math.degrees(second)) / 10), f), r), r
+
+
+def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings(), progress=None) -> AlarmDesign:
+    """Design the alarm thresholds of an installation at a berth.
+
+    Parameters
+    ----------
+    model : ArmModel
+        The compiled installation (arm, limits, datasheet, sequence, design drift).
+    ship : ShipModel
+        The berth's ship, compiled.
+    env : Environment
+        The design environment (the berth file's ``[environment]``); for each face the lines part with its wind,
+        current and waves turned towards that face (the worst direction for it).
+    settings : DesignSettings
+    progress : callable, optional
+        Called with the fraction done.
+
+    Returns
+    -------
+    AlarmDesign
+
+    Raises
+    ------
+    ConfigError
+        No corner of the flanging area lies inside the attached envelope.
+    """
+
+    seq = model.sequence
+    lead1 = esd_lead(seq)
+    t_rel = valve_worst_time(seq)
+    t_free = t_rel + seq.erc_release_time + seq.margin
+    n = settings.seeds
+    calm, _, _ = _flange(ship, ship.eq0[None], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
+    box = berth_box(model.datasheet)
+    ds = model.datasheet
+    x_conn_far = ds.A + ds.B + ds.D
+    fx, fz = model.approach.flange
+    tol = ship.manifold_tolerance
+    candidates = [np.array([x, y, z]) for x in (box.x_near, x_conn_far) for z in (box.y_low, box.y_high)
+                  for y in sorted({-tol, tol})]
+    candidates.append(np.array([fx, 0.0, fz]))
+    corners, warnings = [], []
+    for c in candidates:
+        mg = face_margins(model, c[0], c[1], c[2])
+        if np.min(mg) < 0:
+            f = FACES[int(np.argmin(mg))]
+            warnings.append(f"the flanging area's corner x = {c[0]:.2f}, y = {c[1]:.2f}, z = {c[2]:.2f} m is outside "
+                            f"the attached envelope ({FACE_LABELS[f]}, by {abs(math.degrees(float(np.min(mg)))):.1f} "
+                            "deg): the arm cannot connect there; the design uses the other corners")
+        else:
+            corners.append(c)
+    if not corners:
+        raise ConfigError("no corner of the flanging area (datasheet C-D, H-I, the berth's manifold tolerance) nor "
+                          "the nominal flange lies inside the attached envelope: " + "; ".join(warnings))
+
+    def past_face(pts):
+        return past_a_face_at(model, pts[:, 0], pts[:, 1], pts[:, 2])
+
+
+    # the mooring analysis: intact (the berth's environment, and turned towards each horizontal face) and
+    # break-out (every line parted, the environment turned towards the face), several seeds each
+    envs = {"berth": env}
+    for name, vec, kind, how in _DIRECTIONS:
+        if how == "breakout":
+            envs[name] = _towards(env, vec)
+    jobs = [(key, e, broken) for key, e in envs.items() for broken in ((False, True) if key != "berth" else (False,))]
+    intact: dict[str, list] = {k: [] for k in envs}
+    broken: dict[str, list] = {k: [] for k in envs}
+    done, total = 0, len(jobs) * n
+    mean_offset = (0.0, 0.0, 0.0)
+    bt = None
+    for key, e, part in jobs:
+        for i in range(n):
+            if part:
+                # the drift without the first-order wave motion (that is inside the allowance already)
+                b = simulate(ship, e, settings.part_time + settings.breakout_window, seed=2000 + i,
+                             parted=ship.names, part_time=settings.part_time, waves=False)
+                broken[key].append(b.flange)
+                bt = b.t
+            else:
+                m = simulate(ship, e, settings.intact_duration, seed=1000 + i)
+                intact[key].append((m.flange - calm[0], m.flange_velocity))
+                if key == "berth" and i == 0:
+                    mean_offset = tuple(float(v) for v in m.flange_reference - calm[0])
+            done += 1
+            if progress:
+                progress(done / total)
+
+    lim = model.joint_limits
+    rows, problems, curves = [], [], []
+    tau_main = s_main = None
+    for name, vec, kind, how in _DIRECTIONS:
+        d = np.array(vec)
+        runs = intact["berth"] + (intact[name] if how == "breakout" else [])
+        allow = max(0.0, max(float(np.max(p @ d)) for p, _ in runs))
+        v_int = max(0.0, max(float(np.max(v @ d)) for _, v in runs))
+        if how == "breakout":
+            tau, s = breakout_curve(np.stack(broken[name]), bt, settings.part_time, d, settings.breakout_window)
+            case = "break-out: every line parted, the design environment towards this face"
+        elif how == "vertical":
+            tau = np.linspace(0.0, settings.breakout_window, 1801)
+            s = model.design_drift.vertical_speed * tau
+            case = "tide and loading at the design vertical speed"
+        else:
+            tau = np.linspace(0.0, settings.breakout_window, 1801)
+            s = np.zeros_like(tau)
+            case = "the fenders stop the ship: intact motion only"
+        if tau_main is None:
+            tau_main, s_main = tau, s
+        avail = {}
+        for ci, c in enumerate(corners):
+            a = ray_crossing(c, d, past_face)
+            avail[ci] = 40.0 if a is None else a
+        s_rel, s_sec, s_free, s_lead = (_s_at(tau, s, t) for t in (t_rel, 0.5 * t_rel, t_free, lead1))
+        v_rel = float(np.interp(min(t_rel, tau[-1]), tau[1:], np.diff(s) / np.diff(tau)))
+        first = second = release = limit = floor = None
+        if kind is not None:
+            sign = float(np.sign(vec[0] + vec[1]))
+            limit = lim.beta[1] if kind == "beta" else (lim.phi[1] if sign > 0 else -lim.phi[0])
+
+            def ang(pts, kind=kind, sign=sign):
+                """The guarding coordinate: beta, or the slew signed towards this face."""
+                q = inverse3d(model.arm, pts[..., 0], pts[..., 1], pts[..., 2], check=False)
+                return np.asarray(q.beta if kind == "beta" else sign * q.phi, dtype=float)
+
+            # stacked back from the face, corner by corner (Choi et al. 2018): the coupler free (plus the margin)
+            # at the face, the release that long before, ESD-1 the valves' closing time before the release and at
+            # least the whole ESD-1 lead before the face; the break-out from the allowance's edge, so that the
+            # speed at each stage is the largest it can be there
+            ideal_first, ideal_release, floor_first = [], [], []
+            for ci, c in enumerate(corners):
+                t_face = _tau_at(tau, s, avail[ci] - allow)
+                if not math.isfinite(t_face):
+                    continue                      # the drift never reaches this corner's face in the window
+                t_r = max(t_face - seq.erc_release_time - seq.margin, 0.0)
+                t_1 = max(min(t_r - t_rel, t_face - lead1), 0.0)
+                ideal_release.append(float(ang(c + (allow + _s_at(tau, s, t_r)) * d)))
+                ideal_first.append(float(ang(c + (allow + _s_at(tau, s, t_1)) * d)))
+            floor_first = [float(ang(c + allow * d)) for c in corners]
+            floor = max(floor_first)
+            if ideal_first:
+                # one threshold for every corner: the earliest any corner needs, never inside any allowance
+                f0, r0 = min(ideal_first), min(ideal_release)
+            else:
+                f0, r0 = floor, 0.5 * (floor + limit)
+            first, second, release = _round_thresholds(max(f0, floor), 0.5 * (max(f0, floor) + max(r0, f0, floor)),
+                                                       max(r0, f0, floor), floor)
+            # each corner with these thresholds: where they fire, and whether the coupler is free in time
+            short, worst = -math.inf, 0
+            for ci, c in enumerate(corners):
+                s1 = ray_crossing(c, d, lambda p, ang=ang: ang(p) >= first) or 0.0
+                sr = ray_crossing(c, d, lambda p, ang=ang: ang(p) >= release)
+                if sr is None or sr >= avail[ci]:
+                    if short < math.inf:
+                        short, worst = math.inf, ci
+                    continue
+                # a stage the drift never reaches within the window: it stays short of it (the window's end
+                # stands for it) and must stay short of the face
+                tau1 = min(_tau_at(tau, s, max(s1 - allow, 0.0)), float(tau[-1]))
+                taur = min(max(_tau_at(tau, s, max(sr - allow, 0.0)), tau1 + t_rel), float(tau[-1]))
+                need = allow + max(_s_at(tau, s, taur + seq.erc_release_time + seq.margin),
+                                   _s_at(tau, s, tau1 + lead1))
+                if need - avail[ci] > short:
+                    short, worst = need - avail[ci], ci
+        # the refusal: even an alarm at the allowance's edge (loadarm's design-drift floor fires there at the
+        # latest, whatever the corner) leaves less than the ESD-1 lead's drift before the face
+        worst_f = max(avail, key=lambda ci: allow + s_lead - avail[ci])
+        short_floor = allow + s_lead - avail[worst_f]
+        if kind is None:
+            short, worst = short_floor, worst_f
+        c = corners[worst]
+        face = ""
+        hit = ray_crossing(c, d, past_face)
+        if hit is not None:
+            face = FACES[int(first_face(face_margins(model, *(c + (hit + 1e-6) * d)))[1])]
+        ok = bool(short_floor <= 0)
+        what = FACE_LABELS.get(face, face or "the reach")
+        where = f"x = {c[0]:.2f}, y = {c[1]:.2f}, z = {c[2]:.2f} m"
+        if not ok:
+            cf = corners[worst_f]
+            problems.append(f"{name}: the arm cannot absorb the design drift before the face ({what}): short by "
+                            f"{short_floor:.2f} m at the flanging-area corner x = {cf[0]:.2f}, y = {cf[1]:.2f}, "
+                            f"z = {cf[2]:.2f} m")
+        elif kind is not None and short > 0:
+            warnings.append(f"{name}: the {kind} alarms alone fire too late at the corner {where} (short by "
+                            + (f"{short:.2f} m" if math.isfinite(short) else "the whole release")
+                            + "): one angle cannot serve the whole flanging area there; the design-drift floor "
+                              "(recommended [design_drift]) covers it")
+        rows.append(FaceDesign(name, tuple(vec), face, avail[worst_f], allow, v_int, allow + s_sec,
+                               allow + s_rel, allow + s_free, allow + s_lead, v_rel, kind or "", first, second,
+                               release, limit, ok, float(short_floor),
+                               tuple(float(v) for v in corners[worst_f]), case,
+                               float(short) if math.isfinite(short) else float("inf"), floor))
+        if how == "breakout":
+            curves.append((tau, s))
+    rec = {}
+    for kind in ("beta", "slew"):
+        rs = [r for r in rows if r.coordinate == kind]
+        if not rs:
+            rec.update({f"{stage}_{kind}_deg": None for stage in ("first", "second", "release")})
+            continue
+        # the slew alarms are one setting for both sides: the earlier side's stages, but the first alarm never
+        # inside either side's allowance
+        floor = max(r.floor for r in rs)
+        first = max(min(r.first for r in rs), floor)
+        release = max(min(r.release for r in rs), first)
+        second = min(max(min(r.second for r in rs), first), release)
+        first, second, release = _round_thresholds(first, second, release, floor)
+        for stage, v in (("first", first), ("second", second), ("release", release)):
+            rec[f"{stage}_{kind}_deg"] = round(math.degrees(v), 1)
+    speed, accel = design_drift_fit(curves, lead1 + t_free)
+    rec["design_drift_speed_ms"] = speed
+    rec["design_drift_acceleration_ms2"] = accel
+    sequence = {"esd_time_s": seq.esd_time, "ers_valve_time_s": seq.ers_valve_time,
+                "ers_valve_timeout_s": seq.ers_valve_timeout, "valves_worst_s": t_rel,
+                "erc_release_time_s": seq.erc_release_time, "margin_s": seq.margin, "esd_lead_s": lead1}
+    return AlarmDesign(tuple(rows), rec, sequence, ship.natural_periods(), mean_offset, tau_main, s_main,
+                       (box.x_near, x_conn_far, box.y_low, box.y_high), tuple(problems), tuple(warnings), (fx, fz), model.arm,
+                       model.joint_limits)

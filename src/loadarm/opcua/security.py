@@ -1,0 +1,360 @@
+"""Security of the plant interface (issue 14, item 3): the application certificate, the trust list, the users.
+
+Everything lives in one state directory (``--state-dir``)::
+
+    STATE_DIR/
+      own/cert.der        the application instance certificate (self-signed, made on first start)
+      own/key.pem         its private key (mode 0600; refused if anyone else may read it)
+      pki/trusted/        client certificates trusted (a copy of one here is trusted after a restart;
+                          ``loadarm trust CERT --state-dir DIR`` puts one there)
+      pki/rejected/       certificates of clients refused, kept for the administrator to inspect
+      users.toml          users, their roles and scrypt password hashes (``loadarm user add``)
+
+Roles (:class:`Role`), each including the one before: **viewer** (browse, read, subscribe), **operator** (the
+methods: approach, connect, jog, stop, E-stop, ESD-1, ERS, reset, acknowledge), **engineer** (writes to the
+parameters). Anonymous sessions are viewers at most.
+
+Passwords are hashed with scrypt (:func:`hashlib.scrypt`; n = 2^14, r = 8, p = 1, a 16-byte salt: RFC 7914's
+interactive-login cost) and compared in constant time.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import hmac
+import os
+import re
+import secrets
+import stat
+from dataclasses import dataclass
+from pathlib import Path
+
+from loadarm.errors import ConfigError
+from loadarm.vocab import Role
+from loadarm.files import atomic_write
+from loadarm.files import read_toml
+
+__all__ = ["Role", "User", "Users", "StateDir", "hash_password", "verify_password", "SCRYPT", "client_certificate",
+           "thumbprint"]
+
+#: scrypt cost (n, r, p) and salt length, bytes.
+SCRYPT = (2 ** 14, 8, 1)
+SALT_BYTES = 16
+_NAME = re.compile(r"^[A-Za-z0-9_.@-]{1,64}$")
+
+
+@dataclass(frozen=True)
+class User:
+    """A user of the plant interface.
+
+    Attributes
+    ----------
+    name : str
+    role : Role
+    """
+
+    name: str
+    role: Role
+
+
+def hash_password(password: str, *, salt: bytes | None = None) -> str:
+    """An scrypt hash of ``password``, as ``scrypt$n$r$p$salt_hex$hash_hex``.
+
+    Parameters
+    ----------
+    password : str
+    salt : bytes, optional
+        Random (:data:`SALT_BYTES`) unless given (tests).
+
+    Returns
+    -------
+    str
+    """
+    if not password:
+        raise ConfigError("a password may not be empty")
+    n, r, p = SCRYPT
+    salt = secrets.token_bytes(SALT_BYTES) if salt is None else salt
+    digest = hashlib.scrypt(password.encode(), salt=salt, n=n, r=r, p=p, dklen=32)
+    return f"scrypt${n}${r}${p}${salt.hex()}${digest.hex()}"
+
+
+def verify_password(password: str, stored: str) -> bool:
+    """Whether ``password`` matches a hash of :func:`hash_password` (constant-time comparison).
+
+    Parameters
+    ----------
+    password, stored : str
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        kind, n, r, p, salt, digest = stored.split("$")
+        if kind != "scrypt":
+            return False
+        got = hashlib.scrypt(password.encode(), salt=bytes.fromhex(salt), n=int(n), r=int(r), p=int(p),
+                             dklen=len(digest) // 2)
+    except (ValueError, TypeError):
+        return False
+    return hmac.compare_digest(got.hex(), digest)
+
+
+@functools.lru_cache(maxsize=1)
+def _dummy_hash() -> str:
+    return hash_password("x", salt=b"\0" * SALT_BYTES)
+
+
+class Users:
+    """The users file: ``[users.NAME] role = "operator", password = "scrypt$..."``.
+
+    Parameters
+    ----------
+    path : Path
+        ``users.toml``; a missing file means no users (anonymous viewers only).
+    """
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._entries: dict[str, tuple[Role, str]] = {}
+        if self.path.exists():
+            self._load()
+
+    def _load(self) -> None:
+
+        src = str(self.path)
+        data = read_toml(self.path, "users file")
+        users = data.get("users", {})
+        if not isinstance(users, dict) or set(data) - {"users"}:
+            raise ConfigError(f"{src}: expected only [users.NAME] tables")
+        for name, entry in users.items():
+            if not _NAME.match(name):
+                raise ConfigError(f"{src}: users.{name}: a user name is 1-64 letters, digits or _.@-")
+            if not isinstance(entry, dict) or set(entry) != {"role", "password"}:
+                raise ConfigError(f"{src}: users.{name}: needs exactly the keys role and password")
+            role = Role.parse(entry["role"], f"{src}: users.{name}.role")
+            if not str(entry["password"]).startswith("scrypt$"):
+                raise ConfigError(f"{src}: users.{name}.password: not an scrypt hash (write it with "
+                                  "`loadarm user add`)")
+            self._entries[name] = (role, str(entry["password"]))
+
+    def __len__(self) -> int:
+        return len(self._entries)
+
+    def names(self) -> list[str]:
+        """The user names, sorted."""
+        return sorted(self._entries)
+
+    def authenticate(self, name: str | None, password: str | None) -> User | None:
+        """The user with this name and password, or None (unknown user or wrong password: the same answer).
+
+        Parameters
+        ----------
+        name, password : str or None
+
+        Returns
+        -------
+        User or None
+        """
+        entry = self._entries.get(name or "")
+        if entry is None or password is None:
+            verify_password(password or "", _dummy_hash())      # one scrypt, as for a known user
+            return None
+        return User(name, entry[0]) if verify_password(password, entry[1]) else None
+
+    def add(self, name: str, role: Role, password: str) -> None:
+        """Add or replace a user and write the file (atomically, mode 0600).
+
+        Parameters
+        ----------
+        name : str
+        role : Role
+        password : str
+        """
+        if not _NAME.match(name):
+            raise ConfigError(f"user name {name!r}: 1-64 letters, digits or _.@-")
+        self._entries[name] = (role, hash_password(password))
+        lines = ["# loadarm users: written by `loadarm user add`; passwords are scrypt hashes", ""]
+        for n in sorted(self._entries):
+            r, h = self._entries[n]
+            lines += [f"[users.{n!s}]", f'role = "{r.name.lower()}"', f'password = "{h}"', ""]
+
+        atomic_write(self.path, "\n".join(lines), private=True)
+
+
+def _load_certificate(path: Path):
+    """A certificate from a DER or PEM file."""
+    from cryptography import x509
+
+    data = Path(path).read_bytes()
+    try:
+        return x509.load_pem_x509_certificate(data) if data.lstrip().startswith(b"-----BEGIN") \
+            else x509.load_der_x509_certificate(data)
+    except ValueError as exc:
+        raise ConfigError(f"{path}: not an X.509 certificate in DER or PEM ({exc})") from None
+
+
+def client_certificate(folder: str | Path, name: str, app_uri: str) -> tuple[Path, Path]:
+    """Make a self-signed OPC UA client certificate and key (``NAME.der``, ``NAME.pem`` mode 0600) in
+    ``folder``: for a test client, or a script that talks to ``loadarm serve``.
+
+    Parameters
+    ----------
+    folder : path
+    name : str
+        Common name and file stem.
+    app_uri : str
+        The client's application URI (it must match its ``application_uri``).
+
+    Returns
+    -------
+    cert, key : Path
+    """
+    from cryptography import x509
+    from cryptography.hazmat.primitives import serialization
+    from cryptography.x509.oid import ExtendedKeyUsageOID
+    from asyncua.crypto import cert_gen
+
+
+    key = cert_gen.generate_private_key()
+    cert = cert_gen.generate_self_signed_app_certificate(
+        key, name, {}, [x509.UniformResourceIdentifier(app_uri), x509.DNSName("localhost")],
+        extended=[ExtendedKeyUsageOID.CLIENT_AUTH])
+    folder = Path(folder)
+    c = atomic_write(folder / f"{name}.der", cert.public_bytes(serialization.Encoding.DER))
+    k = atomic_write(folder / f"{name}.pem", cert_gen.dump_private_key_as_pem(key), private=True)
+    return c, k
+
+
+def thumbprint(cert) -> str:
+    """SHA-1 thumbprint of a certificate, hex (OPC UA's certificate identifier).
+
+    Parameters
+    ----------
+    cert : cryptography.x509.Certificate
+
+    Returns
+    -------
+    str
+    """
+    from cryptography.hazmat.primitives import serialization
+
+    return hashlib.sha1(cert.public_bytes(serialization.Encoding.DER)).hexdigest()
+
+
+class StateDir:
+    """The state directory of a plant-interface application (:mod:`loadarm.opcua.security`).
+
+    Parameters
+    ----------
+    path : Path
+    """
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        if self.path.exists() and not self.path.is_dir():
+            raise ConfigError(f"--state-dir {self.path}: exists and is not a directory")
+
+    @property
+    def cert(self) -> Path:
+        return self.path / "own" / "cert.der"
+
+    @property
+    def key(self) -> Path:
+        return self.path / "own" / "key.pem"
+
+    @property
+    def trusted(self) -> Path:
+        return self.path / "pki" / "trusted"
+
+    @property
+    def rejected(self) -> Path:
+        return self.path / "pki" / "rejected"
+
+    @property
+    def users_file(self) -> Path:
+        return self.path / "users.toml"
+
+    def users(self) -> Users:
+        """The users file (none yet: no users)."""
+        return Users(self.users_file)
+
+    def ensure(self, app_uri: str, host: str = "localhost", *, name: str = "loadarm") -> None:
+        """Create the directories and, on first start, the application certificate and key (RSA 2048,
+        SHA-256, valid five years, the application URI and host in its subject alternative names). An
+        existing key readable by anyone but its owner is refused.
+
+        Parameters
+        ----------
+        app_uri : str
+        host : str
+        name : str
+            Common name.
+
+        Raises
+        ------
+        ConfigError
+            A key with a too open mode, or a certificate that is not this application's.
+        """
+        for d in (self.cert.parent, self.trusted, self.rejected):
+            d.mkdir(parents=True, exist_ok=True)
+        os.chmod(self.cert.parent, 0o700)
+        if self.key.exists():
+            mode = stat.S_IMODE(self.key.stat().st_mode)
+            if mode & 0o077:
+                raise ConfigError(f"{self.key}: private key readable by others (mode {mode:04o}); "
+                                  f"run `chmod 600 {self.key}`")
+        if self.key.exists() and self.cert.exists():
+            cert = _load_certificate(self.cert)
+            uris = _uris(cert)
+            if app_uri not in uris:
+                raise ConfigError(f"{self.cert}: certificate of another application ({', '.join(uris) or 'no URI'}, "
+                                  f"expected {app_uri}); remove {self.cert.parent} to make a new one")
+            return
+        from cryptography import x509
+        from cryptography.hazmat.primitives import serialization
+        from cryptography.x509.oid import ExtendedKeyUsageOID
+        from asyncua.crypto import cert_gen
+
+        key = cert_gen.generate_private_key()
+        cert = cert_gen.generate_self_signed_app_certificate(
+            key, name, {"organizationName": "loadarm"}, [x509.UniformResourceIdentifier(app_uri), x509.DNSName(host)],
+            extended=[ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH], days=5 * 365)
+
+        atomic_write(self.key, cert_gen.dump_private_key_as_pem(key), private=True)
+        atomic_write(self.cert, cert.public_bytes(serialization.Encoding.DER))
+
+    def trust(self, cert_file: str | Path) -> Path:
+        """Copy a client certificate into the trust list (named by its thumbprint; DER).
+
+        Parameters
+        ----------
+        cert_file : path
+
+        Returns
+        -------
+        Path
+            The trusted copy.
+        """
+        from cryptography.hazmat.primitives import serialization
+
+
+        p = Path(cert_file)
+        if not p.is_file():
+            raise ConfigError(f"{p}: no such certificate file")
+        cert = _load_certificate(p)
+        self.trusted.mkdir(parents=True, exist_ok=True)
+        out = self.trusted / f"{thumbprint(cert)}.der"
+        atomic_write(out, cert.public_bytes(serialization.Encoding.DER))
+        return out
+
+
+def _uris(cert) -> list[str]:
+    from cryptography import x509
+
+    try:
+        san = cert.extensions.get_extension_for_class(x509.SubjectAlternativeName)
+    except x509.ExtensionNotFound:
+        return []
+    return san.value.get_values_for_type(x509.UniformResourceIdentifier)

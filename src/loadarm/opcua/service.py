@@ -1,0 +1,292 @@
+"""The guidance controller in real time (``loadarm serve``): the closed loop of a scenario paced by a wall clock,
+the operator's requests taken from a queue, the state published as immutable snapshots.
+
+The control loop runs in its own thread and never waits on the network: requests arrive through a
+:class:`queue.SimpleQueue` (put by the OPC UA server's event loop without blocking), each is applied at the start
+of the next cycle and written to the event log with the user's name; the server reads the latest
+:class:`Snapshot` (one reference, replaced whole each cycle).
+
+A jog request lasts :data:`JOG_HOLD` unless renewed: the dead-man of a jog over a network (the request stops
+when the client stops renewing it, or its link drops).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import queue
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from loadarm.guidance.controller import OperatorInput
+from loadarm.vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
+from loadarm.guidance.controller import CONNECTED_MODES
+from loadarm.arm.actuators import cylinder_lengths
+from loadarm.arm.faces import FACES, face_margins
+
+__all__ = ["ACTIONS", "JOG_HOLD", "Request", "Snapshot", "GuidanceService"]
+
+#: How long one jog request moves the arm unless renewed, s.
+JOG_HOLD = 0.5
+@dataclass(frozen=True)
+class Request:
+    """One operator request.
+
+    Attributes
+    ----------
+    action : str
+        A key of :data:`ACTIONS`.
+    user : str
+        Who asked (for the event log).
+    jog : tuple of float
+        Coupler velocity for ``jog``, m/s.
+    tag : str
+        For ``ack``: the one alarm to acknowledge (``""``: every alarm).
+    """
+
+    action: str
+    user: str
+    jog: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    tag: str = ""
+
+    def __post_init__(self):
+        if self.action not in ACTIONS:
+            raise ValueError(f"action must be one of {', '.join(ACTIONS)}, got {self.action!r}")
+        if len(self.jog) != 3 or not all(math.isfinite(v) for v in self.jog):
+            raise ValueError(f"jog must be three finite velocities, got {self.jog!r}")
+        if self.tag and (self.action not in TAGGED_ACTIONS or self.tag not in ANNUNCIATED):
+            raise ValueError(f"tag must be one of {', '.join(ANNUNCIATED)} with action 'ack', 'shelve' or "
+                             f"'unshelve', got {self.tag!r}")
+        if self.action in ("shelve", "unshelve") and not self.tag:
+            raise ValueError(f"{self.action} needs the alarm's tag")
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The controller's state after one cycle (what the plant interface and the HMI show).
+
+    Attributes
+    ----------
+    seq : int
+        Cycle number.
+    t : float
+        Run time, s.
+    mode : str
+    q : tuple of float
+        Slew, alpha, beta, rad.
+    coupler, flange_estimate : tuple of float
+        m, installation frame.
+    estimate_healthy : bool
+    distance : float
+        Coupler to the flange, m (the simulated plant's flange, as the run records it).
+    level : int
+        Connected-mode alarm level (:class:`loadarm.arm.alarms.Severity`).
+    time_to_limit : float
+        s (inf: none in sight).
+    connected, esd, release, coupler_open, ers_valves_closed : bool
+    alarms : dict of str to str
+        ISA-18.2 state of each annunciated alarm.
+    cycle_us : float
+        The cycle's computing time, microseconds.
+    late : int
+        Cycles that started after their deadline so far.
+    plant_ok : bool
+        The plant's values are good (False: the PLC link is dead, they are the last ones read).
+    cylinders : tuple of float
+        Both cylinders' pin-to-pin lengths, m.
+    margins : dict of str to float
+        Margin to each face of the envelope (:data:`loadarm.arm.faces.FACES`), rad (NaN: out of reach).
+    flange_velocity : tuple of float
+        The estimate's velocity, m/s.
+    pressures : tuple of float
+        Chamber pressures ``pA1, pB1, pA2, pB2`` and the supply pressure, Pa (NaN: a plant without them, the
+        kinematic one or a PLC that does not report them).
+    wall : float
+        Wall-clock time the cycle was published, s since the epoch (for the screen's end-to-end latency).
+    time_to_faces : dict of str to float
+        The forecast's time to each face it crossed within its horizon, s (absent: none in sight).
+    """
+
+    seq: int
+    t: float
+    mode: str
+    q: tuple[float, float, float]
+    coupler: tuple[float, float, float]
+    flange_estimate: tuple[float, float, float]
+    estimate_healthy: bool
+    distance: float
+    level: int
+    time_to_limit: float
+    connected: bool
+    esd: bool
+    release: bool
+    coupler_open: bool
+    ers_valves_closed: bool
+    alarms: dict = field(default_factory=dict)
+    cycle_us: float = 0.0
+    late: int = 0
+    plant_ok: bool = True
+    cylinders: tuple[float, float] = (math.nan, math.nan)
+    margins: dict = field(default_factory=dict)
+    flange_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    pressures: tuple[float, float, float, float, float] = (math.nan,) * 5
+    wall: float = math.nan
+    time_to_faces: dict = field(default_factory=dict)
+
+
+class GuidanceService:
+    """A :class:`loadarm.sim.loop.ClosedLoop` run in real time with live operator requests.
+
+    Parameters
+    ----------
+    loop : ClosedLoop
+        Built with ``scripted=False`` for an operator-driven run.
+    clock : callable
+        Monotonic seconds (injected: tests pass a fake).
+    sleep : callable
+        Sleeps a number of seconds.
+    speedup : float
+        Run seconds per wall second.
+    """
+
+    def __init__(self, loop, *, clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep, speedup: float = 1.0):
+        if not speedup > 0:
+            raise ValueError(f"speedup must be > 0, got {speedup!r}")
+        self.loop, self.clock, self.sleep, self.speedup = loop, clock, sleep, speedup
+        self._requests: queue.SimpleQueue = queue.SimpleQueue()
+        self._snapshot: Snapshot | None = None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._jog = (0.0, 0.0, 0.0)
+        self._jog_until = -math.inf
+        self.late = 0
+        self._link_ok = True
+        #: Wall-clock time each mode change was published, ``[(mode, s since the epoch)]`` (the screen's
+        #: latency is measured against it).
+        self.mode_changes: list[tuple[str, float]] = []
+        self.finished = threading.Event()
+        self.error: BaseException | None = None
+
+    # ------------------------------------------------------------------ thread-safe side
+    def request(self, req: Request) -> None:
+        """Queue an operator request (any thread; never blocks)."""
+        self._requests.put(req)
+
+    def snapshot(self) -> Snapshot | None:
+        """The latest state (None before the first cycle)."""
+        return self._snapshot
+
+    def start(self) -> None:
+        """Run the loop in its own thread."""
+        self._thread = threading.Thread(target=self._run_guarded, name="loadarm-guidance", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop the loop and wait for it."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+
+    # ------------------------------------------------------------------ the control thread
+    def _run_guarded(self) -> None:
+        try:
+            self.run()
+        except BaseException as exc:          # reported to the caller, who decides (the CLI exits non-zero)
+            self.error = exc
+        finally:
+            self.finished.set()
+
+    def run(self) -> None:
+        """Run every cycle of the scenario on the clock (in the calling thread), until the end (a continuous
+        loop: none) or :meth:`stop`."""
+        loop = self.loop
+        start = self.clock()
+        for k in (itertools.count() if loop.continuous else range(loop.n)):
+            if self._stop.is_set():
+                break
+            now = loop.time(k)
+            delay = start + now / self.speedup - self.clock()
+            if delay > 0:
+                self.sleep(delay)
+            elif delay < -loop.dt / self.speedup:
+                self.late += 1
+            live = self._take_requests(now)
+            ok = getattr(loop.io, "link_ok", True)
+            if ok != self._link_ok:
+                live = self._link_changed(now, ok, live)
+            cmd = loop.cycle(k, live)
+            self._publish(k, now, cmd)
+
+    def _take_requests(self, now: float) -> OperatorInput:
+        actions: list[str] = []
+        while True:
+            try:
+                req = self._requests.get_nowait()
+            except queue.Empty:
+                break
+            if req.action == "jog" and req.jog == self._jog and now < self._jog_until:
+                self._jog_until = now + JOG_HOLD       # a held jog renewed: one action, logged once
+                continue
+            actions.extend((f"ack:{req.tag}",) if req.tag and req.action == "ack" else ACTIONS[req.action])
+            if req.action == "jog":
+                self._jog, self._jog_until = req.jog, now + JOG_HOLD
+            elif req.action in ("stop", "estop"):
+                self._jog, self._jog_until = (0.0, 0.0, 0.0), -math.inf
+            mode = self.loop.ctrl.state.mode.value
+            data = {"user": req.user, "action": req.action}
+            if req.action == "jog":
+                data["jog"] = [float(v) for v in req.jog]
+            if req.tag:
+                data["tag"] = req.tag
+            self.loop.emit(now, mode, "operator", f"{req.user}: {req.action}" + (f" {req.tag}" if req.tag else ""),
+                           data)
+        jog = self._jog if now < self._jog_until else (0.0, 0.0, 0.0)
+        return OperatorInput(tuple(dict.fromkeys(actions)), jog)
+
+    def _link_changed(self, now: float, ok: bool, live: OperatorInput) -> OperatorInput:
+        """The PLC link died (an alarm; ESD-1 if the coupler is on the flange, else the motion stopped: manual
+        mode, no jog; the PLC's watchdog stops the drives on its side) or came back (its values are good again; the controller reads the arm where it is,
+        so nothing jumps)."""
+
+        self._link_ok = ok
+        mode = self.loop.ctrl.state.mode
+        if ok:
+            self.loop.emit(now, mode.value, "info", "PLC link restored", {})
+            return live
+        attached = mode in CONNECTED_MODES
+        self.loop.emit(now, mode.value, "alarm", f"{event_label('fault.plc_link')}: its values are bad"
+                       + ("; ESD-1 initiated" if attached else "; motion stopped (the PLC's watchdog stops the "
+                                                               "drives)"), {"code": "fault.plc_link"})
+        self._jog, self._jog_until = (0.0, 0.0, 0.0), -math.inf
+        return OperatorInput(live.actions + (("esd",) if attached else ("manual",)), (0.0, 0.0, 0.0))
+
+    def _publish(self, k: int, now: float, cmd) -> None:
+        loop = self.loop
+        q = loop.io.q
+        sig = loop.rec.sig
+        i = loop.slot(k)
+        e = loop.estimate
+        ttl = float(cmd.time_to_limit)
+
+        c1, c2 = cylinder_lengths(loop.model.mount, float(q[1]), float(q[2]))
+        m = face_margins(loop.model, sig["x"][i], sig["y"][i], sig["z"][i])
+        self._snapshot = Snapshot(
+            seq=k, t=now, mode=cmd.mode.value, q=(float(q[0]), float(q[1]), float(q[2])),
+            coupler=(float(sig["x"][i]), float(sig["y"][i]), float(sig["z"][i])),
+            flange_estimate=tuple(float(v) for v in np.asarray(e.position, dtype=float)),
+            estimate_healthy=bool(e.healthy), distance=float(sig["distance"][i]), level=int(cmd.level),
+            time_to_limit=ttl, connected=bool(cmd.connected), esd=bool(cmd.esd), release=bool(cmd.release),
+            coupler_open=bool(cmd.coupler_open), ers_valves_closed=bool(loop.io.feedback.ers_valves_closed),
+            alarms={tag: st.value for tag, st in loop.ctrl.state.alarms.items()},
+            cycle_us=float(loop.cycle_us[i]), late=self.late, plant_ok=self._link_ok,
+            cylinders=(float(c1), float(c2)), margins={f: float(m[..., i]) for i, f in enumerate(FACES)},
+            flange_velocity=tuple(float(v) for v in np.asarray(e.velocity, dtype=float)),
+            pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)), wall=time.time(),
+            time_to_faces={f: float(t) for f, t in cmd.time_to_faces})
+        if not self.mode_changes or self.mode_changes[-1][0] != cmd.mode.value:
+            self.mode_changes.append((cmd.mode.value, self._snapshot.wall))

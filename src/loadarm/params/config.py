@@ -1,0 +1,1132 @@
+"""Installation configuration: one TOML file describes one arm at one berth.
+
+Every physical parameter is declared exactly once, here, with its unit, its
+valid range, a default (or, for customer data that must be given, the paper's
+example value) and the source of that value. :func:`parameter_table` turns the
+declarations into the table printed in ``docs/configuration.md``.
+
+Lengths are metres, speeds m/s, accelerations m/s^2, voltages V. Angles are
+degrees in the file only, in keys ending ``_deg``; the rest of loadarm works in
+radians (see :attr:`Alarms.first`).
+"""
+
+from __future__ import annotations
+
+import difflib
+import functools
+import math
+import types
+import typing
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, field_validator, model_validator
+
+from loadarm.errors import ConfigError
+from loadarm.files import read_toml  # noqa: F401 (re-exported: config.read_toml, its home before files)
+
+__all__ = [
+    "Datasheet",
+    "ArmSection",
+    "ActuatorSection",
+    "Alarms",
+    "Slew",
+    "Approach",
+    "SizingBounds",
+    "Masses",
+    "Cylinders",
+    "Pump",
+    "Valve",
+    "Encoder",
+    "Controller",
+    "Report",
+    "Sequence",
+    "DesignDrift",
+    "Accumulator",
+    "Installation",
+    "packaged_example",
+    "SizingArm",
+    "sizing_case_model",
+    "read_toml",
+    "toml_values",
+    "load_config",
+    "load_sizing_case",
+    "parse_config",
+    "paper_installation",
+    "parameter_table",
+    "parameter_markdown",
+    "example_toml",
+]
+
+_REQUIRED = object()
+
+
+def _param(default: Any, *, unit: str, description: str, source: str, gt: float | None = None,
+           ge: float | None = None, lt: float | None = None, le: float | None = None,
+           paper: Any = None) -> Any:
+    """Declare one parameter: unit, range, default and where the default comes from."""
+    extra = {"unit": unit, "source": source}
+    if paper is not None:
+        extra["paper"] = paper
+    kwargs: dict[str, Any] = dict(description=description, json_schema_extra=extra)
+    for key, val in (("gt", gt), ("ge", ge), ("lt", lt), ("le", le)):
+        if val is not None:
+            kwargs[key] = val
+    if default is _REQUIRED:
+        return Field(**kwargs)
+    return Field(default, **kwargs)
+
+
+class _Section(BaseModel):
+    # strict: no coercion ("12" or true is not a length; an integer is accepted where a float is declared),
+    # no NaN or infinity (TOML has both literals)
+    model_config = ConfigDict(extra="forbid", frozen=True, defer_build=True, strict=True, allow_inf_nan=False)
+
+
+def toml_values(data: Any) -> Any:
+    """TOML arrays as tuples (the parameters' declared type), everything else as it is, so that the strict
+    models accept them. The depth is bounded by :func:`loadarm.files.check_depth`.
+
+    Parameters
+    ----------
+    data : Any
+        Parsed TOML.
+
+    Returns
+    -------
+    Any
+    """
+    if isinstance(data, dict):
+        return {k: toml_values(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return tuple(toml_values(v) for v in data)
+    return data
+
+
+_DS = "customer datasheet; example value from paper Table 1"
+
+
+class Datasheet(_Section):
+    """Customer datasheet distances (paper Table 1), metres, all >= 0."""
+
+    A: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=2.5, source=_DS,
+                      description="centre line of riser to jetty face")
+    B: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=1.7, source=_DS,
+                      description="jetty face to berthing line")
+    C: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=1.0, source=_DS,
+                      description="shortest distance berthing line to ship flange")
+    D: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=4.6, source=_DS,
+                      description="widest distance berthing line to ship flange")
+    E: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=4.7, source=_DS,
+                      description="drift range")
+    F: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=3.8, source=_DS,
+                      description="jetty level to high tide level (HTL)")
+    G: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=2.4, source=_DS,
+                      description="high tide level to low tide level (LTL)")
+    H: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=1.5, source=_DS,
+                      description="LTL to flange centre line, smallest ship loaded")
+    I: float = _param(_REQUIRED, unit="m", ge=0, le=100, paper=15.0, source=_DS,  # noqa: E741
+                      description="LTL to flange centre line, largest ship unloaded")
+    K: float = _param(0.0, unit="m", ge=0, le=100, paper=3.5, source=_DS + " (multi-arm only; 0 = single arm)",
+                      description="riser centre line to riser centre line")
+    L: float = _param(0.0, unit="m", ge=0, le=100, paper=0.5, source=_DS + " (not used by the planar model)",
+                      description="jetty level to connecting flange (land side)")
+    M: float = _param(0.0, unit="m", ge=0, le=100, paper=1.9, source=_DS + " (multi-arm only)",
+                      description="smallest flange-to-flange distance")
+    N: float = _param(0.0, unit="m", ge=0, le=100, paper=5.0, source=_DS + " (multi-arm only)",
+                      description="widest flange-to-flange distance")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Datasheet":
+        if self.D < self.C:
+            raise ValueError(f"datasheet.D ({self.D} m) must be >= datasheet.C ({self.C} m): the widest "
+                             "berthing-line-to-flange distance cannot be below the shortest")
+        return self
+
+
+class ArmSection(_Section):
+    """Arm lengths: riser a, inboard b, outboard c (paper Fig. 3)."""
+
+    riser: float = _param(_REQUIRED, unit="m", gt=0, le=100, paper=7.0,
+                          source="paper Section 2 (a = 7 m)", description="riser length a, jetty level to inboard hinge")
+    inboard: float = _param(_REQUIRED, unit="m", gt=0, le=100, paper=12.0,
+                            source="paper Section 2 (b = 12 m, from Eq. 3)", description="inboard arm length b")
+    outboard: float = _param(_REQUIRED, unit="m", gt=0, le=100, paper=8.2,
+                             source="paper Section 2 (c = 8.2 m, from Eq. 3)", description="outboard arm length c")
+
+
+class ActuatorSection(_Section):
+    """Cylinder mounting distances (paper Fig. 5) and the valve command scale."""
+
+    a1: float = _param(_REQUIRED, unit="m", gt=0, le=20, paper=1.0, source="paper Section 5",
+                       description="cylinder 1 riser pin, distance below the inboard hinge")
+    b1: float = _param(_REQUIRED, unit="m", gt=0, le=20, paper=1.0, source="paper Section 5",
+                       description="cylinder 1 inboard pin, distance from the inboard hinge")
+    b2: float = _param(_REQUIRED, unit="m", gt=0, le=20, paper=1.5, source="paper Section 5",
+                       description="cylinder 2 inboard pin, distance from the elbow")
+    c2: float = _param(_REQUIRED, unit="m", gt=0, le=20, paper=0.5, source="paper Section 5",
+                       description="cylinder 2 outboard pin, distance from the elbow")
+    volts_per_metre: float = _param(1.0, unit="V/m", gt=0, le=1000,
+                                    source="paper Section 5 ('a number equal to one')",
+                                    description="displacement-to-voltage scale of the valve command")
+    valve_range_V: float = _param(10.0, unit="V", gt=0, le=24,
+                                  source="common +/-10 V proportional-valve command input (ISO 10770-1 style)",
+                                  description="symmetric valve command range; a plan needing more is refused")
+
+
+class Alarms(_Section):
+    """Inboard-outboard angle (beta) thresholds of the alarm zones, degrees in the file."""
+
+    first_deg: float = _param(123.0, unit="deg", gt=0, lt=180, source="paper Section 2 example (customer-specified)",
+                              description="first-stage alarm (ESD-1) above this beta")
+    second_deg: float = _param(143.0, unit="deg", gt=0, lt=180, source="paper Section 2 example (customer-specified)",
+                               description="second-stage alarm above this beta")
+    release_deg: float = _param(150.0, unit="deg", gt=0, lt=180, source="paper Section 2 example (customer-specified)",
+                                description="emergency release (ERS-2) at or above this beta")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Alarms":
+        if not (self.first_deg < self.second_deg < self.release_deg):
+            raise ValueError(
+                f"alarm angles must increase: first_deg ({self.first_deg}) < second_deg ({self.second_deg}) "
+                f"< release_deg ({self.release_deg}), each in (0, 180) deg")
+        return self
+
+    @property
+    def first(self) -> float:
+        """First-alarm angle in radians."""
+        return math.radians(self.first_deg)
+
+    @property
+    def second(self) -> float:
+        """Second-alarm angle in radians."""
+        return math.radians(self.second_deg)
+
+    @property
+    def release(self) -> float:
+        """Release angle in radians."""
+        return math.radians(self.release_deg)
+
+
+class Slew(_Section):
+    """Slew joint (rotation of the arm about the riser axis): limits and alarms, degrees in the file."""
+
+    limit_deg: float = _param(40.0, unit="deg", gt=0, lt=180, source="typical slew range of a marine arm",
+                              description="slew joint limit, +/- from the arm's centre line")
+    first_deg: float = _param(30.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
+                              description="slew first-stage alarm (ESD-1), +/-")
+    second_deg: float = _param(34.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
+                               description="slew second-stage alarm, +/-")
+    release_deg: float = _param(37.0, unit="deg", gt=0, lt=180, source="customer setting (example)",
+                                description="slew release (ERS-2), +/-")
+    max_rate_deg: float = _param(2.0, unit="deg/s", gt=0, le=45, source="slew drive of a 20 m arm",
+                                 description="slew rate limit")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Slew":
+        if not (self.first_deg < self.second_deg < self.release_deg < self.limit_deg):
+            raise ValueError("slew angles must increase: first_deg < second_deg < release_deg < limit_deg, got "
+                             f"{self.first_deg}, {self.second_deg}, {self.release_deg}, {self.limit_deg}")
+        return self
+
+
+class Approach(_Section):
+    """Straight-line approach from the stored position to the ship flange (paper Fig. 5)."""
+
+    stored: tuple[float, float] = _param(_REQUIRED, unit="m", paper=(3.82, 10.40), source="paper Section 3",
+                                         description="coupler stored position (X0, Y0), from the riser base")
+    flange: tuple[float, float] = _param(_REQUIRED, unit="m", paper=(14.0, 1.0), source="paper Section 3",
+                                         description="ship flange position (Xf, Yf), from the riser base")
+    max_speed: float = _param(0.15, unit="m/s", ge=0.01, le=2.0,
+                              source="paper Eq. 14 (0.15 m/s, attributed to OCIMF)",
+                              description="coupler speed limit (horizontal for the paper law, along the path "
+                                          "for the smooth law)")
+    max_accel: float = _param(0.05, unit="m/s^2", ge=0.001, le=5.0,
+                              source="engineering choice: reaches 0.15 m/s in 3 s, well below what the "
+                                     "cylinders of a 20 m arm deliver",
+                              description="coupler acceleration limit of the smooth and optimal timing laws")
+    max_cylinder_accel: float = _param(0.01, unit="m/s^2", ge=0.0005, le=5.0,
+                                       source="engineering choice: a cylinder reaches its peak approach speed "
+                                              "(about 10 mm/s) in 1 s",
+                                       description="cylinder acceleration limit of the optimal timing law")
+
+    @model_validator(mode="after")
+    def _finite_points(self) -> "Approach":
+        for name in ("stored", "flange"):
+            x, y = getattr(self, name)
+            if not (math.isfinite(x) and math.isfinite(y) and abs(x) <= 1000 and abs(y) <= 1000):
+                raise ValueError(f"approach.{name} must be two finite coordinates within [-1000, 1000] m, "
+                                 f"got [{x}, {y}]")
+        return self
+
+
+class SizingBounds(_Section):
+    """Search bounds for paper Eq. 3, metres."""
+
+    inboard: tuple[float, float] = _param((8.0, 12.0), unit="m",
+                                          source="chosen to reproduce the paper's b = 12 m (see docs/sizing.md)",
+                                          description="lower and upper bound of the inboard length b")
+    outboard: tuple[float, float] = _param((4.0, 10.0), unit="m",
+                                           source="chosen to reproduce the paper's c = 8.2 m (see docs/sizing.md)",
+                                           description="lower and upper bound of the outboard length c")
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "SizingBounds":
+        for name in ("inboard", "outboard"):
+            lo, hi = getattr(self, name)
+            if not (0 < lo <= hi <= 100):
+                raise ValueError(f"sizing.{name} must be [low, high] with 0 < low <= high <= 100 m, "
+                                 f"got [{lo}, {hi}]")
+        return self
+
+
+_PIPE = ("16 in (DN400) standard-wall pipe, ASME B36.10M: OD 406.4 mm, wall 9.53 mm, 93.3 kg/m of steel; "
+         "about 1.6x that with ribs, product-line supports and swivel flanges (engineering estimate)")
+
+
+class Masses(_Section):
+    """Mass model of the arm (multibody verification, dynamics, balancing).
+
+    The arm is lumped into rigid bodies: each pipe as a uniform slender rod
+    (pipe steel plus the product it holds), point-like lumps for the apex
+    (elbow) swivel, the coupler assembly and the two counterweights. The
+    primary counterweight sits on the inboard arm's rear extension; the
+    secondary one on a pantograph lever at the riser top that a parallelogram
+    linkage keeps parallel to the outboard arm, pointing away from it (the
+    double-counterweighted arm of paper Fig. 1).
+    """
+
+    inboard_kg_per_m: float = _param(150.0, unit="kg/m", gt=0, le=5000, source=_PIPE,
+                                     description="inboard arm mass per metre, empty")
+    outboard_kg_per_m: float = _param(120.0, unit="kg/m", gt=0, le=5000,
+                                      source="as the inboard pipe, lighter structure (engineering estimate)",
+                                      description="outboard arm mass per metre, empty")
+    pipe_inner_diameter: float = _param(0.3874, unit="m", gt=0, le=2.0, source="16 in standard wall: 406.4 - 2 x 9.53 mm",
+                                        description="product bore of both arms")
+    product_density: float = _param(850.0, unit="kg/m^3", ge=0, le=2000,
+                                    source="medium crude oil (LNG would be about 450 kg/m^3)",
+                                    description="density of the product in the arm")
+    fill: float = _param(0.0, unit="1", ge=0, le=1,
+                         source="the approach is made with the arm drained (OCIMF practice)",
+                         description="fraction of the bore filled with product during the approach")
+    elbow_kg: float = _param(800.0, unit="kg", ge=0, le=1e5,
+                             source="16 in apex swivel joint with its elbow (engineering estimate)",
+                             description="lumped mass at the elbow (inboard arm's end)")
+    coupler_kg: float = _param(1500.0, unit="kg", ge=0, le=1e5,
+                               source="16 in hydraulic QCDC + ERS + triple swivel (engineering estimate)",
+                               description="lumped mass at the outboard tip")
+    counterweight_inboard_kg: float = _param(19600.0, unit="kg", ge=0, le=1e6,
+                                             source="minimax balance of the default arm, drained and full "
+                                                    "(loadarm balance, rounded; = exact balance half full)",
+                                             description="primary counterweight on the inboard rear extension")
+    counterweight_inboard_distance: float = _param(3.0, unit="m", gt=0, le=50,
+                                                   source="about a quarter of the inboard length (engineering choice)",
+                                                   description="primary counterweight distance behind the inboard hinge")
+    counterweight_outboard_kg: float = _param(7200.0, unit="kg", ge=0, le=1e6,
+                                              source="minimax balance of the default arm, drained and full "
+                                                     "(loadarm balance, rounded; = exact balance half full)",
+                                              description="secondary counterweight on the pantograph lever")
+    counterweight_outboard_distance: float = _param(2.5, unit="m", gt=0, le=50,
+                                                    source="pantograph lever length (engineering choice)",
+                                                    description="secondary counterweight distance from the riser top")
+    lump_radius: float = _param(0.3, unit="m", gt=0, le=5,
+                                source="order of size of a swivel or counterweight block",
+                                description="radius of the solid spheres used for the lumps' own inertia")
+    balance_fills: tuple[float, ...] = _param((0.0, 1.0), unit="1",
+                                              source="an arm must stay near balance drained and full",
+                                              description="fill fractions the counterweight balance is computed over")
+
+    @model_validator(mode="after")
+    def _fills(self) -> "Masses":
+        if not self.balance_fills or not all(0.0 <= f <= 1.0 and math.isfinite(f) for f in self.balance_fills):
+            raise ValueError(f"masses.balance_fills must be a non-empty list of fractions in [0, 1], "
+                             f"got {list(self.balance_fills)}")
+        return self
+
+
+class Cylinders(_Section):
+    """Hydraulic cylinder sizes, for forces to pressures and speeds to flows."""
+
+    bore: float = _param(0.160, unit="m", gt=0, le=1.0, source="ISO 3320 preferred bore; sized by the actuator report",
+                         description="piston (bore) diameter of both cylinders")
+    rod: float = _param(0.090, unit="m", gt=0, le=1.0, source="ISO 3320 preferred rod for a 160 mm bore",
+                        description="rod diameter of both cylinders")
+    return_pressure: float = _param(2.0e5, unit="Pa", ge=0, le=5e6, source="typical tank-line back pressure (2 bar)",
+                                    description="pressure in the chamber connected to tank")
+    max_pressure: float = _param(210e5, unit="Pa", gt=0, le=7e7, source="common industrial rating (210 bar)",
+                                 description="pressure above which the report flags a cylinder as undersized")
+
+    bulk_modulus: float = _param(1.0e9, unit="Pa", gt=1e7, le=2.5e9,
+                                 source="mineral oil 1.5-1.8 GPa, reduced by hose compliance and air (common design value)",
+                                 description="effective bulk modulus of oil, hoses and cylinder")
+    dead_volume: float = _param(1.0e-3, unit="m^3", gt=0, le=0.5,
+                                source="hoses and ports between valve and cylinder, about 6 m of 1/2 in hose",
+                                description="oil volume of each chamber's line at zero chamber stroke")
+    viscous_friction: float = _param(2.0e4, unit="N s/m", ge=0, le=1e8,
+                                     source="seal friction of a 160 mm cylinder (engineering estimate)",
+                                     description="viscous friction coefficient of each cylinder")
+    coulomb_friction: float = _param(2000.0, unit="N", ge=0, le=1e6,
+                                     source="about 0.5 % of the cylinder's force at rated pressure",
+                                     description="Coulomb (breakaway) friction force of each cylinder")
+    stribeck_velocity: float = _param(1e-3, unit="m/s", gt=0, le=1.0,
+                                      source="smoothing of the Coulomb friction, tanh(v / v_s)",
+                                      description="velocity scale of the Coulomb friction smoothing")
+    leakage: float = _param(1e-13, unit="m^3/(s Pa)", ge=0, le=1e-9,
+                            source="worn-in piston seal, about 0.06 L/min at 100 bar",
+                            description="internal leakage coefficient, chamber A to chamber B")
+    length_range_1: tuple[float, float] = _param((0.95, 1.99), unit="m",
+                                                 source="covers the paper arm's envelope (r_ac1 0.96-2.0 m)",
+                                                 description="pin-to-pin length of cylinder 1 fully retracted and "
+                                                             "fully extended (end stops)")
+    length_range_2: tuple[float, float] = _param((0.98, 1.99), unit="m",
+                                                 source="covers the envelope and beta up to 167 deg, beyond the "
+                                                        "release angle, so a drifting ship is released before "
+                                                        "the cylinder bottoms out",
+                                                 description="pin-to-pin length of cylinder 2 fully retracted and "
+                                                             "fully extended (end stops)")
+    end_stop_stiffness: float = _param(1e9, unit="N/m", gt=0, le=1e12,
+                                       source="steel end cap and cushion (engineering estimate)",
+                                       description="stiffness of the cylinder end stops")
+    end_stop_damping: float = _param(1e6, unit="N s/m", ge=0, le=1e10, source="end-of-stroke cushioning",
+                                     description="damping of the cylinder end stops")
+
+    @model_validator(mode="after")
+    def _rod_in_bore(self) -> "Cylinders":
+        if not self.rod < self.bore:
+            raise ValueError(f"cylinders.rod ({self.rod} m) must be smaller than cylinders.bore ({self.bore} m)")
+        for name in ("length_range_1", "length_range_2"):
+            lo, hi = getattr(self, name)
+            if not (0 < lo < hi <= 50):
+                raise ValueError(f"cylinders.{name} must be [retracted, extended] with 0 < retracted < extended "
+                                 f"<= 50 m, got [{lo}, {hi}]")
+        return self
+
+
+class Pump(_Section):
+    """Hydraulic power unit: pressure-compensated pump with a relief valve (paper Fig. 11)."""
+
+    compensator_pressure: float = _param(210e5, unit="Pa", gt=1e5, le=7e7,
+                                         source="common industrial HPU setting (210 bar)",
+                                         description="pressure at which the compensator destrokes the pump")
+    regulation_band: float = _param(10e5, unit="Pa", gt=0, le=1e7,
+                                    source="typical compensator droop from full flow to zero (10 bar)",
+                                    description="pressure band over which the pump goes from full flow to none")
+    max_flow: float = _param(6.67e-4, unit="m^3/s", gt=0, le=0.1,
+                             source="40 L/min: a 15 kW loading-arm HPU (engineering estimate)",
+                             description="pump flow at full displacement")
+    relief_pressure: float = _param(230e5, unit="Pa", gt=1e5, le=8e7,
+                                    source="relief set 20 bar above the compensator",
+                                    description="cracking pressure of the relief valve")
+    relief_band: float = _param(10e5, unit="Pa", gt=0, le=1e7,
+                                source="relief passes the full pump flow 10 bar above cracking",
+                                description="override pressure of the relief valve at full pump flow")
+    supply_volume: float = _param(5e-3, unit="m^3", gt=1e-6, le=1.0,
+                                  source="pressure line and filter between pump and valves (5 L)",
+                                  description="oil volume of the supply line")
+
+    @model_validator(mode="after")
+    def _relief_above_compensator(self) -> "Pump":
+        if not self.relief_pressure > self.compensator_pressure:
+            raise ValueError(f"pump.relief_pressure ({self.relief_pressure:g} Pa) must be above "
+                             f"pump.compensator_pressure ({self.compensator_pressure:g} Pa)")
+        return self
+
+
+class Valve(_Section):
+    """4/3-way proportional valve, critical centre, one per cylinder (paper Fig. 11)."""
+
+    nominal_flow: float = _param(6.67e-4, unit="m^3/s", gt=0, le=0.1,
+                                 source="40 L/min size-10 proportional valve (ISO 4401-05)",
+                                 description="flow at full opening and nominal pressure drop")
+    nominal_pressure_drop: float = _param(70e5, unit="Pa", gt=1e4, le=5e7,
+                                          source="ISO 10770-1 rating: 35 bar per land, 70 bar over both",
+                                          description="pressure drop over both lands at which nominal_flow is rated")
+    natural_frequency: float = _param(30.0, unit="Hz", gt=0.1, le=500,
+                                      source="-90 deg point of a size-10 valve with on-board electronics",
+                                      description="spool natural frequency (second-order model)")
+    damping: float = _param(0.7, unit="1", gt=0, le=5, source="typical spool position loop",
+                            description="spool damping ratio")
+    overlap: float = _param(0.0, unit="1", ge=0, lt=0.5, source="critical centre (zero lap)",
+                            description="spool overlap (deadband) as a fraction of full stroke")
+    laminar_pressure: float = _param(1e5, unit="Pa", gt=0, le=1e7,
+                                     source="regularisation of the square-root law near zero drop (1 bar)",
+                                     description="pressure drop below which orifice flow turns laminar")
+
+
+class Encoder(_Section):
+    """Displacement encoder on each cylinder (paper Fig. 11), and the joint-angle sensors' redundancy."""
+
+    resolution: float = _param(1e-5, unit="m", gt=0, le=0.01, source="10 um magnetostrictive position sensor",
+                               description="quantisation step of the cylinder length reading")
+    redundancy: Literal["none", "dual", "cylinder"] = Field(
+        "cylinder", description="second channel of each joint angle, voted against the angle encoder: none; dual "
+                                "(two angle encoders per axis); cylinder (alpha and beta from the cylinder-length "
+                                "transducers through the pin geometry, two encoders on the slew)",
+        json_schema_extra={"unit": "1", "source": "IEC 61508 / ISO 13849 practice: no single sensor failure may hide "
+                                                  "the arm's position from its alarms; the cylinders "
+                                                  "already carry length transducers (paper Fig. 11)"})
+    discrepancy_deg: float = _param(0.5, unit="deg", gt=0, le=10,
+                                    source="engineering choice: 10x the cylinder channel's error from the 10 um "
+                                           "resolution and pin tolerances, about 0.15 m at the coupler",
+                                    description="largest difference between the two channels of an axis")
+    discrepancy_time: float = _param(0.5, unit="s", gt=0, le=10, source="engineering choice: five 10 Hz cycles",
+                                     description="how long the channels may disagree before one is judged")
+    frozen_time: float = _param(2.0, unit="s", gt=0, le=60, source="engineering choice: 20 cycles unchanged while "
+                                                                   "the other channel moves",
+                                description="a channel unchanged this long while the other moves is frozen")
+
+
+class Controller(_Section):
+    """Discrete PID with velocity feed-forward per cylinder (paper Fig. 11)."""
+
+    rate: float = _param(1000.0, unit="Hz", ge=10, le=20000, source="paper Fig. 11 servo loop; 1 kHz is usual for electro-hydraulic position control",
+                         description="control loop rate")
+    kp: float = _param(60.0, unit="V/m", ge=0, le=1e6,
+                       source="tuned below the arm's low hydraulic natural frequency (docs/hydraulics.md)",
+                       description="proportional gain on the cylinder length error")
+    ki: float = _param(30.0, unit="V/(m s)", ge=0, le=1e7, source="removes the steady load-induced error",
+                       description="integral gain")
+    kd: float = _param(0.0, unit="V s/m", ge=0, le=1e5, source="not needed with feed-forward",
+                       description="derivative gain (on the measurement, filtered)")
+    derivative_filter: float = _param(0.02, unit="s", gt=0, le=10, source="20 ms first-order filter",
+                                      description="time constant of the derivative filter")
+    integral_limit: float = _param(5.0, unit="V", gt=0, le=24, source="half the valve range",
+                                   description="anti-windup clamp of the integral term")
+    feedforward: Literal["none", "nominal", "model"] = Field(
+        "model", description="valve feed-forward from the plan: none; nominal (velocity at the valve's rated drop); "
+                             "model (steady-state valve-cylinder inverse under the planned force)",
+        json_schema_extra={"unit": "1", "source": "velocity feed-forward of the planned motion; model-based inverse is standard practice"})
+    substeps: int | Literal["auto"] = Field(
+        "auto", description="plant integration steps per control step; auto: from the stability bound "
+                                          "of the arm on its oil columns and end stops (docs/hydraulics.md)",
+        json_schema_extra={"unit": "1", "source": "stability bound h omega_max <= 0.5 (hydraulics.simulate."
+                                                  "stable_substeps); an integer overrides it"})
+    @field_validator("substeps", mode="before")
+    @classmethod
+    def _substeps(cls, v: Any) -> Any:
+        if v == "auto" or (type(v) is int and 1 <= v <= 100):
+            return v
+        raise ValueError(f"must be \"auto\" or an integer in [1, 100], got {v!r}")
+
+    settle_time: float = _param(10.0, unit="s", ge=0, le=600, source="engineering choice",
+                                description="time simulated after the plan ends")
+    following_error_limit: float = _param(0.025, unit="m", gt=0, le=10.0,
+                                          source="servo following-error trip; 10x the normal peak error",
+                                          description="cylinder length error that stops the run as unstable")
+    arrival_tolerance: float = _param(0.005, unit="m", gt=0, le=1.0, source="within manual-connection reach",
+                                      description="coupler distance from the flange counted as arrived")
+
+
+class Report(_Section):
+    """What the HTML report runs besides the pipeline."""
+
+    scenarios: tuple[str, ...] = Field(
+        (), max_length=50,
+        description="live-guidance scenario files run on this installation in the report, relative to this file",
+        json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case lists the examples)"})
+    berth: str | None = Field(
+        None, description="berth file (design ship, moorings, environment) whose moored ship and alarm design the "
+                          "report shows, relative to this file (omit for none)",
+        json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case: the example "
+                                                     "LNG carrier berth)"})
+    metocean: str | None = Field(
+        None, description="metocean record (CSV or NetCDF) whose operability at the berth the report shows, "
+                          "relative to this file; needs berth (omit for none)",
+        json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case: the shipped "
+                                                     "two-month sample)"})
+
+    @model_validator(mode="after")
+    def _metocean_needs_berth(self) -> "Report":
+        if self.metocean is not None and self.berth is None:
+            raise ValueError("metocean needs a berth: the operability is the berth's ship in that weather")
+        return self
+
+
+class Operability(_Section):
+    """How ``loadarm operability`` judges each hourly sea state of a metocean record (issue 13)."""
+
+    connect_motion_limit: float = _param(
+        1.0, unit="m", gt=0, le=5,
+        source="the coupler's capture range with the guidance's tracking (engineering estimate; about Hs 2.5-3 m "
+               "for the example ship)",
+        description="largest significant flange motion (4 standard deviations, worst axis) at which the arm can "
+                    "still connect")
+    duration_per_state: float = _param(3600.0, unit="s", ge=10, le=3600,
+                                       source="a metocean record's hourly step (the whole hour)",
+                                       description="seconds simulated per hourly sea state")
+
+
+class Sequence(_Section):
+    """The emergency shutdown and release sequence of the berth (ESD-1 -> ERS valves closed -> ERS-2), seconds.
+
+    The connected-mode alarms are set from these times (see docs/guidance.md): the first alarm (ESD-1) must
+    leave ``max(esd_time, ers_valve_time + ers_valve_timeout) + erc_release_time + margin`` before any limit of
+    the arm, the release (ERS-2) what is left of ``ers_valve_time + ers_valve_timeout`` + ``erc_release_time +
+    margin``: until their limit switches confirm, the valves count at the worst their timeout allows.
+    """
+
+    esd_time: float = _param(30.0, unit="s", gt=0, le=60,
+                             source="IGC Code 18.10 / SIGTTO ESD guidance: ship's ESD valves closed within 30 s",
+                             description="ESD-1: transfer pumps stopped and the ESD valves of ship and shore closed "
+                                         "within this time")
+    ers_valve_time: float = _param(10.0, unit="s", gt=0, le=60,
+                                   source="conservative: suppliers quote about 5 s for the ERS double-block valves; "
+                                          "EN 1474-1 / ISO 16904: closed before the coupling releases",
+                                   description="from ESD-1 until the ERS valves' limit switches confirm them closed")
+    ers_valve_timeout: float = _param(5.0, unit="s", gt=0, le=60, source="engineering choice: half the closing time",
+                                      description="ERS valves not confirmed closed this long after ers_valve_time: "
+                                                  "valve fault alarm (the coupler stays closed)")
+    erc_release_time: float = _param(3.0, unit="s", gt=0, le=30,
+                                     source="conservative: suppliers quote 1-2 s for the powered emergency release "
+                                            "coupling (PERC)",
+                                     description="ERS-2: from the release command to the coupler free")
+    margin: float = _param(2.0, unit="s", ge=0, le=60, source="engineering margin",
+                           description="time margin added to every stage's lead time")
+    pre_alarm_lead: float = _param(30.0, unit="s", ge=0, le=600,
+                                   source="the ESD-1 time (IGC Code 18.10: 30 s): time for the operator to stop the "
+                                          "transfer in a controlled way before ESD-1 trips it (ISA-18.2 / EEMUA 191: "
+                                          "an alarm leaves time for the operator's response); 0 = no pre-alarm",
+                                   description="the pre-alarm (warning only) fires this long before ESD-1 would")
+    ers_valves_close_at: Literal["esd1", "ers2"] = Field(
+        "esd1", description="when the ERS valves are commanded closed: esd1 (with the ESD valves at ESD-1, OCIMF 1999 "
+                            "loading-arm specification) or ers2 (only at the release, SIGTTO ESD guidance); with "
+                            "ers2 the release stage leads by the whole valve time",
+        json_schema_extra={"unit": "1", "source": "OCIMF, Design and Construction Specification for Marine Loading "
+                                                  "Arms (1999); SIGTTO, ESD Arrangements and Linked Ship/Shore "
+                                                  "Systems for Liquefied Gas Carriers (2009); docs/guidance.md"})
+    drain_time: float = _param(30.0, unit="s", gt=0, le=3600,
+                               source="terminal's procedure (gravity drain or nitrogen purge of the outboard arm)",
+                               description="controlled disconnection: draining the arm after the ERS valves close")
+    unclamp_time: float = _param(10.0, unit="s", gt=0, le=120, source="hydraulic QC/DC coupler clamps",
+                                 description="controlled disconnection: opening the coupler's clamps")
+    lift_off: float = _param(0.5, unit="m", gt=0, le=5, source="clear of the ship's flange before moving away",
+                             description="controlled disconnection: the coupler first rises this far")
+
+
+class DesignDrift(_Section):
+    """The berth's design drift (Lanquetin's combined method): a floor under the speed alarms, and what
+    ``loadarm check`` proves the alarms absorb. OCIMF leaves the values to the owner, per berth."""
+
+    speed: float = _param(0.15, unit="m/s", gt=0, le=2,
+                          source="owner's per-berth choice; the paper's example drift speed",
+                          description="design drift speed of the ship, horizontal, any direction")
+    acceleration: float = _param(0.01, unit="m/s^2", gt=0, le=1,
+                                 source="owner's per-berth choice (break-out after a mooring failure); "
+                                        "engineering estimate",
+                                 description="design break-out acceleration up to the design speed")
+    vertical_speed: float = _param(0.005, unit="m/s", ge=0, le=0.5,
+                                   source="tide (about 2 m/h) plus loading, with margin",
+                                   description="design vertical speed of the flange")
+
+
+class Accumulator(_Section):
+    """The ERS accumulator: it closes the ERS valves, releases the coupler and retracts the arm clear of the
+    manifold when the HPU has tripped."""
+
+    volume: float = _param(25.0e-3, unit="m^3", gt=0, le=1,
+                           source="25 L bladder accumulator (a supplier's size): the ERS valves, the PERC and the "
+                                  "arm's retraction clear of the manifold after an HPU trip (loadarm check)",
+                           description="gas volume at precharge (nominal size)")
+    precharge: float = _param(90.0e5, unit="Pa", gt=0, le=500e5,
+                              source="about 0.9 x the minimum working pressure (usual bladder practice)",
+                              description="gas precharge pressure")
+    charged_pressure: float = _param(200.0e5, unit="Pa", gt=0, le=500e5, source="HPU pressure that charges it",
+                                     description="pressure when charged (before the HPU trips)")
+    min_pressure: float = _param(100.0e5, unit="Pa", gt=0, le=500e5,
+                                 source="lowest pressure at which the PERC and the ERS valve actuators still work",
+                                 description="minimum working pressure")
+    required_volume: float = _param(1.5e-3, unit="m^3", gt=0, le=1,
+                                    source="ERS valve actuators (about 1 L) plus the PERC's release stroke "
+                                           "(about 0.5 L): supplier's figures",
+                                    description="oil the ERS valves and the coupler's release need")
+    safety_factor: float = _param(1.5, unit="1", ge=1, le=10, source="engineering margin",
+                                  description="usable volume must be at least this times the required volume")
+    polytropic_index: float = _param(1.4, unit="1", ge=1, le=1.67,
+                                     source="adiabatic nitrogen (a fast discharge, seconds)",
+                                     description="gas expansion exponent during the discharge")
+
+    @model_validator(mode="after")
+    def _pressures(self) -> "Accumulator":
+        if not (self.precharge < self.min_pressure < self.charged_pressure):
+            raise ValueError(
+                f"accumulator pressures must satisfy precharge ({self.precharge:g}) < min_pressure "
+                f"({self.min_pressure:g}) < charged_pressure ({self.charged_pressure:g}) Pa")
+        return self
+
+
+class Transfer(_Section):
+    """The product transfer through the arm: what the surge of the ERS valves' closure at design flow is checked
+    with (``loadarm check``, :mod:`loadarm.design.surge`): the valves close with the ship's ESD valves still open and
+    the shore pumps running (OCIMF 1999: the ERS valves close at ESD-1)."""
+
+    design_flow: float = _param(4000.0 / 3600.0, unit="m^3/s", gt=0, le=10,
+                                source="a 16-inch LNG arm's rated flow, about 4000 m^3/h (supplier datasheets)",
+                                description="design flow through the arm")
+    bore: float = _param(0.3968, unit="m", gt=0, le=2, source="16-inch Sch 10S stainless pipe (ASME B36.19M: "
+                                                               "406.4 mm outside, 4.78 mm wall)",
+                         description="inner diameter of the line and the arm")
+    density: float = _param(460.0, unit="kg/m^3", gt=0, le=2000,
+                            source="LNG at -160 degC, 448-470 kg/m^3 by composition (GERG-2008)",
+                            description="product density")
+    wave_speed: float = _param(1220.0, unit="m/s", gt=0, le=3000,
+                               source="Korteweg: LNG's speed of sound 1370-1420 m/s (isentropic bulk modulus "
+                                      "about 0.9 GPa, GERG-2008) in a 16-inch Sch 10S steel line anchored upstream",
+                               description="pressure wave speed in the filled line")
+    line_length: float = _param(1000.0, unit="m", gt=0, le=20000,
+                                source="engineering estimate: shore line from the tank pumps along the trestle",
+                                description="length of the line upstream of the ERS valves")
+    friction_factor: float = _param(0.011, unit="1", ge=0, le=0.1,
+                                    source="Colebrook at Re about 1.3e7, roughness 0.015-0.045 mm",
+                                    description="Darcy friction factor of the line")
+    operating_pressure: float = _param(8.0e5, unit="Pa", ge=0, le=100e5,
+                                       source="engineering estimate: 5-10 bar g at the arm during loading",
+                                       description="gauge pressure at the ERS valves in steady flow")
+    design_pressure: float = _param(20.0e5, unit="Pa", gt=0, le=200e5,
+                                    source="LNG loading arms are rated about 15-20 bar g (supplier datasheets, "
+                                           "EN 1474-1 / ISO 16904); 20 bar g taken",
+                                    description="the arm's design pressure (gauge)")
+    closure_law: Literal["linear", "quadratic"] = Field(
+        "linear", description="how the ERS valve's effective opening falls over its closing time (the larger peak "
+                              "of the two for the defaults)",
+        json_schema_extra={"unit": "1", "source": "Wylie & Streeter, Fluid Transients in Systems (1993); a full-bore "
+                                                  "ball valve cuts the flow late in its travel: enter its own "
+                                                  "characteristic (docs/guidance.md)"})
+
+
+class Installation(_Section):
+    """One marine loading arm at one berth: everything loadarm needs to plan."""
+
+    datasheet: Datasheet
+    arm: ArmSection
+    actuators: ActuatorSection
+    alarms: Alarms = Field(default_factory=Alarms)
+    slew: Slew = Field(default_factory=Slew)
+    approach: Approach
+    sizing: SizingBounds = Field(default_factory=SizingBounds)
+    masses: Masses = Field(default_factory=Masses)
+    cylinders: Cylinders = Field(default_factory=Cylinders)
+    pump: Pump = Field(default_factory=Pump)
+    valve: Valve = Field(default_factory=Valve)
+    encoder: Encoder = Field(default_factory=Encoder)
+    controller: Controller = Field(default_factory=Controller)
+    sequence: Sequence = Field(default_factory=Sequence)
+    design_drift: DesignDrift = Field(default_factory=DesignDrift)
+    accumulator: Accumulator = Field(default_factory=Accumulator)
+    transfer: Transfer = Field(default_factory=Transfer)
+    operability: Operability = Field(default_factory=Operability)
+    report: Report = Field(default_factory=Report)
+
+
+def param_range(model: type[BaseModel], field: str) -> tuple[float | None, bool, float | None, bool, str]:
+    """A declared parameter's range and unit, from its declaration (:func:`_param`).
+
+    Parameters
+    ----------
+    model : pydantic model class
+        A section (``Operability``, ...).
+    field : str
+
+    Returns
+    -------
+    lo : float or None
+    lo_inclusive : bool
+    hi : float or None
+    hi_inclusive : bool
+    unit : str
+    """
+    info = model.model_fields[field]
+    unit = (info.json_schema_extra or {}).get("unit", "") if isinstance(info.json_schema_extra, dict) else ""
+    lo = hi = None
+    lo_incl = hi_incl = True
+    for meta in info.metadata:
+        for attr, incl, is_lo in (("gt", False, True), ("ge", True, True), ("lt", False, False), ("le", True, False)):
+            v = getattr(meta, attr, None)
+            if v is not None:
+                if is_lo:
+                    lo, lo_incl = v, incl
+                else:
+                    hi, hi_incl = v, incl
+    return lo, lo_incl, hi, hi_incl, unit
+
+
+def range_text(model: type[BaseModel], field: str) -> str:
+    """A declared parameter's range as ``[lo, hi] unit`` (brackets open where the bound is), or "" if none."""
+    lo, lo_incl, hi, hi_incl, unit = param_range(model, field)
+    if lo is None and hi is None:
+        return ""
+    left = ("[" if lo_incl else "(") + ("-inf" if lo is None else f"{lo:g}")
+    right = ("inf" if hi is None else f"{hi:g}") + ("]" if hi_incl else ")")
+    return f"{left}, {right} {unit}".rstrip()
+
+
+def in_range(model: type[BaseModel], field: str, value: float) -> bool:
+    """Whether ``value`` lies in the declared range of ``model.field`` (NaN never does)."""
+    lo, lo_incl, hi, hi_incl, _ = param_range(model, field)
+    if value != value:
+        return False
+    above = lo is None or (value >= lo if lo_incl else value > lo)
+    below = hi is None or (value <= hi if hi_incl else value < hi)
+    return above and below
+
+
+def _range_text(model: type[BaseModel], field: str) -> str:
+    text = range_text(model, field)
+    return f"valid range {text}" if text else ""
+
+
+def _section_type(ann: Any) -> type[BaseModel] | None:
+    """The model class behind a field annotation (``Section`` or ``Section | None``), else None."""
+    if isinstance(ann, type) and issubclass(ann, BaseModel):
+        return ann
+    if isinstance(ann, types.UnionType) or typing.get_origin(ann) is typing.Union:
+        found = [a for a in typing.get_args(ann) if isinstance(a, type) and issubclass(a, BaseModel)]
+        return found[0] if len(found) == 1 else None
+    return None
+
+
+def _model_at(loc: tuple[Any, ...], root: type[BaseModel] | None = None) -> tuple[type[BaseModel] | None, str | None]:
+    model: type[BaseModel] = root or Installation
+    for i, part in enumerate(loc):
+        if not isinstance(part, str) or part not in model.model_fields:
+            return (model, None) if i == len(loc) - 1 else (None, None)
+        ann = _section_type(model.model_fields[part].annotation)
+        if i == len(loc) - 1:
+            return model, part
+        if ann is not None:
+            model = ann
+        else:
+            return model, part
+    return None, None
+
+
+def _format_validation_error(err: ValidationError, source: str, root: type[BaseModel] | None = None) -> str:
+    errors = err.errors()
+    # An unknown key is reported first: a typo ('inbord') also makes the intended key missing, and the
+    # typo is what the user must see. A wrong value comes next, a missing key last.
+    e = min(errors, key=lambda x: {"extra_forbidden": 0, "missing": 2}.get(x.get("type", ""), 1))
+    loc = tuple(e.get("loc", ()))
+    key = ".".join(str(p) for p in loc) or "(top level)"
+    etype = e.get("type", "")
+    model, field = _model_at(loc, root)
+    rng = _range_text(model, field) if model is not None and field is not None else ""
+    if etype != "extra_forbidden" and field is None:
+        model = None
+    if etype == "missing":
+        what = f"missing required key '{key}'"
+        if model is not None and field is not None:
+            info = model.model_fields[field]
+            extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+            unit = extra.get("unit", "")
+            what += f" ({info.description}, {unit})" if info.description else ""
+            if rng:
+                what += f"; {rng}"
+    elif etype == "extra_forbidden":
+        what = f"unknown key '{key}'"
+        if model is not None:
+            close = difflib.get_close_matches(str(loc[-1]), list(model.model_fields), n=1, cutoff=0.6)
+            if close:
+                what += f" (did you mean '{close[0]}'?)"
+            what += f"; allowed keys: {', '.join(model.model_fields)}"
+    elif etype == "value_error":
+        msg = str(e.get("ctx", {}).get("error", e.get("msg", "")))
+        what = msg if not loc or msg.startswith(key) else f"{key}: {msg}"
+    else:
+        what = f"{key} = {e.get('input')!r}: {e.get('msg', 'invalid')}"
+        if rng:
+            what += f"; {rng}"
+    extra_count = len(errors) - 1
+    more = f" (and {extra_count} more problem{'s' if extra_count > 1 else ''})" if extra_count else ""
+    return f"{source}: {what}{more}"
+
+
+def parse_config(data: dict[str, Any], *, source: str = "<config>") -> Installation:
+    """Validate a configuration mapping (as read from TOML).
+
+    Parameters
+    ----------
+    data : dict
+        Nested mapping with the sections ``datasheet``, ``arm``, ``actuators``,
+        ``approach`` and optionally ``alarms`` and ``sizing``.
+    source : str, optional
+        Name used in error messages (usually the file name).
+
+    Returns
+    -------
+    Installation
+        The validated, immutable installation.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the key, the value given and the valid range.
+    """
+    try:
+        return Installation.model_validate(toml_values(data))
+    except ValidationError as err:
+        raise ConfigError(_format_validation_error(err, source)) from None
+
+
+def load_config(path: str | Path) -> Installation:
+    """Read and validate a TOML installation file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Returns
+    -------
+    Installation
+        The validated installation.
+
+    Raises
+    ------
+    ConfigError
+        If the file is missing, is not valid TOML, or fails validation.
+    """
+    return parse_config(read_toml(path), source=str(path))
+
+
+class SizingArm(_Section):
+    """The ``[arm]`` section as sizing reads it: the riser is required, the arm lengths are what sizing finds
+    (given, they are checked at the berth's corners as the configured arm)."""
+
+    riser: float = ArmSection.model_fields["riser"]
+    inboard: float | None = _param(None, unit="m", gt=0, le=100, source="optional for sizing",
+                                   description="configured inboard arm length b, checked against the berth")
+    outboard: float | None = _param(None, unit="m", gt=0, le=100, source="optional for sizing",
+                                    description="configured outboard arm length c, checked against the berth")
+
+    @model_validator(mode="after")
+    def _both_or_none(self) -> "SizingArm":
+        if (self.inboard is None) != (self.outboard is None):
+            given, missing = ("inboard", "outboard") if self.outboard is None else ("outboard", "inboard")
+            raise ValueError(f"arm.{given} is given without arm.{missing}: give both arm lengths to check a "
+                             "configured arm, or neither to size from the datasheet alone")
+        return self
+
+
+def _sizing_fields() -> dict[str, Any]:
+    fields: dict[str, Any] = {"datasheet": (Datasheet, ...), "arm": (SizingArm, ...)}
+    for name, info in Installation.model_fields.items():
+        if name not in fields:  # required elsewhere (actuators, approach) -> optional here; defaults kept
+            fields[name] = (info.annotation | None, None) if info.is_required() else (info.annotation, info)
+    return fields
+
+
+@functools.cache
+def sizing_case_model() -> type[BaseModel]:
+    """The ``SizingCase`` model: what ``loadarm size`` reads.
+
+    ``[datasheet]`` and ``[arm] riser`` are required, ``[alarms]`` and ``[sizing]`` have defaults; every other
+    section of an installation may be present and is then validated as usual. Built on first use (it is
+    needed by one command only, and building a pydantic model costs start-up time).
+
+    Returns
+    -------
+    type
+        A pydantic model class.
+    """
+    model = create_model("SizingCase", __base__=_Section, **_sizing_fields())
+    model.__doc__ = ("What sizing needs from an installation file: the datasheet, the riser, the alarm angles "
+                     "and the bounds; every other section is optional and validated when present.")
+    return model
+
+
+def load_sizing_case(path: str | Path) -> Any:
+    """Read a file for sizing: ``[datasheet]`` and ``[arm] riser`` are enough.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML file: a full installation, or a datasheet with the riser (plus optional ``[alarms]`` and
+        ``[sizing]``).
+
+    Returns
+    -------
+    SizingCase
+        The validated sections.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the key, the value and the valid range.
+    """
+    try:
+        return sizing_case_model().model_validate(toml_values(read_toml(path)))
+    except ValidationError as err:
+        raise ConfigError(_format_validation_error(err, str(path), sizing_case_model())) from None
+
+
+def packaged_example(name: str) -> Path:
+    """Path of an example file shipped inside the package (``paper.toml``, ``scenarios/calm.toml``...).
+
+    Parameters
+    ----------
+    name : str
+        Path relative to the package's ``examples`` folder.
+
+    Returns
+    -------
+    Path
+        A file on disk (the package is installed unzipped).
+    """
+    from importlib.resources import files
+
+    return Path(str(files("loadarm") / "examples" / name))
+
+
+def _paper_values(model: type[BaseModel]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for name, info in model.model_fields.items():
+        extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+        if "paper" in extra:
+            out[name] = extra["paper"]
+    return out
+
+
+def paper_installation() -> Installation:
+    """The paper's case (Table 1, Sections 2-5) built from the parameter declarations.
+
+    Returns
+    -------
+    Installation
+        Identical to ``examples/paper.toml``.
+    """
+    data = {
+        "datasheet": _paper_values(Datasheet),
+        "arm": _paper_values(ArmSection),
+        "actuators": _paper_values(ActuatorSection),
+        "approach": _paper_values(Approach),
+    }
+    return parse_config(data, source="paper case")
+
+
+_VALIDATOR_RANGES = {
+    "approach.stored": "finite, each in [-1000, 1000] m; must be reachable",
+    "approach.flange": "finite, each in [-1000, 1000] m; must be reachable",
+    "sizing.inboard": "0 < low <= high <= 100 m",
+    "sizing.outboard": "0 < low <= high <= 100 m",
+    "masses.balance_fills": "each in [0, 1]",
+    "cylinders.length_range_1": "0 < retracted < extended <= 50 m",
+    "cylinders.length_range_2": "0 < retracted < extended <= 50 m",
+    "controller.feedforward": "none, nominal or model",
+    "report.scenarios": "up to 50 scenario files",
+    "controller.substeps": "auto, or an integer in [1, 100]",
+}
+
+
+def _installation_sections() -> list[tuple[str, type[BaseModel]]]:
+    out = []
+    for section, info in Installation.model_fields.items():
+        model = info.annotation
+        assert isinstance(model, type) and issubclass(model, BaseModel)
+        out.append((section, model))
+    return out
+
+
+def _choices(f: Any) -> str:
+    """``one of a, b`` for a Literal field, else ``""``."""
+    args = typing.get_args(f.annotation) if typing.get_origin(f.annotation) is Literal else ()
+    return "one of " + ", ".join(str(a) for a in args) if args else ""
+
+
+def parameter_table(sections: list[tuple[str, type[BaseModel]]] | None = None) -> list[dict[str, str]]:
+    """Every declared parameter, for the configuration docs.
+
+    Parameters
+    ----------
+    sections : list of (str, model), optional
+        Key prefix and section model of each section (default: the installation's; the berth file passes its
+        own, :func:`loadarm.params.berth.berth_parameter_markdown`).
+
+    Returns
+    -------
+    list of dict
+        One row per parameter with keys ``key``, ``unit``, ``default``,
+        ``range``, ``description`` and ``source``.
+    """
+    rows = []
+    for section, model in (_installation_sections() if sections is None else sections):
+        for name, f in model.model_fields.items():
+            extra = f.json_schema_extra if isinstance(f.json_schema_extra, dict) else {}
+            if f.is_required():
+                default = f"required (paper: {extra['paper']})" if "paper" in extra else "required"
+            else:
+                default = repr(f.default)
+            rows.append({
+                "key": f"{section}.{name}",
+                "unit": str(extra.get("unit", "")),
+                "default": default,
+                "range": _range_text(model, name).removeprefix("valid range ") or _VALIDATOR_RANGES.get(
+                    f"{section}.{name}", _choices(f) or "see validator"),
+                "description": f.description or "",
+                "source": str(extra.get("source", "")),
+            })
+    return rows
+
+
+def parameter_markdown(sections: list[tuple[str, type[BaseModel]]] | None = None) -> str:
+    """The parameter table as Markdown (the body of ``docs/configuration.md``).
+
+    Parameters
+    ----------
+    sections : list of (str, model), optional
+        As for :func:`parameter_table`.
+
+    Returns
+    -------
+    str
+        A Markdown table, one row per parameter.
+    """
+    def esc(text: str) -> str:
+        return text.replace("|", "\\|")
+
+    lines = ["| key | unit | default | valid range | description | source |", "|---|---|---|---|---|---|"]
+    for r in parameter_table(sections):
+        lines.append("| `{}` | {} | {} | {} | {} | {} |".format(
+            r["key"], esc(r["unit"]), esc(r["default"]), esc(r["range"]), esc(r["description"]), esc(r["source"])))
+    return "\n".join(lines) + "\n"
+
+
+def example_toml() -> str:
+    """``examples/full.toml``: every key with the paper's case and the defaults, commented.
+
+    Returns
+    -------
+    str
+        TOML text that loads back to :func:`paper_installation`.
+    """
+    inst = paper_installation()
+    rows = {r["key"]: r for r in parameter_table()}
+
+    def fmt(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return f'"{v}"'
+        if isinstance(v, (tuple, list)):
+            return "[" + ", ".join(fmt(x) for x in v) + "]"
+        return repr(float(v)) if isinstance(v, float) else repr(v)
+
+    lines = ["# Every key loadarm reads, with the paper's case and the documented defaults.",
+             "# Generated from the parameter declarations (python -m loadarm.params.config --example); SI units.",
+             "# examples/paper.toml is the short form: anything left out takes these defaults.", ""]
+    for section in Installation.model_fields:
+        sec = getattr(inst, section)
+        lines.append(f"[{section}]")
+        for key in type(sec).model_fields:
+            r = rows[f"{section}.{key}"]
+            value = getattr(sec, key)
+            if value is None:                     # TOML has no null: an optional key left out, shown commented
+                lines.append(f"# {key} = (not set)  # {r['unit']}: {r['description']}")
+            else:
+                lines.append(f"{key} = {fmt(value)}  # {r['unit']}: {r['description']}")
+        lines.append("")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":  # pragma: no cover - regenerates docs/configuration.md's table and examples/full.toml
+    import sys
+
+    print(example_toml() if "--example" in sys.argv else parameter_markdown(), end="")

@@ -1,2 +1,0 @@
-"""Beside a real PLC (issue 14): the guidance controller served over OPC UA, secure by default. See
-``docs/plant-integration.md``."""

@@ -1,0 +1,224 @@
+"""``make docs``: regenerate everything in the docs that the code produces.
+
+* the figures in ``docs/img`` that the docs show, drawn from the paper's case with the report's own
+  builders (:data:`loadarm.present.report.FIGURES`), so a figure in the docs is the figure the report draws;
+* the parameter tables of ``docs/configuration.md`` and ``docs/ship-motion.md`` (the berth file) and
+  ``examples/full.toml``, from the declarations.
+
+Console blocks are not generated: ``tests/test_docs.py`` runs every one and compares. ``tests/test_docs.py``
+also redraws every figure and compares it with the committed PNG (``--check`` does the same here).
+
+Run ``python -m loadarm.present.docsgen [--check]`` from the repository root.
+"""
+
+from __future__ import annotations
+
+import sys
+import shutil
+from pathlib import Path
+from loadarm.params.config import load_config, packaged_example
+from loadarm.present.report import ReportData
+from loadarm.figures import save
+from loadarm.present.report import figure_builders
+from loadarm.testing.browser import launch, scenario_screen, tour
+from loadarm.opcua.security import Role, StateDir
+from loadarm.params.berth import berth_parameter_markdown
+from loadarm.params.config import example_toml, parameter_markdown
+from loadarm.testing.browser import find_chromium
+from loadarm.opcua.plc import tags_markdown
+from loadarm.opcua.server import address_space_markdown
+
+__all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "render_doc_figures", "hmi_screenshots", "regenerate",
+           "compare_figures"]
+
+#: The figures the docs show (file names in docs/img); the paper's case draws them.
+DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
+               "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
+               "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
+               "operability.png")
+
+#: The operator's screen in docs/hmi.md: screenshots a real browser takes of the scripted drift-off
+#: (:func:`hmi_screenshots`; not compared pixel by pixel: a live screen's clock and noise differ each run).
+HMI_SCREENSHOTS = ("hmi-approach.png", "hmi-connected.png", "hmi-alarm1.png", "hmi-release.png")
+
+#: Root-mean-square difference (0-255 grey levels) tolerated between a committed and a redrawn figure:
+#: anti-aliasing may differ by a pixel across FreeType builds; any change of a curve, label or legend is far
+#: above it (a one-line change of a legend measured 2-6).
+FIGURE_TOLERANCE = 0.5
+
+
+def _paper_data():
+
+    source = packaged_example("paper.toml")
+    return ReportData(load_config(source), source)
+
+
+def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:
+    """Draw the docs' figures from the paper's case into ``dest``.
+
+    Parameters
+    ----------
+    dest : str or Path
+        Output folder.
+    names : sequence of str
+        Which figures (default: all of :data:`DOC_FIGURES`).
+
+    Returns
+    -------
+    dict of str to Path
+        The files written.
+    """
+
+    data = _paper_data()
+    builders = figure_builders(data)
+    out = {}
+    for name in names:
+        out[name] = save(builders[name][0](data), Path(dest) / name)
+    return out
+
+
+def compare_figures(committed: str | Path, fresh: dict[str, Path], tol: float = FIGURE_TOLERANCE) -> list[str]:
+    """Names of the figures that differ from the committed ones (or are missing), with the RMS difference.
+
+    Parameters
+    ----------
+    committed : str or Path
+        Folder of the committed figures (``docs/img``).
+    fresh : dict of str to Path
+        Freshly drawn figures by name.
+    tol : float
+        RMS tolerance, grey levels.
+
+    Returns
+    -------
+    list of str
+        One line per figure that does not match; empty when all match.
+    """
+    from matplotlib.testing.compare import compare_images
+
+    bad = []
+    for name, path in fresh.items():
+        ref = Path(committed) / name
+        if not ref.exists():
+            bad.append(f"{name}: not committed")
+            continue
+        res = compare_images(str(ref), str(path), tol, in_decorator=True)
+        if res is not None:
+            bad.append(f"{name}: RMS {res['rms']:.2f} > {tol}")
+    return bad
+
+
+def hmi_screenshots(dest: str | Path, *, speedup: float = 4.0) -> list[Path]:
+    """Screenshots of the operator's screen in each mode of the scripted drift-off (the hydraulic plant, at
+    ``speedup``), taken in Debian's Chromium; only :data:`HMI_SCREENSHOTS` are kept.
+
+    Parameters
+    ----------
+    dest : str or Path
+        Where they go.
+    speedup : float
+        Run seconds per wall second.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Raises
+    ------
+    FileNotFoundError
+        No Chromium (the message says how to install it).
+    """
+    import tempfile
+
+    from playwright.sync_api import sync_playwright
+
+
+    dest = Path(dest)
+    with tempfile.TemporaryDirectory() as tmp:
+        st = StateDir(Path(tmp) / "state")
+        st.users().add("operator", Role.OPERATOR, "docs-only")
+        with scenario_screen(Path(__file__).parent / "examples" / "scenarios" / "driftoff.toml", st.path,
+                             speedup=speedup) as (_service, server), sync_playwright() as p:
+            browser = launch(p)
+            page = browser.new_page(viewport={"width": 1400, "height": 900})
+            got = tour(page, server.url, "operator", "docs-only", Path(tmp))
+            browser.close()
+        out = []
+        for name in HMI_SCREENSHOTS:
+            shot = Path(tmp) / name
+            if not shot.exists():
+                raise RuntimeError(f"the screen never showed {name} (modes seen: {got['modes']})")
+            dest.mkdir(parents=True, exist_ok=True)
+            out.append(Path(shutil.copy(shot, dest / name)))
+    return out
+
+
+def regenerate(root: str | Path = ".") -> list[Path]:
+    """Rewrite the generated parts of the docs under ``root``.
+
+    Parameters
+    ----------
+    root : str or Path
+        Repository root.
+
+    Returns
+    -------
+    list of Path
+        Files written.
+    """
+
+    root = Path(root)
+    written = list(render_doc_figures(root / "docs" / "img").values())
+
+    if find_chromium() is not None:
+        written += hmi_screenshots(root / "docs" / "img")
+    else:
+        print("docs/img/hmi-*.png kept: no Chromium to take them (apt-get install chromium)")
+
+    variables, methods = address_space_markdown()
+    plant = root / "docs" / "plant-integration.md"
+    tables = [(root / "docs" / "configuration.md", parameter_markdown(), "| key | unit | default |"),
+              (root / "docs" / "ship-motion.md", berth_parameter_markdown(), "| key | unit | default |"),
+              (plant, variables, "| variable | unit | range |"), (plant, methods, "| method | arguments |"),
+              (plant, tags_markdown(), "| tag | direction |")]
+    for page, table, header in tables:
+        text = page.read_text(encoding="utf-8")
+        a = text.index(header)
+        b = text.find("\n\n", a)
+        text = text[:a] + table.rstrip("\n") + (text[b:] if b >= 0 else "\n")
+        page.write_text(text, encoding="utf-8")
+    full = root / "examples" / "full.toml"
+    full.write_text(example_toml(), encoding="utf-8")
+    return [*written, *dict.fromkeys(page for page, _, _ in tables), full]
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m loadarm.present.docsgen [--check]``.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        ``["--check"]`` compares instead of writing.
+
+    Returns
+    -------
+    int
+        0 when written (or, with ``--check``, when everything matches), 1 otherwise.
+    """
+    import tempfile
+
+    args = sys.argv[1:] if argv is None else argv
+    if "--check" in args:
+        with tempfile.TemporaryDirectory() as tmp:
+            bad = compare_figures(Path("docs") / "img", render_doc_figures(tmp))
+        for line in bad:
+            print(line)
+        return 1 if bad else 0
+    for p in regenerate("."):
+        print(f"wrote {p}")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

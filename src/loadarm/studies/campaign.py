@@ -1,0 +1,431 @@
+"""Campaigns: one scenario over many seeds and parameter draws, on every core.
+
+A campaign proves the safety chain statistically: each run is the full closed loop (:func:`run_scenario`) with
+its own seed (waves, sensor noise, outliers) and, for each ``--vary key=lo:hi``, a value drawn uniformly from
+the range (seeded too, so a campaign is repeatable). Keys are dotted scenario keys (``drift.speed``,
+``operator.estop_at``) or installation keys prefixed ``installation.`` (``installation.sequence.margin``).
+
+Every run is judged on what matters at the jetty:
+
+* **overstretch**: the attached arm was driven past a face of its envelope (the failure the alarms exist for);
+* **overstretch before isolation**: of those, the ones before the ERS valves were confirmed closed (product still
+  live in the arm: the worst case, a spill);
+* **opened on live product**: the coupler began to open before the ERS valves were confirmed closed;
+* **false alarm**: the first alarm (ESD-1) or worse was raised in a run where the flange never reaches a face
+  (in the run, or on its own trajectory up to 10 minutes after it);
+* **missed alarm**: the flange reached a face in the run and the release had not completed before it;
+* **release margin**: from the release complete to the flange's crossing of the face, s;
+* **exposure**: the runs that connected and the time connected (what a count of false alarms is out of).
+
+Runs go to a process pool in batches (a task costs about a millisecond; a run seconds), with a progress
+callback for the bar.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from loadarm.errors import ConfigError
+from loadarm.results import Metric, Result
+from loadarm.sim.loop import run_scenario
+from loadarm.ship.model import moored_ship
+from loadarm.studies.cluster import connect_scheduler
+from loadarm.params.config import paper_installation, read_toml
+from loadarm.params.scenario import parse_scenario
+from loadarm.params.config import parse_config
+from loadarm.params.scenario import Scenario
+from loadarm.params.compiler import compile_model
+from loadarm.params.scenario import check_scenario
+from loadarm.params.scenario import resolve_berth
+from loadarm.figures import subplots
+
+__all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign"]
+
+
+@dataclass(frozen=True, slots=True)
+class Vary:
+    """One parameter drawn uniformly in ``[lo, hi]`` for every run.
+
+    Attributes
+    ----------
+    key : str
+        Dotted key: a scenario key (``drift.speed``) or ``installation.<section>.<key>``.
+    lo, hi : float
+        The range.
+    """
+
+    key: str
+    lo: float
+    hi: float
+
+
+def parse_vary(text: str) -> Vary:
+    """Parse ``key=lo:hi``.
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    Vary
+
+    Raises
+    ------
+    ConfigError
+        Malformed text, non-finite bounds or ``lo > hi``.
+    """
+    key, eq, rng = text.partition("=")
+    lo_s, colon, hi_s = rng.partition(":")
+    try:
+        if not (eq and colon and key.strip()):
+            raise ValueError
+        lo, hi = float(lo_s), float(hi_s)
+    except ValueError:
+        raise ConfigError(f"--vary must be key=lo:hi (e.g. drift.speed=0.1:0.3), got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+        raise ConfigError(f"--vary {key.strip()}: the range must be finite with lo <= hi, got {lo_s}:{hi_s}")
+    return Vary(key.strip(), lo, hi)
+
+
+def _set(data: dict, dotted: str, value: float, source: str) -> None:
+    parts = dotted.split(".")
+    node = data
+    for part in parts[:-1]:
+        node = node.setdefault(part, {})
+        if not isinstance(node, dict):
+            raise ConfigError(f"{source}: --vary {dotted}: {part} is not a section")
+    node[parts[-1]] = value
+
+
+@dataclass(frozen=True, slots=True)
+class CampaignRun:
+    """The verdict on one run.
+
+    Attributes
+    ----------
+    seed : int
+        The run's seed.
+    draws : dict of str to float
+        The varied parameters' values.
+    overstretched : bool
+    overstretched_before_isolation : bool
+        Overstretched before the ERS valves were confirmed closed (or with none).
+    opened_on_live_product : bool
+    false_alarm : bool
+    missed_alarm : bool
+    alarm1_s, release_complete_s, limit_s : float or None
+        First alarm, release complete and the flange's first crossing of a face, s.
+    release_margin_s : float or None
+        ``limit_s - release_complete_s``.
+    limit_face : str
+        The face crossed.
+    connected_s : float
+        Time the coupler was on the flange, s (the exposure a false-alarm count is out of).
+    """
+
+    seed: int
+    draws: dict
+    overstretched: bool
+    overstretched_before_isolation: bool
+    opened_on_live_product: bool
+    false_alarm: bool
+    missed_alarm: bool
+    alarm1_s: float | None
+    release_complete_s: float | None
+    limit_s: float | None
+    release_margin_s: float | None
+    limit_face: str
+    connected_s: float = 0.0
+
+
+def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
+    """The verdict from a run's summary values (its failures are the run's own, :meth:`RunResult.failures`)."""
+    fails = set(v["failures"])
+    limit, done, alarm1 = v["limit_s"], v["release_complete_s"], v["alarm1_s"]
+    return CampaignRun(
+        seed=seed, draws=draws,
+        overstretched=bool(fails & {"overstretch", "overstretch_before_isolation"}),
+        overstretched_before_isolation="overstretch_before_isolation" in fails,
+        opened_on_live_product="opened_on_live_product" in fails,
+        false_alarm=bool(alarm1 is not None and limit is None),
+        missed_alarm="missed_alarm" in fails,
+        alarm1_s=alarm1, release_complete_s=done, limit_s=limit, release_margin_s=v["release_margin_s"],
+        limit_face=v["limit_face"], connected_s=v["connected_s"])
+
+
+class _Draw:
+    """The scenario file and its installation, read once; :meth:`build` applies one run's seed and draws."""
+
+    def __init__(self, scenario: str):
+
+        self.scenario = scenario
+        path = Path(scenario)
+        self.raw = read_toml(path, "scenario")
+
+        # validated first, so that a malformed file is refused in one line before any key is looked up (found by
+        # the fuzz suite: `scenario = 0.0` raised AttributeError)
+        inst_file = parse_scenario(self.raw, source=scenario).scenario.installation
+        self.inst_source = "installation" if inst_file is None else str(path.parent / inst_file)
+        self.inst_raw = paper_installation().model_dump() if inst_file is None else read_toml(path.parent / inst_file)
+
+    def check_keys(self, draws: dict) -> None:
+        """Every varied key names an existing numeric parameter."""
+
+        inst_full = parse_config(self.inst_raw, source=self.inst_source).model_dump()
+        for key in draws:
+            if key.startswith("installation."):
+                _check_key(key.removeprefix("installation."), inst_full, self.inst_source)
+            else:
+                _check_key(key, Scenario().model_dump(), self.scenario)
+
+    def build(self, seed: int | None, draws: dict):
+        """The scenario and the compiled installation of one run (validated and cross-checked)."""
+
+        sc_data, inst_data = copy.deepcopy(self.raw), copy.deepcopy(self.inst_raw)
+        for key, value in draws.items():
+            if key.startswith("installation."):
+                _set(inst_data, key.removeprefix("installation."), value, self.inst_source)
+            else:
+                _set(sc_data, key, value, self.scenario)
+        if seed is not None:
+            _set(sc_data, "scenario.seed", seed, self.scenario)
+
+        sc = resolve_berth(parse_scenario(sc_data, source=self.scenario), self.scenario)
+        model = compile_model(parse_config(inst_data, source=self.inst_source), source=self.inst_source)
+        check_scenario(sc, model, source=self.scenario)
+        return sc, model
+
+
+def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -> list[CampaignRun]:
+    """Worker: run a batch of (seed, draws) of one scenario file."""
+
+
+    draw = _Draw(scenario)
+    results = []
+    ships: dict = {}                      # the moored ship compiled once per berth file in a batch
+    for seed, draws in jobs:
+        sc, model = draw.build(seed, draws)
+        ship = None
+        if sc.ship.model == "moored":
+            ship = ships.get(sc.ship.berth) or ships.setdefault(sc.ship.berth, moored_ship(sc))
+        res = run_scenario(sc, model, plant=plant, ship=ship)
+        results.append(_judge(seed, draws, res._values()))
+    return results
+
+
+#: The headline numbers of a campaign, declared once.
+CAMPAIGN_METRICS = (
+    Metric("scenario", "scenario"),
+    Metric("runs", "runs", "", "d"),
+    Metric("connected_runs", "runs that connected", "", "d"),
+    Metric("connected_h", "time connected, all runs", "h", ".1f"),
+    Metric("overstretches", "overstretches", "", "d"),
+    Metric("overstretches_before_isolation", "overstretch before isolation (product live)", "", "d"),
+    Metric("opened_on_live_product", "coupler opened before the ERS valves closed", "", "d"),
+    Metric("false_alarms", "false alarms (ESD-1 without reaching a face)", "", "d"),
+    Metric("missed_alarms", "missed alarms (face reached before the release completed)", "", "d"),
+    Metric("releases", "releases", "", "d"),
+    Metric("margin_min_s", "release margin, min", "s", ".2f", none="-"),
+    Metric("margin_p5_s", "release margin, 5th percentile", "s", ".2f", none="-"),
+    Metric("margin_median_s", "release margin, median", "s", ".2f", none="-"),
+    Metric("margin_max_s", "release margin, max", "s", ".2f", none="-"),
+    Metric("lead_median_s", "first alarm to the face, median", "s", ".1f", none="-"),
+)
+
+
+@dataclass(frozen=True)
+class CampaignResult(Result):
+    """All runs of a campaign and their statistics.
+
+    Attributes
+    ----------
+    scenario : str
+        Scenario file.
+    varied : tuple of Vary
+        The varied parameters.
+    runs : tuple of CampaignRun
+        In seed order.
+    """
+
+    scenario: str
+    varied: tuple
+    runs: tuple = field(repr=False)
+
+    METRICS = CAMPAIGN_METRICS
+
+    def _values(self) -> dict:
+        runs = self.runs
+        margins = np.array([r.release_margin_s for r in runs if r.release_margin_s is not None])
+        leads = np.array([r.limit_s - r.alarm1_s for r in runs if r.limit_s is not None and r.alarm1_s is not None])
+
+        def q(a, p):
+            return float(np.percentile(a, p)) if a.size else None
+
+        worst = sorted((r for r in runs if r.release_margin_s is not None), key=lambda r: r.release_margin_s)[:5]
+        return {
+            "scenario": self.scenario,
+            "runs": len(runs),
+            "connected_runs": sum(r.connected_s > 0 for r in runs),
+            "connected_h": sum(r.connected_s for r in runs) / 3600.0,
+            "varied": [f"{v.key}={v.lo:g}:{v.hi:g}" for v in self.varied],
+            "overstretches": sum(r.overstretched for r in runs),
+            "overstretches_before_isolation": sum(r.overstretched_before_isolation for r in runs),
+            "opened_on_live_product": sum(r.opened_on_live_product for r in runs),
+            "false_alarms": sum(r.false_alarm for r in runs),
+            "missed_alarms": sum(r.missed_alarm for r in runs),
+            "releases": sum(r.release_complete_s is not None for r in runs),
+            "margin_min_s": q(margins, 0), "margin_p5_s": q(margins, 5), "margin_median_s": q(margins, 50),
+            "margin_max_s": q(margins, 100),
+            "lead_median_s": q(leads, 50),
+            "failed_seeds": [r.seed for r in runs if r.overstretched or r.opened_on_live_product or r.missed_alarm],
+            "false_alarm_seeds": [r.seed for r in runs if r.false_alarm],
+            "worst": [{"seed": r.seed, "release_margin_s": r.release_margin_s, "face": r.limit_face, **r.draws}
+                      for r in worst],
+        }
+
+    def _figure(self):
+
+        fig, ax = subplots(figsize=(7, 3.5))
+        m = [r.release_margin_s for r in self.runs if r.release_margin_s is not None]
+        if m:
+            ax.hist(m, bins=min(40, max(5, len(m) // 5)), color="0.5", edgecolor="0.2")
+        ax.axvline(0.0, color="tab:red", lw=1.5, label="face reached at release complete")
+        ax.set_xlabel("release margin: release complete to the flange's crossing of a face, s")
+        ax.set_ylabel("runs")
+        ax.set_title(f"{Path(self.scenario).name}: {len(self.runs)} runs, {len(m)} releases")
+        ax.legend(loc="upper right", fontsize=8)
+        fig.tight_layout()
+        return fig
+
+
+def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (), first_seed: int = 0,
+                 plant: str | None = None, workers: int | None = None, batch: int | None = None,
+                 progress: Callable[[int, int], None] | None = None, scheduler: str | None = None) -> CampaignResult:
+    """Run a scenario over ``seeds`` seeds and parameter draws.
+
+    Parameters
+    ----------
+    scenario : str or Path
+        Scenario TOML.
+    seeds : int
+        Number of runs (seeds ``first_seed .. first_seed + seeds - 1``).
+    vary : sequence of Vary
+        Parameters drawn uniformly per run (seeded with the run's seed).
+    first_seed : int
+        First seed.
+    plant : {'hydraulic', 'kinematic'}, optional
+        Arm plant (default: the scenario's).
+    workers : int, optional
+        Processes (default: every core; 1 runs in this process).
+    batch : int, optional
+        Runs per task (default: enough for about four tasks per worker).
+    progress : callable, optional
+        ``progress(done, total)`` after each batch.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``): the batches run on its workers (which need
+        loadarm and see the same files) instead of a local process pool; a batch whose worker dies is run again.
+
+    Returns
+    -------
+    CampaignResult
+
+    Raises
+    ------
+    ConfigError
+        A bad scenario, installation or varied key (checked on the first draw before anything is spread out).
+    """
+    jobs = _jobs(seeds, vary, first_seed)
+    scenario = str(scenario)
+    _validate(scenario, jobs[0], plant)
+    workers = max(1, os.cpu_count() or 1) if workers is None else max(1, workers)
+    batch = max(1, math.ceil(len(jobs) / (4 * workers))) if batch is None else max(1, batch)
+    chunks = [jobs[i:i + batch] for i in range(0, len(jobs), batch)]
+    done: list[CampaignRun] = []
+    if scheduler is not None:
+        from distributed import as_completed as dask_completed
+
+
+        path = str(Path(scenario).resolve())
+        with connect_scheduler(scheduler) as client:
+            futures = [client.submit(_run_batch, path, plant, chunk, retries=2, pure=False) for chunk in chunks]
+            for fut in dask_completed(futures):
+                done.extend(fut.result())
+                if progress is not None:
+                    progress(len(done), len(jobs))
+    elif workers == 1:
+        for chunk in chunks:
+            done.extend(_run_batch(scenario, plant, chunk))
+            if progress is not None:
+                progress(len(done), len(jobs))
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = [pool.submit(_run_batch, scenario, plant, chunk) for chunk in chunks]
+            for fut in as_completed(futures):
+                done.extend(fut.result())
+                if progress is not None:
+                    progress(len(done), len(jobs))
+    return CampaignResult(scenario, tuple(vary), tuple(sorted(done, key=lambda r: r.seed)))
+
+
+def _jobs(seeds: int, vary: Sequence[Vary], first_seed: int) -> list[tuple[int, dict]]:
+    """Each run's seed and draws (seeded by the run's seed, so the same on any pool)."""
+    if seeds < 1:
+        raise ConfigError(f"--seeds must be at least 1, got {seeds}")
+    jobs = []
+    for seed in range(first_seed, first_seed + seeds):
+        rng = np.random.default_rng([seed, 0x5EED])
+        jobs.append((seed, {v.key: float(rng.uniform(v.lo, v.hi)) for v in vary}))
+    return jobs
+
+
+def check_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (), first_seed: int = 0,
+                   plant: str | None = None) -> None:
+    """Refuse a campaign's bad input without running it (what :func:`run_campaign` checks first).
+
+    Parameters
+    ----------
+    scenario, seeds, vary, first_seed, plant
+        As for :func:`run_campaign`.
+
+    Raises
+    ------
+    ConfigError
+    """
+    _validate(str(scenario), _jobs(seeds, vary, first_seed)[0], plant)
+
+
+def _validate(scenario: str, job: tuple[int, dict], plant: str | None) -> None:
+    """Refuse bad input before forking: the keys, then the scenario with the first draw (no run)."""
+    if plant not in (None, "hydraulic", "kinematic"):
+        raise ConfigError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
+    draw = _Draw(scenario)
+    draw.check_keys(job[1])
+    draw.build(job[0], job[1])
+
+
+def _check_key(dotted: str, reference: dict, source: str) -> None:
+    """A varied key must name an existing numeric parameter (a typo is not silently a new key)."""
+    import difflib
+
+    node = reference
+    parts = dotted.split(".")
+    for i, part in enumerate(parts):
+        if not isinstance(node, dict) or part not in node:
+            options = list(node) if isinstance(node, dict) else []
+            hint = difflib.get_close_matches(part, options, n=1)
+            where = ".".join(parts[:i]) or "the top level"
+            raise ConfigError(f"{source}: --vary {dotted}: no key {part!r} in {where}"
+                              + (f" (did you mean {hint[0]!r}?)" if hint else f"; keys: {', '.join(options)}"))
+        node = node[part]
+    if isinstance(node, bool) or not (isinstance(node, (int, float)) or node is None):
+        raise ConfigError(f"{source}: --vary {dotted}: not a numeric parameter (value {node!r})")

@@ -357,12 +357,12 @@ def test_log_hides_samples_unless_asked_and_says_where_the_png_went(capsys, tmp_
 
 
 def test_internal_error_is_one_line_exit_1(capsys, monkeypatch):
-    import loadarm.design.sizing
+    import loadarm.cli.sizing
 
     def boom(*a, **k):
         raise ZeroDivisionError("a bug")
 
-    monkeypatch.setattr(loadarm.design.sizing, "size_installation", boom)
+    monkeypatch.setattr(loadarm.cli.sizing, "size_installation", boom)
     monkeypatch.delenv("LOADARM_DEBUG", raising=False)
     code, _, err = run(capsys, "size", "-c", CFG)
     assert code == 1 and err.count("\n") == 1

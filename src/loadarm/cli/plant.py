@@ -1,0 +1,279 @@
+"""``loadarm serve``, ``loadarm plc-sim`` and ``loadarm trust``: beside a real PLC, over OPC UA, with the\noperator's screen."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from loadarm.cli.common import ForceOpt, UserError, _latest_run, _model, _outputs, out
+from loadarm.params.scenario import Scenario, check_scenario, load_scenario
+from loadarm.params.config import in_range, range_text
+from loadarm.params.scenario import ScenarioHead
+from loadarm.eventlog import EventLog
+from loadarm.sim.loop import ClosedLoop
+from loadarm.opcua.security import thumbprint, _load_certificate
+from loadarm.opcua.server import OpcUaServer
+from loadarm.opcua.service import GuidanceService
+from loadarm.hmi.app import parse_hmi_address
+from loadarm.files import read_input
+from loadarm.opcua.plc import PlcLink, load_tag_map
+from loadarm.hmi.app import HmiServer, create_app
+from loadarm.hmi.replay import ReplayService
+from loadarm.opcua.security import StateDir
+from loadarm.opcua.plc import PlcServer, PlcSimulator
+
+__all__ = ["app"]
+
+app = typer.Typer()
+
+
+def _check_endpoint(name: str, value: str) -> None:
+    from urllib.parse import urlparse
+
+    url = urlparse(value)
+    if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
+        raise UserError(f"{name} must be opc.tcp://HOST:PORT, got {value!r}")
+
+
+def _realtime_scenario(scenario: Optional[Path], config: Optional[Path], speedup: float, command: str,
+                       duration: float | None = None):
+    """The scenario and its model (``--config``'s if given, checked against it) of a real-time command; without
+    a scenario, the default one (``duration`` long, if given) on ``--config``'s installation."""
+
+    if not speedup > 0 or not math.isfinite(speedup):
+        raise UserError(f"--speedup must be a positive number, got {speedup!r}")
+    if scenario is None:
+        if config is None:
+            raise UserError(f"{command} without --scenario needs --config (the installation)")
+
+        if duration is not None and not in_range(ScenarioHead, "duration", duration):
+            raise UserError(f"--duration must be in {range_text(ScenarioHead, 'duration')}, got {duration!r}")
+        model = _model(config)
+        head = {"name": config.stem} if duration is None else {"name": config.stem, "duration": duration}
+        sc = Scenario.model_validate({"scenario": head})
+        check_scenario(sc, model, source=f"the default scenario on {config}")
+        return sc, model
+    sc, model = load_scenario(scenario)
+    if config is not None:
+        model = _model(config)
+        check_scenario(sc, model, source=str(scenario))
+    return sc, model
+
+
+@app.command()
+def serve(
+    scenario: Annotated[Optional[Path], typer.Option(
+        "--scenario", "-s", help="Scenario TOML: the simulated plant, ship and sensor the controller runs against "
+                                 "(with --plc: only its [guidance] and [sensor] settings and its length).")] = None,
+    config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the "
+                                                                          "scenario's).")] = None,
+    endpoint: Annotated[str, typer.Option("--endpoint", help="OPC UA endpoint to listen on (loopback unless "
+                                                             "told otherwise).")] = "opc.tcp://127.0.0.1:4840",
+    state_dir: Annotated[Path, typer.Option("--state-dir", help="Certificates, trust list and users (made on "
+                                                                "first start).")] = Path("loadarm-state"),
+    insecure: Annotated[bool, typer.Option("--insecure", help="Also offer the unsecured endpoint (a lab "
+                                                              "only).")] = False,
+    scripted: Annotated[bool, typer.Option("--scripted", help="The scenario's operator acts too (a "
+                                                              "demonstration).")] = False,
+    db: Annotated[Path, typer.Option("--db", help="SQLite event log (operator actions with the user's "
+                                                  "name).")] = Path("loadarm-events.db"),
+    speedup: Annotated[float, typer.Option("--speedup", help="Run seconds per wall second.")] = 1.0,
+    plc: Annotated[Optional[str], typer.Option("--plc", help="A PLC's OPC UA endpoint (loadarm plc-sim, or a "
+                                                             "real one): the plant is read from and "
+                                                             "commanded through it.")] = None,
+    plc_cert: Annotated[Optional[Path], typer.Option("--plc-cert", help="The PLC's certificate (DER or "
+                                                                        "PEM), as you trust it.")] = None,
+    plc_user: Annotated[str, typer.Option("--plc-user", help="The PLC's user for the controller.")] = "controller",
+    plc_password_file: Annotated[Optional[Path], typer.Option(
+        "--plc-password-file", help="File whose first line is that user's password.")] = None,
+    plc_map: Annotated[Optional[Path], typer.Option("--plc-map", help="Where each tag is on the PLC (TOML; "
+                                                                      "default loadarm plc-sim's nodes).")] = None,
+    hmi: Annotated[Optional[str], typer.Option("--hmi", help="Serve the operator's web screen on HOST:PORT "
+                                                             "(e.g. 127.0.0.1:8080; loopback unless told "
+                                                             "otherwise).")] = None,
+    replay: Annotated[Optional[Path], typer.Option("--replay", help="Replay a logged run on the screen (an "
+                                                                    "event log; needs --hmi) instead of "
+                                                                    "running the controller.")] = None,
+    run_id: Annotated[Optional[str], typer.Option("--run", help="The run to replay (default the latest).")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """Run the guidance controller in real time against a scenario's simulated plant (or a PLC) and serve it over
+    OPC UA (Basic256Sha256 / Aes128 / Aes256, SignAndEncrypt; users and roles from STATE_DIR/users.toml;
+    client certificates trusted from STATE_DIR/pki/trusted). With --plc and no --scenario it runs until
+    stopped, with the default guidance and sensor settings, on --config's installation. Ctrl-C stops.
+
+    Example: loadarm serve --scenario examples/scenarios/driftoff.toml --state-dir out/state
+    """
+
+    _check_endpoint("--endpoint", endpoint)
+    hmi_address = None
+    if hmi is not None:
+
+        try:
+            hmi_address = parse_hmi_address(hmi)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    if replay is not None:
+        return _serve_replay(replay, run_id, scenario, config, state_dir, hmi_address)
+    if plc is not None:
+        _check_endpoint("--plc", plc)
+        if plc_cert is None or plc_password_file is None:
+            raise UserError("--plc needs --plc-cert (the PLC's certificate) and --plc-password-file")
+    elif scenario is None:
+        raise UserError("serve needs --scenario (a simulated plant) or --plc (a PLC's endpoint)")
+    if scripted and scenario is None:
+        raise UserError("--scripted needs --scenario (its operator is the scenario's)")
+    sc, model = _realtime_scenario(scenario, config, speedup, "serve --plc")
+    inst_file = None if scenario is None or sc.scenario.installation is None \
+        else scenario.parent / sc.scenario.installation
+    _outputs({"--db": db}, [scenario, inst_file, config], force, appended=("--db",))
+    from datetime import datetime, timezone
+
+    run_id = f"serve:{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
+    link = None
+    interrupted = False
+    if plc is not None:
+
+        tags = load_tag_map(plc_map) if plc_map is not None else None
+        lines = read_input(plc_password_file, "password file").splitlines()
+        if not lines or not lines[0]:
+            raise UserError(f"--plc-password-file {plc_password_file}: its first line is empty")
+        link = PlcLink(plc, state_dir, plc_user, lines[0], plc_cert, tags=tags)
+        link.start()
+    log = EventLog(db, run=run_id)
+    try:
+        loop = ClosedLoop(sc, model, log=log, scripted=scripted, io=link,
+                          continuous=scenario is None)
+        service = GuidanceService(loop, speedup=speedup)
+        server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)
+        server.start()
+        screen = None
+        try:
+            if hmi_address is not None:
+
+                screen = HmiServer(create_app(service, state_dir, model, name=sc.scenario.name), *hmi_address)
+                try:
+                    screen.start()
+                except OSError as exc:
+                    raise UserError(str(exc)) from None
+                out.print(f"operator's screen on {screen.url} (users from {server.state.users_file})")
+            cert = _load_certificate(server.state.cert)
+            out.print(f"OPC UA server on {endpoint} ({'with' if insecure else 'no'} unsecured endpoint); "
+                      f"certificate {server.state.cert} (SHA-1 {thumbprint(cert)})")
+            users = server.state.users()
+            out.print(f"{len(users)} user(s) in {server.state.users_file}; trusted clients in {server.state.trusted}")
+            if len(users) == 0:
+                out.print(f"no one can log in yet: add a user with loadarm user add NAME --role operator "
+                          f"--state-dir {state_dir}", soft_wrap=True)
+            out.print(f"events to {db} (run {run_id}); Ctrl-C stops")
+            try:
+                service.run()
+            except KeyboardInterrupt:        # the documented way to stop: say where, then exit 130
+                interrupted = True
+        finally:
+            if screen is not None:
+                screen.stop()
+            server.stop()
+    finally:
+        log.close()
+        if link is not None:
+            link.stop()
+    snap = service.snapshot()
+    if snap is not None:
+        out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")
+    if interrupted:
+        raise KeyboardInterrupt
+
+
+def _serve_replay(db: Path, run_id: Optional[str], scenario: Optional[Path], config: Optional[Path], state_dir: Path,
+                  hmi_address) -> None:
+    """``serve --replay``: the screen over a logged run (no controller, no OPC UA server), until Ctrl-C."""
+    import time as _time
+
+
+    if hmi_address is None:
+        raise UserError("--replay needs --hmi HOST:PORT (the screen it replays on)")
+    if scenario is None and config is None:
+        raise UserError("--replay needs --config (or --scenario): the installation the run was made on")
+    model = _model(config) if config is not None else _realtime_scenario(scenario, None, 1.0, "serve")[1]
+    log = EventLog.open_existing(db)
+    try:
+        events = log.query(run=run_id) if run_id is not None else log.query()
+    finally:
+        log.close()
+    if run_id is None:
+        run_id, events = _latest_run(events, f"--replay {db}: no run with state samples in the log")
+    if not events:
+        raise UserError(f"--run {run_id!r}: no such run in {db}")
+    service = ReplayService(events, model)
+    users = StateDir(state_dir).users()
+    if len(users) == 0:
+        raise UserError(f"--state-dir {state_dir}: no users to log in with (add one: loadarm user add NAME "
+                        f"--role viewer --state-dir {state_dir})")
+    screen = HmiServer(create_app(service, state_dir, model, name=f"replay of {run_id}"), *hmi_address)
+    try:
+        screen.start()
+    except OSError as exc:
+        raise UserError(str(exc)) from None
+    try:
+        out.print(f"replay of run {run_id} ({service.t0:.0f}-{service.t1:.0f} s, {len(service.samples)} samples) "
+                  f"on {screen.url}; Ctrl-C stops", soft_wrap=True)
+        sys.stdout.flush()
+        while True:
+            _time.sleep(0.5)
+    finally:
+        screen.stop()
+
+
+@app.command("plc-sim")
+def plc_sim(
+    scenario: Annotated[Optional[Path], typer.Option(
+        "--scenario", "-s", help="Scenario TOML: the plant, ship and sensor the PLC simulates (default: a calm "
+                                 "ship at the default flange, on --config's installation).")] = None,
+    config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML (default: the "
+                                                                          "scenario's).")] = None,
+    endpoint: Annotated[str, typer.Option("--endpoint", help="OPC UA endpoint to listen on.")] =
+        "opc.tcp://127.0.0.1:4841",
+    state_dir: Annotated[Path, typer.Option("--state-dir", help="The PLC's certificates, trust list and "
+                                                                "users.")] = Path("loadarm-plc-state"),
+    insecure: Annotated[bool, typer.Option("--insecure", help="Also offer the unsecured endpoint.")] = False,
+    speedup: Annotated[float, typer.Option("--speedup", help="PLC seconds per wall second (as serve's).")] = 1.0,
+    duration: Annotated[float, typer.Option("--duration", help="Seconds simulated without --scenario.")] = 3600.0,
+) -> None:
+    """A simulated PLC: the scenario's arm, valve drivers (with a watchdog on the controller's heartbeat), ERS
+    valves, flange tracker and hard-wired E-stop in real time, served over OPC UA for `loadarm serve --plc`.
+    Ctrl-C stops.
+
+    Example: loadarm plc-sim --scenario examples/scenarios/driftoff.toml --state-dir out/plc
+    """
+
+    _check_endpoint("--endpoint", endpoint)
+    sc, model = _realtime_scenario(scenario, config, speedup, "plc-sim", duration)
+    sim = PlcSimulator(sc, model, speedup=speedup)
+    server = PlcServer(sim, state_dir, endpoint, insecure=insecure)
+    server.start()
+    try:
+        out.print(f"simulated PLC on {endpoint}; certificate {server.state.cert}; "
+                  f"{len(server.state.users())} user(s); Ctrl-C stops", soft_wrap=True)
+        sys.stdout.flush()
+        sim.run()
+    finally:
+        server.stop()
+
+
+@app.command()
+def trust(
+    cert: Annotated[Path, typer.Argument(help="Client certificate (DER or PEM).")],
+    state_dir: Annotated[Path, typer.Option("--state-dir", help="The server's state directory.")] = Path("loadarm-state"),
+) -> None:
+    """Trust an OPC UA client's certificate (copied to STATE_DIR/pki/trusted; a running server reads it at its
+    next start).
+
+    Example: loadarm trust client.der --state-dir out/state
+    """
+
+    out.print(f"trusted: {StateDir(state_dir).trust(cert)} (effective at the server's next start)")

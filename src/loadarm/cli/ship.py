@@ -1,0 +1,99 @@
+"""``loadarm hydro`` and ``loadarm alarms``: the moored ship, and the alarm design from its drift."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from loadarm.cli.common import BerthOpt, ConfigOpt, ForceOpt, JsonOpt, Table, UserError, _json, _model, _outputs, _print_wide, _progress, err, out
+from loadarm.params.berth import load_berth
+from loadarm.ship.model import compile_ship
+from loadarm.ship.summary import ship_summary
+from loadarm.figures import save
+from loadarm.design.alarm_design import DesignSettings, design_alarms
+
+__all__ = ["app"]
+
+app = typer.Typer()
+
+
+@app.command()
+def hydro(
+    berth: BerthOpt,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Figure: RAOs of the six motions.")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """The berth's design ship: hydrodynamics (capytaine, solved once and cached when not shipped), natural
+    periods, mooring stiffness and the static offset under the berth's design environment.
+
+    Example: loadarm hydro --berth examples/berths/lng150k.toml --png out/rao.png
+    """
+
+    _outputs({"--png": png}, [berth], force)
+    b = load_berth(berth)
+    ship = compile_ship(b, solve=True, progress=not as_json, source=str(berth))
+    res = ship_summary(ship, b.environment)
+    if png is not None:
+
+        save(res.plot(), png)
+    if as_json:
+        _json(res.to_dict())
+    else:
+        out.print(str(res.summary()))
+
+
+@app.command()
+def alarms(
+    config: ConfigOpt,
+    berth: BerthOpt,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Figure: the alarm zones and the break-out "
+                                                              "stages.")] = None,
+    seeds: Annotated[int, typer.Option("--seeds", help="Realisations of the design sea state per case.")] = 5,
+    force: ForceOpt = False,
+) -> None:
+    """Design the alarm settings of this arm at this berth from a mooring analysis of its design ship (intact
+    and break-out, Choi et al. 2018; Lanquetin): per face, the drift allowance, the break-out drift per stage
+    and the recommended beta, slew and design-drift settings as blocks to paste into the installation. Refuses
+    (exit 2), naming the face and the shortfall, when the arm cannot absorb the design drift.
+
+    Example: loadarm alarms --config examples/paper.toml --berth examples/berths/lng150k.toml --png out/alarms.png
+    """
+
+    _outputs({"--png": png}, [config, berth], force)
+    if not 1 <= seeds <= 100:
+        raise UserError(f"--seeds must be in [1, 100], got {seeds}")
+    model = _model(config)
+    b = load_berth(berth)
+    ship = compile_ship(b, source=str(berth))
+    with _progress() as prog:
+        task = prog.add_task("mooring analysis", total=1.0)
+        res = design_alarms(model, ship, b.environment, settings=DesignSettings(seeds=seeds),
+                            progress=lambda f: prog.update(task, completed=f))
+    if png is not None:
+
+        save(res.plot(), png)
+    if as_json:
+        _json(res.to_dict())
+    else:
+        out.print(str(res.summary()))
+        from rich import box
+
+        t = Table("dir", "face", "case", "allow m", "ESD-1 m", "ERS-2 m", "lead m", "avail m", "alarms deg",
+                  box=box.SIMPLE_HEAD, pad_edge=False)
+        for r in res.rows:
+            angles = "-" if r.first is None else "/".join(f"{math.degrees(v):.1f}" for v in (r.first, r.second,
+                                                                                               r.release))
+            t.add_row(r.direction.split("(")[-1].rstrip(")"), r.face or "-", r.short_case, f"{r.allowance_m:.2f}",
+                      f"{r.esd_m:.2f}", f"{r.release_m:.2f}", f"{r.lead_m:.2f}", f"{r.available_m:.2f}", angles)
+        _print_wide(t, 100)
+        out.print("Paste into the installation:")
+        out.print(res.toml().rstrip("\n"))
+        for w in res.warnings:
+            err.print(f"loadarm: note: {w}")
+    if not res.ok:
+        raise UserError(f"{berth}: refused: " + "; ".join(res.problems))

@@ -1,0 +1,109 @@
+"""``loadarm operability`` and ``loadarm campaign``: studies over sea states and seeds."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+from loadarm.cli.common import BerthOpt, ConfigOpt, ForceOpt, JsonOpt, PlantKind, UserError, _json, _outputs, _progress, out
+from loadarm.results import format_rows
+from loadarm.studies.operability import OperabilitySettings, run_operability
+from loadarm.figures import save
+from loadarm.studies.campaign import check_campaign, parse_vary, run_campaign
+
+__all__ = ["app"]
+
+app = typer.Typer()
+
+
+@app.command()
+def operability(
+    config: ConfigOpt,
+    berth: BerthOpt,
+    metocean: Annotated[Path, typer.Option("--metocean", "-m", help="Metocean record, CSV or NetCDF (see "
+                                                                    "examples/metocean/).")],
+    hours: Annotated[Optional[int], typer.Option("--hours", help="Only the first N usable hours.")] = None,
+    duration_per_state: Annotated[Optional[float], typer.Option(
+        "--duration-per-state", help="Seconds simulated per hourly state (default: the installation's "
+                                     "[operability] duration_per_state, 3600).")] = None,
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="A running Dask scheduler "
+                                                                         "(tcp://HOST:8786); default a local "
+                                                                         "cluster.")] = None,
+    workers: Annotated[Optional[int], typer.Option("--workers", help="Local cluster workers (default: every "
+                                                                     "core).")] = None,
+    chunks: Annotated[int, typer.Option("--chunks", help="Dask tasks the record is cut into.")] = 100,
+    out_file: Annotated[Path, typer.Option("--out", help="Per-state results (Parquet); chunks kept beside it "
+                                                         "for resuming.")] = Path("operability.parquet"),
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Figure: monthly downtime, Hs-Tp map, the worst "
+                                                              "week.")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """Operability of this arm at this berth over a metocean record, on Dask: per hourly sea state the moored
+    ship's motion and the connected-mode monitoring; downtime, events per stage, breakdowns by month, year, Hs,
+    Tp and wind. A stopped run resumes from the chunks already written.
+
+    Example: loadarm operability --config examples/paper.toml --berth examples/berths/lng150k.toml --metocean examples/metocean/sample.csv --hours 48 --duration-per-state 600
+    """
+
+    _outputs({"--png": png, "--out": out_file}, [config, berth, metocean], force)
+    if workers is not None and workers < 1:
+        raise UserError(f"--workers must be at least 1, got {workers}")
+    if not 1 <= chunks <= 10000:
+        raise UserError(f"--chunks must be in [1, 10000], got {chunks}")
+    settings = OperabilitySettings(duration_per_state=duration_per_state, chunks=chunks)
+    res = run_operability(config, berth, metocean, out_file, hours=hours, settings=settings, scheduler=scheduler,
+                          workers=workers, progress=not as_json, fresh=force)
+    if png is not None:
+
+        save(res.plot(), png)
+    if as_json:
+        _json(res.to_dict())
+    else:
+        out.print(format_rows(res.headline()))
+        out.print(f"per-state results: {out_file}")
+
+
+@app.command()
+def campaign(
+    scenario: Annotated[Path, typer.Option("--scenario", "-s", help="Scenario TOML (see examples/scenarios/).")],
+    seeds: Annotated[int, typer.Option("--seeds", "-n", help="Number of runs (seeds 0..N-1).")] = 100,
+    vary: Annotated[Optional[list[str]], typer.Option(
+        "--vary", help="key=lo:hi drawn uniformly per run (repeatable); scenario keys like drift.speed, "
+                       "installation keys like installation.sequence.margin.")] = None,
+    first_seed: Annotated[int, typer.Option("--first-seed", help="First seed.")] = 0,
+    workers: Annotated[Optional[int], typer.Option("--workers", help="Processes (default: every core).")] = None,
+    plant: Annotated[Optional[PlantKind], typer.Option(help="Arm plant (default: the scenario's).")] = None,
+    scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="A running Dask scheduler "
+                                                                         "(tcp://HOST:8786) instead of local "
+                                                                         "processes.")] = None,
+    as_json: JsonOpt = False,
+    png: Annotated[Optional[Path], typer.Option("--png", help="Histogram of the release margins.")] = None,
+    force: ForceOpt = False,
+) -> None:
+    """Run a scenario over many seeds and parameter draws on every core: overstretches, releases before the ERS
+    valves closed, false and missed alarms, and the distribution of release margins.
+
+    Example: loadarm campaign --scenario examples/scenarios/driftoff.toml --seeds 200 --vary drift.speed=0.05:0.3
+    """
+
+    _outputs({"--png": png}, [scenario], force)
+    if workers is not None and workers < 1:
+        raise UserError(f"--workers must be at least 1, got {workers}")
+    varied = [parse_vary(v) for v in vary or ()]
+    check_campaign(scenario, seeds, vary=varied, first_seed=first_seed,       # refused before the bar starts
+                   plant=None if plant is None else plant.value)
+    with _progress() as prog:
+        task = prog.add_task(f"campaign {scenario.name}", total=seeds)
+        res = run_campaign(scenario, seeds, vary=varied, first_seed=first_seed, workers=workers,
+                           plant=None if plant is None else plant.value,
+                           progress=lambda done, total: prog.update(task, completed=done), scheduler=scheduler)
+    if png is not None:
+
+        save(res.plot(), png)
+    if as_json:
+        _json(res.to_dict())
+        return
+    out.print(str(res.summary()))

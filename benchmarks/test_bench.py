@@ -43,13 +43,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from loadarm.params.compiler import compile_model
 from loadarm.arm.actuators import solve_ik_cylinders
-from loadarm.params.config import paper_installation
 from loadarm.arm.geometry import Arm, Mounting
 from loadarm.arm.kinematics import forward
 from loadarm.design.path import StraightPath
 from loadarm.design.trajectory import plan_approach
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import paper_installation
 
 ROOT = Path(__file__).resolve().parents[1]
 ARM = Arm(7.0, 12.0, 8.2)
@@ -203,8 +203,8 @@ def test_guidance_controller_cycle_p99(results):
     workload between every two cycles (the run's pacing hook, outside the cycle's own timing): found, with the
     workload timed after the run the median ratio was 1.1x one run and 2.4x the next, this machine's speed
     drifting between the two halves."""
-    from loadarm.sim.loop import run_scenario
     from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
 
     sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
     times = []
@@ -229,8 +229,8 @@ def test_guidance_controller_cycle_p99(results):
 
 
 def test_thirty_minute_scenario_in_seconds(results):
-    from loadarm.sim.loop import run_scenario
     from loadarm.params.scenario import load_scenario, parse_scenario
+    from loadarm.sim.loop import run_scenario
 
     sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
     d = sc.model_dump()
@@ -275,10 +275,10 @@ def test_moored_motion_thirty_minutes_against_the_guidance_loop(results):
     """The moored ship's 30 minutes at 10 Hz, best of 5, against the guidance loop's cycles for the same 30
     minutes (its median cycle times the 90 000 cycles at 50 Hz, from a run timed in the same session)."""
     from loadarm.params.berth import load_berth
-    from loadarm.sim.loop import run_scenario
     from loadarm.params.scenario import load_scenario
     from loadarm.ship.model import compile_ship
     from loadarm.ship.motion import simulate
+    from loadarm.sim.loop import run_scenario
 
     berth = load_berth(ROOT / "examples" / "berths" / "lng150k.toml")
     ship = compile_ship(berth)
@@ -314,8 +314,8 @@ def test_operability_kernel_against_loadarm_run(results):
     """Issue 13: the batched kernel's cost of one hourly state (the flange's hour by FFT and the low-frequency
     integration, then the monitoring: what a Dask task does per state) against `loadarm run` of that hour with
     the kinematic plant, same sea and seed."""
-    from loadarm.sim.loop import run_scenario
     from loadarm.ship.motion import DT, flange_positions
+    from loadarm.sim.loop import run_scenario
     from loadarm.studies.kernel import floor_table, monitor_record
     from loadarm.studies.operability import _box
 
@@ -470,8 +470,8 @@ def test_the_operator_screen_s_update_rate_and_latency(results, tmp_path):
     import time
 
     from loadarm.hmi.app import FRAME_RATE
-    from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, launch, scenario_screen, tour
     from loadarm.opcua.security import Role, StateDir
+    from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, launch, scenario_screen, tour
 
     if find_chromium() is None:
         pytest.skip(CHROMIUM_HINT)

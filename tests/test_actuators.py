@@ -7,11 +7,16 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from loadarm.arm.actuators import (cylinder_lengths, cylinder_rates, joint_angles_from_cylinders, length_limits,
-    valve_voltages)
-from loadarm.errors import ActuatorError, ValveRangeError
+from loadarm.arm.actuators import (
+    cylinder_lengths,
+    cylinder_rates,
+    joint_angles_from_cylinders,
+    length_limits,
+    valve_voltages,
+)
 from loadarm.arm.geometry import Arm, Mounting
 from loadarm.arm.kinematics import forward, inverse
+from loadarm.errors import ActuatorError, ValveRangeError
 
 
 def _pins(arm, m, alpha, beta):

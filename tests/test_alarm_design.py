@@ -10,13 +10,13 @@ import sys
 import numpy as np
 import pytest
 
+from loadarm.arm.faces import breakout_distance
+from loadarm.arm.slew import inverse3d
 from loadarm.design.alarm_design import DesignSettings, breakout_curve, design_alarms, design_drift_fit
 from loadarm.params.berth import load_berth
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import load_config, parse_config, read_toml
-from loadarm.arm.faces import breakout_distance
 from loadarm.ship.model import compile_ship
-from loadarm.arm.slew import inverse3d
 
 BERTH = "examples/berths/lng150k.toml"
 INST = "examples/paper.toml"

@@ -14,7 +14,6 @@ import sys
 from functools import cache
 from pathlib import Path
 
-
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src" / "loadarm"
 DOC = ROOT / "docs" / "architecture.md"

@@ -7,8 +7,8 @@ import tomllib
 
 import pytest
 
-from loadarm.params.berth import RHO_SEA, berth_parameter_markdown, load_berth, parse_berth
 from loadarm.errors import ConfigError
+from loadarm.params.berth import RHO_SEA, berth_parameter_markdown, load_berth, parse_berth
 
 from .conftest import ROOT
 

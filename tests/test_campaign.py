@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.design.check import design_check
 from loadarm.cli import main
+from loadarm.design.check import design_check
 from loadarm.errors import ConfigError
-from loadarm.studies.campaign import _judge, parse_vary, run_campaign
-from loadarm.sim.loop import run_scenario
 from loadarm.params.scenario import load_scenario
+from loadarm.sim.loop import run_scenario
+from loadarm.studies.campaign import _judge, parse_vary, run_campaign
 
 from .conftest import ROOT
 from .hypo import examples

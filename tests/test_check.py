@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.design.check import accumulator_usable_volume, design_check, esd_lead, release_lead
-from loadarm.cli import main
 from loadarm.arm.faces import FACES, breakout_distance, face_margins, first_face
+from loadarm.cli import main
+from loadarm.design.check import accumulator_usable_volume, design_check, esd_lead, release_lead
 
 from .conftest import PAPER_TOML
 from .hypo import examples

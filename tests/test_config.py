@@ -6,8 +6,8 @@ import tomllib
 
 import pytest
 
-from loadarm.params.config import Installation, load_config, parameter_table, parse_config
 from loadarm.errors import ConfigError
+from loadarm.params.config import Installation, load_config, parameter_table, parse_config
 
 from .conftest import PAPER_TOML
 
@@ -179,15 +179,16 @@ def test_non_finite_points_rejected():
 
 def test_configuration_doc_is_up_to_date():
     from loadarm.params.config import parameter_markdown
+
     from .conftest import ROOT
     doc = (ROOT / "docs" / "configuration.md").read_text()
     assert parameter_markdown() in doc, "regenerate the table with: python -m loadarm.params.config"
 
 
 def test_full_example_lists_every_key_and_equals_the_paper_case(paper):
-    from loadarm.params.config import load_config
+    from loadarm.params.config import example_toml, load_config
+
     from .conftest import ROOT
-    from loadarm.params.config import example_toml
     full = load_config(ROOT / "examples" / "full.toml")
     assert full == paper
     assert (ROOT / "examples" / "full.toml").read_text() == example_toml(), \

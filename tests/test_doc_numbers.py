@@ -9,14 +9,14 @@ import math
 
 import pytest
 
-from loadarm.params.compiler import compile_model
-from loadarm.params.config import load_config
 from loadarm.arm.envelope import zone_radii
-from loadarm.errors import UnreachableError
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import inverse
 from loadarm.design.sizing import check_corners, size_arm, size_installation
 from loadarm.design.trajectory import plan_approach
+from loadarm.errors import UnreachableError
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import load_config
 
 from .conftest import PAPER_TOML, ROOT
 
@@ -86,10 +86,10 @@ def test_approach_refusal_message(paper):
 
 @pytest.mark.slow          # the fast suite's budget on a 2-core machine; CI runs it
 def test_guidance_page_driftoff_row():
-    from loadarm.sim.loop import run_scenario
-    from loadarm.params.scenario import load_scenario
-
     import numpy as np
+
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
 
     sc, inst = load_scenario(ROOT / "examples" / "scenarios" / "driftoff.toml")
     r = run_scenario(sc, inst)
@@ -166,8 +166,8 @@ def test_campaign_tables_hold_on_a_fresh_sample():
 def test_ship_motion_page_breakout_scenario():
     """docs/ship-motion.md section 9: the break-out scenario (every line parts, the ship drifts off under its own
     loads) runs the whole sequence and releases with the margin it cites, before any face."""
-    from loadarm.sim.loop import run_scenario
     from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
 
     sc, model = load_scenario(ROOT / "examples" / "scenarios" / "breakout.toml")
     s = run_scenario(sc, model).summary()

@@ -6,6 +6,7 @@ import inspect
 import pytest
 from numpydoc.validate import validate
 
+
 def _all_modules() -> list[str]:
     """Every module of the package (new ones are checked without editing this file); the CLI's commands are
     documented for --help (typer), not numpydoc."""

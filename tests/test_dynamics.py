@@ -12,16 +12,24 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.params.compiler import compile_model
-from loadarm.design.balancing import balance_counterweights, envelope_grid
-from loadarm.params.config import parse_config
-from loadarm.arm.dynamics import (G, chamber_pressures, cylinder_areas, cylinder_forces, joint_torques, mass_model,
-    moment_arms, static_torques)
+from loadarm.arm.dynamics import (
+    G,
+    chamber_pressures,
+    cylinder_areas,
+    cylinder_forces,
+    joint_torques,
+    mass_model,
+    moment_arms,
+    static_torques,
+)
 from loadarm.arm.geometry import Mounting
 from loadarm.arm.kinematics import elbow_position, forward
+from loadarm.design.balancing import balance_counterweights, envelope_grid
 from loadarm.design.loads import actuator_loads
 from loadarm.design.multibody import inverse_dynamics, mujoco_moment_arms
 from loadarm.design.trajectory import plan_approach
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import parse_config
 
 from .hypo import examples
 

@@ -7,21 +7,19 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.params.compiler import compile_model
+from loadarm.arm.alarms import AlarmThresholds
+from loadarm.arm.slew import forward3d, inverse3d
 from loadarm.errors import ConfigError
 from loadarm.eventlog import EventLog
-from loadarm.arm.alarms import AlarmThresholds
-from loadarm.vocab import Severity
-from loadarm.guidance.controller import Cycle, GuidanceController, GuidanceState, Mode, OperatorInput
-from loadarm.guidance.controller import MODES
-from loadarm.sim.loop import run_scenario
-from loadarm.params.scenario import Scenario, load_scenario, parse_scenario
+from loadarm.guidance.controller import MODES, Cycle, GuidanceController, GuidanceState, Mode, OperatorInput
 from loadarm.guidance.estimator import Estimate, FlangeEstimator
+from loadarm.params.compiler import compile_model
+from loadarm.params.scenario import Scenario, load_scenario, parse_scenario
 from loadarm.ship.flange import flange_motion, jonswap
-from loadarm.arm.slew import forward3d, inverse3d
+from loadarm.sim.loop import run_scenario
+from loadarm.vocab import Severity
 
 from .conftest import ROOT
-
 from .hypo import examples
 
 SCEN = ROOT / "examples" / "scenarios"
@@ -352,9 +350,7 @@ def test_a_velocity_step_is_seen_within_seconds_and_never_forecast_late(model, s
     within the release lead of the face, the forecast is late by less than the sequence's margin (measured: at
     most 1.0 s over 40 seeds; the first estimates after a step are from a few seconds of data)."""
     from loadarm.arm.faces import face_margins, first_face
-    from loadarm.guidance.monitor import EnvelopeMonitor
-
-    from loadarm.guidance.monitor import stage_leads
+    from loadarm.guidance.monitor import EnvelopeMonitor, stage_leads
 
     leads = stage_leads(model.sequence)
     fm, t, p = _drift_windows("driftoff.toml", seed, 120.0, 218.0, speed=0.3, acceleration=0.5)
@@ -612,8 +608,7 @@ def test_scenario_validation(tmp_path):
     bad.write_text("[guidance]\nstandoff = 0\n")
     with pytest.raises(ConfigError, match=r"guidance.standoff = 0: .*valid range \(0, 10\] m"):
         load_scenario(bad)
-    from loadarm.params.config import parse_config
-    from loadarm.params.config import load_config
+    from loadarm.params.config import load_config, parse_config
     d = load_config(SCEN.parent / "paper.toml").model_dump()
     d["slew"]["first_deg"] = 39.0
     with pytest.raises(ConfigError, match="slew angles must increase"):
@@ -665,9 +660,9 @@ def test_controller_jacobian_is_the_kinematics_jacobian(phi, alpha, beta):
     back, is kinematics.jacobian to the bit; and the whole matrix matches finite differences of forward3d
     (tolerance 1e-7 m/rad: central differences with h = 1e-6 rad on a 20 m arm carry ~4e-9 m/rad of
     rounding and ~2e-11 of truncation)."""
-    from loadarm.params.config import paper_installation
     from loadarm.arm.kinematics import jacobian
     from loadarm.arm.slew import forward3d
+    from loadarm.params.config import paper_installation
 
     c = _ctrl(compile_model(paper_installation()))
     J3 = c._jacobian3d(phi, alpha, beta)
@@ -962,9 +957,9 @@ def test_a_refused_start_is_forgotten(model):
 def test_a_blind_drift_filter_and_an_unreachable_release_angle_are_refused(tmp_path):
     """Found: drift_filter = 600 s was accepted (the speed alarm blind; now the drift fit's window); release_deg = 175 beyond cylinder 2's
     stroke end (167 deg) was not cross-checked."""
+    from loadarm.errors import ConfigError
     from loadarm.params.compiler import compile_model
     from loadarm.params.config import load_config
-    from loadarm.errors import ConfigError
 
     bad = tmp_path / "slow.toml"
     bad.write_text("[guidance]\ndrift_window = 600\n")

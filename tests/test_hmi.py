@@ -352,10 +352,10 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
 def test_the_frame_of_a_real_snapshot_is_json(model):
     """The service's own snapshot (the drift-off on the hydraulic plant, a few cycles) makes a frame that JSON
     carries: pressures in Pa from the servo, the geometry's zones ordered by reach."""
-    from loadarm.sim.loop import ClosedLoop
-    from loadarm.params.scenario import load_scenario
     from loadarm.hmi.state import AlarmBook, frame, geometry
     from loadarm.opcua.service import GuidanceService
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import ClosedLoop
 
     sc, m = load_scenario(SCENARIO)
     service = GuidanceService(ClosedLoop(sc, m, scripted=False), clock=lambda: 0.0, sleep=lambda s: None)
@@ -376,8 +376,8 @@ def test_the_frame_of_a_real_snapshot_is_json(model):
 def logged_run(tmp_path_factory):
     """The drift-off (kinematic plant) written to an event log, and its events."""
     from loadarm.eventlog import EventLog
-    from loadarm.sim.loop import run_scenario
     from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
 
     db = tmp_path_factory.mktemp("replay") / "events.db"
     sc, model = load_scenario(SCENARIO)
@@ -390,9 +390,9 @@ def logged_run(tmp_path_factory):
 
 @pytest.mark.slow                      # the logged drift-off: seconds (make test SLOW=1, CI)
 def test_a_replay_shows_the_logged_sample_at_its_cursor_and_the_alarms_raised_when_logged(logged_run):
+    from loadarm.arm.slew import forward3d
     from loadarm.errors import EventLogError
     from loadarm.hmi.replay import ReplayService
-    from loadarm.arm.slew import forward3d
 
     clock = FakeClock(0.0)
     r = ReplayService(logged_run["events"], logged_run["model"], clock=clock)

@@ -11,8 +11,8 @@ import time
 
 import pytest
 
-from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, launch, log_in, wait_for
 from loadarm.opcua.security import Role, StateDir
+from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, launch, log_in, wait_for
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
@@ -242,10 +242,10 @@ def test_the_replay_s_time_slider_moves_the_screen_through_the_logged_run(state,
     """``serve --replay``'s screen over the drift-off's event log: the replay bar shows, every command is
     disabled, and moving the slider into the release shows it with its alarms as logged."""
     from loadarm.eventlog import EventLog
-    from loadarm.sim.loop import run_scenario
-    from loadarm.params.scenario import load_scenario
     from loadarm.hmi.app import HmiServer, create_app
     from loadarm.hmi.replay import ReplayService
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
 
     sc, model = load_scenario(SCENARIO)
     with EventLog(tmp_path / "events.db", run="r") as log:

@@ -123,8 +123,8 @@ def test_the_wave_motion_of_a_day_is_computed_in_bounded_memory():
 def test_the_run_memory_estimate_covers_what_a_run_allocates():
     """The estimate that refuses a run is checked against tracemalloc: the extra memory a run takes for
     twice the duration is at most the estimate's difference."""
-    from loadarm.sim.loop import run_scenario
     from loadarm.params.scenario import load_scenario, run_memory
+    from loadarm.sim.loop import run_scenario
 
     sc, model = load_scenario(SCEN / "calm.toml")
 
@@ -405,10 +405,28 @@ def test_a_scheduler_address_that_is_not_one_is_refused_naming_it(capsys, tmp_pa
     refused(capsys, *args, "--scheduler", "nonsense", contains=("--scheduler nonsense", "no Dask scheduler"))
 
 
+def test_a_refused_scheduler_leaves_no_dead_default_client():
+    """Found (issue 26): a refused address left its half-made client as the process's default and dask's
+    scheduler pointing at it; the next dask computation (an xarray read in another test) failed on it."""
+    import dask
+    import dask.array
+    import numpy as np
+    from distributed.client import _get_global_client
+
+    from loadarm.errors import ConfigError
+    from loadarm.studies.cluster import connect_scheduler
+
+    before = dask.config.get("scheduler", None)
+    with pytest.raises(ConfigError, match="--scheduler nonsense"):
+        connect_scheduler("nonsense")
+    assert _get_global_client() is None and dask.config.get("scheduler", None) == before
+    assert float(dask.array.from_array(np.arange(4.0), chunks=2).sum().compute()) == 6.0
+
+
 def test_a_silent_scheduler_address_is_refused_in_time_naming_it():
     """Nothing listening at the address: refused after the timeout, naming the option and the address."""
-    from loadarm.studies.cluster import connect_scheduler
     from loadarm.errors import ConfigError
+    from loadarm.studies.cluster import connect_scheduler
     from loadarm.testing.loadtest import free_port
 
     address = f"tcp://127.0.0.1:{free_port()}"

@@ -19,15 +19,23 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from loadarm.params.compiler import compile_model
-from loadarm.params.config import parse_config
 from loadarm.arm.dynamics import cylinder_areas, mass_model, moment_arms, static_torques
+from loadarm.design.trajectory import plan_approach
 from loadarm.hydraulics import circuit as plant
-from loadarm.hydraulics.components import (effective_opening, orifice_flow, orifice_slope, pump_flow, relief_flow,
-    spool_discretisation, valve_coefficient, valve_flows)
+from loadarm.hydraulics.components import (
+    effective_opening,
+    orifice_flow,
+    orifice_slope,
+    pump_flow,
+    relief_flow,
+    spool_discretisation,
+    valve_coefficient,
+    valve_flows,
+)
 from loadarm.hydraulics.reference import cylinder_rig, reference_simulation
 from loadarm.hydraulics.simulate import SimulationError, simulate_approach, simulate_hold
-from loadarm.design.trajectory import plan_approach
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import parse_config
 
 
 def test_valve_flow_matches_the_orifice_equation(inst):

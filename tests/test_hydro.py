@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from loadarm.params.berth import RHO_SEA, load_berth
 from loadarm.errors import ConfigError
+from loadarm.params.berth import RHO_SEA, load_berth
 from loadarm.ship import hydro
 from loadarm.ship.hull import hull_mesh
 from loadarm.ship.model import compile_ship

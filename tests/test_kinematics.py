@@ -12,10 +12,18 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from loadarm.errors import UnreachableError
 from loadarm.arm.geometry import Arm
-from loadarm.arm.kinematics import (check_reachable, elbow_position, forward, inverse, inverse_paper, jacobian,
-    joint_rates, reach_mask)
+from loadarm.arm.kinematics import (
+    check_reachable,
+    elbow_position,
+    forward,
+    inverse,
+    inverse_paper,
+    jacobian,
+    joint_rates,
+    reach_mask,
+)
+from loadarm.errors import UnreachableError
 
 POS_TOL = 1e-9
 

@@ -9,11 +9,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.studies.metocean import (VARIABLES, MetoceanError, berth_directions, read_metocean, synthetic_metocean,
-    write_metocean_csv)
+from loadarm.studies.metocean import (
+    VARIABLES,
+    MetoceanError,
+    berth_directions,
+    read_metocean,
+    synthetic_metocean,
+    write_metocean_csv,
+)
 
-from .hypo import examples
 from .conftest import ROOT
+from .hypo import examples
 
 SAMPLE = ROOT / "examples" / "metocean" / "sample.csv"
 HEADER = "time," + ",".join(VARIABLES)

@@ -10,10 +10,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.params.berth import load_berth
 from loadarm.errors import ConfigError
-from loadarm.ship.mooring import (MooringEquilibriumError, compile_moorings, equilibrium, line_tensions,
-    restoring_force, stiffness)
+from loadarm.params.berth import load_berth
+from loadarm.ship.mooring import (
+    MooringEquilibriumError,
+    compile_moorings,
+    equilibrium,
+    line_tensions,
+    restoring_force,
+    stiffness,
+)
 
 from .hypo import examples
 

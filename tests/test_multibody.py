@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from loadarm.params.compiler import compile_model
-from loadarm.params.config import parse_config
 from loadarm.arm.dynamics import mass_model
 from loadarm.design.multibody import build_mjcf, load_model, verify_kinematics
 from loadarm.design.trajectory import plan_approach
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import parse_config
 
 ANGLE_TOL_DEG = 0.01
 LENGTH_TOL_MM = 0.1

@@ -10,14 +10,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.arm.faces import ray_crossing
+from loadarm.arm.faces import breakout_distance, face_margins, first_face, ray_crossing
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import load_config
-from loadarm.arm.faces import breakout_distance, face_margins, first_face
 from loadarm.studies.kernel import _DIRS, breakout_time, floor_table, monitor_record
 
-from .hypo import examples
 from .conftest import ROOT
+from .hypo import examples
 
 PAPER = ROOT / "examples" / "paper.toml"
 BERTH = ROOT / "examples" / "berths" / "lng150k.toml"
@@ -87,8 +86,8 @@ def test_a_breakout_runs_the_whole_sequence(model):
 def test_position_alarms_come_from_the_angles():
     """A flange held just past the customer's first-alarm beta raises ESD-1 at once, with a design drift so slow
     (0.02 m/s at 0.001 m/s^2: 0.5 m in the ESD-1 lead) that the floor alone would stay quiet there."""
-    from loadarm.params.config import parse_config, read_toml
     from loadarm.arm.slew import inverse3d
+    from loadarm.params.config import parse_config, read_toml
 
     data = read_toml(PAPER)
     data["design_drift"] = {"speed": 0.02, "acceleration": 0.001, "vertical_speed": 0.001}
@@ -139,10 +138,10 @@ def test_the_kernel_agrees_with_loadarm_run(flange, hs, seed):
     against the batched kernel on the same flange motion from the connection on: the same alarm stage, the same
     largest beta within 0.1 deg (measured: 0.001 deg), ESD-1 within 0.1 s (measured: 0.02 s). The four states
     were chosen before running: calm and rough at the nominal flange, and two flanges near the first alarm."""
-    from loadarm.sim.loop import run_scenario
     from loadarm.params.scenario import load_scenario
-    from loadarm.ship.model import moored_ship
     from loadarm.ship.flange import flange_motion
+    from loadarm.ship.model import moored_ship
+    from loadarm.sim.loop import run_scenario
 
     sc0, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15_moored.toml")
     d = sc0.model_dump()
@@ -334,9 +333,9 @@ def test_the_compiled_levels_and_faces_are_the_vectorised_rules(model, beta, phi
     """The per-sample pass (kernel._samples, compiling alarms.zone_level and faces.past_a_face) gives exactly the
     levels of beta_severity and slew_severity (unreachable: release) and the faces of face_margins/first_face,
     including angles on a threshold (``near``: the samples put on the thresholds and limits themselves)."""
-    from loadarm.vocab import Severity
     from loadarm.arm.alarms import beta_severity, slew_severity
     from loadarm.studies.kernel import _samples
+    from loadarm.vocab import Severity
 
     al, sl, lim = model.alarms, model.slew, model.joint_limits
     n = min(len(beta), len(phi), len(alpha))

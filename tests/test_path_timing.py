@@ -8,11 +8,11 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from loadarm.errors import PathError, TimingError, UnreachableError
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import reach_mask
 from loadarm.design.path import StraightPath
 from loadarm.design.timing import PaperTiming, TrapezoidTiming, make_timing
+from loadarm.errors import PathError, TimingError, UnreachableError
 
 
 def test_path_evaluation_matches_eq4():

@@ -10,7 +10,6 @@ import stat
 import time
 
 import numpy as np
-
 import pytest
 
 from loadarm.errors import ConfigError
@@ -110,10 +109,10 @@ def served(tmp_path_factory):
     kinematic arm: the hydraulic one's 1 kHz servo would take a core from the rest of the suite for the module),
     with an operator, a viewer and one trusted client certificate; stopped afterwards."""
     from loadarm.eventlog import EventLog
-    from loadarm.sim.loop import ClosedLoop
-    from loadarm.params.scenario import load_scenario
     from loadarm.opcua.server import OpcUaServer
     from loadarm.opcua.service import GuidanceService
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import ClosedLoop
 
     tmp = tmp_path_factory.mktemp("plant")
     st = StateDir(tmp / "state")
@@ -276,9 +275,9 @@ def test_a_new_state_directory_with_no_trusted_client_starts_and_refuses_every_c
     """Found: the first start of a fresh state directory (nothing in pki/trusted yet: the documented first
     step) failed, asyncua being unable to load an empty trust store. The server now starts and refuses every
     client certificate, keeping it in pki/rejected for the administrator to trust."""
-    from loadarm.opcua.server import OpcUaServer
-
     import shutil
+
+    from loadarm.opcua.server import OpcUaServer
 
     st = StateDir(tmp_path / "fresh")
     st.users().add("alice", Role.OPERATOR, "pw-alice")
@@ -597,8 +596,8 @@ def test_the_controller_acknowledges_one_alarm_or_every_alarm(served):
     """``ack:TAG`` (an OPC UA Acknowledge on one condition) acknowledges that alarm only; ``ack`` every one."""
     from loadarm.arm.alarms import AlarmState
     from loadarm.guidance.controller import GuidanceController, OperatorInput
-    from loadarm.params.scenario import load_scenario
     from loadarm.guidance.estimator import FlangeEstimator
+    from loadarm.params.scenario import load_scenario
 
     sc, model = load_scenario(SCENARIO)
     ctrl = GuidanceController(model, sc.guidance)
@@ -620,8 +619,8 @@ def test_a_continuous_loop_keeps_the_last_window_of_its_signals(monkeypatch):
     """``serve --plc`` without a scenario runs on: its ClosedLoop keeps the signals of the last
     CONTINUOUS_WINDOW in a ring (cycle k in slot k % n) and the events in a bounded deque. Over the same plant
     it gives, bit for bit, the last window of the run that keeps everything."""
-    from loadarm.sim import loop as run
     from loadarm.params.scenario import load_scenario
+    from loadarm.sim import loop as run
 
     sc, model = load_scenario(SCENARIO)
     monkeypatch.setattr(run, "CONTINUOUS_WINDOW", 2.0)

@@ -12,9 +12,9 @@ import time
 import numpy as np
 import pytest
 
-from loadarm.params.scenario import load_scenario
 from loadarm.opcua.plc import LINK_TIMEOUT, PLC_APP_URI, WATCHDOG, PlcSimulator
 from loadarm.opcua.security import Role, StateDir
+from loadarm.params.scenario import load_scenario
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
@@ -112,9 +112,9 @@ def _controller_on_plc_sim(tmp_path, scenario, *plc_args, period=0.02, speedup=1
     """``loadarm plc-sim`` (the drift-off) in its own process, the controller's link to it, and a guidance
     service on that link, not yet started; yields ``(loop, service, link, proc)``, then stops the service,
     the link and the process."""
-    from loadarm.sim.loop import ClosedLoop
     from loadarm.opcua.plc import PlcLink
     from loadarm.opcua.service import GuidanceService
+    from loadarm.sim.loop import ClosedLoop
 
     sc, model = scenario
     ctrl, plc, endpoint = _plc_pair(tmp_path)
@@ -318,9 +318,9 @@ def test_a_lost_link_reconnects_and_resynchronises_without_a_jump(tmp_path, scen
     """The PLC's OPC UA server stopped (its plant running on) and started again on the same endpoint: the link
     goes bad, comes back by itself, the controller logs it restored, and its encoders read on from where the
     arm stands (the watchdog held it: no jump)."""
-    from loadarm.sim.loop import ClosedLoop
     from loadarm.opcua.plc import PlcLink, PlcServer
     from loadarm.opcua.service import GuidanceService
+    from loadarm.sim.loop import ClosedLoop
 
     sc, model = scenario
     ctrl, plc, endpoint = _plc_pair(tmp_path)

@@ -10,17 +10,23 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.vocab import Severity
-from loadarm.design.check import MANIFOLD_CLEARANCE, design_check, valve_worst_time
+from loadarm.arm.slew import inverse3d
 from loadarm.cli import main
-from loadarm.studies.campaign import run_campaign
-from loadarm.guidance.controller import (ERS_SWITCH_DISCREPANCY, GuidanceController, GuidanceState, Mode,
-    OperatorInput, PlantFeedback)
-from loadarm.sim.loop import CLEARANCE_TIME, run_scenario
-from loadarm.params.scenario import Scenario, load_scenario
+from loadarm.design.check import MANIFOLD_CLEARANCE, design_check, valve_worst_time
+from loadarm.guidance.controller import (
+    ERS_SWITCH_DISCREPANCY,
+    GuidanceController,
+    GuidanceState,
+    Mode,
+    OperatorInput,
+    PlantFeedback,
+)
 from loadarm.guidance.estimator import Estimate
 from loadarm.guidance.voting import VoteState, reset_votes, vote
-from loadarm.arm.slew import inverse3d
+from loadarm.params.scenario import Scenario, load_scenario
+from loadarm.sim.loop import CLEARANCE_TIME, run_scenario
+from loadarm.studies.campaign import run_campaign
+from loadarm.vocab import Severity
 
 from .conftest import ROOT
 from .hypo import examples

@@ -8,10 +8,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.vocab import Severity
-from loadarm.guidance.monitor import stage_leads
 from loadarm.arm.sequence import esd_lead, lead_values, release_lead, stage_of, valve_worst_time
+from loadarm.guidance.monitor import stage_leads
 from loadarm.studies.kernel import _scan
+from loadarm.vocab import Severity
 
 from .hypo import examples
 

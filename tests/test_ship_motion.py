@@ -10,13 +10,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.params.berth import load_berth
 from loadarm.errors import ConfigError
+from loadarm.params.berth import load_berth
 from loadarm.params.scenario import load_scenario, parse_scenario
-from loadarm.ship.flange import flange_motion
 from loadarm.ship import loads
-from loadarm.ship.model import compile_ship
+from loadarm.ship.flange import flange_motion
 from loadarm.ship.hydro import interp_heading
+from loadarm.ship.model import compile_ship
 from loadarm.ship.motion import DT, MIN_RECORD, _flange, simulate
 
 from .hypo import examples
@@ -225,8 +225,8 @@ def test_free_decay_loses_the_energy_its_damping_dissipates(ship, berth):
     damping force, within 1 % over 120 s (RK4 at 1 s against 19-26 s periods: its own dissipation is far
     below that). Found: released 5 cm off, the ship leaves its fenders and the quadratic energy no longer
     holds."""
-    from loadarm.ship.motion import _lf_integrate
     from loadarm.ship.mooring import stiffness
+    from loadarm.ship.motion import _lf_integrate
 
     mo = ship.moorings
     n = 1201
@@ -374,8 +374,8 @@ def test_the_kernels_current_is_the_vectorised_formula(ship, speed, direction, v
     """The time-domain kernel's scalar current load (on the relative velocity, in the ship frame, turned back
     to the berth frame) against :func:`loadarm.ship.loads.current_force` on the same relative flow, to 1e-12
     of the load (the same formula, operations in another order)."""
-    from loadarm.ship.motion import _lf_rhs
     from loadarm.ship.mooring import restoring_force
+    from loadarm.ship.motion import _lf_rhs
 
     mo = ship.moorings
     x = ship.eq0 + np.array([0.0, 0.0, psi])

@@ -7,13 +7,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from loadarm.vocab import UNREACHABLE, Severity, severity_label
 from loadarm.arm.alarms import AlarmAngles, beta_severity, slew_severity
 from loadarm.arm.envelope import berth_box, classify_point, zone_radii
-from loadarm.errors import SizingError
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import forward
 from loadarm.design.sizing import alarm_radius, check_corners, first_alarm_corner, size_arm, size_installation
+from loadarm.errors import SizingError
+from loadarm.vocab import UNREACHABLE, Severity, severity_label
 
 from .hypo import examples
 

@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from loadarm.errors import UnreachableError
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import forward, inverse
 from loadarm.arm.slew import forward3d, inverse3d, reach_mask3d
+from loadarm.errors import UnreachableError
 
 
 @given(st.floats(1, 30), st.floats(1, 30), st.floats(1, 30), st.floats(-math.pi + 1e-3, math.pi - 1e-3),

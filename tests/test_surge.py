@@ -18,8 +18,16 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from loadarm.design.surge import (CLOSURE_LAWS, SurgeResult, joukowsky, michaud, moc_valve_closure, pipe_wave_speed,
-    surge_check, valve_opening)
+from loadarm.design.surge import (
+    CLOSURE_LAWS,
+    SurgeResult,
+    joukowsky,
+    michaud,
+    moc_valve_closure,
+    pipe_wave_speed,
+    surge_check,
+    valve_opening,
+)
 
 from .hypo import examples
 

@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from loadarm.params.compiler import compile_model
-from loadarm.params.config import parse_config
-from loadarm.errors import PathError, UnreachableError, ValveRangeError
 from loadarm.arm.kinematics import forward
 from loadarm.design.trajectory import plan_approach
+from loadarm.errors import PathError, UnreachableError, ValveRangeError
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import parse_config
 
 from .conftest import ROOT
 
@@ -132,8 +132,8 @@ def test_3d_plan_slews_and_its_rates_are_consistent(model):
 
 
 def test_3d_plan_refusals(model):
-    from loadarm.errors import PathError
     from loadarm.design.trajectory import plan_approach_3d
+    from loadarm.errors import PathError
     with pytest.raises(PathError, match="beyond the slew limit"):
         plan_approach_3d(model, target=(5.0, 12.0, 1.0))
     with pytest.raises(UnreachableError, match="leaves the reachable workspace"):
@@ -149,15 +149,15 @@ def test_results_are_data_with_summary_to_dict_and_plot(model):
     from matplotlib.figure import Figure
 
     from loadarm.design.balancing import balance_counterweights
-    from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
     from loadarm.design.loads import actuator_loads
     from loadarm.design.multibody import verify_kinematics
+    from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
     from loadarm.results import Summary
 
     plan = plan_approach(model, timing="smooth", samples=101)
     sim = simulate_approach(model, plan_approach(model, timing="smooth", samples=2001))
-    from loadarm.sim.loop import run_scenario
     from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
 
     sc, smodel = load_scenario(ROOT / "examples" / "scenarios" / "calm.toml")
     sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"duration": 20.0, "plant": "kinematic"})})

@@ -10,10 +10,20 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from loadarm.vocab import Severity
 from loadarm.arm.faces import face_margins
-from loadarm.vocab import (ACTION_TABLE, ANNUNCIATED, COMMANDS, CONDITIONS, FACE_LABELS, FACE_TABLE, FACES, METHODS,
-    Role, priority)
+from loadarm.vocab import (
+    ACTION_TABLE,
+    ANNUNCIATED,
+    COMMANDS,
+    CONDITIONS,
+    FACE_LABELS,
+    FACE_TABLE,
+    FACES,
+    METHODS,
+    Role,
+    Severity,
+    priority,
+)
 
 from .hypo import examples
 
@@ -138,8 +148,8 @@ def test_a_run_reads_its_events_by_code_so_rewording_changes_no_metric():
     stage and release event carries a declared code."""
     import dataclasses
 
-    from loadarm.sim.loop import run_scenario
     from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
     from loadarm.vocab import EVENTS
 
     from .conftest import PAPER_TOML

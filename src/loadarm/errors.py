@@ -8,7 +8,6 @@ command line can print them verbatim (exit status 2) without a traceback.
 
 from __future__ import annotations
 
-
 __all__ = ["LoadarmError", "ConfigError", "OutputError", "EventLogError", "UnreachableError", "PathError",
            "TimingError", "SizingError", "ActuatorError", "ValveRangeError"]
 

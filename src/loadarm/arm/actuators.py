@@ -19,10 +19,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from loadarm.errors import ActuatorError, ValveRangeError
 from loadarm.arm.geometry import Arm, Mounting
-from loadarm.arm.kinematics import ROUNDOFF_M, check_reachable
-from loadarm.arm.kinematics import forward
+from loadarm.arm.kinematics import ROUNDOFF_M, check_reachable, forward
+from loadarm.errors import ActuatorError, ValveRangeError
 
 __all__ = [
     "pin_lengths",

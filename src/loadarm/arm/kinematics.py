@@ -21,8 +21,8 @@ from typing import Literal
 
 import numpy as np
 
-from loadarm.errors import UnreachableError
 from loadarm.arm.geometry import Arm
+from loadarm.errors import UnreachableError
 
 __all__ = [
     "jacobian_entries",

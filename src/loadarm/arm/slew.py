@@ -16,9 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from loadarm.errors import UnreachableError
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import forward, inverse, reach_mask
+from loadarm.errors import UnreachableError
 
 __all__ = ["JointAngles3D", "forward3d", "inverse3d", "reach_mask3d", "slew_angle"]
 

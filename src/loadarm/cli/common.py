@@ -11,11 +11,10 @@ from typing import Annotated, Optional
 
 import typer
 
-from loadarm.params.config import load_config
 from loadarm.eventlog import KINDS
 from loadarm.files import guard_outputs
 from loadarm.params.compiler import compile_model
-
+from loadarm.params.config import load_config
 
 EXIT_CODES = "Exit codes: 0 ok, 1 internal error (a bug; LOADARM_DEBUG=1 shows the traceback), 2 bad input, 130 interrupted."
 

@@ -7,12 +7,10 @@ from typing import Annotated, Optional
 
 import typer
 
-from loadarm.params.config import Installation, load_config
 from loadarm.cli.common import ForceOpt, _progress, out
-from loadarm.params.config import packaged_example
-from loadarm.present.report import build_report
 from loadarm.files import guard_outputs
-from loadarm.present.report import report_outputs
+from loadarm.params.config import Installation, load_config, packaged_example
+from loadarm.present.report import build_report, report_outputs
 
 __all__ = ["app"]
 

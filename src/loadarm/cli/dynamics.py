@@ -7,16 +7,30 @@ from typing import Annotated, Optional
 
 import typer
 
-from loadarm.cli.common import ConfigOpt, ForceOpt, JsonOpt, Table, Timing, TimingOrAll, UserError, _check_fill, _json, _model, _outputs, err, escape, out
+from loadarm.cli.common import (
+    ConfigOpt,
+    ForceOpt,
+    JsonOpt,
+    Table,
+    Timing,
+    TimingOrAll,
+    UserError,
+    _check_fill,
+    _json,
+    _model,
+    _outputs,
+    err,
+    escape,
+    out,
+)
 from loadarm.design.balancing import balance_counterweights
+from loadarm.design.loads import CYLINDER_LOAD_METRICS, actuator_loads
 from loadarm.design.plots import residual_torque_figure
-from loadarm.figures import save
-from loadarm.design.loads import actuator_loads
-from loadarm.design.trajectory import plan_approach
-from loadarm.design.loads import CYLINDER_LOAD_METRICS
-from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
 from loadarm.design.timing import TIMING_LAWS
+from loadarm.design.trajectory import plan_approach
+from loadarm.figures import save
 from loadarm.hydraulics.plots import simulation_figure
+from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
 
 __all__ = ["app"]
 

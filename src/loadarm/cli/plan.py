@@ -7,9 +7,23 @@ from typing import Annotated, Optional
 
 import typer
 
-from loadarm.cli.common import ConfigOpt, ForceOpt, JsonOpt, POINT_HELP, Table, Timing, UserError, _json, _model, _outputs, _point, err, out
-from loadarm.design.trajectory import plan_approach, plan_approach_3d, plan_warnings
+from loadarm.cli.common import (
+    POINT_HELP,
+    ConfigOpt,
+    ForceOpt,
+    JsonOpt,
+    Table,
+    Timing,
+    UserError,
+    _json,
+    _model,
+    _outputs,
+    _point,
+    err,
+    out,
+)
 from loadarm.design.plots import envelope_figure
+from loadarm.design.trajectory import plan_approach, plan_approach_3d, plan_warnings
 from loadarm.figures import save
 
 __all__ = ["app"]

@@ -4,27 +4,24 @@ from __future__ import annotations
 
 import math
 import sys
+from datetime import datetime, timezone
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
 
 from loadarm.cli.common import ForceOpt, UserError, _latest_run, _model, _outputs, out
-from loadarm.params.scenario import Scenario, check_scenario, load_scenario
-from loadarm.params.config import in_range, range_text
-from loadarm.params.scenario import ScenarioHead
 from loadarm.eventlog import EventLog
-from loadarm.sim.loop import ClosedLoop
-from loadarm.opcua.security import thumbprint, _load_certificate
+from loadarm.files import read_input
+from loadarm.hmi.app import HmiServer, create_app, parse_hmi_address
+from loadarm.hmi.replay import ReplayService
+from loadarm.opcua.plc import PlcLink, PlcServer, PlcSimulator, load_tag_map
+from loadarm.opcua.security import StateDir, _load_certificate, thumbprint
 from loadarm.opcua.server import OpcUaServer
 from loadarm.opcua.service import GuidanceService
-from loadarm.hmi.app import parse_hmi_address
-from loadarm.files import read_input
-from loadarm.opcua.plc import PlcLink, load_tag_map
-from loadarm.hmi.app import HmiServer, create_app
-from loadarm.hmi.replay import ReplayService
-from loadarm.opcua.security import StateDir
-from loadarm.opcua.plc import PlcServer, PlcSimulator
+from loadarm.params.config import in_range, range_text
+from loadarm.params.scenario import Scenario, ScenarioHead, check_scenario, load_scenario
+from loadarm.sim.loop import ClosedLoop
 
 __all__ = ["app"]
 
@@ -109,41 +106,16 @@ def serve(
     Example: loadarm serve --scenario examples/scenarios/driftoff.toml --state-dir out/state
     """
 
-    _check_endpoint("--endpoint", endpoint)
-    hmi_address = None
-    if hmi is not None:
-
-        try:
-            hmi_address = parse_hmi_address(hmi)
-        except ValueError as exc:
-            raise UserError(str(exc)) from None
+    hmi_address = _serve_arguments(endpoint, hmi, replay, plc, plc_cert, plc_password_file, scenario, scripted)
     if replay is not None:
         return _serve_replay(replay, run_id, scenario, config, state_dir, hmi_address)
-    if plc is not None:
-        _check_endpoint("--plc", plc)
-        if plc_cert is None or plc_password_file is None:
-            raise UserError("--plc needs --plc-cert (the PLC's certificate) and --plc-password-file")
-    elif scenario is None:
-        raise UserError("serve needs --scenario (a simulated plant) or --plc (a PLC's endpoint)")
-    if scripted and scenario is None:
-        raise UserError("--scripted needs --scenario (its operator is the scenario's)")
     sc, model = _realtime_scenario(scenario, config, speedup, "serve --plc")
     inst_file = None if scenario is None or sc.scenario.installation is None \
         else scenario.parent / sc.scenario.installation
     _outputs({"--db": db}, [scenario, inst_file, config], force, appended=("--db",))
-    from datetime import datetime, timezone
-
     run_id = f"serve:{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
-    link = None
+    link = None if plc is None else _plc_link(plc, plc_map, plc_password_file, state_dir, plc_user, plc_cert)
     interrupted = False
-    if plc is not None:
-
-        tags = load_tag_map(plc_map) if plc_map is not None else None
-        lines = read_input(plc_password_file, "password file").splitlines()
-        if not lines or not lines[0]:
-            raise UserError(f"--plc-password-file {plc_password_file}: its first line is empty")
-        link = PlcLink(plc, state_dir, plc_user, lines[0], plc_cert, tags=tags)
-        link.start()
     log = EventLog(db, run=run_id)
     try:
         loop = ClosedLoop(sc, model, log=log, scripted=scripted, io=link,
@@ -154,21 +126,8 @@ def serve(
         screen = None
         try:
             if hmi_address is not None:
-
-                screen = HmiServer(create_app(service, state_dir, model, name=sc.scenario.name), *hmi_address)
-                try:
-                    screen.start()
-                except OSError as exc:
-                    raise UserError(str(exc)) from None
-                out.print(f"operator's screen on {screen.url} (users from {server.state.users_file})")
-            cert = _load_certificate(server.state.cert)
-            out.print(f"OPC UA server on {endpoint} ({'with' if insecure else 'no'} unsecured endpoint); "
-                      f"certificate {server.state.cert} (SHA-1 {thumbprint(cert)})")
-            users = server.state.users()
-            out.print(f"{len(users)} user(s) in {server.state.users_file}; trusted clients in {server.state.trusted}")
-            if len(users) == 0:
-                out.print(f"no one can log in yet: add a user with loadarm user add NAME --role operator "
-                          f"--state-dir {state_dir}", soft_wrap=True)
+                screen = _start_screen(service, state_dir, model, sc.scenario.name, hmi_address, server)
+            _announce(server, endpoint, insecure, state_dir)
             out.print(f"events to {db} (run {run_id}); Ctrl-C stops")
             try:
                 service.run()
@@ -189,11 +148,66 @@ def serve(
         raise KeyboardInterrupt
 
 
+def _serve_arguments(endpoint, hmi, replay, plc, plc_cert, plc_password_file, scenario, scripted):
+    """``serve``'s options checked together, before anything starts; the screen's address (or None)."""
+    _check_endpoint("--endpoint", endpoint)
+    hmi_address = None
+    if hmi is not None:
+        try:
+            hmi_address = parse_hmi_address(hmi)
+        except ValueError as exc:
+            raise UserError(str(exc)) from None
+    if replay is not None:
+        return hmi_address
+    if plc is not None:
+        _check_endpoint("--plc", plc)
+        if plc_cert is None or plc_password_file is None:
+            raise UserError("--plc needs --plc-cert (the PLC's certificate) and --plc-password-file")
+    elif scenario is None:
+        raise UserError("serve needs --scenario (a simulated plant) or --plc (a PLC's endpoint)")
+    if scripted and scenario is None:
+        raise UserError("--scripted needs --scenario (its operator is the scenario's)")
+    return hmi_address
+
+
+def _plc_link(plc, plc_map, plc_password_file, state_dir, plc_user, plc_cert):
+    """The controller's link to a PLC, started (its password from the first line of the file)."""
+    tags = load_tag_map(plc_map) if plc_map is not None else None
+    lines = read_input(plc_password_file, "password file").splitlines()
+    if not lines or not lines[0]:
+        raise UserError(f"--plc-password-file {plc_password_file}: its first line is empty")
+    link = PlcLink(plc, state_dir, plc_user, lines[0], plc_cert, tags=tags)
+    link.start()
+    return link
+
+
+def _start_screen(service, state_dir, model, name: str, hmi_address, server):
+    """The operator's screen beside the OPC UA server, started (a port in use is one line)."""
+    screen = HmiServer(create_app(service, state_dir, model, name=name), *hmi_address)
+    try:
+        screen.start()
+    except OSError as exc:
+        raise UserError(str(exc)) from None
+    out.print(f"operator's screen on {screen.url} (users from {server.state.users_file})")
+    return screen
+
+
+def _announce(server, endpoint: str, insecure: bool, state_dir) -> None:
+    """Where the server listens, its certificate, and who can log in."""
+    cert = _load_certificate(server.state.cert)
+    out.print(f"OPC UA server on {endpoint} ({'with' if insecure else 'no'} unsecured endpoint); "
+              f"certificate {server.state.cert} (SHA-1 {thumbprint(cert)})")
+    users = server.state.users()
+    out.print(f"{len(users)} user(s) in {server.state.users_file}; trusted clients in {server.state.trusted}")
+    if len(users) == 0:
+        out.print(f"no one can log in yet: add a user with loadarm user add NAME --role operator "
+                  f"--state-dir {state_dir}", soft_wrap=True)
+
+
 def _serve_replay(db: Path, run_id: Optional[str], scenario: Optional[Path], config: Optional[Path], state_dir: Path,
                   hmi_address) -> None:
     """``serve --replay``: the screen over a logged run (no controller, no OPC UA server), until Ctrl-C."""
     import time as _time
-
 
     if hmi_address is None:
         raise UserError("--replay needs --hmi HOST:PORT (the screen it replays on)")

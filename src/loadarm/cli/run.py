@@ -9,15 +9,27 @@ from typing import Annotated, Optional
 import numpy as np
 import typer
 
-from loadarm.vocab import alarm_label
-from loadarm.cli.common import EventKind, _latest_run, ForceOpt, JsonOpt, PlantKind, SAFETY_FAILED, Table, UserError, _json, _outputs, _progress, out
-from loadarm.eventlog import EventLog
-from loadarm.sim.loop import run_scenario, wall_clock_pacer
-from loadarm.params.scenario import load_scenario
+from loadarm.cli.common import (
+    SAFETY_FAILED,
+    EventKind,
+    ForceOpt,
+    JsonOpt,
+    PlantKind,
+    Table,
+    UserError,
+    _json,
+    _latest_run,
+    _outputs,
+    _progress,
+    out,
+)
+from loadarm.eventlog import EventLog, check_samples
 from loadarm.figures import save
-from loadarm.eventlog import check_samples
 from loadarm.guidance.controller import MODES
+from loadarm.params.scenario import load_scenario
+from loadarm.sim.loop import run_scenario, wall_clock_pacer
 from loadarm.sim.plots import timeline_figure
+from loadarm.vocab import alarm_label
 
 __all__ = ["app"]
 

@@ -8,12 +8,26 @@ from typing import Annotated, Optional
 
 import typer
 
-from loadarm.cli.common import BerthOpt, ConfigOpt, ForceOpt, JsonOpt, Table, UserError, _json, _model, _outputs, _print_wide, _progress, err, out
+from loadarm.cli.common import (
+    BerthOpt,
+    ConfigOpt,
+    ForceOpt,
+    JsonOpt,
+    Table,
+    UserError,
+    _json,
+    _model,
+    _outputs,
+    _print_wide,
+    _progress,
+    err,
+    out,
+)
+from loadarm.design.alarm_design import DesignSettings, design_alarms
+from loadarm.figures import save
 from loadarm.params.berth import load_berth
 from loadarm.ship.model import compile_ship
 from loadarm.ship.summary import ship_summary
-from loadarm.figures import save
-from loadarm.design.alarm_design import DesignSettings, design_alarms
 
 __all__ = ["app"]
 

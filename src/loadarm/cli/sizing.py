@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-
 import typer
 
 from loadarm.cli.common import ConfigOpt, JsonOpt, Table, _json, out
-from loadarm.params.config import load_sizing_case
 from loadarm.design.sizing import size_installation, sizing_summary
+from loadarm.params.config import load_sizing_case
 
 __all__ = ["app"]
 

@@ -7,11 +7,22 @@ from typing import Annotated, Optional
 
 import typer
 
-from loadarm.cli.common import BerthOpt, ConfigOpt, ForceOpt, JsonOpt, PlantKind, UserError, _json, _outputs, _progress, out
-from loadarm.results import format_rows
-from loadarm.studies.operability import OperabilitySettings, run_operability
+from loadarm.cli.common import (
+    BerthOpt,
+    ConfigOpt,
+    ForceOpt,
+    JsonOpt,
+    PlantKind,
+    UserError,
+    _json,
+    _outputs,
+    _progress,
+    out,
+)
 from loadarm.figures import save
+from loadarm.results import format_rows
 from loadarm.studies.campaign import check_campaign, parse_vary, run_campaign
+from loadarm.studies.operability import OperabilitySettings, run_operability
 
 __all__ = ["app"]
 

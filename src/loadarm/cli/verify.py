@@ -8,13 +8,12 @@ from typing import Annotated, Optional
 
 import typer
 
+from loadarm.arm.dynamics import mass_model
 from loadarm.cli.common import ConfigOpt, ForceOpt, JsonOpt, Timing, _json, _model, _outputs, err, out
-from loadarm.design.multibody import verify_kinematics
+from loadarm.design.multibody import build_mjcf, load_model, verify_kinematics
+from loadarm.design.plots import verification_figure
 from loadarm.design.trajectory import plan_approach
 from loadarm.figures import save
-from loadarm.design.plots import verification_figure
-from loadarm.arm.dynamics import mass_model
-from loadarm.design.multibody import build_mjcf, load_model
 
 __all__ = ["app"]
 

@@ -35,15 +35,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from loadarm.arm.sequence import esd_lead, valve_worst_time
-from loadarm.errors import ConfigError
 from loadarm.arm.envelope import berth_box
-from loadarm.arm.faces import (FACE_LABELS, FACES, breakout_distance, face_margins, first_face, past_a_face_at,
-    ray_crossing)
-from loadarm.results import Metric, Result
+from loadarm.arm.faces import (
+    FACE_LABELS,
+    FACES,
+    breakout_distance,
+    face_margins,
+    first_face,
+    past_a_face_at,
+    ray_crossing,
+)
+from loadarm.arm.sequence import esd_lead, valve_worst_time
 from loadarm.arm.slew import inverse3d
-from loadarm.ship.motion import _flange, simulate
 from loadarm.design.plots import alarm_design_figure
+from loadarm.errors import ConfigError
+from loadarm.results import Metric, Result
+from loadarm.ship.motion import _flange, simulate
 
 __all__ = ["FaceDesign", "AlarmDesign", "design_alarms", "DesignSettings", "breakout_curve"]
 
@@ -364,11 +371,45 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
     lead1 = esd_lead(seq)
     t_rel = valve_worst_time(seq)
     t_free = t_rel + seq.erc_release_time + seq.margin
-    n = settings.seeds
     calm, _, _ = _flange(ship, ship.eq0[None], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
-    box = berth_box(model.datasheet)
-    ds = model.datasheet
-    x_conn_far = ds.A + ds.B + ds.D
+    box, x_conn_far, (fx, fz) = berth_box(model.datasheet), _x_conn_far(model.datasheet), model.approach.flange
+    corners, warnings = _corners(model, ship)
+    intact, broken, bt, mean_offset = _mooring_analysis(ship, env, settings, calm, progress)
+    st = _Stack(model, corners, lead1, t_rel, t_free)
+    rows, problems, curves = [], [], []
+    tau_main = s_main = None
+    for name, vec, kind, how in _DIRECTIONS:
+        d = np.array(vec)
+        runs = intact["berth"] + (intact[name] if how == "breakout" else [])
+        allow = max(0.0, max(float(np.max(p @ d)) for p, _ in runs))
+        v_int = max(0.0, max(float(np.max(v @ d)) for _, v in runs))
+        tau, s, case = _drift(model, how, broken.get(name), bt, d, settings)
+        if tau_main is None:
+            tau_main, s_main = tau, s
+        rows.append(st.face_row(name, vec, kind, d, tau, s, allow, v_int, case, problems, warnings))
+        if how == "breakout":
+            curves.append((tau, s))
+    rec = _recommended(rows)
+    speed, accel = design_drift_fit(curves, lead1 + t_free)
+    rec["design_drift_speed_ms"] = speed
+    rec["design_drift_acceleration_ms2"] = accel
+    sequence = {"esd_time_s": seq.esd_time, "ers_valve_time_s": seq.ers_valve_time,
+                "ers_valve_timeout_s": seq.ers_valve_timeout, "valves_worst_s": t_rel,
+                "erc_release_time_s": seq.erc_release_time, "margin_s": seq.margin, "esd_lead_s": lead1}
+    return AlarmDesign(tuple(rows), rec, sequence, ship.natural_periods(), mean_offset, tau_main, s_main,
+                       (box.x_near, x_conn_far, box.y_low, box.y_high), tuple(problems), tuple(warnings), (fx, fz),
+                       model.arm, model.joint_limits)
+
+
+def _x_conn_far(ds) -> float:
+    """The flanging area's far edge: the datasheet's A + B + D."""
+    return ds.A + ds.B + ds.D
+
+
+def _corners(model, ship) -> tuple[list, list]:
+    """The flanging area's corners (and the nominal flange) inside the attached envelope, and a warning for each
+    outside it; refuses when none is inside."""
+    box, x_conn_far = berth_box(model.datasheet), _x_conn_far(model.datasheet)
     fx, fz = model.approach.flange
     tol = ship.manifold_tolerance
     candidates = [np.array([x, y, z]) for x in (box.x_near, x_conn_far) for z in (box.y_low, box.y_high)
@@ -387,20 +428,20 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
     if not corners:
         raise ConfigError("no corner of the flanging area (datasheet C-D, H-I, the berth's manifold tolerance) nor "
                           "the nominal flange lies inside the attached envelope: " + "; ".join(warnings))
-
-    def past_face(pts):
-        return past_a_face_at(model, pts[:, 0], pts[:, 1], pts[:, 2])
+    return corners, warnings
 
 
-    # the mooring analysis: intact (the berth's environment, and turned towards each horizontal face) and
-    # break-out (every line parted, the environment turned towards the face), several seeds each
+def _mooring_analysis(ship, env, settings: DesignSettings, calm, progress):
+    """The mooring analysis: intact (the berth's environment, and turned towards each horizontal face) and
+    break-out (every line parted, the environment turned towards the face), several seeds each."""
     envs = {"berth": env}
-    for name, vec, kind, how in _DIRECTIONS:
+    for name, vec, _, how in _DIRECTIONS:
         if how == "breakout":
             envs[name] = _towards(env, vec)
     jobs = [(key, e, broken) for key, e in envs.items() for broken in ((False, True) if key != "berth" else (False,))]
     intact: dict[str, list] = {k: [] for k in envs}
     broken: dict[str, list] = {k: [] for k in envs}
+    n = settings.seeds
     done, total = 0, len(jobs) * n
     mean_offset = (0.0, 0.0, 0.0)
     bt = None
@@ -420,114 +461,22 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
             done += 1
             if progress:
                 progress(done / total)
+    return intact, broken, bt, mean_offset
 
-    lim = model.joint_limits
-    rows, problems, curves = [], [], []
-    tau_main = s_main = None
-    for name, vec, kind, how in _DIRECTIONS:
-        d = np.array(vec)
-        runs = intact["berth"] + (intact[name] if how == "breakout" else [])
-        allow = max(0.0, max(float(np.max(p @ d)) for p, _ in runs))
-        v_int = max(0.0, max(float(np.max(v @ d)) for _, v in runs))
-        if how == "breakout":
-            tau, s = breakout_curve(np.stack(broken[name]), bt, settings.part_time, d, settings.breakout_window)
-            case = "break-out: every line parted, the design environment towards this face"
-        elif how == "vertical":
-            tau = np.linspace(0.0, settings.breakout_window, 1801)
-            s = model.design_drift.vertical_speed * tau
-            case = "tide and loading at the design vertical speed"
-        else:
-            tau = np.linspace(0.0, settings.breakout_window, 1801)
-            s = np.zeros_like(tau)
-            case = "the fenders stop the ship: intact motion only"
-        if tau_main is None:
-            tau_main, s_main = tau, s
-        avail = {}
-        for ci, c in enumerate(corners):
-            a = ray_crossing(c, d, past_face)
-            avail[ci] = 40.0 if a is None else a
-        s_rel, s_sec, s_free, s_lead = (_s_at(tau, s, t) for t in (t_rel, 0.5 * t_rel, t_free, lead1))
-        v_rel = float(np.interp(min(t_rel, tau[-1]), tau[1:], np.diff(s) / np.diff(tau)))
-        first = second = release = limit = floor = None
-        if kind is not None:
-            sign = float(np.sign(vec[0] + vec[1]))
-            limit = lim.beta[1] if kind == "beta" else (lim.phi[1] if sign > 0 else -lim.phi[0])
 
-            def ang(pts, kind=kind, sign=sign):
-                """The guarding coordinate: beta, or the slew signed towards this face."""
-                q = inverse3d(model.arm, pts[..., 0], pts[..., 1], pts[..., 2], check=False)
-                return np.asarray(q.beta if kind == "beta" else sign * q.phi, dtype=float)
+def _drift(model, how: str, broken, bt, d, settings: DesignSettings):
+    """The design drift towards one face from the allowance's edge: ``(tau, s, case)``."""
+    if how == "breakout":
+        tau, s = breakout_curve(np.stack(broken), bt, settings.part_time, d, settings.breakout_window)
+        return tau, s, "break-out: every line parted, the design environment towards this face"
+    tau = np.linspace(0.0, settings.breakout_window, 1801)
+    if how == "vertical":
+        return tau, model.design_drift.vertical_speed * tau, "tide and loading at the design vertical speed"
+    return tau, np.zeros_like(tau), "the fenders stop the ship: intact motion only"
 
-            # stacked back from the face, corner by corner (Choi et al. 2018): the coupler free (plus the margin)
-            # at the face, the release that long before, ESD-1 the valves' closing time before the release and at
-            # least the whole ESD-1 lead before the face; the break-out from the allowance's edge, so that the
-            # speed at each stage is the largest it can be there
-            ideal_first, ideal_release, floor_first = [], [], []
-            for ci, c in enumerate(corners):
-                t_face = _tau_at(tau, s, avail[ci] - allow)
-                if not math.isfinite(t_face):
-                    continue                      # the drift never reaches this corner's face in the window
-                t_r = max(t_face - seq.erc_release_time - seq.margin, 0.0)
-                t_1 = max(min(t_r - t_rel, t_face - lead1), 0.0)
-                ideal_release.append(float(ang(c + (allow + _s_at(tau, s, t_r)) * d)))
-                ideal_first.append(float(ang(c + (allow + _s_at(tau, s, t_1)) * d)))
-            floor_first = [float(ang(c + allow * d)) for c in corners]
-            floor = max(floor_first)
-            if ideal_first:
-                # one threshold for every corner: the earliest any corner needs, never inside any allowance
-                f0, r0 = min(ideal_first), min(ideal_release)
-            else:
-                f0, r0 = floor, 0.5 * (floor + limit)
-            first, second, release = _round_thresholds(max(f0, floor), 0.5 * (max(f0, floor) + max(r0, f0, floor)),
-                                                       max(r0, f0, floor), floor)
-            # each corner with these thresholds: where they fire, and whether the coupler is free in time
-            short, worst = -math.inf, 0
-            for ci, c in enumerate(corners):
-                s1 = ray_crossing(c, d, lambda p, ang=ang: ang(p) >= first) or 0.0
-                sr = ray_crossing(c, d, lambda p, ang=ang: ang(p) >= release)
-                if sr is None or sr >= avail[ci]:
-                    if short < math.inf:
-                        short, worst = math.inf, ci
-                    continue
-                # a stage the drift never reaches within the window: it stays short of it (the window's end
-                # stands for it) and must stay short of the face
-                tau1 = min(_tau_at(tau, s, max(s1 - allow, 0.0)), float(tau[-1]))
-                taur = min(max(_tau_at(tau, s, max(sr - allow, 0.0)), tau1 + t_rel), float(tau[-1]))
-                need = allow + max(_s_at(tau, s, taur + seq.erc_release_time + seq.margin),
-                                   _s_at(tau, s, tau1 + lead1))
-                if need - avail[ci] > short:
-                    short, worst = need - avail[ci], ci
-        # the refusal: even an alarm at the allowance's edge (loadarm's design-drift floor fires there at the
-        # latest, whatever the corner) leaves less than the ESD-1 lead's drift before the face
-        worst_f = max(avail, key=lambda ci: allow + s_lead - avail[ci])
-        short_floor = allow + s_lead - avail[worst_f]
-        if kind is None:
-            short, worst = short_floor, worst_f
-        c = corners[worst]
-        face = ""
-        hit = ray_crossing(c, d, past_face)
-        if hit is not None:
-            face = FACES[int(first_face(face_margins(model, *(c + (hit + 1e-6) * d)))[1])]
-        ok = bool(short_floor <= 0)
-        what = FACE_LABELS.get(face, face or "the reach")
-        where = f"x = {c[0]:.2f}, y = {c[1]:.2f}, z = {c[2]:.2f} m"
-        if not ok:
-            cf = corners[worst_f]
-            problems.append(f"{name}: the arm cannot absorb the design drift before the face ({what}): short by "
-                            f"{short_floor:.2f} m at the flanging-area corner x = {cf[0]:.2f}, y = {cf[1]:.2f}, "
-                            f"z = {cf[2]:.2f} m")
-        elif kind is not None and short > 0:
-            warnings.append(f"{name}: the {kind} alarms alone fire too late at the corner {where} (short by "
-                            + (f"{short:.2f} m" if math.isfinite(short) else "the whole release")
-                            + "): one angle cannot serve the whole flanging area there; the design-drift floor "
-                              "(recommended [design_drift]) covers it")
-        rows.append(FaceDesign(name, tuple(vec), face, avail[worst_f], allow, v_int, allow + s_sec,
-                               allow + s_rel, allow + s_free, allow + s_lead, v_rel, kind or "", first, second,
-                               release, limit, ok, float(short_floor),
-                               tuple(float(v) for v in corners[worst_f]), case,
-                               float(short) if math.isfinite(short) else float("inf"), floor))
-        if how == "breakout":
-            curves.append((tau, s))
+
+def _recommended(rows) -> dict:
+    """The recommended ``[alarms]`` and ``[slew]`` settings in degrees (None where no face guards them)."""
     rec = {}
     for kind in ("beta", "slew"):
         rs = [r for r in rows if r.coordinate == kind]
@@ -543,12 +492,123 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
         first, second, release = _round_thresholds(first, second, release, floor)
         for stage, v in (("first", first), ("second", second), ("release", release)):
             rec[f"{stage}_{kind}_deg"] = round(math.degrees(v), 1)
-    speed, accel = design_drift_fit(curves, lead1 + t_free)
-    rec["design_drift_speed_ms"] = speed
-    rec["design_drift_acceleration_ms2"] = accel
-    sequence = {"esd_time_s": seq.esd_time, "ers_valve_time_s": seq.ers_valve_time,
-                "ers_valve_timeout_s": seq.ers_valve_timeout, "valves_worst_s": t_rel,
-                "erc_release_time_s": seq.erc_release_time, "margin_s": seq.margin, "esd_lead_s": lead1}
-    return AlarmDesign(tuple(rows), rec, sequence, ship.natural_periods(), mean_offset, tau_main, s_main,
-                       (box.x_near, x_conn_far, box.y_low, box.y_high), tuple(problems), tuple(warnings), (fx, fz), model.arm,
-                       model.joint_limits)
+    return rec
+
+
+@dataclass(frozen=True)
+class _Stack:
+    """The stages stacked back from each face (Choi et al. 2018), over the corners of the flanging area."""
+
+    model: object
+    corners: list
+    lead1: float
+    t_rel: float
+    t_free: float
+
+    def past_face(self, pts):
+        return past_a_face_at(self.model, pts[:, 0], pts[:, 1], pts[:, 2])
+
+    def guard(self, kind: str, sign: float):
+        """The guarding coordinate at points: beta, or the slew signed towards this face."""
+        arm = self.model.arm
+
+        def ang(pts):
+            q = inverse3d(arm, pts[..., 0], pts[..., 1], pts[..., 2], check=False)
+            return np.asarray(q.beta if kind == "beta" else sign * q.phi, dtype=float)
+
+        return ang
+
+    def thresholds(self, kind, vec, d, tau, s, allow, avail):
+        """First, second and release thresholds of one face, the face's limit, the allowance floor, and how
+        short of the face the worst corner's release comes (``short``, at corner ``worst``)."""
+        seq, lim, corners = self.model.sequence, self.model.joint_limits, self.corners
+        sign = float(np.sign(vec[0] + vec[1]))
+        limit = lim.beta[1] if kind == "beta" else (lim.phi[1] if sign > 0 else -lim.phi[0])
+        ang = self.guard(kind, sign)
+        # stacked back from the face, corner by corner (Choi et al. 2018): the coupler free (plus the margin)
+        # at the face, the release that long before, ESD-1 the valves' closing time before the release and at
+        # least the whole ESD-1 lead before the face; the break-out from the allowance's edge, so that the
+        # speed at each stage is the largest it can be there
+        ideal_first, ideal_release = [], []
+        for ci, c in enumerate(corners):
+            t_face = _tau_at(tau, s, avail[ci] - allow)
+            if not math.isfinite(t_face):
+                continue                      # the drift never reaches this corner's face in the window
+            t_r = max(t_face - seq.erc_release_time - seq.margin, 0.0)
+            t_1 = max(min(t_r - self.t_rel, t_face - self.lead1), 0.0)
+            ideal_release.append(float(ang(c + (allow + _s_at(tau, s, t_r)) * d)))
+            ideal_first.append(float(ang(c + (allow + _s_at(tau, s, t_1)) * d)))
+        floor = max(float(ang(c + allow * d)) for c in corners)
+        if ideal_first:
+            # one threshold for every corner: the earliest any corner needs, never inside any allowance
+            f0, r0 = min(ideal_first), min(ideal_release)
+        else:
+            f0, r0 = floor, 0.5 * (floor + limit)
+        first, second, release = _round_thresholds(max(f0, floor), 0.5 * (max(f0, floor) + max(r0, f0, floor)),
+                                                   max(r0, f0, floor), floor)
+        short, worst = self.shortfall(ang, first, release, d, tau, s, allow, avail)
+        return first, second, release, limit, floor, short, worst
+
+    def shortfall(self, ang, first, release, d, tau, s, allow, avail):
+        """Each corner with these thresholds: where they fire, and whether the coupler is free in time."""
+        seq = self.model.sequence
+        short, worst = -math.inf, 0
+        for ci, c in enumerate(self.corners):
+            s1 = ray_crossing(c, d, lambda p: ang(p) >= first) or 0.0
+            sr = ray_crossing(c, d, lambda p: ang(p) >= release)
+            if sr is None or sr >= avail[ci]:
+                if short < math.inf:
+                    short, worst = math.inf, ci
+                continue
+            # a stage the drift never reaches within the window: it stays short of it (the window's end
+            # stands for it) and must stay short of the face
+            tau1 = min(_tau_at(tau, s, max(s1 - allow, 0.0)), float(tau[-1]))
+            taur = min(max(_tau_at(tau, s, max(sr - allow, 0.0)), tau1 + self.t_rel), float(tau[-1]))
+            need = allow + max(_s_at(tau, s, taur + seq.erc_release_time + seq.margin),
+                               _s_at(tau, s, tau1 + self.lead1))
+            if need - avail[ci] > short:
+                short, worst = need - avail[ci], ci
+        return short, worst
+
+    def face_row(self, name, vec, kind, d, tau, s, allow, v_int, case, problems, warnings) -> FaceDesign:
+        """One face's design; a refusal goes to ``problems``, a late position alarm to ``warnings``."""
+        corners = self.corners
+        avail = {}
+        for ci, c in enumerate(corners):
+            a = ray_crossing(c, d, self.past_face)
+            avail[ci] = 40.0 if a is None else a
+        s_rel, s_sec, s_free, s_lead = (_s_at(tau, s, t) for t in (self.t_rel, 0.5 * self.t_rel, self.t_free,
+                                                                   self.lead1))
+        v_rel = float(np.interp(min(self.t_rel, tau[-1]), tau[1:], np.diff(s) / np.diff(tau)))
+        first = second = release = limit = floor = None
+        if kind is not None:
+            first, second, release, limit, floor, short, worst = self.thresholds(kind, vec, d, tau, s, allow, avail)
+        # the refusal: even an alarm at the allowance's edge (loadarm's design-drift floor fires there at the
+        # latest, whatever the corner) leaves less than the ESD-1 lead's drift before the face
+        worst_f = max(avail, key=lambda ci: allow + s_lead - avail[ci])
+        short_floor = allow + s_lead - avail[worst_f]
+        if kind is None:
+            short, worst = short_floor, worst_f
+        c = corners[worst]
+        face = ""
+        hit = ray_crossing(c, d, self.past_face)
+        if hit is not None:
+            face = FACES[int(first_face(face_margins(self.model, *(c + (hit + 1e-6) * d)))[1])]
+        ok = bool(short_floor <= 0)
+        what = FACE_LABELS.get(face, face or "the reach")
+        where = f"x = {c[0]:.2f}, y = {c[1]:.2f}, z = {c[2]:.2f} m"
+        if not ok:
+            cf = corners[worst_f]
+            problems.append(f"{name}: the arm cannot absorb the design drift before the face ({what}): short by "
+                            f"{short_floor:.2f} m at the flanging-area corner x = {cf[0]:.2f}, y = {cf[1]:.2f}, "
+                            f"z = {cf[2]:.2f} m")
+        elif kind is not None and short > 0:
+            warnings.append(f"{name}: the {kind} alarms alone fire too late at the corner {where} (short by "
+                            + (f"{short:.2f} m" if math.isfinite(short) else "the whole release")
+                            + "): one angle cannot serve the whole flanging area there; the design-drift floor "
+                              "(recommended [design_drift]) covers it")
+        return FaceDesign(name, tuple(vec), face, avail[worst_f], allow, v_int, allow + s_sec,
+                          allow + s_rel, allow + s_free, allow + s_lead, v_rel, kind or "", first, second,
+                          release, limit, ok, float(short_floor),
+                          tuple(float(v) for v in corners[worst_f]), case,
+                          float(short) if math.isfinite(short) else float("inf"), floor)

@@ -25,8 +25,8 @@ from scipy.optimize import linprog
 from loadarm.arm.dynamics import MassModel, mass_model, static_torques
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import inverse, reach_mask
-from loadarm.results import Result
 from loadarm.design.plots import residual_torque_figure
+from loadarm.results import Result
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel

@@ -36,17 +36,25 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from loadarm.vocab import UNREACHABLE, Severity
+from loadarm.arm.actuators import cylinder_lengths
 from loadarm.arm.alarms import beta_severity, slew_severity
-from loadarm.arm.faces import (FACE_LABELS, FACES, RAY_REACH as _REACH, breakout_distance, face_margins, first_face,
-    past_a_face_at, ray_crossing)
-from loadarm.results import Metric, Result
+from loadarm.arm.envelope import berth_box
+from loadarm.arm.faces import (
+    FACE_LABELS,
+    FACES,
+    breakout_distance,
+    face_margins,
+    first_face,
+    past_a_face_at,
+    ray_crossing,
+)
+from loadarm.arm.faces import RAY_REACH as _REACH
 from loadarm.arm.sequence import esd_lead, release_lead, valve_worst_time
 from loadarm.arm.slew import inverse3d
-from loadarm.arm.actuators import cylinder_lengths
-from loadarm.arm.envelope import berth_box
-from loadarm.design.surge import surge_check
 from loadarm.design.plots import check_figure
+from loadarm.design.surge import surge_check
+from loadarm.results import Metric, Result
+from loadarm.vocab import UNREACHABLE, Severity
 
 __all__ = ["DIRECTIONS", "DirectionCheck", "CheckResult", "CHECK_METRICS", "design_check", "esd_lead",
            "release_lead", "valve_worst_time", "accumulator_usable_volume", "retraction_oil", "MANIFOLD_CLEARANCE"]

@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from loadarm.arm.dynamics import chamber_pressures, cylinder_forces, joint_torques, mass_model
+from loadarm.design.plots import loads_figure
 from loadarm.design.trajectory import Plan
 from loadarm.results import Metric, Result
-from loadarm.design.plots import loads_figure
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel

@@ -38,9 +38,9 @@ from loadarm.arm.actuators import cylinder_lengths
 from loadarm.arm.dynamics import G, MassModel, mass_model
 from loadarm.arm.geometry import Arm, Mounting
 from loadarm.arm.kinematics import inverse
+from loadarm.design.plots import verification_figure
 from loadarm.design.trajectory import Plan
 from loadarm.results import Result
-from loadarm.design.plots import verification_figure
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from loadarm.errors import PathError, UnreachableError
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import ROUNDOFF_M
+from loadarm.errors import PathError, UnreachableError
 
 __all__ = ["StraightPath"]
 

@@ -7,12 +7,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from loadarm.vocab import Severity
 from loadarm.arm.envelope import zone_radii
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import elbow_position, forward, inverse_paper
-
 from loadarm.figures import subplots
+from loadarm.vocab import Severity
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
@@ -505,8 +504,8 @@ def check_figure(result) -> Figure:
     ax.set_yticks(y)
     ax.set_yticklabels([r.direction for r in rows], fontsize=8)
     ax.set_xlabel("distance from the nominal flange [m]")
-    from matplotlib.patches import Patch
     from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
 
     ax.legend(handles=[Patch(facecolor="0.82", edgecolor="0.3", label="available: to the first face"),
                        Patch(facecolor="none", edgecolor="0.15", hatch="///",

@@ -23,14 +23,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from loadarm.vocab import UNREACHABLE, severity_label
 from loadarm.arm.alarms import AlarmAngles, beta_severity
 from loadarm.arm.envelope import berth_box
-from loadarm.errors import SizingError
 from loadarm.arm.geometry import Arm
-from loadarm.results import Metric, Result
 from loadarm.arm.kinematics import inverse, reach_mask
 from loadarm.design.plots import sizing_figure
+from loadarm.errors import SizingError
+from loadarm.results import Metric, Result
+from loadarm.vocab import UNREACHABLE, severity_label
 
 __all__ = ["SIZING_METRICS", "SizingResult", "CornerCheck", "first_alarm_corner", "alarm_radius", "size_arm", "check_corners",
            "size_installation", "sizing_summary"]

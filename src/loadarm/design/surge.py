@@ -47,8 +47,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from loadarm.results import Metric, Result
 from loadarm.design.plots import surge_figure
+from loadarm.results import Metric, Result
 
 __all__ = ["CLOSURE_LAWS", "SUPPORTS", "SURGE_METRICS", "SurgeResult", "joukowsky", "michaud", "pipe_wave_speed",
            "valve_opening", "moc_valve_closure", "surge_check"]

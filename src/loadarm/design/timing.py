@@ -30,8 +30,8 @@ from typing import Protocol
 
 import numpy as np
 
-from loadarm.errors import TimingError
 from loadarm.design.path import StraightPath
+from loadarm.errors import TimingError
 
 __all__ = ["TimingLaw", "PaperTiming", "TrapezoidTiming", "ToppraTiming", "make_timing", "TIMING_LAWS"]
 

@@ -21,17 +21,16 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from loadarm.arm.actuators import cylinder_lengths, cylinder_rates, valve_voltages
-from loadarm.vocab import Severity, severity_label
 from loadarm.arm.alarms import beta_severity, slew_severity
-from loadarm.errors import PathError
 from loadarm.arm.kinematics import check_reachable, inverse, joint_accelerations, joint_rates
-from loadarm.design.path import StraightPath
-from loadarm.design.timing import ToppraTiming, make_timing
-from loadarm.results import Metric, Result
-from loadarm.files import atomic_open
 from loadarm.arm.slew import inverse3d
-from loadarm.design.plots import cylinders_figure
-from loadarm.design.plots import plan3d_figure
+from loadarm.design.path import StraightPath
+from loadarm.design.plots import cylinders_figure, plan3d_figure
+from loadarm.design.timing import ToppraTiming, make_timing
+from loadarm.errors import PathError
+from loadarm.files import atomic_open
+from loadarm.results import Metric, Result
+from loadarm.vocab import Severity, severity_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel

@@ -42,17 +42,16 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from loadarm.arm.sequence import stage_of, valve_worst_time
-from loadarm.guidance.voting import AXES, VoteState, reset_votes, vote
 from loadarm.arm.alarms import AlarmState, AlarmThresholds, next_alarm_state
-from loadarm.vocab import Severity
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import ROUNDOFF_M, jacobian_entries
+from loadarm.arm.sequence import stage_of, valve_worst_time
 from loadarm.arm.slew import forward3d, inverse3d, reach_mask3d
-from loadarm.vocab import ANNUNCIATED, CONDITION_TEXT, STAGE_EVENT, event_label
-from loadarm.guidance.monitor import FIT_PERIOD, EnvelopeMonitor, LimitForecast, stage_leads
-from loadarm.params.scenario import Guidance, check_drift_window
 from loadarm.guidance.estimator import Estimate
+from loadarm.guidance.monitor import FIT_PERIOD, EnvelopeMonitor, LimitForecast, stage_leads
+from loadarm.guidance.voting import AXES, VoteState, reset_votes, vote
+from loadarm.params.scenario import Guidance, check_drift_window
+from loadarm.vocab import ANNUNCIATED, CONDITION_TEXT, STAGE_EVENT, Severity, event_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel

@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-
 __all__ = ["Estimate", "FlangeEstimator", "CHI2_3DOF_999", "NIS_WINDOW", "NIS_MEAN_999", "REJECT_WINDOW",
            "MAX_REJECT_RATE", "AMBIGUITY_SPAN", "AMBIGUITY_HOLD"]
 

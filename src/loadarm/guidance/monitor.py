@@ -26,9 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from loadarm.vocab import Severity
-from loadarm.arm.sequence import esd_lead, lead_values, valve_worst_time
 from loadarm.arm.faces import FACES, breakout_distance, face_margins, first_face
+from loadarm.arm.sequence import esd_lead, lead_values, valve_worst_time
+from loadarm.vocab import Severity
 
 __all__ = ["FIT_PERIOD", "stage_leads", "DriftEstimate", "DriftFit", "LimitForecast", "EnvelopeMonitor"]
 

@@ -17,11 +17,11 @@ from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
 
-from loadarm.opcua.security import StateDir
-from loadarm.vocab import COMMANDS, TAGGED_ACTIONS
 from loadarm.hmi.sessions import COOKIE, LoginLimiter, Sessions
 from loadarm.hmi.state import AlarmBook, frame, geometry
+from loadarm.opcua.security import StateDir
 from loadarm.opcua.service import JOG_HOLD, Request
+from loadarm.vocab import COMMANDS, TAGGED_ACTIONS
 
 __all__ = ["COMMANDS", "FRAME_RATE", "create_app", "HmiServer", "parse_hmi_address"]
 
@@ -37,6 +37,199 @@ _CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self'
 
 def _static_dir() -> Path:
     return Path(str(resources.files("loadarm.hmi") / "static"))
+
+
+def _reply(seq, ok: bool, message: str) -> str:
+    return json.dumps({"type": "ack", "seq": seq, "ok": ok, "message": message})
+
+
+def _json_error(detail: str, status: int, headers: dict | None = None):
+    from fastapi.responses import JSONResponse
+
+    return JSONResponse({"detail": detail}, status_code=status, headers=headers)
+
+
+class _Screen:
+    """What the application's routes share: the users, the sessions, the login limit, the alarm book and the frame
+    cache of one service. Each route is a method; :func:`create_app` only wires them."""
+
+    def __init__(self, service, state_dir, model, clock, wall, frame_rate: float, name: str):
+        self.service, self.model, self.wall, self.frame_rate, self.name = service, model, wall, frame_rate, name
+        self.users = StateDir(state_dir).users()
+        self.sessions, self.limiter, self.book = Sessions(clock=clock), LoginLimiter(clock=clock), AlarmBook()
+        self.geo = geometry(model)
+        self.cache: dict = {"seq": None, "alarms": []}
+        self.lock = threading.Lock()
+        self.replay = hasattr(service, "new_cursor")      # a logged run (loadarm.hmi.replay): no commands, a slider
+
+    def current(self, request) -> tuple[str | None, object]:
+        token = request.cookies.get(COOKIE)
+        return token, self.sessions.get(token)
+
+    def session_json(self, s) -> dict:
+        return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": self.name,
+                "replay": self.replay,
+                "commands": [] if self.replay else sorted(c for c, r in COMMANDS.items() if s.role >= r)}
+
+    def get_session(self, request):
+        _, s = self.current(request)
+        if s is None:                     # not an error: the page shows the login (no console error either)
+            return {"user": None, "name": self.name}
+        return self.session_json(s)
+
+    async def login(self, request):
+        from fastapi.responses import JSONResponse
+
+        try:
+            body = await request.json()
+            user, password = body["user"], body["password"]
+            if not isinstance(user, str) or not isinstance(password, str):
+                raise TypeError
+        except (ValueError, KeyError, TypeError):
+            return _json_error("send {\"user\": ..., \"password\": ...}", 400)
+        client = request.client.host if request.client else "?"
+        wait = self.limiter.blocked(user, client)
+        if wait > 0:
+            return _json_error(f"too many failed logins: try again in {math.ceil(wait)} s", 429,
+                               {"Retry-After": str(math.ceil(wait))})
+        who = await asyncio.to_thread(self.users.authenticate, user, password)     # scrypt: off the event loop
+        if who is None:
+            self.limiter.failed(user, client)
+            return _json_error("wrong user name or password", 401)
+        self.limiter.succeeded(user)
+        token, s = self.sessions.open(who.name, who.role)
+        response = JSONResponse(self.session_json(s))
+        response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/",
+                            secure=request.url.scheme == "https")
+        return response
+
+    def logout(self, request):
+        from fastapi.responses import JSONResponse
+
+        token, s = self.current(request)
+        if s is None or not s.csrf_ok(request.headers.get("X-CSRF-Token")):
+            return _json_error("not logged in, or no CSRF token", 403)
+        self.sessions.close(token)
+        response = JSONResponse({"detail": "logged out"})
+        response.delete_cookie(COOKIE, path="/")
+        return response
+
+    def get_geometry(self, request):
+        if self.current(request)[1] is None:
+            return _json_error("not logged in", 401)
+        return self.geo
+
+    def alarms_for(self, snap):
+        with self.lock:
+            if self.cache["seq"] != snap.seq:
+                raised = self.service.raised_at(snap) if self.replay else None
+                self.cache["seq"], self.cache["alarms"] = snap.seq, self.book.update(snap.t, snap.alarms, raised)
+            return self.cache["alarms"]
+
+    def _refusal(self, s, msg: dict) -> str | None:
+        """Why a screen's command is refused before it is built (CSRF, replay, unknown, role), or None."""
+        action = msg.get("action")
+        if not s.csrf_ok(msg.get("csrf")):
+            return "refused: no valid CSRF token"
+        if self.replay:
+            return "refused: a replay takes no command"
+        if action not in COMMANDS:
+            return f"unknown command {action!r}"
+        if s.role < COMMANDS[action]:
+            return (f"refused: {action} needs the {COMMANDS[action].name.lower()} role, "
+                    f"{s.user} is {s.role.name.lower()}")
+        return None
+
+    def _shelving(self, action: str, tag: str, msg: dict) -> str | None:
+        """The alarm book's refusal of a shelve or unshelve, or None (other actions are not the book's)."""
+        if action == "shelve":
+            snap = self.service.snapshot()
+            return self.book.shelve(tag, snap.t if snap else 0.0, msg.get("seconds"), snap.alarms if snap else {})
+        if action == "unshelve":
+            return self.book.unshelve(tag)
+        return None
+
+    def command(self, s, msg: dict) -> tuple[bool, str]:
+        """One command from a screen: checked (CSRF, role, arguments), then queued to the controller."""
+        why = self._refusal(s, msg)
+        if why:
+            return False, why
+        action = msg.get("action")
+        tag = (msg.get("tag") or "") if action in TAGGED_ACTIONS else ""
+        try:
+            jog = tuple(float(v) for v in msg.get("jog", (0.0, 0.0, 0.0)))
+            req = Request(action, s.user, jog if action == "jog" else (0.0, 0.0, 0.0), tag=tag)
+        except (TypeError, ValueError) as exc:
+            return False, f"refused: {exc}"
+        why = self._shelving(action, tag, msg)
+        if why:
+            return False, f"refused: {why}"
+        with self.lock:
+            self.cache["seq"] = None                       # the next frame shows the shelving
+        self.service.request(req)
+        return True, f"{action} sent" + (f" ({tag})" if tag else "")
+
+    async def push(self, websocket, cursor, token: str | None) -> None:
+        """Frames to one screen, at most ``frame_rate`` a second, a keep-alive at least every ``KEEPALIVE``."""
+        last_seq, last_sent = None, -math.inf
+        while True:
+            snap = self.service.snapshot(cursor) if self.replay else self.service.snapshot()
+            now = time.monotonic()
+            if snap is not None and (snap.seq != last_seq or now - last_sent >= KEEPALIVE):
+                if self.sessions.get(token) is None:       # the session ended (logout, idle): no more frames
+                    await websocket.close(code=4401)
+                    return
+                f = frame(snap, self.model, self.alarms_for(snap), sent_at=self.wall())
+                if self.replay:
+                    f["replay"] = cursor.state()
+                await websocket.send_text(json.dumps(f))
+                last_seq, last_sent = snap.seq, now
+            await asyncio.sleep(1.0 / self.frame_rate)
+
+    def message(self, s, text: str, cursor, jogging: dict, token: str | None) -> tuple[str, bool]:
+        """One message from a screen and the reply it gets; True when the session has ended (stop listening)."""
+        try:
+            msg = json.loads(text)
+            seq = msg.get("seq") if isinstance(msg, dict) else None
+            if self.replay and isinstance(msg, dict) and msg.get("type") in ("seek", "play", "pause"):
+                return _reply(seq, *_replay_control(cursor, msg)), False
+            if not isinstance(msg, dict) or msg.get("type") != "cmd":
+                raise ValueError
+        except ValueError:
+            return _reply(None, False, "not a command"), False
+        if self.sessions.get(token) is None:
+            return _reply(seq, False, "session ended: log in again"), True
+        ok, message = self.command(s, msg)
+        if ok and msg.get("action") == "jog":
+            jogging["until"] = time.monotonic() + JOG_HOLD
+        elif ok and msg.get("action") in ("stop", "estop"):
+            jogging["until"] = -math.inf
+        return _reply(seq, ok, message), False
+
+    async def ws(self, websocket) -> None:
+        from fastapi import WebSocketDisconnect
+
+        s = self.sessions.get(websocket.cookies.get(COOKIE))
+        origin, host = websocket.headers.get("origin"), websocket.headers.get("host")
+        if s is None or origin is None or origin.split("://", 1)[-1] != host:
+            await websocket.close(code=4403)          # not logged in, or a page of another origin
+            return
+        await websocket.accept()
+        jogging = {"until": -math.inf}
+        cursor = self.service.new_cursor() if self.replay else None      # each screen moves its own slider
+        token = websocket.cookies.get(COOKIE)
+        sender = asyncio.create_task(self.push(websocket, cursor, token))
+        try:
+            ended = False
+            while not ended:
+                reply, ended = self.message(s, await websocket.receive_text(), cursor, jogging, token)
+                await websocket.send_text(reply)
+        except WebSocketDisconnect:
+            pass
+        finally:
+            sender.cancel()
+            if time.monotonic() < jogging["until"]:   # the dead-man: a screen that drops mid-jog stops it
+                self.service.request(Request("stop", s.user))
 
 
 def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.monotonic,
@@ -63,19 +256,14 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     -------
     FastAPI
     """
-    from fastapi import FastAPI, Request as HttpRequest, WebSocket, WebSocketDisconnect
-    from fastapi.responses import FileResponse, JSONResponse
+    from fastapi import FastAPI, WebSocket
+    from fastapi import Request as HttpRequest
+    from fastapi.responses import FileResponse
     from fastapi.staticfiles import StaticFiles
 
-
-    state = StateDir(state_dir)
-    users = state.users()
-    sessions, limiter, book = Sessions(clock=clock), LoginLimiter(clock=clock), AlarmBook()
-    geo = geometry(model)
-    cache: dict = {"seq": None, "alarms": []}
-    lock = threading.Lock()
+    screen = _Screen(service, state_dir, model, clock, wall, frame_rate, name)
     app = FastAPI(title=f"loadarm HMI ({name})", docs_url=None, redoc_url=None, openapi_url=None)
-    app.state.sessions, app.state.book = sessions, book
+    app.state.sessions, app.state.book = screen.sessions, screen.book
 
     @app.middleware("http")
     async def headers(request, call_next):
@@ -86,169 +274,29 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
         response.headers["Cache-Control"] = "no-store"
         return response
 
-    def current(request) -> tuple[str | None, object]:
-        token = request.cookies.get(COOKIE)
-        return token, sessions.get(token)
-
-    replay = hasattr(service, "new_cursor")        # a logged run (loadarm.hmi.replay): no commands, a slider
-
-    def session_json(s) -> dict:
-        return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": name, "replay": replay,
-                "commands": [] if replay else sorted(c for c, r in COMMANDS.items() if s.role >= r)}
-
     @app.get("/")
     async def index():
         return FileResponse(_static_dir() / "index.html", media_type="text/html")
 
     @app.get("/api/session")
     async def get_session(request: HttpRequest):
-        _, s = current(request)
-        if s is None:                     # not an error: the page shows the login (no console error either)
-            return {"user": None, "name": name}
-        return session_json(s)
+        return screen.get_session(request)
 
     @app.post("/api/login")
     async def login(request: HttpRequest):
-        try:
-            body = await request.json()
-            user, password = body["user"], body["password"]
-            if not isinstance(user, str) or not isinstance(password, str):
-                raise TypeError
-        except (ValueError, KeyError, TypeError):
-            return JSONResponse({"detail": "send {\"user\": ..., \"password\": ...}"}, status_code=400)
-        client = request.client.host if request.client else "?"
-        wait = limiter.blocked(user, client)
-        if wait > 0:
-            return JSONResponse({"detail": f"too many failed logins: try again in {math.ceil(wait)} s"},
-                                status_code=429, headers={"Retry-After": str(math.ceil(wait))})
-        who = await asyncio.to_thread(users.authenticate, user, password)     # scrypt: off the event loop
-        if who is None:
-            limiter.failed(user, client)
-            return JSONResponse({"detail": "wrong user name or password"}, status_code=401)
-        limiter.succeeded(user)
-        token, s = sessions.open(who.name, who.role)
-        response = JSONResponse(session_json(s))
-        response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/",
-                            secure=request.url.scheme == "https")
-        return response
+        return await screen.login(request)
 
     @app.post("/api/logout")
     async def logout(request: HttpRequest):
-        token, s = current(request)
-        if s is None or not s.csrf_ok(request.headers.get("X-CSRF-Token")):
-            return JSONResponse({"detail": "not logged in, or no CSRF token"}, status_code=403)
-        sessions.close(token)
-        response = JSONResponse({"detail": "logged out"})
-        response.delete_cookie(COOKIE, path="/")
-        return response
+        return screen.logout(request)
 
     @app.get("/api/geometry")
     async def get_geometry(request: HttpRequest):
-        if current(request)[1] is None:
-            return JSONResponse({"detail": "not logged in"}, status_code=401)
-        return geo
-
-    def alarms_for(snap):
-        with lock:
-            if cache["seq"] != snap.seq:
-                raised = service.raised_at(snap) if replay else None
-                cache["seq"], cache["alarms"] = snap.seq, book.update(snap.t, snap.alarms, raised)
-            return cache["alarms"]
-
-    def command(s, msg: dict) -> tuple[bool, str]:
-        """One command from a screen: checked (CSRF, role, arguments), then queued to the controller."""
-        action = msg.get("action")
-        if not s.csrf_ok(msg.get("csrf")):
-            return False, "refused: no valid CSRF token"
-        if replay:
-            return False, "refused: a replay takes no command"
-        if action not in COMMANDS:
-            return False, f"unknown command {action!r}"
-        if s.role < COMMANDS[action]:
-            return False, f"refused: {action} needs the {COMMANDS[action].name.lower()} role, " \
-                          f"{s.user} is {s.role.name.lower()}"
-        tag = (msg.get("tag") or "") if action in TAGGED_ACTIONS else ""
-        try:
-            jog = tuple(float(v) for v in msg.get("jog", (0.0, 0.0, 0.0)))
-            req = Request(action, s.user, jog if action == "jog" else (0.0, 0.0, 0.0), tag=tag)
-        except (TypeError, ValueError) as exc:
-            return False, f"refused: {exc}"
-        snap = service.snapshot()
-        if action == "shelve":
-            why = book.shelve(tag, snap.t if snap else 0.0, msg.get("seconds"), snap.alarms if snap else {})
-            if why:
-                return False, f"refused: {why}"
-        elif action == "unshelve":
-            why = book.unshelve(tag)
-            if why:
-                return False, f"refused: {why}"
-        with lock:
-            cache["seq"] = None                       # the next frame shows the shelving
-        service.request(req)
-        return True, f"{action} sent" + (f" ({tag})" if tag else "")
+        return screen.get_geometry(request)
 
     @app.websocket("/ws")
     async def ws(websocket: WebSocket):
-        s = sessions.get(websocket.cookies.get(COOKIE))
-        origin, host = websocket.headers.get("origin"), websocket.headers.get("host")
-        if s is None or origin is None or origin.split("://", 1)[-1] != host:
-            await websocket.close(code=4403)          # not logged in, or a page of another origin
-            return
-        await websocket.accept()
-        jogging = {"until": -math.inf}
-        cursor = service.new_cursor() if replay else None      # each screen moves its own slider
-        token = websocket.cookies.get(COOKIE)
-
-        async def push():
-            last_seq, last_sent = None, -math.inf
-            while True:
-                snap = service.snapshot(cursor) if replay else service.snapshot()
-                now = time.monotonic()
-                if snap is not None and (snap.seq != last_seq or now - last_sent >= KEEPALIVE):
-                    if sessions.get(token) is None:       # the session ended (logout, idle): no more frames
-                        await websocket.close(code=4401)
-                        return
-                    f = frame(snap, model, alarms_for(snap), sent_at=wall())
-                    if replay:
-                        f["replay"] = cursor.state()
-                    await websocket.send_text(json.dumps(f))
-                    last_seq, last_sent = snap.seq, now
-                await asyncio.sleep(1.0 / frame_rate)
-
-        sender = asyncio.create_task(push())
-        try:
-            while True:
-                text = await websocket.receive_text()
-                try:
-                    msg = json.loads(text)
-                    seq = msg.get("seq") if isinstance(msg, dict) else None
-                    if replay and isinstance(msg, dict) and msg.get("type") in ("seek", "play", "pause"):
-                        ok, message = _replay_control(cursor, msg)
-                        await websocket.send_text(json.dumps({"type": "ack", "seq": seq, "ok": ok,
-                                                              "message": message}))
-                        continue
-                    if not isinstance(msg, dict) or msg.get("type") != "cmd":
-                        raise ValueError
-                except ValueError:
-                    await websocket.send_text(json.dumps({"type": "ack", "seq": None, "ok": False,
-                                                          "message": "not a command"}))
-                    continue
-                if sessions.get(websocket.cookies.get(COOKIE)) is None:
-                    await websocket.send_text(json.dumps({"type": "ack", "seq": seq, "ok": False,
-                                                          "message": "session ended: log in again"}))
-                    break
-                ok, message = command(s, msg)
-                if ok and msg.get("action") == "jog":
-                    jogging["until"] = time.monotonic() + JOG_HOLD
-                elif ok and msg.get("action") in ("stop", "estop"):
-                    jogging["until"] = -math.inf
-                await websocket.send_text(json.dumps({"type": "ack", "seq": seq, "ok": ok, "message": message}))
-        except WebSocketDisconnect:
-            pass
-        finally:
-            sender.cancel()
-            if time.monotonic() < jogging["until"]:   # the dead-man: a screen that drops mid-jog stops it
-                service.request(Request("stop", s.user))
+        await screen.ws(websocket)
 
     app.mount("/static", StaticFiles(directory=_static_dir()), name="static")
     return app

@@ -9,14 +9,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from loadarm.errors import EventLogError
-from loadarm.vocab import ANNUNCIATED
-from loadarm.eventlog import check_samples
-from loadarm.guidance.controller import MODES
 from loadarm.arm.actuators import cylinder_lengths
 from loadarm.arm.faces import FACES, face_margins
-from loadarm.opcua.service import Snapshot
 from loadarm.arm.slew import forward3d
+from loadarm.errors import EventLogError
+from loadarm.eventlog import check_samples
+from loadarm.guidance.controller import MODES
+from loadarm.opcua.service import Snapshot
+from loadarm.vocab import ANNUNCIATED
 
 __all__ = ["ReplayService", "ReplayCursor"]
 

@@ -8,8 +8,7 @@ import math
 from dataclasses import dataclass
 
 from loadarm.arm.alarms import AlarmState
-from loadarm.vocab import Severity
-from loadarm.vocab import CONDITION_TEXT, FACES, PRIORITIES, priority
+from loadarm.vocab import CONDITION_TEXT, FACES, PRIORITIES, Severity, priority
 
 __all__ = ["PRIORITIES", "SHELVE_MAX", "AlarmBook", "AlarmEntry", "geometry", "frame", "priority"]
 

@@ -24,9 +24,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from loadarm._numba import njit
 from numba.np.unsafe.ndarray import to_fixed_tuple
 
+from loadarm._numba import njit
 from loadarm.arm.actuators import pin_lengths as _pin_lengths
 from loadarm.arm.actuators import pin_moment_arms as _pin_moment_arms
 from loadarm.hydraulics.components import cylinder_friction, end_stop_force, pump_flow, relief_flow, valve_flows

@@ -12,8 +12,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from loadarm._numba import njit
 from scipy.linalg import expm
+
+from loadarm._numba import njit
 
 __all__ = ["orifice_flow", "orifice_slope", "valve_flows", "effective_opening", "pump_flow", "relief_flow",
            "cylinder_friction", "end_stop_force", "valve_coefficient", "spool_discretisation"]

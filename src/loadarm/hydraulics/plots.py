@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-
 from loadarm.figures import subplots
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here

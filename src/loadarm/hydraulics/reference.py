@@ -16,9 +16,9 @@ import math
 from typing import TYPE_CHECKING
 
 import numpy as np
-from loadarm._numba import njit
 from scipy.integrate import solve_ivp
 
+from loadarm._numba import njit
 from loadarm.design.trajectory import Plan
 from loadarm.hydraulics import circuit as plant
 from loadarm.hydraulics.components import cylinder_friction, end_stop_force, valve_flows

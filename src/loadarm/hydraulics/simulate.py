@@ -19,14 +19,14 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from loadarm.arm.dynamics import G, chamber_pressures, lagrange_constants, mass_model, moment_arms, static_torques
-from loadarm.errors import LoadarmError
-from loadarm.results import Metric, Result
 from loadarm.arm.kinematics import forward
+from loadarm.design.loads import actuator_loads
 from loadarm.design.trajectory import Plan
+from loadarm.errors import LoadarmError
 from loadarm.hydraulics import circuit as plant
 from loadarm.hydraulics.components import spool_discretisation, valve_coefficient
-from loadarm.design.loads import actuator_loads
 from loadarm.hydraulics.plots import simulation_figure
+from loadarm.results import Metric, Result
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel

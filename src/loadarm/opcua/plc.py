@@ -28,15 +28,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from loadarm.opcua.server import SecureServer
-from loadarm.files import read_toml
 from loadarm.errors import ConfigError
-from loadarm.guidance.controller import GuidanceController
-from loadarm.sim.loop import SimulatedPlant
-from loadarm.guidance.controller import Command, Mode
+from loadarm.files import read_toml
+from loadarm.guidance.controller import Command, GuidanceController, Mode, PlantFeedback
 from loadarm.opcua.security import StateDir
-from loadarm.opcua.server import APP_URI
-from loadarm.guidance.controller import PlantFeedback
+from loadarm.opcua.server import APP_URI, SecureServer
+from loadarm.sim.loop import SimulatedPlant
 
 __all__ = ["TAGS", "WATCHDOG", "LINK_TIMEOUT", "PLC_APP_URI", "PlcSimulator", "PlcServer", "PlcLink", "TagMap",
            "load_tag_map", "default_tag_map", "tags_markdown"]

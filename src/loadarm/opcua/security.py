@@ -31,9 +31,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from loadarm.errors import ConfigError
+from loadarm.files import atomic_write, read_toml
 from loadarm.vocab import Role
-from loadarm.files import atomic_write
-from loadarm.files import read_toml
 
 __all__ = ["Role", "User", "Users", "StateDir", "hash_password", "verify_password", "SCRYPT", "client_certificate",
            "thumbprint"]
@@ -211,10 +210,10 @@ def client_certificate(folder: str | Path, name: str, app_uri: str) -> tuple[Pat
     -------
     cert, key : Path
     """
+    from asyncua.crypto import cert_gen
     from cryptography import x509
     from cryptography.hazmat.primitives import serialization
     from cryptography.x509.oid import ExtendedKeyUsageOID
-    from asyncua.crypto import cert_gen
 
 
     key = cert_gen.generate_private_key()
@@ -312,10 +311,10 @@ class StateDir:
                 raise ConfigError(f"{self.cert}: certificate of another application ({', '.join(uris) or 'no URI'}, "
                                   f"expected {app_uri}); remove {self.cert.parent} to make a new one")
             return
+        from asyncua.crypto import cert_gen
         from cryptography import x509
         from cryptography.hazmat.primitives import serialization
         from cryptography.x509.oid import ExtendedKeyUsageOID
-        from asyncua.crypto import cert_gen
 
         key = cert_gen.generate_private_key()
         cert = cert_gen.generate_self_signed_app_certificate(

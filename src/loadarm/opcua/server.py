@@ -29,17 +29,13 @@ import math
 import threading
 from dataclasses import dataclass
 
-from loadarm.vocab import (ANNUNCIATED, CONDITION_SEVERITY, CONDITION_TEXT, FACE_LABELS, METHODS as _METHODS,
-    action_role)
-from loadarm.guidance.controller import ERS_CONFIRM_WINDOW
-from loadarm.opcua.security import Role, StateDir, User
-from loadarm.opcua.service import JOG_HOLD
-from loadarm.opcua.security import thumbprint
-from loadarm.guidance.controller import Mode
 from loadarm import __version__
-from loadarm.opcua.service import Request
-from loadarm.vocab import Severity
 from loadarm.arm.alarms import AlarmState
+from loadarm.guidance.controller import ERS_CONFIRM_WINDOW, Mode
+from loadarm.opcua.security import Role, StateDir, User, thumbprint
+from loadarm.opcua.service import JOG_HOLD, Request
+from loadarm.vocab import ANNUNCIATED, CONDITION_SEVERITY, CONDITION_TEXT, FACE_LABELS, Severity, action_role
+from loadarm.vocab import METHODS as _METHODS
 
 __all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "CURRENT_USER", "RoleRuleset", "SecureServer",
            "OpcUaServer", "address_space", "address_space_markdown"]
@@ -105,7 +101,8 @@ def _role(user) -> Role | None:
 
 
 def _user_manager(users):
-    from asyncua.crypto.permission_rules import User as UaUser, UserRole
+    from asyncua.crypto.permission_rules import User as UaUser
+    from asyncua.crypto.permission_rules import UserRole
 
     @dataclass
     class _User(UaUser):
@@ -130,7 +127,8 @@ def _validator(state: StateDir):
     cannot load an empty store, and the first start of a new state directory failed)."""
     from asyncua import ua
     from asyncua.crypto.truststore import TrustStore
-    from asyncua.crypto.validator import CertificateValidator, CertificateValidatorOptions as O
+    from asyncua.crypto.validator import CertificateValidator
+    from asyncua.crypto.validator import CertificateValidatorOptions as O
 
     state.trusted.mkdir(parents=True, exist_ok=True)
     empty = not any(p.is_file() for p in state.trusted.iterdir())

@@ -22,11 +22,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from loadarm.guidance.controller import OperatorInput
-from loadarm.vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
-from loadarm.guidance.controller import CONNECTED_MODES
 from loadarm.arm.actuators import cylinder_lengths
 from loadarm.arm.faces import FACES, face_margins
+from loadarm.guidance.controller import CONNECTED_MODES, OperatorInput
+from loadarm.vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
 
 __all__ = ["ACTIONS", "JOG_HOLD", "Request", "Snapshot", "GuidanceService"]
 

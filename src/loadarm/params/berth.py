@@ -24,9 +24,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, Field, ValidationError, model_validator
 
-from loadarm.params.config import (_format_validation_error, _param, _Section, parameter_markdown, read_toml,
-    toml_values)
 from loadarm.errors import ConfigError
+from loadarm.params.config import _format_validation_error, _param, _Section, parameter_markdown, read_toml, toml_values
 
 __all__ = ["ShipSection", "BerthSection", "MooringLine", "Fender", "Environment", "Berth", "parse_berth",
            "load_berth", "berth_parameter_markdown", "RHO_SEA"]

@@ -16,12 +16,12 @@ from pydantic import BaseModel
 
 from loadarm.arm.actuators import joint_angles_from_cylinders, length_limits
 from loadarm.arm.alarms import AlarmAngles
-from loadarm.params.config import Installation
 from loadarm.arm.dynamics import cylinder_areas, lagrange_constants, mass_model
 from loadarm.arm.envelope import berth_box
-from loadarm.errors import ConfigError
 from loadarm.arm.geometry import Arm, Mounting
 from loadarm.arm.model import ArmModel, JointLimits, SlewLimits
+from loadarm.errors import ConfigError
+from loadarm.params.config import Installation
 
 __all__ = ["compile_model", "RECORD_SECTIONS", "MIN_STROKE"]
 

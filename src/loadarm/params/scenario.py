@@ -8,18 +8,23 @@ default and source, like the installation's (:mod:`loadarm.params.config`).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Literal
 from pathlib import Path
+from typing import TYPE_CHECKING, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 
 from loadarm.arm.sequence import esd_lead
-from loadarm.params.config import (_format_validation_error, _param, load_config, paper_installation, read_toml,
-    toml_values)
 from loadarm.errors import ConfigError
+from loadarm.params.berth import Environment, load_berth
 from loadarm.params.compiler import compile_model
-from loadarm.params.berth import load_berth
-from loadarm.params.berth import Environment
+from loadarm.params.config import (
+    _format_validation_error,
+    _param,
+    load_config,
+    paper_installation,
+    read_toml,
+    toml_values,
+)
 
 if TYPE_CHECKING:
     from loadarm.arm.model import ArmModel

@@ -13,20 +13,18 @@ Run ``python -m loadarm.present.docsgen [--check]`` from the repository root.
 
 from __future__ import annotations
 
-import sys
 import shutil
+import sys
 from pathlib import Path
-from loadarm.params.config import load_config, packaged_example
-from loadarm.present.report import ReportData
+
 from loadarm.figures import save
-from loadarm.present.report import figure_builders
-from loadarm.testing.browser import launch, scenario_screen, tour
-from loadarm.opcua.security import Role, StateDir
-from loadarm.params.berth import berth_parameter_markdown
-from loadarm.params.config import example_toml, parameter_markdown
-from loadarm.testing.browser import find_chromium
 from loadarm.opcua.plc import tags_markdown
+from loadarm.opcua.security import Role, StateDir
 from loadarm.opcua.server import address_space_markdown
+from loadarm.params.berth import berth_parameter_markdown
+from loadarm.params.config import example_toml, load_config, packaged_example, parameter_markdown
+from loadarm.present.report import ReportData, figure_builders
+from loadarm.testing.browser import find_chromium, launch, scenario_screen, tour
 
 __all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "render_doc_figures", "hmi_screenshots", "regenerate",
            "compare_figures"]

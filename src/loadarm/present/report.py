@@ -23,34 +23,40 @@ from functools import cached_property
 from pathlib import Path
 
 from loadarm import __version__
-from loadarm.params.config import Installation, paper_installation, parameter_table, read_toml
-from loadarm.files import SIGNATURE, atomic_write, guard_outputs
-from loadarm.vocab import Severity
-from loadarm.params.compiler import compile_model
 from loadarm.arm.envelope import berth_box, zone_radii
+from loadarm.design.alarm_design import design_alarms
 from loadarm.design.balancing import balance_counterweights
-from loadarm.sim.loop import RUN_METRICS, run_scenario
-from loadarm.design.loads import CYLINDER_LOAD_METRICS
-from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
-from loadarm.design.loads import actuator_loads
+from loadarm.design.check import design_check
+from loadarm.design.loads import CYLINDER_LOAD_METRICS, actuator_loads
 from loadarm.design.multibody import verify_kinematics
-from loadarm.design.plots import (alpha_beta_figure, angles_time_figure, cylinders_figure, envelope_figure,
-    loads_figure, residual_torque_figure, timing_comparison_figure, timing_figure, verification_figure,
-    voltages_figure)
-from loadarm.figures import save
-from loadarm.hydraulics.plots import simulation_figure
+from loadarm.design.plots import (
+    alpha_beta_figure,
+    angles_time_figure,
+    cylinders_figure,
+    envelope_figure,
+    loads_figure,
+    residual_torque_figure,
+    timing_comparison_figure,
+    timing_figure,
+    verification_figure,
+    voltages_figure,
+)
 from loadarm.design.sizing import size_installation, sizing_summary
 from loadarm.design.timing import TIMING_LAWS
 from loadarm.design.trajectory import Plan, plan_approach
-from loadarm.studies.operability import headline_rows
-from loadarm.studies.operability import write_parquet
-from loadarm.design.check import design_check
-from loadarm.params.scenario import parse_scenario, resolve_berth
+from loadarm.figures import save
+from loadarm.files import SIGNATURE, atomic_write, guard_outputs
+from loadarm.hydraulics.plots import simulation_figure
+from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
 from loadarm.params.berth import load_berth
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import Installation, paper_installation, parameter_table, read_toml
+from loadarm.params.scenario import parse_scenario, resolve_berth
 from loadarm.ship.model import compile_ship
 from loadarm.ship.summary import ship_summary
-from loadarm.design.alarm_design import design_alarms
-from loadarm.studies.operability import run_operability
+from loadarm.sim.loop import RUN_METRICS, run_scenario
+from loadarm.studies.operability import headline_rows, run_operability, write_parquet
+from loadarm.vocab import Severity
 
 __all__ = ["ReportFiles", "ReportData", "FIGURES", "build_report", "summary_dict", "is_paper_case"]
 

@@ -22,10 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from loadarm.params.scenario import Scenario, scenario_environment
 from loadarm.ship.loads import jonswap
-from loadarm.params.scenario import Scenario
 from loadarm.ship.motion import simulate
-from loadarm.params.scenario import scenario_environment
 
 __all__ = ["jonswap", "FlangeMotion", "MooredFlangeMotion", "flange_motion", "MOORED_LOOKAHEAD"]
 

@@ -39,11 +39,10 @@ from typing import Callable
 import numpy as np
 
 from loadarm._numba import njit
-from loadarm.params.berth import RHO_SEA, ShipSection
 from loadarm.errors import ConfigError
+from loadarm.files import atomic_open, atomic_path
+from loadarm.params.berth import RHO_SEA, ShipSection
 from loadarm.ship.hull import hull_mesh
-from loadarm.files import atomic_path
-from loadarm.files import atomic_open
 
 __all__ = ["HydroSpec", "Hydro", "hydro_spec", "solve_hydro", "load_hydro", "cache_dir", "G", "DOFS",
            "OMEGA", "HEADINGS_DEG", "SHIPPED", "HYDRO_FORMAT", "save_hydro", "cached_mean_drift",

@@ -18,12 +18,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from loadarm.errors import ConfigError
 from loadarm.params.berth import RHO_SEA, Berth, load_berth
 from loadarm.ship import hydro as _hydro
-from loadarm.ship.loads import current_coefficients
-from loadarm.errors import ConfigError
-from loadarm.ship.mooring import Moorings, compile_moorings, equilibrium, stiffness
 from loadarm.ship.hydro import MEAN_DRIFT_DIRECTION, MEAN_DRIFT_OMEGA, interp_heading
+from loadarm.ship.loads import current_coefficients
+from loadarm.ship.mooring import Moorings, compile_moorings, equilibrium, stiffness
 
 if TYPE_CHECKING:
     from loadarm.params.scenario import Scenario

@@ -24,10 +24,10 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from loadarm._numba import njit
 
-from loadarm.params.berth import Berth
+from loadarm._numba import njit
 from loadarm.errors import ConfigError
+from loadarm.params.berth import Berth
 
 __all__ = ["Moorings", "compile_moorings", "restoring_force", "equilibrium", "stiffness", "line_tensions",
            "MooringEquilibriumError"]

@@ -22,18 +22,24 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from loadarm._numba import njit
 from scipy.fft import irfft, next_fast_len, rfft
 
+from loadarm._numba import njit
 from loadarm.params.berth import Environment
 from loadarm.results import Metric, Result
-from loadarm.ship.loads import E_C, current_force, jonswap, npd_spectrum, sample_directions, uniform_draws, wind_force
 from loadarm.ship.hydro import MEAN_DRIFT_DIRECTION, MEAN_DRIFT_OMEGA, interp_heading
+from loadarm.ship.loads import (
+    E_C,
+    current_force,
+    jonswap,
+    npd_spectrum,
+    sample_directions,
+    spreading,
+    uniform_draws,
+    wind_force,
+)
 from loadarm.ship.model import ShipModel
-from loadarm.ship.mooring import _restoring
-from loadarm.ship.loads import spreading
-from loadarm.ship.mooring import equilibrium
-from loadarm.ship.mooring import line_tensions
+from loadarm.ship.mooring import _restoring, equilibrium, line_tensions
 
 __all__ = ["ShipMotion", "simulate", "flange_positions", "mean_load", "MIN_RECORD", "DT", "wave_components",
            "fft_length"]

@@ -8,13 +8,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from loadarm.figures import subplots
 from loadarm.params.berth import Environment
 from loadarm.results import Metric, Result
 from loadarm.ship.hydro import DOFS
 from loadarm.ship.model import ShipModel
 from loadarm.ship.mooring import equilibrium, line_tensions, stiffness
 from loadarm.ship.motion import mean_load
-from loadarm.figures import subplots
 
 __all__ = ["ShipSummary", "ship_summary"]
 

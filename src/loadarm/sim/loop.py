@@ -24,28 +24,31 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from loadarm.design.check import MANIFOLD_CLEARANCE
-from loadarm.eventlog import EventLog, RateLimiter
+from loadarm.arm.actuators import cylinder_lengths, joint_angles_from_cylinders, length_limits
 from loadarm.arm.faces import FACES, face_margins, first_face
 from loadarm.arm.slew import forward3d, inverse3d, reach_mask3d
-from loadarm.vocab import event_label
-from loadarm.vocab import Severity
-from loadarm.results import Metric, Result
-from loadarm.guidance.controller import (MODES, SEVERITY_OF_MODE, Command, GuidanceController, Mode, OperatorInput,
-    PlantFeedback)
-from loadarm.params.scenario import Scenario, check_run_size
+from loadarm.design.check import MANIFOLD_CLEARANCE, accumulator_usable_volume, cylinder_oil
+from loadarm.eventlog import EventLog, RateLimiter
+from loadarm.guidance.controller import (
+    MODES,
+    SEVERITY_OF_MODE,
+    Command,
+    GuidanceController,
+    Mode,
+    OperatorInput,
+    PlantFeedback,
+)
 from loadarm.guidance.estimator import FlangeEstimator
-from loadarm.sim.sensors import sensor_readings
-from loadarm.ship.flange import flange_motion
-from loadarm.sim.plots import run_timeline_figure
-from loadarm.design.check import accumulator_usable_volume
-from loadarm.hydraulics.servo import HydraulicArm
-from loadarm.design.check import cylinder_oil
-from loadarm.hydraulics.simulate import SimulationError
 from loadarm.guidance.voting import AXES
-from loadarm.arm.actuators import length_limits
-from loadarm.arm.actuators import cylinder_lengths, joint_angles_from_cylinders
+from loadarm.hydraulics.servo import HydraulicArm
+from loadarm.hydraulics.simulate import SimulationError
+from loadarm.params.scenario import Scenario, check_run_size
+from loadarm.results import Metric, Result
+from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
+from loadarm.sim.plots import run_timeline_figure
+from loadarm.sim.sensors import sensor_readings
+from loadarm.vocab import Severity, event_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel

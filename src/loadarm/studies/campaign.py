@@ -34,18 +34,14 @@ from pathlib import Path
 import numpy as np
 
 from loadarm.errors import ConfigError
-from loadarm.results import Metric, Result
-from loadarm.sim.loop import run_scenario
-from loadarm.ship.model import moored_ship
-from loadarm.studies.cluster import connect_scheduler
-from loadarm.params.config import paper_installation, read_toml
-from loadarm.params.scenario import parse_scenario
-from loadarm.params.config import parse_config
-from loadarm.params.scenario import Scenario
-from loadarm.params.compiler import compile_model
-from loadarm.params.scenario import check_scenario
-from loadarm.params.scenario import resolve_berth
 from loadarm.figures import subplots
+from loadarm.params.compiler import compile_model
+from loadarm.params.config import paper_installation, parse_config, read_toml
+from loadarm.params.scenario import Scenario, check_scenario, parse_scenario, resolve_berth
+from loadarm.results import Metric, Result
+from loadarm.ship.model import moored_ship
+from loadarm.sim.loop import run_scenario
+from loadarm.studies.cluster import connect_scheduler
 
 __all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign"]
 

@@ -34,4 +34,19 @@ def connect_scheduler(address: str, *, timeout: float | None = None):
     try:
         return Client(address) if timeout is None else Client(address, timeout=timeout)
     except (OSError, ValueError, TypeError) as exc:       # TimeoutError is an OSError
+        _drop_failed_client()
         raise ConfigError(f"--scheduler {address}: no Dask scheduler reachable there ({exc})") from None
+
+
+def _drop_failed_client() -> None:
+    """Close the client a failed connection left behind as the process's default. Found (issue 26, in the test
+    suite): ``Client("nonsense")`` raised but stayed the default client and set dask's scheduler to it, so the
+    next dask computation in the same process (an xarray read) failed on the dead address."""
+    from distributed import default_client
+
+    try:
+        client = default_client()
+    except ValueError:                                     # no default client: nothing was left behind
+        return
+    if client.status != "running":
+        client.close()

@@ -28,13 +28,13 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from loadarm._numba import njit
 
+from loadarm._numba import njit
 from loadarm.arm.alarms import BETA_TOL_RAD, LEVEL_RELEASE, zone_level
-from loadarm.vocab import UNREACHABLE
-from loadarm.arm.sequence import esd_lead, lead_values, stage_of, valve_worst_time
 from loadarm.arm.faces import breakout_distance, past_a_face, past_a_face_at
+from loadarm.arm.sequence import esd_lead, lead_values, stage_of, valve_worst_time
 from loadarm.arm.slew import JointAngles3D
+from loadarm.vocab import UNREACHABLE
 
 __all__ = ["FloorTable", "floor_table", "ray_distances", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS",
            "relative_record", "record_ik"]

@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from loadarm.errors import ConfigError
 from loadarm import __version__
+from loadarm.errors import ConfigError
 from loadarm.files import SIGNATURE, atomic_write
 
 __all__ = ["VARIABLES", "GapReport", "read_metocean", "validate_metocean", "synthetic_metocean",

@@ -23,25 +23,20 @@ from pathlib import Path
 
 import numpy as np
 
-from loadarm.vocab import Severity
-from loadarm.errors import ConfigError
-from loadarm.results import Metric, Result, Summary
-from loadarm.studies.metocean import compass_to_berth
-from loadarm.ship.motion import DT, flange_positions
-from loadarm.studies.kernel import monitor_record, relative_record
 from loadarm import __version__
-from loadarm.files import SIGNATURE
-from loadarm.files import atomic_open
-from loadarm.files import atomic_write
-from loadarm.studies.metocean import read_metocean
+from loadarm.errors import ConfigError
+from loadarm.files import SIGNATURE, atomic_open, atomic_write
 from loadarm.params.berth import load_berth
 from loadarm.params.compiler import compile_model
-from loadarm.params.config import load_config
+from loadarm.params.config import Operability, in_range, load_config, range_text
+from loadarm.results import Metric, Result, Summary
 from loadarm.ship.model import compile_ship
-from loadarm.studies.kernel import floor_table
+from loadarm.ship.motion import DT, flange_positions
 from loadarm.studies.cluster import connect_scheduler
-from loadarm.params.config import Operability, in_range, range_text
+from loadarm.studies.kernel import floor_table, monitor_record, relative_record
+from loadarm.studies.metocean import compass_to_berth, read_metocean
 from loadarm.studies.plots import operability_figure
+from loadarm.vocab import Severity
 
 __all__ = ["OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
            "plan_chunks", "write_parquet", "COLUMNS", "headline_rows"]
@@ -477,7 +472,8 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         from concurrent.futures import ThreadPoolExecutor
 
         import dask
-        from distributed import Client, LocalCluster, progress as dask_progress
+        from distributed import Client, LocalCluster
+        from distributed import progress as dask_progress
 
 
         # the local cluster's worker processes: one thread, numba and BLAS single-threaded, and they keep freed

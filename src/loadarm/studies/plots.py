@@ -6,7 +6,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 

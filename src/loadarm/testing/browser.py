@@ -9,10 +9,11 @@ import os
 import shutil
 import time
 from pathlib import Path
-from loadarm.sim.loop import ClosedLoop
-from loadarm.params.scenario import load_scenario
-from loadarm.opcua.service import GuidanceService
+
 from loadarm.hmi.app import HmiServer, create_app
+from loadarm.opcua.service import GuidanceService
+from loadarm.params.scenario import load_scenario
+from loadarm.sim.loop import ClosedLoop
 
 __all__ = ["CHROMIUM_HINT", "find_chromium", "launch", "log_in", "wait_for", "tour", "scenario_screen"]
 

@@ -9,12 +9,12 @@ import asyncio
 import json
 import sys
 import time
-from loadarm.opcua.server import NAMESPACE, STATES, VARIABLES
-from loadarm.sim.loop import ClosedLoop
-from loadarm.params.scenario import load_scenario
+
 from loadarm.opcua.security import Role, StateDir, client_certificate
-from loadarm.opcua.server import OpcUaServer
+from loadarm.opcua.server import NAMESPACE, STATES, VARIABLES, OpcUaServer
 from loadarm.opcua.service import GuidanceService
+from loadarm.params.scenario import load_scenario
+from loadarm.sim.loop import ClosedLoop
 
 __all__ = ["subscribe_all", "call_round_trips", "measure_load", "free_port", "main"]
 

@@ -442,7 +442,7 @@ class _FakeService:
 
     def __init__(self):
         from loadarm.guidance.controller import ANNUNCIATED
-        from loadarm.opcua.service import Snapshot
+        from loadarm.sim.snapshot import Snapshot
 
         self.requests = []
         self.alarms = {tag: "normal" for tag in ANNUNCIATED}

@@ -9,13 +9,10 @@ from collections.abc import Callable
 
 import numpy as np
 
-from loadarm.arm.actuators import cylinder_lengths
-from loadarm.arm.faces import FACES, face_margins
-from loadarm.arm.slew import forward3d
 from loadarm.errors import EventLogError
 from loadarm.eventlog import check_samples
 from loadarm.guidance.controller import MODES
-from loadarm.opcua.service import Snapshot
+from loadarm.sim.snapshot import snapshot
 from loadarm.vocab import ANNUNCIATED
 
 __all__ = ["ReplayService", "ReplayCursor"]
@@ -107,22 +104,8 @@ class ReplayService:
         return snap
 
     def _snapshot(self, i: int):
-
         e = self.samples[i]
-        d = e.data
-        q = (float(d.get("phi", math.nan)), float(d.get("alpha", math.nan)), float(d.get("beta", math.nan)))
-        x, y, z = (float(v) for v in forward3d(self.model.arm, *q))
-        c1, c2 = cylinder_lengths(self.model.mount, q[1], q[2])
-        m = face_margins(self.model, x, y, z)
-        flange = tuple(math.nan if v is None else float(v) for v in d.get("flange", (None, None, None)))
-        ttl = d.get("ttl")
-        return Snapshot(seq=i, t=float(e.t), mode=e.state, q=q, coupler=(x, y, z), flange_estimate=flange,
-                        estimate_healthy=bool(d.get("healthy", False)), distance=float(d.get("distance", math.nan)),
-                        level=int(d.get("level", 0)), time_to_limit=math.inf if ttl is None else float(ttl),
-                        connected=bool(d.get("connected", False)), esd=bool(d.get("esd", False)),
-                        release=bool(d.get("release", False)), coupler_open=bool(d.get("coupler_open", False)),
-                        ers_valves_closed=bool(d.get("ers_valves_closed", False)), alarms=dict(self._alarms[i]), cylinders=(float(c1), float(c2)),
-                        margins={f: float(m[..., k]) for k, f in enumerate(FACES)})
+        return snapshot(self.model, i, e.t, e.state, e.data)
 
 
 def _raise_times(events) -> dict[str, list[float]]:

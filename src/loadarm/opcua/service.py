@@ -18,16 +18,13 @@ import queue
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-import numpy as np
-
-from loadarm.arm.actuators import cylinder_lengths
-from loadarm.arm.faces import FACES, face_margins
 from loadarm.guidance.controller import CONNECTED_MODES, OperatorInput
+from loadarm.sim.snapshot import Snapshot, snapshot, state_sample
 from loadarm.vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
 
-__all__ = ["ACTIONS", "JOG_HOLD", "Request", "Snapshot", "GuidanceService"]
+__all__ = ["ACTIONS", "JOG_HOLD", "Request", "GuidanceService"]
 
 #: How long one jog request moves the arm unless renewed, s.
 JOG_HOLD = 0.5
@@ -64,77 +61,6 @@ class Request:
             raise ValueError(f"{self.action} needs the alarm's tag")
 
 
-@dataclass(frozen=True)
-class Snapshot:
-    """The controller's state after one cycle (what the plant interface and the HMI show).
-
-    Attributes
-    ----------
-    seq : int
-        Cycle number.
-    t : float
-        Run time, s.
-    mode : str
-    q : tuple of float
-        Slew, alpha, beta, rad.
-    coupler, flange_estimate : tuple of float
-        m, installation frame.
-    estimate_healthy : bool
-    distance : float
-        Coupler to the flange, m (the simulated plant's flange, as the run records it).
-    level : int
-        Connected-mode alarm level (:class:`loadarm.arm.alarms.Severity`).
-    time_to_limit : float
-        s (inf: none in sight).
-    connected, esd, release, coupler_open, ers_valves_closed : bool
-    alarms : dict of str to str
-        ISA-18.2 state of each annunciated alarm.
-    cycle_us : float
-        The cycle's computing time, microseconds.
-    late : int
-        Cycles that started after their deadline so far.
-    plant_ok : bool
-        The plant's values are good (False: the PLC link is dead, they are the last ones read).
-    cylinders : tuple of float
-        Both cylinders' pin-to-pin lengths, m.
-    margins : dict of str to float
-        Margin to each face of the envelope (:data:`loadarm.arm.faces.FACES`), rad (NaN: out of reach).
-    flange_velocity : tuple of float
-        The estimate's velocity, m/s.
-    pressures : tuple of float
-        Chamber pressures ``pA1, pB1, pA2, pB2`` and the supply pressure, Pa (NaN: a plant without them, the
-        kinematic one or a PLC that does not report them).
-    wall : float
-        Wall-clock time the cycle was published, s since the epoch (for the screen's end-to-end latency).
-    time_to_faces : dict of str to float
-        The forecast's time to each face it crossed within its horizon, s (absent: none in sight).
-    """
-
-    seq: int
-    t: float
-    mode: str
-    q: tuple[float, float, float]
-    coupler: tuple[float, float, float]
-    flange_estimate: tuple[float, float, float]
-    estimate_healthy: bool
-    distance: float
-    level: int
-    time_to_limit: float
-    connected: bool
-    esd: bool
-    release: bool
-    coupler_open: bool
-    ers_valves_closed: bool
-    alarms: dict = field(default_factory=dict)
-    cycle_us: float = 0.0
-    late: int = 0
-    plant_ok: bool = True
-    cylinders: tuple[float, float] = (math.nan, math.nan)
-    margins: dict = field(default_factory=dict)
-    flange_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    pressures: tuple[float, float, float, float, float] = (math.nan,) * 5
-    wall: float = math.nan
-    time_to_faces: dict = field(default_factory=dict)
 
 
 class GuidanceService:
@@ -266,26 +192,12 @@ class GuidanceService:
 
     def _publish(self, k: int, now: float, cmd) -> None:
         loop = self.loop
-        q = loop.io.q
-        sig = loop.rec.sig
-        i = loop.slot(k)
-        e = loop.estimate
-        ttl = float(cmd.time_to_limit)
-
-        c1, c2 = cylinder_lengths(loop.model.mount, float(q[1]), float(q[2]))
-        m = face_margins(loop.model, sig["x"][i], sig["y"][i], sig["z"][i])
-        self._snapshot = Snapshot(
-            seq=k, t=now, mode=cmd.mode.value, q=(float(q[0]), float(q[1]), float(q[2])),
-            coupler=(float(sig["x"][i]), float(sig["y"][i]), float(sig["z"][i])),
-            flange_estimate=tuple(float(v) for v in np.asarray(e.position, dtype=float)),
-            estimate_healthy=bool(e.healthy), distance=float(sig["distance"][i]), level=int(cmd.level),
-            time_to_limit=ttl, connected=bool(cmd.connected), esd=bool(cmd.esd), release=bool(cmd.release),
-            coupler_open=bool(cmd.coupler_open), ers_valves_closed=bool(loop.io.feedback.ers_valves_closed),
-            alarms={tag: st.value for tag, st in loop.ctrl.state.alarms.items()},
-            cycle_us=float(loop.cycle_us[i]), late=self.late, plant_ok=self._link_ok,
-            cylinders=(float(c1), float(c2)), margins={f: float(m[..., i]) for i, f in enumerate(FACES)},
-            flange_velocity=tuple(float(v) for v in np.asarray(e.velocity, dtype=float)),
-            pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)), wall=time.time(),
-            time_to_faces={f: float(t) for f, t in cmd.time_to_faces})
+        sig, i = loop.rec.sig, loop.slot(k)
+        q = (sig["phi"][i], sig["alpha"][i], sig["beta"][i])       # the cycle's joints, as the log records them
+        sample = state_sample(cmd, q, loop.estimate, sig["distance"][i], loop.io.feedback.ers_valves_closed,
+                              loop.ctrl.state.alarms)
+        self._snapshot = snapshot(loop.model, k, now, cmd.mode.value, sample, cycle_us=float(loop.cycle_us[i]),
+                                  late=self.late, plant_ok=self._link_ok, wall=time.time(),
+                                  pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)))
         if not self.mode_changes or self.mode_changes[-1][0] != cmd.mode.value:
             self.mode_changes.append((cmd.mode.value, self._snapshot.wall))

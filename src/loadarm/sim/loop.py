@@ -48,6 +48,7 @@ from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
 from loadarm.sim.plots import run_timeline_figure
 from loadarm.sim.sensors import sensor_readings
+from loadarm.sim.snapshot import state_sample
 from loadarm.vocab import Severity, event_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
@@ -1007,13 +1008,6 @@ class _Recorder:
         sig["ttl"][k] = cmd.time_to_limit if math.isfinite(cmd.time_to_limit) else np.nan
         sig["connected"][k] = 1.0 if cmd.connected else 0.0
         if self.log is not None and now >= self.next_sample:
-            ttl = float(cmd.time_to_limit)
-            self.log.append(now, cmd.mode.value, "sample", "state sample", phi=float(q[0]), alpha=float(q[1]),
-                            beta=float(q[2]), distance=float(sig["distance"][k]), healthy=bool(e.healthy),
-                            connected=bool(cmd.connected), flange=[float(v) if math.isfinite(v) else None for v in e.position],
-                            level=int(cmd.level), ttl=ttl if math.isfinite(ttl) else None, esd=bool(cmd.esd),
-                            release=bool(cmd.release), coupler_open=bool(cmd.coupler_open),
-                            ers_valves_closed=ers_valves_closed,
-                            alarms={tag: st.value for tag, st in (alarms or {}).items()
-                                    if st.value != "normal"})
+            self.log.append(now, cmd.mode.value, "sample", "state sample",
+                            **state_sample(cmd, q, e, sig["distance"][k], ers_valves_closed, alarms or {}))
             self.next_sample += self.sample_every

@@ -1,0 +1,182 @@
+"""The state of one cycle of the closed loop as the operator sees it, built one way for the live run and its replay.
+
+A cycle's state is first a *sample* (:func:`state_sample`: a JSON-ready dict of what the controller decided and
+what the plant and the estimator report); :func:`snapshot` turns a sample into the :class:`Snapshot` the OPC UA
+server and the screen show, computing the coupler, the cylinders and the margins from the joints. The live
+service (:class:`loadarm.opcua.service.GuidanceService`) samples every cycle; the run's log keeps a sample once a
+second ("sample" events) and the replay (:class:`loadarm.hmi.replay.ReplayService`) builds its snapshots from
+those with the same function, so a replay shows what the live screen showed at the logged times
+(``tests/test_replay_matches_live.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from loadarm.arm.actuators import cylinder_lengths
+from loadarm.arm.faces import FACES, face_margins
+from loadarm.arm.slew import forward3d
+from loadarm.vocab import ANNUNCIATED
+
+__all__ = ["Snapshot", "state_sample", "snapshot"]
+
+
+def _finite_or_none(v) -> float | None:
+    v = float(v)
+    return v if math.isfinite(v) else None
+
+
+def _nan_if_none(v) -> float:
+    return math.nan if v is None else float(v)
+
+
+def state_sample(cmd, q, estimate, distance: float, ers_valves_closed: bool, alarms: dict) -> dict:
+    """What the log keeps of one cycle, JSON-ready (non-finite values as None; only the alarms out of normal).
+
+    Parameters
+    ----------
+    cmd : loadarm.guidance.controller.Command
+        The cycle's command.
+    q : sequence of float
+        Slew, alpha, beta at the cycle, rad.
+    estimate : loadarm.guidance.estimator.Estimate
+        The flange estimate the controller used.
+    distance : float
+        Coupler to the (simulated plant's) flange, m.
+    ers_valves_closed : bool
+        The plant's confirmation of the ERS valves.
+    alarms : dict
+        The controller's ISA-18.2 state of each annunciated alarm (:class:`loadarm.arm.alarms.AlarmState`).
+
+    Returns
+    -------
+    dict
+    """
+    ttl = float(cmd.time_to_limit)
+    return {"phi": float(q[0]), "alpha": float(q[1]), "beta": float(q[2]), "distance": float(distance),
+            "healthy": bool(estimate.healthy), "connected": bool(cmd.connected),
+            "flange": [_finite_or_none(v) for v in np.asarray(estimate.position, dtype=float)],
+            "flange_velocity": [_finite_or_none(v) for v in np.asarray(estimate.velocity, dtype=float)],
+            "level": int(cmd.level), "ttl": ttl if math.isfinite(ttl) else None, "esd": bool(cmd.esd),
+            "release": bool(cmd.release), "coupler_open": bool(cmd.coupler_open),
+            "ers_valves_closed": bool(ers_valves_closed),
+            "alarms": {tag: st.value for tag, st in alarms.items() if st.value != "normal"},
+            "time_to_faces": {f: float(t) for f, t in cmd.time_to_faces}}
+
+
+def snapshot(model, seq: int, t: float, mode: str, sample: dict, **live) -> "Snapshot":
+    """The :class:`Snapshot` of one cycle from its sample (:func:`state_sample`; a replay's logged one).
+
+    Parameters
+    ----------
+    model : ArmModel
+        The installation (the coupler, the cylinders and the margins from the joints).
+    seq : int
+        Cycle number (a replay: the sample's index).
+    t : float
+        Run time, s.
+    mode : str
+        The guidance mode.
+    sample : dict
+        The cycle's state (a log written before the flange velocity and the faces' times were logged replays
+        them as zero and none).
+    **live
+        What only a live cycle knows (``cycle_us``, ``late``, ``plant_ok``, ``pressures``, ``wall``).
+
+    Returns
+    -------
+    Snapshot
+    """
+    q = tuple(_nan_if_none(sample.get(k)) for k in ("phi", "alpha", "beta"))
+    x, y, z = (float(v) for v in forward3d(model.arm, *q))
+    c1, c2 = cylinder_lengths(model.mount, q[1], q[2])
+    m = face_margins(model, x, y, z)
+    alarms = {tag: "normal" for tag in ANNUNCIATED}
+    alarms.update(sample.get("alarms", {}))
+    return Snapshot(seq=seq, t=float(t), mode=mode, q=q, coupler=(x, y, z),
+                    flange_estimate=tuple(_nan_if_none(v) for v in sample.get("flange", (None,) * 3)),
+                    estimate_healthy=bool(sample.get("healthy", False)),
+                    distance=_nan_if_none(sample.get("distance")), level=int(sample.get("level", 0)),
+                    time_to_limit=math.inf if sample.get("ttl") is None else float(sample["ttl"]),
+                    connected=bool(sample.get("connected", False)), esd=bool(sample.get("esd", False)),
+                    release=bool(sample.get("release", False)), coupler_open=bool(sample.get("coupler_open", False)),
+                    ers_valves_closed=bool(sample.get("ers_valves_closed", False)), alarms=alarms,
+                    cylinders=(float(c1), float(c2)), margins={f: float(m[..., k]) for k, f in enumerate(FACES)},
+                    flange_velocity=tuple(_nan_if_none(v) for v in sample.get("flange_velocity", (0.0,) * 3)),
+                    time_to_faces={f: float(v) for f, v in sample.get("time_to_faces", {}).items()}, **live)
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """The controller's state after one cycle (what the plant interface and the HMI show).
+
+    Attributes
+    ----------
+    seq : int
+        Cycle number.
+    t : float
+        Run time, s.
+    mode : str
+    q : tuple of float
+        Slew, alpha, beta, rad.
+    coupler, flange_estimate : tuple of float
+        m, installation frame.
+    estimate_healthy : bool
+    distance : float
+        Coupler to the flange, m (the simulated plant's flange, as the run records it).
+    level : int
+        Connected-mode alarm level (:class:`loadarm.arm.alarms.Severity`).
+    time_to_limit : float
+        s (inf: none in sight).
+    connected, esd, release, coupler_open, ers_valves_closed : bool
+    alarms : dict of str to str
+        ISA-18.2 state of each annunciated alarm.
+    cycle_us : float
+        The cycle's computing time, microseconds.
+    late : int
+        Cycles that started after their deadline so far.
+    plant_ok : bool
+        The plant's values are good (False: the PLC link is dead, they are the last ones read).
+    cylinders : tuple of float
+        Both cylinders' pin-to-pin lengths, m.
+    margins : dict of str to float
+        Margin to each face of the envelope (:data:`loadarm.arm.faces.FACES`), rad (NaN: out of reach).
+    flange_velocity : tuple of float
+        The estimate's velocity, m/s.
+    pressures : tuple of float
+        Chamber pressures ``pA1, pB1, pA2, pB2`` and the supply pressure, Pa (NaN: a plant without them, the
+        kinematic one or a PLC that does not report them).
+    wall : float
+        Wall-clock time the cycle was published, s since the epoch (for the screen's end-to-end latency).
+    time_to_faces : dict of str to float
+        The forecast's time to each face it crossed within its horizon, s (absent: none in sight).
+    """
+
+    seq: int
+    t: float
+    mode: str
+    q: tuple[float, float, float]
+    coupler: tuple[float, float, float]
+    flange_estimate: tuple[float, float, float]
+    estimate_healthy: bool
+    distance: float
+    level: int
+    time_to_limit: float
+    connected: bool
+    esd: bool
+    release: bool
+    coupler_open: bool
+    ers_valves_closed: bool
+    alarms: dict = field(default_factory=dict)
+    cycle_us: float = 0.0
+    late: int = 0
+    plant_ok: bool = True
+    cylinders: tuple[float, float] = (math.nan, math.nan)
+    margins: dict = field(default_factory=dict)
+    flange_velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    pressures: tuple[float, float, float, float, float] = (math.nan,) * 5
+    wall: float = math.nan
+    time_to_faces: dict = field(default_factory=dict)

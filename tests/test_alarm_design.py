@@ -38,6 +38,7 @@ def design(berth, ship):
     return design_alarms(compile_model(load_config(INST)), ship, berth.environment, settings=FAST)
 
 
+@pytest.mark.slow                      # the module's mooring analysis: ~25 s (make test SLOW=1, CI)
 def test_thresholds_are_ordered_and_inside_the_limits(design):
     r = design.recommended
     assert r["first_beta_deg"] < r["second_beta_deg"] < r["release_beta_deg"] < math.degrees(
@@ -46,6 +47,7 @@ def test_thresholds_are_ordered_and_inside_the_limits(design):
     assert design.ok, design.problems
 
 
+@pytest.mark.slow                      # the module's mooring analysis: ~25 s (make test SLOW=1, CI)
 def test_no_alarm_inside_the_drift_allowance(design):
     """At every corner of the flanging area the intact ship's largest excursion towards a face stays below
     the first alarm (the design weather gives no false alarm)."""
@@ -62,6 +64,7 @@ def test_no_alarm_inside_the_drift_allowance(design):
                     assert math.degrees(q.beta) <= design.recommended["first_beta_deg"] + 1e-9
 
 
+@pytest.mark.slow                      # the module's mooring analysis: ~25 s (make test SLOW=1, CI)
 def test_the_pasted_blocks_make_a_valid_installation(design):
     """The [alarms], [slew] and [design_drift] blocks drop into the installation and compile."""
     import tomllib
@@ -75,6 +78,7 @@ def test_the_pasted_blocks_make_a_valid_installation(design):
     assert model.design_drift.speed == pytest.approx(design.recommended["design_drift_speed_ms"])
 
 
+@pytest.mark.slow                      # the module's mooring analysis: ~25 s (make test SLOW=1, CI)
 def test_the_design_drift_covers_the_breakout(design):
     """Over the stages it is used for (ESD-1 lead plus the release's own time, 50 s here), within 1 cm."""
     r = design.recommended
@@ -139,6 +143,7 @@ def test_cli_json_and_refusal(tmp_path):
     assert "refused" in last and "short by" in last and "Traceback" not in r.stderr
 
 
+@pytest.mark.slow                      # the module's mooring analysis: ~25 s (make test SLOW=1, CI)
 def test_one_slew_setting_serves_both_sides_without_alarming_inside_either_allowance(design):
     """Found in review: the slew settings were the earlier side's, which could put the first alarm inside the
     other side's drift allowance. Each side's allowance stays below the one first-alarm angle."""

@@ -187,6 +187,28 @@ class AlarmThresholds:
             return Severity.ESD1, f"{_where(beta, phi)}: beyond the first alarm"
         return Severity.NORMAL, ""
 
+    def face(self, beta: float, phi: float, level: Severity) -> str:
+        """The face a position alarm of ``level`` guards: ``beta_max`` when the elbow angle is past that
+        level's threshold, else the slew's side (:data:`loadarm.vocab.FACES`); ``""`` for no alarm.
+
+        Parameters
+        ----------
+        beta, phi : float
+            Elbow and slew angles, rad.
+        level : Severity
+            The level :meth:`level` gave.
+
+        Returns
+        -------
+        str
+        """
+        if level < Severity.ESD1:
+            return ""
+        beta_thr = {Severity.ESD1: self.beta_first, Severity.SECOND: self.beta_second}.get(level, self.beta_release)
+        if beta > beta_thr or (level >= Severity.RELEASE and beta >= beta_thr):
+            return "beta_max"
+        return "slew_pos" if phi > 0 else "slew_neg"
+
 
 def _where(beta: float, phi: float) -> str:
     return f"beta {math.degrees(beta):.1f} deg, slew {math.degrees(phi):.1f} deg"

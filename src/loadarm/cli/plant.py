@@ -116,6 +116,7 @@ def serve(
     run_id = f"serve:{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
     link = None if plc is None else _plc_link(plc, plc_map, plc_password_file, state_dir, plc_user, plc_cert)
     interrupted = False
+    service = None
     log = EventLog(db, run=run_id)
     try:
         loop = ClosedLoop(sc, model, log=log, scripted=scripted, io=link,
@@ -129,19 +130,18 @@ def serve(
                 screen = _start_screen(service, state_dir, model, sc.scenario.name, hmi_address, server)
             _announce(server, endpoint, insecure, state_dir)
             out.print(f"events to {db} (run {run_id}); Ctrl-C stops")
-            try:
-                service.run()
-            except KeyboardInterrupt:        # the documented way to stop: say where, then exit 130
-                interrupted = True
+            service.run()
         finally:
             if screen is not None:
                 screen.stop()
             server.stop()
+    except KeyboardInterrupt:   # the documented way to stop (found: a Ctrl-C just after the line that says so, before
+        interrupted = True      # the loop's own handler, left no "stopped at" line): say where, then exit 130
     finally:
         log.close()
         if link is not None:
             link.stop()
-    snap = service.snapshot()
+    snap = None if service is None else service.snapshot()
     if snap is not None:
         out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")
     if interrupted:

@@ -636,8 +636,9 @@ class GuidanceController:
         release_left = None if s.release_started_at is None else s.release_started_at + q.erc_release_time - now
         return stage_leads(q, valves_left=valves_left, release_left=release_left)
 
-    def _connected_level(self, now: float, q) -> tuple[Severity, str]:
-        """Position alarms and time to the nearest face (measured and design drift), the more severe."""
+    def _connected_level(self, now: float, q) -> tuple[Severity, str, str]:
+        """Position alarms and time to the nearest face (measured and design drift), the more severe: the level,
+        its cause in words and the face it guards (:data:`loadarm.vocab.FACES`)."""
         s = self.state
         alarmed = s.esd_since is not None
         mon = self.monitor
@@ -653,6 +654,7 @@ class GuidanceController:
         elif now >= s.next_forecast:
             s.forecast = None
         level, why = self.thr.level(q[2], q[0])
+        face = self.thr.face(q[2], q[0], level)
         if s.forecast is None:
             s.leads = self._leads(now)
             if p is None:
@@ -667,11 +669,11 @@ class GuidanceController:
             if stage > level:
                 t = f.measured if stage == Severity.PRE_ALARM else f.time
                 route = f.route if t == f.time else "measured drift"
-                level, why = stage, (f"{route}: {f.face} face in {t:.1f} s, the {stage.label} "
-                                     f"needs {ld[stage]:.1f} s")
-        return level, why
+                level, face, why = stage, f.face, (f"{route}: {f.face} face in {t:.1f} s, the {stage.label} "
+                                                   f"needs {ld[stage]:.1f} s")
+        return level, why, face
 
-    def _raise(self, now: float, q, level: Severity, why: str) -> None:
+    def _raise(self, now: float, q, level: Severity, why: str, face: str = "") -> None:
         """Raise the connected-mode stage to ``level`` (one alarm event per stage passed), commanding ESD-1 at
         the first alarm and requesting ERS-2 at release."""
         s = self.state
@@ -683,7 +685,7 @@ class GuidanceController:
             if s.raised < stage <= level:
                 code = STAGE_EVENT[stage]
                 self._event("alarm", f"{event_label(code)}: {why}", code=code, severity=int(stage),
-                            severity_label=stage.label,
+                            severity_label=stage.label, face=face,
                             beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]))
         s.raised = level
         if level >= Severity.ESD1:
@@ -713,8 +715,8 @@ class GuidanceController:
         if not self.attached():
             s.level = Severity.NORMAL
             return
-        s.level, why = self._connected_level(cyc.now, cyc.q)
-        self._raise(cyc.now, cyc.q, s.level, why)
+        s.level, why, face = self._connected_level(cyc.now, cyc.q)
+        self._raise(cyc.now, cyc.q, s.level, why, face)
 
     def _command_esd1(self, now: float, why: str) -> None:
         s = self.state

@@ -185,6 +185,23 @@ class RunResult(Result):
                 return t
         return None
 
+    def first_data(self, code: str) -> dict | None:
+        """The data of the first event with an event code (None if none): e.g. a stage's ``face``.
+
+        Parameters
+        ----------
+        code : str
+            E.g. ``"stage.esd1"``.
+
+        Returns
+        -------
+        dict or None
+        """
+        for _, _, _, _, data in self.events:
+            if data and data.get("code") == code:
+                return data
+        return None
+
     def release_margin(self) -> float | None:
         """Time from the release complete to the flange's first crossing of a face, s (None without a
         release, or when the flange reaches no face in the run nor in the look-ahead after it).

@@ -30,11 +30,12 @@ from functools import cached_property
 import numpy as np
 
 from loadarm._numba import njit
-from loadarm.arm.alarms import BETA_TOL_RAD, LEVEL_RELEASE, zone_level
+from loadarm.arm.alarms import BETA_TOL_RAD, LEVEL_RELEASE, AlarmThresholds, zone_level
 from loadarm.arm.faces import breakout_distance, past_a_face, past_a_face_at
 from loadarm.arm.sequence import esd_lead, lead_values, stage_of, valve_worst_time
 from loadarm.arm.slew import JointAngles3D
-from loadarm.vocab import UNREACHABLE
+from loadarm.guidance.monitor import EnvelopeMonitor, stage_leads
+from loadarm.vocab import UNREACHABLE, Severity
 
 __all__ = ["FloorTable", "floor_table", "ray_distances", "monitor_record", "RecordMonitor", "breakout_time", "N_DIRECTIONS",
            "relative_record", "record_ik"]
@@ -308,6 +309,9 @@ class RecordMonitor:
         Least design-drift time to a face (inf: none within the longest lead).
     outside : bool
         The flange left the envelope (the arm would be overstretched).
+    esd1_face : str
+        The face ESD-1 guarded (:data:`loadarm.vocab.FACES`; ``""``: no ESD-1): the position alarm's, or the
+        design drift's first face from the flange at ESD-1 (the live monitor's forecast with no history).
     """
 
     stage: int
@@ -318,6 +322,7 @@ class RecordMonitor:
     z_range_m: float
     min_time_to_limit_s: float
     outside: bool
+    esd1_face: str = ""
 
 
 # the rules of the vectorised modules, compiled for the per-sample pass (a test holds each to its original)
@@ -497,6 +502,17 @@ def monitor_record(model, table: FloorTable, p: np.ndarray, dt: float) -> Record
     seq = model.sequence
     stage, i1, ir, tmin = _scan(level, ttl, dt, seq.ers_valve_time, seq.erc_release_time, seq.margin,
                                 esd_lead(seq), valve_worst_time(seq), seq.ers_valves_close_at == "ers2")
+    face = "" if i1 < 0 else _esd1_face(model, p[i1], q, i1, int(level[i1]))
     return RecordMonitor(int(stage), i1 * dt if i1 >= 0 else math.nan, ir * dt if ir >= 0 else math.nan,
                          float(np.degrees(bmax)), float(np.degrees(smax)), float(zmax - zmin), float(tmin),
-                         bool(outside))
+                         bool(outside), face)
+
+
+def _esd1_face(model, p, q, i: int, level: int) -> str:
+    """The face ESD-1 guarded at sample ``i``, as the controller names it: the position alarm's when the position
+    raised it, else the design drift's first face (one forecast, uncompiled: once per record)."""
+    if level >= Severity.ESD1:
+        thr = AlarmThresholds.from_model(model)
+        return thr.face(float(np.asarray(q.beta)[i]), float(np.asarray(q.phi)[i]), Severity(min(level, 4)))
+    monitor = EnvelopeMonitor(model, window=60.0)
+    return monitor.time_to_limit(p, max(stage_leads(model.sequence).values())).face

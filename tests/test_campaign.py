@@ -52,7 +52,7 @@ def test_judge_counts_each_failure_on_its_own():
 
 def _result(events, overstretched_at=None, limit_at=None, t_end=120.0):
     """A run's result with just the events and times its verdict reads."""
-    from loadarm.sim.loop import RunResult
+    from loadarm.sim.result import RunResult
 
     t = np.arange(0.0, t_end + 0.05, 0.1)
     sig = {k: np.zeros_like(t) for k in ("mode", "x", "y", "z", "connected", "distance", "beta", "phi")}

@@ -761,7 +761,7 @@ def test_scripted_operator_presses_on_cue():
     """run_scenario's stages are testable alone: the operator script fires each action in one cycle."""
     from types import SimpleNamespace as NS
 
-    from loadarm.sim.loop import ScriptedOperator
+    from loadarm.sim.world import ScriptedOperator
 
     op = NS(start=1.0, connect_after=2.0, disconnect_at=None, estop_at=5.0, reset_at=None, ack_at=None, esd_at=None,
             ers_at=None, ers_confirm_after=2.0, jog=((7.0, 8.0, 0.1, 0.0, 0.0),))
@@ -779,7 +779,7 @@ def test_scripted_operator_presses_on_cue():
 
 def test_arm_plant_follows_the_flange_and_reports_overstretch(model):
     from loadarm.guidance.controller import Command
-    from loadarm.sim.loop import ArmPlant
+    from loadarm.sim.world import ArmPlant
 
     seen = []
     c = _ctrl(model)
@@ -808,7 +808,7 @@ def _release_run(model, ers_valve_time=10.0, estop_at=None, until=60.0, actions=
     """Attached arm held beyond the release angle from t = 0 (or at ``q``), with the ERS valves of the plant;
     returns the controller and the events (t, kind, reason)."""
     from loadarm.guidance.controller import PlantFeedback
-    from loadarm.sim.loop import ErsValves
+    from loadarm.sim.world import ErsValves
 
     m = _with_sequence(model, ers_valve_time=ers_valve_time)
     c = GuidanceController(m, Scenario().guidance, GuidanceState(mode=Mode.CONNECTED))
@@ -1109,17 +1109,17 @@ def test_after_an_emergency_release_the_drives_start_from_the_real_state(model, 
 
 def test_a_coupler_that_does_not_clear_the_manifold_raises_an_alarm():
     from loadarm.guidance.controller import Command
-    from loadarm.sim.loop import CLEARANCE_TIME, _ClearanceWatch
+    from loadarm.sim.limits import CLEARANCE_TIME, ClearanceWatch
 
     seen = []
-    w = _ClearanceWatch(lambda *a: seen.append(a))
+    w = ClearanceWatch(lambda *a: seen.append(a))
     w.watch(0.0, Command(Mode.RELEASE, (0, 0, 0), True, True, True), 0.0)
     for k in range(1, 2000):                                  # released at 0.02 s, stays 0.5 m from the flange
         w.watch(0.02 * k, Command(Mode.RETURN, (0, 0, 0), False, False, False), 0.5)
     assert len(seen) == 1 and "not clear of the ship's manifold" in seen[0][3]
     assert seen[0][0] == pytest.approx(0.02 + CLEARANCE_TIME, abs=0.021)
     ok = []
-    w = _ClearanceWatch(lambda *a: ok.append(a))
+    w = ClearanceWatch(lambda *a: ok.append(a))
     w.watch(0.0, Command(Mode.RELEASE, (0, 0, 0), True, True, True), 0.0)
     for k in range(1, 2000):
         w.watch(0.02 * k, Command(Mode.RETURN, (0, 0, 0), False, False, False), 0.05 * k)
@@ -1132,7 +1132,8 @@ def test_over_a_plant_that_does_not_know_the_true_flange_the_clearance_is_watche
     on the kinematic plant with the true flange hidden from the loop: the release clears the coupler by the
     estimate, and no alarm; with the estimate unhealthy too, the alarm says the flange position is unknown."""
     from loadarm.guidance.controller import Command
-    from loadarm.sim.loop import CLEARANCE_TIME, ClosedLoop, _ClearanceWatch
+    from loadarm.sim.limits import CLEARANCE_TIME, ClearanceWatch
+    from loadarm.sim.loop import ClosedLoop
 
     class NoTruth:                                           # the PLC link's answer: encoders, no true flange
         def __init__(self, io):
@@ -1157,7 +1158,7 @@ def test_over_a_plant_that_does_not_know_the_true_flange_the_clearance_is_watche
     assert np.isnan(r.signals["distance"]).all()
     assert r.first("alarm", "not clear of the ship's manifold") is None, r.events
     seen = []
-    w = _ClearanceWatch(lambda *a: seen.append(a))
+    w = ClearanceWatch(lambda *a: seen.append(a))
     w.watch(0.0, Command(Mode.RELEASE, (0, 0, 0), True, True, True), 0.0)
     for k in range(1, 2000):                                  # released, then nothing known of the flange
         w.watch(0.02 * k, Command(Mode.RETURN, (0, 0, 0), False, False, False), math.nan)

@@ -24,7 +24,8 @@ from loadarm.guidance.controller import (
 from loadarm.guidance.estimator import Estimate
 from loadarm.guidance.voting import VoteState, reset_votes, vote
 from loadarm.params.scenario import Scenario, load_scenario
-from loadarm.sim.loop import CLEARANCE_TIME, run_scenario
+from loadarm.sim.limits import CLEARANCE_TIME
+from loadarm.sim.loop import run_scenario
 from loadarm.studies.campaign import run_campaign
 from loadarm.vocab import Severity
 
@@ -384,7 +385,7 @@ def test_the_cylinder_channel_saturates_at_the_pins_ends(model):
     """The second channel of a joint at the flat-triangle end of its pins reads the end, never an impossible length
     (a quantised reading past it made the inverse raise)."""
     from loadarm.arm.actuators import joint_angles_from_cylinders, length_limits
-    from loadarm.sim.loop import AngleSensors
+    from loadarm.sim.world import AngleSensors
 
     sens = AngleSensors(model, Scenario().faults)
     lim = length_limits(model.mount)

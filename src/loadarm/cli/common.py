@@ -1,4 +1,6 @@
-"""What every command shares: the consoles (rich, imported on first use), the common options, the checks of\noutputs and points, the JSON printer."""
+"""What every command shares: the consoles (rich, imported on first use), the common options, the checks of\noutputs
+and points, the JSON printer.
+"""
 
 from __future__ import annotations
 

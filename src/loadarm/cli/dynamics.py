@@ -1,4 +1,6 @@
-"""``loadarm balance``, ``loadarm loads`` and ``loadarm simulate``: counterweights, actuator loads and the\nelectro-hydraulic closed loop."""
+"""``loadarm balance``, ``loadarm loads`` and ``loadarm simulate``: counterweights, actuator loads and
+the\nelectro-hydraulic closed loop.
+"""
 
 from __future__ import annotations
 

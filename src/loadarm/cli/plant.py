@@ -1,4 +1,6 @@
-"""``loadarm serve``, ``loadarm plc-sim`` and ``loadarm trust``: beside a real PLC, over OPC UA, with the\noperator's screen."""
+"""``loadarm serve``, ``loadarm plc-sim`` and ``loadarm trust``: beside a real PLC, over OPC UA, with the\noperator's
+screen.
+"""
 
 from __future__ import annotations
 
@@ -19,7 +21,7 @@ from loadarm.opcua.plc import PlcLink, PlcServer, PlcSimulator, load_tag_map
 from loadarm.opcua.security import StateDir, _load_certificate, thumbprint
 from loadarm.opcua.server import OpcUaServer
 from loadarm.opcua.service import GuidanceService
-from loadarm.params.config import in_range, range_text
+from loadarm.params.declare import in_range, range_text
 from loadarm.params.scenario import Scenario, ScenarioHead, check_scenario, load_scenario
 from loadarm.sim.loop import ClosedLoop
 

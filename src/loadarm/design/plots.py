@@ -1,4 +1,7 @@
-"""Figures of the design: the envelope and the approach (the paper's Figs 4, 6, 8, 9 and 10), actuator loads, the multibody check, sizing, the design check, alarm design and the surge. Degrees appear only here, on axis labels. matplotlib is imported when a figure is drawn."""
+"""Figures of the design: the envelope and the approach (the paper's Figs 4, 6, 8, 9 and 10), actuator loads, the
+multibody check, sizing, the design check, alarm design and the surge. Degrees appear only here, on axis labels.
+matplotlib is imported when a figure is drawn.
+"""
 
 from __future__ import annotations
 

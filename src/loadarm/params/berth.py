@@ -25,7 +25,8 @@ from typing import Any, Literal
 from pydantic import BaseModel, Field, ValidationError, model_validator
 
 from loadarm.errors import ConfigError
-from loadarm.params.config import _format_validation_error, _param, _Section, parameter_markdown, read_toml, toml_values
+from loadarm.params.config import parameter_markdown, read_toml
+from loadarm.params.declare import Section, format_validation_error, param, toml_values
 
 __all__ = ["ShipSection", "BerthSection", "MooringLine", "Fender", "Environment", "Berth", "parse_berth",
            "load_berth", "berth_parameter_markdown", "RHO_SEA"]
@@ -37,53 +38,53 @@ _LNG = "typical particulars of 145 000-155 000 m^3 membrane LNG carriers (publis
 _MEG = "OCIMF Mooring Equipment Guidelines (MEG4) typical LNG carrier arrangement; example values"
 
 
-class ShipSection(_Section):
+class ShipSection(Section):
     """The design ship: hull, loading condition, mass distribution, manifold and windage."""
 
     kind: Literal["lng_carrier", "tanker"] = Field(
         "lng_carrier", description="ship type (selects the open wind coefficients of Blendermann)",
         json_schema_extra={"unit": "", "source": "Blendermann (1994, 1996) ship types"})
-    length_pp: float = _param(278.0, unit="m", ge=50, le=400, source=_LNG, description="length between perpendiculars")
-    beam: float = _param(43.4, unit="m", ge=10, le=70, source=_LNG, description="moulded beam")
-    depth: float = _param(26.0, unit="m", ge=5, le=40, source=_LNG, description="moulded depth to the main deck")
-    draft: float = _param(11.5, unit="m", ge=2, le=25, source=_LNG + " (design draft, loaded)",
+    length_pp: float = param(278.0, unit="m", ge=50, le=400, source=_LNG, description="length between perpendiculars")
+    beam: float = param(43.4, unit="m", ge=10, le=70, source=_LNG, description="moulded beam")
+    depth: float = param(26.0, unit="m", ge=5, le=40, source=_LNG, description="moulded depth to the main deck")
+    draft: float = param(11.5, unit="m", ge=2, le=25, source=_LNG + " (design draft, loaded)",
                           description="mean draft of the loading condition")
-    displacement: float = _param(105_000e3, unit="kg", ge=1e6, le=5e8,
+    displacement: float = param(105_000e3, unit="kg", ge=1e6, le=5e8,
                                  source="rho L B T Cb with Cb = 0.74 at the design draft",
                                  description="displacement (mass) of the loading condition")
-    kg: float = _param(12.4, unit="m", ge=0, le=40,
+    kg: float = param(12.4, unit="m", ge=0, le=40,
                        source="GM about 2.5 m, a loaded LNG carrier's order (stability book), on the parametric "
                               "hull (KM 14.9 m at the example's draft)",
                        description="centre of gravity above the keel")
-    lcg: float = _param(0.0, unit="m", ge=-50, le=50, source="even keel", description="centre of gravity forward of "
+    lcg: float = param(0.0, unit="m", ge=-50, le=50, source="even keel", description="centre of gravity forward of "
                                                                                         "midships")
-    r_xx: float = _param(16.5, unit="m", ge=1, le=40, source="about 0.38 B (roll)", description="roll radius of gyration")
-    r_yy: float = _param(69.5, unit="m", ge=5, le=150, source="about 0.25 L (pitch)",
+    r_xx: float = param(16.5, unit="m", ge=1, le=40, source="about 0.38 B (roll)", description="roll radius of gyration")
+    r_yy: float = param(69.5, unit="m", ge=5, le=150, source="about 0.25 L (pitch)",
                          description="pitch radius of gyration")
-    r_zz: float = _param(69.5, unit="m", ge=5, le=150, source="about 0.25 L (yaw)", description="yaw radius of gyration")
-    manifold: tuple[float, float, float] = _param(
+    r_zz: float = param(69.5, unit="m", ge=5, le=150, source="about 0.25 L (yaw)", description="yaw radius of gyration")
+    manifold: tuple[float, float, float] = param(
         (0.0, 18.4, 28.0), unit="m", source="SIGTTO/OCIMF manifold recommendations: near midships, about 3 m inboard "
                                             "of the side, about 2 m above the main deck",
         description="presentation flange on the ship (x forward of midships, y to port, z above the keel)")
-    lateral_windage: float = _param(5500.0, unit="m^2", ge=0, le=50_000,
+    lateral_windage: float = param(5500.0, unit="m^2", ge=0, le=50_000,
                                     source="L (D - T) plus trunk deck and accommodation",
                                     description="lateral projected area above water (Blendermann A_L)")
-    frontal_windage: float = _param(1150.0, unit="m^2", ge=0, le=10_000,
+    frontal_windage: float = param(1150.0, unit="m^2", ge=0, le=10_000,
                                     source="B (D - T) plus accommodation", description="frontal projected area above "
                                                                                        "water (Blendermann A_F)")
 
-    windage_centroid_x: float = _param(-15.0, unit="m", ge=-200, le=200,
+    windage_centroid_x: float = param(-15.0, unit="m", ge=-200, le=200,
                                        source="accommodation aft moves the lateral area's centroid aft of midships",
                                        description="centroid of the lateral windage forward of midships "
                                                    "(Blendermann s_L)")
-    propeller_area: float = _param(45.0, unit="m^2", ge=0, le=300,
+    propeller_area: float = param(45.0, unit="m^2", ge=0, le=300,
                                    source="expanded blade area of an 8.6 m propeller, blade-area ratio 0.78",
                                    description="propeller expanded area (UFC 4-159-03 locked-propeller drag)")
-    roll_damping_ratio: float = _param(0.05, unit="1", ge=0, le=0.5,
+    roll_damping_ratio: float = param(0.05, unit="1", ge=0, le=0.5,
                                        source="viscous roll damping of a large ship at small angles, a few % of "
                                               "critical (ITTC 7.5-02-07-04.5); potential flow has almost none",
                                        description="roll damping added to the BEM's, fraction of critical")
-    lf_damping_ratio: float = _param(0.05, unit="1", ge=0, le=0.5,
+    lf_damping_ratio: float = param(0.05, unit="1", ge=0, le=0.5,
                                      source="low-frequency damping of moored ships (wave drift, viscous hull, "
                                             "lines): 5-10 % of critical (Faltinsen 1990, ch. 5)",
                                      description="surge, sway and yaw damping at the mooring natural periods, "
@@ -105,45 +106,45 @@ class ShipSection(_Section):
         return self
 
 
-class BerthSection(_Section):
+class BerthSection(Section):
     """The jetty: water depth, which side the ship lies on, where it lies."""
 
-    water_depth: float = _param(20.0, unit="m", gt=0, le=200, source="issue 12: a jetty in about 20 m of water",
+    water_depth: float = param(20.0, unit="m", gt=0, le=200, source="issue 12: a jetty in about 20 m of water",
                                 description="still-water depth at the berth")
     side: Literal["port", "starboard"] = Field(
         "port", description="side of the ship against the fenders (its manifold faces the arm)",
         json_schema_extra={"unit": "", "source": "example"})
-    ship_y: float = _param(0.0, unit="m", ge=-500, le=500, source="midships abreast of the arm",
+    ship_y: float = param(0.0, unit="m", ge=-500, le=500, source="midships abreast of the arm",
                            description="position of the ship's midships along the berth (berth y)")
-    deck_height: float = _param(8.0, unit="m", ge=0, le=40, source="example jetty deck above still water",
+    deck_height: float = param(8.0, unit="m", ge=0, le=40, source="example jetty deck above still water",
                                 description="jetty deck above the still-water level (the installation's z = 0)")
-    x_bearing_deg: float = _param(270.0, unit="deg", ge=0, le=360,
+    x_bearing_deg: float = param(270.0, unit="deg", ge=0, le=360,
                                   source="example: a berth open to the west (metocean records give compass "
                                          "directions)",
                                   description="compass bearing of berth +x (off the berth, towards the sea), "
                                               "clockwise from true north")
-    manifold_tolerance: float = _param(1.5, unit="m", ge=0, le=20,
+    manifold_tolerance: float = param(1.5, unit="m", ge=0, le=20,
                                        source="the mooring master places the manifold within about 1-2 m of the "
                                               "arm's centre line (terminal procedure; example)",
                                        description="how far along the berth from the arm's centre line the ship's "
                                                    "manifold may lie when connected (the flanging area's width)")
 
 
-class MooringLine(_Section):
+class MooringLine(Section):
     """One mooring line: from a fairlead on the ship to a bollard or hook on the jetty."""
 
     name: str = Field(..., min_length=1, max_length=40, description="line name (e.g. head 1, fwd breast 2)",
                       json_schema_extra={"unit": "", "source": "example"})
-    fairlead: tuple[float, float, float] = _param(..., unit="m", source=_MEG, description="fairlead in the ship "
+    fairlead: tuple[float, float, float] = param(..., unit="m", source=_MEG, description="fairlead in the ship "
                                                                                           "frame")
-    bollard: tuple[float, float, float] = _param(..., unit="m", source=_MEG, description="bollard or hook in the "
+    bollard: tuple[float, float, float] = param(..., unit="m", source=_MEG, description="bollard or hook in the "
                                                                                          "berth frame")
-    axial_stiffness: float = _param(60e6, unit="N", gt=0, le=1e10,
+    axial_stiffness: float = param(60e6, unit="N", gt=0, le=1e10,
                                     source="EA of an HMPE line with a nylon tail, linearised (order of magnitude)",
                                     description="axial stiffness EA (tension per unit strain)")
-    mbl: float = _param(1.0e6, unit="N", gt=0, le=1e8, source="ship design MBL of LNG carrier lines, about 1000 kN",
+    mbl: float = param(1.0e6, unit="N", gt=0, le=1e8, source="ship design MBL of LNG carrier lines, about 1000 kN",
                         description="minimum breaking load")
-    pretension: float = _param(100e3, unit="N", ge=0, le=1e7, source="about 10 % of the MBL (MEG4 practice)",
+    pretension: float = param(100e3, unit="N", ge=0, le=1e7, source="about 10 % of the MBL (MEG4 practice)",
                                description="tension at the initial position")
 
     @model_validator(mode="after")
@@ -154,16 +155,16 @@ class MooringLine(_Section):
         return self
 
 
-class Fender(_Section):
+class Fender(Section):
     """One fender on the fender line: pushes only, along berth x."""
 
     name: str = Field(..., min_length=1, max_length=40, description="fender name",
                       json_schema_extra={"unit": "", "source": "example"})
-    y: float = _param(..., unit="m", ge=-500, le=500, source="example", description="position along the berth")
-    z: float = _param(2.0, unit="m", ge=-20, le=40, source="example", description="height above still water")
-    deflection: tuple[float, ...] = _param((0.0, 0.5, 1.0, 1.5), unit="m", source="cone fender catalogue shape",
+    y: float = param(..., unit="m", ge=-500, le=500, source="example", description="position along the berth")
+    z: float = param(2.0, unit="m", ge=-20, le=40, source="example", description="height above still water")
+    deflection: tuple[float, ...] = param((0.0, 0.5, 1.0, 1.5), unit="m", source="cone fender catalogue shape",
                                            description="deflections of the load curve, from 0, increasing")
-    load: tuple[float, ...] = _param((0.0, 1.2e6, 2.0e6, 3.0e6), unit="N", source="cone fender catalogue shape",
+    load: tuple[float, ...] = param((0.0, 1.2e6, 2.0e6, 3.0e6), unit="N", source="cone fender catalogue shape",
                                      description="reaction at each deflection, from 0, increasing")
 
     @model_validator(mode="after")
@@ -178,32 +179,32 @@ class Fender(_Section):
         return self
 
 
-class Environment(_Section):
+class Environment(Section):
     """The design condition the alarms are set for (directions: where the wind, current or waves go *to*,
     measured from berth +x (off the berth) towards +y)."""
 
-    wind_speed: float = _param(20.0, unit="m/s", ge=0, le=60, source="connected-operation limit of the order of "
+    wind_speed: float = param(20.0, unit="m/s", ge=0, le=60, source="connected-operation limit of the order of "
                                                                      "40 kn (terminal rules; example)",
                                description="1-hour mean wind speed at 10 m (gusts from the NPD spectrum)")
-    wind_direction_deg: float = _param(0.0, unit="deg", ge=-180, le=180, source="off the berth: the break-out case",
+    wind_direction_deg: float = param(0.0, unit="deg", ge=-180, le=180, source="off the berth: the break-out case",
                                        description="direction the wind blows towards")
-    current_speed: float = _param(0.5, unit="m/s", ge=0, le=5, source="example sheltered jetty",
+    current_speed: float = param(0.5, unit="m/s", ge=0, le=5, source="example sheltered jetty",
                                   description="depth-averaged current speed")
-    current_direction_deg: float = _param(90.0, unit="deg", ge=-180, le=180, source="along the berth (example)",
+    current_direction_deg: float = param(90.0, unit="deg", ge=-180, le=180, source="along the berth (example)",
                                           description="direction the current flows towards")
-    hs: float = _param(1.0, unit="m", ge=0, le=8, source="berths operate up to about Hs 1.5-2 m",
+    hs: float = param(1.0, unit="m", ge=0, le=8, source="berths operate up to about Hs 1.5-2 m",
                        description="significant wave height")
-    tp: float = _param(8.0, unit="s", gt=1, le=30, source="example swell", description="peak period")
-    wave_direction_deg: float = _param(30.0, unit="deg", ge=-180, le=180, source="example",
+    tp: float = param(8.0, unit="s", gt=1, le=30, source="example swell", description="peak period")
+    wave_direction_deg: float = param(30.0, unit="deg", ge=-180, le=180, source="example",
                                        description="mean direction the waves travel towards")
-    spreading: float = _param(4.0, unit="1", ge=1, le=100, source="cos-2s spreading, s = 4 for wind sea (DNV-RP-C205)",
+    spreading: float = param(4.0, unit="1", ge=1, le=100, source="cos-2s spreading, s = 4 for wind sea (DNV-RP-C205)",
                               description="directional spreading exponent s of cos^2s")
 
 
 class Berth(BaseModel):
     """A berth file, validated."""
 
-    model_config = _Section.model_config
+    model_config = Section.model_config
 
     ship: ShipSection = Field(default_factory=ShipSection)
     berth: BerthSection = Field(default_factory=BerthSection)
@@ -255,7 +256,7 @@ def parse_berth(data: dict[str, Any], *, source: str = "<berth>") -> Berth:
     try:
         return Berth.model_validate(toml_values(data))
     except ValidationError as err:
-        raise ConfigError(_format_validation_error(err, source, Berth)) from None
+        raise ConfigError(format_validation_error(err, source, Berth)) from None
 
 
 def load_berth(path: str | Path) -> Berth:

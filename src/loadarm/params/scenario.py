@@ -17,14 +17,8 @@ from loadarm.arm.sequence import esd_lead
 from loadarm.errors import ConfigError
 from loadarm.params.berth import Environment, load_berth
 from loadarm.params.compiler import compile_model
-from loadarm.params.config import (
-    _format_validation_error,
-    _param,
-    load_config,
-    paper_installation,
-    read_toml,
-    toml_values,
-)
+from loadarm.params.config import load_config, paper_installation, read_toml
+from loadarm.params.declare import format_validation_error, param, toml_values
 
 if TYPE_CHECKING:
     from loadarm.arm.model import ArmModel
@@ -47,11 +41,11 @@ class Ship(_S):
     berth: str | None = Field(None, description="berth TOML for model = moored, relative to the scenario file",
                               json_schema_extra={"unit": "", "source": ""})
 
-    flange: tuple[float, float, float] = _param((14.0, 0.0, 1.0), unit="m", source="the paper's flange, on the arm's axis",
+    flange: tuple[float, float, float] = param((14.0, 0.0, 1.0), unit="m", source="the paper's flange, on the arm's axis",
                                                 description="flange position (x out, y along the berth, z up) at t = 0")
-    tide_rate: float = _param(0.0, unit="m/s", ge=-0.01, le=0.01, source="up to about 2 m per hour in tidal ports",
+    tide_rate: float = param(0.0, unit="m/s", ge=-0.01, le=0.01, source="up to about 2 m per hour in tidal ports",
                               description="vertical speed of the water level")
-    draft_rate: float = _param(0.0, unit="m/s", ge=-0.01, le=0.01,
+    draft_rate: float = param(0.0, unit="m/s", ge=-0.01, le=0.01,
                                source="a ship loading 10 m of draft over 24 h sinks about 1e-4 m/s",
                                description="vertical speed of the flange from loading (negative: sinking)")
 
@@ -65,19 +59,19 @@ class Ship(_S):
 class Waves(_S):
     """Wave-induced flange motion from a JONSWAP sea (a simple documented response model)."""
 
-    hs: float = _param(0.0, unit="m", ge=0, le=8, source="0 = calm; berths operate up to about Hs 1.5-2 m",
+    hs: float = param(0.0, unit="m", ge=0, le=8, source="0 = calm; berths operate up to about Hs 1.5-2 m",
                        description="significant wave height")
-    tp: float = _param(8.0, unit="s", gt=1, le=30, source="typical swell at an exposed berth",
+    tp: float = param(8.0, unit="s", gt=1, le=30, source="typical swell at an exposed berth",
                        description="peak period")
-    gamma: float = _param(3.3, unit="1", ge=1, le=10, source="JONSWAP mean peak enhancement (Hasselmann 1973)",
+    gamma: float = param(3.3, unit="1", ge=1, le=10, source="JONSWAP mean peak enhancement (Hasselmann 1973)",
                           description="peak enhancement factor")
-    surge_gain: float = _param(0.3, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
+    surge_gain: float = param(0.3, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
                                description="flange surge (along the berth) per metre of wave elevation")
-    sway_gain: float = _param(0.5, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
+    sway_gain: float = param(0.5, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
                               description="flange sway (off the berth) per metre of wave elevation")
-    heave_gain: float = _param(0.6, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
+    heave_gain: float = param(0.6, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
                                description="flange heave per metre of wave elevation")
-    cutoff_period: float = _param(6.0, unit="s", gt=0, le=60,
+    cutoff_period: float = param(6.0, unit="s", gt=0, le=60,
                                   source="a large ship filters out waves much shorter than itself",
                                   description="period below which the ship's response rolls off (second order)")
     components: int = Field(200, ge=10, le=5000, description="number of wave components",
@@ -87,26 +81,26 @@ class Waves(_S):
 class Drift(_S):
     """Drift-off of the ship away from the berth (mooring failure)."""
 
-    start: float | None = _param(None, unit="s", ge=0, source="none by default",
+    start: float | None = param(None, unit="s", ge=0, source="none by default",
                                  description="time the drift starts (omit for no drift)")
-    speed: float = _param(0.1, unit="m/s", gt=0, le=2, source="a tanker drifting off under wind, about 0.1-0.3 m/s",
+    speed: float = param(0.1, unit="m/s", gt=0, le=2, source="a tanker drifting off under wind, about 0.1-0.3 m/s",
                           description="drift speed")
-    direction_deg: float = _param(0.0, unit="deg", ge=-180, le=180, source="straight off the berth",
+    direction_deg: float = param(0.0, unit="deg", ge=-180, le=180, source="straight off the berth",
                                   description="drift direction in the horizontal plane, from +x towards +y")
-    acceleration: float = _param(0.01, unit="m/s^2", gt=0, le=1, source="engineering estimate",
+    acceleration: float = param(0.01, unit="m/s^2", gt=0, le=1, source="engineering estimate",
                                  description="how fast the drift reaches its speed")
 
 
 class Sensor(_S):
     """Flange position sensor: rate, noise, latency, dropouts, outliers."""
 
-    rate: float = _param(10.0, unit="Hz", gt=0, le=1000, source="laser / radar flange tracker",
+    rate: float = param(10.0, unit="Hz", gt=0, le=1000, source="laser / radar flange tracker",
                          description="measurement rate")
-    noise: float = _param(0.01, unit="m", ge=0, le=1, source="laser tracker at 20 m", description="noise std per axis")
-    latency: float = _param(0.05, unit="s", ge=0, le=5, source="processing and network", description="delay")
-    dropout_probability: float = _param(0.0, unit="1", ge=0, lt=1, source="none by default",
+    noise: float = param(0.01, unit="m", ge=0, le=1, source="laser tracker at 20 m", description="noise std per axis")
+    latency: float = param(0.05, unit="s", ge=0, le=5, source="processing and network", description="delay")
+    dropout_probability: float = param(0.0, unit="1", ge=0, lt=1, source="none by default",
                                         description="probability that one measurement is lost")
-    dropouts: tuple[tuple[float, float], ...] = _param((), unit="s", source="none by default",
+    dropouts: tuple[tuple[float, float], ...] = param((), unit="s", source="none by default",
                                                        description="windows [start, end] with no measurement at all")
 
     @model_validator(mode="after")
@@ -115,34 +109,34 @@ class Sensor(_S):
             if not 0 <= w[0] < w[1]:
                 raise ValueError(f"sensor.dropouts windows must be [start, end] with 0 <= start < end, got {list(w)}")
         return self
-    outlier_probability: float = _param(0.0, unit="1", ge=0, lt=1, source="none by default",
+    outlier_probability: float = param(0.0, unit="1", ge=0, lt=1, source="none by default",
                                         description="probability that a measurement is an outlier")
-    outlier_size: float = _param(2.0, unit="m", gt=0, le=100, source="a reflection off the wrong target",
+    outlier_size: float = param(2.0, unit="m", gt=0, le=100, source="a reflection off the wrong target",
                                  description="size of an outlier's error")
 
 
 class Operator(_S):
     """What the operator does and when."""
 
-    start: float = _param(1.0, unit="s", ge=0, source="scenario choice", description="time the approach is started")
-    connect_after: float = _param(20.0, unit="s", ge=0, source="manual connection of the coupler on the ship",
+    start: float = param(1.0, unit="s", ge=0, source="scenario choice", description="time the approach is started")
+    connect_after: float = param(20.0, unit="s", ge=0, source="manual connection of the coupler on the ship",
                                   description="time in standoff before the operator connects")
-    disconnect_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+    disconnect_at: float | None = param(None, unit="s", ge=0, source="none by default",
                                          description="time of a normal disconnection (omit for none)")
-    estop_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+    estop_at: float | None = param(None, unit="s", ge=0, source="none by default",
                                     description="time the emergency stop is pressed (omit for none)")
-    reset_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+    reset_at: float | None = param(None, unit="s", ge=0, source="none by default",
                                     description="time the operator resets after an emergency stop (omit for none)")
-    ack_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+    ack_at: float | None = param(None, unit="s", ge=0, source="none by default",
                                   description="time the operator acknowledges the alarms (omit for none)")
-    esd_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+    esd_at: float | None = param(None, unit="s", ge=0, source="none by default",
                                   description="time the operator presses the manual ESD-1 (omit for none)")
-    ers_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+    ers_at: float | None = param(None, unit="s", ge=0, source="none by default",
                                   description="time the operator arms the manual ERS; it is confirmed "
                                               "ers_confirm_after later (omit for none)")
-    ers_confirm_after: float | None = _param(2.0, unit="s", ge=0, source="operator's reaction (omit: never confirmed)",
+    ers_confirm_after: float | None = param(2.0, unit="s", ge=0, source="operator's reaction (omit: never confirmed)",
                                              description="delay from arming the manual ERS to confirming it")
-    jog: tuple[tuple[float, float, float, float, float], ...] = _param(
+    jog: tuple[tuple[float, float, float, float, float], ...] = param(
         (), unit="s, m/s", source="none by default",
         description="manual jog segments [start, end, vx, vy, vz]: the operator takes manual control at start, "
                     "holds the joystick at (vx, vy, vz) and hands back to automatic at end")
@@ -159,20 +153,20 @@ class Operator(_S):
 class Guidance(_S):
     """Guidance controller settings."""
 
-    rate: float = _param(50.0, unit="Hz", gt=0, le=5000, source="supervisory loop above the 1 kHz servo loops",
+    rate: float = param(50.0, unit="Hz", gt=0, le=5000, source="supervisory loop above the 1 kHz servo loops",
                          description="guidance cycle rate")
-    standoff: float = _param(1.0, unit="m", gt=0, le=10, source="clear of the flange for the manual connection",
+    standoff: float = param(1.0, unit="m", gt=0, le=10, source="clear of the flange for the manual connection",
                              description="distance the coupler holds from the flange, towards the jetty")
-    arrive_tolerance: float = _param(0.05, unit="m", gt=0, le=2, source="engineering choice",
+    arrive_tolerance: float = param(0.05, unit="m", gt=0, le=2, source="engineering choice",
                                      description="distance to the standoff point counted as arrived")
-    max_estimate_age: float = _param(0.5, unit="s", gt=0, le=10, source="5 sensor periods at 10 Hz",
+    max_estimate_age: float = param(0.5, unit="s", gt=0, le=10, source="5 sensor periods at 10 Hz",
                                      description="an estimate older than this is not fresh: motion stops")
-    drift_window: float = _param(60.0, unit="s", gt=5, le=600,
+    drift_window: float = param(60.0, unit="s", gt=5, le=600,
                                  source="averages out waves and swell up to about 30 s periods (Hs 1.5 m: fitted "
                                         "speed within 0.01 m/s); at most twice the first alarm's lead",
                                  description="window of the constant-acceleration drift fit behind the time-to-limit "
                                              "alarms")
-    jog_speed: float = _param(0.15, unit="m/s", gt=0, le=1, source="same as the approach speed limit",
+    jog_speed: float = param(0.15, unit="m/s", gt=0, le=1, source="same as the approach speed limit",
                               description="coupler speed at full joystick deflection")
 
 
@@ -181,12 +175,12 @@ class Faults(_S):
 
     ers_valve_stuck: bool = Field(False, description="the ERS valves never confirm closed (limit switches)",
                                   json_schema_extra={"unit": "", "source": "fault injection"})
-    ers_valve_delay: float = _param(0.0, unit="s", ge=0, le=600, source="fault injection (0 = none)",
+    ers_valve_delay: float = param(0.0, unit="s", ge=0, le=600, source="fault injection (0 = none)",
                                     description="extra closing time of the ERS valves beyond ers_valve_time")
-    hpu_trip_at: float | None = _param(None, unit="s", ge=0, source="none by default",
+    hpu_trip_at: float | None = param(None, unit="s", ge=0, source="none by default",
                                        description="time the hydraulic power unit trips: the drives stop, the "
                                                    "ERS and the retraction run on its accumulator")
-    ers_switch_false_closed_at: float | None = _param(None, unit="s", ge=0, source="fault injection (none by default)",
+    ers_switch_false_closed_at: float | None = param(None, unit="s", ge=0, source="fault injection (none by default)",
                                                       description="from this time one of the two ERS valve closed "
                                                                   "limit switches reads closed whatever the valves do")
     encoder_fault: Literal["none", "frozen", "drift", "failed"] = Field(
@@ -195,32 +189,32 @@ class Faults(_S):
         json_schema_extra={"unit": "", "source": "fault injection"})
     encoder_fault_axis: Literal["slew", "alpha", "beta"] = Field(
         "beta", description="the axis whose encoder fails", json_schema_extra={"unit": "", "source": "fault injection"})
-    encoder_fault_at: float = _param(0.0, unit="s", ge=0, source="fault injection", description="time the encoder fails")
-    encoder_drift_rate_deg: float = _param(0.2, unit="deg/s", ge=-10, le=10, source="fault injection",
+    encoder_fault_at: float = param(0.0, unit="s", ge=0, source="fault injection", description="time the encoder fails")
+    encoder_drift_rate_deg: float = param(0.2, unit="deg/s", ge=-10, le=10, source="fault injection",
                                            description="how fast a drifting encoder's reading walks away")
 
 
 class EnvironmentOverride(_S):
     """Changes to the berth file's [environment] for this run (model = moored); each key as there."""
 
-    wind_speed: float | None = _param(None, unit="m/s", source="the berth file's", description="1-hour mean wind "
+    wind_speed: float | None = param(None, unit="m/s", source="the berth file's", description="1-hour mean wind "
                                                                                                 "at 10 m")
-    wind_direction_deg: float | None = _param(None, unit="deg", source="the berth file's",
+    wind_direction_deg: float | None = param(None, unit="deg", source="the berth file's",
                                               description="direction the wind blows towards")
-    current_speed: float | None = _param(None, unit="m/s", source="the berth file's", description="current speed")
-    current_direction_deg: float | None = _param(None, unit="deg", source="the berth file's",
+    current_speed: float | None = param(None, unit="m/s", source="the berth file's", description="current speed")
+    current_direction_deg: float | None = param(None, unit="deg", source="the berth file's",
                                                  description="direction the current flows towards")
-    hs: float | None = _param(None, unit="m", source="the berth file's", description="significant wave height")
-    tp: float | None = _param(None, unit="s", source="the berth file's", description="peak period")
-    wave_direction_deg: float | None = _param(None, unit="deg", source="the berth file's",
+    hs: float | None = param(None, unit="m", source="the berth file's", description="significant wave height")
+    tp: float | None = param(None, unit="s", source="the berth file's", description="peak period")
+    wave_direction_deg: float | None = param(None, unit="deg", source="the berth file's",
                                               description="direction the waves travel towards")
-    spreading: float | None = _param(None, unit="1", source="the berth file's", description="cos-2s exponent")
+    spreading: float | None = param(None, unit="1", source="the berth file's", description="cos-2s exponent")
 
 
 class MooringFailure(_S):
     """Mooring lines that part during the run (model = moored): the break-out case."""
 
-    time: float | None = _param(None, unit="s", ge=0, source="none by default",
+    time: float | None = param(None, unit="s", ge=0, source="none by default",
                                 description="time the lines part (omit for none)")
     lines: tuple[str, ...] = Field((), description="names of the lines that part (as in the berth file)",
                                    json_schema_extra={"unit": "", "source": ""})
@@ -232,7 +226,7 @@ class ScenarioHead(_S):
     """Name, length and seed of the run."""
 
     name: str = Field("scenario", description="scenario name", json_schema_extra={"unit": "", "source": ""})
-    duration: float = _param(300.0, unit="s", gt=0, le=86400, source="scenario choice", description="simulated time")
+    duration: float = param(300.0, unit="s", gt=0, le=86400, source="scenario choice", description="simulated time")
     seed: int = Field(1, ge=0, description="random seed (waves, sensor)", json_schema_extra={"unit": "", "source": ""})
     plant: str = Field("hydraulic", pattern="^(hydraulic|kinematic)$",
                        description="arm plant: hydraulic (the two servo drives on the arm's dynamics) or kinematic",
@@ -301,7 +295,7 @@ def parse_scenario(data: dict, *, source: str = "<scenario>") -> Scenario:
     try:
         return Scenario.model_validate(toml_values(data))
     except ValidationError as err:
-        msg = _format_validation_error(err, source, Scenario)
+        msg = format_validation_error(err, source, Scenario)
         raise ConfigError(msg) from None
 
 
@@ -394,7 +388,7 @@ def scenario_environment(sc: Scenario, base, *, source: str = "<scenario>"):
     try:
         return wrap.model_validate({"environment": merged}).environment
     except ValidationError as err:
-        raise ConfigError(_format_validation_error(err, source, wrap)) from None
+        raise ConfigError(format_validation_error(err, source, wrap)) from None
 
 
 def check_scenario(sc: Scenario, model: "ArmModel", *, source: str = "<scenario>") -> None:

@@ -54,7 +54,8 @@ from loadarm.params.config import Installation, paper_installation, parameter_ta
 from loadarm.params.scenario import parse_scenario, resolve_berth
 from loadarm.ship.model import compile_ship
 from loadarm.ship.summary import ship_summary
-from loadarm.sim.loop import RUN_METRICS, run_scenario
+from loadarm.sim.loop import run_scenario
+from loadarm.sim.result import RUN_METRICS
 from loadarm.studies.operability import headline_rows, run_operability, write_parquet
 from loadarm.vocab import Severity
 

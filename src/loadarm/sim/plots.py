@@ -1,4 +1,6 @@
-"""Figures of a closed-loop run: the guidance timeline (modes, angles, distance to the nearest face, alarms). matplotlib is imported when a figure is drawn."""
+"""Figures of a closed-loop run: the guidance timeline (modes, angles, distance to the nearest face, alarms).
+matplotlib is imported when a figure is drawn.
+"""
 
 from __future__ import annotations
 

@@ -27,7 +27,7 @@ class FakeService:
     """A guidance service whose snapshot the test sets; it records the requests it gets."""
 
     def __init__(self):
-        from loadarm.guidance.controller import ANNUNCIATED
+        from loadarm.vocab import ANNUNCIATED
 
         self.requests = []
         self.seq = 0

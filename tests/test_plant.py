@@ -413,7 +413,7 @@ def test_the_docs_list_the_whole_address_space():
     for name, (_, symbol, _), (lo, hi), _ in space["variables"]:      # each row's unit and range are the server's
         [row] = [ln for ln in lines if ln.startswith("|") and f"`{name}`" in ln and " .. " in ln]
         assert f"| {symbol} | {lo:g} .. {hi:g} |" in row, row
-    from loadarm.guidance.controller import ERS_CONFIRM_WINDOW
+    from loadarm.guidance.modes import ERS_CONFIRM_WINDOW
     from loadarm.opcua.server import PUBLISH_RATE
     from loadarm.opcua.service import JOG_HOLD
 
@@ -441,8 +441,8 @@ class _FakeService:
     its own); it records the requests it gets."""
 
     def __init__(self):
-        from loadarm.guidance.controller import ANNUNCIATED
         from loadarm.sim.snapshot import Snapshot
+        from loadarm.vocab import ANNUNCIATED
 
         self.requests = []
         self.alarms = {tag: "normal" for tag in ANNUNCIATED}
@@ -595,12 +595,13 @@ def test_the_guidance_modes_are_a_finite_state_machine_with_transition_events(fa
 def test_the_controller_acknowledges_one_alarm_or_every_alarm(served):
     """``ack:TAG`` (an OPC UA Acknowledge on one condition) acknowledges that alarm only; ``ack`` every one."""
     from loadarm.arm.alarms import AlarmState
-    from loadarm.guidance.controller import GuidanceController, OperatorInput
+    from loadarm.guidance.controller import GuidanceController
     from loadarm.guidance.estimator import FlangeEstimator
+    from loadarm.guidance.modes import OperatorInput
     from loadarm.params.scenario import load_scenario
 
     sc, model = load_scenario(SCENARIO)
-    ctrl = GuidanceController(model, sc.guidance)
+    ctrl = GuidanceController(model, sc.guidance.compile())
     s = ctrl.state
     for tag in ("ESD1", "PRE_ALARM"):
         s.alarms[tag], s.last_active[tag] = AlarmState.UNACKED, 0.0

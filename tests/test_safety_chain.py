@@ -13,15 +13,9 @@ from hypothesis import strategies as st
 from loadarm.arm.slew import inverse3d
 from loadarm.cli import main
 from loadarm.design.check import MANIFOLD_CLEARANCE, design_check, valve_worst_time
-from loadarm.guidance.controller import (
-    ERS_SWITCH_DISCREPANCY,
-    GuidanceController,
-    GuidanceState,
-    Mode,
-    OperatorInput,
-    PlantFeedback,
-)
+from loadarm.guidance.controller import GuidanceController
 from loadarm.guidance.estimator import Estimate
+from loadarm.guidance.modes import ERS_SWITCH_DISCREPANCY, GuidanceState, Mode, OperatorInput, PlantFeedback
 from loadarm.guidance.voting import VoteState, reset_votes, vote
 from loadarm.params.scenario import Scenario, load_scenario
 from loadarm.sim.limits import CLEARANCE_TIME
@@ -55,7 +49,7 @@ def test_the_leads_count_the_time_left_to_the_valve_timeout_until_the_switches_c
     """Found (issue 25): the lead took the nominal 10 s; after it the valves counted as shut although their limit
     switches had not confirmed, and a valve 4 s slow ate the release margin."""
     seq = model.sequence
-    c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=Mode.ALARM1, esd_since=100.0,
+    c = GuidanceController(model, Scenario().guidance.compile(), GuidanceState(mode=Mode.ALARM1, esd_since=100.0,
                                                                      valves_cmd_since=100.0))
     worst = valve_worst_time(seq)
     assert worst == seq.ers_valve_time + seq.ers_valve_timeout
@@ -234,7 +228,7 @@ def test_without_redundancy_a_frozen_encoder_hides_the_drift_off():
 
 
 def test_an_axis_that_cannot_be_voted_while_attached_commands_esd1(model):
-    c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=Mode.CONNECTED))
+    c = GuidanceController(model, Scenario().guidance.compile(), GuidanceState(mode=Mode.CONNECTED))
     q = inverse3d(model.arm, 14.0, 0.0, 1.0)
     q = (float(q.phi), float(q.alpha), float(q.beta))
     bad = (q[0], q[1], q[2] + 2 * TOL)
@@ -248,7 +242,7 @@ def test_an_axis_that_cannot_be_voted_while_attached_commands_esd1(model):
 
 
 def test_an_angle_sensor_fault_stops_an_approach_but_not_a_retraction(model):
-    c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=Mode.APPROACH))
+    c = GuidanceController(model, Scenario().guidance.compile(), GuidanceState(mode=Mode.APPROACH))
     c.state.votes.rejected[2] = 0
     assert np.all(c.rule_no_motion_when_held_or_attached((0.01, 0.02, 0.03)) == 0.0)
     c.state.mode = Mode.RETURN
@@ -260,7 +254,7 @@ def test_an_angle_sensor_fault_stops_an_approach_but_not_a_retraction(model):
 # ---- a false "valve closed" limit switch ---------------------------------------------------------------------------
 
 def test_one_false_closed_switch_never_confirms_the_valves(model):
-    c = GuidanceController(model, Scenario().guidance, GuidanceState(mode=Mode.ALARM1, esd_since=1.0,
+    c = GuidanceController(model, Scenario().guidance.compile(), GuidanceState(mode=Mode.ALARM1, esd_since=1.0,
                                                                      valves_cmd_since=1.0, release_since=1.0))
     q = inverse3d(model.arm, 14.0, 0.0, 1.0)
     q = (float(q.phi), float(q.alpha), float(q.beta))
@@ -274,7 +268,7 @@ def test_one_false_closed_switch_never_confirms_the_valves(model):
 
 
 def test_a_switch_fault_refuses_the_approach(model):
-    c = GuidanceController(model, Scenario().guidance)
+    c = GuidanceController(model, Scenario().guidance.compile())
     q = inverse3d(model.arm, *c.stored)
     q = (float(q.phi), float(q.alpha), float(q.beta))
     t = 0.0
@@ -332,7 +326,7 @@ def test_the_ers_valves_close_at_esd1_or_at_ers2(model):
     q = (float(q.phi), float(q.alpha), float(q.beta))
     for close_at, at_esd in (("esd1", True), ("ers2", False)):
         m = dataclasses.replace(model, sequence=dataclasses.replace(model.sequence, ers_valves_close_at=close_at))
-        c = GuidanceController(m, Scenario().guidance, GuidanceState(mode=Mode.CONNECTED))
+        c = GuidanceController(m, Scenario().guidance.compile(), GuidanceState(mode=Mode.CONNECTED))
         cmd = c.step(1.0, q, _est((14.0, 0.0, 1.0)), OperatorInput(("esd",)))
         assert cmd.esd and cmd.close_ers_valves == at_esd
         c.step(2.0, q, _est((14.0, 0.0, 1.0)), OperatorInput(("ers",)))

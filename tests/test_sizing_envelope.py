@@ -156,7 +156,7 @@ def test_one_severity_type_orders_every_stage():
     sl = SlewLimits(*np.radians([40.0, 30.0, 34.0, 37.0, 2.0]))
     assert slew_severity(np.radians([0.0, -30.5, 35.0, -37.0]), sl).tolist() == [
         Severity.NORMAL, Severity.ESD1, Severity.SECOND, Severity.RELEASE]
-    from loadarm.guidance.controller import MODE_OF_SEVERITY, Mode
+    from loadarm.guidance.modes import MODE_OF_SEVERITY, Mode
     assert [MODE_OF_SEVERITY[s] for s in (Severity.NORMAL, Severity.ESD1, Severity.SECOND, Severity.RELEASE)] == [
         Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE]
 

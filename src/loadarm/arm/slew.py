@@ -12,15 +12,16 @@ planar closed form (:mod:`loadarm.arm.kinematics`) solves. With ``phi = 0`` and
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from loadarm.arm.geometry import Arm
-from loadarm.arm.kinematics import forward, inverse, reach_mask
+from loadarm.arm.kinematics import forward, inverse, jacobian_entries, reach_mask
 from loadarm.errors import UnreachableError
 
-__all__ = ["JointAngles3D", "forward3d", "inverse3d", "reach_mask3d", "slew_angle"]
+__all__ = ["JointAngles3D", "forward3d", "inverse3d", "reach_mask3d", "slew_angle", "jacobian3d"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -125,3 +126,32 @@ def inverse3d(arm: Arm, x, y, z, *, check: bool = True) -> JointAngles3D:
                 point=(float(rho[i]), float(z[i])), r=r, r_min=arm.r_min, r_max=arm.r_max)
     q = inverse(arm, rho, z, check=False)
     return JointAngles3D(slew_angle(x, y), q.alpha, q.beta)
+
+
+def jacobian3d(arm: Arm, phi: float, alpha: float, beta: float) -> np.ndarray:
+    """The 3D Jacobian of the coupler position with respect to (slew, alpha, beta), at one configuration.
+
+    Its planar entries (rows of the radius and the height) are :func:`loadarm.arm.kinematics.jacobian_entries` on
+    floats: the same formula as :func:`loadarm.arm.kinematics.jacobian`, without NumPy's per-call cost in the
+    guidance cycle; the slew rotates them about the riser.
+
+    Parameters
+    ----------
+    arm : Arm
+    phi, alpha, beta : float
+        Slew, inboard and elbow angles, rad.
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        ``d(x, y, z) / d(phi, alpha, beta)``, m/rad.
+    """
+    b, c = arm.b, arm.c
+    sa, ca = math.sin(alpha), math.cos(alpha)
+    sab, cab = math.sin(alpha - beta), math.cos(alpha - beta)
+    rho = b * sa - c * sab
+    drho_da, drho_db, dz_da, dz_db = jacobian_entries(b, c, 1.0, ca, sa, cab, sab)
+    cp, sp = math.cos(phi), math.sin(phi)
+    return np.array([[-rho * sp, drho_da * cp, drho_db * cp],
+                     [rho * cp, drho_da * sp, drho_db * sp],
+                     [0.0, dz_da, dz_db]])

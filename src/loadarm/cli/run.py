@@ -25,7 +25,7 @@ from loadarm.cli.common import (
 )
 from loadarm.eventlog import EventLog, check_samples
 from loadarm.figures import save
-from loadarm.guidance.controller import MODES
+from loadarm.guidance.modes import MODES
 from loadarm.params.scenario import load_scenario
 from loadarm.sim.loop import run_scenario, wall_clock_pacer
 from loadarm.sim.plots import timeline_figure

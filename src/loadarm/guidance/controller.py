@@ -35,273 +35,41 @@ Safety rules (each tested):
 
 from __future__ import annotations
 
-import enum
 import math
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from loadarm.arm.alarms import AlarmState, AlarmThresholds, next_alarm_state
 from loadarm.arm.geometry import Arm
-from loadarm.arm.kinematics import ROUNDOFF_M, jacobian_entries
+from loadarm.arm.kinematics import ROUNDOFF_M
 from loadarm.arm.sequence import stage_of, valve_worst_time
-from loadarm.arm.slew import forward3d, inverse3d, reach_mask3d
+from loadarm.arm.slew import forward3d, inverse3d, jacobian3d, reach_mask3d
+from loadarm.guidance.drift import FIT_PERIOD
 from loadarm.guidance.estimator import Estimate
-from loadarm.guidance.monitor import FIT_PERIOD, EnvelopeMonitor, LimitForecast, stage_leads
-from loadarm.guidance.voting import AXES, VoteState, reset_votes, vote
-from loadarm.params.scenario import Guidance, check_drift_window
+from loadarm.guidance.modes import (
+    ALARM_OFF_DELAY,
+    ALARM_STAGES,
+    CONNECTED_MODES,
+    ERS_CONFIRM_WINDOW,
+    ERS_SWITCH_DISCREPANCY,
+    MODE_OF_SEVERITY,
+    Command,
+    Cycle,
+    GuidanceState,
+    Mode,
+    OperatorInput,
+    PlantFeedback,
+)
+from loadarm.guidance.monitor import EnvelopeMonitor, stage_leads
+from loadarm.guidance.voting import AXES, reset_votes, vote
+from loadarm.params.scenario import GuidanceSettings, check_drift_window
 from loadarm.vocab import ANNUNCIATED, CONDITION_TEXT, STAGE_EVENT, Severity, event_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel
 
-__all__ = ["Mode", "Command", "OperatorInput", "PlantFeedback", "Cycle", "GuidanceState", "GuidanceController",
-           "ANNUNCIATED", "ERS_CONFIRM_WINDOW", "ALARM_OFF_DELAY"]
-
-
-class Mode(str, enum.Enum):
-    """Controller modes."""
-
-    STORED = "STORED"
-    APPROACH = "APPROACH"
-    HOLD = "HOLD"
-    STANDOFF = "STANDOFF"
-    CONNECTED = "CONNECTED"
-    ALARM1 = "ALARM1"
-    ALARM2 = "ALARM2"
-    RELEASE = "RELEASE"
-    RETURN = "RETURN"
-    DISCONNECT = "DISCONNECT"
-    MANUAL = "MANUAL"
-    ESTOP = "ESTOP"
-
-
-#: Modes in which the coupler is attached to the flange.
-CONNECTED_MODES = (Mode.CONNECTED, Mode.ALARM1, Mode.ALARM2, Mode.RELEASE, Mode.DISCONNECT)
-#: The connected mode that each severity puts the controller in, and back.
-MODE_OF_SEVERITY = {Severity.NORMAL: Mode.CONNECTED, Severity.ESD1: Mode.ALARM1, Severity.SECOND: Mode.ALARM2,
-                    Severity.RELEASE: Mode.RELEASE}
-SEVERITY_OF_MODE = {m: sev for sev, m in MODE_OF_SEVERITY.items()}
-MODE_OF_SEVERITY[Severity.PRE_ALARM] = Mode.CONNECTED       # a warning only: the mode stays
-#: The stages the connected-mode monitoring raises, in order.
-ALARM_STAGES = (Severity.PRE_ALARM, Severity.ESD1, Severity.SECOND, Severity.RELEASE)
-#: The two ERS closed limit switches may disagree this long (one made a little before the other as the valves
-#: seat), s; longer is a switch fault.
-ERS_SWITCH_DISCREPANCY = 2.0
-#: A manual ERS must be confirmed within this time, s.
-ERS_CONFIRM_WINDOW = 10.0
-#: An alarm condition counts as cleared only after staying clear this long, s (ISA-18.2 off-delay: no
-#: chattering from waves near a threshold).
-ALARM_OFF_DELAY = 5.0
-
-
-@dataclass(frozen=True, slots=True)
-class OperatorInput:
-    """What the operator did this cycle.
-
-    Attributes
-    ----------
-    actions : tuple of str
-        Any of ``start``, ``connect``, ``disconnect`` (controlled), ``estop``, ``reset``, ``manual``, ``auto``,
-        ``esd`` (manual ESD-1), ``ers`` then ``ers_confirm`` (manual emergency release, confirmed within
-        :data:`ERS_CONFIRM_WINDOW`), ``ack`` (acknowledge every alarm), ``ack:TAG`` (acknowledge one of
-        :data:`ANNUNCIATED`).
-    jog : tuple of float
-        Joystick: requested coupler velocity in MANUAL mode, m/s (x, y, z).
-    """
-
-    actions: tuple[str, ...] = ()
-    jog: tuple[float, float, float] = (0.0, 0.0, 0.0)
-
-
-@dataclass(frozen=True, slots=True)
-class PlantFeedback:
-    """What the plant reports back each cycle (the PLC's inputs, not the controller's guesses).
-
-    Attributes
-    ----------
-    ers_switches : tuple of bool
-        Each closed limit switch of the ERS valves (two independent ones in the field; a PLC that votes them
-        itself reports one).
-    angles : tuple of float or None
-        The joint angles' second channel (slew, alpha, beta), rad, beside the encoders' (None: no redundancy).
-    """
-
-    ers_switches: tuple = ()
-    angles: tuple | None = None
-
-    @property
-    def ers_valves_closed(self) -> bool:
-        """Every closed limit switch made (and at least one reported)."""
-        return bool(self.ers_switches) and all(self.ers_switches)
-
-
-@dataclass(frozen=True, slots=True)
-class Command:
-    """One cycle's output.
-
-    Attributes
-    ----------
-    mode : Mode
-        Mode after this cycle.
-    rates : tuple of float
-        Commanded joint rates (slew, alpha, beta), rad/s; zero when the
-        actuators are free (connected) or stopped.
-    connected : bool
-        Coupler attached to the flange.
-    esd : bool
-        ESD-1 active (transfer pumps stopped, ERS valves closing).
-    release : bool
-        ERS-2 release requested (the coupler opens once the ERS valves are confirmed closed).
-    close_ers_valves : bool
-        The ERS valves are commanded closed (ESD-1 or a controlled disconnection).
-    coupler_open : bool
-        The coupler is opening or open (never before the ERS valves were confirmed closed).
-    level : Severity
-        Connected-mode alarm level this cycle (``NORMAL`` when not attached).
-    time_to_limit : float
-        Forecast time to the nearest face of the envelope, s (``inf`` when none is in sight or not attached).
-    events : tuple of (kind, reason, data)
-        Events of this cycle, for the event log.
-    time_to_faces : tuple of (str, float)
-        The forecast's time to each face it crossed within its horizon, nearest first (:class:`LimitForecast`).
-    """
-
-    mode: Mode
-    rates: tuple[float, float, float]
-    connected: bool
-    esd: bool
-    release: bool
-    close_ers_valves: bool = False
-    coupler_open: bool = False
-    level: Severity = Severity.NORMAL
-    time_to_limit: float = math.inf
-    events: tuple = ()
-    time_to_faces: tuple = ()
-
-
-@dataclass(frozen=True, slots=True)
-class Cycle:
-    """One cycle's inputs, as the rules and handlers see them.
-
-    Attributes
-    ----------
-    now : float
-        Time, s.
-    q : tuple of float
-        Measured joint angles (slew, alpha, beta), rad.
-    est : Estimate
-        Flange estimate.
-    op : OperatorInput
-        Operator inputs.
-    acts : frozenset of str
-        The operator's actions.
-    dt : float
-        Nominal cycle period, s.
-    fb : PlantFeedback
-        The plant's feedback.
-    """
-
-    now: float
-    q: tuple
-    est: Estimate
-    op: OperatorInput
-    acts: frozenset
-    dt: float
-    fb: PlantFeedback = PlantFeedback()
-
-
-@dataclass
-class GuidanceState:
-    """The controller's mutable state (like MuJoCo's ``MjData`` beside the model): everything that changes from
-    one cycle to the next. Build one to start a controller in a given mode (tests, a restart after a fault).
-
-    Attributes
-    ----------
-    mode : Mode
-        Current mode.
-    entered : float
-        Time the mode was entered, s.
-    speed : float
-        Cartesian speed command along the approach, m/s.
-    refused : str
-        ``"jog"`` while a jog out of the envelope is being refused (so the refusal is logged once).
-    esd_since : float or None
-        Time ESD-1 was commanded.
-    valves_cmd_since : float or None
-        Time the ERS valves were commanded closed (ESD-1 or a controlled disconnection).
-    valves_closed_at : float or None
-        Time the plant confirmed the ERS valves closed (the interlock the coupler waits for).
-    valve_fault : bool
-        The ERS valves did not confirm in time (fault alarm; the coupler stays closed).
-    release_since : float or None
-        Time the release (ERS-2) was requested.
-    release_started_at : float or None
-        Time the coupler began to open (never before ``valves_closed_at``).
-    raised : Severity
-        Highest stage raised since the connection (or the last reset).
-    level : Severity
-        Connected-mode level of the last cycle.
-    forecast : LimitForecast or None
-        The latest time-to-limit forecast.
-    leads : dict of Severity to float
-        The stage leads it was compared with (:func:`loadarm.guidance.monitor.stage_leads`), s.
-    next_forecast : float
-        Time of the next forecast, s.
-    ers_armed_at : float or None
-        A manual ERS waiting for its confirmation since this time.
-    disconnect_phase : str
-        Controlled disconnection: ``"valves"``, ``"drain"``, ``"unclamp"`` or ``""``.
-    phase_since : float
-        Time the disconnection phase began, s.
-    lift_target : ndarray or None
-        After a controlled disconnection, the point straight above the flange to lift to first.
-    alarms : dict of str to AlarmState
-        ISA-18.2 state of each annunciated alarm.
-    last_active : dict of str to float
-        Last time each alarm's condition was present (for the off-delay).
-    quiet : bool
-        Every annunciated alarm is normal (the annunciator's fast path).
-    resume : Mode
-        Mode to resume after an emergency stop.
-    switches_odd_since : float or None
-        Since when the ERS limit switches disagree, s.
-    switch_fault : bool
-        They have disagreed longer than :data:`ERS_SWITCH_DISCREPANCY` (until they agree again).
-    votes : VoteState
-        The joint-angle voter's memory.
-    events : list
-        Events of the current cycle.
-    """
-
-    mode: Mode = Mode.STORED
-    entered: float = 0.0
-    speed: float = 0.0
-    refused: str = ""
-    esd_since: float | None = None
-    valves_cmd_since: float | None = None
-    valves_closed_at: float | None = None
-    valve_fault: bool = False
-    release_since: float | None = None
-    release_started_at: float | None = None
-    raised: Severity = Severity.NORMAL
-    level: Severity = Severity.NORMAL
-    forecast: LimitForecast | None = None
-    leads: dict = field(default_factory=dict)
-    next_forecast: float = -math.inf
-    ers_armed_at: float | None = None
-    disconnect_phase: str = ""
-    phase_since: float = 0.0
-    lift_target: np.ndarray | None = None
-    alarms: dict = field(default_factory=lambda: {tag: AlarmState.NORMAL for tag in ANNUNCIATED})
-    last_active: dict = field(default_factory=lambda: {tag: -math.inf for tag in ANNUNCIATED})
-    quiet: bool = True
-    resume: Mode = Mode.APPROACH
-    switches_odd_since: float | None = None
-    switch_fault: bool = False
-    votes: VoteState = field(default_factory=VoteState)
-    events: list = field(default_factory=list)
+__all__ = ["GuidanceController"]
 
 
 class GuidanceController:
@@ -311,8 +79,8 @@ class GuidanceController:
     ----------
     model : ArmModel
         Arm, alarms, approach limits, stored position (2D, taken at y = 0).
-    g : Guidance
-        Guidance settings.
+    g : GuidanceSettings
+        The compiled ``[guidance]`` section (:meth:`loadarm.params.scenario.Guidance.compile`).
     state : GuidanceState, optional
         Start in this state (default: stored, no alarm).
 
@@ -324,7 +92,10 @@ class GuidanceController:
     word on it.
     """
 
-    def __init__(self, model: ArmModel, g: Guidance, state: "GuidanceState | None" = None):
+    def __init__(self, model: ArmModel, g: GuidanceSettings, state: "GuidanceState | None" = None):
+        if not isinstance(g, GuidanceSettings):
+            raise TypeError(f"the guidance controller takes GuidanceSettings, the compiled [guidance] section "
+                            f"(Guidance.compile()), got {type(g).__name__}")
         self.arm: Arm = model.arm
         self.g = g
         self.lim = model.joint_limits
@@ -403,21 +174,8 @@ class GuidanceController:
             return "target is outside the cylinders' strokes"
         return ""
 
-    def _jacobian3d(self, phi, alpha, beta) -> np.ndarray:
-        # the planar entries (rows rho and z) are kinematics.jacobian_entries on floats: the same formula as
-        # kinematics.jacobian, without NumPy's per-call cost in the guidance cycle
-        b, c = self.arm.b, self.arm.c
-        sa, ca = math.sin(alpha), math.cos(alpha)
-        sab, cab = math.sin(alpha - beta), math.cos(alpha - beta)
-        rho = b * sa - c * sab
-        drho_da, drho_db, dz_da, dz_db = jacobian_entries(b, c, 1.0, ca, sa, cab, sab)
-        cp, sp = math.cos(phi), math.sin(phi)
-        return np.array([[-rho * sp, drho_da * cp, drho_db * cp],
-                         [rho * cp, drho_da * sp, drho_db * sp],
-                         [0.0, dz_da, dz_db]])
-
     def _rates_for_velocity(self, q, v: np.ndarray) -> np.ndarray:
-        J = self._jacobian3d(*q)
+        J = jacobian3d(self.arm, *q)
         try:
             qd = np.linalg.solve(J, v)
         except np.linalg.LinAlgError:
@@ -1049,4 +807,3 @@ class GuidanceController:
         self._event("info", f"approach refused: {why}")
 
 
-MODES = tuple(m.value for m in Mode)

@@ -11,7 +11,7 @@ import numpy as np
 
 from loadarm.errors import EventLogError
 from loadarm.eventlog import check_samples
-from loadarm.guidance.controller import MODES
+from loadarm.guidance.modes import MODES
 from loadarm.sim.snapshot import snapshot
 from loadarm.vocab import ANNUNCIATED
 

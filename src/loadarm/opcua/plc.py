@@ -30,7 +30,8 @@ import numpy as np
 
 from loadarm.errors import ConfigError
 from loadarm.files import read_toml
-from loadarm.guidance.controller import Command, GuidanceController, Mode, PlantFeedback
+from loadarm.guidance.controller import GuidanceController
+from loadarm.guidance.modes import Command, Mode, PlantFeedback
 from loadarm.opcua.security import StateDir
 from loadarm.opcua.server import APP_URI, SecureServer
 from loadarm.sim.loop import SimulatedPlant
@@ -114,7 +115,7 @@ class PlcSimulator:
         self.dt = 1.0 / sc.guidance.rate
         self.n = int(math.floor(sc.scenario.duration / self.dt)) + 1
         self.events: list = []
-        stored = GuidanceController(model, sc.guidance).stored
+        stored = GuidanceController(model, sc.guidance.compile()).stored
         self.plant = SimulatedPlant(sc, model, stored, self.n, self.dt, plant or sc.scenario.plant, self._emit)
         self.clock, self.sleep = clock, sleep
         self.outputs = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "out"}

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 from loadarm import __version__
 from loadarm.arm.alarms import AlarmState
-from loadarm.guidance.controller import ERS_CONFIRM_WINDOW, Mode
+from loadarm.guidance.modes import ERS_CONFIRM_WINDOW, Mode
 from loadarm.opcua.security import Role, StateDir, User, thumbprint
 from loadarm.opcua.service import JOG_HOLD, Request
 from loadarm.vocab import ANNUNCIATED, CONDITION_SEVERITY, CONDITION_TEXT, FACE_LABELS, Severity, action_role

@@ -20,7 +20,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from loadarm.guidance.controller import CONNECTED_MODES, OperatorInput
+from loadarm.guidance.modes import CONNECTED_MODES, OperatorInput
 from loadarm.sim.snapshot import Snapshot, snapshot, state_sample
 from loadarm.vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
 

@@ -12,7 +12,6 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-
 __all__ = ["REQUIRED", "Section", "param", "toml_values", "param_range", "range_text", "in_range",
            "format_validation_error"]
 

@@ -11,6 +11,8 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
+from dataclasses import dataclass
+
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 
 from loadarm.arm.sequence import esd_lead
@@ -23,7 +25,7 @@ from loadarm.params.declare import format_validation_error, param, toml_values
 if TYPE_CHECKING:
     from loadarm.arm.model import ArmModel
 
-__all__ = ["resolve_berth", "scenario_environment", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "Faults", "Scenario", "load_scenario",
+__all__ = ["resolve_berth", "scenario_environment", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "GuidanceSettings", "Faults", "Scenario", "load_scenario",
            "parse_scenario", "check_scenario", "check_drift_window", "check_run_size", "run_memory", "MAX_RUN_MEMORY"]
 
 
@@ -168,6 +170,28 @@ class Guidance(_S):
                                              "alarms")
     jog_speed: float = param(0.15, unit="m/s", gt=0, le=1, source="same as the approach speed limit",
                               description="coupler speed at full joystick deflection")
+
+    def compile(self) -> "GuidanceSettings":
+        """The section as the controller takes it: a frozen record, validated here once.
+
+        Returns
+        -------
+        GuidanceSettings
+        """
+        return GuidanceSettings(**self.model_dump())
+
+
+@dataclass(frozen=True, slots=True)
+class GuidanceSettings:
+    """The ``[guidance]`` section compiled (:meth:`Guidance.compile`): what the guidance controller takes. Units and
+    ranges are :class:`Guidance`'s, where each is declared."""
+
+    rate: float
+    standoff: float
+    arrive_tolerance: float
+    max_estimate_age: float
+    drift_window: float
+    jog_speed: float
 
 
 class Faults(_S):

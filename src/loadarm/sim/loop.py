@@ -25,15 +25,9 @@ import numpy as np
 
 from loadarm.arm.slew import forward3d, inverse3d
 from loadarm.eventlog import EventLog, RateLimiter
-from loadarm.guidance.controller import (
-    MODES,
-    SEVERITY_OF_MODE,
-    Command,
-    GuidanceController,
-    OperatorInput,
-    PlantFeedback,
-)
+from loadarm.guidance.controller import GuidanceController
 from loadarm.guidance.estimator import FlangeEstimator
+from loadarm.guidance.modes import MODES, SEVERITY_OF_MODE, Command, OperatorInput, PlantFeedback
 from loadarm.params.scenario import Scenario, check_run_size
 from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
@@ -273,7 +267,7 @@ class ClosedLoop:
             raise ValueError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
         check_run_size(sc)
         self.sc, self.model, self.log = sc, model, log
-        self.ctrl = GuidanceController(model, g)
+        self.ctrl = GuidanceController(model, g.compile())
         self.est = FlangeEstimator(noise=sc.sensor.noise, max_age=g.max_estimate_age)
         self.dt = 1.0 / g.rate
         self.continuous = continuous

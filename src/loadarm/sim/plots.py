@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from loadarm.figures import subplots
-from loadarm.guidance.controller import MODES
+from loadarm.guidance.modes import MODES
 from loadarm.vocab import alarm_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from loadarm.design.check import MANIFOLD_CLEARANCE
-from loadarm.guidance.controller import MODES
+from loadarm.guidance.modes import MODES
 from loadarm.results import Metric, Result
 from loadarm.sim.plots import run_timeline_figure
 

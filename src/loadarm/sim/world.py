@@ -14,7 +14,7 @@ import numpy as np
 from loadarm.arm.actuators import cylinder_lengths, joint_angles_from_cylinders, length_limits
 from loadarm.arm.slew import inverse3d, reach_mask3d
 from loadarm.design.check import accumulator_usable_volume, cylinder_oil
-from loadarm.guidance.controller import Mode, OperatorInput
+from loadarm.guidance.modes import Mode, OperatorInput
 from loadarm.guidance.voting import AXES
 from loadarm.hydraulics.servo import HydraulicArm
 from loadarm.hydraulics.simulate import SimulationError

@@ -201,3 +201,25 @@ def test_no_function_above_complexity_15():
                         "--config", "lint.mccabe.max-complexity = 15", "--output-format", "concise", str(SRC)],
                        capture_output=True, text=True, timeout=60)
     assert r.returncode == 0, r.stdout + r.stderr
+
+
+def test_the_arm_model_is_typed_field_by_field():
+    """Found (issue 26): ``ArmModel`` had 12 fields typed ``Any``, made from config field names. Now every field
+    names its type, and each parameter record carries its keys' declared types (a key declared once, in the
+    configuration)."""
+    import dataclasses
+    import typing
+
+    from loadarm.arm.model import ArmModel, ParamRecord
+    from loadarm.params.compiler import compile_model
+    from loadarm.params.config import paper_installation
+
+    hints = typing.get_type_hints(ArmModel)
+    assert hints and typing.Any not in hints.values()
+    model = compile_model(paper_installation())
+    records = [getattr(model, f.name) for f in dataclasses.fields(model)
+               if isinstance(getattr(model, f.name), ParamRecord)]
+    assert len(records) >= 12
+    for rec in records:
+        types_ = {f.name: f.type for f in dataclasses.fields(rec)}
+        assert types_ and typing.Any not in types_.values(), type(rec).__name__

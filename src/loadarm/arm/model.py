@@ -11,13 +11,22 @@ configuration, so the maths modules may use it.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 from loadarm.arm.alarms import AlarmAngles
+from loadarm.arm.dynamics import LagrangeConstants, MassModel
 from loadarm.arm.envelope import BerthBox
 from loadarm.arm.geometry import Arm, Mounting
 
-__all__ = ["ArmModel", "SlewLimits", "JointLimits"]
+__all__ = ["ArmModel", "SlewLimits", "JointLimits", "ParamRecord"]
+
+
+class ParamRecord:
+    """A parameter group compiled: a frozen, slotted record whose fields carry the types their declaration gives
+    (SI units). The compiler makes one record type per configuration section (``DatasheetParams``,
+    ``SequenceParams``, ...) from that section's declaration, so a key is declared once, in
+    :mod:`loadarm.params.config`."""
+
+    __slots__ = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,8 +88,9 @@ class ArmModel:
         Piston and annulus areas, m^2.
     cylinder_speed_limit : tuple of float
         Largest extension speed of each cylinder, m/s (valve or half the pump, over the piston area).
-    datasheet, actuators, approach, masses, cylinders, pump, valve, encoder, controller, sequence, design_drift, accumulator, transfer : record
-        The parameter groups as plain frozen records, SI units, keys as in the configuration.
+    datasheet, actuators, approach, masses, cylinders, pump, valve, encoder, controller, sequence, design_drift, \
+accumulator, transfer : ParamRecord
+        The parameter groups as frozen records, SI units, keys and types as declared in the configuration.
     mass : MassModel
         The arm's lumps at the configured product fill.
     lagrange : LagrangeConstants
@@ -95,20 +105,20 @@ class ArmModel:
     joint_limits: JointLimits
     cylinder_area: tuple[float, float]
     cylinder_speed_limit: tuple[float, float]
-    datasheet: Any
-    actuators: Any
-    approach: Any
-    masses: Any
-    cylinders: Any
-    pump: Any
-    valve: Any
-    encoder: Any
-    controller: Any
-    sequence: Any
-    design_drift: Any
-    accumulator: Any
-    transfer: Any = None
-    mass: Any = None
-    lagrange: Any = None
+    datasheet: ParamRecord
+    actuators: ParamRecord
+    approach: ParamRecord
+    masses: ParamRecord
+    cylinders: ParamRecord
+    pump: ParamRecord
+    valve: ParamRecord
+    encoder: ParamRecord
+    controller: ParamRecord
+    sequence: ParamRecord
+    design_drift: ParamRecord
+    accumulator: ParamRecord
+    transfer: ParamRecord | None = None
+    mass: MassModel | None = None
+    lagrange: LagrangeConstants | None = None
 
 

@@ -19,7 +19,7 @@ from loadarm.arm.alarms import AlarmAngles
 from loadarm.arm.dynamics import cylinder_areas, lagrange_constants, mass_model
 from loadarm.arm.envelope import berth_box
 from loadarm.arm.geometry import Arm, Mounting
-from loadarm.arm.model import ArmModel, JointLimits, SlewLimits
+from loadarm.arm.model import ArmModel, JointLimits, ParamRecord, SlewLimits
 from loadarm.errors import ConfigError
 from loadarm.params.config import Installation
 
@@ -33,9 +33,11 @@ RECORD_SECTIONS = ("datasheet", "actuators", "approach", "masses", "cylinders", 
 
 
 def _record_type(key: str, section: type[BaseModel]) -> type:
-    """A frozen, slotted dataclass with the section's keys (the declarations stay in the config model)."""
-    rec = make_dataclass(f"{section.__name__}Params", [(name, Any) for name in section.model_fields],
-                         frozen=True, slots=True)
+    """A frozen, slotted dataclass with the section's keys and their declared types (the declarations stay in the
+    config model)."""
+    rec = make_dataclass(f"{section.__name__}Params",
+                         [(name, f.annotation) for name, f in section.model_fields.items()],
+                         bases=(ParamRecord,), frozen=True, slots=True)
     rec.__doc__ = (f"The ``[{key}]`` parameters as plain values, SI units "
                    f"(declared in :class:`loadarm.params.config.{section.__name__}`).")
     return rec

@@ -42,7 +42,7 @@ from loadarm.arm.geometry import Arm, Mounting
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel
 
-__all__ = ["G", "Lump", "MassModel", "mass_model", "joint_torques", "LagrangeConstants", "lagrange_constants",
+__all__ = ["G", "Lump", "MassModel", "mass_model", "joint_torques", "lagrange_terms", "LagrangeConstants", "lagrange_constants",
            "lagrange_torques", "static_torques", "moment_arms",
            "cylinder_forces", "chamber_pressures", "cylinder_areas"]
 
@@ -417,13 +417,39 @@ def lagrange_torques(k: LagrangeConstants, alpha, beta, alpha_dot=0.0, beta_dot=
     """
     a, b, ad, bd, add, bdd = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (
         alpha, beta, alpha_dot, beta_dot, alpha_ddot, beta_ddot)))
-    cb, sb = np.cos(b), np.sin(b)
-    m11 = k.k11 - 2.0 * k.k_c * cb
-    m12 = -k.k22 + k.k_c * cb
-    d11 = 2.0 * k.k_c * sb          # d M11 / d beta
-    d12 = -k.k_c * sb               # d M12 / d beta
+    m11, m12, m22, c1, c2, g1, g2 = lagrange_terms(k.k11, k.k22, k.k_c, k.g_a, k.g_ab, gravity, np.sin(a),
+                                                    np.sin(a - b), np.sin(b), np.cos(b), ad, bd)
+    return m11 * add + m12 * bdd + c1 + g1, m12 * add + m22 * bdd + c2 + g2
+
+
+def lagrange_terms(k11, k22, k_c, g_a, g_ab, gravity, sa, sab, sb, cb, ad, bd):
+    """The Lagrangian's terms at one state, on floats or arrays: the one formula of the arm's dynamics, also
+    compiled as it is for the 1 kHz plant (:mod:`loadarm.hydraulics.circuit`).
+
+    ``tau = M(beta) q'' + c(q, q') + g(q)`` with ``M = [[m11, m12], [m12, m22]]``.
+
+    Parameters
+    ----------
+    k11, k22, k_c, g_a, g_ab : float
+        :class:`LagrangeConstants`.
+    gravity : float
+        m/s^2.
+    sa, sab, sb, cb : float or ndarray
+        ``sin(alpha)``, ``sin(alpha - beta)``, ``sin(beta)``, ``cos(beta)`` (each caller's own way to them).
+    ad, bd : float or ndarray
+        Joint rates, rad/s.
+
+    Returns
+    -------
+    m11, m12, m22, c1, c2, g1, g2 : float or ndarray
+        The mass matrix, kg m^2; the Coriolis and centrifugal and the gravity torques, N m.
+    """
+    m11 = k11 - 2.0 * k_c * cb
+    m12 = -k22 + k_c * cb
+    d11 = 2.0 * k_c * sb            # d M11 / d beta
+    d12 = -k_c * sb                 # d M12 / d beta
     c1 = d11 * ad * bd + d12 * bd * bd
     c2 = -0.5 * d11 * ad * ad
-    g1 = -gravity * (k.g_a * np.sin(a) + k.g_ab * np.sin(a - b))
-    g2 = gravity * k.g_ab * np.sin(a - b)
-    return m11 * add + m12 * bdd + c1 + g1, m12 * add + k.k22 * bdd + c2 + g2
+    g1 = -gravity * (g_a * sa + g_ab * sab)
+    g2 = gravity * g_ab * sab
+    return m11, m12, k22, c1, c2, g1, g2

@@ -26,6 +26,8 @@ from loadarm.errors import UnreachableError
 
 __all__ = [
     "jacobian_entries",
+    "ik_cosine",
+    "ik_elbow",
     "JointAngles",
     "Elbow",
     "forward",
@@ -220,26 +222,63 @@ def inverse(arm: Arm, x: np.ndarray | float, y: np.ndarray | float, *, elbow: El
     y = np.asarray(y, dtype=float)
     if check:
         check_reachable(arm, x, y)
-    a, b, c = arm.a, arm.b, arm.c
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dy, r, cb = ik_cosine(arm.a, arm.b, arm.c, x, y)
+        if check:
+            cb = np.clip(cb, -1.0, 1.0)  # only round-off: reachability was checked
+        sb, sa, ca = ik_elbow(arm.b, arm.c, s, x, dy, r, cb)
+        beta = np.arctan2(sb, cb)
+        alpha = np.arctan2(sa, ca)
+    return JointAngles(alpha, beta)
+
+
+def ik_cosine(a, b, c, x, y):
+    """The inverse kinematics' first half (Eqs 5-7), on floats or arrays, and compiled as it is by the operability
+    kernel (one formula): the offset below the riser top, the distance to the coupler and ``cos(beta)`` by the
+    cosine law.
+
+    Parameters
+    ----------
+    a, b, c : float
+        Riser, inboard and outboard lengths, m.
+    x, y : float or ndarray
+        The coupler's radius from the riser centre line and height, m.
+
+    Returns
+    -------
+    dy, r, cos_beta : float or ndarray
+    """
     dy = a - y
     r2 = x * x + dy * dy
     r = np.sqrt(r2)
-    cb = (b * b + c * c - r2) / (2.0 * b * c)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        if check:
-            cb = np.clip(cb, -1.0, 1.0)  # only round-off: reachability was checked
-        sb = np.sqrt((1.0 - cb) * (1.0 + cb))
-        beta = np.arctan2(sb, cb)
-        # gamma: angle at the riser top between the inboard arm and r
-        sg = c * sb / r
-        cg = (b - c * cb) / r
-        st = x / r
-        ct = dy / r
-        # alpha = pi - (s*gamma + theta)
-        sa = s * sg * ct + cg * st
-        ca = s * sg * st - cg * ct
-        alpha = np.arctan2(sa, ca)
-    return JointAngles(alpha, beta)
+    return dy, r, (b * b + c * c - r2) / (2.0 * b * c)
+
+
+def ik_elbow(b, c, s, x, dy, r, cb):
+    """The inverse kinematics' second half (Eqs 8-11 without the arccos' ill-conditioning): the arguments of the
+    arctangents of ``beta`` and ``alpha``, ``alpha = pi - (s*gamma + theta)`` with ``gamma`` the angle at the riser
+    top between the inboard arm and ``r``; on floats or arrays, and compiled as it is by the operability kernel.
+
+    Parameters
+    ----------
+    b, c : float
+        Inboard and outboard lengths, m.
+    s : float
+        +1 elbow up (the paper's), -1 elbow down.
+    x, dy, r, cb : float or ndarray
+        Radius, offset below the riser top, distance and ``cos(beta)`` (:func:`ik_cosine`).
+
+    Returns
+    -------
+    sin_beta, sin_alpha_arg, cos_alpha_arg : float or ndarray
+        ``beta = atan2(sin_beta, cb)``, ``alpha = atan2(sin_alpha_arg, cos_alpha_arg)``.
+    """
+    sb = np.sqrt((1.0 - cb) * (1.0 + cb))
+    sg = c * sb / r
+    cg = (b - c * cb) / r
+    st = x / r
+    ct = dy / r
+    return sb, s * sg * ct + cg * st, s * sg * st - cg * ct
 
 
 def inverse_paper(arm: Arm, x: np.ndarray | float, y: np.ndarray | float) -> JointAngles:

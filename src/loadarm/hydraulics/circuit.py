@@ -29,6 +29,7 @@ from numba.np.unsafe.ndarray import to_fixed_tuple
 from loadarm._numba import njit
 from loadarm.arm.actuators import pin_lengths as _pin_lengths
 from loadarm.arm.actuators import pin_moment_arms as _pin_moment_arms
+from loadarm.arm.dynamics import lagrange_terms as _lagrange_terms
 from loadarm.hydraulics.components import cylinder_friction, end_stop_force, pump_flow, relief_flow, valve_flows
 
 __all__ = ["SIGNALS", "ENERGIES", "N_PARAMS", "N_CTRL", "N_STATE", "ServoState", "arm_accelerations", "plant_rhs",
@@ -85,17 +86,18 @@ def arm_accelerations(P, a, b, ad, bd, ta, tb):
     return _accelerations(P, math.sin(a), math.cos(a), math.sin(b), math.cos(b), ad, bd, ta, tb)
 
 
+#: :func:`loadarm.arm.dynamics.lagrange_terms` compiled: the NumPy route's formula of the arm's dynamics.
+lagrange_terms = njit(cache=True)(_lagrange_terms)
+
+
 @njit(cache=True)
 def _accelerations(P, sa, ca, sb, cb, ad, bd, ta, tb):
     """:func:`arm_accelerations` from the sines and cosines of the joint angles (shared with the geometry)."""
     sab = sa * cb - ca * sb                      # sin(alpha - beta)
-    m11 = P[I_K11] - 2.0 * P[I_KC] * cb
-    m12 = -P[I_K22] + P[I_KC] * cb
-    m22 = P[I_K22]
-    d11 = 2.0 * P[I_KC] * sb
-    d12 = -P[I_KC] * sb
-    r1 = ta - (d11 * ad * bd + d12 * bd * bd) + P[I_G] * (P[I_GA] * sa + P[I_GAB] * sab)
-    r2 = tb + 0.5 * d11 * ad * ad - P[I_G] * P[I_GAB] * sab
+    m11, m12, m22, c1, c2, g1, g2 = lagrange_terms(P[I_K11], P[I_K22], P[I_KC], P[I_GA], P[I_GAB], P[I_G], sa, sab,
+                                                   sb, cb, ad, bd)
+    r1 = ta - c1 - g1
+    r2 = tb - c2 - g2
     det = m11 * m22 - m12 * m12
     return (m22 * r1 - m12 * r2) / det, (-m12 * r1 + m11 * r2) / det
 

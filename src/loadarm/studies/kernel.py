@@ -32,6 +32,7 @@ import numpy as np
 from loadarm._numba import njit
 from loadarm.arm.alarms import BETA_TOL_RAD, LEVEL_RELEASE, AlarmThresholds, zone_level
 from loadarm.arm.faces import breakout_distance, past_a_face, past_a_face_at
+from loadarm.arm.kinematics import ik_cosine, ik_elbow
 from loadarm.arm.sequence import esd_lead, lead_values, stage_of, valve_worst_time
 from loadarm.arm.slew import JointAngles3D
 from loadarm.guidance.monitor import EnvelopeMonitor, stage_leads
@@ -404,31 +405,25 @@ def relative_record(flange, reference, offset, out):
     return np.sqrt(var / n)
 
 
+# the inverse kinematics' arithmetic, compiled from the functions the vectorised route calls (one formula)
+_ik_cosine = njit(cache=True, nogil=True, error_model="numpy")(ik_cosine)
+_ik_elbow = njit(cache=True, nogil=True, error_model="numpy")(ik_elbow)
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def _ik_arguments(x, y, z, a, b, c, sb, cb, sa, ca):
     """The arguments of the elbow's two arctangents in :func:`loadarm.arm.slew.inverse3d` (elbow up) at every
-    sample, in one compiled routine: its arithmetic in its order, bit for bit (``sb``, ``cb``, ``sa``, ``ca``
-    written; NaN where a point is out of reach, as there). The planar radius first (libm's ``hypot``, as
-    NumPy's, kept in ``sb``), then the rest in a loop without calls, which the compiler vectorises."""
+    sample, in one compiled routine: :func:`loadarm.arm.kinematics.ik_cosine` and
+    :func:`~loadarm.arm.kinematics.ik_elbow` compiled, bit for bit (``sb``, ``cb``, ``sa``, ``ca`` written; NaN
+    where a point is out of reach, as there). The planar radius first (libm's ``hypot``, as NumPy's, kept in
+    ``sb``), then the rest in a loop."""
     for i in range(x.shape[0]):
         sb[i] = math.hypot(x[i], y[i])
-    bbcc = b * b + c * c
-    two_bc = 2.0 * b * c
     for i in range(x.shape[0]):
         rho = sb[i]
-        dy = a - z[i]
-        r2 = rho * rho + dy * dy
-        r = math.sqrt(r2)
-        cbi = (bbcc - r2) / two_bc
-        sbi = math.sqrt((1.0 - cbi) * (1.0 + cbi))
-        sg = c * sbi / r
-        cg = (b - c * cbi) / r
-        st = rho / r
-        ct = dy / r
-        sb[i] = sbi
+        dy, r, cbi = _ik_cosine(a, b, c, rho, z[i])
+        sb[i], sa[i], ca[i] = _ik_elbow(b, c, 1.0, rho, dy, r, cbi)
         cb[i] = cbi
-        sa[i] = sg * ct + cg * st
-        ca[i] = sg * st - cg * ct
 
 
 def record_ik(arm, x: np.ndarray, y: np.ndarray, z: np.ndarray):

@@ -221,8 +221,8 @@ def test_operability_settings_are_declared_and_checked(key, value, rng):
 def test_operability_overrides_are_held_to_the_declared_ranges(key, value, rng):
     """OperabilitySettings (the command line's overrides) takes its ranges from the [operability] declaration
     (found: its own copy had no upper bound on connect_motion_limit, so 6 m passed), and the range ends pass."""
-    from loadarm.params.config import Operability
     from loadarm.params.declare import param_range
+    from loadarm.params.sections import Operability
     from loadarm.studies.operability import OperabilitySettings
 
     with pytest.raises(ConfigError, match=re.escape(f"must be in {rng}, got")):

@@ -39,7 +39,7 @@ def _record_type(key: str, section: type[BaseModel]) -> type:
                          [(name, f.annotation) for name, f in section.model_fields.items()],
                          bases=(ParamRecord,), frozen=True, slots=True)
     rec.__doc__ = (f"The ``[{key}]`` parameters as plain values, SI units "
-                   f"(declared in :class:`loadarm.params.config.{section.__name__}`).")
+                   f"(declared in :class:`loadarm.params.sections.{section.__name__}`).")
     return rec
 
 

@@ -8,10 +8,9 @@ default and source, like the installation's (:mod:`loadarm.params.config`).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
-
-from dataclasses import dataclass
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model, model_validator
 

@@ -28,8 +28,9 @@ from loadarm.errors import ConfigError
 from loadarm.files import SIGNATURE, atomic_open, atomic_write
 from loadarm.params.berth import load_berth
 from loadarm.params.compiler import compile_model
-from loadarm.params.config import Operability, load_config
+from loadarm.params.config import load_config
 from loadarm.params.declare import in_range, range_text
+from loadarm.params.sections import Operability
 from loadarm.results import Metric, Result, Summary
 from loadarm.ship.model import compile_ship
 from loadarm.ship.motion import DT, flange_positions
@@ -97,7 +98,7 @@ class OperabilitySettings:
 
         Parameters
         ----------
-        section : loadarm.params.config.Operability
+        section : loadarm.params.sections.Operability
 
         Returns
         -------

@@ -165,7 +165,7 @@ def is_paper_case(inst: Installation) -> bool:
 _REPORT_SIM_KEYS = ("timing", "plan_duration_s", "arrival_time_s", "max_deviation_mm", "rms_deviation_mm",
                     "final_position_error_mm", "max_chamber_pressure_bar", "peak_pump_flow_L_min", "pump_energy_kJ")
 
-#: Guidance-run metrics the report's scenario table shows (declared once in guidance.run.RUN_METRICS).
+#: Guidance-run metrics the report's scenario table shows (declared once in sim.result.RUN_METRICS).
 _REPORT_RUN_KEYS = ("alarm1_s", "alarm2_s", "release_s", "release_complete_s", "release_margin_s", "overstretched_s",
                     "max_beta_deg")
 

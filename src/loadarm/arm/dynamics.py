@@ -32,15 +32,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from loadarm.arm.actuators import moment_arms  # re-exported: the moment arms are geometry (Eqs 12-13), owned there
 from loadarm.arm.geometry import Arm, Mounting
 
-if TYPE_CHECKING:  # the model is only ever received, never built, here
-    from loadarm.arm.model import ArmModel
 
 __all__ = ["G", "Lump", "MassModel", "mass_model", "joint_torques", "lagrange_terms", "LagrangeConstants", "lagrange_constants",
            "lagrange_torques", "static_torques", "moment_arms",
@@ -138,7 +135,7 @@ def _sphere(m: float, r: float) -> float:
     return 0.4 * m * r * r
 
 
-def mass_model(model: ArmModel, *, fill: float | None = None, arm: Arm | None = None) -> MassModel:
+def mass_model(model, *, fill: float | None = None, arm: Arm | None = None) -> MassModel:
     """Build the lumped mass model from ``[masses]``.
 
     Parameters

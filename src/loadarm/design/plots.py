@@ -20,7 +20,6 @@ if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 
     from loadarm.arm.model import ArmModel
-    from loadarm.design.trajectory import Plan
 
 __all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
            "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure",
@@ -38,7 +37,7 @@ def _draw_arm(ax, arm: Arm, alpha: float, beta: float, **kw) -> None:
     ax.plot([0, 0, float(ex), float(px)], [0, arm.a, float(ey), float(py)], "-o", ms=3, **kw)
 
 
-def envelope_figure(model: ArmModel, plan: Plan | None = None, arm: Arm | None = None) -> Figure:
+def envelope_figure(model: ArmModel, plan=None, arm: Arm | None = None) -> Figure:
     """Operating envelope with alarm zones (paper Fig. 4).
 
     Draws the zones as annular bands around the riser top, the datasheet's
@@ -107,7 +106,7 @@ def envelope_figure(model: ArmModel, plan: Plan | None = None, arm: Arm | None =
     return fig
 
 
-def alpha_beta_figure(plans: dict[str, Plan]) -> Figure:
+def alpha_beta_figure(plans: dict) -> Figure:
     """Alpha against beta along the straight line (paper Fig. 6).
 
     Parameters
@@ -131,7 +130,7 @@ def alpha_beta_figure(plans: dict[str, Plan]) -> Figure:
     return fig
 
 
-def angles_time_figure(model: ArmModel, plan: Plan) -> Figure:
+def angles_time_figure(model: ArmModel, plan) -> Figure:
     """Alpha and beta against time, closed form (atan2) and paper Eqs 7-11 literally (paper Fig. 8).
 
     The paper's Fig. 8 overlays ADAMS on its equations; here the literal
@@ -206,7 +205,7 @@ def _law_lines(ax, series: dict[str, tuple], quantity: str = "", style: str = "-
         drawn.append((law, (t, y)))
 
 
-def _pair_figure(plans: dict[str, Plan], first: str, second: str, ylabel: str, title: str) -> Figure:
+def _pair_figure(plans: dict, first: str, second: str, ylabel: str, title: str) -> Figure:
     """Two time series of every plan on one axis (solid: ``first``, dashed: ``second``)."""
     fig, ax = subplots(figsize=(7, 4.5))
     _law_lines(ax, {law: (p.t, getattr(p, first)) for law, p in plans.items()}, first, "-")
@@ -220,7 +219,7 @@ def _pair_figure(plans: dict[str, Plan], first: str, second: str, ylabel: str, t
     return fig
 
 
-def cylinders_figure(plans: dict[str, Plan]) -> Figure:
+def cylinders_figure(plans: dict) -> Figure:
     """Cylinder pin-to-pin lengths against time (paper Fig. 9).
 
     Parameters
@@ -235,7 +234,7 @@ def cylinders_figure(plans: dict[str, Plan]) -> Figure:
     return _pair_figure(plans, "r_ac1", "r_ac2", "cylinder length [m]", "Cylinder lengths (paper Fig. 9, Eqs 12-13)")
 
 
-def voltages_figure(plans: dict[str, Plan]) -> Figure:
+def voltages_figure(plans: dict) -> Figure:
     """Proportional-valve voltages against time (paper Fig. 10).
 
     Parameters
@@ -253,7 +252,7 @@ def voltages_figure(plans: dict[str, Plan]) -> Figure:
     return fig
 
 
-def timing_figure(plans: dict[str, Plan], max_speed: float) -> Figure:
+def timing_figure(plans: dict, max_speed: float) -> Figure:
     """Coupler speed along the path for each timing law, against the limit.
 
     Parameters

@@ -1,1 +1,3 @@
-"""The moored ship (issue 12): hull geometry so far; hydrodynamics, moorings and motion to come."""
+"""The moored ship: hull geometry, hydrodynamics (capytaine), moorings and fenders, environmental loads, the compiled
+:class:`~loadarm.ship.model.ShipModel`, its motion in time and the flange's motion a scenario drives. See
+``docs/ship-motion.md``."""

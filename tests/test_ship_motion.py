@@ -501,3 +501,26 @@ def test_the_compiled_flange_position_is_the_vectorised_formula(ship):
     want = np.stack([mo.origin[0] + pose[:, 0] + c * lx - s * ly, mo.origin[1] + pose[:, 1] + s * lx + c * ly,
                      ship.manifold[2] - ship.draft + d[:, 2]], axis=1)
     assert np.max(np.abs(_flange_position(ship, pose, d) - want)) < 1e-12
+
+
+@pytest.mark.slow                      # compiles the moored ship: ~4 s (make test SLOW=1, CI)
+def test_a_moored_run_reads_its_berth_once_and_compiles_its_ship_once(monkeypatch):
+    """Found (issue 26): the scenario was never compiled; `loadarm run` read the berth file to validate the
+    scenario, then the simulated plant read and compiled it again at run time. Now the run is compiled once
+    (loadarm.sim.spec.load_run) and the closed loop takes its ship."""
+    import loadarm.params.scenario as scenario_mod
+    import loadarm.ship.model as ship_mod
+    import loadarm.sim.spec as spec_mod
+    from loadarm.sim.loop import ClosedLoop
+
+    reads, compiles = [], []
+    for mod in (scenario_mod, ship_mod):
+        real = mod.load_berth
+        monkeypatch.setattr(mod, "load_berth", lambda p, real=real: reads.append(p) or real(p))
+    for mod in (spec_mod, ship_mod):
+        real_c = mod.compile_ship
+        monkeypatch.setattr(mod, "compile_ship", lambda *a, real_c=real_c, **k: compiles.append(1) or real_c(*a, **k))
+    spec = spec_mod.load_run("examples/scenarios/hs15_moored.toml")
+    loop = ClosedLoop(spec.scenario, spec.model, ship=spec.ship)
+    assert len(reads) == 1 and len(compiles) == 1 and spec.ship is not None and spec.berth is not None
+    assert loop.n > 0 and spec.guidance == spec.scenario.guidance.compile()

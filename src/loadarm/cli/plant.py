@@ -22,8 +22,9 @@ from loadarm.opcua.security import StateDir, _load_certificate, thumbprint
 from loadarm.opcua.server import OpcUaServer
 from loadarm.opcua.service import GuidanceService
 from loadarm.params.declare import in_range, range_text
-from loadarm.params.scenario import Scenario, ScenarioHead, check_scenario, load_scenario
+from loadarm.params.scenario import Scenario, ScenarioHead, check_scenario
 from loadarm.sim.loop import ClosedLoop
+from loadarm.sim.spec import RunSpec, compile_run, load_run
 
 __all__ = ["app"]
 
@@ -39,28 +40,27 @@ def _check_endpoint(name: str, value: str) -> None:
 
 
 def _realtime_scenario(scenario: Optional[Path], config: Optional[Path], speedup: float, command: str,
-                       duration: float | None = None):
-    """The scenario and its model (``--config``'s if given, checked against it) of a real-time command; without
-    a scenario, the default one (``duration`` long, if given) on ``--config``'s installation."""
-
+                       duration: float | None = None) -> RunSpec:
+    """The compiled run of a real-time command: its scenario and model (``--config``'s if given, checked against
+    it); without a scenario, the default one (``duration`` long, if given) on ``--config``'s installation."""
     if not speedup > 0 or not math.isfinite(speedup):
         raise UserError(f"--speedup must be a positive number, got {speedup!r}")
     if scenario is None:
         if config is None:
             raise UserError(f"{command} without --scenario needs --config (the installation)")
-
         if duration is not None and not in_range(ScenarioHead, "duration", duration):
             raise UserError(f"--duration must be in {range_text(ScenarioHead, 'duration')}, got {duration!r}")
         model = _model(config)
         head = {"name": config.stem} if duration is None else {"name": config.stem, "duration": duration}
         sc = Scenario.model_validate({"scenario": head})
         check_scenario(sc, model, source=f"the default scenario on {config}")
-        return sc, model
-    sc, model = load_scenario(scenario)
-    if config is not None:
-        model = _model(config)
-        check_scenario(sc, model, source=str(scenario))
-    return sc, model
+        return compile_run(sc, model)
+    spec = load_run(scenario)
+    if config is None:
+        return spec
+    model = _model(config)
+    check_scenario(spec.scenario, model, source=str(scenario))
+    return compile_run(spec.scenario, model, berth=spec.berth, ship=spec.ship)
 
 
 @app.command()
@@ -111,7 +111,8 @@ def serve(
     hmi_address = _serve_arguments(endpoint, hmi, replay, plc, plc_cert, plc_password_file, scenario, scripted)
     if replay is not None:
         return _serve_replay(replay, run_id, scenario, config, state_dir, hmi_address)
-    sc, model = _realtime_scenario(scenario, config, speedup, "serve --plc")
+    spec = _realtime_scenario(scenario, config, speedup, "serve --plc")
+    sc, model = spec.scenario, spec.model
     inst_file = None if scenario is None or sc.scenario.installation is None \
         else scenario.parent / sc.scenario.installation
     _outputs({"--db": db}, [scenario, inst_file, config], force, appended=("--db",))
@@ -121,8 +122,8 @@ def serve(
     service = None
     log = EventLog(db, run=run_id)
     try:
-        loop = ClosedLoop(sc, model, log=log, scripted=scripted, io=link,
-                          continuous=scenario is None)
+        loop = ClosedLoop(sc, model, log=log, scripted=scripted, io=link, continuous=scenario is None,
+                          ship=spec.ship)
         service = GuidanceService(loop, speedup=speedup)
         server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)
         server.start()
@@ -215,7 +216,7 @@ def _serve_replay(db: Path, run_id: Optional[str], scenario: Optional[Path], con
         raise UserError("--replay needs --hmi HOST:PORT (the screen it replays on)")
     if scenario is None and config is None:
         raise UserError("--replay needs --config (or --scenario): the installation the run was made on")
-    model = _model(config) if config is not None else _realtime_scenario(scenario, None, 1.0, "serve")[1]
+    model = _model(config) if config is not None else _realtime_scenario(scenario, None, 1.0, "serve").model
     log = EventLog.open_existing(db)
     try:
         events = log.query(run=run_id) if run_id is not None else log.query()
@@ -268,8 +269,8 @@ def plc_sim(
     """
 
     _check_endpoint("--endpoint", endpoint)
-    sc, model = _realtime_scenario(scenario, config, speedup, "plc-sim", duration)
-    sim = PlcSimulator(sc, model, speedup=speedup)
+    spec = _realtime_scenario(scenario, config, speedup, "plc-sim", duration)
+    sim = PlcSimulator(spec.scenario, spec.model, speedup=speedup, ship=spec.ship)
     server = PlcServer(sim, state_dir, endpoint, insecure=insecure)
     server.start()
     try:

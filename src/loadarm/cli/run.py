@@ -26,9 +26,9 @@ from loadarm.cli.common import (
 from loadarm.eventlog import EventLog, check_samples
 from loadarm.figures import save
 from loadarm.guidance.modes import MODES
-from loadarm.params.scenario import load_scenario
 from loadarm.sim.loop import run_scenario, wall_clock_pacer
 from loadarm.sim.plots import timeline_figure
+from loadarm.sim.spec import load_run
 from loadarm.vocab import alarm_label
 
 __all__ = ["app"]
@@ -54,7 +54,8 @@ def run(
 
     if not no_db and str(db) == ":memory:":
         raise UserError("--db :memory: would throw the events away; name a file, or give --no-db to run without a log")
-    sc, model = load_scenario(scenario)
+    spec = load_run(scenario)                 # the scenario, installation and berth read once, compiled once
+    sc, model = spec.scenario, spec.model
     inst_file = None if sc.scenario.installation is None else scenario.parent / sc.scenario.installation
     _outputs({"--png": png, "--db": None if no_db else db}, [scenario, inst_file], force, appended=("--db",))
     from datetime import datetime, timezone
@@ -64,14 +65,13 @@ def run(
     try:
         with _progress() as prog:
             task = prog.add_task(f"scenario {sc.scenario.name}", total=1.0)
-            res = run_scenario(sc, model, log=log, progress=lambda f: prog.update(task, completed=f),
+            res = run_scenario(sc, model, log=log, progress=lambda f: prog.update(task, completed=f), ship=spec.ship,
                                plant=None if plant is None else plant.value,
                                pace=wall_clock_pacer() if realtime else None)
     finally:
         if log is not None:
             log.close()
     if png is not None:
-
         save(res.plot(), png)
     s = res.summary()
     if as_json:

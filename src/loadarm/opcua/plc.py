@@ -99,6 +99,8 @@ class PlcSimulator:
         Monotonic seconds and a sleep (injected).
     speedup : float
         PLC seconds per wall second (the watchdog stays in wall seconds).
+    ship : ShipModel, optional
+        A moored scenario's ship, compiled (:func:`loadarm.sim.spec.load_run`); compiled here if not given.
 
     Attributes
     ----------
@@ -107,7 +109,7 @@ class PlcSimulator:
     """
 
     def __init__(self, sc, model, *, plant: str | None = None, clock=time.monotonic, sleep=time.sleep,
-                 speedup: float = 1.0):
+                 speedup: float = 1.0, ship=None):
         if not speedup > 0:
             raise ValueError(f"speedup must be > 0, got {speedup!r}")
         self.speedup = speedup
@@ -116,7 +118,8 @@ class PlcSimulator:
         self.n = int(math.floor(sc.scenario.duration / self.dt)) + 1
         self.events: list = []
         stored = GuidanceController(model, sc.guidance.compile()).stored
-        self.plant = SimulatedPlant(sc, model, stored, self.n, self.dt, plant or sc.scenario.plant, self._emit)
+        self.plant = SimulatedPlant(sc, model, stored, self.n, self.dt, plant or sc.scenario.plant, self._emit,
+                                    ship=ship)
         self.clock, self.sleep = clock, sleep
         self.outputs = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "out"}
         self.inputs = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "in"}

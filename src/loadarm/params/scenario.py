@@ -16,7 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
 from loadarm.arm.sequence import esd_lead
 from loadarm.errors import ConfigError
-from loadarm.params.berth import Environment, load_berth
+from loadarm.params.berth import Berth, Environment, load_berth
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import load_config, paper_installation, read_toml
 from loadarm.params.declare import format_validation_error, param, toml_values
@@ -24,7 +24,7 @@ from loadarm.params.declare import format_validation_error, param, toml_values
 if TYPE_CHECKING:
     from loadarm.arm.model import ArmModel
 
-__all__ = ["resolve_berth", "scenario_environment", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "GuidanceSettings", "Faults", "Scenario", "load_scenario",
+__all__ = ["resolve_berth", "scenario_environment", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "GuidanceSettings", "Faults", "Scenario", "load_scenario", "read_scenario",
            "parse_scenario", "check_scenario", "check_drift_window", "check_run_size", "run_memory", "MAX_RUN_MEMORY"]
 
 
@@ -341,15 +341,33 @@ def load_scenario(path: str | Path) -> tuple[Scenario, "ArmModel"]:
     ConfigError
         Missing or invalid file.
     """
+    sc, model, _ = read_scenario(path)
+    return sc, model
+
+
+def read_scenario(path: str | Path) -> tuple[Scenario, "ArmModel", Berth | None]:
+    """:func:`load_scenario`, and the berth file a moored scenario names, read once (None for the simple ship):
+    what :func:`loadarm.sim.spec.load_run` compiles the run from.
+
+    Parameters
+    ----------
+    path : str or Path
+        Scenario TOML.
+
+    Returns
+    -------
+    scenario : Scenario
+    model : ArmModel
+    berth : Berth or None
+    """
     p = Path(path)
     sc = parse_scenario(read_toml(p, "scenario"), source=str(p))
-
     inst_path = None if sc.scenario.installation is None else p.parent / sc.scenario.installation
     inst = paper_installation() if inst_path is None else load_config(inst_path)
     model = compile_model(inst, source=str(p if inst_path is None else inst_path))
-    sc = resolve_berth(sc, p)
+    sc, berth = _resolve_berth(sc, p)
     check_scenario(sc, model, source=str(p))
-    return sc, model
+    return sc, model, berth
 
 
 def resolve_berth(sc: Scenario, scenario_path: str | Path) -> Scenario:
@@ -370,9 +388,12 @@ def resolve_berth(sc: Scenario, scenario_path: str | Path) -> Scenario:
     ConfigError
         The berth file is missing or invalid, or a parted line is not one of its lines.
     """
-    if sc.ship.model != "moored" or sc.ship.berth is None:
-        return sc
+    return _resolve_berth(sc, scenario_path)[0]
 
+
+def _resolve_berth(sc: Scenario, scenario_path: str | Path) -> tuple[Scenario, Berth | None]:
+    if sc.ship.model != "moored" or sc.ship.berth is None:
+        return sc, None
     path = (Path(scenario_path).parent / sc.ship.berth).resolve()
     berth = load_berth(path)
     names = [m.name for m in berth.moorings]
@@ -381,7 +402,7 @@ def resolve_berth(sc: Scenario, scenario_path: str | Path) -> Scenario:
             raise ConfigError(f"{scenario_path}: mooring_failure.lines: {n!r} is not a line of {path} "
                               f"(lines: {', '.join(names)})")
     scenario_environment(sc, berth.environment, source=f"{scenario_path} over {path}")
-    return sc.model_copy(update={"ship": sc.ship.model_copy(update={"berth": str(path)})})
+    return sc.model_copy(update={"ship": sc.ship.model_copy(update={"berth": str(path)})}), berth
 
 
 def scenario_environment(sc: Scenario, base, *, source: str = "<scenario>"):

@@ -17,7 +17,7 @@ from loadarm.ship import loads
 from loadarm.ship.flange import flange_motion
 from loadarm.ship.hydro import interp_heading
 from loadarm.ship.model import compile_ship
-from loadarm.ship.motion import DT, MIN_RECORD, _flange, simulate
+from loadarm.ship.motion import DT, MIN_RECORD, flange_kinematics, simulate
 
 from .hypo import examples
 
@@ -287,8 +287,8 @@ def test_flange_moves_rigidly_with_the_ship(ship):
     (a second route: the rotation matrix to first order)."""
     wave = np.zeros((1, 6))
     wave[0, 2], wave[0, 3], wave[0, 4] = 0.1, 0.01, -0.005
-    p, _, ang = _flange(ship, np.zeros((1, 3)), np.zeros((1, 3)), wave, np.zeros((1, 6)))
-    p0, _, _ = _flange(ship, np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
+    p, _, ang = flange_kinematics(ship, np.zeros((1, 3)), np.zeros((1, 3)), wave, np.zeros((1, 6)))
+    p0, _, _ = flange_kinematics(ship, np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
     r = ship.manifold - ship.cog
     rx = np.array([[0, -wave[0, 5], wave[0, 4]], [wave[0, 5], 0, -wave[0, 3]], [-wave[0, 4], wave[0, 3], 0]])
     d_ship = wave[0, :3] + rx @ r

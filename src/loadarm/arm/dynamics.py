@@ -38,7 +38,6 @@ import numpy as np
 from loadarm.arm.actuators import moment_arms  # re-exported: the moment arms are geometry (Eqs 12-13), owned there
 from loadarm.arm.geometry import Arm, Mounting
 
-
 __all__ = ["G", "Lump", "MassModel", "mass_model", "joint_torques", "lagrange_terms", "LagrangeConstants", "lagrange_constants",
            "lagrange_torques", "static_torques", "moment_arms",
            "cylinder_forces", "chamber_pressures", "cylinder_areas"]

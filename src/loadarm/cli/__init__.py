@@ -24,7 +24,7 @@ from typer.core import TyperGroup
 from typer.main import get_group
 
 from loadarm import __version__
-from loadarm.cli.common import EXIT_CODES, UserError, _fail, err, out
+from loadarm.cli.common import EXIT_CODES, UserError, err, fail, out
 from loadarm.errors import LoadarmError
 
 __all__ = ["COMMAND_MODULES", "app", "main"]
@@ -97,10 +97,10 @@ def main(argv: list[str] | None = None) -> int:
         rv = app(args=args, prog_name="loadarm", standalone_mode=False)
         code = rv if isinstance(rv, int) else 0
     except (LoadarmError, UserError, ValueError) as exc:
-        _fail(str(exc))
+        fail(str(exc))
         code = 2
     except OSError as exc:
-        _fail(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
+        fail(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))
         code = 2
     except Exception as exc:
         # click-style exceptions (typer vendors click in recent releases, so match by shape, not by class)
@@ -110,10 +110,10 @@ def main(argv: list[str] | None = None) -> int:
         elif name == "NoArgsIsHelpError":  # the help text has already been printed
             code = 2
         elif hasattr(exc, "format_message") and hasattr(exc, "exit_code"):
-            _fail(exc.format_message())
+            fail(exc.format_message())
             code = 2
         elif name == "Abort":
-            _fail("aborted")
+            fail("aborted")
             code = 130
         elif os.environ.get("LOADARM_DEBUG"):
             raise
@@ -122,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
                       "bug; LOADARM_DEBUG=1 shows the traceback)")
             code = 1
     except KeyboardInterrupt:
-        _fail("interrupted")
+        fail("interrupted")
         code = 130
     if argv is None:
         sys.exit(code)

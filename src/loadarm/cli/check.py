@@ -7,7 +7,17 @@ from typing import Annotated, Optional
 
 import typer
 
-from loadarm.cli.common import ConfigOpt, ForceOpt, JsonOpt, Table, UserError, _json, _model, _outputs, out
+from loadarm.cli.common import (
+    ConfigOpt,
+    ForceOpt,
+    JsonOpt,
+    Table,
+    UserError,
+    check_outputs,
+    out,
+    print_json,
+    read_model,
+)
 from loadarm.design.check import design_check
 from loadarm.figures import save
 
@@ -31,13 +41,13 @@ def check(
     Example: loadarm check --config examples/paper.toml --png out/check.png
     """
 
-    _outputs({"--png": png}, [config], force)
-    res = design_check(_model(config))
+    check_outputs({"--png": png}, [config], force)
+    res = design_check(read_model(config))
     if png is not None:
 
         save(res.plot(), png)
     if as_json:
-        _json(res.to_dict())
+        print_json(res.to_dict())
     else:
         s = res.summary()
         out.print(str(s))

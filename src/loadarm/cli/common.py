@@ -112,7 +112,7 @@ POINT_HELP = ("X,Y: x out from the riser centre line and height above the jetty 
               "y along the berth, z height (3D with slew); metres")
 
 
-def _point(text: Optional[str], name: str) -> Optional[tuple[float, ...]]:
+def parse_point(text: Optional[str], name: str) -> Optional[tuple[float, ...]]:
     if text is None:
         return None
     parts = text.split(",")
@@ -128,24 +128,24 @@ def _point(text: Optional[str], name: str) -> Optional[tuple[float, ...]]:
     return vals
 
 
-def _check_png(png: Optional[Path]) -> None:
+def check_png(png: Optional[Path]) -> None:
     if png is not None and png.suffix.lower() != ".png":
         raise UserError(f"--png must name a .png file, got {str(png)!r}")
 
 
-def _outputs(outputs: dict, inputs=(), force: bool = False, appended=()) -> None:
+def check_outputs(outputs: dict, inputs=(), force: bool = False, appended=()) -> None:
     """Check the output files before any work (:func:`loadarm.files.guard_outputs`), and a PNG's suffix."""
 
-    _check_png(outputs.get("--png"))
+    check_png(outputs.get("--png"))
     guard_outputs(outputs, [Path(i) for i in inputs if i is not None], force=force, appended=appended)
 
 
-def _check_fill(fill: Optional[float]) -> None:
+def check_fill(fill: Optional[float]) -> None:
     if fill is not None and not (0.0 <= fill <= 1.0):
         raise UserError(f"--fill must be in [0, 1], got {fill!r}")
 
 
-def _print_wide(renderable, width: int) -> None:
+def print_wide(renderable, width: int) -> None:
     """Print on stdout at least ``width`` columns wide (rich squeezes a table into 80 columns when piped)."""
     from rich.console import Console
 
@@ -153,13 +153,13 @@ def _print_wide(renderable, width: int) -> None:
             file=out.file).print(renderable)
 
 
-def _model(config: Path):
+def read_model(config: Path):
     """Read an installation file and compile it (the CLI is an edge: configuration stops here)."""
 
     return compile_model(load_config(config), source=str(config))
 
 
-def _progress():
+def progress_bar():
     """A progress bar on stderr (rich.progress is imported only by the commands that show one). Transient: it
     leaves nothing behind, so a refusal mid-way is still the one line on stderr (found by the fuzz suite: a
     bad scenario in a campaign printed the bar's last state above the error)."""
@@ -169,34 +169,34 @@ def _progress():
                     console=err.get(), transient=True)
 
 
-def _round_floats(obj, digits: int = 12):
+def round_floats(obj, digits: int = 12):
     """Floats to ``digits`` significant digits: 233.14000000000001 prints as 233.14. Twelve digits keep
     every physical quantity here far below its measurement or model precision (0.1 um on 100 m)."""
     if isinstance(obj, float):
         return float(f"{obj:.{digits}g}") if math.isfinite(obj) else obj
     if isinstance(obj, dict):
-        return {k: _round_floats(v, digits) for k, v in obj.items()}
+        return {k: round_floats(v, digits) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_round_floats(v, digits) for v in obj]
+        return [round_floats(v, digits) for v in obj]
     return obj
 
 
-def _json(obj) -> None:
+def print_json(obj) -> None:
     try:
-        text = json.dumps(_round_floats(obj), indent=2, allow_nan=False)
+        text = json.dumps(round_floats(obj), indent=2, allow_nan=False)
     except ValueError as exc:                 # a NaN or infinity in a result is a bug, not bad input: exit 1
         raise RuntimeError(f"a result is not a finite number ({exc})") from None
     sys.stdout.write(text + "\n")
 
 
-def _fail(message: str) -> None:
+def fail(message: str) -> None:
     err.print(f"loadarm: error: {' '.join(message.split())}")
 
 
 BerthOpt = Annotated[Path, typer.Option("--berth", "-b", help="Berth TOML file (see examples/berths/).")]
 
 
-def _latest_run(events, empty: str) -> tuple[str, list]:
+def latest_run(events, empty: str) -> tuple[str, list]:
     """The log's latest run with state samples and its events (several runs in one log: the latest is
     replayed, or one chosen with --run); ``empty`` is the error when there is none."""
     samples = [e for e in events if e.kind == "sample"]

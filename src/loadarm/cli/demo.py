@@ -7,7 +7,7 @@ from typing import Annotated, Optional
 
 import typer
 
-from loadarm.cli.common import ForceOpt, _progress, out
+from loadarm.cli.common import ForceOpt, out, progress_bar
 from loadarm.files import guard_outputs
 from loadarm.params.config import Installation, load_config, packaged_example
 from loadarm.present.report import build_report, report_outputs
@@ -34,7 +34,7 @@ def demo(
     outputs, scenario_files = report_outputs(inst, out_dir, source)         # refused before any work or bar
     guard_outputs([("--out", p) for p in outputs], [source, *scenario_files], force=force)
     steps = 13 + len(inst.report.scenarios) + (inst.report.metocean is not None)
-    with _progress() as prog:
+    with progress_bar() as prog:
         task = prog.add_task("starting", total=steps)
 
         def step(msg: str) -> None:

@@ -17,13 +17,13 @@ from loadarm.cli.common import (
     Timing,
     TimingOrAll,
     UserError,
-    _check_fill,
-    _json,
-    _model,
-    _outputs,
+    check_fill,
+    check_outputs,
     err,
     escape,
     out,
+    print_json,
+    read_model,
 )
 from loadarm.design.balancing import balance_counterweights
 from loadarm.design.loads import CYLINDER_LOAD_METRICS, actuator_loads
@@ -52,8 +52,8 @@ def balance(
     Example: loadarm balance --config examples/paper.toml --png out/residual_torque.png
     """
 
-    _outputs({"--png": png}, [config], force)
-    model = _model(config)
+    check_outputs({"--png": png}, [config], force)
+    model = read_model(config)
     if not (0.01 <= spacing <= 5.0):
         raise UserError(f"--spacing must be in [0.01, 5] m, got {spacing!r}")
     res = balance_counterweights(model, spacing=spacing)
@@ -62,7 +62,7 @@ def balance(
         save(residual_torque_figure(res), png)
     s = res.summary()
     if as_json:
-        _json(s)
+        print_json(s)
         return
     out.print(f"counterweights: inboard {s['counterweight_inboard_kg']:.0f} kg at "
               f"{model.masses.counterweight_inboard_distance:g} m, outboard {s['counterweight_outboard_kg']:.0f} kg at "
@@ -86,11 +86,11 @@ def loads(
     """
 
     timing = timing.value
-    model = _model(config)
-    _check_fill(fill)
+    model = read_model(config)
+    check_fill(fill)
     s = actuator_loads(model, plan_approach(model, timing=timing, samples=801), fill=fill).summary()
     if as_json:
-        _json(s)
+        print_json(s)
         return
 
     t = Table(title=f"actuator loads, {timing} timing")
@@ -125,16 +125,16 @@ def simulate(
                     "final_position_error_mm", "max_chamber_pressure_bar")
 
     timing = timing.value
-    _outputs({"--png": png}, [config], force)
-    model = _model(config)
-    _check_fill(fill)
+    check_outputs({"--png": png}, [config], force)
+    model = read_model(config)
+    check_fill(fill)
     if timing == "all":
         rows = {}
         with err.status("simulating the closed loop for every timing law"):
             for law in TIMING_LAWS:
                 rows[law] = simulate_approach(model, plan_approach(model, timing=law, samples=2001), fill=fill).summary()
         if as_json:
-            _json(rows)
+            print_json(rows)
             return
         t = Table(title="timing laws compared (closed loop)")
         cols = [m for m in SIMULATION_METRICS if m.key in COMPARE_KEYS]
@@ -155,7 +155,7 @@ def simulate(
         save(simulation_figure(res), png)
     s = res.summary()
     if as_json:
-        _json(s)
+        print_json(s)
         return
     t = Table(title=f"closed-loop approach, {timing} timing")
     t.add_column("quantity")

@@ -15,12 +15,12 @@ from loadarm.cli.common import (
     Table,
     Timing,
     UserError,
-    _json,
-    _model,
-    _outputs,
-    _point,
+    check_outputs,
     err,
     out,
+    parse_point,
+    print_json,
+    read_model,
 )
 from loadarm.design.plots import envelope_figure
 from loadarm.design.trajectory import plan_approach, plan_approach_3d, plan_warnings
@@ -54,9 +54,9 @@ def plan(
     """
 
     timing = timing.value
-    _outputs({"--csv": csv}, [config], force)
-    model = _model(config)
-    a, b = _point(start, "--start"), _point(target, "--target")
+    check_outputs({"--csv": csv}, [config], force)
+    model = read_model(config)
+    a, b = parse_point(start, "--start"), parse_point(target, "--target")
     dims = {len(v) for v in (a, b) if v is not None}
     if len(dims) > 1:
         raise UserError("--start and --target must both be X,Y or both X,Y,Z")
@@ -67,7 +67,7 @@ def plan(
         if csv is not None:
             p3.write_csv(csv)
         if as_json:
-            _json({**p3.summary(), "samples": recs})
+            print_json({**p3.summary(), "samples": recs})
             return
         t = Table(title=f"3D approach (x, y along the berth, height) {p3.start} -> {p3.target}, {timing} timing")
         t.add_column("quantity")
@@ -81,7 +81,7 @@ def plan(
     if csv is not None:
         p.write_csv(csv)
     if as_json:
-        _json({**p.summary(), "samples": p.records()})
+        print_json({**p.summary(), "samples": p.records()})
         return
     s = p.summary()
     t = Table(title=f"approach (x, height) {tuple(round(v, 3) for v in p.start)} -> "
@@ -113,7 +113,7 @@ def envelope(
     Example: loadarm envelope --config examples/paper.toml --png out/envelope.png
     """
 
-    _outputs({"--png": png}, [config], force)
-    model = _model(config)
+    check_outputs({"--png": png}, [config], force)
+    model = read_model(config)
     save(envelope_figure(model), png)
     out.print(f"envelope written to {png}")

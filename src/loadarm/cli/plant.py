@@ -12,13 +12,13 @@ from typing import Annotated, Optional
 
 import typer
 
-from loadarm.cli.common import ForceOpt, UserError, _latest_run, _model, _outputs, out
+from loadarm.cli.common import ForceOpt, UserError, check_outputs, latest_run, out, read_model
 from loadarm.eventlog import EventLog
 from loadarm.files import read_input
 from loadarm.hmi.app import HmiServer, create_app, parse_hmi_address
 from loadarm.hmi.replay import ReplayService
 from loadarm.opcua.plc import PlcLink, PlcServer, PlcSimulator, load_tag_map
-from loadarm.opcua.security import StateDir, _load_certificate, thumbprint
+from loadarm.opcua.security import StateDir, load_certificate, thumbprint
 from loadarm.opcua.server import OpcUaServer
 from loadarm.opcua.service import GuidanceService
 from loadarm.params.declare import in_range, range_text
@@ -50,7 +50,7 @@ def _realtime_scenario(scenario: Optional[Path], config: Optional[Path], speedup
             raise UserError(f"{command} without --scenario needs --config (the installation)")
         if duration is not None and not in_range(ScenarioHead, "duration", duration):
             raise UserError(f"--duration must be in {range_text(ScenarioHead, 'duration')}, got {duration!r}")
-        model = _model(config)
+        model = read_model(config)
         head = {"name": config.stem} if duration is None else {"name": config.stem, "duration": duration}
         sc = Scenario.model_validate({"scenario": head})
         check_scenario(sc, model, source=f"the default scenario on {config}")
@@ -58,7 +58,7 @@ def _realtime_scenario(scenario: Optional[Path], config: Optional[Path], speedup
     spec = load_run(scenario)
     if config is None:
         return spec
-    model = _model(config)
+    model = read_model(config)
     check_scenario(spec.scenario, model, source=str(scenario))
     return compile_run(spec.scenario, model, berth=spec.berth, ship=spec.ship)
 
@@ -115,7 +115,7 @@ def serve(
     sc, model = spec.scenario, spec.model
     inst_file = None if scenario is None or sc.scenario.installation is None \
         else scenario.parent / sc.scenario.installation
-    _outputs({"--db": db}, [scenario, inst_file, config], force, appended=("--db",))
+    check_outputs({"--db": db}, [scenario, inst_file, config], force, appended=("--db",))
     run_id = f"serve:{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
     link = None if plc is None else _plc_link(plc, plc_map, plc_password_file, state_dir, plc_user, plc_cert)
     interrupted = False
@@ -197,7 +197,7 @@ def _start_screen(service, state_dir, model, name: str, hmi_address, server):
 
 def _announce(server, endpoint: str, insecure: bool, state_dir) -> None:
     """Where the server listens, its certificate, and who can log in."""
-    cert = _load_certificate(server.state.cert)
+    cert = load_certificate(server.state.cert)
     out.print(f"OPC UA server on {endpoint} ({'with' if insecure else 'no'} unsecured endpoint); "
               f"certificate {server.state.cert} (SHA-1 {thumbprint(cert)})")
     users = server.state.users()
@@ -216,14 +216,14 @@ def _serve_replay(db: Path, run_id: Optional[str], scenario: Optional[Path], con
         raise UserError("--replay needs --hmi HOST:PORT (the screen it replays on)")
     if scenario is None and config is None:
         raise UserError("--replay needs --config (or --scenario): the installation the run was made on")
-    model = _model(config) if config is not None else _realtime_scenario(scenario, None, 1.0, "serve").model
+    model = read_model(config) if config is not None else _realtime_scenario(scenario, None, 1.0, "serve").model
     log = EventLog.open_existing(db)
     try:
         events = log.query(run=run_id) if run_id is not None else log.query()
     finally:
         log.close()
     if run_id is None:
-        run_id, events = _latest_run(events, f"--replay {db}: no run with state samples in the log")
+        run_id, events = latest_run(events, f"--replay {db}: no run with state samples in the log")
     if not events:
         raise UserError(f"--run {run_id!r}: no such run in {db}")
     service = ReplayService(events, model)

@@ -17,11 +17,11 @@ from loadarm.cli.common import (
     PlantKind,
     Table,
     UserError,
-    _json,
-    _latest_run,
-    _outputs,
-    _progress,
+    check_outputs,
+    latest_run,
     out,
+    print_json,
+    progress_bar,
 )
 from loadarm.eventlog import EventLog, check_samples
 from loadarm.figures import save
@@ -57,13 +57,13 @@ def run(
     spec = load_run(scenario)                 # the scenario, installation and berth read once, compiled once
     sc, model = spec.scenario, spec.model
     inst_file = None if sc.scenario.installation is None else scenario.parent / sc.scenario.installation
-    _outputs({"--png": png, "--db": None if no_db else db}, [scenario, inst_file], force, appended=("--db",))
+    check_outputs({"--png": png, "--db": None if no_db else db}, [scenario, inst_file], force, appended=("--db",))
     from datetime import datetime, timezone
 
     run_id = f"{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
     log = None if no_db else EventLog(db, run=run_id)
     try:
-        with _progress() as prog:
+        with progress_bar() as prog:
             task = prog.add_task(f"scenario {sc.scenario.name}", total=1.0)
             res = run_scenario(sc, model, log=log, progress=lambda f: prog.update(task, completed=f), ship=spec.ship,
                                plant=None if plant is None else plant.value,
@@ -75,7 +75,7 @@ def run(
         save(res.plot(), png)
     s = res.summary()
     if as_json:
-        _json(s)
+        print_json(s)
     else:
         _print_run(s, None if log is None else f"  events logged to {db} (run {run_id})")
     if s["failures"]:
@@ -124,7 +124,7 @@ def log_cmd(
     Example: loadarm log --db out/events.db --kind alarm --kind mode
     """
 
-    _outputs({"--png": png}, [db], force)
+    check_outputs({"--png": png}, [db], force)
     if since is not None and not math.isfinite(since):
         raise UserError(f"--since must be a finite time in s, got {since!r}")
     kinds = None if kind is None else [k.value for k in kind]
@@ -138,7 +138,7 @@ def log_cmd(
     finally:
         log.close()
     if as_json:
-        _json([e.as_dict() for e in events])
+        print_json([e.as_dict() for e in events])
         return
     t = Table(title=f"{db}: {len(events)} events" + ("" if samples or kind else " (samples hidden; --samples)"))
     for col in ("id", "run", "t [s]", "mode", "kind", "reason"):
@@ -153,7 +153,7 @@ def log_cmd(
 def _replay_png(png: Path, events) -> None:
 
 
-    last_run, events = _latest_run(events, "the log has no state samples to replay (was it written by loadarm "
+    last_run, events = latest_run(events, "the log has no state samples to replay (was it written by loadarm "
                                            "run?)")
     samples = [e for e in events if e.kind == "sample"]
     check_samples(samples, ("beta", "phi", "distance"), MODES)

@@ -15,13 +15,13 @@ from loadarm.cli.common import (
     JsonOpt,
     Table,
     UserError,
-    _json,
-    _model,
-    _outputs,
-    _print_wide,
-    _progress,
+    check_outputs,
     err,
     out,
+    print_json,
+    print_wide,
+    progress_bar,
+    read_model,
 )
 from loadarm.design.alarm_design import DesignSettings, design_alarms
 from loadarm.figures import save
@@ -47,7 +47,7 @@ def hydro(
     Example: loadarm hydro --berth examples/berths/lng150k.toml --png out/rao.png
     """
 
-    _outputs({"--png": png}, [berth], force)
+    check_outputs({"--png": png}, [berth], force)
     b = load_berth(berth)
     ship = compile_ship(b, solve=True, progress=not as_json, source=str(berth))
     res = ship_summary(ship, b.environment)
@@ -55,7 +55,7 @@ def hydro(
 
         save(res.plot(), png)
     if as_json:
-        _json(res.to_dict())
+        print_json(res.to_dict())
     else:
         out.print(str(res.summary()))
 
@@ -78,13 +78,13 @@ def alarms(
     Example: loadarm alarms --config examples/paper.toml --berth examples/berths/lng150k.toml --png out/alarms.png
     """
 
-    _outputs({"--png": png}, [config, berth], force)
+    check_outputs({"--png": png}, [config, berth], force)
     if not 1 <= seeds <= 100:
         raise UserError(f"--seeds must be in [1, 100], got {seeds}")
-    model = _model(config)
+    model = read_model(config)
     b = load_berth(berth)
     ship = compile_ship(b, source=str(berth))
-    with _progress() as prog:
+    with progress_bar() as prog:
         task = prog.add_task("mooring analysis", total=1.0)
         res = design_alarms(model, ship, b.environment, settings=DesignSettings(seeds=seeds),
                             progress=lambda f: prog.update(task, completed=f))
@@ -92,7 +92,7 @@ def alarms(
 
         save(res.plot(), png)
     if as_json:
-        _json(res.to_dict())
+        print_json(res.to_dict())
     else:
         out.print(str(res.summary()))
         from rich import box
@@ -104,7 +104,7 @@ def alarms(
                                                                                                r.release))
             t.add_row(r.direction.split("(")[-1].rstrip(")"), r.face or "-", r.short_case, f"{r.allowance_m:.2f}",
                       f"{r.esd_m:.2f}", f"{r.release_m:.2f}", f"{r.lead_m:.2f}", f"{r.available_m:.2f}", angles)
-        _print_wide(t, 100)
+        print_wide(t, 100)
         out.print("Paste into the installation:")
         out.print(res.toml().rstrip("\n"))
         for w in res.warnings:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from loadarm.cli.common import ConfigOpt, JsonOpt, Table, _json, out
+from loadarm.cli.common import ConfigOpt, JsonOpt, Table, out, print_json
 from loadarm.design.sizing import size_installation, sizing_summary
 from loadarm.params.config import load_sizing_case
 
@@ -29,7 +29,7 @@ def size(config: ConfigOpt, as_json: JsonOpt = False) -> None:
     data = sizing_summary(inst, res)
     corners, corners_conf = data["corners"], data["corners_configured_arm"]
     if as_json:
-        _json(data)
+        print_json(data)
         return
     out.print(f"[bold]Sized arm[/]: b = {res.inboard:.4f} m, c = {res.outboard:.4f} m (b + c = {res.total:.4f} m)",
               markup=True)

@@ -14,10 +14,10 @@ from loadarm.cli.common import (
     JsonOpt,
     PlantKind,
     UserError,
-    _json,
-    _outputs,
-    _progress,
+    check_outputs,
     out,
+    print_json,
+    progress_bar,
 )
 from loadarm.figures import save
 from loadarm.results import format_rows
@@ -59,7 +59,7 @@ def operability(
     Example: loadarm operability --config examples/paper.toml --berth examples/berths/lng150k.toml --metocean examples/metocean/sample.csv --hours 48 --duration-per-state 600
     """
 
-    _outputs({"--png": png, "--out": out_file}, [config, berth, metocean], force)
+    check_outputs({"--png": png, "--out": out_file}, [config, berth, metocean], force)
     if workers is not None and workers < 1:
         raise UserError(f"--workers must be at least 1, got {workers}")
     if not 1 <= chunks <= 10000:
@@ -71,7 +71,7 @@ def operability(
 
         save(res.plot(), png)
     if as_json:
-        _json(res.to_dict())
+        print_json(res.to_dict())
     else:
         out.print(format_rows(res.headline()))
         out.print(f"per-state results: {out_file}")
@@ -100,13 +100,13 @@ def campaign(
     Example: loadarm campaign --scenario examples/scenarios/driftoff.toml --seeds 200 --vary drift.speed=0.05:0.3
     """
 
-    _outputs({"--png": png}, [scenario], force)
+    check_outputs({"--png": png}, [scenario], force)
     if workers is not None and workers < 1:
         raise UserError(f"--workers must be at least 1, got {workers}")
     varied = [parse_vary(v) for v in vary or ()]
     check_campaign(scenario, seeds, vary=varied, first_seed=first_seed,       # refused before the bar starts
                    plant=None if plant is None else plant.value)
-    with _progress() as prog:
+    with progress_bar() as prog:
         task = prog.add_task(f"campaign {scenario.name}", total=seeds)
         res = run_campaign(scenario, seeds, vary=varied, first_seed=first_seed, workers=workers,
                            plant=None if plant is None else plant.value,
@@ -115,6 +115,6 @@ def campaign(
 
         save(res.plot(), png)
     if as_json:
-        _json(res.to_dict())
+        print_json(res.to_dict())
         return
     out.print(str(res.summary()))

@@ -9,7 +9,7 @@ from typing import Annotated, Optional
 import typer
 
 from loadarm.arm.dynamics import mass_model
-from loadarm.cli.common import ConfigOpt, ForceOpt, JsonOpt, Timing, _json, _model, _outputs, err, out
+from loadarm.cli.common import ConfigOpt, ForceOpt, JsonOpt, Timing, check_outputs, err, out, print_json, read_model
 from loadarm.design.multibody import build_mjcf, load_model, verify_kinematics
 from loadarm.design.plots import verification_figure
 from loadarm.design.trajectory import plan_approach
@@ -35,8 +35,8 @@ def verify(
     """
 
     timing = timing.value
-    _outputs({"--png": png}, [config], force)
-    model = _model(config)
+    check_outputs({"--png": png}, [config], force)
+    model = read_model(config)
     p = plan_approach(model, timing=timing, samples=samples)
     with err.status("stepping the MuJoCo arm along the line"):
         res = verify_kinematics(model, p)
@@ -45,7 +45,7 @@ def verify(
         save(verification_figure(res), png)
     s = res.summary()
     if as_json:
-        _json(s)
+        print_json(s)
         return
     out.print(f"MuJoCo against the closed form, {s['samples']} samples ({timing} timing):")
     out.print(f"  max |alpha| difference {s['max_alpha_diff_deg']:.3e} deg, max |beta| difference "
@@ -66,7 +66,7 @@ def mjcf(
     Example: loadarm mjcf --config examples/paper.toml > arm.xml
     """
 
-    model = _model(config)
+    model = read_model(config)
     xml = build_mjcf(model.arm, model.mount, mass_model(model),
                      kinematic=kinematic)
     load_model(xml)  # refuse to print a model MuJoCo would not compile

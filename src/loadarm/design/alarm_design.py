@@ -50,7 +50,7 @@ from loadarm.arm.slew import inverse3d
 from loadarm.design.plots import alarm_design_figure
 from loadarm.errors import ConfigError
 from loadarm.results import Metric, Result
-from loadarm.ship.motion import _flange, simulate
+from loadarm.ship.motion import flange_kinematics, simulate
 
 __all__ = ["FaceDesign", "AlarmDesign", "design_alarms", "DesignSettings", "breakout_curve"]
 
@@ -371,7 +371,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
     lead1 = esd_lead(seq)
     t_rel = valve_worst_time(seq)
     t_free = t_rel + seq.erc_release_time + seq.margin
-    calm, _, _ = _flange(ship, ship.eq0[None], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
+    calm, _, _ = flange_kinematics(ship, ship.eq0[None], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
     box, x_conn_far, (fx, fz) = berth_box(model.datasheet), _x_conn_far(model.datasheet), model.approach.flange
     corners, warnings = _corners(model, ship)
     intact, broken, bt, mean_offset = _mooring_analysis(ship, env, settings, calm, progress)

@@ -22,7 +22,7 @@ from loadarm._numba import njit
 from loadarm.design.trajectory import Plan
 from loadarm.hydraulics import circuit as plant
 from loadarm.hydraulics.components import cylinder_friction, end_stop_force, valve_flows
-from loadarm.hydraulics.simulate import _references, initial_state, pack_parameters
+from loadarm.hydraulics.simulate import initial_state, pack_parameters, reference_signals
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel
@@ -61,7 +61,7 @@ def reference_simulation(model: ArmModel, plan: Plan, t_end: float, *, fill: flo
     P = pack_parameters(model, fill=fill)
     dt = P[plant.I_DT]
     n = int(round(t_end / dt))
-    ref, vref, fref = _references(model, plan, n, fill)
+    ref, vref, fref = reference_signals(model, plan, n, fill)
     y = initial_state(model, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
     c = plant.controller_at_rest(P, y)
     ps_nom = P[plant.I_PCOMP] - P[plant.I_PBAND]

@@ -288,7 +288,7 @@ def _mech_energy(model, fill, a, b, ad, bd):
     return e
 
 
-def _references(model: ArmModel, plan: Plan, n_steps: int, fill: float | None):
+def reference_signals(model: ArmModel, plan: Plan, n_steps: int, fill: float | None):
     """Cylinder length, speed and force references at every control step (held after the plan ends)."""
 
     dt = 1.0 / model.controller.rate
@@ -337,7 +337,7 @@ def simulate_approach(model: ArmModel, plan: Plan, *, fill: float | None = None,
     dt = P[plant.I_DT]
     n_plan = int(math.ceil(plan.duration / dt))
     n_steps = n_plan + int(round(c.settle_time / dt))
-    ref, vref, fref = _references(model, plan, n_steps, fill)
+    ref, vref, fref = reference_signals(model, plan, n_steps, fill)
     y0 = initial_state(model, float(plan.alpha[0]), float(plan.beta[0]), fill=fill)
     log_every = max(1, int(round(c.rate / log_rate)))
     log, energy, c_end = plant.simulate_loop(P, ref, vref, fref, y0, n_steps,

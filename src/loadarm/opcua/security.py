@@ -182,7 +182,7 @@ class Users:
         atomic_write(self.path, "\n".join(lines), private=True)
 
 
-def _load_certificate(path: Path):
+def load_certificate(path: Path):
     """A certificate from a DER or PEM file."""
     from cryptography import x509
 
@@ -305,7 +305,7 @@ class StateDir:
                 raise ConfigError(f"{self.key}: private key readable by others (mode {mode:04o}); "
                                   f"run `chmod 600 {self.key}`")
         if self.key.exists() and self.cert.exists():
-            cert = _load_certificate(self.cert)
+            cert = load_certificate(self.cert)
             uris = _uris(cert)
             if app_uri not in uris:
                 raise ConfigError(f"{self.cert}: certificate of another application ({', '.join(uris) or 'no URI'}, "
@@ -342,7 +342,7 @@ class StateDir:
         p = Path(cert_file)
         if not p.is_file():
             raise ConfigError(f"{p}: no such certificate file")
-        cert = _load_certificate(p)
+        cert = load_certificate(p)
         self.trusted.mkdir(parents=True, exist_ok=True)
         out = self.trusted / f"{thumbprint(cert)}.der"
         atomic_write(out, cert.public_bytes(serialization.Encoding.DER))

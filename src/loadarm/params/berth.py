@@ -48,46 +48,46 @@ class ShipSection(Section):
     beam: float = param(43.4, unit="m", ge=10, le=70, source=_LNG, description="moulded beam")
     depth: float = param(26.0, unit="m", ge=5, le=40, source=_LNG, description="moulded depth to the main deck")
     draft: float = param(11.5, unit="m", ge=2, le=25, source=_LNG + " (design draft, loaded)",
-                          description="mean draft of the loading condition")
+                         description="mean draft of the loading condition")
     displacement: float = param(105_000e3, unit="kg", ge=1e6, le=5e8,
-                                 source="rho L B T Cb with Cb = 0.74 at the design draft",
-                                 description="displacement (mass) of the loading condition")
+                                source="rho L B T Cb with Cb = 0.74 at the design draft",
+                                description="displacement (mass) of the loading condition")
     kg: float = param(12.4, unit="m", ge=0, le=40,
-                       source="GM about 2.5 m, a loaded LNG carrier's order (stability book), on the parametric "
+                      source="GM about 2.5 m, a loaded LNG carrier's order (stability book), on the parametric "
                               "hull (KM 14.9 m at the example's draft)",
-                       description="centre of gravity above the keel")
+                      description="centre of gravity above the keel")
     lcg: float = param(0.0, unit="m", ge=-50, le=50, source="even keel", description="centre of gravity forward of "
                                                                                         "midships")
     r_xx: float = param(16.5, unit="m", ge=1, le=40, source="about 0.38 B (roll)", description="roll radius of gyration")
     r_yy: float = param(69.5, unit="m", ge=5, le=150, source="about 0.25 L (pitch)",
-                         description="pitch radius of gyration")
+                        description="pitch radius of gyration")
     r_zz: float = param(69.5, unit="m", ge=5, le=150, source="about 0.25 L (yaw)", description="yaw radius of gyration")
     manifold: tuple[float, float, float] = param(
         (0.0, 18.4, 28.0), unit="m", source="SIGTTO/OCIMF manifold recommendations: near midships, about 3 m inboard "
                                             "of the side, about 2 m above the main deck",
         description="presentation flange on the ship (x forward of midships, y to port, z above the keel)")
     lateral_windage: float = param(5500.0, unit="m^2", ge=0, le=50_000,
-                                    source="L (D - T) plus trunk deck and accommodation",
-                                    description="lateral projected area above water (Blendermann A_L)")
+                                   source="L (D - T) plus trunk deck and accommodation",
+                                   description="lateral projected area above water (Blendermann A_L)")
     frontal_windage: float = param(1150.0, unit="m^2", ge=0, le=10_000,
-                                    source="B (D - T) plus accommodation", description="frontal projected area above "
+                                   source="B (D - T) plus accommodation", description="frontal projected area above "
                                                                                        "water (Blendermann A_F)")
 
     windage_centroid_x: float = param(-15.0, unit="m", ge=-200, le=200,
-                                       source="accommodation aft moves the lateral area's centroid aft of midships",
-                                       description="centroid of the lateral windage forward of midships "
+                                      source="accommodation aft moves the lateral area's centroid aft of midships",
+                                      description="centroid of the lateral windage forward of midships "
                                                    "(Blendermann s_L)")
     propeller_area: float = param(45.0, unit="m^2", ge=0, le=300,
-                                   source="expanded blade area of an 8.6 m propeller, blade-area ratio 0.78",
-                                   description="propeller expanded area (UFC 4-159-03 locked-propeller drag)")
+                                  source="expanded blade area of an 8.6 m propeller, blade-area ratio 0.78",
+                                  description="propeller expanded area (UFC 4-159-03 locked-propeller drag)")
     roll_damping_ratio: float = param(0.05, unit="1", ge=0, le=0.5,
-                                       source="viscous roll damping of a large ship at small angles, a few % of "
+                                      source="viscous roll damping of a large ship at small angles, a few % of "
                                               "critical (ITTC 7.5-02-07-04.5); potential flow has almost none",
-                                       description="roll damping added to the BEM's, fraction of critical")
+                                      description="roll damping added to the BEM's, fraction of critical")
     lf_damping_ratio: float = param(0.05, unit="1", ge=0, le=0.5,
-                                     source="low-frequency damping of moored ships (wave drift, viscous hull, "
+                                    source="low-frequency damping of moored ships (wave drift, viscous hull, "
                                             "lines): 5-10 % of critical (Faltinsen 1990, ch. 5)",
-                                     description="surge, sway and yaw damping at the mooring natural periods, "
+                                    description="surge, sway and yaw damping at the mooring natural periods, "
                                                  "fraction of critical (current drag comes on top)")
 
     @model_validator(mode="after")
@@ -110,23 +110,23 @@ class BerthSection(Section):
     """The jetty: water depth, which side the ship lies on, where it lies."""
 
     water_depth: float = param(20.0, unit="m", gt=0, le=200, source="issue 12: a jetty in about 20 m of water",
-                                description="still-water depth at the berth")
+                               description="still-water depth at the berth")
     side: Literal["port", "starboard"] = Field(
         "port", description="side of the ship against the fenders (its manifold faces the arm)",
         json_schema_extra={"unit": "", "source": "example"})
     ship_y: float = param(0.0, unit="m", ge=-500, le=500, source="midships abreast of the arm",
-                           description="position of the ship's midships along the berth (berth y)")
+                          description="position of the ship's midships along the berth (berth y)")
     deck_height: float = param(8.0, unit="m", ge=0, le=40, source="example jetty deck above still water",
-                                description="jetty deck above the still-water level (the installation's z = 0)")
+                               description="jetty deck above the still-water level (the installation's z = 0)")
     x_bearing_deg: float = param(270.0, unit="deg", ge=0, le=360,
-                                  source="example: a berth open to the west (metocean records give compass "
+                                 source="example: a berth open to the west (metocean records give compass "
                                          "directions)",
-                                  description="compass bearing of berth +x (off the berth, towards the sea), "
+                                 description="compass bearing of berth +x (off the berth, towards the sea), "
                                               "clockwise from true north")
     manifold_tolerance: float = param(1.5, unit="m", ge=0, le=20,
-                                       source="the mooring master places the manifold within about 1-2 m of the "
+                                      source="the mooring master places the manifold within about 1-2 m of the "
                                               "arm's centre line (terminal procedure; example)",
-                                       description="how far along the berth from the arm's centre line the ship's "
+                                      description="how far along the berth from the arm's centre line the ship's "
                                                    "manifold may lie when connected (the flanging area's width)")
 
 
@@ -140,12 +140,12 @@ class MooringLine(Section):
     bollard: tuple[float, float, float] = param(..., unit="m", source=_MEG, description="bollard or hook in the "
                                                                                          "berth frame")
     axial_stiffness: float = param(60e6, unit="N", gt=0, le=1e10,
-                                    source="EA of an HMPE line with a nylon tail, linearised (order of magnitude)",
-                                    description="axial stiffness EA (tension per unit strain)")
+                                   source="EA of an HMPE line with a nylon tail, linearised (order of magnitude)",
+                                   description="axial stiffness EA (tension per unit strain)")
     mbl: float = param(1.0e6, unit="N", gt=0, le=1e8, source="ship design MBL of LNG carrier lines, about 1000 kN",
-                        description="minimum breaking load")
+                       description="minimum breaking load")
     pretension: float = param(100e3, unit="N", ge=0, le=1e7, source="about 10 % of the MBL (MEG4 practice)",
-                               description="tension at the initial position")
+                              description="tension at the initial position")
 
     @model_validator(mode="after")
     def _below_breaking(self) -> "MooringLine":
@@ -163,9 +163,9 @@ class Fender(Section):
     y: float = param(..., unit="m", ge=-500, le=500, source="example", description="position along the berth")
     z: float = param(2.0, unit="m", ge=-20, le=40, source="example", description="height above still water")
     deflection: tuple[float, ...] = param((0.0, 0.5, 1.0, 1.5), unit="m", source="cone fender catalogue shape",
-                                           description="deflections of the load curve, from 0, increasing")
+                                          description="deflections of the load curve, from 0, increasing")
     load: tuple[float, ...] = param((0.0, 1.2e6, 2.0e6, 3.0e6), unit="N", source="cone fender catalogue shape",
-                                     description="reaction at each deflection, from 0, increasing")
+                                    description="reaction at each deflection, from 0, increasing")
 
     @model_validator(mode="after")
     def _curve(self) -> "Fender":
@@ -185,20 +185,20 @@ class Environment(Section):
 
     wind_speed: float = param(20.0, unit="m/s", ge=0, le=60, source="connected-operation limit of the order of "
                                                                      "40 kn (terminal rules; example)",
-                               description="1-hour mean wind speed at 10 m (gusts from the NPD spectrum)")
+                              description="1-hour mean wind speed at 10 m (gusts from the NPD spectrum)")
     wind_direction_deg: float = param(0.0, unit="deg", ge=-180, le=180, source="off the berth: the break-out case",
-                                       description="direction the wind blows towards")
+                                      description="direction the wind blows towards")
     current_speed: float = param(0.5, unit="m/s", ge=0, le=5, source="example sheltered jetty",
-                                  description="depth-averaged current speed")
+                                 description="depth-averaged current speed")
     current_direction_deg: float = param(90.0, unit="deg", ge=-180, le=180, source="along the berth (example)",
-                                          description="direction the current flows towards")
+                                         description="direction the current flows towards")
     hs: float = param(1.0, unit="m", ge=0, le=8, source="berths operate up to about Hs 1.5-2 m",
-                       description="significant wave height")
+                      description="significant wave height")
     tp: float = param(8.0, unit="s", gt=1, le=30, source="example swell", description="peak period")
     wave_direction_deg: float = param(30.0, unit="deg", ge=-180, le=180, source="example",
-                                       description="mean direction the waves travel towards")
+                                      description="mean direction the waves travel towards")
     spreading: float = param(4.0, unit="1", ge=1, le=100, source="cos-2s spreading, s = 4 for wind sea (DNV-RP-C205)",
-                              description="directional spreading exponent s of cos^2s")
+                             description="directional spreading exponent s of cos^2s")
 
 
 class Berth(BaseModel):

@@ -20,7 +20,7 @@ from pydantic import BaseModel, Field, ValidationError, create_model, model_vali
 
 from loadarm.errors import ConfigError
 from loadarm.files import read_toml  # noqa: F401 (re-exported: config.read_toml, its home before files)
-from loadarm.params.declare import Section, _choices, _range_text, format_validation_error, param, toml_values
+from loadarm.params.declare import Section, choices_text, format_validation_error, param, toml_values, valid_range_text
 from loadarm.params.sections import (
     Accumulator,
     ActuatorSection,
@@ -189,9 +189,9 @@ class SizingArm(Section):
 
     riser: float = ArmSection.model_fields["riser"]
     inboard: float | None = param(None, unit="m", gt=0, le=100, source="optional for sizing",
-                                   description="configured inboard arm length b, checked against the berth")
+                                  description="configured inboard arm length b, checked against the berth")
     outboard: float | None = param(None, unit="m", gt=0, le=100, source="optional for sizing",
-                                    description="configured outboard arm length c, checked against the berth")
+                                   description="configured outboard arm length c, checked against the berth")
 
     @model_validator(mode="after")
     def _both_or_none(self) -> "SizingArm":
@@ -350,8 +350,8 @@ def parameter_table(sections: list[tuple[str, type[BaseModel]]] | None = None) -
                 "key": f"{section}.{name}",
                 "unit": str(extra.get("unit", "")),
                 "default": default,
-                "range": _range_text(model, name).removeprefix("valid range ") or _VALIDATOR_RANGES.get(
-                    f"{section}.{name}", _choices(f) or "see validator"),
+                "range": valid_range_text(model, name).removeprefix("valid range ") or _VALIDATOR_RANGES.get(
+                    f"{section}.{name}", choices_text(f) or "see validator"),
                 "description": f.description or "",
                 "source": str(extra.get("source", "")),
             })

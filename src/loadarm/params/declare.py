@@ -162,7 +162,7 @@ def in_range(model: type[BaseModel], field: str, value: float) -> bool:
     return above and below
 
 
-def _range_text(model: type[BaseModel], field: str) -> str:
+def valid_range_text(model: type[BaseModel], field: str) -> str:
     text = range_text(model, field)
     return f"valid range {text}" if text else ""
 
@@ -216,7 +216,7 @@ def format_validation_error(err: ValidationError, source: str, root: type[BaseMo
     key = ".".join(str(p) for p in loc) or "(top level)"
     etype = e.get("type", "")
     model, field = _model_at(loc, root)
-    rng = _range_text(model, field) if model is not None and field is not None else ""
+    rng = valid_range_text(model, field) if model is not None and field is not None else ""
     if etype != "extra_forbidden" and field is None:
         model = None
     if etype == "missing":
@@ -247,7 +247,7 @@ def format_validation_error(err: ValidationError, source: str, root: type[BaseMo
     return f"{source}: {what}{more}"
 
 
-def _choices(f: Any) -> str:
+def choices_text(f: Any) -> str:
     """``one of a, b`` for a Literal field, else ``""``."""
     args = typing.get_args(f.annotation) if typing.get_origin(f.annotation) is Literal else ()
     return "one of " + ", ".join(str(a) for a in args) if args else ""

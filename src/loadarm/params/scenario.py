@@ -43,12 +43,12 @@ class Ship(_S):
                               json_schema_extra={"unit": "", "source": ""})
 
     flange: tuple[float, float, float] = param((14.0, 0.0, 1.0), unit="m", source="the paper's flange, on the arm's axis",
-                                                description="flange position (x out, y along the berth, z up) at t = 0")
+                                               description="flange position (x out, y along the berth, z up) at t = 0")
     tide_rate: float = param(0.0, unit="m/s", ge=-0.01, le=0.01, source="up to about 2 m per hour in tidal ports",
-                              description="vertical speed of the water level")
+                             description="vertical speed of the water level")
     draft_rate: float = param(0.0, unit="m/s", ge=-0.01, le=0.01,
-                               source="a ship loading 10 m of draft over 24 h sinks about 1e-4 m/s",
-                               description="vertical speed of the flange from loading (negative: sinking)")
+                              source="a ship loading 10 m of draft over 24 h sinks about 1e-4 m/s",
+                              description="vertical speed of the flange from loading (negative: sinking)")
 
     @model_validator(mode="after")
     def _finite(self) -> "Ship":
@@ -61,20 +61,20 @@ class Waves(_S):
     """Wave-induced flange motion from a JONSWAP sea (a simple documented response model)."""
 
     hs: float = param(0.0, unit="m", ge=0, le=8, source="0 = calm; berths operate up to about Hs 1.5-2 m",
-                       description="significant wave height")
+                      description="significant wave height")
     tp: float = param(8.0, unit="s", gt=1, le=30, source="typical swell at an exposed berth",
-                       description="peak period")
+                      description="peak period")
     gamma: float = param(3.3, unit="1", ge=1, le=10, source="JONSWAP mean peak enhancement (Hasselmann 1973)",
-                          description="peak enhancement factor")
+                         description="peak enhancement factor")
     surge_gain: float = param(0.3, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
-                               description="flange surge (along the berth) per metre of wave elevation")
+                              description="flange surge (along the berth) per metre of wave elevation")
     sway_gain: float = param(0.5, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
-                              description="flange sway (off the berth) per metre of wave elevation")
+                             description="flange sway (off the berth) per metre of wave elevation")
     heave_gain: float = param(0.6, unit="m/m", ge=0, le=5, source="moored tanker, beam seas (engineering estimate)",
-                               description="flange heave per metre of wave elevation")
+                              description="flange heave per metre of wave elevation")
     cutoff_period: float = param(6.0, unit="s", gt=0, le=60,
-                                  source="a large ship filters out waves much shorter than itself",
-                                  description="period below which the ship's response rolls off (second order)")
+                                 source="a large ship filters out waves much shorter than itself",
+                                 description="period below which the ship's response rolls off (second order)")
     components: int = Field(200, ge=10, le=5000, description="number of wave components",
                             json_schema_extra={"unit": "1", "source": "enough for a smooth spectrum"})
 
@@ -83,26 +83,26 @@ class Drift(_S):
     """Drift-off of the ship away from the berth (mooring failure)."""
 
     start: float | None = param(None, unit="s", ge=0, source="none by default",
-                                 description="time the drift starts (omit for no drift)")
+                                description="time the drift starts (omit for no drift)")
     speed: float = param(0.1, unit="m/s", gt=0, le=2, source="a tanker drifting off under wind, about 0.1-0.3 m/s",
-                          description="drift speed")
+                         description="drift speed")
     direction_deg: float = param(0.0, unit="deg", ge=-180, le=180, source="straight off the berth",
-                                  description="drift direction in the horizontal plane, from +x towards +y")
+                                 description="drift direction in the horizontal plane, from +x towards +y")
     acceleration: float = param(0.01, unit="m/s^2", gt=0, le=1, source="engineering estimate",
-                                 description="how fast the drift reaches its speed")
+                                description="how fast the drift reaches its speed")
 
 
 class Sensor(_S):
     """Flange position sensor: rate, noise, latency, dropouts, outliers."""
 
     rate: float = param(10.0, unit="Hz", gt=0, le=1000, source="laser / radar flange tracker",
-                         description="measurement rate")
+                        description="measurement rate")
     noise: float = param(0.01, unit="m", ge=0, le=1, source="laser tracker at 20 m", description="noise std per axis")
     latency: float = param(0.05, unit="s", ge=0, le=5, source="processing and network", description="delay")
     dropout_probability: float = param(0.0, unit="1", ge=0, lt=1, source="none by default",
-                                        description="probability that one measurement is lost")
+                                       description="probability that one measurement is lost")
     dropouts: tuple[tuple[float, float], ...] = param((), unit="s", source="none by default",
-                                                       description="windows [start, end] with no measurement at all")
+                                                      description="windows [start, end] with no measurement at all")
 
     @model_validator(mode="after")
     def _dropout_windows(self) -> "Sensor":
@@ -111,9 +111,9 @@ class Sensor(_S):
                 raise ValueError(f"sensor.dropouts windows must be [start, end] with 0 <= start < end, got {list(w)}")
         return self
     outlier_probability: float = param(0.0, unit="1", ge=0, lt=1, source="none by default",
-                                        description="probability that a measurement is an outlier")
+                                       description="probability that a measurement is an outlier")
     outlier_size: float = param(2.0, unit="m", gt=0, le=100, source="a reflection off the wrong target",
-                                 description="size of an outlier's error")
+                                description="size of an outlier's error")
 
 
 class Operator(_S):
@@ -121,22 +121,22 @@ class Operator(_S):
 
     start: float = param(1.0, unit="s", ge=0, source="scenario choice", description="time the approach is started")
     connect_after: float = param(20.0, unit="s", ge=0, source="manual connection of the coupler on the ship",
-                                  description="time in standoff before the operator connects")
+                                 description="time in standoff before the operator connects")
     disconnect_at: float | None = param(None, unit="s", ge=0, source="none by default",
-                                         description="time of a normal disconnection (omit for none)")
+                                        description="time of a normal disconnection (omit for none)")
     estop_at: float | None = param(None, unit="s", ge=0, source="none by default",
-                                    description="time the emergency stop is pressed (omit for none)")
+                                   description="time the emergency stop is pressed (omit for none)")
     reset_at: float | None = param(None, unit="s", ge=0, source="none by default",
-                                    description="time the operator resets after an emergency stop (omit for none)")
+                                   description="time the operator resets after an emergency stop (omit for none)")
     ack_at: float | None = param(None, unit="s", ge=0, source="none by default",
-                                  description="time the operator acknowledges the alarms (omit for none)")
+                                 description="time the operator acknowledges the alarms (omit for none)")
     esd_at: float | None = param(None, unit="s", ge=0, source="none by default",
-                                  description="time the operator presses the manual ESD-1 (omit for none)")
+                                 description="time the operator presses the manual ESD-1 (omit for none)")
     ers_at: float | None = param(None, unit="s", ge=0, source="none by default",
-                                  description="time the operator arms the manual ERS; it is confirmed "
+                                 description="time the operator arms the manual ERS; it is confirmed "
                                               "ers_confirm_after later (omit for none)")
     ers_confirm_after: float | None = param(2.0, unit="s", ge=0, source="operator's reaction (omit: never confirmed)",
-                                             description="delay from arming the manual ERS to confirming it")
+                                            description="delay from arming the manual ERS to confirming it")
     jog: tuple[tuple[float, float, float, float, float], ...] = param(
         (), unit="s, m/s", source="none by default",
         description="manual jog segments [start, end, vx, vy, vz]: the operator takes manual control at start, "
@@ -155,20 +155,20 @@ class Guidance(_S):
     """Guidance controller settings."""
 
     rate: float = param(50.0, unit="Hz", gt=0, le=5000, source="supervisory loop above the 1 kHz servo loops",
-                         description="guidance cycle rate")
+                        description="guidance cycle rate")
     standoff: float = param(1.0, unit="m", gt=0, le=10, source="clear of the flange for the manual connection",
-                             description="distance the coupler holds from the flange, towards the jetty")
+                            description="distance the coupler holds from the flange, towards the jetty")
     arrive_tolerance: float = param(0.05, unit="m", gt=0, le=2, source="engineering choice",
-                                     description="distance to the standoff point counted as arrived")
+                                    description="distance to the standoff point counted as arrived")
     max_estimate_age: float = param(0.5, unit="s", gt=0, le=10, source="5 sensor periods at 10 Hz",
-                                     description="an estimate older than this is not fresh: motion stops")
+                                    description="an estimate older than this is not fresh: motion stops")
     drift_window: float = param(60.0, unit="s", gt=5, le=600,
-                                 source="averages out waves and swell up to about 30 s periods (Hs 1.5 m: fitted "
+                                source="averages out waves and swell up to about 30 s periods (Hs 1.5 m: fitted "
                                         "speed within 0.01 m/s); at most twice the first alarm's lead",
-                                 description="window of the constant-acceleration drift fit behind the time-to-limit "
+                                description="window of the constant-acceleration drift fit behind the time-to-limit "
                                              "alarms")
     jog_speed: float = param(0.15, unit="m/s", gt=0, le=1, source="same as the approach speed limit",
-                              description="coupler speed at full joystick deflection")
+                             description="coupler speed at full joystick deflection")
 
     def compile(self) -> "GuidanceSettings":
         """The section as the controller takes it: a frozen record, validated here once.
@@ -199,12 +199,12 @@ class Faults(_S):
     ers_valve_stuck: bool = Field(False, description="the ERS valves never confirm closed (limit switches)",
                                   json_schema_extra={"unit": "", "source": "fault injection"})
     ers_valve_delay: float = param(0.0, unit="s", ge=0, le=600, source="fault injection (0 = none)",
-                                    description="extra closing time of the ERS valves beyond ers_valve_time")
+                                   description="extra closing time of the ERS valves beyond ers_valve_time")
     hpu_trip_at: float | None = param(None, unit="s", ge=0, source="none by default",
-                                       description="time the hydraulic power unit trips: the drives stop, the "
+                                      description="time the hydraulic power unit trips: the drives stop, the "
                                                    "ERS and the retraction run on its accumulator")
     ers_switch_false_closed_at: float | None = param(None, unit="s", ge=0, source="fault injection (none by default)",
-                                                      description="from this time one of the two ERS valve closed "
+                                                     description="from this time one of the two ERS valve closed "
                                                                   "limit switches reads closed whatever the valves do")
     encoder_fault: Literal["none", "frozen", "drift", "failed"] = Field(
         "none", description="fault of one joint-angle encoder (the primary channel of encoder_fault_axis): frozen "
@@ -214,7 +214,7 @@ class Faults(_S):
         "beta", description="the axis whose encoder fails", json_schema_extra={"unit": "", "source": "fault injection"})
     encoder_fault_at: float = param(0.0, unit="s", ge=0, source="fault injection", description="time the encoder fails")
     encoder_drift_rate_deg: float = param(0.2, unit="deg/s", ge=-10, le=10, source="fault injection",
-                                           description="how fast a drifting encoder's reading walks away")
+                                          description="how fast a drifting encoder's reading walks away")
 
 
 class EnvironmentOverride(_S):
@@ -223,14 +223,14 @@ class EnvironmentOverride(_S):
     wind_speed: float | None = param(None, unit="m/s", source="the berth file's", description="1-hour mean wind "
                                                                                                 "at 10 m")
     wind_direction_deg: float | None = param(None, unit="deg", source="the berth file's",
-                                              description="direction the wind blows towards")
+                                             description="direction the wind blows towards")
     current_speed: float | None = param(None, unit="m/s", source="the berth file's", description="current speed")
     current_direction_deg: float | None = param(None, unit="deg", source="the berth file's",
-                                                 description="direction the current flows towards")
+                                                description="direction the current flows towards")
     hs: float | None = param(None, unit="m", source="the berth file's", description="significant wave height")
     tp: float | None = param(None, unit="s", source="the berth file's", description="peak period")
     wave_direction_deg: float | None = param(None, unit="deg", source="the berth file's",
-                                              description="direction the waves travel towards")
+                                             description="direction the waves travel towards")
     spreading: float | None = param(None, unit="1", source="the berth file's", description="cos-2s exponent")
 
 
@@ -238,7 +238,7 @@ class MooringFailure(_S):
     """Mooring lines that part during the run (model = moored): the break-out case."""
 
     time: float | None = param(None, unit="s", ge=0, source="none by default",
-                                description="time the lines part (omit for none)")
+                               description="time the lines part (omit for none)")
     lines: tuple[str, ...] = Field((), description="names of the lines that part (as in the berth file)",
                                    json_schema_extra={"unit": "", "source": ""})
     all_lines: bool = Field(False, description="every line parts (the ship breaks out)",

@@ -124,7 +124,7 @@ class ShipModel:
         w, th = MEAN_DRIFT_OMEGA, MEAN_DRIFT_DIRECTION
         beta = (th[None, :] - self.psi0) * np.ones_like(w)[:, None]
         grid = interp_heading(self.drift, self.hydro.heading, self.hydro.omega, np.repeat(w, th.size),
-                               beta.ravel()).reshape(w.size, th.size, 3)
+                              beta.ravel()).reshape(w.size, th.size, 3)
         grid.setflags(write=False)
         return grid
 

@@ -169,7 +169,7 @@ def _fender_load(d, defl, load, n):
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def _restoring(x, y, c, s, lines, alive, fy, fdefl, fload, fn, side, origin, out, tension, per_line):
+def restoring_kernel(x, y, c, s, lines, alive, fy, fdefl, fload, fn, side, origin, out, tension, per_line):
     """The restoring force (``out``: x, y, yaw moment) and the line tensions (``tension``) at the pose ``(x, y,
     psi)``, given as ``x, y`` and the heading's cosine and sine ``c, s`` (the caller has them: one pair a
     stage); ``lines`` is :attr:`Moorings.lines`, ``per_line`` a (3, n) scratch. Each line's force is computed apart
@@ -228,7 +228,7 @@ def restoring_force(mo: Moorings, eta, alive=None) -> tuple[np.ndarray, np.ndarr
     out = np.zeros(3)
     ten = np.zeros(len(mo.names))
     x, y, psi = (float(v) for v in np.asarray(eta, dtype=float))
-    _restoring(x, y, math.cos(mo.psi0 + psi), math.sin(mo.psi0 + psi), mo.lines,
+    restoring_kernel(x, y, math.cos(mo.psi0 + psi), math.sin(mo.psi0 + psi), mo.lines,
                mo.alive if alive is None else alive, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts,
                mo.side, mo.origin, out, ten, np.empty((3, len(mo.names))))
     return out, ten
@@ -265,11 +265,11 @@ def _stiffness(eta, psi0, lines, alive, fy, fdefl, fload, fn, side, origin, step
         e[:] = eta
         e[j] = eta[j] + step_d[j]
         psi = psi0 + e[2]
-        _restoring(e[0], e[1], math.cos(psi), math.sin(psi), lines, alive, fy, fdefl, fload, fn, side, origin, fp,
+        restoring_kernel(e[0], e[1], math.cos(psi), math.sin(psi), lines, alive, fy, fdefl, fload, fn, side, origin, fp,
                    ten, per_line)
         e[j] = eta[j] - step_d[j]
         psi = psi0 + e[2]
-        _restoring(e[0], e[1], math.cos(psi), math.sin(psi), lines, alive, fy, fdefl, fload, fn, side, origin, fm,
+        restoring_kernel(e[0], e[1], math.cos(psi), math.sin(psi), lines, alive, fy, fdefl, fload, fn, side, origin, fm,
                    ten, per_line)
         for q in range(3):
             k[q, j] = -(fp[q] - fm[q]) / (2 * step_d[j])
@@ -302,7 +302,7 @@ def _force_scaled(e0, e1, e2, load, scale, psi0, lines, alive, fy, fdefl, fload,
                   per_line, r):
     """``r = (restoring force at the pose (e0, e1, e2) + load) * scale``: :func:`equilibrium`'s residual."""
     psi = psi0 + e2
-    _restoring(e0, e1, math.cos(psi), math.sin(psi), lines, alive, fy, fdefl, fload, fn, side, origin, out, ten,
+    restoring_kernel(e0, e1, math.cos(psi), math.sin(psi), lines, alive, fy, fdefl, fload, fn, side, origin, out, ten,
                per_line)
     for q in range(3):
         r[q] = (out[q] + load[q]) * scale[q]

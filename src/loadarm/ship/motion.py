@@ -39,7 +39,7 @@ from loadarm.ship.loads import (
     wind_force,
 )
 from loadarm.ship.model import ShipModel
-from loadarm.ship.mooring import _restoring, equilibrium, line_tensions
+from loadarm.ship.mooring import equilibrium, line_tensions, restoring_kernel
 
 __all__ = ["ShipMotion", "simulate", "flange_positions", "mean_load", "MIN_RECORD", "DT", "wave_components",
            "fft_length"]
@@ -143,7 +143,7 @@ def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, lines, alive, fy, fd
     cur_vx, cur_vy, kx, ky, el = current
     psi = psi0 + x2
     c, s = math.cos(psi), math.sin(psi)
-    _restoring(x0, x1, c, s, lines, alive, fy, fdefl, fload, fn, side, origin, out_f, ten, per_line)
+    restoring_kernel(x0, x1, c, s, lines, alive, fy, fdefl, fload, fn, side, origin, out_f, ten, per_line)
     # external ship-frame load rotated to the berth frame
     fx = out_f[0] + c * f0 - s * f1
     fyy = out_f[1] + s * f0 + c * f1
@@ -399,7 +399,7 @@ def _flange_position(ship: ShipModel, pose, d) -> np.ndarray:
     return out
 
 
-def _flange(ship: ShipModel, pose, pose_v, wave, wave_v):
+def flange_kinematics(ship: ShipModel, pose, pose_v, wave, wave_v):
     """Berth-frame flange position, velocity and face angles from the two motions."""
     d, dv = _at_flange(ship, wave), _at_flange(ship, wave_v)  # first-order flange motion, ship frame
     p = _flange_position(ship, pose, d)
@@ -610,8 +610,8 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
         pose_v = np.zeros((n_out, 3))
 
         tension = np.tile(line_tensions(mo, eq), (n_out, 1))
-    flange, flange_v, angles = _flange(ship, pose, pose_v, wave, wave_v)
-    ref, _, _ = _flange(ship, eq[None, :], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
+    flange, flange_v, angles = flange_kinematics(ship, pose, pose_v, wave, wave_v)
+    ref, _, _ = flange_kinematics(ship, eq[None, :], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
     return ShipMotion(t=t, pose=pose, pose_velocity=pose_v, wave=wave, wave_velocity=wave_v, flange=flange,
                       flange_velocity=flange_v, flange_angles=angles, tension=tension, names=mo.names, mbl=mo.mbl,
                       parted=tuple(parted), part_time=part_time if parted else None, mean_pose=eq,

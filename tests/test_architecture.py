@@ -222,3 +222,49 @@ def test_the_arm_model_is_typed_field_by_field():
     for rec in records:
         types_ = {f.name: f.type for f in dataclasses.fields(rec)}
         assert types_ and typing.Any not in types_.values(), type(rec).__name__
+
+
+def _annotation_nodes(tree: ast.AST) -> set[int]:
+    out = set()
+    for node in ast.walk(tree):
+        anns = []
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            anns = [a.annotation for a in node.args.args + node.args.kwonlyargs + node.args.posonlyargs] + \
+                   [node.returns, getattr(node.args.vararg, "annotation", None),
+                    getattr(node.args.kwarg, "annotation", None)]
+        elif isinstance(node, ast.AnnAssign):
+            anns = [node.annotation]
+        for a in anns:
+            if a is not None:
+                out.update(id(n) for n in ast.walk(a))
+    return out
+
+
+def test_a_name_imported_for_annotations_only_is_not_used_at_run_time():
+    """Found (issue 26): the operability figure called ``Figure(...)`` whose import had moved under
+    ``if TYPE_CHECKING:`` (a NameError only when the figure was drawn; pyflakes counts the name as defined).
+    A name imported for annotations only is used in annotations only, unless a function imports it itself."""
+    bad = []
+    for module, path in MODULES.items():
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        typing_only = set()
+        for node in tree.body:
+            if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
+                for sub in ast.walk(node):
+                    if isinstance(sub, (ast.Import, ast.ImportFrom)):
+                        typing_only.update((a.asname or a.name).split(".")[0] for a in sub.names)
+        if not typing_only:
+            continue
+        skip = _annotation_nodes(tree)
+        for fn in [tree] + [n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))]:
+            local = {(a.asname or a.name).split(".")[0] for n in ast.walk(fn) if fn is not tree
+                     and isinstance(n, (ast.Import, ast.ImportFrom)) for a in n.names}
+            body = fn.body if fn is tree else [fn]
+            for stmt in body:
+                if fn is tree and isinstance(stmt, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                    continue                  # functions are walked on their own (their local imports count)
+                for n in ast.walk(stmt):
+                    if (isinstance(n, ast.Name) and isinstance(n.ctx, ast.Load) and n.id in typing_only
+                            and n.id not in local and id(n) not in skip):
+                        bad.append(f"{module}:{n.lineno} uses {n.id}")
+    assert not sorted(set(bad)), sorted(set(bad))

@@ -29,6 +29,8 @@ def operability_figure(result) -> Figure:
     df = result.table.copy()
     t = pd.DatetimeIndex(df["time"])
     df.index = t
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(12, 7.5))
     gs = fig.add_gridspec(2, 2, height_ratios=[1, 1])
     ax = fig.add_subplot(gs[0, 0])

@@ -152,7 +152,6 @@ def log_cmd(
 
 def _replay_png(png: Path, events) -> None:
 
-
     last_run, events = latest_run(events, "the log has no state samples to replay (was it written by loadarm "
                                            "run?)")
     samples = [e for e in events if e.kind == "sample"]

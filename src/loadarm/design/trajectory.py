@@ -141,7 +141,6 @@ class Plan(Result):
             "worst_zone": severity_label(int(self.zone.max())),
         }
 
-
     def _figure(self):
 
         return cylinders_figure({self.timing: self})

@@ -322,7 +322,6 @@ def load_tag_map(path) -> TagMap:
     """
     import re
 
-
     data = read_toml(path, "PLC mapping")
     src = str(path)
     if set(data) != {"tags"} or not isinstance(data["tags"], dict):
@@ -436,7 +435,6 @@ class PlcLink:
     async def _session(self) -> None:
         from asyncua import Client, ua
         from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
-
 
         client = Client(self.endpoint, timeout=2)
         client.application_uri = APP_URI

@@ -215,7 +215,6 @@ def client_certificate(folder: str | Path, name: str, app_uri: str) -> tuple[Pat
     from cryptography.hazmat.primitives import serialization
     from cryptography.x509.oid import ExtendedKeyUsageOID
 
-
     key = cert_gen.generate_private_key()
     cert = cert_gen.generate_self_signed_app_certificate(
         key, name, {}, [x509.UniformResourceIdentifier(app_uri), x509.DNSName("localhost")],
@@ -337,7 +336,6 @@ class StateDir:
             The trusted copy.
         """
         from cryptography.hazmat.primitives import serialization
-
 
         p = Path(cert_file)
         if not p.is_file():

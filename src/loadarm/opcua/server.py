@@ -143,7 +143,6 @@ def _validator(state: StateDir):
         except Exception:
             from cryptography.hazmat.primitives import serialization
 
-
             state.rejected.mkdir(parents=True, exist_ok=True)
             (state.rejected / f"{thumbprint(cert)}.der").write_bytes(cert.public_bytes(serialization.Encoding.DER))
             _log.warning("OPC UA client certificate refused (copied to %s)", state.rejected)
@@ -350,7 +349,6 @@ class OpcUaServer(SecureServer):
     async def _build(self, server) -> dict:
         from asyncua import ua
 
-
         ns = await server.register_namespace(NAMESPACE)
         mns = await server.register_namespace(MACHINERY_NS)
         dns = await server.register_namespace(DI_NS)
@@ -409,7 +407,6 @@ class OpcUaServer(SecureServer):
         the condition follows at the next snapshot)."""
         from asyncua import ua
 
-
         by_node = {c.node.nodeid: tag for tag, c in conditions.items()}
         service = self.service
 
@@ -430,7 +427,6 @@ class OpcUaServer(SecureServer):
 
     def _callback(self, action: str, args: tuple):
         from asyncua import ua
-
 
         service = self.service
 
@@ -457,7 +453,6 @@ class OpcUaServer(SecureServer):
 
     async def _publish(self, nodes: dict, snap) -> None:
         from asyncua import ua
-
 
         def num(x):
             return float(x) if math.isfinite(x) else -1.0
@@ -570,7 +565,6 @@ class _Condition:
 
     async def report(self, state: str) -> None:
         from asyncua import ua
-
 
         st = AlarmState(state)
         active = st in (AlarmState.UNACKED, AlarmState.ACKED)

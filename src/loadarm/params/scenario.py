@@ -426,7 +426,6 @@ def scenario_environment(sc: Scenario, base, *, source: str = "<scenario>"):
         An override out of its range (named ``environment.<key>``).
     """
 
-
     merged = base.model_dump() | {k: v for k, v in sc.environment.model_dump().items() if v is not None}
     wrap = create_model("_MergedEnvironment", environment=(Environment, ...))
     try:

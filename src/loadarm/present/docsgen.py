@@ -131,12 +131,11 @@ def hmi_screenshots(dest: str | Path, *, speedup: float = 4.0) -> list[Path]:
 
     from playwright.sync_api import sync_playwright
 
-
     dest = Path(dest)
     with tempfile.TemporaryDirectory() as tmp:
         st = StateDir(Path(tmp) / "state")
         st.users().add("operator", Role.OPERATOR, "docs-only")
-        with scenario_screen(Path(__file__).parent / "examples" / "scenarios" / "driftoff.toml", st.path,
+        with scenario_screen(packaged_example("scenarios/driftoff.toml"), st.path,
                              speedup=speedup) as (_service, server), sync_playwright() as p:
             browser = launch(p)
             page = browser.new_page(viewport={"width": 1400, "height": 900})

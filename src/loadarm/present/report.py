@@ -322,7 +322,6 @@ class ReportData:
         cluster; its chunks in a scratch folder), or None without a record or an installation file."""
         import tempfile
 
-
         if self.inst.report.metocean is None or self.source is None:
             return None
         self._progress("operability over the metocean record (Dask)")

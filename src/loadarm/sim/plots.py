@@ -100,7 +100,6 @@ def run_timeline_figure(result) -> Figure:
     Figure
     """
 
-
     s = result.signals
     alarms = [(t, alarm_label(data)) for t, _, kind, _, data in result.events if kind == "alarm"]
     thr = result.beta_thresholds_deg

@@ -294,7 +294,6 @@ class AngleSensors:
 
     def __init__(self, model: ArmModel, faults):
 
-
         self.mount, self.enc = model.mount, model.encoder
         self.limits = length_limits(model.mount)
         self.fault, self.at = faults.encoder_fault, faults.encoder_fault_at

@@ -205,7 +205,6 @@ class _Draw:
 def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -> list[CampaignRun]:
     """Worker: run a batch of (seed, draws) of one scenario file."""
 
-
     draw = _Draw(scenario)
     results = []
     ships: dict = {}                      # the moored ship compiled once per berth file in a batch
@@ -349,7 +348,6 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     done: list[CampaignRun] = []
     if scheduler is not None:
         from distributed import as_completed as dask_completed
-
 
         path = str(Path(scenario).resolve())
         with connect_scheduler(scheduler) as client:

@@ -282,7 +282,6 @@ def write_metocean_csv(ds, path: str | Path) -> Path:
     """
     import pandas as pd
 
-
     cols = [v for v in VARIABLES if v in ds]
     df = pd.DataFrame({v: np.round(ds[v].values, 3) for v in cols})
     df.insert(0, "time", pd.DatetimeIndex(ds["time"].values).strftime("%Y-%m-%dT%H:%MZ"))

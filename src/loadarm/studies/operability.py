@@ -201,8 +201,6 @@ def write_parquet(df, path: str | Path) -> Path:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-
-
     table = pa.Table.from_pandas(df, preserve_index=False)
     meta = dict(table.schema.metadata or {})
     meta[b"generator"] = f"{SIGNATURE} {__version__}".encode()
@@ -362,7 +360,6 @@ def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, pla
     import hashlib
     import json
 
-
     h = hashlib.sha256()
     for f in (config, berth, metocean):
         h.update(Path(f).read_bytes())
@@ -441,7 +438,6 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
 
     import pandas as pd
 
-
     ds, gaps = read_metocean(metocean)
     use = np.flatnonzero(ds["usable"].values)
     if hours is not None:
@@ -476,7 +472,6 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         import dask
         from distributed import Client, LocalCluster
         from distributed import progress as dask_progress
-
 
         # the local cluster's worker processes: one thread, numba and BLAS single-threaded, and they keep freed
         # memory (found: Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536, which also freezes glibc's mmap threshold

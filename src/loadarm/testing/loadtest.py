@@ -34,7 +34,6 @@ async def _client(endpoint: str, user: str, password: str, cert: str, key: str, 
 async def _variables(c):
     from asyncua import ua
 
-
     ns = await c.get_namespace_index(NAMESPACE)
     names = [v[0] for v in VARIABLES] + [s[0] for s in STATES]
     return ns, [c.get_node(ua.NodeId(f"Guidance.{n}", ns)) for n in names]
@@ -172,7 +171,6 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
     import json
     import subprocess
     from pathlib import Path
-
 
     workdir = Path(workdir)
     st = StateDir(workdir / "state")

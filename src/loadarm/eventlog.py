@@ -417,4 +417,3 @@ class RateLimiter:
             return True, suppressed
         slot[1] += 1
         return False, 0
-

@@ -31,13 +31,6 @@ __all__ = ["AlarmAngles", "beta_severity", "slew_severity", "zone_level",
 BETA_TOL_RAD = 1e-9
 
 
-
-
-
-
-
-
-
 @dataclass(frozen=True, slots=True)
 class AlarmAngles:
     """Alarm thresholds on ``beta``, rad, strictly increasing in (0, pi)."""
@@ -127,7 +120,6 @@ def slew_severity(phi, slew) -> np.ndarray:
     a = np.abs(np.asarray(phi, dtype=float))
     return np.select([a >= slew.release, a > slew.second, a > slew.first],
                      [int(Severity.RELEASE), int(Severity.SECOND), int(Severity.ESD1)], int(Severity.NORMAL))
-
 
 
 @dataclass(frozen=True, slots=True)

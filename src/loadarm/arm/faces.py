@@ -27,6 +27,7 @@ RAY_REACH = 40.0
 #: A ray's sampling before the bisection, m.
 RAY_STEP = 0.01
 
+
 def face_margins(model, x, y, z, *, q=None) -> np.ndarray:
     """Signed margin of coupler positions to every face, in the face's own coordinate (rad).
 

@@ -120,5 +120,3 @@ accumulator, transfer : ParamRecord
     transfer: ParamRecord | None = None
     mass: MassModel | None = None
     lagrange: LagrangeConstants | None = None
-
-

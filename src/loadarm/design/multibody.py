@@ -384,4 +384,3 @@ def mujoco_moment_arms(arm: Arm, mount: Mounting, masses: MassModel, alpha, beta
         h1[i] = dense[t1, da]
         h2[i] = dense[t2, db]
     return h1, h2
-

@@ -244,6 +244,7 @@ SURGE_METRICS = (
     Metric("margin_Pa", "margin (design - judged)", "bar", "+.2f", none="n/a", scale=_BAR),
 )
 
+
 def _empty() -> np.ndarray:
     return np.empty(0)
 

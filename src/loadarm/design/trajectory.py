@@ -144,6 +144,7 @@ class Plan(Result):
     def _figure(self):
 
         return cylinders_figure({self.timing: self})
+
     def records(self) -> list[dict]:
         """One dict per sample with the keys ``t_s, x_m, y_m, alpha_deg, beta_deg,
         r_ac1_m, r_ac2_m, u1_V, u2_V, zone``."""

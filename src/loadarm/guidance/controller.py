@@ -430,5 +430,3 @@ class GuidanceController(SafetyRules):
     def _refuse(self, why: str) -> None:
         """A refused command is logged once and forgotten: nothing starts later without a new action."""
         self._event("info", f"approach refused: {why}")
-
-

@@ -34,7 +34,6 @@ from loadarm.vocab import Severity
 __all__ = ["stage_leads", "LimitForecast", "EnvelopeMonitor"]
 
 
-
 def stage_leads(seq, *, valves_left: float | None = None, release_left: float | None = None) -> dict:
     """The time each alarm stage needs before the flange reaches a face of the envelope, s.
 
@@ -63,10 +62,6 @@ def stage_leads(seq, *, valves_left: float | None = None, release_left: float | 
     if seq.pre_alarm_lead > 0:
         leads[Severity.PRE_ALARM] = pre
     return leads
-
-
-
-
 
 
 @dataclass(frozen=True, slots=True)

@@ -409,4 +409,3 @@ class SafetyRules:
                 s.refused = "sensor"
             return np.zeros(3)
         return np.asarray(rates, dtype=float)
-

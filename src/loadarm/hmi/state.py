@@ -15,6 +15,7 @@ __all__ = ["PRIORITIES", "SHELVE_MAX", "AlarmBook", "AlarmEntry", "geometry", "f
 #: The longest an operator may shelve an alarm, s (ISA-18.2: shelving is time-limited; the alarm comes back).
 SHELVE_MAX = 600.0
 
+
 @dataclass(frozen=True)
 class AlarmEntry:
     """One line of the alarm list.

@@ -28,6 +28,8 @@ __all__ = ["ACTIONS", "JOG_HOLD", "Request", "GuidanceService"]
 
 #: How long one jog request moves the arm unless renewed, s.
 JOG_HOLD = 0.5
+
+
 @dataclass(frozen=True)
 class Request:
     """One operator request.
@@ -59,8 +61,6 @@ class Request:
                              f"'unshelve', got {self.tag!r}")
         if self.action in ("shelve", "unshelve") and not self.tag:
             raise ValueError(f"{self.action} needs the alarm's tag")
-
-
 
 
 class GuidanceService:

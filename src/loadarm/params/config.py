@@ -48,55 +48,6 @@ __all__ = ["Installation", "packaged_example", "SizingArm", "sizing_case_model",
            "parameter_markdown", "example_toml"]
 
 
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
-
 class Installation(Section):
     """One marine loading arm at one berth: everything loadarm needs to plan."""
 
@@ -119,20 +70,6 @@ class Installation(Section):
     transfer: Transfer = Field(default_factory=Transfer)
     operability: Operability = Field(default_factory=Operability)
     report: Report = Field(default_factory=Report)
-
-
-
-
-
-
-
-
-
-
-
-
-
-
 
 
 def parse_config(data: dict[str, Any], *, source: str = "<config>") -> Installation:
@@ -319,8 +256,6 @@ def _installation_sections() -> list[tuple[str, type[BaseModel]]]:
         assert isinstance(model, type) and issubclass(model, BaseModel)
         out.append((section, model))
     return out
-
-
 
 
 def parameter_table(sections: list[tuple[str, type[BaseModel]]] | None = None) -> list[dict[str, str]]:

@@ -530,5 +530,3 @@ def check_drift_window(g: Guidance, seq, *, source: str = "<guidance>") -> None:
             f"first alarm's lead, max(esd_time, ers_valve_time + ers_valve_timeout) + erc_release_time + margin = "
             f"{lead:g} s): a drift "
             f"would reach the limit before the fit saw it; valid range (5, {2 * lead:g}] s")
-
-

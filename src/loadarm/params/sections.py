@@ -417,6 +417,7 @@ class Controller(Section):
                                           "of the arm on its oil columns and end stops (docs/hydraulics.md)",
         json_schema_extra={"unit": "1", "source": "stability bound h omega_max <= 0.5 (hydraulics.simulate."
                                                   "stable_substeps); an integer overrides it"})
+
     @field_validator("substeps", mode="before")
     @classmethod
     def _substeps(cls, v: Any) -> Any:

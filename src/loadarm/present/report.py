@@ -176,6 +176,7 @@ _DISPLAY_UNITS = {"Pa": ("bar", 1e-5), "N": ("kN", 1e-3), "m^3/s": ("L/min", 6e4
 def _display(value, unit: str) -> tuple[str, str]:
     """A parameter value and unit as an engineer reads them (bar, kN, L/min)."""
     disp, factor = _DISPLAY_UNITS.get(unit, (unit, None))
+
     def one(v):
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             return str(v)

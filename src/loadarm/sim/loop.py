@@ -45,7 +45,6 @@ __all__ = ["run_scenario", "ClosedLoop", "SimulatedPlant", "wall_clock_pacer", "
            "CONTINUOUS_EVENTS"]
 
 
-
 def wall_clock_pacer(speedup: float = 1.0) -> Callable[[float], None]:
     """A pacer that makes :func:`run_scenario` keep step with the wall clock.
 
@@ -71,20 +70,6 @@ def wall_clock_pacer(speedup: float = 1.0) -> Callable[[float], None]:
             time.sleep(delay)
 
     return pace
-
-
-
-
-
-
-
-
-
-
-
-
-
-
 
 
 def run_scenario(sc: Scenario, model: ArmModel, *, log: EventLog | None = None, sample_every: float = 1.0,
@@ -366,11 +351,6 @@ class ClosedLoop:
 CONTINUOUS_WINDOW = 3600.0
 #: The events a continuous run keeps in memory (all go to the event log).
 CONTINUOUS_EVENTS = 10_000
-
-
-
-
-
 
 
 class _Recorder:

@@ -69,5 +69,3 @@ def sensor_readings(sc: Scenario, motion: FlangeMotion) -> Readings:
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         xyz[out] += s.outlier_size * d
     return Readings(t_meas + s.latency, t_meas, xyz, out)
-
-

@@ -268,3 +268,58 @@ def test_a_name_imported_for_annotations_only_is_not_used_at_run_time():
                             and n.id not in local and id(n) not in skip):
                         bad.append(f"{module}:{n.lineno} uses {n.id}")
     assert not sorted(set(bad)), sorted(set(bad))
+
+
+def test_every_dotted_reference_in_the_docs_and_docstrings_resolves():
+    """Docs cannot drift: every ``loadarm.x.y`` named in docs/, README.md, the package's docstrings and
+    templates names a module or an attribute that exists (found, issue 26: references to the modules of the
+    old layout would have stayed behind the move)."""
+    import importlib
+
+    texts = [p for p in (ROOT / "docs").glob("*.md")] + [ROOT / "README.md"] + \
+        [p for p in SRC.rglob("*") if p.suffix in (".py", ".j2") and "__pycache__" not in p.parts]
+    bad = set()
+    for path in texts:
+        for ref in re.findall(r"(?<![\w/.])loadarm(?:\.[A-Za-z_]\w*)+", path.read_text(encoding="utf-8")):
+            parts = ref.split(".")
+            for i in range(len(parts), 0, -1):
+                try:
+                    obj, rest = importlib.import_module(".".join(parts[:i])), parts[i:]
+                    break
+                except ImportError:
+                    continue
+            for name in rest:
+                if not hasattr(obj, name):
+                    bad.add(f"{path.relative_to(ROOT)}: {ref}")
+                    break
+                obj = getattr(obj, name)
+    assert not bad, sorted(bad)
+
+
+def test_planning_never_imports_the_simulator():
+    """``loadarm plan`` loads only its command's module (``cli.COMMAND_MODULES``): no numba, SciPy, matplotlib,
+    MuJoCo or toppra. Found (before issue 26): compiling the model imported numba, adding ~0.2 s to the start."""
+    import subprocess
+
+    code = ("import sys; from loadarm.cli import main; main(['plan', '-c', 'examples/paper.toml', '--json']); "
+            "sys.stderr.write(','.join(m for m in ('numba', 'scipy', 'matplotlib', 'mujoco', 'toppra') "
+            "if m in sys.modules))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert r.returncode == 0 and r.stderr.strip() == "", r.stderr
+
+
+def test_every_command_names_its_module_and_the_module_defines_it():
+    """The lazy table and the command modules agree: each command in ``COMMAND_MODULES`` is defined by its
+    module's ``app``, and no module defines a command the table does not list."""
+    from typer.main import get_group
+
+    from loadarm.cli import COMMAND_MODULES, GROUPS
+
+    import importlib
+
+    defined = {}
+    for module in set(COMMAND_MODULES.values()):
+        group = get_group(importlib.import_module(module).app)
+        names = {group.name} if group.name in GROUPS else set(group.commands)
+        defined.update({n: module for n in names})
+    assert defined == COMMAND_MODULES

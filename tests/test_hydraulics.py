@@ -297,3 +297,32 @@ def test_plant_geometry_is_the_vectorised_formula_bit_for_bit(model):
     got = np.array([plant._geometry(P, ai, bi) for ai, bi in zip(a, b)])
     assert np.max(np.abs(got[:, 0] - r1)) < 1e-14 and np.max(np.abs(got[:, 1] - r2)) < 1e-14
     assert np.max(np.abs(got[:, 2] - h1)) < 1e-14 and np.max(np.abs(got[:, 3] - h2)) < 1e-14
+
+
+def test_the_plant_dynamics_is_the_vectorised_formula_bit_for_bit(model):
+    """Issue 26: the 1 kHz plant compiles dynamics.lagrange_terms itself (the mass matrix was written twice).
+    Given the same sines and cosines, the compiled terms are the NumPy route's bits; and the plant's joint
+    accelerations, put back through joint_torques (the vectorised inverse dynamics), return the torques to
+    1e-9 relative (two 2x2 solves' rounding, against torques of order 1e5 N m)."""
+    from loadarm.arm.dynamics import G, joint_torques, lagrange_constants, lagrange_terms
+    from loadarm.hydraulics.simulate import pack_parameters
+
+    mm = model.mass
+    k = lagrange_constants(mm)
+    P = pack_parameters(model)
+    rng = np.random.default_rng(26)
+    a, b = rng.uniform(0.1, 3.0, 300), rng.uniform(0.05, 3.0, 300)
+    ad, bd = rng.uniform(-0.3, 0.3, 300), rng.uniform(-0.3, 0.3, 300)
+    sa, sb, cb = np.sin(a), np.sin(b), np.cos(b)
+    sab = np.sin(a - b)
+    vec = lagrange_terms(k.k11, k.k22, k.k_c, k.g_a, k.g_ab, G, sa, sab, sb, cb, ad, bd)
+    for i in range(a.size):
+        one = plant.lagrange_terms(k.k11, k.k22, k.k_c, k.g_a, k.g_ab, G, float(sa[i]), float(sab[i]), float(sb[i]),
+                                   float(cb[i]), float(ad[i]), float(bd[i]))
+        assert one == tuple(float(np.broadcast_to(v, a.shape)[i]) for v in vec), i
+    ta, tb = rng.uniform(-2e5, 2e5, 300), rng.uniform(-2e5, 2e5, 300)
+    for i in range(0, a.size, 10):
+        add, bdd = plant.arm_accelerations(P, float(a[i]), float(b[i]), float(ad[i]), float(bd[i]), float(ta[i]),
+                                           float(tb[i]))
+        t1, t2 = joint_torques(mm, a[i], b[i], ad[i], bd[i], add, bdd)
+        assert abs(float(t1) - ta[i]) < 1e-9 * 2e5 and abs(float(t2) - tb[i]) < 1e-9 * 2e5

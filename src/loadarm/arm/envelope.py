@@ -1,7 +1,7 @@
 """Operating envelope and alarm zones (paper Section 2, Fig. 4).
 
 The zones are bands of the elbow angle ``beta``, valued in the one severity
-type :class:`loadarm.arm.alarms.Severity`: normal up to the first-alarm angle, the
+type :class:`loadarm.vocab.Severity`: normal up to the first-alarm angle, the
 first alarm (ESD-1: stop transfer pumps, close the ERS valves) up to the
 second-alarm angle, the second alarm up to the release angle, and release
 (ERS-2: the coupler lets go) at or beyond it. Because ``r = sqrt(b^2 + c^2 - 2bc cos(beta))`` (Eq. 6) grows with
@@ -33,7 +33,7 @@ __all__ = [
 
 
 def classify_point(arm: Arm, alarms: AlarmAngles, x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray:
-    """Severity of each coupler position (:data:`loadarm.arm.alarms.UNREACHABLE` outside the annulus).
+    """Severity of each coupler position (:data:`loadarm.vocab.UNREACHABLE` outside the annulus).
 
     Parameters
     ----------
@@ -47,7 +47,7 @@ def classify_point(arm: Arm, alarms: AlarmAngles, x: np.ndarray | float, y: np.n
     Returns
     -------
     ndarray of int
-        :class:`loadarm.arm.alarms.Severity` values, broadcast shape of ``x`` and ``y``.
+        :class:`loadarm.vocab.Severity` values, broadcast shape of ``x`` and ``y``.
     """
     return beta_severity(solve_ik(arm, x, y).beta, alarms)     # NaN beta (unreachable) -> UNREACHABLE
 

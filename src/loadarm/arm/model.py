@@ -24,7 +24,7 @@ class ParamRecord:
     """A parameter group compiled: a frozen, slotted record whose fields carry the types their declaration gives
     (SI units). The compiler makes one record type per configuration section (``DatasheetParams``,
     ``SequenceParams``, ...) from that section's declaration, so a key is declared once, in
-    :mod:`loadarm.params.config`."""
+    :mod:`loadarm.params.sections`."""
 
     __slots__ = ()
 

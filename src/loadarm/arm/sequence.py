@@ -99,7 +99,7 @@ def lead_values(valves_left: float, release_left: float, margin: float, lead_esd
 
 
 def stage_of(ttl: float, ttl_measured: float, release: float, second: float, esd1: float, pre: float) -> int:
-    """The alarm stage a time to the nearest face calls for (:class:`loadarm.arm.alarms.Severity` as an int).
+    """The alarm stage a time to the nearest face calls for (:class:`loadarm.vocab.Severity` as an int).
 
     Parameters
     ----------

@@ -166,7 +166,7 @@ class DirectionCheck:
     direction : str
         Its name.
     face : str
-        First face reached (:data:`loadarm.arm.faces.FACES`), ``""`` if none within 40 m.
+        First face reached (:data:`loadarm.vocab.FACES`), ``""`` if none within 40 m.
     available : float
         Distance to that face, m.
     angle_alarm : float or None

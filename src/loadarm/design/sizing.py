@@ -51,7 +51,7 @@ class CornerCheck:
     alpha, beta : float
         Joint angles, rad (NaN if unreachable).
     zone : int
-        :class:`loadarm.arm.alarms.Severity` value, or :data:`loadarm.arm.alarms.UNREACHABLE`.
+        :class:`loadarm.vocab.Severity` value, or :data:`loadarm.vocab.UNREACHABLE`.
     """
 
     name: str

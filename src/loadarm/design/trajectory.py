@@ -85,7 +85,7 @@ class Plan(Result):
     u1, u2 : ndarray
         Valve voltages, V.
     zone : ndarray of int
-        Alarm severity per sample (:class:`loadarm.arm.alarms.Severity`).
+        Alarm severity per sample (:class:`loadarm.vocab.Severity`).
     stored_lengths : tuple of float
         Cylinder lengths in the stored pose, m (voltage reference).
     """

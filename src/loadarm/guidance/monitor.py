@@ -73,7 +73,7 @@ class LimitForecast:
     time : float
         Time to the first face, s (``inf`` beyond the horizon).
     face : str
-        The face (:data:`loadarm.arm.faces.FACES`), ``""`` if none.
+        The face (:data:`loadarm.vocab.FACES`), ``""`` if none.
     route : str
         ``"design drift"``, ``"measured drift"``, ``"velocity step"`` or ``"break-out"``.
     by_face : tuple of (str, float)

@@ -2,7 +2,7 @@
 
 One encoder per axis feeding the forward kinematics is a single point of failure: a frozen beta encoder hides the
 elbow's stretch from every position alarm and from the time-to-limit monitor. The installation's ``[encoder]
-redundancy`` gives each axis a second channel (:func:`loadarm.sim.loop.AngleSensors`):
+redundancy`` gives each axis a second channel (:func:`loadarm.sim.world.AngleSensors`):
 
 * ``dual``: two angle encoders per axis;
 * ``cylinder``: the angle encoder against the angle the cylinder-length transducer gives through the pin

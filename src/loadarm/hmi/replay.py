@@ -95,7 +95,7 @@ class ReplayService:
 
     def snapshot(self, cursor: "ReplayCursor | None" = None):
         """The sample at or before a cursor (default the service's own) as a
-        :class:`loadarm.opcua.service.Snapshot` (its ``seq`` the sample's index)."""
+        :class:`loadarm.sim.snapshot.Snapshot` (its ``seq`` the sample's index)."""
         i = int(np.searchsorted(self.times, (cursor or self._cursor).cursor(), side="right")) - 1
         i = max(i, 0)
         snap = self._cache.get(i)

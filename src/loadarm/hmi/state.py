@@ -144,7 +144,7 @@ def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float) -> dict:
 
     Parameters
     ----------
-    snap : loadarm.opcua.service.Snapshot
+    snap : loadarm.sim.snapshot.Snapshot
     model : ArmModel
     alarms : list of AlarmEntry
         :meth:`AlarmBook.update` for this snapshot.

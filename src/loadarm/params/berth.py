@@ -1,9 +1,9 @@
 """The berth file: the design ship, the jetty, its moorings and fenders, and the environment (issue 12, item 1).
 
 One TOML file per berth and design ship (``examples/berths/``), read and validated at the edge like the
-installation (:mod:`loadarm.params.config`): every parameter declared once with its unit, range, default and source;
-strict types; one-line errors naming the file, the key, the value and the range. The ship-motion maths
-(:mod:`loadarm.ship`, to come) takes the validated :class:`Berth`.
+installation (:mod:`loadarm.params.declare`): every parameter declared once with its unit, range, default and
+source; strict types; one-line errors naming the file, the key, the value and the range. The ship's compiler
+(:func:`loadarm.ship.model.compile_ship`) takes the validated :class:`Berth`.
 
 Frames (SI units, angles in degrees only in keys ending ``_deg``):
 

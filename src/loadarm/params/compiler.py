@@ -1,8 +1,9 @@
 """Compile a validated installation into the :class:`~loadarm.arm.model.ArmModel` (the edge between files and maths).
 
 Only the edges (CLI, report, scenario loading, docs) call :func:`compile_model`; everything downstream takes
-the model. The parameter records are generated from the declarations in :mod:`loadarm.params.config` (same section
-and key names), so each parameter is still declared exactly once, with its unit, range and source, there.
+the model. The parameter records are generated from the declarations in :mod:`loadarm.params.sections` (same section
+and key names, their declared types), so each parameter is still declared exactly once, with its unit, range and
+source, there.
 """
 
 from __future__ import annotations

@@ -1,9 +1,10 @@
 """Installation configuration: one TOML file describes one arm at one berth.
 
-Every physical parameter is declared exactly once, here, with its unit, its
-valid range, a default (or, for customer data that must be given, the paper's
-example value) and the source of that value. :func:`parameter_table` turns the
-declarations into the table printed in ``docs/configuration.md``.
+Every physical parameter is declared exactly once, in :mod:`loadarm.params.sections`,
+with its unit, its valid range, a default (or, for customer data that must be given,
+the paper's example value) and the source of that value; here the sections make the
+:class:`Installation`, and :func:`parameter_table` turns the declarations into the
+table printed in ``docs/configuration.md``.
 
 Lengths are metres, speeds m/s, accelerations m/s^2, voltages V. Angles are
 degrees in the file only, in keys ending ``_deg``; the rest of loadarm works in

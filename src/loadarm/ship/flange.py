@@ -168,7 +168,7 @@ def flange_motion(sc: Scenario, ship=None) -> FlangeMotion | MooredFlangeMotion:
     sc : Scenario
         The scenario (ship, waves, drift, seed).
     ship : ShipModel, optional
-        For ``model = "moored"``: the berth's ship, compiled (:func:`loadarm.params.scenario.moored_ship`
+        For ``model = "moored"``: the berth's ship, compiled (:func:`loadarm.ship.model.moored_ship`
         reads and compiles the scenario's berth file).
 
     Returns
@@ -177,7 +177,7 @@ def flange_motion(sc: Scenario, ship=None) -> FlangeMotion | MooredFlangeMotion:
     """
     if sc.ship.model == "moored":
         if ship is None:
-            raise ValueError("a moored scenario needs its ship: loadarm.params.scenario.moored_ship(scenario)")
+            raise ValueError("a moored scenario needs its ship: loadarm.ship.model.moored_ship(scenario)")
         return _moored(sc, ship)
     rng = np.random.default_rng(sc.scenario.seed)
     wv = sc.waves

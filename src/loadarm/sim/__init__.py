@@ -1,2 +1,5 @@
-"""The simulated world around the controller: the scripted operator, the simulated arm and its angle sensors, the ERS
-valves and their faults, the flange sensor's readings, the closed loop and its :class:`RunResult`."""
+"""The simulated world around the controller and the closed loop: the scripted operator, the simulated arm, its
+angle sensors and the ERS valves with their faults (``world``), the flange sensor's readings (``sensors``), the run
+compiled once (``spec``: :class:`~loadarm.sim.spec.RunSpec`), the closed loop (``loop``), its verdict (``result``:
+:class:`~loadarm.sim.result.RunResult`), one cycle's state for the screen and its replay (``snapshot``), the
+overstretch look-ahead and the clearance watch (``limits``) and the run's figures (``plots``)."""

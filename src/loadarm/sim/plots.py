@@ -92,7 +92,7 @@ def run_timeline_figure(result) -> Figure:
 
     Parameters
     ----------
-    result : loadarm.sim.loop.RunResult
+    result : loadarm.sim.result.RunResult
         The run (it carries its own thresholds).
 
     Returns

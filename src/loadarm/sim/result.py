@@ -61,7 +61,7 @@ class RunResult(Result):
         Scenario name.
     signals : dict of str to ndarray
         ``t, mode (index into MODES), phi, alpha, beta, x, y, z, fx, fy, fz, ex, ey, ez, healthy, distance,
-        severity`` (:class:`loadarm.arm.alarms.Severity` of the connected mode), ``level`` (connected-mode alarm
+        severity`` (:class:`loadarm.vocab.Severity` of the connected mode), ``level`` (connected-mode alarm
         level), ``ttl`` (forecast time to the nearest face, s; NaN when none in sight), ``connected`` at every
         guidance cycle.
     events : list of tuple
@@ -77,7 +77,7 @@ class RunResult(Result):
         arm still attached would be overstretched), s: in the run or on the flange's trajectory up to
         ``LIMIT_LOOKAHEAD`` s after it.
     limit_face : str
-        That face (:data:`loadarm.arm.faces.FACES`).
+        That face (:data:`loadarm.vocab.FACES`).
     """
 
     name: str

@@ -38,7 +38,7 @@ def state_sample(cmd, q, estimate, distance: float, ers_valves_closed: bool, ala
 
     Parameters
     ----------
-    cmd : loadarm.guidance.controller.Command
+    cmd : loadarm.guidance.modes.Command
         The cycle's command.
     q : sequence of float
         Slew, alpha, beta at the cycle, rad.
@@ -128,7 +128,7 @@ class Snapshot:
     distance : float
         Coupler to the flange, m (the simulated plant's flange, as the run records it).
     level : int
-        Connected-mode alarm level (:class:`loadarm.arm.alarms.Severity`).
+        Connected-mode alarm level (:class:`loadarm.vocab.Severity`).
     time_to_limit : float
         s (inf: none in sight).
     connected, esd, release, coupler_open, ers_valves_closed : bool
@@ -143,7 +143,7 @@ class Snapshot:
     cylinders : tuple of float
         Both cylinders' pin-to-pin lengths, m.
     margins : dict of str to float
-        Margin to each face of the envelope (:data:`loadarm.arm.faces.FACES`), rad (NaN: out of reach).
+        Margin to each face of the envelope (:data:`loadarm.vocab.FACES`), rad (NaN: out of reach).
     flange_velocity : tuple of float
         The estimate's velocity, m/s.
     pressures : tuple of float

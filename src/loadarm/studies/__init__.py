@@ -1,1 +1,3 @@
-"""Studies over many sea states: metocean records, the batched operability kernel, its distribution on Dask."""
+"""Studies over many runs and sea states: campaigns over seeds and draws (``campaign``), metocean records
+(``metocean``), the compiled monitor of one flange record (``kernel``), operability over years on Dask
+(``operability``, its workers' start in ``_worker``), the Dask edge (``cluster``) and their figures (``plots``)."""

@@ -299,7 +299,7 @@ class RecordMonitor:
     Attributes
     ----------
     stage : int
-        Most severe alarm stage (:class:`loadarm.arm.alarms.Severity`).
+        Most severe alarm stage (:class:`loadarm.vocab.Severity`).
     esd1_s, release_s : float
         When ESD-1 and the release fired (NaN: never).
     max_beta_deg, max_slew_deg : float

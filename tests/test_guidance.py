@@ -1200,3 +1200,25 @@ def test_the_controller_takes_the_compiled_guidance_record_not_the_file_section(
     with pytest.raises(dataclasses.FrozenInstanceError):
         rec.rate = 1.0
     assert GuidanceController(model, rec).dt_nominal == 1.0 / g.rate
+
+
+def test_warming_up_the_plant_changes_nothing_of_the_run():
+    """Found (issue 26, CI on a fresh clone): `loadarm serve`'s first cycle compiled the hydraulic plant for
+    seconds, late on the clock and deaf to a Ctrl-C. The loop now compiles it before its clock starts, on a copy
+    of the servo's state that is put back: the run is the same, bit for bit."""
+    from loadarm.sim.loop import ClosedLoop
+
+    sc, model = load_scenario("examples/scenarios/driftoff.toml")
+    d = sc.model_dump()
+    d["scenario"]["duration"] = 20.0
+    sc = sc.model_validate(d)
+    runs = []
+    for warm in (True, False):
+        loop = ClosedLoop(sc, model)
+        if warm:
+            loop.warm_up()
+        for k in range(loop.n):
+            loop.cycle(k)
+        runs.append(loop.result().signals)
+    assert runs[0].keys() == runs[1].keys()
+    assert all(np.array_equal(runs[0][s], runs[1][s], equal_nan=True) for s in runs[0])

@@ -124,6 +124,7 @@ def serve(
     try:
         loop = ClosedLoop(sc, model, log=log, scripted=scripted, io=link, continuous=scenario is None,
                           ship=spec.ship)
+        loop.warm_up()                      # compiled before the clock starts and before "Ctrl-C stops"
         service = GuidanceService(loop, speedup=speedup)
         server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)
         server.start()
@@ -147,6 +148,8 @@ def serve(
     snap = None if service is None else service.snapshot()
     if snap is not None:
         out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")
+    elif service is not None:               # a Ctrl-C before the first cycle (found: it said nothing)
+        out.print("stopped at t = 0.0 s, before the first cycle; 0 late cycles")
     if interrupted:
         raise KeyboardInterrupt
 

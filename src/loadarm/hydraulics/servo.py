@@ -107,6 +107,16 @@ class HydraulicArm:
         self.q_ref = np.array([a1, b1])
         return self.joints
 
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) the 1 kHz plant now, before a real-time loop starts its clock: one
+        hold step on the state, which is then put back as it was. Found (issue 26, CI on a fresh clone): the first
+        cycle of ``loadarm serve`` compiled the plant for seconds, late on the clock and deaf to Ctrl-C."""
+        y, c, q_ref = self.state.y.copy(), self.state.c.copy(), self.q_ref.copy()
+        try:
+            self.step(self.dt, (0.0, 0.0))
+        finally:
+            self.state.y[:], self.state.c[:], self.q_ref = y, c, q_ref
+
     def _refs(self, a: float, b: float, wa: float, wb: float) -> tuple[float, ...]:
         """Cylinder lengths, speeds and static holding forces at one pose (scalar, fast)."""
         r1, r2, h1, h2 = plant._geometry(self.P, a, b)

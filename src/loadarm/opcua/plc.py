@@ -176,7 +176,9 @@ class PlcSimulator:
     def run(self) -> None:
         """Every cycle of the scenario on the clock, until the end or :meth:`stop`. The clock starts with the
         controller's first heartbeat (the scenario's time 0 is the same on both sides of the link); until then
-        the PLC publishes the arm at rest, its watchdog tripped."""
+        the PLC publishes the arm at rest, its watchdog tripped. The arm's plant is compiled first (on time from
+        its first cycle)."""
+        self.plant.warm_up()
         while self.outputs["ControllerHeartbeat"] == 0 and not self._stop.is_set():
             self._publish(0, 0.0, self.plant.q, [], True)
             self.sleep(self.dt / self.speedup)

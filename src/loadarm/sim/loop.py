@@ -181,6 +181,10 @@ class SimulatedPlant:
     def overstretched(self) -> float | None:
         return self.arm.overstretched
 
+    def warm_up(self) -> None:
+        """Compile the arm's plant before a real-time run starts its clock (:meth:`ArmPlant.warm_up`)."""
+        self.arm.warm_up()
+
     def arrived(self, now: float):
         """The sensor readings that have arrived by ``now`` since the last call: ``(t_meas, (x, y, z))``."""
         r, out = self.readings, []
@@ -267,6 +271,13 @@ class ClosedLoop:
         self.cycle_us = np.full(self.n, np.nan)
         self.estimate = None
         self._ir = 0
+
+    def warm_up(self) -> None:
+        """Compile what the cycles call before a real-time run starts its clock (the plant's, if it has one to
+        compile: a PLC link has none): a real-time loop is then on time from its first cycle."""
+        warm = getattr(self.io, "warm_up", None)
+        if warm is not None:
+            warm()
 
     def time(self, k: int) -> float:
         """The time of cycle ``k``, s (a Python float: numpy scalars make every scalar operation slower)."""

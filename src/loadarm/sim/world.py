@@ -141,6 +141,12 @@ class ArmPlant:
                                                   acc.polytropic_index) - acc.required_volume
         self.overstretched: float | None = None
 
+    def warm_up(self) -> None:
+        """Compile the hydraulic servos (if any) before a real-time run (:meth:`HydraulicArm.warm_up`)."""
+        for servo in (self.servo, self.servo_full):
+            if servo is not None:
+                servo.warm_up()
+
     def step(self, now: float, dt: float, cmd, f: np.ndarray) -> np.ndarray:
         """Advance one guidance cycle.
 

@@ -306,6 +306,7 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
     """What a new user runs: ``loadarm serve --scenario driftoff.toml --hmi 127.0.0.1:PORT`` in its own process;
     the page, its assets and a login answer on that port, and Ctrl-C (SIGINT) stops it (exit 130, the
     shell's code for an interrupt, after stopping both servers and saying where the controller stopped)."""
+    import os
     import signal
     import subprocess
     import sys
@@ -320,7 +321,7 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
     proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "serve", "--scenario", SCENARIO, "--state-dir",
                              str(st.path), "--endpoint", f"opc.tcp://127.0.0.1:{opc}", "--hmi", f"127.0.0.1:{port}",
                              "--db", str(tmp_path / "events.db"), "--scripted"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONFAULTHANDLER": "1"})
     try:
         line = proc.stdout.readline()
         assert f"operator's screen on http://127.0.0.1:{port}/" in line, line + proc.stderr.read()
@@ -341,9 +342,14 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
         proc.send_signal(signal.SIGINT)
         try:
             code = proc.wait(15)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            raise
+        except subprocess.TimeoutExpired:      # where it hangs: faulthandler dumps every thread on SIGABRT
+            proc.send_signal(signal.SIGABRT)
+            try:
+                proc.wait(10)
+            finally:
+                proc.kill()
+            raise AssertionError("serve did not stop within 15 s of Ctrl-C; its threads:\n"
+                                 + proc.stderr.read()[-8000:]) from None
     rest, err = proc.stdout.read(), proc.stderr.read()
     assert code == 130, err
     assert "stopped at t = " in rest and " late cycles" in rest, rest + err

@@ -138,7 +138,7 @@ def serve(
         finally:
             if screen is not None:
                 screen.stop()
-            server.stop()
+            server.stop(timeout=5.0)          # bounded: a Ctrl-C ends the process within seconds
     except KeyboardInterrupt:   # the documented way to stop (found: a Ctrl-C just after the line that says so, before
         interrupted = True      # the loop's own handler, left no "stopped at" line): say where, then exit 130
     finally:

@@ -27,6 +27,9 @@ __all__ = ["COMMANDS", "FRAME_RATE", "create_app", "HmiServer", "parse_hmi_addre
 
 #: Frames per second pushed to each screen (at most: a frame goes only when the controller has a new cycle).
 FRAME_RATE = 20.0
+#: On stop, open connections (a screen's WebSocket) get this long to close, s; then they are cut (a Ctrl-C of
+#: ``loadarm serve`` ends the process within seconds, whatever a browser does).
+STOP_GRACE = 2.0
 #: A frame is sent at least this often even if the controller's cycle did not change, s (the page's own
 #: watchdog then tells a stalled controller from a dropped link by the sequence number).
 KEEPALIVE = 0.25
@@ -379,7 +382,8 @@ class HmiServer:
         sock.listen(64)
         self.port = sock.getsockname()[1]
         self._server = uvicorn.Server(uvicorn.Config(self.app, log_level="warning", lifespan="off",
-                                                     ws="websockets-sansio", access_log=False))
+                                                     ws="websockets-sansio", access_log=False,
+                                                     timeout_graceful_shutdown=STOP_GRACE))
         started = threading.Event()
 
         def run():
@@ -404,8 +408,10 @@ class HmiServer:
         if self.error is not None:
             raise self.error
 
-    def stop(self) -> None:
+    def stop(self, timeout: float = 2 * STOP_GRACE) -> None:
+        """Stop serving: open connections get :data:`STOP_GRACE` s to finish, the thread ``timeout`` s to end (a
+        daemon: the process does not wait for it longer)."""
         if self._server is not None:
             self._server.should_exit = True
         if self._thread is not None:
-            self._thread.join(10)
+            self._thread.join(timeout)

@@ -321,7 +321,10 @@ def test_serve_with_hmi_from_the_command_line_serves_the_page_and_a_login(tmp_pa
     proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "serve", "--scenario", SCENARIO, "--state-dir",
                              str(st.path), "--endpoint", f"opc.tcp://127.0.0.1:{opc}", "--hmi", f"127.0.0.1:{port}",
                              "--db", str(tmp_path / "events.db"), "--scripted"], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONFAULTHANDLER": "1"})
+                            stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONFAULTHANDLER": "1"},
+                            # found in CI: a child of a test worker inherits SIGINT ignored, and serve never
+                            # stopped; it now installs its own handler, and this test starts it that way
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
     try:
         line = proc.stdout.readline()
         assert f"operator's screen on http://127.0.0.1:{port}/" in line, line + proc.stderr.read()

@@ -5,6 +5,7 @@ screen.
 from __future__ import annotations
 
 import math
+import signal
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
@@ -37,6 +38,14 @@ def _check_endpoint(name: str, value: str) -> None:
     url = urlparse(value)
     if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
         raise UserError(f"{name} must be opc.tcp://HOST:PORT, got {value!r}")
+
+
+def _stop_on_signals() -> None:
+    """Ctrl-C (SIGINT) and SIGTERM stop a long-running command, whatever the process inherited. Found (issue 26,
+    CI): a process started with SIGINT ignored (a test runner's worker, a shell's background job) kept ignoring
+    it, and ``serve`` never stopped on the Ctrl-C it promises."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
 
 
 def _realtime_scenario(scenario: Optional[Path], config: Optional[Path], speedup: float, command: str,
@@ -109,6 +118,7 @@ def serve(
     """
 
     hmi_address = _serve_arguments(endpoint, hmi, replay, plc, plc_cert, plc_password_file, scenario, scripted)
+    _stop_on_signals()
     if replay is not None:
         return _serve_replay(replay, run_id, scenario, config, state_dir, hmi_address)
     spec = _realtime_scenario(scenario, config, speedup, "serve --plc")
@@ -272,6 +282,7 @@ def plc_sim(
     """
 
     _check_endpoint("--endpoint", endpoint)
+    _stop_on_signals()
     spec = _realtime_scenario(scenario, config, speedup, "plc-sim", duration)
     sim = PlcSimulator(spec.scenario, spec.model, speedup=speedup, ship=spec.ship)
     server = PlcServer(sim, state_dir, endpoint, insecure=insecure)

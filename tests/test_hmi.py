@@ -30,6 +30,7 @@ class FakeService:
         from loadarm.vocab import ANNUNCIATED
 
         self.requests = []
+        self.notes = []
         self.seq = 0
         self.alarms = {tag: "normal" for tag in ANNUNCIATED}
         self.mode = "MANUAL"
@@ -44,8 +45,13 @@ class FakeService:
                         ers_valves_closed=False, alarms=dict(self.alarms),
                         margins={"beta_max": math.nan, "slew_pos": 0.3})
 
+    jog_speed = 0.15
+
     def request(self, req):
         self.requests.append(req)
+
+    def note(self, kind, reason, data):
+        self.notes.append((kind, reason, data))
 
     def step(self, **kw):
         for k, v in kw.items():
@@ -98,7 +104,8 @@ def test_login_sets_an_http_only_same_site_strict_cookie_and_a_csrf_token(app_en
 @pytest.mark.parametrize("body", [{"user": "alice"}, {"user": 1, "password": "x"}, "not json"])
 def test_a_malformed_login_is_a_400_not_a_traceback(app_env, body):
     c = app_env["client"]
-    r = c.post("/api/login", json=body) if isinstance(body, dict) else c.post("/api/login", content=body)
+    r = c.post("/api/login", json=body) if isinstance(body, dict) else \
+        c.post("/api/login", content=body, headers={"content-type": "application/json"})
     assert r.status_code == 400 and "user" in r.json()["detail"]
 
 

@@ -190,14 +190,14 @@ def test_an_operator_s_jog_moves_the_arm_and_is_logged_with_the_user(served):
             ns, guidance, var = await _nodes(c)
             z0 = await var("CouplerZ_m").read_value()
             for _ in range(8):                  # renewed every 0.2 s: the jog lasts 0.5 s per request
-                await guidance.call_method(ua.QualifiedName("Jog", ns), 0.0, 0.0, 0.2)
+                await guidance.call_method(ua.QualifiedName("Jog", ns), 0.0, 0.0, 0.15)   # the jog speed
                 await asyncio.sleep(0.2)
             await guidance.call_method(ua.QualifiedName("Stop", ns))
             await asyncio.sleep(0.3)
             return z0, await var("CouplerZ_m").read_value(), await var("Mode").read_value()
 
     z0, z1, mode = asyncio.run(main())
-    assert mode == "MANUAL" and z1 - z0 > 0.1            # about 1.6 s at 0.2 m/s, less the speed limits
+    assert mode == "MANUAL" and z1 - z0 > 0.1            # about 1.6 s at 0.15 m/s, less the speed limits
     ops = [e for e in served["service"].loop.events if e[2] == "operator" and e[4].get("user") == "alice"]
     assert {e[4]["action"] for e in ops} >= {"jog", "stop"}
 

@@ -256,7 +256,7 @@ def test_serve_on_a_plc_without_a_scenario_runs_on_and_an_operator_jogs_the_plc_
                 await asyncio.sleep(0.1)
             z0 = await var("CouplerZ_m").read_value()
             for _ in range(8):
-                await guidance.call_method(ua.QualifiedName("Jog", ns), 0.0, 0.0, 0.2)
+                await guidance.call_method(ua.QualifiedName("Jog", ns), 0.0, 0.0, 0.15)
                 await asyncio.sleep(0.2)
             await guidance.call_method(ua.QualifiedName("Stop", ns))
             await asyncio.sleep(0.3)

@@ -38,7 +38,7 @@ __all__ = ["Event", "EventLog", "EventLogError", "check_samples", "KINDS", "Rate
            "SCHEMA_VERSION"]
 
 #: Event kinds.
-KINDS = ("mode", "alarm", "alarm_state", "command", "interlock", "operator", "sensor", "sample", "info")
+KINDS = ("mode", "alarm", "alarm_state", "command", "interlock", "operator", "sensor", "sample", "info", "security")
 
 #: ``PRAGMA application_id`` of a loadarm log ("LARM").
 APPLICATION_ID = 0x4C41524D
@@ -366,7 +366,8 @@ def _check_file(p: Path, *, must_exist: bool) -> None:
 
 
 #: Kinds whose repeats are rate-limited; safety events (mode, alarm, command, interlock, operator) never are.
-RATE_LIMITED_KINDS = ("info", "sensor")
+#: A refused login or command (``security``) is: an attacker's thousand wrong passwords are one line and a count.
+RATE_LIMITED_KINDS = ("info", "sensor", "security")
 
 _NUMBER = re.compile(r"[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?")
 

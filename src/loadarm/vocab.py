@@ -348,6 +348,9 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("interlock.valves_confirmed", "interlock", "ERS valves confirmed closed"),
     EventCode("command.coupler_opening", "command", "ERS-2: coupler opening"),
     EventCode("command.release_complete", "command", "ERS-2 release complete"),
+    EventCode("security.login_refused", "security", "login refused"),
+    EventCode("security.login_limited", "security", "login refused: too many failures"),
+    EventCode("security.command_refused", "security", "command refused"),
 )
 #: Code to its record.
 EVENTS: dict[str, EventCode] = {e.code: e for e in EVENT_TABLE}

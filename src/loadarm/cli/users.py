@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from loadarm.cli.common import UserError, out
-from loadarm.opcua.security import Role, StateDir
+from loadarm.opcua.security import SECRET_BYTES, Role, StateDir
 
 __all__ = ["app"]
 
@@ -31,7 +31,9 @@ def user_add(
 
     r = Role.parse(role, "--role")
     if password_stdin:
-        password = sys.stdin.readline().rstrip("\n")
+        password = sys.stdin.readline(SECRET_BYTES + 2).rstrip("\n")     # bounded: never read a huge line
+        if len(password.encode()) > SECRET_BYTES:
+            raise UserError(f"--password-stdin: a password may have at most {SECRET_BYTES} bytes")
     else:
         import getpass
 

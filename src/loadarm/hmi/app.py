@@ -16,14 +16,15 @@ import time
 from collections.abc import Callable
 from importlib import resources
 from pathlib import Path
+from urllib.parse import urlsplit
 
-from loadarm.hmi.sessions import COOKIE, LoginLimiter, Sessions
+from loadarm.hmi.sessions import COOKIE, SECRET_BYTES, LoginLimiter, Sessions
 from loadarm.hmi.state import AlarmBook, frame, geometry
 from loadarm.opcua.security import StateDir
-from loadarm.opcua.service import JOG_HOLD, Request
+from loadarm.opcua.service import JOG_HOLD, Request, parse_jog
 from loadarm.vocab import COMMANDS, TAGGED_ACTIONS
 
-__all__ = ["COMMANDS", "FRAME_RATE", "create_app", "HmiServer", "parse_hmi_address"]
+__all__ = ["COMMANDS", "FRAME_RATE", "LOGIN_BODY", "create_app", "HmiServer", "parse_hmi_address", "same_origin"]
 
 #: Frames per second pushed to each screen (at most: a frame goes only when the controller has a new cycle).
 FRAME_RATE = 20.0
@@ -33,6 +34,11 @@ STOP_GRACE = 2.0
 #: A frame is sent at least this often even if the controller's cycle did not change, s (the page's own
 #: watchdog then tells a stalled controller from a dropped link by the sequence number).
 KEEPALIVE = 0.25
+
+#: The largest login request body, bytes (a user name and a password of :data:`SECRET_BYTES` each, in JSON).
+LOGIN_BODY = 4 * SECRET_BYTES
+#: The largest WebSocket message a screen may send, bytes (a command is a few hundred).
+WS_MESSAGE = 4096
 
 _CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
         "frame-ancestors 'none'; base-uri 'none'; form-action 'self'")
@@ -50,6 +56,72 @@ def _json_error(detail: str, status: int, headers: dict | None = None):
     from fastapi.responses import JSONResponse
 
     return JSONResponse({"detail": detail}, status_code=status, headers=headers)
+
+
+def same_origin(origin: str | None, host: str | None, scheme: str) -> bool:
+    """Whether a request's ``Origin`` is the server's own: the same scheme, host and port exactly (found: the
+    scheme was ignored and ``evil://HOST`` passed).
+
+    Parameters
+    ----------
+    origin : str or None
+        The ``Origin`` header.
+    host : str or None
+        The ``Host`` header.
+    scheme : str
+        The request's scheme: ``http`` or ``https`` (``ws`` and ``wss`` are taken as these).
+
+    Returns
+    -------
+    bool
+    """
+    scheme = {"ws": "http", "wss": "https"}.get(scheme, scheme)
+    default = {"http": 80, "https": 443}.get(scheme)
+    if not origin or not host or default is None:
+        return False
+    try:
+        o, h = urlsplit(origin), urlsplit(f"//{host}")
+        if o.scheme != scheme or o.path or o.query or o.fragment or o.username or o.password or h.username:
+            return False
+        return bool(o.hostname) and o.hostname == h.hostname and (o.port or default) == (h.port or default)
+    except ValueError:                                  # a port that is not one
+        return False
+
+
+class _RefusedBody(Exception):
+    def __init__(self, detail: str, status: int):
+        super().__init__(detail)
+        self.detail, self.status = detail, status
+
+
+async def _login_body(request) -> tuple[str, str]:
+    """The user and password of a login: a same-origin JSON body of at most :data:`LOGIN_BODY` bytes, read no
+    further than that (found: a cross-origin ``text/plain`` body logged in; a 5 MB password was hashed)."""
+    origin = request.headers.get("origin")
+    if origin is not None and not same_origin(origin, request.headers.get("host"), request.url.scheme):
+        raise _RefusedBody("a login must come from this screen's own origin", 403)
+    if request.headers.get("sec-fetch-site", "same-origin") not in ("same-origin", "none"):
+        raise _RefusedBody("a login must come from this screen's own origin", 403)
+    if request.headers.get("content-type", "").split(";")[0].strip().lower() != "application/json":
+        raise _RefusedBody("a login is a JSON body (Content-Type: application/json)", 415)
+    length = request.headers.get("content-length", "0")
+    if not length.isdigit() or int(length) > LOGIN_BODY:
+        raise _RefusedBody(f"a login body may not exceed {LOGIN_BODY} bytes", 413)
+    raw = bytearray()
+    async for chunk in request.stream():
+        raw += chunk
+        if len(raw) > LOGIN_BODY:
+            raise _RefusedBody(f"a login body may not exceed {LOGIN_BODY} bytes", 413)
+    try:
+        body = json.loads(raw)
+        user, password = body["user"], body["password"]
+        if not isinstance(user, str) or not isinstance(password, str):
+            raise TypeError
+    except (ValueError, KeyError, TypeError):
+        raise _RefusedBody("send {\"user\": ..., \"password\": ...}", 400) from None
+    if len(user.encode()) > SECRET_BYTES or len(password.encode()) > SECRET_BYTES:
+        raise _RefusedBody(f"a user name and a password have at most {SECRET_BYTES} bytes each", 400)
+    return user, password
 
 
 class _Screen:
@@ -71,7 +143,7 @@ class _Screen:
 
     def session_json(self, s) -> dict:
         return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": self.name,
-                "replay": self.replay,
+                "replay": self.replay, "last_seq": s.last_cmd, "jog_speed": self.service.jog_speed,
                 "commands": [] if self.replay else sorted(c for c, r in COMMANDS.items() if s.role >= r)}
 
     def get_session(self, request):
@@ -84,27 +156,32 @@ class _Screen:
         from fastapi.responses import JSONResponse
 
         try:
-            body = await request.json()
-            user, password = body["user"], body["password"]
-            if not isinstance(user, str) or not isinstance(password, str):
-                raise TypeError
-        except (ValueError, KeyError, TypeError):
-            return _json_error("send {\"user\": ..., \"password\": ...}", 400)
+            user, password = await _login_body(request)
+        except _RefusedBody as exc:
+            return _json_error(exc.detail, exc.status)
         client = request.client.host if request.client else "?"
-        wait = self.limiter.blocked(user, client)
+        wait, ticket = self.limiter.begin(user, client)      # the slot is taken before the password is checked
         if wait > 0:
+            self.note("security.login_limited", f"screen login of {user!r} from {client} refused: too many "
+                      "failed logins", user=user, client=client)
             return _json_error(f"too many failed logins: try again in {math.ceil(wait)} s", 429,
                                {"Retry-After": str(math.ceil(wait))})
         who = await asyncio.to_thread(self.users.authenticate, user, password)     # scrypt: off the event loop
         if who is None:
-            self.limiter.failed(user, client)
+            self.note("security.login_refused", f"screen login of {user!r} from {client} refused: wrong user "
+                      "name or password", user=user, client=client)
             return _json_error("wrong user name or password", 401)
-        self.limiter.succeeded(user)
+        self.limiter.succeeded(user, client, ticket)
         token, s = self.sessions.open(who.name, who.role)
         response = JSONResponse(self.session_json(s))
         response.set_cookie(COOKIE, token, httponly=True, samesite="strict", path="/",
                             secure=request.url.scheme == "https")
         return response
+
+    def note(self, code: str, reason: str, **data) -> None:
+        """A security event for the event log (the service writes it with the controller's events; a replay has
+        no log to write to)."""
+        self.service.note("security", reason, {"code": code, **data})
 
     def logout(self, request):
         from fastapi.responses import JSONResponse
@@ -153,15 +230,26 @@ class _Screen:
         return None
 
     def command(self, s, msg: dict) -> tuple[bool, str]:
-        """One command from a screen: checked (CSRF, role, arguments), then queued to the controller."""
+        """One command from a screen: checked (CSRF, sequence number, role, arguments), then queued to the
+        controller; a refusal is logged as a security event."""
+        ok, message = self._command(s, msg)
+        if not ok:
+            self.note("security.command_refused", f"screen command of {s.user} refused: {message}",
+                      user=s.user, action=str(msg.get("action"))[:64])
+        return ok, message
+
+    def _command(self, s, msg: dict) -> tuple[bool, str]:
         why = self._refusal(s, msg)
         if why:
             return False, why
+        why = s.take_seq(msg.get("seq"))
+        if why:
+            return False, f"refused: {why}"
         action = msg.get("action")
         tag = (msg.get("tag") or "") if action in TAGGED_ACTIONS else ""
         try:
-            jog = tuple(float(v) for v in msg.get("jog", (0.0, 0.0, 0.0)))
-            req = Request(action, s.user, jog if action == "jog" else (0.0, 0.0, 0.0), tag=tag)
+            jog = parse_jog(msg.get("jog"), self.service.jog_speed) if action == "jog" else (0.0, 0.0, 0.0)
+            req = Request(action, s.user, jog, tag=tag if isinstance(tag, str) else repr(tag))
         except (TypeError, ValueError) as exc:
             return False, f"refused: {exc}"
         why = self._shelving(action, tag, msg)
@@ -207,14 +295,17 @@ class _Screen:
             jogging["until"] = time.monotonic() + JOG_HOLD
         elif ok and msg.get("action") in ("stop", "estop"):
             jogging["until"] = -math.inf
-        return _reply(seq, ok, message), False
+        reply = _reply(seq, ok, message)
+        if not ok and "sequence number" in message:       # the page adopts the session's last number
+            reply = reply[:-1] + f', "last_seq": {s.last_cmd}}}'
+        return reply, False
 
     async def ws(self, websocket) -> None:
         from fastapi import WebSocketDisconnect
 
         s = self.sessions.get(websocket.cookies.get(COOKIE))
         origin, host = websocket.headers.get("origin"), websocket.headers.get("host")
-        if s is None or origin is None or origin.split("://", 1)[-1] != host:
+        if s is None or not same_origin(origin, host, websocket.url.scheme):
             await websocket.close(code=4403)          # not logged in, or a page of another origin
             return
         await websocket.accept()
@@ -225,7 +316,17 @@ class _Screen:
         try:
             ended = False
             while not ended:
-                reply, ended = self.message(s, await websocket.receive_text(), cursor, jogging, token)
+                got = await websocket.receive()
+                if got.get("type") == "websocket.disconnect":
+                    break
+                text = got.get("text")
+                if text is None:
+                    reply, ended = _reply(None, False, "refused: a command is a JSON text message"), False
+                elif len(text) > WS_MESSAGE:
+                    reply, ended = _reply(None, False, f"refused: a message may not exceed {WS_MESSAGE} "
+                                                       "characters"), False
+                else:
+                    reply, ended = self.message(s, text, cursor, jogging, token)
                 await websocket.send_text(reply)
         except WebSocketDisconnect:
             pass
@@ -383,6 +484,7 @@ class HmiServer:
         self.port = sock.getsockname()[1]
         self._server = uvicorn.Server(uvicorn.Config(self.app, log_level="warning", lifespan="off",
                                                      ws="websockets-sansio", access_log=False,
+                                                     ws_max_size=16 * WS_MESSAGE, h11_max_incomplete_event_size=16384,
                                                      timeout_graceful_shutdown=STOP_GRACE))
         started = threading.Event()
 

@@ -2,6 +2,7 @@
 once-a-second state samples as snapshots, at a cursor in run time that plays at a speed or is moved by the
 screen's time slider. Read-only: a replay takes no command."""
 
+import logging
 import math
 import threading
 import time
@@ -61,6 +62,14 @@ class ReplayService:
                      if st != "normal"}
             self._alarms.append(states)
             self._raised.append(dict(since))
+
+    #: A replay takes no command; its screen still runs the login limit.
+    jog_speed = 0.0
+
+    def note(self, kind: str, reason: str, data: dict) -> None:
+        """A security event of the replay's screen: a replay opens its log read-only and writes nothing, so the
+        event goes to Python's logging (``loadarm.hmi``) only."""
+        logging.getLogger("loadarm.hmi").warning("%s: %s", kind, reason)
 
     def new_cursor(self) -> "ReplayCursor":
         """A cursor of its own (each screen moves its own slider), at the run's start, playing at 1x."""

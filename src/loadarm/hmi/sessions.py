@@ -1,6 +1,7 @@
 """Logins and sessions of the operator's screen: the OPC UA server's users file and roles, a session token in an
 HttpOnly, SameSite=Strict cookie, a CSRF token per session that every command carries, and a limit on failed
-logins. The clock is injected (tests pass a fake)."""
+logins (:class:`loadarm.opcua.security.LoginLimiter`, the OPC UA server's too). The clock is injected (tests
+pass a fake)."""
 
 from __future__ import annotations
 
@@ -9,34 +10,47 @@ import secrets
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from loadarm.opcua.security import Role
+from loadarm.opcua.security import LOGIN_FAILURES, LOGIN_WINDOW, SECRET_BYTES, LoginLimiter, Role
 
-__all__ = ["COOKIE", "SESSION_IDLE", "LOGIN_FAILURES", "LOGIN_WINDOW", "Session", "Sessions", "LoginLimiter"]
+__all__ = ["COOKIE", "SESSION_IDLE", "LOGIN_FAILURES", "LOGIN_WINDOW", "SECRET_BYTES", "Session", "Sessions",
+           "LoginLimiter"]
 
 #: The session cookie's name.
 COOKIE = "loadarm_session"
 #: A session unused this long ends, s (a shift).
 SESSION_IDLE = 8 * 3600.0
-#: Failed logins allowed per user name and per client address in :data:`LOGIN_WINDOW`.
-LOGIN_FAILURES = 5
-#: The window of :data:`LOGIN_FAILURES`, s.
-LOGIN_WINDOW = 60.0
 
 
 @dataclass
 class Session:
-    """One logged-in user: name, role, the CSRF token the page sends with each command, last use (clock s)."""
+    """One logged-in user: name, role, the CSRF token the page sends with each command, last use (clock s), and
+    the sequence number of its last command (each command's must be higher: a captured command cannot be
+    replayed)."""
 
     user: str
     role: Role
     csrf: str
     last: float
+    last_cmd: int = 0
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
     def csrf_ok(self, token) -> bool:
         """The token is this session's (constant-time)."""
         return isinstance(token, str) and hmac.compare_digest(token.encode(), self.csrf.encode())
+
+    def take_seq(self, seq) -> str | None:
+        """Take a command's sequence number: None when it is an integer above the session's last (it becomes the
+        last), else why it is refused."""
+        if isinstance(seq, bool) or not isinstance(seq, int) or not 0 < seq < 2 ** 53:
+            return f"a command needs an integer sequence number in [1, 2^53), got {seq!r}"
+        with self._lock:
+            if seq <= self.last_cmd:
+                return (f"sequence number {seq} is not above this session's last command's ({self.last_cmd}): "
+                        "a replayed command")
+            self.last_cmd = seq
+        return None
 
 
 class Sessions:
@@ -73,40 +87,3 @@ class Sessions:
     def close(self, token: str | None) -> None:
         with self._lock:
             self._by_token.pop(token or "", None)
-
-
-class LoginLimiter:
-    """At most :data:`LOGIN_FAILURES` failed logins per user name and per client in :data:`LOGIN_WINDOW`:
-    beyond that a login is refused before its password is checked (429), until the window has passed."""
-
-    def __init__(self, *, clock: Callable[[], float] = time.monotonic, failures: int = LOGIN_FAILURES,
-                 window: float = LOGIN_WINDOW):
-        self.clock, self.failures, self.window = clock, failures, window
-        self._fails: dict[str, list[float]] = {}
-        self._lock = threading.Lock()
-
-    def _recent(self, key: str, now: float) -> list[float]:
-        kept = [t for t in self._fails.get(key, ()) if now - t < self.window]
-        self._fails[key] = kept
-        return kept
-
-    def blocked(self, user: str, client: str) -> float:
-        """Seconds until a login for ``user`` from ``client`` may be tried again (0: now)."""
-        now = self.clock()
-        with self._lock:
-            wait = 0.0
-            for key in (f"user:{user}", f"client:{client}"):
-                recent = self._recent(key, now)
-                if len(recent) >= self.failures:
-                    wait = max(wait, self.window - (now - recent[0]))
-            return wait
-
-    def failed(self, user: str, client: str) -> None:
-        now = self.clock()
-        with self._lock:
-            for key in (f"user:{user}", f"client:{client}"):
-                self._recent(key, now).append(now)
-
-    def succeeded(self, user: str) -> None:
-        with self._lock:
-            self._fails.pop(f"user:{user}", None)

@@ -24,10 +24,45 @@ from loadarm.guidance.modes import CONNECTED_MODES, OperatorInput
 from loadarm.sim.snapshot import Snapshot, snapshot, state_sample
 from loadarm.vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
 
-__all__ = ["ACTIONS", "JOG_HOLD", "Request", "GuidanceService"]
+__all__ = ["ACTIONS", "JOG_HOLD", "Request", "Note", "GuidanceService", "parse_jog"]
 
 #: How long one jog request moves the arm unless renewed, s.
 JOG_HOLD = 0.5
+
+
+def parse_jog(value, limit: float) -> tuple[float, float, float]:
+    """A jog's coupler velocity from a screen or an OPC UA client, taken strictly: three finite numbers (not
+    text, not booleans), m/s, of speed at most ``limit`` (found: ``"123"`` was jogged as (1, 2, 3) m/s, and
+    1e300 or booleans were accepted).
+
+    Parameters
+    ----------
+    value : sequence
+        ``[vx, vy, vz]``, m/s.
+    limit : float
+        The guidance's jog speed, m/s.
+
+    Returns
+    -------
+    tuple of float
+
+    Raises
+    ------
+    ValueError
+        Naming what was sent and what is allowed.
+    """
+    want = f"jog must be three numbers [vx, vy, vz] in m/s of speed at most {limit:g} m/s"
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise ValueError(f"{want}, got {str(value)[:80]!r}")
+    if any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
+        raise ValueError(f"{want}, got {str(list(value))[:80]!r}")
+    v = tuple(float(x) for x in value)
+    if not all(math.isfinite(x) for x in v):
+        raise ValueError(f"{want}, got {list(v)!r}")
+    speed = math.sqrt(sum(x * x for x in v))
+    if speed > limit * (1 + 1e-12):
+        raise ValueError(f"{want}, got {speed:.6g} m/s")
+    return v
 
 
 @dataclass(frozen=True)
@@ -61,6 +96,25 @@ class Request:
                              f"'unshelve', got {self.tag!r}")
         if self.action in ("shelve", "unshelve") and not self.tag:
             raise ValueError(f"{self.action} needs the alarm's tag")
+
+
+@dataclass(frozen=True)
+class Note:
+    """An event from outside the control thread (a refused login or command): the control thread writes it to
+    the event log with its own events, in order.
+
+    Attributes
+    ----------
+    kind : str
+        The event log's kind (:data:`loadarm.eventlog.KINDS`).
+    reason : str
+    data : dict
+        With its ``code`` (:data:`loadarm.vocab.EVENTS`).
+    """
+
+    kind: str
+    reason: str
+    data: dict
 
 
 class GuidanceService:
@@ -101,6 +155,16 @@ class GuidanceService:
     def request(self, req: Request) -> None:
         """Queue an operator request (any thread; never blocks)."""
         self._requests.put(req)
+
+    def note(self, kind: str, reason: str, data: dict) -> None:
+        """Queue an event for the log, written by the control thread at its next cycle (any thread; never
+        blocks)."""
+        self._requests.put(Note(kind, reason, dict(data)))
+
+    @property
+    def jog_speed(self) -> float:
+        """The fastest jog the guidance takes, m/s (faster requests are refused, not clamped)."""
+        return self.loop.ctrl.g.jog_speed
 
     def snapshot(self) -> Snapshot | None:
         """The latest state (None before the first cycle)."""
@@ -154,6 +218,9 @@ class GuidanceService:
                 req = self._requests.get_nowait()
             except queue.Empty:
                 break
+            if isinstance(req, Note):
+                self.loop.emit(now, self.loop.ctrl.state.mode.value, req.kind, req.reason, req.data)
+                continue
             if req.action == "jog" and req.jog == self._jog and now < self._jog_until:
                 self._jog_until = now + JOG_HOLD       # a held jog renewed: one action, logged once
                 continue

@@ -5,7 +5,6 @@
 
 const STALE_MS = 1000;          // no frame for this long: the view is greyed and says so
 const JOG_EVERY_MS = 200;       // a held jog is renewed this often (the controller drops it after 0.5 s)
-const JOG_SPEED = 0.15;         // m/s, the controller's jog speed limit
 const SHELVE_S = 300;           // the shelving an operator asks for (the server allows up to 600 s)
 const MODES = ["STORED", "APPROACH", "HOLD", "STANDOFF", "CONNECTED", "ALARM1", "ALARM2", "RELEASE",
                "RETURN", "DISCONNECT", "MANUAL", "ESTOP"];
@@ -56,6 +55,7 @@ $("logout").addEventListener("click", async () => {
 
 async function start(session) {
   hmi.session = session;
+  hmi.cmdSeq = Math.max(hmi.cmdSeq, session.last_seq || 0);   // a session's command numbers only increase
   $("login").hidden = true;
   $("screen").hidden = false;
   $("who").textContent = `${session.user} (${session.role})`;
@@ -130,6 +130,8 @@ function send(action, extra = {}) {
 }
 
 function onAck(msg) {
+  // the session's commands are numbered across its screens: another tab's may have gone first
+  if (typeof msg.last_seq === "number") { hmi.cmdSeq = Math.max(hmi.cmdSeq, msg.last_seq); }
   const p = hmi.pending.get(msg.seq);
   hmi.pending.delete(msg.seq);
   if (p && (p.action === "jog" || p.action === "seek") && msg.ok) { return; }   // renewals and drags: not news
@@ -156,7 +158,8 @@ $("ers-dialog").addEventListener("close", () => {
   if ($("ers-dialog").returnValue === "confirm") { send("ers_confirm"); }
 });
 
-function jogVector(spec) { return spec.split(",").map((v) => JOG_SPEED * Number(v)); }
+// the controller's jog speed (the session says it): a faster request is refused, never clamped
+function jogVector(spec) { return spec.split(",").map((v) => hmi.session.jog_speed * Number(v)); }
 
 function startJog(vec, button) {
   if (!hmi.session.commands.includes("jog")) { return; }

@@ -392,3 +392,239 @@ def test_fuzzed_jog_arguments_are_taken_only_as_declared(values):
         return
     assert [v.VariantType for v in variants] == [ua.VariantType.Double] * 3
     assert all(math.isfinite(x) for x in req.jog) and math.hypot(*req.jog) <= 0.15 * (1 + 1e-12)
+
+
+# ------------------------------------------------------------------------------------------ the log off the path
+
+def _lock(db, seconds=None):
+    """Another process's exclusive lock on a log (a connection of this process is another SQLite connection:
+    the same locking)."""
+    import sqlite3
+
+    con = sqlite3.connect(db, isolation_level=None, timeout=30)
+    con.execute("BEGIN EXCLUSIVE")
+    return con
+
+
+def test_a_locked_log_holds_the_events_in_memory_and_writes_them_in_order_when_it_returns(tmp_path):
+    """Found: a log locked by another process for 12 s stopped serve and run with "cannot write event (database
+    is locked)". The writer keeps the events, says the log is unavailable, and writes them all in order."""
+    from loadarm.eventlog import EventLog, LogWriter
+
+    db = tmp_path / "ev.db"
+    w = LogWriter(EventLog(db, run="r"), stall=0.5)
+    w.append(0.0, "STORED", "info", "before")
+    assert w.flush(5)
+    con = _lock(db)
+    t0 = time.monotonic()
+    for i in range(200):
+        w.append(0.01 * i, "STORED", "info", f"during {i}")
+    assert time.monotonic() - t0 < 0.5                      # append never waits for the log
+    for _ in range(300):
+        st_ = w.status()
+        if not st_.ok:
+            break
+        time.sleep(0.01)
+    assert not st_.ok and st_.pending == 200 and ("locked" in st_.error or st_.error == ""), st_
+    con.execute("ROLLBACK")
+    con.close()
+    assert w.flush(10) and w.status().ok and w.status().lost == 0
+    assert w.close() == 0
+    with EventLog.open_existing(db) as log:
+        assert [e.reason for e in log.query()] == ["before"] + [f"during {i}" for i in range(200)]
+
+
+def test_a_full_buffer_says_how_many_events_were_lost_where_they_were_lost(tmp_path):
+    from loadarm.eventlog import EventLog, LogWriter
+
+    db = tmp_path / "ev.db"
+    w = LogWriter(EventLog(db, run="r"), capacity=10)
+    con = _lock(db)
+    for i in range(25):
+        w.append(float(i), "STORED", "info", f"e{i}")
+    assert w.status().lost == 15
+    con.execute("ROLLBACK")
+    con.close()
+    assert w.flush(10)                                  # the ten kept are written; the next event has room
+    w.append(30.0, "STORED", "info", "after")
+    assert w.flush(10)
+    w.close()
+    with EventLog.open_existing(db) as log:
+        ev = log.query()
+    assert [e.reason for e in ev[:10]] == [f"e{i}" for i in range(10)]
+    assert ev[10].kind == "alarm" and ev[10].data == {"code": "fault.events_lost", "lost": 15}
+    assert ev[11].reason == "after"
+
+
+def test_serve_keeps_control_while_its_log_is_locked_and_annunciates_it(tmp_path):
+    """The controller keeps its cycles (none late by the lock), raises EVENT_LOG_FAULT while the log is locked,
+    clears it when the log returns, and every event it made is in the log, in order."""
+    from loadarm.eventlog import EventLog, LogWriter
+    from loadarm.opcua.service import GuidanceService
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import ClosedLoop
+
+    sc, model = load_scenario(SCENARIO)
+    db = tmp_path / "ev.db"
+    log = LogWriter(EventLog(db, run="serve"), stall=0.5)
+    service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=True, plant="kinematic"), speedup=4.0)
+    service.start()
+    try:
+        time.sleep(1.0)
+        seq0 = service.snapshot().seq
+        con = _lock(db)
+        seen = set()
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < 4.0:
+            seen.add(service.snapshot().alarms["EVENT_LOG_FAULT"])
+            time.sleep(0.05)
+        seq1 = service.snapshot().seq
+        con.execute("ROLLBACK")
+        con.close()
+        time.sleep(2.0)
+    finally:
+        service.stop()
+    assert service.error is None
+    assert seq1 - seq0 >= 0.9 * 4.0 * 4.0 * sc.guidance.rate            # the cycles went on at 4x
+    assert "unacknowledged" in seen
+    assert log.close(10) == 0
+    events = list(service.loop.events)
+    with EventLog.open_existing(db) as rd:
+        logged = [(e.t, e.kind, e.reason) for e in rd.query() if e.kind != "sample"]
+    assert logged == [(float(t), k, r) for t, _, k, r, _ in events]
+    codes = [d.get("code") for _, _, _, _, d in events]
+    assert "fault.event_log" in codes and "info.event_log_restored" in codes
+
+
+# ------------------------------------------------------------------------------------------ files not ours
+
+def _digest_all(db):
+    import hashlib
+
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(db.parent.iterdir())}
+
+
+def _run_db(capsys, db, *more):
+    from loadarm.cli import main
+
+    from .conftest import ROOT
+
+    code = main(["run", "-s", str(ROOT / "examples" / "scenarios" / "driftoff.toml"), "--plant", "kinematic",
+                 "--db", str(db), *more])
+    return code, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("sql, what", [("CREATE VIEW v AS SELECT 1", "the view v"),
+                                       ("PRAGMA user_version=7", "user_version 7"),
+                                       ("PRAGMA application_id=5", "application_id 0x5"),
+                                       ("CREATE TABLE events (id INTEGER PRIMARY KEY AUTOINCREMENT, run TEXT NOT "
+                                        "NULL, t REAL NOT NULL, wall TEXT NOT NULL, state TEXT NOT NULL, kind TEXT "
+                                        "NOT NULL, reason TEXT NOT NULL, data TEXT NOT NULL DEFAULT '{}'); "
+                                        "CREATE VIEW w AS SELECT 1", "the view w")])
+def test_a_foreign_sqlite_file_is_never_adopted(capsys, tmp_path, sql, what):
+    """Found: a file holding only a view, or only a user_version, was adopted: `run --db` exited 0 and the file
+    then held loadarm's table and application id beside the foreign view."""
+    import sqlite3
+
+    db = tmp_path / "v.db"
+    con = sqlite3.connect(db)
+    con.executescript(sql)
+    con.close()
+    before = _digest_all(db)
+    code, err = _run_db(capsys, db)
+    assert code == 2 and "not a loadarm event log" in err and err.count("\n") == 1, err
+    if what:
+        assert what in err
+    assert _digest_all(db) == before
+
+
+def test_a_corrupt_log_is_refused_before_a_byte_is_written(capsys, tmp_path):
+    """Found: a log with bytes 4096-8191 overwritten was refused only at the first event, its SHA-256 already
+    changed. The file is checked read-only first (identity, schema, quick_check)."""
+    from loadarm.eventlog import EventLog
+
+    db = tmp_path / "c.db"
+    with EventLog(db, run="r") as log:
+        for i in range(400):
+            log.append(float(i), "STORED", "info", f"event {i} " + "x" * 200)
+    raw = bytearray(db.read_bytes())
+    assert len(raw) > 8192
+    raw[4096:8192] = b"\xa5" * 4096
+    db.write_bytes(bytes(raw))
+    before = _digest_all(db)
+    code, err = _run_db(capsys, db)
+    assert code == 2 and str(db) in err and ("damaged" in err or "malformed" in err), err
+    assert _digest_all(db) == before
+
+
+@pytest.mark.parametrize("journal", ["wal", "delete"])
+def test_a_foreign_database_with_a_hot_journal_is_refused_untouched(capsys, tmp_path, journal):
+    """Found: a foreign database whose writer was killed (a hot -wal or -journal) was refused, but the
+    read-write open had already rolled its journal back and removed the sidecar files."""
+    import subprocess
+    import sys
+    import textwrap
+
+    db = tmp_path / "f.db"
+    writer = textwrap.dedent(f"""
+        import os, sqlite3, sys
+        con = sqlite3.connect(sys.argv[1], isolation_level=None)
+        con.execute("PRAGMA journal_mode={journal}")
+        con.execute("PRAGMA cache_size=1")
+        con.execute("CREATE TABLE foreign_data (x)")
+        con.execute("INSERT INTO foreign_data VALUES (zeroblob(50000))")
+        con.execute("BEGIN")
+        for i in range(200):
+            con.execute("INSERT INTO foreign_data VALUES (zeroblob(10000))")
+        con.execute("UPDATE foreign_data SET x = zeroblob(20000)")
+        print("ready", flush=True)
+        sys.stdin.readline()
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", writer, str(db)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            text=True)
+    assert proc.stdout.readline().strip() == "ready"
+    proc.kill()
+    proc.wait()
+    side = tmp_path / f"f.db-{'wal' if journal == 'wal' else 'journal'}"
+    assert side.is_file() and side.stat().st_size > 0
+    before = _digest_all(db)
+    code, err = _run_db(capsys, db)
+    assert code == 2 and "not a loadarm event log" in err, err
+    assert _digest_all(db) == before                  # the database and its journal, byte for byte
+
+
+def test_reading_a_log_leaves_nothing_beside_it(capsys, tmp_path):
+    """Found: `loadarm log` left -wal and -shm files beside a WAL database it only read."""
+    from loadarm.cli import main
+    from loadarm.eventlog import EventLog
+
+    db = tmp_path / "ev.db"
+    with EventLog(db, run="r") as log:
+        log.append(0.0, "STORED", "info", "one")
+    before = _digest_all(db)
+    assert main(["log", "--db", str(db)]) == 0
+    assert main(["log", "--db", str(db), "--json"]) == 0
+    capsys.readouterr()
+    assert _digest_all(db) == before
+
+
+@pytest.mark.parametrize("version", ["-5", "0", "2.0", " 2", "1e0", "x"])
+def test_a_log_with_a_schema_version_loadarm_never_writes_is_damaged(capsys, tmp_path, version):
+    """Found: schema_version = '-5' was accepted and migrated."""
+    import sqlite3
+
+    from loadarm.cli import main
+    from loadarm.eventlog import EventLog
+
+    db = tmp_path / "ev.db"
+    with EventLog(db, run="r") as log:
+        log.append(0.0, "STORED", "info", "one")
+    con = sqlite3.connect(db)
+    con.execute("UPDATE loadarm_meta SET value = ? WHERE key = 'schema_version'", (version,))
+    con.commit()
+    con.close()
+    before = _digest_all(db)
+    code, err = _run_db(capsys, db)
+    assert code == 2 and "without a readable schema version" in err, err
+    assert main(["log", "--db", str(db)]) == 2
+    assert _digest_all(db) == before

@@ -20,6 +20,7 @@ file read-only (``mode=ro``), so a query never changes it, not even its journal 
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -34,7 +35,7 @@ from typing import Any, Iterable
 
 from loadarm.errors import EventLogError
 
-__all__ = ["Event", "EventLog", "EventLogError", "check_samples", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS", "APPLICATION_ID",
+__all__ = ["Event", "EventLog", "EventLogError", "LogWriter", "LogStatus", "check_samples", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS", "APPLICATION_ID",
            "SCHEMA_VERSION"]
 
 #: Event kinds.
@@ -64,29 +65,81 @@ CREATE TABLE IF NOT EXISTS loadarm_meta (key TEXT PRIMARY KEY, value TEXT NOT NU
 
 
 def _identify(db: sqlite3.Connection, name: str) -> int:
-    """The schema version of an open database: 0 for an empty one, 1 for an old loadarm log, else its
-    ``loadarm_meta`` version; :class:`EventLogError` for anything that is not a loadarm log."""
+    """The schema version of an open database: 0 for a truly empty one (no schema object of any kind, user_version 0,
+    application_id 0), 1 for an old loadarm log, else its ``loadarm_meta`` version; :class:`EventLogError` for
+    anything that is not a loadarm log (found: a file holding only a view, or only a user_version, was adopted)."""
     app = db.execute("PRAGMA application_id").fetchone()[0]
-    tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-    tables.discard("sqlite_sequence")
+    user_version = db.execute("PRAGMA user_version").fetchone()[0]
+    objects = {(r[0], r[1]) for r in db.execute("SELECT type, name FROM sqlite_master")}
+    tables = {n for kind, n in objects if kind == "table"} - {"sqlite_sequence"}
     if app == APPLICATION_ID:
         try:
             row = db.execute("SELECT value FROM loadarm_meta WHERE key = 'schema_version'").fetchone()
-            version = int(row[0])
+            text = row[0]
+            version = int(text)
+            if not isinstance(text, str) or text != str(version) or version < 1:
+                raise ValueError
         except (sqlite3.DatabaseError, TypeError, ValueError):
-            raise EventLogError(f"{name}: a loadarm event log without a readable schema version (damaged)") from None
+            raise EventLogError(f"{name}: a loadarm event log without a readable schema version (damaged; "
+                                f"loadarm writes an integer in [1, {SCHEMA_VERSION}])") from None
         if version > SCHEMA_VERSION:
             raise EventLogError(f"{name}: an event log of schema {version}, written by a newer loadarm; this one "
                                 f"reads schema {SCHEMA_VERSION} and older")
         return version
     if app != 0:
         raise EventLogError(f"{name}: not a loadarm event log (SQLite application_id {app:#x})")
-    if not tables:
+    if not objects and user_version == 0:
         return 0
     cols = tuple(r[1] for r in db.execute("PRAGMA table_info(events)")) if "events" in tables else ()
-    if tables == {"events"} and cols == _COLUMNS:
+    schema1 = {("table", "events"), ("table", "sqlite_sequence")}
+    if objects <= schema1 and cols == _COLUMNS and user_version == 0:
         return 1
-    raise EventLogError(f"{name}: not a loadarm event log (it holds the tables {', '.join(sorted(tables))})")
+    what = ", ".join(f"the {kind} {n}" for kind, n in sorted(objects)) or f"user_version {user_version}"
+    raise EventLogError(f"{name}: not a loadarm event log (it holds {what})")
+
+
+def _inspect(path: Path) -> int:
+    """What the file at ``path`` is, read without changing a byte: its schema version (:func:`_identify`) after an
+    integrity check. A file without journal files is opened ``immutable`` (no lock, no journal, nothing written
+    beside it); one with a hot ``-wal`` or ``-journal`` (its writer was killed) is inspected on a copy, so the
+    recovery SQLite makes on opening happens to the copy (found: a foreign database's journal was rolled back and
+    removed by the open that then refused it; a corrupt log was written to before it was refused).
+
+    Raises
+    ------
+    EventLogError
+        Not a loadarm log, damaged, or of a newer schema.
+    """
+    import shutil
+    import tempfile
+
+    sidecars = [Path(f"{path}{suffix}") for suffix in ("-wal", "-journal")]
+    hot = [s for s in sidecars if s.is_file() and s.stat().st_size > 0]
+    with tempfile.TemporaryDirectory(prefix="loadarm-inspect-") as tmp:
+        if hot:
+            target = Path(tmp) / "log.db"
+            shutil.copyfile(path, target)
+            for s in hot:
+                shutil.copyfile(s, Path(f"{target}{s.name[len(path.name):]}"))
+            uri = f"file:{urllib.parse.quote(str(target))}"
+        else:
+            uri = f"file:{urllib.parse.quote(os.path.abspath(path))}?mode=ro&immutable=1"
+        try:
+            db = sqlite3.connect(uri, uri=True, isolation_level=None)
+        except sqlite3.DatabaseError as exc:
+            raise EventLogError(f"{path}: cannot open event log ({_sqlite_reason(exc)})") from None
+        try:
+            version = _identify(db, str(path))
+            if version:
+                problems = [r[0] for r in db.execute("PRAGMA quick_check(5)")]
+                if problems != ["ok"]:
+                    raise EventLogError(f"{path}: a damaged event log (SQLite's integrity check: "
+                                        f"{'; '.join(problems)[:200]})")
+            return version
+        except sqlite3.DatabaseError as exc:
+            raise EventLogError(f"{path}: cannot read event log ({_sqlite_reason(exc)})") from None
+        finally:
+            db.close()
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,13 +209,17 @@ class EventLog:
         if not memory:
             _check_file(Path(self.path), must_exist=_readonly)
             if not _readonly:
+                _check_orphans(Path(self.path))
+                if Path(self.path).is_file() and Path(self.path).stat().st_size > 0:
+                    _inspect(Path(self.path))             # read-only first: a foreign or damaged file is untouched
                 Path(self.path).parent.mkdir(parents=True, exist_ok=True)
         try:
             if _readonly:
-                uri = f"file:{urllib.parse.quote(os.path.abspath(self.path))}?mode=ro"
-                self._db = sqlite3.connect(uri, uri=True, isolation_level=None, check_same_thread=False)
+                self._db = sqlite3.connect(_read_uri(Path(self.path)), uri=True, isolation_level=None,
+                                           check_same_thread=False)
             else:
-                self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False)
+                self._db = sqlite3.connect(self.path, isolation_level=None, check_same_thread=False,
+                                           timeout=BUSY_TIMEOUT)
             self.version = _identify(self._db, self.path)
             if _readonly:
                 if self.version == 0:
@@ -228,6 +285,31 @@ class EventLog:
         except sqlite3.DatabaseError as exc:               # disk full, file removed or damaged under us
             raise EventLogError(f"{self.path}: cannot write event ({_sqlite_reason(exc)})") from None
         return int(cur.lastrowid)
+
+    def append_many(self, rows) -> None:
+        """Write events in one transaction (all or none), in order.
+
+        Parameters
+        ----------
+        rows : sequence of tuple
+            ``(t, state, kind, reason, data, wall)`` each (``wall`` ISO 8601, when the event happened).
+        """
+        if self.readonly:
+            raise EventLogError(f"{self.path}: opened read-only")
+        values = [(self.run, float(t), wall, state, kind, reason, json.dumps(data, default=float))
+                  for t, state, kind, reason, data, wall in rows]
+        try:
+            self._db.execute("BEGIN IMMEDIATE")
+            try:
+                self._db.executemany("INSERT INTO events (run, t, wall, state, kind, reason, data) "
+                                     "VALUES (?, ?, ?, ?, ?, ?, ?)", values)
+                self._db.execute("COMMIT")
+            except BaseException:
+                if self._db.in_transaction:
+                    self._db.execute("ROLLBACK")
+                raise
+        except sqlite3.DatabaseError as exc:               # locked, disk full, file removed or damaged under us
+            raise EventLogError(f"{self.path}: cannot write events ({_sqlite_reason(exc)})") from None
 
     def query(self, *, since: float | None = None, kinds: Iterable[str] | None = None,
               run: str | None = None) -> list[Event]:
@@ -320,6 +402,173 @@ class EventLog:
         return EventLog(path, _readonly=True)
 
 
+@dataclass(frozen=True, slots=True)
+class LogStatus:
+    """What a :class:`LogWriter` can say of its log at an instant.
+
+    Attributes
+    ----------
+    ok : bool
+        The log takes events as they come (False: writes fail or stall; the events wait in memory).
+    pending : int
+        Events waiting to be written.
+    lost : int
+        Events dropped because the buffer was full (0 unless the log was unavailable for long).
+    error : str
+        The last write's failure ("" when the last write succeeded).
+    written : int
+        Events written so far.
+    """
+
+    ok: bool
+    pending: int
+    lost: int
+    error: str
+    written: int
+
+
+class LogWriter:
+    """The event log off the control path: :meth:`append` queues an event and returns at once; a writer thread
+    commits the queue in order. A write that fails (the file locked by another process, a full disk) is retried
+    with a growing pause, the events kept in memory in order, so none is lost when the log returns; only a
+    buffer of ``capacity`` events overflowing loses any, and the next event written says how many.
+
+    Found: a log locked by another process for 12 s stopped ``loadarm serve`` (exit 2), its guidance, OPC UA
+    and screen with it.
+
+    Parameters
+    ----------
+    log : EventLog
+        Opened for writing (the writer owns it from now on: :meth:`close` closes it).
+    capacity : int
+        Events held in memory at most while the log is unavailable.
+    stall : float
+        The log counts as unavailable when the oldest waiting event has waited this long, s (a write that hangs
+        rather than fails).
+    clock : callable
+        Monotonic seconds (injected: tests pass a fake).
+    """
+
+    def __init__(self, log: "EventLog", *, capacity: int = 50_000, stall: float = 2.0,
+                 clock=None, retry: tuple[float, float] = (0.05, 1.0)):
+        import collections
+        import threading
+        import time
+
+        if capacity < 1:
+            raise ValueError(f"capacity must be >= 1, got {capacity!r}")
+        self.log, self.capacity, self.stall, self.retry = log, capacity, stall, retry
+        self.path, self.run = log.path, log.run
+        self.clock = clock or time.monotonic
+        self._sleep, self._now = time.sleep, time.monotonic
+        self._queue: collections.deque = collections.deque()
+        self._cv = threading.Condition()
+        self._closing = False
+        self._error, self._lost, self._written, self._noted = "", 0, 0, 0
+        self._thread = threading.Thread(target=self._work, name="loadarm-eventlog", daemon=True)
+        self._thread.start()
+
+    def append(self, t: float, state: str, kind: str, reason: str, **data: Any) -> None:
+        """Queue one event (never blocks, never raises for the log's sake; an unknown kind is a bug and raises).
+
+        Parameters
+        ----------
+        t, state, kind, reason, **data
+            As :meth:`EventLog.append`.
+        """
+        if kind not in KINDS:
+            raise EventLogError(f"event kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        wall = datetime.now(timezone.utc).isoformat(timespec="microseconds")
+        with self._cv:
+            if len(self._queue) >= self.capacity:
+                self._lost += 1
+                return
+            now = self.clock()
+            gap = self._lost - self._noted
+            if gap:                                        # where the events were lost, the log says how many
+                self._queue.append((now, (t, state, "alarm", f"{gap} events lost: the event log was unavailable "
+                                          f"and its buffer of {self.capacity} full", {"code": "fault.events_lost",
+                                                                                      "lost": gap}, wall)))
+                self._noted += gap
+            self._queue.append((now, (t, state, kind, reason, data, wall)))
+            self._cv.notify()
+
+    def status(self) -> LogStatus:
+        """The log's state now (any thread)."""
+        with self._cv:
+            pending = len(self._queue)
+            stalled = pending > 0 and self.clock() - self._queue[0][0] > self.stall
+            return LogStatus(not self._error and not stalled, pending, self._lost, self._error, self._written)
+
+    @property
+    def ok(self) -> bool:
+        """Shorthand for ``status().ok``."""
+        return self.status().ok
+
+    def flush(self, timeout: float) -> bool:
+        """Wait until every queued event is written, at most ``timeout`` s; whether they all are."""
+        end = self._now() + timeout
+        with self._cv:
+            while self._queue or self._busy:
+                left = end - self._now()
+                if left <= 0:
+                    return False
+                self._cv.wait(min(left, 0.05))
+            return True
+
+    def close(self, timeout: float = 30.0) -> int:
+        """Write what is queued (waiting at most ``timeout`` s for an unavailable log), stop the thread and close
+        the log; the number of events that could not be written (0: none lost)."""
+        self.flush(timeout)
+        with self._cv:
+            self._closing = True
+            unwritten = len(self._queue) + self._lost
+            self._cv.notify_all()
+        self._thread.join(max(1.0, 2 * BUSY_TIMEOUT))
+        if not self._thread.is_alive():
+            self.log.close()
+        return unwritten
+
+    def __enter__(self) -> "LogWriter":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    _busy = False
+    #: Events committed in one transaction at most (a backlog is written in batches: one fsync each).
+    BATCH = 256
+
+    def _work(self) -> None:
+        """The writer thread: the queue's head written (a batch of it when it has grown), then removed; a failure
+        retried after a growing pause, the events kept in order."""
+        pause = self.retry[0]
+        while True:
+            with self._cv:
+                while not self._queue and not self._closing:
+                    self._cv.wait()
+                if self._closing:
+                    return
+                batch = [item for _, item in itertools.islice(self._queue, self.BATCH)]
+                self._busy = True
+            try:
+                self.log.append_many(batch)
+            except EventLogError as exc:
+                with self._cv:
+                    self._busy, self._error = False, str(exc)
+                    self._cv.notify_all()
+                self._sleep(pause)
+                pause = min(2 * pause, self.retry[1])
+                continue
+            pause = self.retry[0]
+            with self._cv:
+                for _ in batch:
+                    self._queue.popleft()
+                self._written += len(batch)
+                self._error, self._busy = "", False
+                self._cv.notify_all()
+
+
 def check_samples(samples, keys, modes) -> None:
     """Refuse a damaged or hand-edited state sample before it is replayed: its state must be one of ``modes``
     and each of ``keys`` a finite number (found: a KeyError from a hand-edited log).
@@ -364,6 +613,28 @@ def _check_file(p: Path, *, must_exist: bool) -> None:
     if not stat.S_ISREG(st.st_mode):
         raise EventLogError(f"{p}: an event log must be a regular file")
 
+
+def _check_orphans(p: Path) -> None:
+    """Journal files beside a missing or empty database are someone's unfinished writes: never adopted."""
+    if p.is_file() and p.stat().st_size > 0:
+        return
+    for suffix in ("-wal", "-journal"):
+        side = Path(f"{p}{suffix}")
+        if side.is_file() and side.stat().st_size > 0:
+            raise EventLogError(f"{p}: {'missing' if not p.exists() else 'empty'}, but {side.name} beside it holds "
+                                "unfinished writes; not an event log loadarm will start")
+
+
+def _read_uri(p: Path) -> str:
+    """The URI a reader opens a log with: ``immutable`` when no writer has it open (no ``-wal``: nothing is
+    created beside it, found: ``loadarm log`` left ``-wal`` and ``-shm`` files), else read-only through the
+    writer's WAL (a live log: its latest events)."""
+    live = Path(f"{p}-wal").exists()
+    return f"file:{urllib.parse.quote(os.path.abspath(p))}?mode=ro" + ("" if live else "&immutable=1")
+
+
+#: How long a write waits for another connection's lock before it fails (and the writer retries), s.
+BUSY_TIMEOUT = 1.0
 
 #: Kinds whose repeats are rate-limited; safety events (mode, alarm, command, interlock, operator) never are.
 #: A refused login or command (``security``) is: an attacker's thousand wrong passwords are one line and a count.

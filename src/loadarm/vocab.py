@@ -51,7 +51,7 @@ class Severity(enum.IntEnum):
 
 
 __all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "FACES", "FACE_LABELS", "FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
-           "CONDITION_SEVERITY", "CONDITION_TEXT", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
+           "CONDITION_SEVERITY", "CONDITION_TEXT", "RESET_BLOCKING", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
            "EVENTS", "STAGE_EVENT", "event_label", "alarm_label"]
 
@@ -141,12 +141,16 @@ class Condition:
         OPC UA severity, 1-1000 (the ISA-18.2 priority follows from it: :func:`priority`).
     text : str
         What it means, for the condition's message and the screen's alarm list.
+    blocks_reset : bool
+        An ESD-1 reset waits until it is cleared and acknowledged (False: it says nothing of the arm's safety,
+        e.g. the event log).
     """
 
     tag: str
     stage: Severity | None
     severity: int
     text: str
+    blocks_reset: bool = True
 
     @property
     def priority(self) -> tuple[int, str]:
@@ -166,6 +170,8 @@ CONDITIONS: tuple[Condition, ...] = (
     Condition("ERS_VALVE_FAULT", None, 800, "ERS valves not confirmed closed in time"),
     Condition("ERS_SWITCH_FAULT", None, 800, "ERS valves' closed limit switches disagree"),
     Condition("SENSOR_FAULT", None, 800, "a joint-angle sensor is frozen, drifting or failed"),
+    Condition("EVENT_LOG_FAULT", None, 500, "event log unavailable: events kept in memory until it returns",
+              blocks_reset=False),
 )
 _BY_TAG = {c.tag: c for c in CONDITIONS}
 #: The annunciated alarms' tags.
@@ -174,6 +180,8 @@ ANNUNCIATED: tuple[str, ...] = tuple(c.tag for c in CONDITIONS)
 CONDITION_SEVERITY: dict[str, int] = {c.tag: c.severity for c in CONDITIONS}
 #: What each annunciated alarm means.
 CONDITION_TEXT: dict[str, str] = {c.tag: c.text for c in CONDITIONS}
+#: The alarms an ESD-1 reset waits for.
+RESET_BLOCKING: tuple[str, ...] = tuple(c.tag for c in CONDITIONS if c.blocks_reset)
 
 
 def priority(tag: str) -> tuple[int, str]:
@@ -345,6 +353,9 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("fault.overstretched", "alarm", "ARM OVERSTRETCHED"),
     EventCode("fault.servo", "alarm", "hydraulic servo fault"),
     EventCode("fault.not_clear", "alarm", "coupler not clear of the ship's manifold"),
+    EventCode("fault.event_log", "alarm", "EVENT LOG UNAVAILABLE"),
+    EventCode("fault.events_lost", "alarm", "events lost"),
+    EventCode("info.event_log_restored", "info", "event log restored"),
     EventCode("interlock.valves_confirmed", "interlock", "ERS valves confirmed closed"),
     EventCode("command.coupler_opening", "command", "ERS-2: coupler opening"),
     EventCode("command.release_complete", "command", "ERS-2 release complete"),

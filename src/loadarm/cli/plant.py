@@ -14,7 +14,7 @@ from typing import Annotated, Optional
 import typer
 
 from loadarm.cli.common import ForceOpt, UserError, check_outputs, latest_run, out, read_model
-from loadarm.eventlog import EventLog
+from loadarm.eventlog import EventLog, LogWriter
 from loadarm.files import read_input
 from loadarm.hmi.app import HmiServer, create_app, parse_hmi_address
 from loadarm.hmi.replay import ReplayService
@@ -26,6 +26,9 @@ from loadarm.params.declare import in_range, range_text
 from loadarm.params.scenario import Scenario, ScenarioHead, check_scenario
 from loadarm.sim.loop import ClosedLoop
 from loadarm.sim.spec import RunSpec, compile_run, load_run
+
+#: On stop, ``serve`` waits this long for an unavailable event log to take the events it holds, s.
+LOG_WAIT = 10.0
 
 __all__ = ["app"]
 
@@ -130,7 +133,7 @@ def serve(
     link = None if plc is None else _plc_link(plc, plc_map, plc_password_file, state_dir, plc_user, plc_cert)
     interrupted = False
     service = None
-    log = EventLog(db, run=run_id)
+    log = LogWriter(EventLog(db, run=run_id))     # off the control path: a locked log or a full disk is an alarm
     try:
         loop = ClosedLoop(sc, model, log=log, scripted=scripted, io=link, continuous=scenario is None,
                           ship=spec.ship)
@@ -152,9 +155,12 @@ def serve(
     except KeyboardInterrupt:   # the documented way to stop (found: a Ctrl-C just after the line that says so, before
         interrupted = True      # the loop's own handler, left no "stopped at" line): say where, then exit 130
     finally:
-        log.close()
+        unwritten = log.close(timeout=LOG_WAIT)
         if link is not None:
             link.stop()
+    if unwritten:
+        out.print(f"event log {db}: {unwritten} events could not be written in {LOG_WAIT:g} s "
+                  f"({log.status().error or 'the log stalled'})")
     snap = None if service is None else service.snapshot()
     if snap is not None:
         out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")

@@ -23,7 +23,7 @@ from loadarm.cli.common import (
     print_json,
     progress_bar,
 )
-from loadarm.eventlog import EventLog, check_samples
+from loadarm.eventlog import EventLog, LogWriter, check_samples
 from loadarm.figures import save
 from loadarm.guidance.modes import MODES
 from loadarm.sim.loop import run_scenario, wall_clock_pacer
@@ -45,6 +45,8 @@ def run(
     png: Annotated[Optional[Path], typer.Option("--png", help="Timeline figure.")] = None,
     realtime: Annotated[bool, typer.Option("--realtime", help="Pace the run with the wall clock.")] = False,
     plant: Annotated[Optional[PlantKind], typer.Option(help="Arm plant (default: the scenario's).")] = None,
+    log_wait: Annotated[float, typer.Option("--log-wait", help="At the end, wait this long for an event log "
+                                                                "that is unavailable (locked, disk full), s.")] = 30.0,
     force: ForceOpt = False,
 ) -> None:
     """Run a scenario in closed loop: ship, sensor, estimator, guidance controller, arm; log every event.
@@ -61,7 +63,11 @@ def run(
     from datetime import datetime, timezone
 
     run_id = f"{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
-    log = None if no_db else EventLog(db, run=run_id)
+    if not (0 <= log_wait <= 86400):
+        raise UserError(f"--log-wait must be in [0, 86400] s, got {log_wait!r}")
+    # the log off the run's path: a log locked by another process, or a full disk, holds the events in memory
+    log = None if no_db else LogWriter(EventLog(db, run=run_id))
+    unwritten = 0
     try:
         with progress_bar() as prog:
             task = prog.add_task(f"scenario {sc.scenario.name}", total=1.0)
@@ -70,7 +76,10 @@ def run(
                                pace=wall_clock_pacer() if realtime else None)
     finally:
         if log is not None:
-            log.close()
+            unwritten = log.close(timeout=log_wait)
+    if unwritten:
+        raise UserError(f"--db {db}: {unwritten} events could not be written in {log_wait:g} s "
+                        f"({log.status().error or 'the log stalled'}); the run's result is not logged whole")
     if png is not None:
         save(res.plot(), png)
     s = res.summary()

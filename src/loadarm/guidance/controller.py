@@ -59,7 +59,7 @@ from loadarm.guidance.monitor import EnvelopeMonitor
 from loadarm.guidance.rules import SafetyRules
 from loadarm.guidance.voting import AXES, reset_votes, vote
 from loadarm.params.scenario import GuidanceSettings, check_drift_window
-from loadarm.vocab import CONDITION_TEXT, Severity, event_label
+from loadarm.vocab import CONDITION_TEXT, RESET_BLOCKING, Severity, event_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel
@@ -385,7 +385,7 @@ class GuidanceController(SafetyRules):
             why_not = f"the condition is still present ({s.level.label})"
         elif not self.alarms_clear():
             why_not = "alarms not yet cleared and acknowledged: " + ", ".join(
-                f"{k} {v.value}" for k, v in s.alarms.items() if v != AlarmState.NORMAL)
+                f"{k} {v.value}" for k, v in s.alarms.items() if v != AlarmState.NORMAL and k in RESET_BLOCKING)
         if why_not:
             self._event("info", f"reset refused: {why_not}")
             return

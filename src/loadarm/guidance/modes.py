@@ -246,6 +246,9 @@ class GuidanceState:
         Since when the ERS limit switches disagree, s.
     switch_fault : bool
         They have disagreed longer than :data:`ERS_SWITCH_DISCREPANCY` (until they agree again).
+    log_fault : bool
+        The event log is unavailable (set by the real-time loop from its log writer; annunciated as
+        ``EVENT_LOG_FAULT``, it changes nothing of the arm's control).
     votes : VoteState
         The joint-angle voter's memory.
     events : list
@@ -277,6 +280,7 @@ class GuidanceState:
     resume: Mode = Mode.APPROACH
     switches_odd_since: float | None = None
     switch_fault: bool = False
+    log_fault: bool = False
     votes: VoteState = field(default_factory=VoteState)
     events: list = field(default_factory=list)
 

@@ -29,7 +29,7 @@ from loadarm.guidance.modes import (
 )
 from loadarm.guidance.monitor import stage_leads
 from loadarm.guidance.voting import AXES
-from loadarm.vocab import ANNUNCIATED, CONDITION_TEXT, STAGE_EVENT, Severity, event_label
+from loadarm.vocab import ANNUNCIATED, CONDITION_TEXT, RESET_BLOCKING, STAGE_EVENT, Severity, event_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     pass
@@ -316,11 +316,12 @@ class SafetyRules:
         s, now = self.state, cyc.now
         level = s.level if self.attached() else Severity.NORMAL
         sensor = s.votes.status != "ok"
-        if level == Severity.NORMAL and not (s.valve_fault or s.switch_fault or sensor) and s.quiet:
+        if level == Severity.NORMAL and not (s.valve_fault or s.switch_fault or sensor or s.log_fault) and s.quiet:
             return                               # nothing present, nothing to acknowledge (all normal): fast path
         present = {"PRE_ALARM": level >= Severity.PRE_ALARM and self.seq.pre_alarm_lead > 0, "ESD1": level >= Severity.ESD1,
                    "SECOND": level >= Severity.SECOND, "RELEASE": level >= Severity.RELEASE,
-                   "ERS_VALVE_FAULT": s.valve_fault, "ERS_SWITCH_FAULT": s.switch_fault, "SENSOR_FAULT": sensor}
+                   "ERS_VALVE_FAULT": s.valve_fault, "ERS_SWITCH_FAULT": s.switch_fault, "SENSOR_FAULT": sensor,
+                   "EVENT_LOG_FAULT": s.log_fault}
         ack_all = "ack" in cyc.acts
         for tag in ANNUNCIATED:
             if present[tag]:
@@ -334,13 +335,14 @@ class SafetyRules:
         s.quiet = all(v == AlarmState.NORMAL for v in s.alarms.values())
 
     def alarms_clear(self) -> bool:
-        """Whether every annunciated alarm is back to normal (cleared and acknowledged).
+        """Whether every annunciated alarm an ESD-1 reset waits for (:data:`loadarm.vocab.RESET_BLOCKING`) is back
+        to normal (cleared and acknowledged).
 
         Returns
         -------
         bool
         """
-        return all(v == AlarmState.NORMAL for v in self.state.alarms.values())
+        return all(self.state.alarms[tag] == AlarmState.NORMAL for tag in RESET_BLOCKING)
 
     def rule_fresh_estimate(self, cyc: "Cycle") -> bool:
         """No motion without a fresh, healthy flange estimate: the cycle that sees it stale enters HOLD.

@@ -145,6 +145,7 @@ class GuidanceService:
         self._jog_until = -math.inf
         self.late = 0
         self._link_ok = True
+        self._log_ok = True
         #: Wall-clock time each mode change was published, ``[(mode, s since the epoch)]`` (the screen's
         #: latency is measured against it).
         self.mode_changes: list[tuple[str, float]] = []
@@ -194,6 +195,7 @@ class GuidanceService:
         """Run every cycle of the scenario on the clock (in the calling thread), until the end (a continuous
         loop: none) or :meth:`stop`."""
         loop = self.loop
+        watch = getattr(loop.log, "status", None)          # a LogWriter's: the log off the control path
         start = self.clock()
         for k in (itertools.count() if loop.continuous else range(loop.n)):
             if self._stop.is_set():
@@ -205,6 +207,8 @@ class GuidanceService:
             elif delay < -loop.dt / self.speedup:
                 self.late += 1
             live = self._take_requests(now)
+            if watch is not None:
+                self._watch_log(now, watch())
             ok = getattr(loop.io, "link_ok", True)
             if ok != self._link_ok:
                 live = self._link_changed(now, ok, live)
@@ -239,6 +243,23 @@ class GuidanceService:
                            data)
         jog = self._jog if now < self._jog_until else (0.0, 0.0, 0.0)
         return OperatorInput(tuple(dict.fromkeys(actions)), jog)
+
+    def _watch_log(self, now: float, status) -> None:
+        """The event log became unavailable (an alarm, ``EVENT_LOG_FAULT``; the controller goes on, its events
+        kept in memory) or came back (its events written in order)."""
+        if status.ok == self._log_ok:
+            return
+        self._log_ok = status.ok
+        self.loop.ctrl.state.log_fault = not status.ok
+        mode = self.loop.ctrl.state.mode.value
+        if status.ok:
+            self.loop.emit(now, mode, "info", f"{event_label('info.event_log_restored')}: {status.written} events "
+                           f"written in order, {status.lost} lost", {"code": "info.event_log_restored",
+                                                                      "lost": status.lost})
+        else:
+            why = status.error or "writes stalled"
+            self.loop.emit(now, mode, "alarm", f"{event_label('fault.event_log')}: {why}; {status.pending} events "
+                           "kept in memory, the controller goes on", {"code": "fault.event_log", "error": why})
 
     def _link_changed(self, now: float, ok: bool, live: OperatorInput) -> OperatorInput:
         """The PLC link died (an alarm; ESD-1 if the coupler is on the flange, else the motion stopped: manual

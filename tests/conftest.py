@@ -98,3 +98,40 @@ def mount(model):
 @pytest.fixture(scope="session")
 def paper():
     return paper_installation()
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    """loadarm's OPC UA server on an ephemeral loopback port over the drift-off scenario's simulated plant (the
+    kinematic arm: the hydraulic one's 1 kHz servo would take a core from the rest of the suite),
+    with an operator, a viewer and two trusted client certificates (the second one's logins are attacked in
+    tests/test_attack.py); stopped after the module (its real-time loop would take a core's share from the rest)."""
+    from loadarm.eventlog import EventLog
+    from loadarm.opcua.security import Role, StateDir, client_certificate
+    from loadarm.opcua.server import OpcUaServer
+    from loadarm.opcua.service import GuidanceService
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import ClosedLoop
+    from loadarm.testing.loadtest import free_port
+
+    tmp = tmp_path_factory.mktemp("plant")
+    st = StateDir(tmp / "state")
+    st.users().add("alice", Role.OPERATOR, "pw-alice")
+    st.users().add("victor", Role.VIEWER, "pw-victor")
+    st.users().add("mallory", Role.VIEWER, "pw-mallory")          # the user whose logins are attacked
+    cert, key = client_certificate(tmp, "trusted", "urn:test:client")
+    guesser = client_certificate(tmp, "guesser", "urn:test:client")
+    for c in (cert, guesser[0]):
+        st.trust(c)
+    sc, model = load_scenario(ROOT / "examples" / "scenarios" / "driftoff.toml")
+    log = EventLog(tmp / "events.db", run="serve-test")
+    service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=False, plant="kinematic"))
+    endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
+    server = OpcUaServer(service, st.path, endpoint)
+    server.start()
+    service.start()
+    yield {"endpoint": endpoint, "state": st, "cert": cert, "key": key, "guesser": guesser, "tmp": tmp,
+           "service": service}
+    service.stop()
+    server.stop()
+    log.close()

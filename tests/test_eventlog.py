@@ -164,7 +164,10 @@ def test_a_full_disk_is_one_line_at_the_end_of_the_run_and_keeps_what_was_commit
     from .conftest import ROOT
 
     db = tmp_path / "full.db"
-    scen = ROOT / "examples" / "scenarios" / "driftoff.toml"
+    scen = tmp_path / "short.toml"                 # the drift-off's first 100 s
+    scen.write_text((ROOT / "examples" / "scenarios" / "driftoff.toml").read_text()
+                    .replace("duration = 320.0", "duration = 100.0")
+                    .replace('"../paper.toml"', repr((ROOT / "examples" / "paper.toml").as_posix()).replace("'", '"')))
     r = subprocess.run([sys.executable, "-c", FULL_DISK, str(100_000), "run", "-s", str(scen), "--db", str(db),
                         "--plant", "kinematic", "--log-wait", "1"], capture_output=True, text=True, timeout=300)
     lines = r.stderr.strip().splitlines()
@@ -172,7 +175,7 @@ def test_a_full_disk_is_one_line_at_the_end_of_the_run_and_keeps_what_was_commit
     assert re.search(r"\d+ events could not be written in 1 s \(.*(too large|full)", lines[0]), lines[0]
     with EventLog.open_existing(db) as log:
         events = log.query()
-    assert len(events) >= 5 and events[0].kind == "sample"       # the WAL holds them
+    assert len(events) >= 3 and events[0].kind == "sample"       # the WAL holds them (a page or more a commit)
 
 
 @pytest.mark.skipif(not hasattr(signal, "SIGXFSZ"), reason="needs RLIMIT_FSIZE (POSIX)")

@@ -103,36 +103,6 @@ def _free_port() -> int:
     return free_port()
 
 
-@pytest.fixture(scope="module")
-def served(tmp_path_factory):
-    """loadarm's OPC UA server on an ephemeral loopback port over the drift-off scenario's simulated plant (the
-    kinematic arm: the hydraulic one's 1 kHz servo would take a core from the rest of the suite for the module),
-    with an operator, a viewer and one trusted client certificate; stopped afterwards."""
-    from loadarm.eventlog import EventLog
-    from loadarm.opcua.server import OpcUaServer
-    from loadarm.opcua.service import GuidanceService
-    from loadarm.params.scenario import load_scenario
-    from loadarm.sim.loop import ClosedLoop
-
-    tmp = tmp_path_factory.mktemp("plant")
-    st = StateDir(tmp / "state")
-    st.users().add("alice", Role.OPERATOR, "pw-alice")
-    st.users().add("victor", Role.VIEWER, "pw-victor")
-    cert, key = _client_cert(tmp, "trusted")
-    st.trust(cert)
-    sc, model = load_scenario(SCENARIO)
-    log = EventLog(tmp / "events.db", run="serve-test")
-    service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=False, plant="kinematic"))
-    endpoint = f"opc.tcp://127.0.0.1:{_free_port()}"
-    server = OpcUaServer(service, st.path, endpoint)
-    server.start()
-    service.start()
-    yield {"endpoint": endpoint, "state": st, "cert": cert, "key": key, "tmp": tmp, "service": service}
-    service.stop()
-    server.stop()
-    log.close()
-
-
 def _client(served, user=None, password=None, cert=None, key=None):
     from asyncua import Client
     from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256

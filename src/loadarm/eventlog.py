@@ -542,14 +542,14 @@ class LogWriter:
     def _work(self) -> None:
         """The writer thread: the queue's head written (a batch of it when it has grown), then removed; a failure
         retried after a growing pause, the events kept in order."""
-        pause = self.retry[0]
+        pause, size = self.retry[0], self.BATCH
         while True:
             with self._cv:
                 while not self._queue and not self._closing:
                     self._cv.wait()
                 if self._closing:
                     return
-                batch = [item for _, item in itertools.islice(self._queue, self.BATCH)]
+                batch = [item for _, item in itertools.islice(self._queue, size)]
                 self._busy = True
             try:
                 self.log.append_many(batch)
@@ -559,8 +559,9 @@ class LogWriter:
                     self._cv.notify_all()
                 self._sleep(pause)
                 pause = min(2 * pause, self.retry[1])
+                size = max(1, size // 2)          # a nearly full disk may still take a smaller transaction
                 continue
-            pause = self.retry[0]
+            pause, size = self.retry[0], min(self.BATCH, 2 * size)
             with self._cv:
                 for _ in batch:
                     self._queue.popleft()

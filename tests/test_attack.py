@@ -608,3 +608,59 @@ def test_a_log_with_a_schema_version_loadarm_never_writes_is_damaged(capsys, tmp
     assert code == 2 and "without a readable schema version" in err, err
     assert main(["log", "--db", str(db)]) == 2
     assert _digest_all(db) == before
+
+
+# ------------------------------------------------------------------------------------------ inputs read wrongly
+
+ESCAPES = "\u001b[2J\u001b]0;x\u0007\u009b\u202e"
+
+
+def test_terminal_escapes_in_user_text_are_shown_never_sent(capsys, tmp_path):
+    """Found: a scenario named "\\u001b[2J\\u001b]0;x\\u0007" was accepted, and `run`, `serve` and `log` printed
+    the escapes raw (`log` from an event's reason). Every string printed goes through loadarm.files.printable."""
+    from loadarm.cli import main
+    from loadarm.eventlog import EventLog
+
+    from .conftest import PAPER_TOML
+
+    sc = tmp_path / "esc.toml"
+    sc.write_text(f'[scenario]\ninstallation = "{PAPER_TOML.as_posix()}"\nname = {json.dumps(ESCAPES)}\n'
+                  'duration = 5.0\nplant = "kinematic"\n')
+    db = tmp_path / "ev.db"
+    assert main(["run", "-s", str(sc), "--db", str(db)]) == 0
+    with EventLog(db, run="x") as log:
+        log.append(1.0, "STORED", "info", f"a reason with {ESCAPES}")
+    assert main(["log", "--db", str(db)]) == 0
+    assert main(["log", "--db", str(db), "--json"]) == 0
+    cap = capsys.readouterr()
+    for text in (cap.out, cap.err):
+        assert not any(c in text for c in "\u001b\u0007\u009b\u202e"), repr(text[:300])
+    assert "\\x1b[2J\\x1b]0;x\\x07\\x9b\\u202e" in cap.out
+
+
+def test_every_console_path_escapes_control_characters(capsys):
+    from loadarm.cli.common import Table, err, out, progress_bar
+
+    out.print(f"name {ESCAPES}")
+    err.print(f"error {ESCAPES}")
+    t = Table(title=f"t {ESCAPES}")
+    t.add_column("c")
+    t.add_row(f"cell {ESCAPES}")
+    out.print(t)
+    with progress_bar() as prog:
+        prog.add_task(f"task {ESCAPES}", total=1)
+    cap = capsys.readouterr()
+    assert "\u001b[2J" not in cap.out + cap.err and cap.out.count("\\x1b[2J") == 3
+
+
+def test_an_empty_scenario_file_is_refused(capsys, tmp_path):
+    """Found: `run --scenario empty.toml --no-db` ran 300 s of defaults and exited 0."""
+    from loadarm.cli import main
+
+    for text in ("", "[scenario]\nname = \"x\"\n", "[ship]\nflange = [13.0, 0.0, 1.0]\n"):
+        p = tmp_path / "e.toml"
+        p.write_text(text)
+        assert main(["run", "--scenario", str(p), "--no-db"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and f"{p}: missing required key 'scenario.duration'" in err
+        assert "(0, 86400] s" in err

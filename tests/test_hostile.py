@@ -76,7 +76,7 @@ def test_rich_markup_in_names_and_paths_is_printed_as_it_is(capsys, tmp_path):
     code, out, err = run(capsys, "plan", "-c", CFG, "--csv", csv)
     assert code == 0 and f"samples written to {csv}" in out and csv.is_file()
     # the CLI's own error lines keep their brackets (found while fixing: "[start, end]" was eaten as markup)
-    bad = _scenario(tmp_path, "[sensor]\ndropouts = [[48.0, 40.0]]\n", "drop.toml")
+    bad = _scenario(tmp_path, "duration = 60.0\n[sensor]\ndropouts = [[48.0, 40.0]]\n", "drop.toml")
     refused(capsys, "run", "-s", bad, "--no-db", contains="[start, end]")
 
 

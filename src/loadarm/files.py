@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import stat
 import tempfile
 import tomllib
@@ -26,7 +27,27 @@ from typing import IO, Any
 from loadarm.errors import ConfigError, OutputError
 
 __all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "read_input", "check_depth", "atomic_path",
-           "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs", "read_toml"]
+           "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs", "read_toml", "printable"]
+
+#: Characters a terminal acts on rather than shows: C0 and C1 controls (tab and newline kept), and the invisible
+#: and bidirectional format characters that make a line read other than it is.
+_UNPRINTABLE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u200b-\u200f\u2028-\u202e\u2060-\u2069\ufeff]")
+
+
+def printable(text: str) -> str:
+    """User text made safe for a terminal: every control or format character shown as its escape (``\\x1b``),
+    never sent raw (found: a scenario named ``"\\u001b[2J"`` cleared the screen of ``run``, ``serve`` and ``log``).
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    str
+    """
+    return _UNPRINTABLE.sub(lambda m: f"\\x{ord(m.group()):02x}" if ord(m.group()) < 0x100
+                            else f"\\u{ord(m.group()):04x}", text)
 
 #: Largest input file read, bytes. An installation or scenario file is a few kilobytes.
 MAX_INPUT_BYTES = 1 << 20

@@ -14,7 +14,7 @@ from typing import Annotated, Optional
 import typer
 
 from loadarm.eventlog import KINDS
-from loadarm.files import guard_outputs
+from loadarm.files import guard_outputs, printable
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import load_config
 
@@ -43,6 +43,11 @@ class _LazyConsole:
     def __getattr__(self, name):
         return getattr(self.get(), name)
 
+    def print(self, *objects, **kwargs) -> None:
+        """Console.print with every string made :func:`loadarm.files.printable` (user text never reaches the
+        terminal raw)."""
+        self.get().print(*(printable(o) if isinstance(o, str) else o for o in objects), **kwargs)
+
 
 def escape(text: str) -> str:
     """Escape rich markup in user text (rich imported on first use)."""
@@ -52,10 +57,16 @@ def escape(text: str) -> str:
 
 
 def Table(*args, **kwargs):  # noqa: N802 - stands in for rich.table.Table
-    """A rich Table (rich imported on first use)."""
+    """A rich Table (rich imported on first use) whose title and cells are made :func:`loadarm.files.printable`."""
     from rich.table import Table as _Table
 
-    return _Table(*args, **kwargs)
+    class _Printable(_Table):
+        def add_row(self, *cells, **kw):
+            super().add_row(*(printable(c) if isinstance(c, str) else c for c in cells), **kw)
+
+    if isinstance(kwargs.get("title"), str):
+        kwargs["title"] = printable(kwargs["title"])
+    return _Printable(*args, **kwargs)
 
 
 # Markup off: user strings (scenario names, paths, log reasons) are printed as they are, never parsed ("[/x]" in a
@@ -165,8 +176,12 @@ def progress_bar():
     bad scenario in a campaign printed the bar's last state above the error)."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    return Progress(TextColumn("{task.description}", style="bold", markup=False), BarColumn(), TimeElapsedColumn(),
-                    console=err.get(), transient=True)
+    class _Printable(Progress):
+        def add_task(self, description, *args, **kwargs):
+            return super().add_task(printable(str(description)), *args, **kwargs)
+
+    return _Printable(TextColumn("{task.description}", style="bold", markup=False), BarColumn(), TimeElapsedColumn(),
+                      console=err.get(), transient=True)
 
 
 def round_floats(obj, digits: int = 12):

@@ -19,12 +19,12 @@ from loadarm.errors import ConfigError
 from loadarm.params.berth import Berth, Environment, load_berth
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import load_config, paper_installation, read_toml
-from loadarm.params.declare import format_validation_error, param, toml_values
+from loadarm.params.declare import format_validation_error, param, toml_values, valid_range_text
 
 if TYPE_CHECKING:
     from loadarm.arm.model import ArmModel
 
-__all__ = ["resolve_berth", "scenario_environment", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "GuidanceSettings", "Faults", "Scenario", "load_scenario", "read_scenario",
+__all__ = ["resolve_berth", "scenario_environment", "EnvironmentOverride", "MooringFailure", "Ship", "Waves", "Drift", "Sensor", "Operator", "Guidance", "GuidanceSettings", "Faults", "Scenario", "load_scenario", "read_scenario", "parse_scenario_file",
            "parse_scenario", "check_scenario", "check_drift_window", "check_run_size", "run_memory", "MAX_RUN_MEMORY"]
 
 
@@ -322,6 +322,37 @@ def parse_scenario(data: dict, *, source: str = "<scenario>") -> Scenario:
         raise ConfigError(msg) from None
 
 
+def parse_scenario_file(path: str | Path) -> Scenario:
+    """A scenario file read at the edge and validated (:func:`parse_scenario`); it must also say how long its run
+    is (found: an empty file ran 300 s of defaults and exited 0). A wrong value is reported before a missing key.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    Scenario
+
+    Raises
+    ------
+    ConfigError
+        Naming the file, the key and its range.
+    """
+    data = read_toml(Path(path), "scenario")
+    sc = parse_scenario(data, source=str(path))
+    _require_duration(data, path)
+    return sc
+
+
+def _require_duration(data: dict, path) -> None:
+    head = data.get("scenario")
+    if not isinstance(head, dict) or "duration" not in head:
+        raise ConfigError(f"{path}: missing required key 'scenario.duration' (simulated time, s); "
+                          f"{valid_range_text(ScenarioHead, 'duration')}: a scenario file says at least how long "
+                          "its run is, in its [scenario] table")
+
+
 def load_scenario(path: str | Path) -> tuple[Scenario, "ArmModel"]:
     """Read a scenario file and the installation it names, compiled (scenario loading is an edge).
 
@@ -361,12 +392,14 @@ def read_scenario(path: str | Path) -> tuple[Scenario, "ArmModel", Berth | None]
     berth : Berth or None
     """
     p = Path(path)
-    sc = parse_scenario(read_toml(p, "scenario"), source=str(p))
+    data = read_toml(p, "scenario")
+    sc = parse_scenario(data, source=str(p))
     inst_path = None if sc.scenario.installation is None else p.parent / sc.scenario.installation
     inst = paper_installation() if inst_path is None else load_config(inst_path)
     model = compile_model(inst, source=str(p if inst_path is None else inst_path))
     sc, berth = _resolve_berth(sc, p)
     check_scenario(sc, model, source=str(p))
+    _require_duration(data, p)                  # a wrong value or a cross-check first, a missing key last
     return sc, model, berth
 
 

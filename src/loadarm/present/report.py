@@ -50,8 +50,8 @@ from loadarm.hydraulics.plots import simulation_figure
 from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
 from loadarm.params.berth import load_berth
 from loadarm.params.compiler import compile_model
-from loadarm.params.config import Installation, paper_installation, parameter_table, read_toml
-from loadarm.params.scenario import parse_scenario, resolve_berth
+from loadarm.params.config import Installation, paper_installation, parameter_table
+from loadarm.params.scenario import parse_scenario_file, resolve_berth
 from loadarm.ship.model import compile_ship
 from loadarm.ship.summary import ship_summary
 from loadarm.sim.loop import run_scenario
@@ -277,7 +277,7 @@ class ReportData:
         out = {}
         for f in self.scenario_files:
             self._progress(f"scenario {f.stem}")
-            sc = resolve_berth(parse_scenario(read_toml(f, "scenario"), source=str(f)), f)
+            sc = resolve_berth(parse_scenario_file(f), f)
             same_berth = (sc.ship.model == "moored" and self.berth_file is not None
                           and Path(sc.ship.berth).resolve() == self.berth_file.resolve())
             out[f.stem] = run_scenario(sc, self.model, ship=self.ship if same_berth else None)

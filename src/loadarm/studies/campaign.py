@@ -37,7 +37,7 @@ from loadarm.errors import ConfigError
 from loadarm.figures import subplots
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import paper_installation, parse_config, read_toml
-from loadarm.params.scenario import Scenario, check_scenario, parse_scenario, resolve_berth
+from loadarm.params.scenario import Scenario, check_scenario, parse_scenario, parse_scenario_file, resolve_berth
 from loadarm.results import Metric, Result
 from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import run_scenario
@@ -170,7 +170,7 @@ class _Draw:
 
         # validated first, so that a malformed file is refused in one line before any key is looked up (found by
         # the fuzz suite: `scenario = 0.0` raised AttributeError)
-        inst_file = parse_scenario(self.raw, source=scenario).scenario.installation
+        inst_file = parse_scenario_file(path).scenario.installation
         self.inst_source = "installation" if inst_file is None else str(path.parent / inst_file)
         self.inst_raw = paper_installation().model_dump() if inst_file is None else read_toml(path.parent / inst_file)
 

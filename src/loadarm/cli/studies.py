@@ -22,6 +22,7 @@ from loadarm.cli.common import (
 from loadarm.figures import save
 from loadarm.results import format_rows
 from loadarm.studies.campaign import check_campaign, parse_vary, run_campaign
+from loadarm.studies.cluster import check_workers
 from loadarm.studies.operability import OperabilitySettings, run_operability
 
 __all__ = ["app"]
@@ -60,13 +61,15 @@ def operability(
     """
 
     check_outputs({"--png": png, "--out": out_file}, [config, berth, metocean], force)
-    if workers is not None and workers < 1:
-        raise UserError(f"--workers must be at least 1, got {workers}")
     if not 1 <= chunks <= 10000:
         raise UserError(f"--chunks must be in [1, 10000], got {chunks}")
+    check_workers("--workers", workers)
     settings = OperabilitySettings(duration_per_state=duration_per_state, chunks=chunks)
-    res = run_operability(config, berth, metocean, out_file, hours=hours, settings=settings, scheduler=scheduler,
-                          workers=workers, progress=not as_json, fresh=force)
+    with progress_bar() as prog:
+        task = prog.add_task("operability (Dask)", total=None)
+        res = run_operability(config, berth, metocean, out_file, hours=hours, settings=settings, scheduler=scheduler,
+                              workers=workers, fresh=force,
+                              progress=lambda done, total: prog.update(task, completed=done, total=total))
     if png is not None:
 
         save(res.plot(), png)
@@ -101,8 +104,7 @@ def campaign(
     """
 
     check_outputs({"--png": png}, [scenario], force)
-    if workers is not None and workers < 1:
-        raise UserError(f"--workers must be at least 1, got {workers}")
+    check_workers("--workers", workers)
     varied = [parse_vary(v) for v in vary or ()]
     check_campaign(scenario, seeds, vary=varied, first_seed=first_seed,       # refused before the bar starts
                    plant=None if plant is None else plant.value)

@@ -25,9 +25,8 @@ from __future__ import annotations
 
 import copy
 import math
-import os
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -41,9 +40,10 @@ from loadarm.params.scenario import Scenario, check_scenario, parse_scenario, pa
 from loadarm.results import Metric, Result
 from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import run_scenario
-from loadarm.studies.cluster import connect_scheduler
+from loadarm.studies.cluster import connect_scheduler, plan_workers
 
-__all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign"]
+__all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign",
+           "MAX_SEEDS"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -339,13 +339,19 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     ConfigError
         A bad scenario, installation or varied key (checked on the first draw before anything is spread out).
     """
-    jobs = _jobs(seeds, vary, first_seed)
+    _check_seeds(seeds, first_seed)
     scenario = str(scenario)
-    _validate(scenario, jobs[0], plant)
-    workers = max(1, os.cpu_count() or 1) if workers is None else max(1, workers)
-    batch = max(1, math.ceil(len(jobs) / (4 * workers))) if batch is None else max(1, batch)
-    chunks = [jobs[i:i + batch] for i in range(0, len(jobs), batch)]
+    _validate(scenario, _job(first_seed, vary), plant)
+    workers = plan_workers(workers, seeds)
+    batch = max(1, math.ceil(seeds / (4 * workers))) if batch is None else max(1, batch)
+    chunks = _chunks(seeds, vary, first_seed, batch)          # built one at a time, as they are submitted
     done: list[CampaignRun] = []
+
+    def report(part):
+        done.extend(part)
+        if progress is not None:
+            progress(len(done), seeds)
+
     if scheduler is not None:
         from distributed import as_completed as dask_completed
 
@@ -353,33 +359,61 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
         with connect_scheduler(scheduler) as client:
             futures = [client.submit(_run_batch, path, plant, chunk, retries=2, pure=False) for chunk in chunks]
             for fut in dask_completed(futures):
-                done.extend(fut.result())
-                if progress is not None:
-                    progress(len(done), len(jobs))
+                report(fut.result())
     elif workers == 1:
         for chunk in chunks:
-            done.extend(_run_batch(scenario, plant, chunk))
-            if progress is not None:
-                progress(len(done), len(jobs))
+            report(_run_batch(scenario, plant, chunk))
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = [pool.submit(_run_batch, scenario, plant, chunk) for chunk in chunks]
-            for fut in as_completed(futures):
-                done.extend(fut.result())
-                if progress is not None:
-                    progress(len(done), len(jobs))
+            _bounded_map(pool, lambda chunk: pool.submit(_run_batch, scenario, plant, chunk), chunks, 2 * workers,
+                         report)
     return CampaignResult(scenario, tuple(vary), tuple(sorted(done, key=lambda r: r.seed)))
 
 
+#: The most runs one campaign takes (a campaign of a hundred thousand kinematic runs takes a day on 8 cores).
+MAX_SEEDS = 100_000
+def _bounded_map(pool, submit, items, in_flight: int, report) -> None:
+    """Submit ``items`` to a process pool with at most ``in_flight`` pending, reporting each result as it comes."""
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    items = iter(items)
+    pending = set()
+    while True:
+        for item in items:
+            pending.add(submit(item))
+            if len(pending) >= in_flight:
+                break
+        if not pending:
+            return
+        finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+        for fut in finished:
+            report(fut.result())
+
+
+def _check_seeds(seeds: int, first_seed: int) -> None:
+    if not 1 <= seeds <= MAX_SEEDS:
+        raise ConfigError(f"--seeds must be in [1, {MAX_SEEDS}], got {seeds}")
+    if not 0 <= first_seed <= 2 ** 32 - 1:
+        raise ConfigError(f"--first-seed must be in [0, 4294967295], got {first_seed}")
+
+
+def _job(seed: int, vary: Sequence[Vary]) -> tuple[int, dict]:
+    """One run's seed and draws (seeded by the run's seed, so the same on any pool)."""
+    rng = np.random.default_rng([seed, 0x5EED])
+    return seed, {v.key: float(rng.uniform(v.lo, v.hi)) for v in vary}
+
+
+def _chunks(seeds: int, vary: Sequence[Vary], first_seed: int, batch: int):
+    """The campaign's batches of jobs, made as they are asked for (found: ``--seeds 1e13`` built its whole list
+    in memory first and gave no answer in a minute)."""
+    for start in range(first_seed, first_seed + seeds, batch):
+        yield [_job(seed, vary) for seed in range(start, min(start + batch, first_seed + seeds))]
+
+
 def _jobs(seeds: int, vary: Sequence[Vary], first_seed: int) -> list[tuple[int, dict]]:
-    """Each run's seed and draws (seeded by the run's seed, so the same on any pool)."""
-    if seeds < 1:
-        raise ConfigError(f"--seeds must be at least 1, got {seeds}")
-    jobs = []
-    for seed in range(first_seed, first_seed + seeds):
-        rng = np.random.default_rng([seed, 0x5EED])
-        jobs.append((seed, {v.key: float(rng.uniform(v.lo, v.hi)) for v in vary}))
-    return jobs
+    """Every run's seed and draws, in a list (for tests and small campaigns)."""
+    _check_seeds(seeds, first_seed)
+    return [_job(seed, vary) for seed in range(first_seed, first_seed + seeds)]
 
 
 def check_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (), first_seed: int = 0,
@@ -395,7 +429,8 @@ def check_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (
     ------
     ConfigError
     """
-    _validate(str(scenario), _jobs(seeds, vary, first_seed)[0], plant)
+    _check_seeds(seeds, first_seed)
+    _validate(str(scenario), _job(first_seed, vary), plant)
 
 
 def _validate(scenario: str, job: tuple[int, dict], plant: str | None) -> None:

@@ -5,9 +5,11 @@ is one line naming the option and the address (:class:`loadarm.errors.ConfigErro
 
 from __future__ import annotations
 
+import os
+
 from loadarm.errors import ConfigError
 
-__all__ = ["connect_scheduler"]
+__all__ = ["connect_scheduler", "check_scheduler", "WORKERS_PER_CORE", "max_workers", "check_workers", "plan_workers"]
 
 
 def connect_scheduler(address: str, *, timeout: float | None = None):
@@ -29,13 +31,57 @@ def connect_scheduler(address: str, *, timeout: float | None = None):
     ConfigError
         The address is malformed, or nothing answers there in time.
     """
+    import asyncio
+
     from distributed import Client
 
+    wait = _wait(timeout)
     try:
-        return Client(address) if timeout is None else Client(address, timeout=timeout)
+        asyncio.run(_handshake(address, wait))
+        return Client(address, timeout=wait)
     except (OSError, ValueError, TypeError) as exc:       # TimeoutError is an OSError
         _drop_failed_client()
         raise ConfigError(f"--scheduler {address}: no Dask scheduler reachable there ({exc})") from None
+
+
+def check_scheduler(address: str, *, timeout: float | None = None) -> None:
+    """That a Dask scheduler answers at ``address`` (its handshake, within ``timeout`` s), without a client.
+
+    Raises
+    ------
+    ConfigError
+        The address is malformed, or nothing answers there in time.
+    """
+    import asyncio
+
+    try:
+        asyncio.run(_handshake(address, _wait(timeout)))
+    except (OSError, ValueError, TypeError) as exc:
+        raise ConfigError(f"--scheduler {address}: no Dask scheduler reachable there ({exc})") from None
+
+
+def _wait(timeout: float | None) -> float:
+    import dask
+    import distributed  # noqa: F401  (registers its settings: distributed.comm.timeouts.connect)
+    from dask.utils import parse_timedelta
+
+    return parse_timedelta(dask.config.get("distributed.comm.timeouts.connect") if timeout is None else timeout,
+                           default="seconds")
+
+
+async def _handshake(address: str, wait: float) -> None:
+    """Connect and exchange Dask's handshake within ``wait`` s: Dask's own connect timeout stops at the TCP
+    connection (found: a bare listener that accepts and never answers hung ``campaign`` and ``operability`` past
+    150 s in the handshake's read)."""
+    import asyncio
+
+    from distributed.comm import connect
+
+    try:
+        comm = await asyncio.wait_for(connect(address, timeout=wait), wait)
+    except asyncio.TimeoutError:
+        raise TimeoutError(f"no Dask handshake within {wait:g} s") from None
+    await comm.close()
 
 
 def _drop_failed_client() -> None:
@@ -50,3 +96,30 @@ def _drop_failed_client() -> None:
         return
     if client.status != "running":
         client.close()
+
+
+#: Worker processes allowed per core (more only share the cores: found, --workers 100000 forked 2073 processes).
+WORKERS_PER_CORE = 4
+
+
+def max_workers() -> int:
+    """The most worker processes a study may start on this machine."""
+    return WORKERS_PER_CORE * max(1, os.cpu_count() or 1)
+
+
+def check_workers(option: str, workers: int | None) -> None:
+    """Refuse a worker count that cannot run here, in one line.
+
+    Raises
+    ------
+    ConfigError
+    """
+    if workers is not None and not 1 <= workers <= max_workers():
+        raise ConfigError(f"{option} must be in [1, {max_workers()}] ({WORKERS_PER_CORE} per core on "
+                          f"{os.cpu_count() or 1} cores), got {workers}")
+
+
+def plan_workers(workers: int | None, jobs: int) -> int:
+    """The processes a study of ``jobs`` tasks starts: ``workers`` (default every core), no more than the jobs."""
+    check_workers("--workers", workers)
+    return max(1, min(jobs, (os.cpu_count() or 1) if workers is None else workers))

@@ -17,7 +17,7 @@ A state is **down** (not operable) when the arm could not connect (the flange's 
 from __future__ import annotations
 
 import math
-import os
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -34,7 +34,7 @@ from loadarm.params.sections import Operability
 from loadarm.results import Metric, Result, Summary
 from loadarm.ship.model import compile_ship
 from loadarm.ship.motion import DT, flange_positions
-from loadarm.studies.cluster import connect_scheduler
+from loadarm.studies.cluster import check_scheduler, check_workers, connect_scheduler, plan_workers
 from loadarm.studies.kernel import floor_table, monitor_record, relative_record
 from loadarm.studies.metocean import compass_to_berth, read_metocean
 from loadarm.studies.plots import operability_figure
@@ -387,6 +387,79 @@ def _check_manifest(chunk_dir: Path, digest: str, fresh: bool) -> None:
     atomic_write(manifest, digest + "\n")
 
 
+#: A chunk whose worker is lost (killed, its connection cut, its data gone) is submitted again, at most this many
+#: times (besides Dask's own ``retries`` of a task that raised).
+RESUBMITS = 5
+
+
+def _lost(exc: BaseException) -> bool:
+    """Whether a task failed because its worker or its data was lost (not because the task itself raised)."""
+    import asyncio
+    import concurrent.futures
+
+    from distributed import KilledWorker
+    from distributed.comm import CommClosedError
+
+    return isinstance(exc, (KilledWorker, CommClosedError, asyncio.CancelledError, concurrent.futures.CancelledError))
+
+
+def gather_resilient(client, items, submit, scatter, *, progress=None, resubmits: int = RESUBMITS) -> dict:
+    """Run one task per item and gather the results; a task lost with its worker is submitted again.
+
+    Found: with a worker killed at 12 s, ``operability`` failed with ``FutureCancelledError ... lost
+    dependencies`` (1 of 2 tries): the data every task depends on was scattered to the workers, and its lost
+    replicas took the tasks with them. A loss now costs a retry of the chunks it took, never the run.
+
+    Parameters
+    ----------
+    client : distributed.Client
+    items : list of tuple
+        ``(key, ...)`` each.
+    submit : callable
+        ``submit(item, shared) -> Future``.
+    scatter : callable
+        ``scatter() -> Future`` of the data every task shares (called again after a loss).
+    progress : callable, optional
+        ``progress(done, total)``.
+    resubmits : int
+        Times a lost item may be submitted again.
+
+    Returns
+    -------
+    dict
+        Key to result.
+
+    Raises
+    ------
+    Exception
+        A task's own error, or a loss past ``resubmits``.
+    """
+    from distributed import as_completed
+
+    shared = scatter()
+    futures = {submit(item, shared): item for item in items}
+    tries: dict = {}
+    done: dict = {}
+    pending = as_completed(list(futures))
+    for fut in pending:
+        item = futures.pop(fut)
+        try:
+            done[item[0]] = fut.result()
+        except Exception as exc:
+            if not _lost(exc) or tries.get(item[0], 0) >= resubmits:
+                raise
+            tries[item[0]] = tries.get(item[0], 0) + 1
+            if shared.status != "finished":                 # its replicas went with the worker: send it again
+                shared = scatter()
+            new = submit(item, shared)
+            futures[new] = item
+            pending.add(new)
+            continue
+        if progress is not None:
+            progress(len(done), len(items))
+    return done
+
+
 def _close_client(connecting) -> None:
     """Close the client (and the local cluster it started) once it has connected, whatever happened meanwhile."""
     if connecting.exception() is not None:           # it never connected: nothing to close
@@ -400,8 +473,8 @@ def _close_client(connecting) -> None:
 
 def run_operability(config: str | Path, berth: str | Path, metocean: str | Path, out: str | Path, *,
                     hours: int | None = None, settings: OperabilitySettings = OperabilitySettings(),
-                    scheduler: str | None = None, workers: int | None = None, progress: bool = False,
-                    fresh: bool = False, ship=None):
+                    scheduler: str | None = None, workers: int | None = None,
+                    progress: Callable[[int, int], None] | None = None, fresh: bool = False, ship=None):
     """Run a record on Dask and gather the result (resuming from chunks already written).
 
     Parameters
@@ -418,8 +491,8 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
         (one single-threaded worker process per core, dashboard off, loopback).
     workers : int, optional
         Workers of the local cluster (default: every core).
-    progress : bool
-        Dask's progress bar on stderr.
+    progress : callable, optional
+        ``progress(done, total)`` after each chunk.
     fresh : bool
         Discard chunks of another run (other inputs, hours or settings) instead of refusing them.
     ship : ShipModel, optional
@@ -438,6 +511,7 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
 
     import pandas as pd
 
+    check_workers("--workers", workers)
     ds, gaps = read_metocean(metocean)
     use = np.flatnonzero(ds["usable"].values)
     if hours is not None:
@@ -460,18 +534,18 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     plan = plan_chunks(len(rows), settings.chunks)
     _check_manifest(chunk_dir, _manifest(config, berth, metocean, hours, settings, plan), fresh)
     todo = [(k, a, b) for k, (a, b) in enumerate(plan) if not (chunk_dir / f"chunk-{k:05d}.parquet").is_file()]
+    if scheduler is not None:
+        check_scheduler(scheduler)             # even when every chunk is written (found: a resume skipped it)
     done = {}
     t0 = time.perf_counter()
     n_workers = 0
     if todo:
         import contextlib
         import logging
-        import sys
         from concurrent.futures import ThreadPoolExecutor
 
         import dask
         from distributed import Client, LocalCluster
-        from distributed import progress as dask_progress
 
         # the local cluster's worker processes: one thread, numba and BLAS single-threaded, and they keep freed
         # memory (found: Dask's nanny sets MALLOC_TRIM_THRESHOLD_=65536, which also freezes glibc's mmap threshold
@@ -484,7 +558,7 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
             # table once, to send them to every worker (found: the two in turn cost a month's run 4-5 s)
             connecting = stack.enter_context(ThreadPoolExecutor(1)).submit(
                 lambda: connect_scheduler(scheduler) if scheduler is not None else Client(LocalCluster(
-                    n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                    n_workers=plan_workers(workers, len(todo)), threads_per_worker=1, processes=True,
                     dashboard_address=None, host="127.0.0.1", silence_logs=logging.CRITICAL,
                     # no dashboard, but the scheduler's health/metrics HTTP server: an ephemeral loopback port
                     # (found: it took 8787, so two studies at once collided and warned)
@@ -497,14 +571,14 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
             compiled = (model, ship, table, bf.berth.x_bearing_deg, bf.environment)
             client = connecting.result()
             n_workers = len(client.scheduler_info()["workers"])
-            [shared] = client.scatter([compiled], broadcast=True)      # one object: the tuple
-            futures = [client.submit(_chunk_task, shared, rows[a:b], settings,
+
+            def submit(item, shared):
+                k, a, b = item
+                return client.submit(_chunk_task, shared, rows[a:b], settings,
                                      str((chunk_dir / f"chunk-{k:05d}.parquet").resolve()), retries=2, pure=False)
-                       for k, a, b in todo]
-            if progress:
-                with contextlib.redirect_stdout(sys.stderr):   # Dask's text bar writes to stdout
-                    dask_progress(futures)
-            done = dict(zip((k for k, _, _ in todo), client.gather(futures)))
+
+            done = gather_resilient(client, todo, submit, lambda: client.scatter([compiled], broadcast=True)[0],
+                                    progress=progress)
     parts = [done[k] if k in done else pd.read_parquet(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
     table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(COLUMNS))
     write_parquet(table, out)

@@ -93,9 +93,10 @@ def test_era5_names_in_netcdf(tmp_path):
     import xarray as xr
 
     t = pd.date_range("2025-01-01", periods=3, freq="h")
-    one = lambda v: (("valid_time", "latitude", "longitude"), np.full((3, 1, 1), v))  # noqa: E731
-    ds = xr.Dataset({"swh": one(1.2), "pp1d": one(9.0), "mwd": one(270.0), "u10": one(-5.0), "v10": one(-5.0),
-                     "current_speed_ms": one(0.2), "current_to_deg": one(10.0), "tide_m": one(0.1)},
+    one = lambda v, u: (("valid_time", "latitude", "longitude"), np.full((3, 1, 1), v), {"units": u})  # noqa: E731
+    ds = xr.Dataset({"swh": one(1.2, "m"), "pp1d": one(9.0, "s"), "mwd": one(270.0, "Degree true"),
+                     "u10": one(-5.0, "m s**-1"), "v10": one(-5.0, "m s**-1"), "current_speed_ms": one(0.2, "m s**-1"),
+                     "current_to_deg": one(10.0, "degrees"), "tide_m": one(0.1, "m")},
                     coords={"valid_time": t, "latitude": [51.0], "longitude": [3.0]})
     p = tmp_path / "era5.nc"
     ds.to_netcdf(p)

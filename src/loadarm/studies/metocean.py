@@ -10,12 +10,17 @@ the current and the direction it goes to, the tide. Directions follow the data's
 * :func:`read_metocean` reads CSV (a ``time`` column in ISO 8601) or NetCDF (also ERA5's short names: ``swh``,
   ``pp1d``, ``mwd``, ``u10``/``v10``), checks every value against its range, and reports the gaps (missing hours,
   missing values) in a :class:`GapReport` without filling them: the study skips those hours and says so.
+  Units: a CSV column's name carries its unit (``hs_m`` in metres, ``tp_s`` in seconds, ``wind_speed_ms`` in m/s:
+  :data:`VARIABLES`); a NetCDF variable says its unit in its ``units`` attribute, converted with pint
+  (``cm``, ``ms``, ``knot``, ``Degree true``, ``m s**-1`` ...), and its time is a CF time. A missing or unknown
+  unit is refused, naming the variable.
 * :func:`synthetic_metocean` generates a seeded multi-year record with seasons and storms, for demos and tests
   (no data set can be downloaded here; ``examples/metocean/sample.csv`` is two months of it).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -211,6 +216,58 @@ def _from_era5(ds):
                       coords={"time": ds["time"].values})
 
 
+#: The unit each NetCDF variable is read in (the record's, and ERA5's short names').
+NETCDF_UNITS = {**{k: v[0] for k, v in VARIABLES.items()}, "swh": "m", "pp1d": "s", "mwd": "deg", "u10": "m/s",
+                "v10": "m/s"}
+#: Unit spellings of NetCDF files (CF, ERA5's GRIB-derived ones) that pint does not read as they are.
+UNIT_SPELLINGS = {"Degree true": "degree", "degree true": "degree", "degrees true": "degree",
+                  "degree_true": "degree", "degrees_true": "degree", "degrees": "degree", "deg": "degree",
+                  "1": "dimensionless", "~": "dimensionless", "m s**-1": "m / s", "m s-1": "m / s"}
+
+
+def _cf_time(ds, source: str):
+    """The time axis must be a CF time (decoded to datetime64: a ``units`` attribute such as ``hours since
+    2025-01-01``); found: plain numbers 0..11 without units became one state at 1970-01-01."""
+    name = "time" if "time" in ds.coords else "valid_time" if "valid_time" in ds.coords else None
+    if name is None:
+        raise _err(source, "time", "no time axis (a 'time' or 'valid_time' coordinate is needed)")
+    if not np.issubdtype(ds[name].dtype, np.datetime64):
+        raise _err(source, name, f"not a CF time: it needs a units attribute such as 'hours since 2025-01-01 "
+                                 f"00:00' (got values of type {ds[name].dtype} without one)")
+    return ds
+
+
+def _in_our_units(ds, source: str):
+    """Every variable loadarm reads, converted from its ``units`` attribute to the record's unit with pint
+    (found: ``tp_s`` in ms was taken as seconds, ``hs_m`` in cm as metres). A missing or unknown unit is refused,
+    naming the variable: a unit is never guessed."""
+    import pint
+
+    ureg = _units()
+    for var in [v for v in ds.data_vars if v in NETCDF_UNITS]:
+        unit = ds[var].attrs.get("units")
+        want = NETCDF_UNITS[var]
+        if not isinstance(unit, str):
+            raise _err(source, var, f"no 'units' attribute (loadarm reads it in {want}; a NetCDF variable says its "
+                                    "unit)")
+        try:
+            q = ureg.Quantity(np.asarray(ds[var].values, dtype=float), UNIT_SPELLINGS.get(unit.strip(), unit.strip()))
+            values = q.to(UNIT_SPELLINGS.get(want, want)).magnitude
+        except (pint.errors.PintError, ValueError, AttributeError, TypeError, AssertionError) as exc:
+            raise _err(source, var, f"units {unit!r} cannot be read as {want} ({' '.join(str(exc).split())})") \
+                from None
+        ds[var] = (ds[var].dims, values, {**ds[var].attrs, "units": want})
+    return ds
+
+
+@functools.lru_cache(maxsize=1)
+def _units():
+    """pint's unit registry (built once: it parses its definitions file)."""
+    import pint
+
+    return pint.UnitRegistry()
+
+
 def read_metocean(path: str | Path):
     """Read and validate a metocean record (CSV or NetCDF).
 
@@ -258,7 +315,7 @@ def read_metocean(path: str | Path):
                 raise MetoceanError(f"{source}: {bad[0]}: {col.iloc[k]!r} at {t.iloc[k]} is not a number")
         elif suffix in (".nc", ".nc4", ".netcdf"):
             with xr.open_dataset(p) as raw:
-                ds = _from_era5(raw.load())
+                ds = _from_era5(_in_our_units(_cf_time(raw.load(), source), source))
         else:
             raise MetoceanError(f"{source}: unknown format {suffix!r} (.csv or .nc)")
     except MetoceanError:

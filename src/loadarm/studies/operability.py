@@ -403,12 +403,19 @@ def _lost(exc: BaseException) -> bool:
     return isinstance(exc, (KilledWorker, CommClosedError, asyncio.CancelledError, concurrent.futures.CancelledError))
 
 
+def _shared(compiled):
+    """The data every chunk of a study shares, as the result of a task (Dask keeps a task's inputs: it recomputes
+    a lost result, where scattered data lost with its workers is gone)."""
+    return compiled
+
+
 def gather_resilient(client, items, submit, scatter, *, progress=None, resubmits: int = RESUBMITS) -> dict:
     """Run one task per item and gather the results; a task lost with its worker is submitted again.
 
     Found: with a worker killed at 12 s, ``operability`` failed with ``FutureCancelledError ... lost
     dependencies`` (1 of 2 tries): the data every task depends on was scattered to the workers, and its lost
-    replicas took the tasks with them. A loss now costs a retry of the chunks it took, never the run.
+    replicas took the tasks with them. The shared data is now a task's result (recomputed when lost), and a task
+    lost all the same is submitted again: a loss costs a retry of the chunks it took, never the run.
 
     Parameters
     ----------
@@ -418,7 +425,7 @@ def gather_resilient(client, items, submit, scatter, *, progress=None, resubmits
     submit : callable
         ``submit(item, shared) -> Future``.
     scatter : callable
-        ``scatter() -> Future`` of the data every task shares (called again after a loss).
+        ``scatter() -> Future`` of the data every task shares (called again when it was lost).
     progress : callable, optional
         ``progress(done, total)``.
     resubmits : int
@@ -577,7 +584,10 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
                 return client.submit(_chunk_task, shared, rows[a:b], settings,
                                      str((chunk_dir / f"chunk-{k:05d}.parquet").resolve()), retries=2, pure=False)
 
-            done = gather_resilient(client, todo, submit, lambda: client.scatter([compiled], broadcast=True)[0],
+            # the shared data as a task's result, not scattered data: a task the scheduler can run again when the
+            # workers holding it are lost (found: scattered data lost with its workers cancelled the chunks
+            # waiting on it, or left them waiting for ever)
+            done = gather_resilient(client, todo, submit, lambda: client.submit(_shared, compiled, pure=False),
                                     progress=progress)
     parts = [done[k] if k in done else pd.read_parquet(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
     table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(COLUMNS))

@@ -866,3 +866,190 @@ def test_chaos_workers_killed_at_random_moments_change_nothing_in_the_result(tmp
             except ProcessLookupError:
                 pass
             p.wait(timeout=30)
+
+
+# ------------------------------------------------------------------------------------------ metocean units
+
+def _netcdf(tmp_path, name="m.nc", *, time=True, units=None, drop=()):
+    import numpy as np
+    import pandas as pd
+    import xarray as xr
+
+    base = {"hs_m": ("m", 1.5), "tp_s": ("s", 9.0), "wave_from_deg": ("degree", 270.0),
+            "wind_speed_ms": ("m/s", 10.0), "wind_from_deg": ("degrees", 10.0), "current_speed_ms": ("m s**-1", 0.2),
+            "current_to_deg": ("Degree true", 5.0), "tide_m": ("m", 0.1)}
+    for k, (u, v) in (units or {}).items():
+        base[k] = (u, v)
+    coords = {"time": pd.date_range("2025-01-01", periods=12, freq="h") if time else np.arange(12)}
+    ds = xr.Dataset({k: ("time", np.full(12, v), {} if k in drop else {"units": u}) for k, (u, v) in base.items()},
+                    coords=coords)
+    p = tmp_path / name
+    ds.to_netcdf(p)
+    return p
+
+
+def test_netcdf_values_are_converted_from_their_units(tmp_path):
+    """Found: `units` attributes were ignored: tp_s in ms was taken as seconds, hs_m of 15 in cm passed as 15 m."""
+    import pint
+
+    from loadarm.studies.metocean import read_metocean
+
+    p = _netcdf(tmp_path, units={"hs_m": ("cm", 150.0), "tp_s": ("ms", 9000.0), "wind_speed_ms": ("knot", 10.0),
+                                 "tide_m": ("mm", 100.0)})
+    rec, gaps = read_metocean(p)
+    knot = pint.UnitRegistry().Quantity(10.0, "knot").to("m/s").magnitude     # an independent registry
+    assert gaps.usable == 12 and rec["hs_m"].values[0] == pytest.approx(1.5)
+    assert rec["tp_s"].values[0] == pytest.approx(9.0) and rec["tide_m"].values[0] == pytest.approx(0.1)
+    assert rec["wind_speed_ms"].values[0] == pytest.approx(knot) == pytest.approx(10 * 1852 / 3600)
+
+
+@pytest.mark.parametrize("kw, match", [
+    ({"time": False}, "time: not a CF time"),
+    ({"drop": ("hs_m",)}, "hs_m: no 'units' attribute"),
+    ({"units": {"tp_s": ("fortnights of nothing", 9.0)}}, "tp_s: units 'fortnights of nothing' cannot be read"),
+    ({"units": {"tp_s": ("m", 9.0)}}, "tp_s: units 'm' cannot be read as s"),
+    ({"units": {"hs_m": ("cm", 1500.0 * 100)}}, "hs_m"),                       # 1500 m: out of range once read
+])
+def test_netcdf_without_a_readable_unit_or_time_is_refused_naming_it(capsys, tmp_path, kw, match):
+    """Found: a time of plain numbers 0..11 with no units became one state at 1970-01-01 with "missing 0"."""
+    from loadarm.studies.metocean import MetoceanError, read_metocean
+
+    p = _netcdf(tmp_path, **kw)
+    with pytest.raises(MetoceanError, match=match) as e:
+        read_metocean(p)
+    assert str(p) in str(e.value) and "\n" not in str(e.value)
+
+
+# ------------------------------------------------------------------------------------------ one line, exit 2
+
+def _cli(capsys, *args):
+    from loadarm.cli import main
+
+    t0 = time.monotonic()
+    code = main([str(a) for a in args])
+    cap = capsys.readouterr()
+    return code, cap.err, time.monotonic() - t0
+
+
+def test_each_bad_option_or_file_is_one_line_and_exit_2_without_a_wait(capsys, tmp_path):
+    """Found: each of these waited, ended in an internal error or said the wrong thing."""
+    import os
+
+    from .conftest import PAPER_TOML, ROOT
+
+    os.mkfifo(tmp_path / "fifo")
+    (tmp_path / "dir").mkdir()
+    with open(tmp_path / "big.der", "wb") as f:                       # a sparse terabyte
+        f.truncate(1 << 40)
+    (tmp_path / "pw.txt").write_text("pw\n")
+    st_ = tmp_path / "st"
+    calm = ROOT / "examples" / "scenarios" / "calm.toml"
+    met = ["operability", "--config", PAPER_TOML, "--berth", ROOT / "examples" / "berths" / "lng150k.toml",
+           "--out", tmp_path / "o.parquet", "--metocean"]
+    cases = [
+        (["trust", tmp_path / "big.der", "--state-dir", st_], "certificate file is 1099511627776 bytes; at most"),
+        (["trust", tmp_path / "fifo", "--state-dir", st_], "certificate file must be a regular file, this is a FIFO"),
+        (["trust", tmp_path / "dir", "--state-dir", st_], "this is a directory"),
+        ([*met, tmp_path / "dir"], "metocean file must be a regular file, this is a directory"),
+        ([*met, tmp_path / "fifo"], "metocean file must be a regular file, this is a FIFO"),
+        ([*met, "/dev/null"], "metocean file must be a regular file, this is a character device"),
+        (["plan", "-c", PAPER_TOML, "--start", "1e308,1e308"], "--start must be numbers in [-1000, 1000] m"),
+        (["serve", "-s", calm, "--state-dir", st_, "--endpoint", "opc.tcp://256.1.1.1:4840"],
+         "--endpoint must be opc.tcp://HOST:PORT"),
+        (["serve", "-s", calm, "--state-dir", st_, "--hmi", "[::1"], "--hmi must be HOST:PORT"),
+        (["serve", "--plc", "opc.tcp://127.0.0.1:1", "--plc-cert", tmp_path / "missing.der", "--plc-password-file",
+          tmp_path / "pw.txt", "--config", PAPER_TOML, "--state-dir", st_], "missing.der: certificate file not found"),
+        (["serve", "--plc", "opc.tcp://127.0.0.1:1", "--plc-cert", tmp_path / "dir", "--plc-password-file",
+          tmp_path / "dir", "--config", PAPER_TOML, "--state-dir", st_], "password file must be a regular file"),
+    ]
+    for args, text in cases:
+        code, err, took = _cli(capsys, *args)
+        assert code == 2 and err.count("\n") == 1 and err.startswith("loadarm: error: ") and text in err, (args, err)
+        assert "file file" not in err and took < 10, (args, took)
+
+
+@pytest.mark.slow
+def test_an_unreachable_plc_is_one_line_within_the_wait(capsys, tmp_path):
+    from loadarm.cli.plant import PLC_WAIT
+    from loadarm.opcua.security import client_certificate
+    from loadarm.testing.loadtest import free_port
+
+    from .conftest import PAPER_TOML
+
+    cert, _ = client_certificate(tmp_path, "plc", "urn:test:plc")
+    (tmp_path / "pw.txt").write_text("pw\n")
+    code, err, took = _cli(capsys, "serve", "--plc", f"opc.tcp://127.0.0.1:{free_port()}", "--plc-cert", cert,
+                           "--plc-password-file", tmp_path / "pw.txt", "--config", PAPER_TOML,
+                           "--state-dir", tmp_path / "st", "--endpoint", f"opc.tcp://127.0.0.1:{free_port()}")
+    assert code == 2 and err.count("\n") == 1 and "no link to the PLC" in err and took < PLC_WAIT + 10, (err, took)
+
+
+def test_a_damaged_chunk_is_named(tmp_path):
+    """Found: a damaged operability chunk was named '<Buffer>' instead of its file."""
+    import pandas as pd
+
+    from loadarm.errors import ConfigError
+    from loadarm.studies.operability import _read_chunk
+
+    p = tmp_path / "chunk-00000.parquet"
+    pd.DataFrame({"a": range(100)}).to_parquet(p)
+    raw = bytearray(p.read_bytes())
+    raw[8:len(raw) - 8] = b"\x00" * (len(raw) - 16)
+    p.write_bytes(bytes(raw))
+    for meta in (True, False):
+        with pytest.raises(ConfigError, match=f"{p}: a damaged chunk of an earlier run"):
+            _read_chunk(p, metadata_only=meta)
+
+
+@pytest.mark.slow
+def test_an_untrusted_client_certificate_is_one_line_in_serve_s_output(tmp_path):
+    """Found: asyncua's traceback of a refused certificate landed in serve's output."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    from asyncua import Client
+    from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+
+    from loadarm.opcua.security import client_certificate
+    from loadarm.testing.loadtest import free_port
+
+    from .conftest import ROOT
+
+    endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
+    st_ = tmp_path / "st"
+    proc = subprocess.Popen([sys.executable, "-m", "loadarm.cli", "serve", "-s",
+                             str(ROOT / "examples" / "scenarios" / "calm.toml"), "--state-dir", str(st_),
+                             "--endpoint", endpoint, "--db", str(tmp_path / "ev.db")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        for line in proc.stdout:
+            if "Ctrl-C stops" in line:
+                break
+        cert, key = client_certificate(tmp_path, "stranger", "urn:test:client")
+
+        async def attempt():
+            c = Client(endpoint, timeout=5)
+            c.application_uri = "urn:test:client"
+            await c.set_security(SecurityPolicyBasic256Sha256, str(cert), str(key),
+                                 server_certificate=str(st_ / "own" / "cert.der"))
+            try:
+                await c.connect()
+            except Exception:
+                return False
+            await c.disconnect()
+            return True
+
+        assert asyncio.run(attempt()) is False
+        time.sleep(0.5)
+    finally:
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            _, err = proc.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            _, err = proc.communicate(timeout=30)
+    assert "Traceback" not in err and "  File " not in err, err[-2000:]
+    assert "certificate refused" in err, err[-2000:]
+    assert all(line.startswith("loadarm: ") for line in err.splitlines() if line.strip()), err[-2000:]

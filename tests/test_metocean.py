@@ -74,7 +74,7 @@ def test_bad_values_are_refused_in_one_line(tmp_path, rows, match):
 
 
 def test_bad_files_are_refused(tmp_path):
-    with pytest.raises(MetoceanError, match="no such file"):
+    with pytest.raises(MetoceanError, match="metocean file not found"):
         read_metocean(tmp_path / "none.csv")
     with pytest.raises(MetoceanError, match=r"unknown column \(known"):
         read_metocean(_csv(tmp_path, ["2025-01-01T00:00Z,1"], header="time,swh"))

@@ -85,7 +85,7 @@ def test_trust_copies_a_certificate_and_refuses_what_is_not_one(tmp_path):
     (tmp_path / "junk.der").write_bytes(b"not a certificate")
     with pytest.raises(ConfigError, match="not an X.509 certificate"):
         st.trust(tmp_path / "junk.der")
-    with pytest.raises(ConfigError, match="no such certificate"):
+    with pytest.raises(ConfigError, match="certificate file not found"):
         st.trust(tmp_path / "missing.der")
 
 

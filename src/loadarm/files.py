@@ -27,7 +27,8 @@ from typing import IO, Any
 from loadarm.errors import ConfigError, OutputError
 
 __all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "read_input", "check_depth", "atomic_path",
-           "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs", "read_toml", "printable"]
+           "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs", "read_toml", "printable",
+           "check_input", "read_binary"]
 
 #: Characters a terminal acts on rather than shows: C0 and C1 controls (tab and newline kept), and the invisible
 #: and bidirectional format characters that make a line read other than it is.
@@ -90,27 +91,70 @@ def read_input(path: str | Path, what: str = "config", *, limit: int = MAX_INPUT
         large, unreadable or not UTF-8; one line naming the file.
     """
     p = Path(path)
+    data = read_binary(p, what, limit=limit)
+    what = what if what.endswith("file") else f"{what} file"
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{p}: {what} is not UTF-8 text (byte {exc.start})") from None
+
+
+def check_input(path: str | Path, what: str, *, limit: int = MAX_INPUT_BYTES) -> int:
+    """That an input is a regular file of at most ``limit`` bytes, without opening it (a FIFO or a device would
+    block the read; a directory or a sparse terabyte is not a file of ours to read).
+
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        What it is, for messages ("metocean", "certificate"; "file" is added unless it ends with it).
+    limit : int
+        Largest size accepted, bytes.
+
+    Returns
+    -------
+    int
+        Its size, bytes.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file and what it is instead.
+    """
+    p = Path(path)
+    what = what if what.endswith("file") else f"{what} file"
     try:
         st = os.stat(p)
     except FileNotFoundError:
-        raise ConfigError(f"{p}: {what} file not found") from None
+        raise ConfigError(f"{p}: {what} not found") from None
     except (OSError, ValueError) as exc:
-        raise ConfigError(f"{p}: cannot read {what} file ({exc.__class__.__name__})") from None
+        raise ConfigError(f"{p}: cannot read {what} ({exc.__class__.__name__})") from None
     if not stat.S_ISREG(st.st_mode):
-        raise ConfigError(f"{p}: {what} file must be a regular file, this is {_kind(st.st_mode)}")
+        raise ConfigError(f"{p}: {what} must be a regular file, this is {_kind(st.st_mode)}")
     if st.st_size > limit:
-        raise ConfigError(f"{p}: {what} file is {st.st_size} bytes; at most {limit} bytes are read")
+        raise ConfigError(f"{p}: {what} is {st.st_size} bytes; at most {limit} bytes are read")
+    return st.st_size
+
+
+def read_binary(path: str | Path, what: str, *, limit: int = MAX_INPUT_BYTES) -> bytes:
+    """Read an input's bytes after :func:`check_input` (never more than ``limit``).
+
+    Raises
+    ------
+    ConfigError
+        As :func:`check_input`, or unreadable.
+    """
+    p = Path(path)
+    check_input(p, what, limit=limit)
+    what = what if what.endswith("file") else f"{what} file"
     try:
         with open(p, "rb") as fh:
             data = fh.read(limit + 1)
     except OSError as exc:
-        raise ConfigError(f"{p}: cannot read {what} file ({exc.__class__.__name__})") from None
+        raise ConfigError(f"{p}: cannot read {what} ({exc.__class__.__name__})") from None
     if len(data) > limit:                              # grew since the stat
-        raise ConfigError(f"{p}: {what} file is larger than {limit} bytes")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f"{p}: {what} file is not UTF-8 text (byte {exc.start})") from None
+        raise ConfigError(f"{p}: {what} is larger than {limit} bytes")
+    return data
 
 
 def read_toml(path: str | Path, what: str = "config") -> dict[str, Any]:

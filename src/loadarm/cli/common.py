@@ -134,9 +134,13 @@ def parse_point(text: Optional[str], name: str) -> Optional[tuple[float, ...]]:
     except ValueError:
         raise UserError(f"{name} must be X,Y (arm plane) or X,Y,Z (3D) in metres, separated by commas, "
                         f"got {text!r}") from None
-    if not all(math.isfinite(v) for v in vals):
-        raise UserError(f"{name} must be finite numbers, got {text!r}")
+    if not all(math.isfinite(v) and abs(v) <= POINT_LIMIT for v in vals):     # found: 1e308 overflowed numpy
+        raise UserError(f"{name} must be numbers in [-{POINT_LIMIT:g}, {POINT_LIMIT:g}] m, got {text!r}")
     return vals
+
+
+#: The largest coordinate a point on the command line may have, m (a loading arm reaches tens of metres).
+POINT_LIMIT = 1000.0
 
 
 def check_png(png: Optional[Path]) -> None:
@@ -182,6 +186,33 @@ def progress_bar():
 
     return _Printable(TextColumn("{task.description}", style="bold", markup=False), BarColumn(), TimeElapsedColumn(),
                       console=err.get(), transient=True)
+
+
+class lazy_progress:  # noqa: N801 - used like progress_bar
+    """A progress bar that appears at the first progress report: the checks before the work refuse in one line
+    with no bar drawn (found: the operability bar left an empty line above a refused record's error).
+
+    Parameters
+    ----------
+    description : str
+    """
+
+    def __init__(self, description: str):
+        self.description, self._bar, self._task = description, None, None
+
+    def __call__(self, done: int, total: int) -> None:
+        if self._bar is None:
+            self._bar = progress_bar()
+            self._bar.start()
+            self._task = self._bar.add_task(self.description, total=total)
+        self._bar.update(self._task, completed=done, total=total)
+
+    def __enter__(self) -> "lazy_progress":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._bar is not None:
+            self._bar.stop()
 
 
 def round_floats(obj, digits: int = 12):

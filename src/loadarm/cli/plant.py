@@ -15,8 +15,8 @@ import typer
 
 from loadarm.cli.common import ForceOpt, UserError, check_outputs, latest_run, out, read_model
 from loadarm.eventlog import EventLog, LogWriter
-from loadarm.files import read_input
-from loadarm.hmi.app import HmiServer, create_app, parse_hmi_address
+from loadarm.files import printable, read_input
+from loadarm.hmi.app import HmiServer, create_app, parse_hmi_address, valid_host
 from loadarm.hmi.replay import ReplayService
 from loadarm.opcua.plc import PlcLink, PlcServer, PlcSimulator, load_tag_map
 from loadarm.opcua.security import StateDir, load_certificate, thumbprint
@@ -29,6 +29,8 @@ from loadarm.sim.spec import RunSpec, compile_run, load_run
 
 #: On stop, ``serve`` waits this long for an unavailable event log to take the events it holds, s.
 LOG_WAIT = 10.0
+#: ``serve --plc`` waits this long for the PLC's first answer before it refuses to start, s.
+PLC_WAIT = 10.0
 
 __all__ = ["app"]
 
@@ -38,9 +40,42 @@ app = typer.Typer()
 def _check_endpoint(name: str, value: str) -> None:
     from urllib.parse import urlparse
 
-    url = urlparse(value)
-    if url.scheme != "opc.tcp" or not url.hostname or url.port is None:
-        raise UserError(f"{name} must be opc.tcp://HOST:PORT, got {value!r}")
+    try:
+        url = urlparse(value)
+        ok = url.scheme == "opc.tcp" and bool(url.hostname) and url.port is not None
+        ok = ok and valid_host(url.hostname, ipv6=":" in url.hostname)
+    except ValueError:                                   # a port out of range
+        ok = False
+    if not ok:
+        raise UserError(f"{name} must be opc.tcp://HOST:PORT (an IPv4 address, a host name or [IPv6]; a port in "
+                        f"[0, 65535]), got {value!r}")
+
+
+def _one_line_logging() -> None:
+    """The servers' log records as one line each on stderr, the text made printable, never a traceback (found: an
+    untrusted client's certificate put asyncua's traceback into serve's output); asyncua's own notes below
+    errors are dropped (loadarm logs the refusals that matter: a certificate, a login)."""
+    import logging
+
+    class _OneLine(logging.Formatter):
+        def format(self, record):
+            return printable(f"loadarm: {record.name}: {' '.join(record.getMessage().split())}")
+
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_OneLine())
+    root = logging.getLogger()
+    root.handlers[:] = [handler]
+    root.setLevel(logging.WARNING)
+    for name in ("asyncua", "asyncuagds", "uvicorn", "distributed"):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
+def _start_server(server) -> None:
+    """Start an OPC UA server; one that cannot (its address is not this machine's, its port taken) is one line."""
+    try:
+        server.start()
+    except RuntimeError as exc:
+        raise UserError(' '.join(str(exc).split())) from None
 
 
 def _stop_on_signals() -> None:
@@ -122,6 +157,7 @@ def serve(
 
     hmi_address = _serve_arguments(endpoint, hmi, replay, plc, plc_cert, plc_password_file, scenario, scripted)
     _stop_on_signals()
+    _one_line_logging()
     if replay is not None:
         return _serve_replay(replay, run_id, scenario, config, state_dir, hmi_address)
     spec = _realtime_scenario(scenario, config, speedup, "serve --plc")
@@ -140,7 +176,7 @@ def serve(
         loop.warm_up()                      # compiled before the clock starts and before "Ctrl-C stops"
         service = GuidanceService(loop, speedup=speedup)
         server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)
-        server.start()
+        _start_server(server)
         screen = None
         try:
             if hmi_address is not None:
@@ -195,11 +231,15 @@ def _serve_arguments(endpoint, hmi, replay, plc, plc_cert, plc_password_file, sc
 def _plc_link(plc, plc_map, plc_password_file, state_dir, plc_user, plc_cert):
     """The controller's link to a PLC, started (its password from the first line of the file)."""
     tags = load_tag_map(plc_map) if plc_map is not None else None
-    lines = read_input(plc_password_file, "password file").splitlines()
+    lines = read_input(plc_password_file, "password").splitlines()
     if not lines or not lines[0]:
         raise UserError(f"--plc-password-file {plc_password_file}: its first line is empty")
+    load_certificate(plc_cert)                  # found: a missing one gave 30 s of silence, then an internal error
     link = PlcLink(plc, state_dir, plc_user, lines[0], plc_cert, tags=tags)
-    link.start()
+    try:
+        link.start(timeout=PLC_WAIT)
+    except RuntimeError as exc:
+        raise UserError(f"--plc {plc}: {' '.join(str(exc).split())}") from None
     return link
 
 
@@ -289,10 +329,11 @@ def plc_sim(
 
     _check_endpoint("--endpoint", endpoint)
     _stop_on_signals()
+    _one_line_logging()
     spec = _realtime_scenario(scenario, config, speedup, "plc-sim", duration)
     sim = PlcSimulator(spec.scenario, spec.model, speedup=speedup, ship=spec.ship)
     server = PlcServer(sim, state_dir, endpoint, insecure=insecure)
-    server.start()
+    _start_server(server)
     try:
         out.print(f"simulated PLC on {endpoint}; certificate {server.state.cert}; "
                   f"{len(server.state.users())} user(s); Ctrl-C stops", soft_wrap=True)

@@ -15,6 +15,7 @@ from loadarm.cli.common import (
     PlantKind,
     UserError,
     check_outputs,
+    lazy_progress,
     out,
     print_json,
     progress_bar,
@@ -65,11 +66,9 @@ def operability(
         raise UserError(f"--chunks must be in [1, 10000], got {chunks}")
     check_workers("--workers", workers)
     settings = OperabilitySettings(duration_per_state=duration_per_state, chunks=chunks)
-    with progress_bar() as prog:
-        task = prog.add_task("operability (Dask)", total=None)
+    with lazy_progress("operability (Dask)") as bar:
         res = run_operability(config, berth, metocean, out_file, hours=hours, settings=settings, scheduler=scheduler,
-                              workers=workers, fresh=force,
-                              progress=lambda done, total: prog.update(task, completed=done, total=total))
+                              workers=workers, fresh=force, progress=bar)
     if png is not None:
 
         save(res.plot(), png)

@@ -24,7 +24,8 @@ from loadarm.opcua.security import StateDir
 from loadarm.opcua.service import JOG_HOLD, Request, parse_jog
 from loadarm.vocab import COMMANDS, TAGGED_ACTIONS
 
-__all__ = ["COMMANDS", "FRAME_RATE", "LOGIN_BODY", "create_app", "HmiServer", "parse_hmi_address", "same_origin"]
+__all__ = ["COMMANDS", "FRAME_RATE", "LOGIN_BODY", "create_app", "HmiServer", "parse_hmi_address", "same_origin",
+           "valid_host"]
 
 #: Frames per second pushed to each screen (at most: a frame goes only when the controller has a new cycle).
 FRAME_RATE = 20.0
@@ -441,10 +442,40 @@ def parse_hmi_address(text: str) -> tuple[str, int]:
     host, sep, port = text.rpartition(":")
     if not sep or not host:
         raise ValueError(f"--hmi must be HOST:PORT (e.g. 127.0.0.1:8080), got {text!r}")
-    host = host[1:-1] if host.startswith("[") and host.endswith("]") else host
+    bracketed = host.startswith("[") and host.endswith("]")
+    host = host[1:-1] if bracketed else host
+    if not valid_host(host, ipv6=bracketed):             # found: '[::1' was reported only after a 15 s lookup
+        raise ValueError(f"--hmi must be HOST:PORT with HOST an IPv4 address, a host name or [IPv6], got {text!r}")
     if not port.isdigit() or not 0 <= int(port) <= 65535:
         raise ValueError(f"--hmi port must be in [0, 65535], got {port!r}")
     return host, int(port)
+
+
+def valid_host(host: str, *, ipv6: bool = False) -> bool:
+    """Whether ``host`` is an IP address or a host name by its form (checked before any lookup: a malformed one,
+    such as ``256.1.1.1``, otherwise waits for the resolver).
+
+    Parameters
+    ----------
+    host : str
+    ipv6 : bool
+        It was written in brackets: an IPv6 address.
+
+    Returns
+    -------
+    bool
+    """
+    import ipaddress
+    import re
+
+    try:
+        addr = ipaddress.ip_address(host)
+        return addr.version == (6 if ipv6 else 4)
+    except ValueError:
+        pass
+    if ipv6 or re.fullmatch(r"[0-9.]+", host):          # digits and dots that are no IPv4 address
+        return False
+    return re.fullmatch(r"(?=.{1,253}$)([A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?\.?)+", host) is not None
 
 
 class HmiServer:

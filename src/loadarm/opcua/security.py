@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from loadarm.errors import ConfigError
-from loadarm.files import atomic_write, read_toml
+from loadarm.files import atomic_write, read_binary, read_toml
 from loadarm.vocab import Role
 
 __all__ = ["Role", "User", "Users", "StateDir", "hash_password", "verify_password", "SCRYPT", "SECRET_BYTES",
@@ -197,11 +197,16 @@ class Users:
         atomic_write(self.path, "\n".join(lines), private=True)
 
 
+#: The largest certificate file read, bytes (an X.509 certificate is one or two kilobytes; a chain a few).
+CERTIFICATE_BYTES = 64 * 1024
+
+
 def load_certificate(path: Path):
-    """A certificate from a DER or PEM file."""
+    """A certificate from a DER or PEM file: a regular file of at most :data:`CERTIFICATE_BYTES` (found: a 1 TiB
+    sparse file raised MemoryError; a FIFO or a directory was "no such certificate file")."""
     from cryptography import x509
 
-    data = Path(path).read_bytes()
+    data = read_binary(path, "certificate", limit=CERTIFICATE_BYTES)
     try:
         return x509.load_pem_x509_certificate(data) if data.lstrip().startswith(b"-----BEGIN") \
             else x509.load_der_x509_certificate(data)
@@ -353,8 +358,6 @@ class StateDir:
         from cryptography.hazmat.primitives import serialization
 
         p = Path(cert_file)
-        if not p.is_file():
-            raise ConfigError(f"{p}: no such certificate file")
         cert = load_certificate(p)
         self.trusted.mkdir(parents=True, exist_ok=True)
         out = self.trusted / f"{thumbprint(cert)}.der"

@@ -29,7 +29,7 @@ import numpy as np
 
 from loadarm import __version__
 from loadarm.errors import ConfigError
-from loadarm.files import SIGNATURE, atomic_write
+from loadarm.files import SIGNATURE, atomic_write, check_input
 
 __all__ = ["VARIABLES", "GapReport", "read_metocean", "validate_metocean", "synthetic_metocean",
            "write_metocean_csv", "berth_directions", "compass_to_berth", "MetoceanError"]
@@ -292,10 +292,10 @@ def read_metocean(path: str | Path):
 
     p = Path(path)
     source = str(p)
-    if not p.is_file():
-        raise MetoceanError(f"{source}: no such file")
-    if p.stat().st_size > MAX_BYTES:
-        raise MetoceanError(f"{source}: {p.stat().st_size} bytes, larger than the {MAX_BYTES} bytes a record may be")
+    try:
+        check_input(p, "metocean", limit=MAX_BYTES)     # a directory, FIFO or device: named, never opened
+    except ConfigError as exc:
+        raise MetoceanError(str(exc)) from None
     suffix = p.suffix.lower()
     try:
         if suffix == ".csv":

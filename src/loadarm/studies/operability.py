@@ -467,6 +467,21 @@ def gather_resilient(client, items, submit, scatter, *, progress=None, resubmits
     return done
 
 
+def _read_chunk(path: Path, *, metadata_only: bool = False):
+    """A chunk written by an earlier run, or its metadata; a damaged one is named (found: Parquet's error named
+    ``'<Buffer>'``, or nothing at all)."""
+    import pyarrow
+    import pyarrow.parquet as pq
+
+    try:
+        if metadata_only:
+            return pq.read_metadata(path)
+        return pq.read_table(path).to_pandas()
+    except (pyarrow.ArrowException, OSError) as exc:
+        raise ConfigError(f"{path}: a damaged chunk of an earlier run ({' '.join(str(exc).split())[:160]}); "
+                          "remove it to have it computed again") from None
+
+
 def _close_client(connecting) -> None:
     """Close the client (and the local cluster it started) once it has connected, whatever happened meanwhile."""
     if connecting.exception() is not None:           # it never connected: nothing to close
@@ -541,6 +556,8 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     plan = plan_chunks(len(rows), settings.chunks)
     _check_manifest(chunk_dir, _manifest(config, berth, metocean, hours, settings, plan), fresh)
     todo = [(k, a, b) for k, (a, b) in enumerate(plan) if not (chunk_dir / f"chunk-{k:05d}.parquet").is_file()]
+    for k in sorted(set(range(len(plan))) - {k for k, _, _ in todo}):
+        _read_chunk(chunk_dir / f"chunk-{k:05d}.parquet", metadata_only=True)   # a damaged one: before any work
     if scheduler is not None:
         check_scheduler(scheduler)             # even when every chunk is written (found: a resume skipped it)
     done = {}
@@ -589,7 +606,7 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
             # waiting on it, or left them waiting for ever)
             done = gather_resilient(client, todo, submit, lambda: client.submit(_shared, compiled, pure=False),
                                     progress=progress)
-    parts = [done[k] if k in done else pd.read_parquet(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
+    parts = [done[k] if k in done else _read_chunk(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
     table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(COLUMNS))
     write_parquet(table, out)
     return OperabilityResult(table, gaps.to_dict(), time.perf_counter() - t0, n_workers)

@@ -107,7 +107,7 @@ BAD = [
     (["plan", "-c", CFG, "--target", "30,0"], "leaves the reachable workspace"),
     (["plan", "-c", CFG, "--target", "abc"], "--target must be X,Y (arm plane) or X,Y,Z (3D) in metres"),
     (["plan", "-c", CFG, "--start", "1,2,3,4"], "--start must be X,Y"),
-    (["plan", "-c", CFG, "--start", "nan,1"], "--start must be finite numbers"),
+    (["plan", "-c", CFG, "--start", "nan,1"], "--start must be numbers in [-1000, 1000] m"),
     (["plan", "-c", CFG, "--start", "4,0,10", "--target", "14,1"], "must both be X,Y or both X,Y,Z"),
     (["plan", "-c", CFG, "--target", "5,12,1"], "beyond the slew limit"),
     (["plan", "-c", CFG, "--timing", "fast"], "'fast' is not one of 'paper', 'smooth', 'optimal'"),

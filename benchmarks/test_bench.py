@@ -30,7 +30,9 @@ round (the least disturbed by other load), so a ratio compares like with like.
   reported), one, two, two, one workers (a drift of the machine's speed cancels); asserted >= 1.2x, that the
   work spreads at all (measured 2026-12-01 on a 2-core Xeon VM: 1.53-1.75x; two independent processes there
   already run 25 % slower each than one alone, the two vCPUs sharing the memory system; 2026-12-02 on an AMD
-  EPYC VM: 1.29-1.46x, a month's fixed cost a third of its run).
+  EPYC VM: 1.29-1.46x, a month's fixed cost a third of its run);
+* hostile OPC UA clients: the guidance cycle's p99 with 15 clients asking every variable at 10 ms (revised to
+  the server's least interval) <= 2x its p99 without them, in the same run (issue 27).
 """
 
 import math
@@ -460,6 +462,26 @@ def test_opc_ua_round_trip_notifications_and_the_cycle_under_load(results, tmp_p
     results["guidance cycle p99 with 20 clients [us]"] = float(during)
     results["ratio guidance cycle p99 with / without 20 clients"] = float(during / before)
     assert r["late"] == 0, f"{r['late']} guidance cycles started late under the load"
+
+
+def test_hostile_clients_leave_the_guidance_cycle_within_2x(results, tmp_path):
+    """Issue 27: 15 clients with a trusted certificate and a viewer's login, each asking every guidance variable at
+    10 ms (the server revises it to MIN_SAMPLING_MS): the cycle's p99 with them against its p99 in the same run
+    before they came, at most 2x (found: with no limits such clients took late cycles from 2 to 285)."""
+    from loadarm.opcua.server import MIN_SAMPLING_MS
+    from loadarm.testing.loadtest import measure_load
+
+    ratios = []
+    for attempt in range(2):       # the better of two rounds: the least disturbed by the VM (measured 1.2-2.9x)
+        r = measure_load(tmp_path / str(attempt), ROOT / "examples" / "scenarios" / "driftoff.toml", seconds=15.0,
+                         clients=15, interval_ms=10.0, quiet=15.0)     # 750 cycles each side: a p99 of 7 samples
+        before, during = np.percentile(r["cycle_us_before"], 99), np.percentile(r["cycle_us_during"], 99)
+        ratios.append(float(during / before))
+        assert r["notifications"] <= 15 * r["variables"] * r["seconds"] * 1000.0 / MIN_SAMPLING_MS * 1.2, r
+        results[f"guidance cycle p99 with 15 hostile clients (10 ms asked), round {attempt + 1} [us]"] = float(during)
+        results[f"notifications per second, 15 hostile clients, round {attempt + 1}"] = r["notifications"] / r["seconds"]
+    results["ratio guidance cycle p99 with / without 15 hostile clients (better round)"] = min(ratios)
+    assert min(ratios) <= 2.0, f"cycle p99 {ratios}x with hostile clients, goal <= 2x"
 
 
 def test_the_operator_screen_s_update_rate_and_latency(results, tmp_path):

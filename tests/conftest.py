@@ -127,7 +127,7 @@ def served(tmp_path_factory):
     log = EventLog(tmp / "events.db", run="serve-test")
     service = GuidanceService(ClosedLoop(sc, model, log=log, scripted=False, plant="kinematic"))
     endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
-    server = OpcUaServer(service, st.path, endpoint)
+    server = OpcUaServer(service, st.path, endpoint, anonymous=True)       # the anonymous tests need it
     server.start()
     service.start()
     yield {"endpoint": endpoint, "state": st, "cert": cert, "key": key, "guesser": guesser, "tmp": tmp,

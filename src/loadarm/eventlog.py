@@ -1,8 +1,10 @@
 """Durable event log: every mode change, alarm, command and operator action, in SQLite.
 
-One table, one row per event, each committed in its own transaction in WAL
-mode, so a process killed at any instant (``kill -9``) loses no committed
-event. ``synchronous=FULL`` (default) also survives a power loss at the cost
+One table, one row per event, in WAL mode, so a process killed at any
+instant (``kill -9``) loses no committed event. :class:`EventLog` commits each
+event before it returns; :class:`LogWriter` takes the log off the control
+path (a thread commits the queued events in order, in batches, and keeps them
+in memory while the log is locked or the disk full). ``synchronous=FULL`` (default) also survives a power loss at the cost
 of an fsync per event; ``NORMAL`` survives process crashes only and is
 faster.
 
@@ -182,7 +184,8 @@ class Event:
 
 
 class EventLog:
-    """Append-only SQLite event log (WAL, one transaction per event).
+    """Append-only SQLite event log (WAL; :meth:`append` one transaction per event, :meth:`append_many` one per
+    batch).
 
     Parameters
     ----------

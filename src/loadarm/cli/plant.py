@@ -21,7 +21,7 @@ from loadarm.hmi.replay import ReplayService
 from loadarm.opcua.plc import PlcLink, PlcServer, PlcSimulator, load_tag_map
 from loadarm.opcua.security import StateDir, load_certificate, thumbprint
 from loadarm.opcua.server import OpcUaServer
-from loadarm.opcua.service import GuidanceService
+from loadarm.opcua.service import REALTIME_SWITCH_INTERVAL, GuidanceService
 from loadarm.params.declare import in_range, range_text
 from loadarm.params.scenario import Scenario, ScenarioHead, check_scenario
 from loadarm.sim.loop import ClosedLoop
@@ -81,9 +81,11 @@ def _start_server(server) -> None:
 def _stop_on_signals() -> None:
     """Ctrl-C (SIGINT) and SIGTERM stop a long-running command, whatever the process inherited. Found (issue 26,
     CI): a process started with SIGINT ignored (a test runner's worker, a shell's background job) kept ignoring
-    it, and ``serve`` never stopped on the Ctrl-C it promises."""
+    it, and ``serve`` never stopped on the Ctrl-C it promises. The process is a real-time one: its control thread
+    gets the interpreter within :data:`loadarm.opcua.service.REALTIME_SWITCH_INTERVAL`."""
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, signal.default_int_handler)
+    sys.setswitchinterval(REALTIME_SWITCH_INTERVAL)
 
 
 def _realtime_scenario(scenario: Optional[Path], config: Optional[Path], speedup: float, command: str,
@@ -123,6 +125,8 @@ def serve(
                                                                 "first start).")] = Path("loadarm-state"),
     insecure: Annotated[bool, typer.Option("--insecure", help="Also offer the unsecured endpoint (a lab "
                                                               "only).")] = False,
+    anonymous: Annotated[bool, typer.Option("--anonymous", help="Also accept anonymous, read-only OPC UA "
+                                                                "sessions (off: every session is a user).")] = False,
     scripted: Annotated[bool, typer.Option("--scripted", help="The scenario's operator acts too (a "
                                                               "demonstration).")] = False,
     db: Annotated[Path, typer.Option("--db", help="SQLite event log (operator actions with the user's "
@@ -175,7 +179,8 @@ def serve(
                           ship=spec.ship)
         loop.warm_up()                      # compiled before the clock starts and before "Ctrl-C stops"
         service = GuidanceService(loop, speedup=speedup)
-        server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name)
+        server = OpcUaServer(service, state_dir, endpoint, insecure=insecure, name=sc.scenario.name,
+                             anonymous=anonymous)
         _start_server(server)
         screen = None
         try:

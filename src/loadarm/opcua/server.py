@@ -236,6 +236,61 @@ def address_space_markdown() -> tuple[str, str]:
     return "\n".join(var) + "\n", "\n".join(meth) + "\n"
 
 
+#: Limits every loadarm server sets (asyncua's own defaults admit a thousand connections and any rate; found: 60
+#: anonymous sessions were held open, and 15 clients sampling every variable at 10 ms made 285 cycles late).
+#: TCP connections at once (each a session at most).
+MAX_CONNECTIONS = 32
+#: A connection that has not activated a session after this long is closed, s.
+ACTIVATION_WAIT = 10.0
+#: Subscriptions on the server, and per session.
+MAX_SUBSCRIPTIONS, MAX_SUBSCRIPTIONS_PER_SESSION = 64, 4
+#: Monitored items per session (the guidance object has about 70 variables and states).
+MAX_ITEMS_PER_SESSION = 200
+#: The fastest publishing and sampling a client gets, ms (the server publishes every 1 / PUBLISH_RATE s: asking
+#: for more only costs the guidance's host).
+MIN_PUBLISHING_MS = MIN_SAMPLING_MS = 100.0
+
+
+def _apply_limits(server) -> None:
+    """This server's limits (:data:`MAX_CONNECTIONS` ...): set on its own instances, so two servers in one process
+    keep their own. A faster interval is revised to the least (as OPC UA lets a server); a subscription or an item
+    past its cap is refused with OPC UA's status (BadTooManySubscriptions, BadTooManyMonitoredItems)."""
+    from asyncua import ua
+    from asyncua.common.utils import ServiceError
+
+    iserver = server.iserver
+    iserver.max_connections = MAX_CONNECTIONS
+    iserver.max_subscriptions = MAX_SUBSCRIPTIONS
+    iserver.max_pending_activation_seconds = ACTIVATION_WAIT
+    subs = iserver.subscription_service
+    create_subscription, create_items = subs.create_subscription, subs.create_monitored_items
+
+    async def limited_subscription(params, callback, session_id, request_callback=None):
+        if sum(s.session_id == session_id for s in subs.subscriptions.values()) >= MAX_SUBSCRIPTIONS_PER_SESSION:
+            raise ServiceError(ua.StatusCodes.BadTooManySubscriptions)
+        params.RequestedPublishingInterval = max(params.RequestedPublishingInterval, MIN_PUBLISHING_MS)
+        return await create_subscription(params, callback, session_id, request_callback)
+
+    async def limited_items(params):
+        sub = subs.subscriptions.get(params.SubscriptionId)
+        if sub is None:
+            return await create_items(params)
+        held = sum(len(s.monitored_item_srv._monitored_items) for s in subs.subscriptions.values()
+                   if s.session_id == sub.session_id)
+        room = max(0, MAX_ITEMS_PER_SESSION - held)
+        items, refused = list(params.ItemsToCreate[:room]), len(params.ItemsToCreate) - room
+        for item in items:
+            p = item.RequestedParameters
+            p.SamplingInterval = max(p.SamplingInterval, MIN_SAMPLING_MS) if p.SamplingInterval >= 0 \
+                else p.SamplingInterval                  # -1: the subscription's interval, already limited
+        params.ItemsToCreate = items
+        results = await create_items(params) if items else []
+        return results + [ua.MonitoredItemCreateResult(StatusCode=ua.StatusCode(
+            ua.StatusCodes.BadTooManyMonitoredItems)) for _ in range(max(0, refused))]
+
+    subs.create_subscription, subs.create_monitored_items = limited_subscription, limited_items
+
+
 class SecureServer:
     """An asyncua server in its own thread, secure as the module says: the state directory's certificate, the
     trust list, the users and :class:`RoleRuleset`. A subclass builds its address space (:meth:`_build`) and
@@ -254,12 +309,14 @@ class SecureServer:
         Also offer the unsecured endpoint (a lab only).
     period : float
         Tick, s.
+    anonymous : bool
+        Also accept anonymous sessions (read-only). Off by default: every session is a user of the users file.
     """
 
     def __init__(self, state_dir, endpoint: str, app_uri: str, title: str, *, insecure: bool = False,
-                 period: float = 1.0 / PUBLISH_RATE):
+                 period: float = 1.0 / PUBLISH_RATE, anonymous: bool = False):
         self.state, self.endpoint, self.app_uri, self.title = StateDir(state_dir), endpoint, app_uri, title
-        self.insecure, self.period = insecure, period
+        self.insecure, self.period, self.anonymous = insecure, period, anonymous
         self.ready = threading.Event()
         self.error: BaseException | None = None
         self._thread: threading.Thread | None = None
@@ -322,7 +379,9 @@ class SecureServer:
         await server.load_private_key(str(self.state.key))
         policies = _policies() + ([ua.SecurityPolicyType.NoSecurity] if self.insecure else [])
         server.set_security_policy(policies, permission_ruleset=RoleRuleset())
-        server.set_identity_tokens([ua.AnonymousIdentityToken, ua.UserNameIdentityToken])
+        server.set_identity_tokens([ua.AnonymousIdentityToken, ua.UserNameIdentityToken] if self.anonymous
+                                   else [ua.UserNameIdentityToken])
+        _apply_limits(server)
         store, validate, empty = _validator(self.state)
         if not empty:
             await store.load()
@@ -362,11 +421,14 @@ class OpcUaServer(SecureServer):
         Also offer the unsecured endpoint (a lab only).
     name : str
         Installation name (the nameplate's model).
+    anonymous : bool
+        Also accept anonymous, read-only sessions (off by default).
     """
 
     def __init__(self, service, state_dir, endpoint: str = "opc.tcp://127.0.0.1:4840", *, insecure: bool = False,
-                 name: str = "loadarm"):
-        super().__init__(state_dir, endpoint, APP_URI, f"loadarm guidance ({name})", insecure=insecure)
+                 name: str = "loadarm", anonymous: bool = False):
+        super().__init__(state_dir, endpoint, APP_URI, f"loadarm guidance ({name})", insecure=insecure,
+                         anonymous=anonymous)
         self.service, self.name = service, name
         self._last = -1
 

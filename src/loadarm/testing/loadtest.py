@@ -12,7 +12,7 @@ import time
 
 from loadarm.opcua.security import Role, StateDir, client_certificate
 from loadarm.opcua.server import NAMESPACE, STATES, VARIABLES, OpcUaServer
-from loadarm.opcua.service import GuidanceService
+from loadarm.opcua.service import REALTIME_SWITCH_INTERVAL, GuidanceService
 from loadarm.params.scenario import load_scenario
 from loadarm.sim.loop import ClosedLoop
 
@@ -80,7 +80,7 @@ async def subscribe_all(endpoint: str, user: str, password: str, cert: str, key:
             _, nodes = await _variables(c)
             nvars = len(nodes)
             sub = await c.create_subscription(interval_ms, Count())
-            await sub.subscribe_data_change(nodes)
+            await sub.subscribe_data_change(nodes, sampling_interval=interval_ms)
         await asyncio.sleep(1.0)                       # the initial values arrive first
         Count.n = 0
         cpu0, t0 = time.process_time(), time.perf_counter()
@@ -146,7 +146,8 @@ def free_port() -> int:
     return port
 
 
-def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20, calls: int = 0) -> dict:
+def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20, calls: int = 0,
+                 interval_ms: float = 100.0, quiet: float = 3.0) -> dict:
     """Serve a real guidance service (the scenario, its operator acting: the arm moves, the values change) on
     an ephemeral loopback port, put ``clients`` sessions subscribed to every variable at 10 Hz on it from
     another process for ``seconds`` (:func:`subscribe_all`), and time ``calls`` method round trips
@@ -160,6 +161,10 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
     seconds : float
     clients : int
     calls : int
+    interval_ms : float
+        The publishing and sampling interval the clients ask for (10: hostile clients; the server revises it).
+    quiet : float
+        Seconds the loop runs before the clients come (the cycles "before").
 
     Returns
     -------
@@ -179,6 +184,8 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
     cert, key = client_certificate(workdir, "load", "urn:loadarm:loadtest")
     st.trust(cert)
     sc, model = load_scenario(scenario)
+    previous = sys.getswitchinterval()
+    sys.setswitchinterval(REALTIME_SWITCH_INTERVAL)          # as loadarm serve does
     service = GuidanceService(ClosedLoop(sc, model))
     endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
     server = OpcUaServer(service, st.path, endpoint)
@@ -186,11 +193,12 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
     service.start()
     out: dict = {}
     try:
-        time.sleep(3.0)
+        time.sleep(quiet)
         k0, cpu0 = service.snapshot().seq, time.process_time()
         proc = subprocess.run([sys.executable, "-m", "loadarm.testing.loadtest", endpoint, "viewer", "pw-viewer",
                                str(cert), str(key), str(st.cert), "urn:loadarm:loadtest", "--clients", str(clients),
-                               "--seconds", str(seconds)], capture_output=True, text=True, timeout=seconds + 120)
+                               "--seconds", str(seconds), "--interval-ms", str(interval_ms)],
+                              capture_output=True, text=True, timeout=seconds + 120)
         k1, cpu1 = service.snapshot().seq, time.process_time()
         late = service.late
         if calls:
@@ -199,6 +207,7 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
     finally:
         service.stop()
         server.stop()
+        sys.setswitchinterval(previous)
     if proc.returncode != 0:
         raise RuntimeError(f"the load clients failed: {proc.stderr.strip()[-500:]}")
     out.update(json.loads(proc.stdout.strip().splitlines()[-1]))
@@ -225,9 +234,10 @@ def main(argv: list[str] | None = None) -> int:
         p.add_argument(name)
     p.add_argument("--clients", type=int, default=20)
     p.add_argument("--seconds", type=float, default=10.0)
+    p.add_argument("--interval-ms", type=float, default=100.0)
     a = p.parse_args(argv)
     res = asyncio.run(subscribe_all(a.endpoint, a.user, a.password, a.cert, a.key, a.server_cert, a.app_uri,
-                                    clients=a.clients, seconds=a.seconds))
+                                    clients=a.clients, seconds=a.seconds, interval_ms=a.interval_ms))
     print(json.dumps(res))
     return 0
 

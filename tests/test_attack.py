@@ -770,7 +770,7 @@ def test_a_listener_that_never_answers_is_refused_within_the_connect_timeout(cap
                 "--metocean", str(ROOT / "examples" / "metocean" / "sample.csv"), "--hours", "2",
                 "--out", str(tmp_path / "op.parquet")]
     t0 = time.monotonic()
-    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
         code = main([*args, "--scheduler", silent_listener])
     err = capsys.readouterr().err
     assert code == 2 and f"--scheduler {silent_listener}: no Dask scheduler reachable" in err, err

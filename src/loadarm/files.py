@@ -139,6 +139,18 @@ def check_input(path: str | Path, what: str, *, limit: int = MAX_INPUT_BYTES) ->
 def read_binary(path: str | Path, what: str, *, limit: int = MAX_INPUT_BYTES) -> bytes:
     """Read an input's bytes after :func:`check_input` (never more than ``limit``).
 
+    Parameters
+    ----------
+    path : str or Path
+    what : str
+        What it is, for messages.
+    limit : int
+        Largest size accepted, bytes.
+
+    Returns
+    -------
+    bytes
+
     Raises
     ------
     ConfigError

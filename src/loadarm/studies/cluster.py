@@ -47,6 +47,13 @@ def connect_scheduler(address: str, *, timeout: float | None = None):
 def check_scheduler(address: str, *, timeout: float | None = None) -> None:
     """That a Dask scheduler answers at ``address`` (its handshake, within ``timeout`` s), without a client.
 
+    Parameters
+    ----------
+    address : str
+        ``tcp://host:port``.
+    timeout : float, optional
+        Seconds (Dask's ``distributed.comm.timeouts.connect`` by default).
+
     Raises
     ------
     ConfigError
@@ -103,12 +110,24 @@ WORKERS_PER_CORE = 4
 
 
 def max_workers() -> int:
-    """The most worker processes a study may start on this machine."""
+    """The most worker processes a study may start on this machine.
+
+    Returns
+    -------
+    int
+    """
     return WORKERS_PER_CORE * max(1, os.cpu_count() or 1)
 
 
 def check_workers(option: str, workers: int | None) -> None:
     """Refuse a worker count that cannot run here, in one line.
+
+    Parameters
+    ----------
+    option : str
+        The option's name, for the message.
+    workers : int or None
+        None: the default (every core).
 
     Raises
     ------
@@ -120,6 +139,21 @@ def check_workers(option: str, workers: int | None) -> None:
 
 
 def plan_workers(workers: int | None, jobs: int) -> int:
-    """The processes a study of ``jobs`` tasks starts: ``workers`` (default every core), no more than the jobs."""
+    """The processes a study of ``jobs`` tasks starts: ``workers`` (default every core), no more than the jobs.
+
+    Parameters
+    ----------
+    workers : int or None
+    jobs : int
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ConfigError
+        ``workers`` out of :func:`check_workers`' range.
+    """
     check_workers("--workers", workers)
     return max(1, min(jobs, (os.cpu_count() or 1) if workers is None else workers))

@@ -178,10 +178,11 @@ def test_a_websocket_of_another_scheme_is_refused(app_env):
 
 def test_a_captured_command_cannot_be_replayed(app_env):
     """Found: the same CSRF token with the same or an older seq was accepted again. A session's sequence
-    numbers must strictly increase, across its screens; the refusal tells the page the last number."""
+    numbers must strictly increase, across its screens; the refusal tells the page the last number. (Stop,
+    E-stop and ESD-1 are taken whatever their number: test_stop_and_e_stop_are_taken_whatever_their_number.)"""
     c, service = app_env["client"], app_env["service"]
     csrf = _login(c)["csrf"]
-    cmd = {"type": "cmd", "seq": 5, "action": "esd", "csrf": csrf}
+    cmd = {"type": "cmd", "seq": 5, "action": "reset", "csrf": csrf}
     with c.websocket_connect("/ws", headers=ORIGIN) as ws:
         ws.send_text(json.dumps(cmd))
         assert _ack(ws)["ok"]
@@ -195,7 +196,7 @@ def test_a_captured_command_cannot_be_replayed(app_env):
         assert not a["ok"] and a["last_seq"] == 5
         ws.send_text(json.dumps(dict(cmd, seq=6)))
         assert _ack(ws)["ok"]
-    assert [r.action for r in service.requests] == ["esd", "esd"]
+    assert [r.action for r in service.requests] == ["reset", "reset"]
     assert c.get("/api/session").json()["last_seq"] == 6
     assert any(d["code"] == "security.command_refused" for _, _, d in service.notes)
 
@@ -257,8 +258,10 @@ def test_fuzzed_screen_messages_are_answered_and_only_valid_commands_reach_the_c
         assert isinstance(r, Request) and all(isinstance(v, float) and math.isfinite(v) for v in r.jog)
         assert math.hypot(*r.jog) <= service.jog_speed
     if a["ok"]:
-        assert msg["csrf"] == csrf and isinstance(msg.get("seq"), int) and not isinstance(msg["seq"], bool)
-        assert service.requests[n0].action == action
+        from loadarm.hmi.app import UNNUMBERED
+
+        assert msg["csrf"] == csrf and service.requests[n0].action == action
+        assert action in UNNUMBERED or isinstance(msg.get("seq"), int) and not isinstance(msg["seq"], bool)
 
 
 def test_a_binary_or_oversized_websocket_message_is_refused_and_the_screen_stays(app_env):
@@ -1234,3 +1237,93 @@ def test_every_test_this_page_names_exists():
     for folder, module, name in named:
         where = [src for p, src in sources.items() if not module or (p.name == module and p.parent.name == folder)]
         assert any(re.search(rf"^def {name}\(", src, flags=re.M) for src in where), (folder, module, name)
+
+
+# ------------------------------------------------------------------------------------------ found by the review
+
+def test_a_nameless_user_token_is_not_anonymous_when_anonymous_is_off():
+    """Found by review: a user-name token with no name reached the anonymous branch although anonymous was off."""
+    from loadarm.opcua.security import LoginLimiter, Users
+    from loadarm.opcua.server import _user_manager
+
+    events = []
+    off = _user_manager(Users.__new__(Users), LoginLimiter(), lambda *a: events.append(a), anonymous=False)
+    on = _user_manager(Users.__new__(Users), LoginLimiter(), lambda *a: events.append(a), anonymous=True)
+    assert off.get_user(None, username=None, password="x") is None
+    assert on.get_user(None, username=None).name is None
+
+
+def test_an_attacker_s_user_name_costs_no_hash_and_no_log_line_of_its_own(app_env):
+    """Found by review: any user name, of any size, became a limiter key and a log line of its own."""
+    c, service = app_env["client"], app_env["service"]
+    for name in ("x" * 3000, "a b", "é"):
+        assert c.post("/api/login", json={"user": name, "password": "pw"}).status_code in (401, 429)
+    assert {d["user"] for _, _, d in service.notes} == {"<not a user name>"}
+    assert {r for _, r, _ in service.notes} <= {"screen login refused: wrong user name or password",
+                                                "screen login refused: too many failed logins"}
+
+
+@pytest.mark.parametrize("body", ['{"user": "alice", "password": "\\ud800"}', "[" * 2000, '{"user": ' * 400])
+def test_bodies_that_broke_the_login_are_a_400(app_env, body):
+    """Found by review: a lone surrogate raised UnicodeEncodeError, 2000 brackets RecursionError (500s)."""
+    r = app_env["client"].post("/api/login", content=body.encode("utf-8", "surrogatepass"),
+                               headers={"Content-Type": "application/json"})
+    assert r.status_code == 400, r.text
+
+
+def test_a_deeply_nested_message_or_a_huge_jog_is_refused_and_the_screen_stays(app_env):
+    c = app_env["client"]
+    csrf = _login(c)["csrf"]
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        ws.send_text("[" * 2000)
+        assert _ack(ws)["message"] == "not a command"
+        ws.send_text('{"type": "cmd", "seq": 1, "action": "jog", "csrf": "%s", "jog": [%s, 0, 0]}' % (csrf, "9" * 400))
+        assert "too large" in _ack(ws)["message"]
+        ws.send_text(json.dumps({"type": "cmd", "seq": 2, "action": "stop", "csrf": csrf}))
+        assert _ack(ws)["ok"]
+
+
+def test_stop_and_e_stop_are_taken_whatever_their_number(app_env):
+    """Found by review: a tab behind another tab's numbers had its E-stop refused as a replay."""
+    c, service = app_env["client"], app_env["service"]
+    csrf = _login(c)["csrf"]
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        ws.send_text(json.dumps({"type": "cmd", "seq": 50, "action": "ack", "csrf": csrf}))
+        assert _ack(ws)["ok"]
+        for action in ("estop", "stop", "esd"):
+            ws.send_text(json.dumps({"type": "cmd", "seq": 3, "action": action, "csrf": csrf}))
+            assert _ack(ws)["ok"], action
+    assert [r.action for r in service.requests] == ["ack", "estop", "stop", "esd"]
+
+
+def test_the_writer_survives_an_event_it_cannot_write(tmp_path):
+    """Found by review: data json cannot encode killed the writer thread, and every later event was lost."""
+    from loadarm.eventlog import EventLog, LogWriter
+
+    db = tmp_path / "ev.db"
+    w = LogWriter(EventLog(db, run="r"))
+    w.append(0.0, "STORED", "info", "odd data", thing=object(), big=10 ** 400)
+    w.append(1.0, "STORED", "info", "a lone surrogate \udc80 in the text")
+    w.append(2.0, "STORED", "info", "after")
+    assert w.flush(5) and w.status().ok and w.close() == 0
+    with EventLog.open_existing(db) as log:
+        ev = log.query()
+    assert [e.reason for e in ev] == ["odd data", "a lone surrogate \\udc80 in the text", "after"]
+    assert "unwritable" in ev[0].data
+
+
+def test_printable_escapes_lone_surrogates():
+    from loadarm.files import printable
+
+    assert printable("a\udc80b") == "a\\udc80b"
+    printable("a\udc80b").encode("utf-8")
+
+
+def test_a_killed_worker_verdict_is_not_resubmitted():
+    """Found by review: KilledWorker (a task that took its workers down) counted as a loss and was run again."""
+    from distributed import KilledWorker
+    from distributed.comm import CommClosedError
+
+    from loadarm.studies.operability import _lost
+
+    assert not _lost(KilledWorker("k", "w", 3)) and _lost(CommClosedError()) and not _lost(ValueError())

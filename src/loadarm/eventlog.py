@@ -120,9 +120,13 @@ def _inspect(path: Path) -> int:
     with tempfile.TemporaryDirectory(prefix="loadarm-inspect-") as tmp:
         if hot:
             target = Path(tmp) / "log.db"
-            shutil.copyfile(path, target)
-            for s in hot:
-                shutil.copyfile(s, Path(f"{target}{s.name[len(path.name):]}"))
+            try:
+                shutil.copyfile(path, target)
+                for s in hot:
+                    shutil.copyfile(s, Path(f"{target}{s.name[len(path.name):]}"))
+            except OSError as exc:
+                raise EventLogError(f"{path}: cannot inspect it and its journal on a copy ({exc.strerror or exc}: "
+                                    f"{tempfile.gettempdir()}); nothing was changed") from None
             uri = f"file:{urllib.parse.quote(str(target))}"
         else:
             uri = f"file:{urllib.parse.quote(os.path.abspath(path))}?mode=ro&immutable=1"
@@ -299,7 +303,8 @@ class EventLog:
         """
         if self.readonly:
             raise EventLogError(f"{self.path}: opened read-only")
-        values = [(self.run, float(t), wall, state, kind, reason, json.dumps(data, default=float))
+        values = [(self.run, float(t), wall, state, kind, reason,
+                   data if isinstance(data, str) else json.dumps(data, default=float))
                   for t, state, kind, reason, data, wall in rows]
         try:
             self._db.execute("BEGIN IMMEDIATE")
@@ -482,6 +487,8 @@ class LogWriter:
         if kind not in KINDS:
             raise EventLogError(f"event kind must be one of {', '.join(KINDS)}, got {kind!r}")
         wall = datetime.now(timezone.utc).isoformat(timespec="microseconds")
+        data = _frozen(data)                      # serialised here: the values as they are now, and a value that
+        state, reason = _text(state), _text(reason)      # cannot be written is found in the caller's thread
         with self._cv:
             if len(self._queue) >= self.capacity:
                 self._lost += 1
@@ -490,8 +497,8 @@ class LogWriter:
             gap = self._lost - self._noted
             if gap:                                        # where the events were lost, the log says how many
                 self._queue.append((now, (t, state, "alarm", f"{gap} events lost: the event log was unavailable "
-                                          f"and its buffer of {self.capacity} full", {"code": "fault.events_lost",
-                                                                                      "lost": gap}, wall)))
+                                          f"and its buffer of {self.capacity} full",
+                                          _frozen({"code": "fault.events_lost", "lost": gap}), wall)))
                 self._noted += gap
             self._queue.append((now, (t, state, kind, reason, data, wall)))
             self._cv.notify()
@@ -556,9 +563,12 @@ class LogWriter:
                 self._busy = True
             try:
                 self.log.append_many(batch)
-            except EventLogError as exc:
+            except Exception as exc:              # noqa: BLE001 - the thread outlives any one write's failure
                 with self._cv:
-                    self._busy, self._error = False, str(exc)
+                    self._busy, self._error = False, str(exc) or type(exc).__name__
+                    if not isinstance(exc, EventLogError) and size == 1:     # not the log's fault: this event's
+                        self._queue.popleft()                                 # (counted lost, never retried)
+                        self._lost += 1
                     self._cv.notify_all()
                 self._sleep(pause)
                 pause = min(2 * pause, self.retry[1])
@@ -571,6 +581,19 @@ class LogWriter:
                 self._written += len(batch)
                 self._error, self._busy = "", False
                 self._cv.notify_all()
+
+
+def _frozen(data: dict) -> str:
+    """An event's data as the JSON written (a value JSON cannot hold is written as its text, never dropped)."""
+    try:
+        return json.dumps(data, default=float)
+    except (TypeError, ValueError, OverflowError, RecursionError):
+        return json.dumps({"unwritable": repr(data)[:1000]})
+
+
+def _text(text: str) -> str:
+    """Text SQLite can store (a lone surrogate, from undecodable bytes, is written as its escape)."""
+    return text.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
 def check_samples(samples, keys, modes) -> None:
@@ -632,7 +655,8 @@ def _check_orphans(p: Path) -> None:
 def _read_uri(p: Path) -> str:
     """The URI a reader opens a log with: ``immutable`` when no writer has it open (no ``-wal``: nothing is
     created beside it, found: ``loadarm log`` left ``-wal`` and ``-shm`` files), else read-only through the
-    writer's WAL (a live log: its latest events)."""
+    writer's WAL (a live log, or one whose writer was killed: its latest events; SQLite then adds a ``-shm``
+    beside the ``-wal`` if it is missing)."""
     live = Path(f"{p}-wal").exists()
     return f"file:{urllib.parse.quote(os.path.abspath(p))}?mode=ro" + ("" if live else "&immutable=1")
 
@@ -660,6 +684,9 @@ class RateLimiter:
         Seconds after an alike event was let through during which its repeats are only counted.
     """
 
+    #: Kinds of alike events kept at most; past it, those whose window has passed are forgotten.
+    MAX_KEYS = 10_000
+
     def __init__(self, window: float = 10.0):
         if not (window > 0 and math.isfinite(window)):
             raise ValueError(f"window must be a positive number of seconds, got {window!r}")
@@ -686,6 +713,8 @@ class RateLimiter:
         if kind not in RATE_LIMITED_KINDS:
             return True, 0
         key = (kind, _NUMBER.sub("#", reason))
+        if len(self._open) > self.MAX_KEYS:                 # alike runs long over: forgotten (bounded memory)
+            self._open = {k: v for k, v in self._open.items() if t - v[0] < self.window}
         slot = self._open.get(key)
         if slot is None or t - slot[0] >= self.window:
             suppressed = 0 if slot is None else slot[1]

@@ -32,7 +32,8 @@ __all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK"
 
 #: Characters a terminal acts on rather than shows: C0 and C1 controls (tab and newline kept), and the invisible
 #: and bidirectional format characters that make a line read other than it is.
-_UNPRINTABLE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u200b-\u200f\u2028-\u202e\u2060-\u2069\ufeff]")
+_UNPRINTABLE = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u200b-\u200f\u2028-\u202e\u2060-\u2069\ufeff"
+                          "\ud800-\udfff]")       # lone surrogates (a path's undecodable bytes) cannot be written
 
 
 def printable(text: str) -> str:

@@ -20,7 +20,7 @@ from urllib.parse import urlsplit
 
 from loadarm.hmi.sessions import COOKIE, SECRET_BYTES, LoginLimiter, Sessions
 from loadarm.hmi.state import AlarmBook, frame, geometry
-from loadarm.opcua.security import StateDir
+from loadarm.opcua.security import StateDir, is_user_name
 from loadarm.opcua.service import JOG_HOLD, Request, parse_jog
 from loadarm.vocab import COMMANDS, TAGGED_ACTIONS
 
@@ -40,6 +40,9 @@ KEEPALIVE = 0.25
 LOGIN_BODY = 4 * SECRET_BYTES
 #: The largest WebSocket message a screen may send, bytes (a command is a few hundred).
 WS_MESSAGE = 4096
+#: Commands taken whatever their sequence number: repeating one is harmless, refusing one is not (found: a tab
+#: behind another tab's numbers had its E-stop refused as a replay).
+UNNUMBERED = ("stop", "estop", "esd")
 
 _CSP = ("default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; connect-src 'self'; "
         "frame-ancestors 'none'; base-uri 'none'; form-action 'self'")
@@ -118,10 +121,11 @@ async def _login_body(request) -> tuple[str, str]:
         user, password = body["user"], body["password"]
         if not isinstance(user, str) or not isinstance(password, str):
             raise TypeError
-    except (ValueError, KeyError, TypeError):
-        raise _RefusedBody("send {\"user\": ..., \"password\": ...}", 400) from None
-    if len(user.encode()) > SECRET_BYTES or len(password.encode()) > SECRET_BYTES:
-        raise _RefusedBody(f"a user name and a password have at most {SECRET_BYTES} bytes each", 400)
+        size = len(password.encode())           # a lone surrogate cannot be encoded: refused here, not a 500
+    except (ValueError, KeyError, TypeError, RecursionError):     # found: "[" * 2000 raised RecursionError
+        raise _RefusedBody("send {\"user\": ..., \"password\": ...} (UTF-8 text)", 400) from None
+    if size > SECRET_BYTES:
+        raise _RefusedBody(f"a password has at most {SECRET_BYTES} bytes", 400)
     return user, password
 
 
@@ -161,16 +165,17 @@ class _Screen:
         except _RefusedBody as exc:
             return _json_error(exc.detail, exc.status)
         client = request.client.host if request.client else "?"
-        wait, ticket = self.limiter.begin(user, client)      # the slot is taken before the password is checked
+        name = user if is_user_name(user) else "<not a user name>"       # bounded before any use
+        wait, ticket = self.limiter.begin(name, client)      # the slot is taken before the password is checked
         if wait > 0:
-            self.note("security.login_limited", f"screen login of {user!r} from {client} refused: too many "
-                      "failed logins", user=user, client=client)
+            self.note("security.login_limited", "screen login refused: too many failed logins", user=name,
+                      client=client)
             return _json_error(f"too many failed logins: try again in {math.ceil(wait)} s", 429,
                                {"Retry-After": str(math.ceil(wait))})
-        who = await asyncio.to_thread(self.users.authenticate, user, password)     # scrypt: off the event loop
-        if who is None:
-            self.note("security.login_refused", f"screen login of {user!r} from {client} refused: wrong user "
-                      "name or password", user=user, client=client)
+        who = await asyncio.to_thread(self.users.authenticate, user, password) if is_user_name(user) else None
+        if who is None:                                       # scrypt above: off the event loop
+            self.note("security.login_refused", "screen login refused: wrong user name or password", user=name,
+                      client=client)
             return _json_error("wrong user name or password", 401)
         self.limiter.succeeded(user, client, ticket)
         token, s = self.sessions.open(who.name, who.role)
@@ -243,7 +248,7 @@ class _Screen:
         why = self._refusal(s, msg)
         if why:
             return False, why
-        why = s.take_seq(msg.get("seq"))
+        why = None if msg.get("action") in UNNUMBERED else s.take_seq(msg.get("seq"))
         if why:
             return False, f"refused: {why}"
         action = msg.get("action")
@@ -287,7 +292,7 @@ class _Screen:
                 return _reply(seq, *_replay_control(cursor, msg)), False
             if not isinstance(msg, dict) or msg.get("type") != "cmd":
                 raise ValueError
-        except ValueError:
+        except (ValueError, RecursionError):             # found: "[" * 2000 ended the screen's handler
             return _reply(None, False, "not a command"), False
         if self.sessions.get(token) is None:
             return _reply(seq, False, "session ended: log in again"), True

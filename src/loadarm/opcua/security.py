@@ -38,7 +38,7 @@ from loadarm.files import atomic_write, read_binary, read_toml
 from loadarm.vocab import Role
 
 __all__ = ["Role", "User", "Users", "StateDir", "hash_password", "verify_password", "SCRYPT", "SECRET_BYTES",
-           "LOGIN_FAILURES", "LOGIN_WINDOW", "LoginLimiter", "client_certificate", "thumbprint"]
+           "LOGIN_FAILURES", "LOGIN_WINDOW", "LoginLimiter", "is_user_name", "client_certificate", "thumbprint"]
 
 #: scrypt cost (n, r, p) and salt length, bytes.
 SCRYPT = (2 ** 14, 8, 1)
@@ -52,6 +52,21 @@ LOGIN_FAILURES = 5
 #: The window of :data:`LOGIN_FAILURES`, s.
 LOGIN_WINDOW = 60.0
 _NAME = re.compile(r"^[A-Za-z0-9_.@-]{1,64}$")
+
+
+def is_user_name(name) -> bool:
+    """Whether ``name`` could be a user of the users file (1-64 letters, digits or ``_.@-``): anything else is
+    refused before a login limit or a log line is spent on it.
+
+    Parameters
+    ----------
+    name : object
+
+    Returns
+    -------
+    bool
+    """
+    return isinstance(name, str) and _NAME.fullmatch(name) is not None
 
 
 @dataclass(frozen=True)

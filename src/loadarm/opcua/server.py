@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from loadarm import __version__
 from loadarm.arm.alarms import AlarmState
 from loadarm.guidance.modes import ERS_CONFIRM_WINDOW, Mode
-from loadarm.opcua.security import LoginLimiter, Role, StateDir, User, thumbprint
+from loadarm.opcua.security import LoginLimiter, Role, StateDir, User, is_user_name, thumbprint
 from loadarm.opcua.service import JOG_HOLD, Request, parse_jog
 from loadarm.vocab import ANNUNCIATED, CONDITION_SEVERITY, CONDITION_TEXT, FACE_LABELS, Severity, action_role
 from loadarm.vocab import METHODS as _METHODS
@@ -71,7 +71,8 @@ def _request_ids():
     from asyncua import ua
     from asyncua.crypto.permission_rules import USER_TYPES
 
-    every = {ua.NodeId(i) for i in USER_TYPES}
+    # a subscription stays with the session that made it (TransferSubscriptions would move one past its caps)
+    every = {ua.NodeId(i) for i in USER_TYPES} - {ua.NodeId(ua.ObjectIds.TransferSubscriptionsRequest_Encoding_DefaultBinary)}
     write = {ua.NodeId(ua.ObjectIds.WriteRequest_Encoding_DefaultBinary)}
     call = {ua.NodeId(ua.ObjectIds.CallRequest_Encoding_DefaultBinary)}
     history = {ua.NodeId(ua.ObjectIds.HistoryReadRequest_Encoding_DefaultBinary)}
@@ -100,7 +101,7 @@ def _role(user) -> Role | None:
     return who.role if who is not None else None
 
 
-def _user_manager(users, limiter: LoginLimiter, security_event):
+def _user_manager(users, limiter: LoginLimiter, security_event, anonymous: bool = False):
     """asyncua's user manager over the users file, with the screen's login limit (per user name and per client
     certificate; found: 40 wrong passwords went through in 6.8 s). Each refusal is a security event
     (``security_event(code, reason, data)``)."""
@@ -114,17 +115,20 @@ def _user_manager(users, limiter: LoginLimiter, security_event):
     class _Manager:
         def get_user(self, iserver, username=None, password=None, certificate=None):
             if username is None:                 # anonymous (``certificate`` is the secure channel's; certificate
-                return _User(role=UserRole.Anonymous, name=None, loadarm=None)   # identity tokens are not offered)
+                if not anonymous:                # identity tokens are not offered); found: a user-name token with
+                    return None                  # no name was taken as anonymous though anonymous was off
+                return _User(role=UserRole.Anonymous, name=None, loadarm=None)
             client = _client_name(certificate)
-            wait, ticket = limiter.begin(str(username), client)
+            name = str(username) if is_user_name(username) else "<not a user name>"    # bounded before any use
+            wait, ticket = limiter.begin(name, client)
             if wait > 0:
-                security_event("security.login_limited", f"OPC UA login of {username!r} from {client} refused: "
-                               "too many failed logins", {"user": str(username), "client": client})
+                security_event("security.login_limited", "OPC UA login refused: too many failed logins",
+                               {"user": name, "client": client})
                 return None
-            who = users.authenticate(username, password)
+            who = users.authenticate(username, password) if is_user_name(username) else None
             if who is None:
-                security_event("security.login_refused", f"OPC UA login of {username!r} from {client} refused: "
-                               "wrong user name or password", {"user": str(username), "client": client})
+                security_event("security.login_refused", "OPC UA login refused: wrong user name or password",
+                               {"user": name, "client": client})
                 return None
             limiter.succeeded(who.name, client, ticket)
             return _User(role=UserRole.User, name=who.name, loadarm=who)
@@ -268,7 +272,8 @@ def _apply_limits(server) -> None:
     async def limited_subscription(params, callback, session_id, request_callback=None):
         if sum(s.session_id == session_id for s in subs.subscriptions.values()) >= MAX_SUBSCRIPTIONS_PER_SESSION:
             raise ServiceError(ua.StatusCodes.BadTooManySubscriptions)
-        params.RequestedPublishingInterval = max(params.RequestedPublishingInterval, MIN_PUBLISHING_MS)
+        asked = params.RequestedPublishingInterval                # NaN compares false: it gets the least too
+        params.RequestedPublishingInterval = asked if asked >= MIN_PUBLISHING_MS else MIN_PUBLISHING_MS
         return await create_subscription(params, callback, session_id, request_callback)
 
     async def limited_items(params):
@@ -281,8 +286,8 @@ def _apply_limits(server) -> None:
         items, refused = list(params.ItemsToCreate[:room]), len(params.ItemsToCreate) - room
         for item in items:
             p = item.RequestedParameters
-            p.SamplingInterval = max(p.SamplingInterval, MIN_SAMPLING_MS) if p.SamplingInterval >= 0 \
-                else p.SamplingInterval                  # -1: the subscription's interval, already limited
+            asked = p.SamplingInterval                  # -1: the subscription's interval, already limited
+            p.SamplingInterval = asked if asked >= MIN_SAMPLING_MS or asked == -1 else MIN_SAMPLING_MS
         params.ItemsToCreate = items
         results = await create_items(params) if items else []
         return results + [ua.MonitoredItemCreateResult(StatusCode=ua.StatusCode(
@@ -369,7 +374,8 @@ class SecureServer:
 
         self._loop = asyncio.get_running_loop()
         self._stopping = asyncio.Event()
-        server = Server(user_manager=_user_manager(self.state.users(), self.limiter, self._security_event))
+        server = Server(user_manager=_user_manager(self.state.users(), self.limiter, self._security_event,
+                                                   self.anonymous))
         server.iserver.bind_condition_methods = True
         await server.init()
         server.set_endpoint(self.endpoint)

@@ -60,7 +60,10 @@ def parse_jog(value, limit: float) -> tuple[float, float, float]:
         raise ValueError(f"{want}, got {str(value)[:80]!r}")
     if any(isinstance(v, bool) or not isinstance(v, (int, float)) for v in value):
         raise ValueError(f"{want}, got {str(list(value))[:80]!r}")
-    v = tuple(float(x) for x in value)
+    try:
+        v = tuple(float(x) for x in value)
+    except OverflowError:                                  # found: a 400-digit integer
+        raise ValueError(f"{want}, got a number too large for a float") from None
     if not all(math.isfinite(x) for x in v):
         raise ValueError(f"{want}, got {list(v)!r}")
     speed = math.sqrt(sum(x * x for x in v))

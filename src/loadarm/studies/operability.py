@@ -397,10 +397,11 @@ def _lost(exc: BaseException) -> bool:
     import asyncio
     import concurrent.futures
 
-    from distributed import KilledWorker
     from distributed.comm import CommClosedError
 
-    return isinstance(exc, (KilledWorker, CommClosedError, asyncio.CancelledError, concurrent.futures.CancelledError))
+    # not KilledWorker: Dask raises it for a task that took its workers down more than its allowed failures (a
+    # crashing chunk); running it again would only kill more workers
+    return isinstance(exc, (CommClosedError, asyncio.CancelledError, concurrent.futures.CancelledError))
 
 
 def _shared(compiled):

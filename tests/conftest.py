@@ -135,3 +135,15 @@ def served(tmp_path_factory):
     service.stop()
     server.stop()
     log.close()
+
+
+def stop_process_groups(procs, sig=None) -> None:
+    """Kill each started process's group (they were started with ``start_new_session=True``) and reap it."""
+    import signal as _signal
+
+    for p in procs:
+        try:
+            os.killpg(p.pid, _signal.SIGKILL if sig is None else sig)
+        except ProcessLookupError:
+            pass
+        p.wait(timeout=30)

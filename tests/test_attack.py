@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 
 from loadarm.opcua.security import Role, StateDir
 
+from .conftest import stop_process_groups
 from .test_hmi import ORIGIN, FakeService, _ack, _login, app_env  # noqa: F401  (app_env: a fixture)
 from .test_plant import SCENARIO, _client, _nodes
 
@@ -280,6 +281,16 @@ def test_a_binary_or_oversized_websocket_message_is_refused_and_the_screen_stays
 
 # ------------------------------------------------------------------------------------------ OPC UA
 
+async def _connects(client) -> bool:
+    """Whether an asyncua client gets a session (it is closed again at once)."""
+    try:
+        await client.connect()
+    except Exception:
+        return False
+    await client.disconnect()
+    return True
+
+
 @pytest.mark.slow
 def test_opc_ua_logins_are_limited_per_user_and_per_client_and_logged(served):
     """Found: 40 wrong passwords went through in 6.8 s with no lockout. Now the screen's limit holds per user
@@ -289,13 +300,7 @@ def test_opc_ua_logins_are_limited_per_user_and_per_client_and_logged(served):
     cert, key = served["guesser"]
 
     async def login(user, password):
-        c = await _client(served, user, password, cert=cert, key=key)()
-        try:
-            await c.connect()
-        except Exception:
-            return False
-        await c.disconnect()
-        return True
+        return await _connects(await _client(served, user, password, cert=cert, key=key)())
 
     async def main():
         got = [await login("mallory", f"wrong{i}") for i in range(LOGIN_FAILURES)]
@@ -694,13 +699,13 @@ def test_a_campaign_s_size_and_workers_are_bounded_in_one_line(capsys):
 def test_workers_are_capped_at_the_jobs_and_batches_made_lazily():
     from itertools import islice
 
-    from loadarm.studies.campaign import _chunks, _jobs, parse_vary
+    from loadarm.studies.campaign import _chunks, _job, parse_vary
     from loadarm.studies.cluster import plan_workers
 
     assert plan_workers(8, 2) == 2 and plan_workers(None, 1) == 1 and plan_workers(1, 100) == 1
     vary = [parse_vary("drift.speed=0.05:0.3")]
     first = list(islice(_chunks(100_000, vary, 7, 3), 2))               # a huge campaign's first two batches
-    assert first == [_jobs(3, vary, 7), _jobs(3, vary, 10)]
+    assert first == [[_job(s, vary) for s in range(7, 10)], [_job(s, vary) for s in range(10, 13)]]
 
 
 def test_the_pool_never_holds_more_than_its_window_of_batches():
@@ -863,12 +868,7 @@ def test_chaos_workers_killed_at_random_moments_change_nothing_in_the_result(tmp
         assert kills, f"seed {seed}: the study ended before the first kill"
         pd.testing.assert_frame_equal(pd.read_parquet(out), quiet)
     finally:
-        for p in procs:
-            try:
-                os.killpg(p.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-            p.wait(timeout=30)
+        stop_process_groups(procs)
 
 
 # ------------------------------------------------------------------------------------------ metocean units
@@ -1037,12 +1037,7 @@ def test_an_untrusted_client_certificate_is_one_line_in_serve_s_output(tmp_path)
             c.application_uri = "urn:test:client"
             await c.set_security(SecurityPolicyBasic256Sha256, str(cert), str(key),
                                  server_certificate=str(st_ / "own" / "cert.der"))
-            try:
-                await c.connect()
-            except Exception:
-                return False
-            await c.disconnect()
-            return True
+            return await _connects(c)
 
         assert asyncio.run(attempt()) is False
         time.sleep(0.5)
@@ -1136,12 +1131,7 @@ def test_anonymous_sessions_are_off_unless_asked_for(tmp_path, model):
             c.set_user(user)
             c.set_password("pw-victor")
         await c.set_security(SecurityPolicyBasic256Sha256, str(cert), str(key), server_certificate=str(st_.cert))
-        try:
-            await c.connect()
-        except Exception:
-            return False
-        await c.disconnect()
-        return True
+        return await _connects(c)
 
     try:
         assert asyncio.run(attempt(None)) is False
@@ -1327,3 +1317,33 @@ def test_a_killed_worker_verdict_is_not_resubmitted():
     from loadarm.studies.operability import _lost
 
     assert not _lost(KilledWorker("k", "w", 3)) and _lost(CommClosedError()) and not _lost(ValueError())
+
+
+def test_the_figures_on_the_reliability_page_are_the_code_s():
+    """docs/reliability.md states defaults: each is the constant the code uses."""
+    import inspect
+
+    from loadarm.eventlog import LogWriter
+    from loadarm.hmi.app import LOGIN_BODY
+    from loadarm.opcua import server as srv
+    from loadarm.opcua.security import LOGIN_FAILURES, LOGIN_WINDOW, SECRET_BYTES
+    from loadarm.studies.campaign import MAX_SEEDS
+    from loadarm.studies.cluster import WORKERS_PER_CORE
+
+    from .conftest import ROOT
+
+    text = " ".join((ROOT / "docs" / "reliability.md").read_text().split())
+    capacity = inspect.signature(LogWriter).parameters["capacity"].default
+    for figure in (f"(up to {capacity:,})".replace(",", " "),
+                   f"at most {LOGIN_FAILURES} failed logins per user and per client address in {LOGIN_WINDOW:g} s",
+                   f"of at most {LOGIN_BODY // 1024} KiB. A password has at most {SECRET_BYTES // 1024} KiB",
+                   f"| TCP connections at once | {srv.MAX_CONNECTIONS} (`MAX_CONNECTIONS`) |",
+                   f"is closed after | {srv.ACTIVATION_WAIT:g} s (`ACTIVATION_WAIT`) |",
+                   f"| subscriptions: on the server, per session | {srv.MAX_SUBSCRIPTIONS}, "
+                   f"{srv.MAX_SUBSCRIPTIONS_PER_SESSION} |",
+                   f"| monitored items per session | {srv.MAX_ITEMS_PER_SESSION} |",
+                   f"| fastest publishing and sampling interval | {srv.MIN_PUBLISHING_MS:g} ms",
+                   f"| failed logins | {LOGIN_FAILURES} per user name and per client certificate in {LOGIN_WINDOW:g} s |",
+                   f"`--workers` in [1, {WORKERS_PER_CORE} per core]", f"`--seeds` in [1, {MAX_SEEDS}]"):
+        assert figure in text, figure
+    assert srv.MIN_SAMPLING_MS == srv.MIN_PUBLISHING_MS

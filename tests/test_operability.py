@@ -15,7 +15,7 @@ from loadarm.params.compiler import compile_model
 from loadarm.params.config import load_config
 from loadarm.studies.kernel import _DIRS, breakout_time, floor_table, monitor_record
 
-from .conftest import ROOT
+from .conftest import ROOT, stop_process_groups
 from .hypo import examples
 
 PAPER = ROOT / "examples" / "paper.toml"
@@ -256,12 +256,7 @@ def test_a_real_dask_cluster_on_loopback_survives_a_killed_worker(tmp_path):
         assert len(list(chunks.glob("chunk-*.parquet"))) == 12
         assert len(pd.read_parquet(out)) == 48
     finally:
-        for p in procs:
-            try:
-                os.killpg(p.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
-            p.wait(timeout=30)
+        stop_process_groups(procs)
 
 
 def test_results_are_marked_and_a_rerun_may_replace_them(tmp_path):

@@ -510,11 +510,6 @@ class LogWriter:
             stalled = pending > 0 and self.clock() - self._queue[0][0] > self.stall
             return LogStatus(not self._error and not stalled, pending, self._lost, self._error, self._written)
 
-    @property
-    def ok(self) -> bool:
-        """Shorthand for ``status().ok``."""
-        return self.status().ok
-
     def flush(self, timeout: float) -> bool:
         """Wait until every queued event is written, at most ``timeout`` s; whether they all are."""
         end = self._now() + timeout

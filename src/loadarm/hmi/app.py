@@ -52,8 +52,8 @@ def _static_dir() -> Path:
     return Path(str(resources.files("loadarm.hmi") / "static"))
 
 
-def _reply(seq, ok: bool, message: str) -> str:
-    return json.dumps({"type": "ack", "seq": seq, "ok": ok, "message": message})
+def _reply(seq, ok: bool, message: str, **extra) -> str:
+    return json.dumps({"type": "ack", "seq": seq, "ok": ok, "message": message, **extra})
 
 
 def _json_error(detail: str, status: int, headers: dict | None = None):
@@ -301,10 +301,8 @@ class _Screen:
             jogging["until"] = time.monotonic() + JOG_HOLD
         elif ok and msg.get("action") in ("stop", "estop"):
             jogging["until"] = -math.inf
-        reply = _reply(seq, ok, message)
-        if not ok and "sequence number" in message:       # the page adopts the session's last number
-            reply = reply[:-1] + f', "last_seq": {s.last_cmd}}}'
-        return reply, False
+        stale = not ok and "sequence number" in message   # the page adopts the session's last number
+        return _reply(seq, ok, message, **({"last_seq": s.last_cmd} if stale else {})), False
 
     async def ws(self, websocket) -> None:
         from fastapi import WebSocketDisconnect

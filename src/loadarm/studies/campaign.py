@@ -410,12 +410,6 @@ def _chunks(seeds: int, vary: Sequence[Vary], first_seed: int, batch: int):
         yield [_job(seed, vary) for seed in range(start, min(start + batch, first_seed + seeds))]
 
 
-def _jobs(seeds: int, vary: Sequence[Vary], first_seed: int) -> list[tuple[int, dict]]:
-    """Every run's seed and draws, in a list (for tests and small campaigns)."""
-    _check_seeds(seeds, first_seed)
-    return [_job(seed, vary) for seed in range(first_seed, first_seed + seeds)]
-
-
 def check_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (), first_seed: int = 0,
                    plant: str | None = None) -> None:
     """Refuse a campaign's bad input without running it (what :func:`run_campaign` checks first).

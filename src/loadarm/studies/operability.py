@@ -410,7 +410,7 @@ def _shared(compiled):
     return compiled
 
 
-def gather_resilient(client, items, submit, scatter, *, progress=None, resubmits: int = RESUBMITS) -> dict:
+def gather_resilient(client, items, submit, share, *, progress=None, resubmits: int = RESUBMITS) -> dict:
     """Run one task per item and gather the results; a task lost with its worker is submitted again.
 
     Found: with a worker killed at 12 s, ``operability`` failed with ``FutureCancelledError ... lost
@@ -425,8 +425,8 @@ def gather_resilient(client, items, submit, scatter, *, progress=None, resubmits
         ``(key, ...)`` each.
     submit : callable
         ``submit(item, shared) -> Future``.
-    scatter : callable
-        ``scatter() -> Future`` of the data every task shares (called again when it was lost).
+    share : callable
+        ``share() -> Future`` of the data every task shares (called again when it was lost).
     progress : callable, optional
         ``progress(done, total)``.
     resubmits : int
@@ -444,7 +444,7 @@ def gather_resilient(client, items, submit, scatter, *, progress=None, resubmits
     """
     from distributed import as_completed
 
-    shared = scatter()
+    shared = share()
     futures = {submit(item, shared): item for item in items}
     tries: dict = {}
     done: dict = {}
@@ -457,8 +457,8 @@ def gather_resilient(client, items, submit, scatter, *, progress=None, resubmits
             if not _lost(exc) or tries.get(item[0], 0) >= resubmits:
                 raise
             tries[item[0]] = tries.get(item[0], 0) + 1
-            if shared.status != "finished":                 # its replicas went with the worker: send it again
-                shared = scatter()
+            if shared.status != "finished":                 # lost with its workers: share it again
+                shared = share()
             new = submit(item, shared)
             futures[new] = item
             pending.add(new)

@@ -251,10 +251,11 @@ def test_operability_settings_take_the_installation_s_unless_given():
     d = _data()
     d["operability"] = {"duration_per_state": 600.0, "connect_motion_limit": 0.8}
     sec = parse_config(d).operability
-    assert OperabilitySettings().resolved(sec) == OperabilitySettings(600.0, 0.8)
-    assert OperabilitySettings(duration_per_state=60.0).resolved(sec) == OperabilitySettings(60.0, 0.8)
-    assert OperabilitySettings(connect_motion_limit=1.2, chunks=7).resolved(sec) == OperabilitySettings(600.0, 1.2,
-                                                                                                      chunks=7)
+    assert OperabilitySettings().resolved(sec) == OperabilitySettings(600.0, 0.8, criteria=sec)
+    assert OperabilitySettings(duration_per_state=60.0).resolved(sec) == OperabilitySettings(60.0, 0.8, criteria=sec)
+    assert OperabilitySettings(connect_motion_limit=1.2, chunks=7).resolved(sec) == OperabilitySettings(
+        600.0, 1.2, chunks=7, criteria=sec)
+    assert sec.line_limit == 0.5 and sec.loading_hours == 14.0      # the terminal's criteria, with their defaults
     with pytest.raises(ValueError, match="resolved settings"):
         from loadarm.studies.operability import run_states
 

@@ -222,12 +222,18 @@ def test_operability_page_synthetic_year(tmp_path):
     months = d["downtime_by_month"]
     lo, hi = min(months, key=months.get), max(months, key=months.get)
     name = {"01": "January", "05": "May"}
+    releases = int(t["release_s"].notna().sum())
     cited("docs/operability.md", f"downtime {100 * d['downtime_fraction']:.1f} % ({int(t['down'].sum())} hours: "
                                  f"{d['not_connectable_h']} not connectable, {int((t['stage'] >= 2).sum())} states "
-                                 f"with ESD-1, overlapping), no release, largest beta {d['max_beta_deg']:.1f} deg")
+                                 f"with ESD-1, overlapping), {releases} releases, none while connected, largest beta "
+                                 f"{d['max_beta_deg']:.1f} deg")
     cited("docs/operability.md", f"by month from {100 * months[lo]:.1f} % ({name[lo[-2:]]}) to "
                                  f"{100 * months[hi]:.1f} % ({name[hi[-2:]]})")
-    assert d["releases_per_year"] == 0 and d["states"] == 8760
+    share = {c: 100 * d[f"down_{c}_fraction"] for c in ("lines", "fenders", "motion", "arm")}
+    cited("docs/operability.md", f"lines {share['lines']:.1f} %, fenders {share['fenders']:.1f} %, motions "
+                                 f"{share['motion']:.1f} %, the arm {share['arm']:.1f} %")
+    cited("docs/operability.md", f"ESD-1 {d['esd1_connected_per_year']:.0f} times a year while connected")
+    assert d["releases_connected_per_year"] == 0 and d["states"] == 8760
     size = (tmp_path / "y.parquet").stat().st_size / 1e6
     cited("docs/operability.md", f"the synthetic year's rows are {size:.1f} MB")
 

@@ -232,11 +232,13 @@ def test_free_decay_loses_the_energy_its_damping_dissipates(ship, berth):
     n = 1201
     x0 = ship.eq0 + np.array([0.01, 0.0, 0.0])
     xs, vs, ten = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, len(mo.names)))
+    nl = len(mo.names)
     _lf_integrate(x0, np.zeros(3), np.zeros((n, 3)), 1, DT, int(round(ship.lf_step / DT)), np.linalg.inv(ship.mass_lf),
-                  ship.damping_lf,
-                  mo.lines, mo.alive, mo.alive, n + 1, mo.fender_y,
-                  mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side, mo.psi0, mo.origin, 0.0, 0.0,
-                  ship.current_kx, ship.current_ky, 0.2 * ship.length, xs, vs, ten)
+                  ship.damping_lf, mo.lines, mo.table, mo.e_brake, mo.e_break, mo.brake, np.zeros((nl, 0)),
+                  mo.alive, mo.alive, n + 1, mo.fender_y,
+                  mo.fender_defl, mo.fender_load, mo.fender_npts, mo.hull, mo.psi0, mo.origin, 0.0, 0.0,
+                  ship.current_kx, ship.current_ky, 0.2 * ship.length, xs, vs, ten, np.empty(nl, dtype=np.int64),
+                  np.empty(nl), np.empty(nl))
     k = stiffness(mo, ship.eq0)
     dx = xs - ship.eq0
     energy = 0.5 * np.einsum("ni,ij,nj->n", vs, ship.mass_lf, vs) + 0.5 * np.einsum("ni,ij,nj->n", dx, k, dx)
@@ -258,14 +260,15 @@ def test_steady_current_settles_at_the_static_equilibrium(ship, berth):
 def test_gusts_and_fender_contact_move_the_mean_off_the_static_offset(ship, berth):
     """Found (and kept as a property of the model, not a defect): with NPD gusts the ship swings in and out of
     fender contact, and the softer side (off the fenders) lets it go further: over 30 min the mean offset is
-    9 mm beyond the static equilibrium under the mean wind (rectification), about a third of the static
-    offset's 2.5 cm; the gust's added mean force (sigma_u^2 / U^2, 1 %) explains under 1 mm of it."""
+    9 cm beyond the static equilibrium under the mean wind (rectification), about half the static offset's
+    16 cm (HMPE lines with nylon tails: 9 mm of 2.5 cm on the linear 60 MN lines before issue 28); the gust's
+    added mean force (sigma_u^2 / U^2, 1 %) explains under 2 mm of it."""
     env = _calm(berth, wind_speed=20.0, wind_direction_deg=0.0, current_speed=0.5, current_direction_deg=90.0)
     m = simulate(ship, env, 1800.0, seed=3)
     settled = m.pose[m.t > 300]
     assert m.mean_pose[0] > ship.eq0[0], "the off-berth wind pushes the ship off its fenders"
     extra = np.mean(settled[:, 0]) - m.mean_pose[0]
-    assert 0.0 < extra < 0.5 * (m.mean_pose[0] - ship.eq0[0])
+    assert 0.0 < extra < 0.75 * (m.mean_pose[0] - ship.eq0[0])
 
 
 def test_all_lines_parted_the_ship_breaks_out(ship, berth):
@@ -381,9 +384,9 @@ def test_the_kernels_current_is_the_vectorised_formula(ship, speed, direction, v
     x = ship.eq0 + np.array([0.0, 0.0, psi])
     cx, cy = speed * math.cos(direction), speed * math.sin(direction)
     zero = np.zeros((3, 3))
-    a = _lf_rhs(x[0], x[1], x[2], vx, vy, 0.0, 0.0, 0.0, 0.0, np.eye(3), zero, mo.lines, mo.alive, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side,
+    a = _lf_rhs(x[0], x[1], x[2], vx, vy, 0.0, 0.0, 0.0, 0.0, np.eye(3), zero, mo.lines, mo.table, mo.alive, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.hull,
                 mo.psi0, mo.origin, (cx, cy, ship.current_kx, ship.current_ky, loads.E_C * ship.length),
-                np.zeros(3), np.zeros(len(mo.names)), np.empty((3, len(mo.names))))
+                np.zeros(3), np.zeros(len(mo.names)), np.empty((4, len(mo.names))))
     got = np.array(a) - restoring_force(mo, x)[0]
     heading = mo.psi0 + psi
     rx, ry = cx - vx, cy - vy
@@ -408,15 +411,16 @@ def test_the_coarse_low_frequency_step_is_accurate(ship, berth):
     assert np.std(a.pose[:, 0]) > 0.03
 
 
-def test_stiffer_moorings_get_a_finer_step(berth):
-    """omega_max h <= 0.5: lines ten times stiffer (steel wire rather than HMPE with tails) halve the step or
-    more; the step stays a multiple of the 0.1 s output step."""
+def test_stiffer_moorings_get_a_finer_step(ship, berth):
+    """omega_max h <= 0.5: steel wire lines without tails (about 4 times as stiff as HMPE with nylon tails)
+    get a finer step than the example's 1 s; the step stays a multiple of the 0.1 s output step."""
     from loadarm.params.berth import Berth
 
     data = berth.model_dump()
-    data["moorings"] = tuple(dict(m, axial_stiffness=m["axial_stiffness"] * 10) for m in data["moorings"])
+    data["moorings"] = tuple(dict(m, material="steel_wire", tail_length=0.0) for m in data["moorings"])
     stiff = compile_ship(Berth.model_validate(data))
-    assert stiff.lf_step <= 0.5 and abs(stiff.lf_step / 0.1 - round(stiff.lf_step / 0.1)) < 1e-9
+    assert np.sum(stiff.moorings.line_stiffness_max) > 3 * np.sum(ship.moorings.line_stiffness_max)
+    assert stiff.lf_step < ship.lf_step and abs(stiff.lf_step / 0.1 - round(stiff.lf_step / 0.1)) < 1e-9
 
 
 @pytest.mark.parametrize("hs, wind, current, seed", [(1.5, 20.0, 0.5, 3), (0.0, 12.0, 0.2, 4), (2.5, 0.0, 0.0, 5),

@@ -67,7 +67,11 @@ def alarms(
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Figure: the alarm zones and the break-out "
                                                               "stages.")] = None,
-    seeds: Annotated[int, typer.Option("--seeds", help="Realisations of the design sea state per case.")] = 5,
+    seeds: Annotated[int, typer.Option("--seeds", help="Realisations of the design sea state per case (at least 20 "
+                                                     "for the extreme-value fit of the allowance).")] = 20,
+    exceedance: Annotated[float, typer.Option("--exceedance", help="Probability per hour, in the design weather "
+                                                                    "with the lines intact, that the flange passes "
+                                                                    "ESD-1's allowance.")] = 1e-4,
     force: ForceOpt = False,
 ) -> None:
     """Design the alarm settings of this arm at this berth from a mooring analysis of its design ship (intact
@@ -81,12 +85,14 @@ def alarms(
     check_outputs({"--png": png}, [config, berth], force)
     if not 1 <= seeds <= 100:
         raise UserError(f"--seeds must be in [1, 100], got {seeds}")
+    if not 1e-8 <= exceedance <= 1e-2:                    # NaN fails too
+        raise UserError(f"--exceedance must be in [1e-08, 0.01] per hour, got {exceedance:g}")
     model = read_model(config)
     b = load_berth(berth)
     ship = compile_ship(b, source=str(berth))
     with progress_bar() as prog:
         task = prog.add_task("mooring analysis", total=1.0)
-        res = design_alarms(model, ship, b.environment, settings=DesignSettings(seeds=seeds),
+        res = design_alarms(model, ship, b.environment, settings=DesignSettings(seeds=seeds, exceedance_per_hour=exceedance),
                             progress=lambda f: prog.update(task, completed=f))
     if png is not None:
 

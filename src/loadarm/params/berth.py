@@ -12,8 +12,9 @@ Frames (SI units, angles in degrees only in keys ending ``_deg``):
   from the still-water level; the ship lies alongside with the side given by ``[berth] side`` against the
   fenders, its midships at ``[berth] ship_y``.
 
-Line and fender loads are given as the mooring analysis needs them: a line pulls only (``axial_stiffness`` of
-the line with its tail, linearised, and its minimum breaking load), a fender pushes only (a load-deflection
+Lines and fenders are given as a terminal knows them: a line is a main line of a material (HMPE, polyester,
+nylon, steel wire: :data:`ROPE_MATERIALS`, or the berth's own ``[materials.NAME]``) with its MBL, on a winch
+whose brake renders at a fraction of it, and a tail of another material; a fender pushes only (a load-deflection
 curve through the origin, increasing).
 """
 
@@ -28,8 +29,8 @@ from loadarm.errors import ConfigError
 from loadarm.params.config import parameter_markdown, read_toml
 from loadarm.params.declare import Section, format_validation_error, param, toml_values
 
-__all__ = ["ShipSection", "BerthSection", "MooringLine", "Fender", "Environment", "Berth", "parse_berth",
-           "load_berth", "berth_parameter_markdown", "RHO_SEA"]
+__all__ = ["ShipSection", "BerthSection", "RopeMaterial", "ROPE_MATERIALS", "MooringLine", "Fender", "Environment",
+           "Berth", "parse_berth", "load_berth", "berth_parameter_markdown", "RHO_SEA"]
 
 #: Density of sea water, kg/m^3 (ITTC 7.5-02-01-03, 15 deg C, 35 g/kg: 1025.9; 1025 is the usual design value).
 RHO_SEA = 1025.0
@@ -130,8 +131,36 @@ class BerthSection(Section):
                                                    "manifold may lie when connected (the flanging area's width)")
 
 
+class RopeMaterial(Section):
+    """A rope material's load-extension curve: strain ``eps = strain_at_break (T / MBL) ** exponent`` (new, wet
+    rope after bedding in; an exponent below 1 makes the rope soft at low load and stiffer as it is loaded, as
+    fibre ropes are)."""
+
+    strain_at_break: float = param(..., unit="1", gt=0, le=0.6, source="rope makers' published curves",
+                                   description="strain at the minimum breaking load")
+    exponent: float = param(..., unit="1", ge=0.3, le=1.5, source="rope makers' published curves",
+                            description="shape of the curve: strain grows as (T / MBL) to this power")
+    source: str = Field("the berth file", max_length=300, description="where the curve comes from",
+                        json_schema_extra={"unit": "", "source": ""})
+
+
+_ROPE = ("typical new, wet rope, fitted to load-elongation curves published by rope makers (order of magnitude; "
+         "OCIMF MEG4 2018 ch. 5 describes the materials): take the certified curve of the berth's own lines")
+
+#: The rope materials a berth file may name, with their curves (a berth's ``[materials.NAME]`` adds or replaces).
+#: Strains at break: steel wire about 1.5 % (elastic, plus constructional stretch), HMPE 3-4 %, polyester
+#: 12-15 %, nylon (polyamide, wet) 20-25 %.
+ROPE_MATERIALS: dict[str, RopeMaterial] = {
+    "steel_wire": RopeMaterial(strain_at_break=0.015, exponent=0.9, source=_ROPE + " (6x36 IWRC)"),
+    "hmpe": RopeMaterial(strain_at_break=0.035, exponent=0.85, source=_ROPE + " (12-strand HMPE)"),
+    "polyester": RopeMaterial(strain_at_break=0.13, exponent=0.7, source=_ROPE + " (8-strand polyester)"),
+    "nylon": RopeMaterial(strain_at_break=0.22, exponent=0.6, source=_ROPE + " (8-strand polyamide, wet)"),
+}
+
+
 class MooringLine(Section):
-    """One mooring line: from a fairlead on the ship to a bollard or hook on the jetty."""
+    """One mooring line: from a fairlead on the ship to a bollard or hook on the jetty; a main line on the ship's
+    winch and, at its shore end, a tail of a softer material (MEG4: tails on HMPE and wire lines)."""
 
     name: str = Field(..., min_length=1, max_length=40, description="line name (e.g. head 1, fwd breast 2)",
                       json_schema_extra={"unit": "", "source": "example"})
@@ -139,11 +168,22 @@ class MooringLine(Section):
                                                                                           "frame")
     bollard: tuple[float, float, float] = param(..., unit="m", source=_MEG, description="bollard or hook in the "
                                                                                          "berth frame")
-    axial_stiffness: float = param(60e6, unit="N", gt=0, le=1e10,
-                                   source="EA of an HMPE line with a nylon tail, linearised (order of magnitude)",
-                                   description="axial stiffness EA (tension per unit strain)")
+    material: str = Field("hmpe", min_length=1, max_length=40,
+                          description="main line's material (a name of [materials] or the built-in table)",
+                          json_schema_extra={"unit": "", "source": "MEG4: HMPE is the usual LNG carrier line"})
     mbl: float = param(1.0e6, unit="N", gt=0, le=1e8, source="ship design MBL of LNG carrier lines, about 1000 kN",
-                       description="minimum breaking load")
+                       description="main line's minimum breaking load (the ship design MBL)")
+    tail_material: str = Field("nylon", min_length=1, max_length=40, description="tail's material",
+                               json_schema_extra={"unit": "", "source": "MEG4: nylon or polyester tails"})
+    tail_length: float = param(11.0, unit="m", ge=0, le=100, source="MEG4: tails of about 11 m (0: no tail)",
+                               description="tail's length, unstretched (0: no tail)")
+    tail_mbl: float = param(1.25e6, unit="N", gt=0, le=1e8,
+                            source="MEG4: a tail's MBL 125-130 % of the line's ship design MBL",
+                            description="tail's minimum breaking load")
+    brake: float = param(0.6, unit="1", ge=0, le=1.0,
+                         source="MEG4: winch brakes set to render at 60 % of the ship design MBL",
+                         description="winch brake holding load, fraction of the main line's MBL; above it the "
+                                      "brake renders (pays out); 0: the line is on bitts and holds until it parts")
     pretension: float = param(100e3, unit="N", ge=0, le=1e7, source="about 10 % of the MBL (MEG4 practice)",
                               description="tension at the initial position")
 
@@ -152,7 +192,16 @@ class MooringLine(Section):
         if self.pretension >= 0.55 * self.mbl:
             raise ValueError(f"moorings line {self.name!r}: pretension = {self.pretension:g} N must be below 55 % of the "
                              f"MBL ({0.55 * self.mbl:g} N, MEG4's working load limit for synthetic lines)")
+        if 0 < self.brake * self.mbl <= self.pretension:
+            raise ValueError(f"moorings line {self.name!r}: brake = {self.brake:g} of the MBL "
+                             f"({self.brake * self.mbl:g} N) must hold more than the pretension "
+                             f"({self.pretension:g} N)")
         return self
+
+    @property
+    def breaking_load(self) -> float:
+        """The line's breaking load, N: its weaker segment's."""
+        return min(self.mbl, self.tail_mbl) if self.tail_length > 0 else self.mbl
 
 
 class Fender(Section):
@@ -199,6 +248,13 @@ class Environment(Section):
                                       description="mean direction the waves travel towards")
     spreading: float = param(4.0, unit="1", ge=1, le=100, source="cos-2s spreading, s = 4 for wind sea (DNV-RP-C205)",
                              description="directional spreading exponent s of cos^2s")
+    tide: float = param(0.0, unit="m", ge=-10, le=10,
+                        source="the lines tended at the reference level (MEG4: lines are tended over the tide)",
+                        description="water level above the level at which the lines were last tended (the ship "
+                                     "and its fairleads rise with it; the bollards stay)")
+    draft_change: float = param(0.0, unit="m", ge=-15, le=15, source="the loading condition of [ship] draft",
+                                description="draft above the one at which the lines were last tended (loading "
+                                             "lowers the fairleads)")
 
 
 class Berth(BaseModel):
@@ -211,6 +267,22 @@ class Berth(BaseModel):
     moorings: tuple[MooringLine, ...] = Field(..., min_length=4, description="mooring lines ([[moorings]] tables)")
     fenders: tuple[Fender, ...] = Field(..., min_length=2, description="fenders ([[fenders]] tables)")
     environment: Environment = Field(default_factory=Environment)
+    materials: dict[str, RopeMaterial] = Field(default_factory=dict, max_length=32,
+                                              description="rope materials added to or replacing the built-in ones "
+                                                          "([materials.NAME] tables)")
+
+    def material(self, name: str) -> RopeMaterial:
+        """A rope material by name: the berth's own, else the built-in table's.
+
+        Parameters
+        ----------
+        name : str
+
+        Returns
+        -------
+        RopeMaterial
+        """
+        return self.materials.get(name) or ROPE_MATERIALS[name]
 
     @model_validator(mode="after")
     def _fits(self) -> "Berth":
@@ -229,6 +301,11 @@ class Berth(BaseModel):
                 raise ValueError(f"moorings line {line.name!r}: fairlead {list(line.fairlead)} m lies off the ship "
                                  f"(|x| <= {s.length_pp / 2 + 20:g}, |y| <= {s.beam / 2:g}, 0 <= z <= "
                                  f"{s.depth + 10:g} m)")
+            known = sorted(set(ROPE_MATERIALS) | set(self.materials))
+            for key in ("material", "tail_material"):
+                if getattr(line, key) not in known:
+                    raise ValueError(f"moorings line {line.name!r}: {key} = {getattr(line, key)!r} is not a rope "
+                                     f"material (known: {', '.join(known)}; add one as [materials.NAME])")
             if line.bollard[0] > 0:
                 raise ValueError(f"moorings line {line.name!r}: bollard {list(line.bollard)} m lies on the water side "
                                  "of the fender line (berth x must be <= 0)")
@@ -286,4 +363,5 @@ def berth_parameter_markdown() -> str:
     str
     """
     return parameter_markdown([("ship", ShipSection), ("berth", BerthSection), ("moorings[]", MooringLine),
-                               ("fenders[]", Fender), ("environment", Environment)])
+                               ("fenders[]", Fender), ("environment", Environment),
+                               ("materials.NAME", RopeMaterial)])

@@ -471,6 +471,46 @@ class Operability(Section):
     duration_per_state: float = param(3600.0, unit="s", ge=10, le=3600,
                                       source="a metocean record's hourly step (the whole hour)",
                                       description="seconds simulated per hourly sea state")
+    line_limit: float = param(0.5, unit="1", gt=0, le=1.0,
+                              source="OCIMF MEG4: working load limit 50 % of the ship design MBL for synthetic "
+                                     "lines (55 % for steel wire)",
+                              description="largest line tension, first-order motion included, as a fraction of "
+                                          "the line's MBL")
+    wind_limit: float = param(20.0, unit="m/s", gt=0, le=60,
+                              source="terminal rules: arms disconnected at about 35-40 kn (example)",
+                              description="largest 1-hour mean wind from any direction")
+    wind_limit_off_berth: float = param(15.0, unit="m/s", gt=0, le=60,
+                                        source="the example arm's design weather at the example berth "
+                                               "(docs/ship-motion.md section 8)",
+                                        description="largest 1-hour mean wind blowing off the berth (within "
+                                                    "off_berth_sector_deg of berth +x)")
+    off_berth_sector_deg: float = param(45.0, unit="deg", ge=0, le=90, source="engineering choice",
+                                        description="half-width of the off-the-berth wind sector")
+    fender_limit: float = param(1.0, unit="1", gt=0, le=2.0,
+                                source="the fender's rated reaction (its curve's last point) (manufacturers' "
+                                       "rated deflection)",
+                                description="largest fender reaction as a fraction of its rated reaction")
+    surge_limit: float = param(2.0, unit="m", gt=0, le=20,
+                               source="PIANC (1995) criteria for moored ships, gas tankers with loading arms: "
+                                      "surge 2 m peak to peak",
+                               description="largest surge, peak to peak")
+    sway_limit: float = param(2.0, unit="m", gt=0, le=20,
+                              source="PIANC (1995), gas tankers with loading arms: sway 2 m zero to peak (off "
+                                     "the fenders)",
+                              description="largest move off the berth from the calm position")
+    roll_limit_deg: float = param(2.0, unit="deg", gt=0, le=30, source="PIANC (1995), gas tankers: roll 2 deg",
+                                  description="largest roll, peak to peak")
+    pitch_limit_deg: float = param(2.0, unit="deg", gt=0, le=30, source="PIANC (1995), gas tankers: pitch 2 deg",
+                                   description="largest pitch, peak to peak")
+    yaw_limit_deg: float = param(2.0, unit="deg", gt=0, le=30, source="PIANC (1995), gas tankers: yaw 2 deg",
+                                 description="largest yaw, peak to peak")
+    loading_hours: float = param(14.0, unit="h", gt=0, le=200,
+                                 source="a 150 000 m^3 LNG cargo at about 12 000 m^3/h: 12-16 h connected",
+                                 description="connected hours a loading needs")
+    reconnect_hours: float = param(2.0, unit="h", ge=0, le=48,
+                                   source="cool-down, reconnection and leak test after a disconnection "
+                                          "(engineering estimate)",
+                                   description="operable hours lost to reconnect after a disconnection")
 
 
 class Sequence(Section):

@@ -63,8 +63,9 @@ class ShipModel:
     moorings : Moorings
     hydro : Hydro
     rao : ndarray (nw, nb, 6), complex
-        About the centre of gravity, with the viscous roll damping and the moorings' stiffness at the calm
-        equilibrium.
+        About the centre of gravity, free-floating in surge, sway and yaw (the moorings, 40-120 s, answer
+        nothing at wave periods: their motion is the low-frequency one, solved apart), with the viscous roll
+        damping.
     drift : ndarray (nw, nb, 3)
         Mean drift coefficients (surge, sway N/m^2, yaw N m/m^2), ship frame, about midships.
     mass_lf : ndarray (3, 3)
@@ -74,7 +75,10 @@ class ShipModel:
     eq0 : ndarray (3,)
         Calm equilibrium pose (lines against fenders).
     k0 : ndarray (3, 3)
-        Mooring stiffness there, berth frame.
+        Mooring stiffness there, berth frame (lines and the fenders the ship lies against).
+    k_lines : ndarray (3, 3)
+        The lines' stiffness alone there (the ship moving off its fenders): the moored natural periods and the
+        modes of the low-frequency damping.
     manifold, cog : ndarray (3,)
         Ship frame (z above the keel).
     environment : Environment
@@ -91,6 +95,7 @@ class ShipModel:
     damping_lf: np.ndarray
     eq0: np.ndarray
     k0: np.ndarray
+    k_lines: np.ndarray
     manifold: np.ndarray
     cog: np.ndarray
     length: float
@@ -130,14 +135,14 @@ class ShipModel:
 
     def natural_periods(self) -> dict[str, float]:
         """Natural periods, s: surge, sway and yaw of the moored ship (eigenvalues of the low-frequency
-        system at the calm equilibrium) and heave, roll and pitch (hydrostatics with the added mass at the
-        resonance).
+        system on its lines at the calm equilibrium: the ship moving off its fenders) and heave, roll and pitch
+        (hydrostatics with the added mass at the resonance).
 
         Returns
         -------
         dict
         """
-        ev = np.linalg.eigvals(np.linalg.solve(self.mass_lf, self.k0))
+        ev = np.linalg.eigvals(np.linalg.solve(self.mass_lf, self.k_lines))
         periods = sorted(2 * math.pi / math.sqrt(max(e.real, 1e-12)) for e in ev)[::-1]
         out = {f"lf_mode_{i + 1}_s": p for i, p in enumerate(periods)}
         h = self.hydro
@@ -160,7 +165,7 @@ LF_ACCURACY = 0.5
 
 def _stiffest(mo: Moorings, h) -> tuple[float, float, list]:
     m_min = min(h.inertia[0, 0] + h.added_mass[0, 0, 0], h.inertia[1, 1] + h.added_mass[0, 1, 1])
-    k_lines = float(np.sum(mo.ea / mo.l0))
+    k_lines = float(np.sum(mo.line_stiffness_max))
     slopes = [float(np.max(np.diff(mo.fender_load[j, :n]) / np.diff(mo.fender_defl[j, :n])))
               for j, n in enumerate(mo.fender_npts)]
     return m_min, k_lines, slopes
@@ -200,7 +205,7 @@ def _check_step(berth: Berth, mo: Moorings, h, source: str) -> None:
             f"{source}: the lines and fenders are too stiff for the motion's {LF_STEP:g} s step: together {k_max:.3g} N/m "
             f"(lines {k_lines:.3g}, stiffest fender {mo.fender_names[j]!r} {slopes[j]:.3g} N/m) against at most "
             f"{limit:.3g} N/m for this ship (natural period above {2 * math.pi * LF_STEP / LF_STABILITY:.2f} s); "
-            "check the fender curves' units (N and m) and the lines' axial_stiffness")
+            "check the fender curves' units (N and m) and the lines' materials and lengths")
 
 
 def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, source: str = "<berth>") -> ShipModel:
@@ -226,13 +231,14 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, s
     """
     s = berth.ship
     h = _hydro.load_hydro(_hydro.hydro_spec(s, berth.berth.water_depth), solve=solve, progress=progress)
-    mo = compile_moorings(berth)
+    mo = compile_moorings(berth, source=source)
     _check_step(berth, mo, h, source)
     try:
         eq0 = equilibrium(mo, np.zeros(3))
     except ConfigError as exc:
         raise type(exc)(f"{source}: in calm weather: {exc}") from None
     k0 = stiffness(mo, eq0)
+    k_lines = stiffness(mo, eq0, fenders=False)
     # berth-frame (x, y, psi) = T (u, v, psi) ship frame; midships = S cog
     t = _rot3(mo.psi0)
     sm = midships_transform(s.lcg)
@@ -241,22 +247,19 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, s
     m_cog = h.inertia[idx] + h.added_mass[0][idx]
     m_mid_ship = sinv.T @ m_cog @ sinv
     mass_lf = t @ m_mid_ship @ t.T
-    # moorings into the RAO: ship frame about the CoG
-    k_ship_mid = t.T @ k0 @ t
-    k6 = np.zeros((6, 6))
-    k6[idx] = sm.T @ k_ship_mid @ sm
+    # first order: free-floating in surge, sway and yaw (no mooring stiffness: docs/ship-motion.md)
     d6 = np.zeros((6, 6))
     d6[3, 3] = _hydro.roll_damping(h, s.roll_damping_ratio)
-    motion = _hydro.rao(h, damping=d6, stiffness=k6)
+    motion = _hydro.rao(h, damping=d6)
     drift_cog = _hydro.cached_mean_drift(h, motion)
     # yaw moment about midships: N_mid = N_cog + lcg Y
     drift = drift_cog.copy()
     drift[..., 2] += s.lcg * drift_cog[..., 1]
-    # linear low-frequency damping: a fraction of critical on each mode of (M, K)
-    ev, vec = np.linalg.eig(np.linalg.solve(mass_lf, k0))
+    # linear low-frequency damping: a fraction of critical on each mode of the ship on its lines (M, K_lines)
+    ev, vec = np.linalg.eig(np.linalg.solve(mass_lf, k_lines))
     ev, vec = ev.real, vec.real
     mm = vec.T @ mass_lf @ vec
-    kk = vec.T @ k0 @ vec
+    kk = vec.T @ k_lines @ vec
     crit = np.diag(2.0 * s.lf_damping_ratio * np.sqrt(np.maximum(np.diag(kk), 0.0) * np.diag(mm)))
     vinv = np.linalg.inv(vec)
     damping_lf = vinv.T @ crit @ vinv
@@ -265,7 +268,7 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, s
                                        0.98 * s.beam * s.draft, s.propeller_area,
                                        max(berth.environment.current_speed, 0.1), RHO_SEA)
     return ShipModel(moorings=mo, hydro=h, rao=motion, drift=drift, mass_lf=mass_lf, damping_lf=damping_lf,
-                     eq0=eq0, k0=k0, manifold=np.array(s.manifold, dtype=float),
+                     eq0=eq0, k0=k0, k_lines=k_lines, manifold=np.array(s.manifold, dtype=float),
                      cog=np.array([s.lcg, 0.0, s.kg]), length=s.length_pp, beam=s.beam, draft=s.draft, kind=s.kind,
                      frontal_area=s.frontal_windage, lateral_area=s.lateral_windage,
                      centroid_x=s.windage_centroid_x, current_kx=kx, current_ky=ky, current_cyc=cyc,

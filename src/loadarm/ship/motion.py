@@ -39,10 +39,17 @@ from loadarm.ship.loads import (
     wind_force,
 )
 from loadarm.ship.model import ShipModel
-from loadarm.ship.mooring import equilibrium, line_tensions, restoring_kernel
+from loadarm.ship.mooring import (
+    equilibrium,
+    fender_loads,
+    line_elongation,
+    line_tension,
+    line_tensions,
+    restoring_kernel,
+)
 
 __all__ = ["ShipMotion", "simulate", "flange_positions", "mean_load", "MIN_RECORD", "DT", "wave_components",
-           "fft_length"]
+           "fft_length", "rise_of", "line_stretch_coefficients", "moored_state", "StateLoads"]
 
 #: Shortest record synthesised, s (frequency step 2 pi / 1800 s: 0.0035 rad/s).
 MIN_RECORD = 1800.0
@@ -133,17 +140,18 @@ def _phasors(amplitude, phase, out):
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, lines, alive, fy, fdefl, fload, fn, side, psi0, origin,
-            current, out_f, ten, per_line):
+def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, lines, table, alive, fy, fdefl, fload, fn, hull, psi0,
+            origin, current, out_f, ten, per_line):
     """Acceleration (3 floats) of the low-frequency pose: scalars in and out, no allocation (the integration
     calls it four times a step). ``current`` is ``(vx, vy, kx, ky, el)``: the current's velocity and the ship's
     current-load factors. Inlined into the integrator (no reference counting of its arrays per call: found,
     about 0.5 us a call; fewer than 30 arguments, or Python passes them as ``*args``, which numba cannot
-    inline). ``lines`` is :attr:`loadarm.ship.mooring.Moorings.lines`, ``per_line`` a (3, n) scratch."""
+    inline). ``lines`` is :attr:`loadarm.ship.mooring.Moorings.lines` (the integration's copy, rendered lengths
+    in it), ``table`` the lines' tension tables, ``per_line`` a (4, n) scratch."""
     cur_vx, cur_vy, kx, ky, el = current
     psi = psi0 + x2
     c, s = math.cos(psi), math.sin(psi)
-    restoring_kernel(x0, x1, c, s, lines, alive, fy, fdefl, fload, fn, side, origin, out_f, ten, per_line)
+    restoring_kernel(x0, x1, c, s, lines, table, alive, fy, fdefl, fload, fn, hull, origin, out_f, ten, per_line)
     # external ship-frame load rotated to the berth frame
     fx = out_f[0] + c * f0 - s * f1
     fyy = out_f[1] + s * f0 + c * f1
@@ -168,47 +176,141 @@ def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, lines, alive, fy, fd
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, lines, alive0, alive1, i_part, fy, fdefl, fload, fn,
-                  side, psi0, origin, cur_vx, cur_vy, kx, ky, el, xs, vs, tens):
+def _line_events(k_prev, k, e_start, e_end, stretch, work, table, e_brake, e_break, brake, alive, part_at, paid,
+                 tens, tmax):
+    """The lines over the step from output sample ``k_prev`` to ``k`` (``k_prev`` -1: the first sample alone):
+    each sample's elongation (linear between the step's ends, ``e_start`` and ``e_end``, plus the first-order
+    ``stretch``, (lines, samples), when it has columns), the tension record ``tens`` (when it has rows; at
+    most the brake's holding load), and the events at the step's end: a line whose elongation reached its breaking one parts (unless its
+    brake renders first), a line past its brake's holding load renders (its unstretched length in ``work`` row
+    5 grows by the excess, summed in ``paid``); ``tmax`` keeps each line's largest tension (from its largest
+    elongation: the curve rises, so no sample's tension need be read for it). Returns True when a line parted or
+    rendered."""
+    nl = work.shape[1]
+    has_stretch = stretch.shape[1] > 0
+    rec = tens.shape[0] > 0
+    lo = k_prev + 1 if k_prev >= 0 else k
+    changed = False
+    for j in range(nl):
+        if not alive[j]:
+            if rec:
+                for q in range(lo, k + 1):
+                    tens[q, j] = 0.0
+            continue
+        peak = -1e300
+        broke = -1
+        for q in range(lo, k + 1):
+            u = (q - k_prev) / (k - k_prev) if k_prev >= 0 else 1.0
+            e = (1.0 - u) * e_start[j] + u * e_end[j]
+            if has_stretch:
+                e += stretch[j, q]
+            if broke < 0:                         # the largest elongation up to the parting, if any
+                if e > peak:
+                    peak = e
+                if e >= e_break[j] and e_brake[j] >= e_break[j]:
+                    broke = q
+            if rec:
+                t = 0.0 if broke >= 0 and q > broke else line_tension(e, work[6, j], table[j])
+                tens[q, j] = t if t < brake[j] else brake[j]
+        top = line_tension(peak, work[6, j], table[j])
+        top = top if top < brake[j] else brake[j]
+        if top > tmax[j]:
+            tmax[j] = top
+        if broke >= 0:
+            alive[j] = False
+            part_at[j] = broke
+            changed = True
+        elif peak > e_brake[j]:
+            work[5, j] += peak - e_brake[j]
+            paid[j] += peak - e_brake[j]
+            changed = True
+    return changed
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _elongations(x, y, psi, lines, origin, out):
+    """Each line's elongation (stretched length less unstretched) at the pose ``(x, y, psi)`` (``psi`` the
+    heading), into ``out``: the kernel's geometry alone (:func:`loadarm.ship.mooring.restoring_kernel`)."""
+    c, s = math.cos(psi), math.sin(psi)
+    cx, cy = origin[0] + x, origin[1] + y
+    for i in range(lines.shape[1]):
+        ax, ay, h = lines[0, i], lines[1, i], lines[4, i]
+        rx = c * ax - s * ay                      # as the kernel writes it: the same elongation, bit for bit
+        ry = s * ax + c * ay
+        dx, dy = cx + rx - lines[2, i], cy + ry - lines[3, i]
+        out[i] = math.sqrt(dx * dx + dy * dy + h * h) - lines[5, i]
+
+
+@njit(cache=True, nogil=True)
+def _part_named(k, alive, alive1, part_at, tens):
+    """The named lines part at output sample ``k``: those alive and not in ``alive1`` (their tension record is
+    0 from ``k``). Returns True when one did."""
+    changed = False
+    for j in range(alive.shape[0]):
+        if alive[j] and not alive1[j]:
+            alive[j] = False
+            part_at[j] = k
+            changed = True
+            if tens.shape[0] > 0:
+                tens[k, j] = 0.0
+    return changed
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, lines, table, e_brake, e_break, brake, stretch,
+                  alive0, alive1, i_part, fy, fdefl, fload, fn, hull, psi0, origin, cur_vx, cur_vy, kx, ky, el, xs,
+                  vs, tens, part_at, paid, tmax):
     """RK4 of the low-frequency pose, ``stride`` output samples per step (the load taken at its samples at the
     step's start, middle and end: it is low-passed first, :data:`LF_CUTOFF`); the samples between from the cubic
     Hermite of the step's ends (error of order ``(w h)^4 / 384``: below 1e-4 of the motion for the 19 s and longer
-    periods of a moored ship at :data:`LF_STEP`), their tensions interpolated linearly. A step ends exactly where
-    the lines part (``i_part``: from there ``alive1``) and at the last sample. The tensions between two steps are
-    filled once the next step's first stage has the end's. Empty ``vs`` and ``tens`` (no rows): the pose alone.
+    periods of a moored ship at :data:`LF_STEP`). A step ends exactly where the named lines part (``i_part``:
+    from there ``alive1`` too) and at the last sample. At each step's end the lines' events
+    (:func:`_line_events`: brakes rendering, lines parting at their breaking load, on the low-frequency
+    elongation plus the first-order ``stretch``); after an event the step's end is evaluated again with the new
+    lines, so the cascade follows from step to step. Empty ``vs`` and ``tens`` (no rows): the pose alone.
     ``f_ship`` holds the load at every ``every``-th output sample (:func:`_load_every`: only the samples the
-    stages read). ``lines`` is :attr:`loadarm.ship.mooring.Moorings.lines`."""
+    stages read). ``lines`` is :attr:`loadarm.ship.mooring.Moorings.lines` (copied: rendering lengthens the
+    copy). ``part_at`` gets each line's sample of parting (-1: intact), ``paid`` the length its brake paid
+    out, m, ``tmax`` its largest tension, N (whether ``tens`` records them or not)."""
     n = xs.shape[0]
     rates = vs.shape[0] > 0
     current = (cur_vx, cur_vy, kx, ky, el)
     nl = lines.shape[1]
+    work = lines.copy()
+    alive = alive0.copy()
+    for j in range(nl):
+        part_at[j] = -1
+        paid[j] = 0.0
+        tmax[j] = 0.0
+        if not alive[j]:
+            part_at[j] = 0
     out_f = np.zeros(3)
     ten = np.zeros(nl)
-    ten0 = np.zeros(nl)
-    per_line = np.empty((3, nl))
+    e0 = np.zeros(nl)
+    e_now = np.zeros(nl)
+    per_line = np.empty((4, nl))
     a0, a1, a2 = x0[0], x0[1], x0[2]
     b0, b1, b2 = v0[0], v0[1], v0[2]
     k = 0
     k_prev = -1
     while True:
-        alive = alive1 if k >= i_part else alive0
         xs[k, 0], xs[k, 1], xs[k, 2] = a0, a1, a2
         if rates:
             vs[k, 0], vs[k, 1], vs[k, 2] = b0, b1, b2
         p0, p1, p2 = f_ship[k // every, 0], f_ship[k // every, 1], f_ship[k // every, 2]
-        k1 = _lf_rhs(a0, a1, a2, b0, b1, b2, p0, p1, p2, minv, damp, lines, alive, fy, fdefl,
-                     fload, fn, side, psi0, origin, current, out_f, ten, per_line)
-        if rates:
-            for j in range(nl):                  # the first stage is at the step's own pose: its tensions
-                tens[k, j] = ten[j]
-        if rates and k_prev >= 0:                # the previous step's samples between: tensions interpolated
-            m_prev = k - k_prev
-            for i in range(1, m_prev):
-                u = i / m_prev
-                for j in range(nl):
-                    tens[k_prev + i, j] = (1 - u) * ten0[j] + u * ten[j]
+        # the lines' events first (their elongations alone: found, a second inlined evaluation of the whole
+        # right-hand side after an event doubled the integrator's compile time), then the step's first stage
+        _elongations(a0, a1, psi0 + a2, work, origin, e_now)
+        changed = _line_events(k_prev, k, e0, e_now, stretch, work, table, e_brake, e_break, brake, alive,
+                               part_at, paid, tens, tmax)
+        if k >= i_part and _part_named(k, alive, alive1, part_at, tens):
+            changed = True
+        if changed:
+            _elongations(a0, a1, psi0 + a2, work, origin, e_now)
+        k1 = _lf_rhs(a0, a1, a2, b0, b1, b2, p0, p1, p2, minv, damp, work, table, alive, fy, fdefl,
+                     fload, fn, hull, psi0, origin, current, out_f, ten, per_line)
         for j in range(nl):
-            ten0[j] = ten[j]
+            e0[j] = e_now[j]
         if k == n - 1:
             break
         k2 = min(k + stride, n - 1)
@@ -228,16 +330,16 @@ def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, lines, alive0, 
         h = 0.5 * big
         x20, x21, x22 = a0 + h * b0, a1 + h * b1, a2 + h * b2
         v20, v21, v22 = b0 + h * k1[0], b1 + h * k1[1], b2 + h * k1[2]
-        k2s = _lf_rhs(x20, x21, x22, v20, v21, v22, m0, m1, m2, minv, damp, lines, alive, fy,
-                      fdefl, fload, fn, side, psi0, origin, current, out_f, ten, per_line)
+        k2s = _lf_rhs(x20, x21, x22, v20, v21, v22, m0, m1, m2, minv, damp, work, table, alive, fy,
+                      fdefl, fload, fn, hull, psi0, origin, current, out_f, ten, per_line)
         x30, x31, x32 = a0 + h * v20, a1 + h * v21, a2 + h * v22
         v30, v31, v32 = b0 + h * k2s[0], b1 + h * k2s[1], b2 + h * k2s[2]
-        k3 = _lf_rhs(x30, x31, x32, v30, v31, v32, m0, m1, m2, minv, damp, lines, alive, fy,
-                     fdefl, fload, fn, side, psi0, origin, current, out_f, ten, per_line)
+        k3 = _lf_rhs(x30, x31, x32, v30, v31, v32, m0, m1, m2, minv, damp, work, table, alive, fy,
+                     fdefl, fload, fn, hull, psi0, origin, current, out_f, ten, per_line)
         x40, x41, x42 = a0 + big * v30, a1 + big * v31, a2 + big * v32
         v40, v41, v42 = b0 + big * k3[0], b1 + big * k3[1], b2 + big * k3[2]
-        k4 = _lf_rhs(x40, x41, x42, v40, v41, v42, q0, q1, q2, minv, damp, lines, alive, fy,
-                     fdefl, fload, fn, side, psi0, origin, current, out_f, ten, per_line)
+        k4 = _lf_rhs(x40, x41, x42, v40, v41, v42, q0, q1, q2, minv, damp, work, table, alive, fy,
+                     fdefl, fload, fn, hull, psi0, origin, current, out_f, ten, per_line)
         c0 = a0 + big / 6 * (b0 + 2 * v20 + 2 * v30 + v40)
         c1 = a1 + big / 6 * (b1 + 2 * v21 + 2 * v31 + v41)
         c2 = a2 + big / 6 * (b2 + 2 * v22 + 2 * v32 + v42)
@@ -285,14 +387,23 @@ class ShipMotion(Result):
     flange_angles : ndarray (n, 3)
         Roll, pitch, yaw of the flange face relative to the reference heading, rad.
     tension : ndarray (n, lines)
-        N.
+        N: the low-frequency tension plus the first-order motion's (``dL`` of
+        :func:`line_stretch_coefficients` on the line's curve), at most the brake's holding load.
     names : tuple of str
         Line names.
     mbl : ndarray (lines,)
     parted : tuple of str
+        The lines parted in the run, named (``part_time``) or overloaded, in the order they parted.
     part_time : float or None
+        When the named lines were cut, s.
     mean_pose : ndarray (3,)
         Static equilibrium under the mean loads (intact).
+    part_times : ndarray (lines,)
+        When each line parted, s (NaN: it held).
+    paid_out : ndarray (lines,)
+        Length each winch brake paid out while rendering, m.
+    brake, breaking_load : ndarray (lines,)
+        N (brake ``inf``: on bitts).
     """
 
     t: np.ndarray
@@ -310,6 +421,10 @@ class ShipMotion(Result):
     part_time: float | None
     mean_pose: np.ndarray
     flange_reference: np.ndarray
+    part_times: np.ndarray
+    paid_out: np.ndarray
+    brake: np.ndarray
+    breaking_load: np.ndarray
 
     METRICS = (
         Metric("duration_s", "duration", "s", ".0f"),
@@ -326,6 +441,8 @@ class ShipMotion(Result):
         Metric("tension_max_kn", "largest line tension", "kN", ".0f"),
         Metric("tension_max_line", "in line"),
         Metric("tension_max_fraction_mbl", "largest tension / MBL", "", ".2f"),
+        Metric("lines_rendered", "lines whose brake rendered"),
+        Metric("paid_out_max_m", "largest brake pay-out", "m", ".2f"),
     )
 
     def _values(self) -> dict:
@@ -346,7 +463,10 @@ class ShipMotion(Result):
                 "roll_max_deg": float(np.degrees(np.max(np.abs(self.flange_angles[:, 0])))),
                 "pitch_max_deg": float(np.degrees(np.max(np.abs(self.flange_angles[:, 1])))),
                 "tension_max_kn": float(self.tension[i, j]) / 1e3, "tension_max_line": self.names[j],
-                "tension_max_fraction_mbl": float(ratio[i, j])}
+                "tension_max_fraction_mbl": float(ratio[i, j]),
+                "lines_rendered": ", ".join(n for n, p in zip(self.names, self.paid_out) if p > 0) or "none",
+                "paid_out_max_m": float(np.max(self.paid_out)),
+                "part_times_s": {n: float(t) for n, t in zip(self.names, self.part_times) if t == t}}
 
     def _figure(self):
         from matplotlib.figure import Figure
@@ -537,20 +657,81 @@ def _lf_stride(ship: ShipModel, dt: float) -> int:
 
 
 def _lf_motion(ship: ShipModel, env: Environment, f_ship: np.ndarray, every: int, n_out: int, eq: np.ndarray,
-               dt: float, alive0, alive1, i_part: int, *, rates: bool = True):
+               dt: float, alive0, alive1, i_part: int, *, rates: bool = True, stretch=None):
     """Integrate the low-frequency pose over ``n_out`` samples under ``f_ship`` (every ``every``-th sample's);
-    with ``rates`` False only the pose (its rate and the line tensions come back empty)."""
+    with ``rates`` False only the pose (its rate and the line tensions come back empty). ``stretch``: the lines'
+    first-order elongation per output sample (lines, n_out), contiguous, or None. Returns the pose, its rate, the tensions,
+    each line's sample of parting (-1 intact), the length its brake paid out and its largest tension."""
     mo = ship.moorings
+    nl = len(mo.names)
     pose = np.empty((n_out, 3))
     pose_v = np.empty((n_out if rates else 0, 3))
-    tension = np.empty((n_out if rates else 0, len(mo.names)))
+    tension = np.empty((n_out if rates else 0, nl))
+    part_at = np.empty(nl, dtype=np.int64)
+    paid = np.empty(nl)
+    tmax = np.empty(nl)
     cur = math.radians(env.current_direction_deg)
     _lf_integrate(eq.copy(), np.zeros(3), f_ship, every, dt, _lf_stride(ship, dt),
-                  np.linalg.inv(ship.mass_lf), ship.damping_lf, mo.lines,
-                  alive0, alive1, i_part, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.side,
+                  np.linalg.inv(ship.mass_lf), ship.damping_lf, mo.lines_at(rise_of(env)), mo.table, mo.e_brake,
+                  mo.e_break, mo.brake, np.zeros((nl, 0)) if stretch is None else stretch,
+                  alive0, alive1, i_part, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.hull,
                   mo.psi0, mo.origin, env.current_speed * math.cos(cur), env.current_speed * math.sin(cur),
-                  ship.current_kx, ship.current_ky, E_C * ship.length, pose, pose_v, tension)
-    return pose, pose_v, tension
+                  ship.current_kx, ship.current_ky, E_C * ship.length, pose, pose_v, tension, part_at, paid, tmax)
+    return pose, pose_v, tension, part_at, paid, tmax
+
+
+def rise_of(env: Environment) -> float:
+    """How far the fairleads stand above where they were when the lines were tended: the tide less the draft
+    change, m.
+
+    Parameters
+    ----------
+    env : Environment
+
+    Returns
+    -------
+    float
+    """
+    return float(env.tide - env.draft_change)
+
+
+def _stretch(ship: ShipModel, wave: np.ndarray, eq, rise: float) -> np.ndarray:
+    """The lines' first-order elongation, (lines, samples) and contiguous, as the integration reads it (``wave``
+    is the synthesis's transposed view: ``C^T wave^T`` needs no copy)."""
+    return np.ascontiguousarray(line_stretch_coefficients(ship, eq, rise).T @ wave.T)
+
+
+def line_stretch_coefficients(ship: ShipModel, eq, rise: float = 0.0) -> np.ndarray:
+    """How each line's length follows the first-order motion: ``dL = wave @ C`` with ``wave`` the centre of
+    gravity's six (ship frame, m and rad) and ``C`` (6, lines), from the line's direction at the pose ``eq``
+    (small motions: ``dL = u . (xi + theta x r)``, ``u`` the unit vector from bollard to fairlead, ``r`` the
+    fairlead from the centre of gravity).
+
+    Parameters
+    ----------
+    ship : ShipModel
+    eq : array_like (3,)
+        Low-frequency pose.
+    rise : float
+        m.
+
+    Returns
+    -------
+    ndarray (6, lines)
+    """
+    mo = ship.moorings
+    psi = mo.psi0 + float(eq[2])
+    c, s = math.cos(psi), math.sin(psi)
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    fair = mo.fairlead
+    pos = np.empty_like(fair)
+    pos[:, :2] = mo.origin + np.asarray(eq[:2]) + fair[:, :2] @ rot[:2, :2].T
+    pos[:, 2] = fair[:, 2] - ship.draft + rise
+    u = pos - mo.bollard
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    w = u @ rot                                   # in the ship frame
+    r = fair - ship.cog
+    return np.vstack([w.T, np.cross(r, w).T])
 
 
 def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 0, parted: tuple[str, ...] = (),
@@ -589,6 +770,7 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
     mo = ship.moorings
     alive0 = mo.alive
     alive1 = mo.parted(parted) if parted else alive0
+    rise = rise_of(env)
     rng = np.random.default_rng(seed)
     comp, beta, z = _sea(ship, env, n, dt, rng)
     if waves and env.hs > 0:
@@ -598,32 +780,42 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
     else:
         wave = np.zeros((n_out, 6))
         wave_v = np.zeros((n_out, 6))
-    eq = equilibrium(mo, mean_load(ship, env), eta0=ship.eq0)
+    eq = equilibrium(mo, mean_load(ship, env), eta0=ship.eq0, rise=rise)
     t = np.arange(n_out) * dt
+    stretch = _stretch(ship, wave, eq, rise) if waves and env.hs > 0 else None
     if slow:
         i_part = n_out + 1 if part_time is None or not parted else int(math.ceil(part_time / dt - 1e-9))
         every = _load_every(n, n_out, _lf_stride(ship, dt), i_part)
         f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng, every)
-        pose, pose_v, tension = _lf_motion(ship, env, f_ship, every, n_out, eq, dt, alive0, alive1, i_part)
+        pose, pose_v, tension, part_at, paid, _ = _lf_motion(ship, env, f_ship, every, n_out, eq, dt, alive0,
+                                                             alive1, i_part, stretch=stretch)
     else:
         pose = np.tile(eq, (n_out, 1))
         pose_v = np.zeros((n_out, 3))
-
-        tension = np.tile(line_tensions(mo, eq), (n_out, 1))
+        t_eq = line_tensions(mo, eq, rise=rise)
+        tension = np.tile(t_eq, (n_out, 1))
+        if stretch is not None:
+            e_eq = np.array([float(line_elongation(t_eq[i], mo.segments[i])) for i in range(len(mo.names))])
+            tension = np.minimum(np.column_stack([mo.tension_of(i, e_eq[i] + stretch[i])
+                                                  for i in range(len(mo.names))]), mo.brake)
+        part_at, paid = np.full(len(mo.names), -1), np.zeros(len(mo.names))
     flange, flange_v, angles = flange_kinematics(ship, pose, pose_v, wave, wave_v)
     ref, _, _ = flange_kinematics(ship, eq[None, :], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
+    part_times = np.where(part_at >= 0, part_at * dt, np.nan)
+    order = np.argsort(np.where(part_at >= 0, part_at, np.iinfo(np.int64).max), kind="stable")
     return ShipMotion(t=t, pose=pose, pose_velocity=pose_v, wave=wave, wave_velocity=wave_v, flange=flange,
                       flange_velocity=flange_v, flange_angles=angles, tension=tension, names=mo.names, mbl=mo.mbl,
-                      parted=tuple(parted), part_time=part_time if parted else None, mean_pose=eq,
-                      flange_reference=ref[0])
+                      parted=tuple(mo.names[i] for i in order if part_at[i] >= 0),
+                      part_time=part_time if parted else None, mean_pose=eq, flange_reference=ref[0],
+                      part_times=part_times, paid_out=paid, brake=mo.brake, breaking_load=mo.breaking_load)
 
 
 def flange_positions(ship: ShipModel, env: Environment, duration: float, *, seed: int = 0, dt: float = DT) \
         -> tuple[np.ndarray, np.ndarray]:
     """The flange's berth-frame position alone, intact moorings: what :func:`simulate` with the same seed gives
-    as ``flange`` and ``flange_reference`` (the same sea, loads and low-frequency motion), for the operability
-    kernel. Cheaper: the flange's three first-order displacements are combined in the frequency domain (three
-    FFTs instead of the twelve motions and rates), and no rates or tensions are kept.
+    as ``flange`` and ``flange_reference`` (the same sea, loads, line events and low-frequency motion), for the
+    operability kernel. Cheaper: the six first-order motions without their rates (six FFTs instead of twelve),
+    and no rates or tensions are kept.
 
     Parameters
     ----------
@@ -642,18 +834,113 @@ def flange_positions(ship: ShipModel, env: Environment, duration: float, *, seed
     reference : ndarray (3,)
         The flange at the mean equilibrium, calm water.
     """
+    flange, reference, _ = _state(ship, env, duration, seed, dt, loads=False)
+    return flange, reference
 
+
+@dataclass(frozen=True)
+class StateLoads:
+    """What a terminal judges a moored state by (:func:`moored_state`): the lines, the fenders, the ship's
+    motions (PIANC's measures).
+
+    Attributes
+    ----------
+    tension_max : ndarray (lines,)
+        Each line's largest tension, first-order motion included, N.
+    fender_max : ndarray (fenders,)
+        Each fender's largest reaction (on the low-frequency pose, 1 s samples), N.
+    surge_pp, heave_pp : float
+        Peak-to-peak surge and heave of the centre of gravity, m.
+    sway_off : float
+        Largest move of the centre of gravity off the berth from the calm equilibrium (PIANC's zero-to-peak
+        sway), m.
+    roll_pp, pitch_pp, yaw_pp : float
+        Peak-to-peak, rad.
+    parted : int
+        Lines parted in the state.
+    paid_out : float
+        Largest brake pay-out, m.
+    """
+
+    tension_max: np.ndarray
+    fender_max: np.ndarray
+    surge_pp: float
+    sway_off: float
+    heave_pp: float
+    roll_pp: float
+    pitch_pp: float
+    yaw_pp: float
+    parted: int
+    paid_out: float
+
+
+def moored_state(ship: ShipModel, env: Environment, duration: float, *, seed: int = 0, dt: float = DT):
+    """:func:`flange_positions` and the state's loads and motions (:class:`StateLoads`), for the operability
+    judged by the terminal's criteria.
+
+    Parameters
+    ----------
+    ship : ShipModel
+    env : Environment
+    duration : float
+        s.
+    seed : int
+    dt : float
+        s.
+
+    Returns
+    -------
+    flange : ndarray (n, 3)
+    reference : ndarray (3,)
+    loads : StateLoads
+    """
+    return _state(ship, env, duration, seed, dt, loads=True)
+
+
+def _ranges(ship: ShipModel, pose: np.ndarray, wave: np.ndarray) -> tuple[float, ...]:
+    """Surge and heave peak to peak, the move off the berth, roll, pitch and yaw peak to peak, of the centre of
+    gravity (the low-frequency pose turned into the ship frame plus the first-order motion)."""
+    mo = ship.moorings
+    c, s = math.cos(mo.psi0), math.sin(mo.psi0)
+    dx, dy = pose[:, 0] - ship.eq0[0], pose[:, 1] - ship.eq0[1]
+    surge = c * dx + s * dy + wave[:, 0]
+    sway = -s * dx + c * dy + wave[:, 1]
+    off = c * surge - s * sway                                 # the move's berth x: off the berth
+    yaw = pose[:, 2] + wave[:, 5]
+
+    def pp(v):
+        return float(np.max(v) - np.min(v)) if v.size else 0.0
+
+    return (pp(surge), max(float(np.max(off)), 0.0), pp(wave[:, 2]), pp(wave[:, 3]), pp(wave[:, 4]), pp(yaw))
+
+
+def _state(ship: ShipModel, env: Environment, duration: float, seed: int, dt: float, *, loads: bool):
+    """The flange and, with ``loads``, the state's :class:`StateLoads` (one sea, one integration)."""
     n_out, n = _lengths(duration, dt)
     mo = ship.moorings
     rng = np.random.default_rng(seed)
     comp, beta, z = _sea(ship, env, n, dt, rng)
+    rise = rise_of(env)
+    eq = equilibrium(mo, mean_load(ship, env), eta0=ship.eq0, rise=rise)
     if env.hs > 0:
         coef = _wave_coefficients(ship, comp, beta, z)
-        d = _synth(_at_flange(ship, coef, axis=0), n)[:, :n_out].T     # per component, before the FFT
+        wave = _synth(coef, n)[:, :n_out].T
+        d = _at_flange(ship, wave)
+        stretch = _stretch(ship, wave, eq, rise)
     else:
+        wave = np.zeros((n_out, 6))
         d = np.zeros((n_out, 3))
-    eq = equilibrium(mo, mean_load(ship, env), eta0=ship.eq0)
+        stretch = None
     every = _load_every(n, n_out, _lf_stride(ship, dt), n_out + 1)
     f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng, every)
-    pose, _, _ = _lf_motion(ship, env, f_ship, every, n_out, eq, dt, mo.alive, mo.alive, n_out + 1, rates=False)
-    return _flange_position(ship, pose, d), _flange_position(ship, eq[None, :], np.zeros((1, 3)))[0]
+    pose, _, _, part_at, paid, tmax = _lf_motion(ship, env, f_ship, every, n_out, eq, dt, mo.alive, mo.alive,
+                                                 n_out + 1, rates=False, stretch=stretch)
+    flange = _flange_position(ship, pose, d)
+    reference = _flange_position(ship, eq[None, :], np.zeros((1, 3)))[0]
+    if not loads:
+        return flange, reference, None
+    step = max(1, int(round(1.0 / dt)))
+    fenders = fender_loads(mo, pose[::step])
+    surge, off, heave, roll, pitch, yaw = _ranges(ship, pose, wave)
+    return flange, reference, StateLoads(tmax, np.max(fenders, axis=0), surge, off, heave,
+                                         roll, pitch, yaw, int(np.sum(part_at >= 0)), float(np.max(paid)))

@@ -13,7 +13,7 @@ from loadarm.params.berth import Environment
 from loadarm.results import Metric, Result
 from loadarm.ship.hydro import DOFS
 from loadarm.ship.model import ShipModel
-from loadarm.ship.mooring import equilibrium, line_tensions, stiffness
+from loadarm.ship.mooring import equilibrium, line_tensions
 from loadarm.ship.motion import mean_load
 
 __all__ = ["ShipSummary", "ship_summary"]
@@ -41,9 +41,9 @@ class ShipSummary(Result):
         Metric("heave_period_s", "heave natural period", "s", ".1f"),
         Metric("roll_period_s", "roll natural period", "s", ".1f"),
         Metric("pitch_period_s", "pitch natural period", "s", ".1f"),
-        Metric("stiffness_x_kn_per_m", "mooring stiffness off the berth", "kN/m", ".0f"),
-        Metric("stiffness_y_kn_per_m", "mooring stiffness along the berth", "kN/m", ".0f"),
-        Metric("stiffness_yaw_mnm_per_deg", "mooring stiffness in yaw", "MN m/deg", ".1f"),
+        Metric("stiffness_x_kn_per_m", "lines' stiffness off the berth", "kN/m", ".0f"),
+        Metric("stiffness_y_kn_per_m", "lines' stiffness along the berth", "kN/m", ".0f"),
+        Metric("stiffness_yaw_mnm_per_deg", "lines' stiffness in yaw", "MN m/deg", ".1f"),
         Metric("mean_load_kn", "design mean load (x, y)", "kN", ".0f"),
         Metric("static_offset_m", "static offset under it (x, y)", "m", ".3f"),
         Metric("tension_max_kn", "largest line tension there", "kN", ".0f"),
@@ -123,6 +123,6 @@ def ship_summary(ship: ShipModel, env: Environment) -> ShipSummary:
     eq = equilibrium(ship.moorings, load, eta0=ship.eq0)
     ten = line_tensions(ship.moorings, eq)
     j = int(np.argmax(ten / ship.moorings.mbl))
-    return ShipSummary(ship.natural_periods(), stiffness(ship.moorings, ship.eq0), load, eq - ship.eq0,
+    return ShipSummary(ship.natural_periods(), ship.k_lines, load, eq - ship.eq0,
                        float(ten[j]), ship.names[j], float(ship.moorings.mbl[j]), ship.hydro.key, ship.hydro.panels,
                        ship)

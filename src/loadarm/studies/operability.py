@@ -10,8 +10,22 @@ many states each: a Dask task costs about 2 ms to schedule), each chunk runs on 
 ``<out>.chunks/chunk-NNNNN.parquet`` as soon as it is done, so a run that stops (a killed worker, a killed
 client) resumes from the chunks already written; the rows are then gathered into one Parquet file.
 
-A state is **down** (not operable) when the arm could not connect (the flange's significant motion above
-``connect_motion_limit``) or, connected, the monitoring reached ESD-1 or worse.
+A state is **down** (not operable) on any of the terminal's criteria (the installation's ``[operability]``,
+issue 28), each a column of its own so that the result says which governs:
+
+* **lines**: a line's tension, first-order motion included, above ``line_limit`` of its MBL (MEG4's working
+  load limit), or a line parted;
+* **wind**: the hour's mean wind above ``wind_limit``, or above ``wind_limit_off_berth`` when it blows off the
+  berth;
+* **fenders**: a fender's reaction above ``fender_limit`` of its rated reaction;
+* **motion**: PIANC's criteria for gas tankers with loading arms (surge, sway off the berth, roll, pitch, yaw);
+* **arm**: the arm could not connect (the flange's significant motion above ``connect_motion_limit``) or,
+  connected, the monitoring reached ESD-1 or worse.
+
+Persistence (:func:`persistence`): the share of the hours a loading of ``loading_hours`` could start and run
+uninterrupted, and loadings back to back through the record with ``reconnect_hours`` lost after each
+disconnection: loadings per year and the share that complete without one. ESD-1 per year is counted apart
+from the downtime, over the hours the arm would be connected (the terminal's other criteria met).
 """
 
 from __future__ import annotations
@@ -33,7 +47,7 @@ from loadarm.params.declare import in_range, range_text
 from loadarm.params.sections import Operability
 from loadarm.results import Metric, Result, Summary
 from loadarm.ship.model import compile_ship
-from loadarm.ship.motion import DT, flange_positions
+from loadarm.ship.motion import DT, moored_state
 from loadarm.studies.cluster import check_scheduler, check_workers, connect_scheduler, plan_workers
 from loadarm.studies.kernel import floor_table, monitor_record, relative_record
 from loadarm.studies.metocean import compass_to_berth, read_metocean
@@ -41,7 +55,7 @@ from loadarm.studies.plots import operability_figure
 from loadarm.vocab import Severity
 
 __all__ = ["OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
-           "plan_chunks", "write_parquet", "COLUMNS", "headline_rows"]
+           "plan_chunks", "write_parquet", "COLUMNS", "CRITERIA", "headline_rows", "persistence", "judge_state"]
 
 #: The environment of the local cluster's worker processes (start a cluster of your own's workers with the same):
 #: single-threaded numerical libraries (one worker process per core), glibc keeping freed memory (Dask's default
@@ -57,7 +71,10 @@ WORKER_CONFIG = {"distributed.worker.profile.enabled": False}
 #: Result columns, one row per state (units in the names).
 COLUMNS = ("time", "hs_m", "tp_s", "wind_speed_ms", "current_speed_ms", "tide_m", "stage", "esd1_s", "release_s",
            "max_beta_deg", "max_slew_deg", "z_range_m", "min_time_to_limit_s", "flange_motion_m", "connectable",
-           "outside", "down")
+           "outside", "line_tension_mbl", "fender_rated", "surge_pp_m", "sway_off_m", "roll_pp_deg", "pitch_pp_deg",
+           "yaw_pp_deg", "down_lines", "down_wind", "down_fenders", "down_motion", "down_arm", "down")
+#: The terminal's criteria, in the order the result lists them (a column ``down_<name>`` each).
+CRITERIA = ("lines", "wind", "fenders", "motion", "arm")
 
 
 @dataclass(frozen=True)
@@ -76,12 +93,15 @@ class OperabilitySettings:
         Base of the per-hour seeds (hour index + seed).
     chunks : int
         Tasks the record is cut into (50-200 for a year; fewer for short records).
+    criteria : Operability, optional
+        The terminal's criteria (the installation's ``[operability]``; None: its defaults).
     """
 
     duration_per_state: float | None = None
     connect_motion_limit: float | None = None
     seed: int = 0
     chunks: int = 100
+    criteria: Operability | None = None
 
     def __post_init__(self):
 
@@ -109,7 +129,7 @@ class OperabilitySettings:
         return replace(self, duration_per_state=section.duration_per_state if self.duration_per_state is None
                        else self.duration_per_state,
                        connect_motion_limit=section.connect_motion_limit if self.connect_motion_limit is None
-                       else self.connect_motion_limit)
+                       else self.connect_motion_limit, criteria=section if self.criteria is None else self.criteria)
 
 
 def state_environment(base, row: dict, x_bearing_deg: float):
@@ -162,27 +182,128 @@ def run_states(model, ship, table, rows: list[dict], settings: OperabilitySettin
 
     if settings.duration_per_state is None or settings.connect_motion_limit is None:
         raise ValueError("run_states needs resolved settings (OperabilitySettings.resolved)")
+    crit = settings.criteria or Operability()
     fx, fz = model.approach.flange
     rel = np.empty((3, 0))
     out = []
     for row in rows:
         env = state_environment(base_env, row, x_bearing_deg)
-        flange, reference = flange_positions(ship, env, settings.duration_per_state,
-                                             seed=settings.seed + int(row["index"]))
+        flange, reference, loads = moored_state(ship, env, settings.duration_per_state,
+                                                seed=settings.seed + int(row["index"]))
         if rel.shape[1] != flange.shape[0]:
             rel = np.empty((3, flange.shape[0]))          # reused by the chunk's states
         std = relative_record(flange, reference, np.array([fx, 0.0, fz + float(row["tide_m"])]), rel)
         r = monitor_record(model, table, rel.T, DT)
         motion = 4.0 * float(np.max(std))
         connectable = motion <= settings.connect_motion_limit
+        verdict = judge_state(crit, ship.moorings, loads, env, connectable, r.stage)
         out.append({"time": row["time"], "hs_m": row["hs_m"], "tp_s": row["tp_s"],
                     "wind_speed_ms": row["wind_speed_ms"], "current_speed_ms": row["current_speed_ms"],
                     "tide_m": row["tide_m"], "stage": r.stage, "esd1_s": r.esd1_s, "release_s": r.release_s,
                     "max_beta_deg": r.max_beta_deg, "max_slew_deg": r.max_slew_deg, "z_range_m": r.z_range_m,
                     "min_time_to_limit_s": r.min_time_to_limit_s, "flange_motion_m": motion,
-                    "connectable": connectable, "outside": r.outside,
-                    "down": (not connectable) or r.stage >= 2})
+                    "connectable": connectable, "outside": r.outside, **verdict})
     return out
+
+
+def judge_state(crit: Operability, moorings, loads, env, connectable: bool, stage: int) -> dict:
+    """One state judged by the terminal's criteria: the measures and a ``down_<criterion>`` each, and ``down``.
+
+    Parameters
+    ----------
+    crit : Operability
+    moorings : Moorings
+    loads : StateLoads
+    env : Environment
+        The state's (berth-frame directions: wind towards, from berth +x).
+    connectable : bool
+    stage : int
+        The monitoring's worst stage (:class:`loadarm.vocab.Severity`).
+
+    Returns
+    -------
+    dict
+    """
+    line = float(np.max(loads.tension_max / moorings.mbl))
+    rated = moorings.fender_load[np.arange(moorings.fender_y.size), moorings.fender_npts - 1]
+    fender = float(np.max(loads.fender_max / rated)) if rated.size else 0.0
+    off_berth = abs((env.wind_direction_deg + 180.0) % 360.0 - 180.0) <= crit.off_berth_sector_deg
+    wind_cap = min(crit.wind_limit, crit.wind_limit_off_berth) if off_berth else crit.wind_limit
+    roll, pitch, yaw = (math.degrees(v) for v in (loads.roll_pp, loads.pitch_pp, loads.yaw_pp))
+    down = {"down_lines": bool(line > crit.line_limit or loads.parted > 0),
+            "down_wind": bool(env.wind_speed > wind_cap),
+            "down_fenders": bool(fender > crit.fender_limit),
+            "down_motion": bool(loads.surge_pp > crit.surge_limit or loads.sway_off > crit.sway_limit
+                                or roll > crit.roll_limit_deg or pitch > crit.pitch_limit_deg
+                                or yaw > crit.yaw_limit_deg),
+            "down_arm": bool((not connectable) or stage >= Severity.ESD1)}
+    return {"line_tension_mbl": line, "fender_rated": fender, "surge_pp_m": loads.surge_pp,
+            "sway_off_m": loads.sway_off, "roll_pp_deg": roll, "pitch_pp_deg": pitch, "yaw_pp_deg": yaw, **down,
+            "down": any(down.values())}
+
+
+def persistence(down, times, loading_hours: float, reconnect_hours: float) -> dict:
+    """Persistence of the operable hours (PIANC): how often a loading could run uninterrupted, and loadings run
+    back to back through the record.
+
+    Parameters
+    ----------
+    down : array_like of bool
+        Hour by hour.
+    times : array_like of datetime64
+        The hours' times (a step other than one hour breaks the record: no window spans a gap).
+    loading_hours : float
+        Connected hours a loading needs.
+    reconnect_hours : float
+        Operable hours lost after each disconnection before the transfer resumes.
+
+    Returns
+    -------
+    dict
+        ``windows_fraction``: of the operable hours with a loading's length of record after them, the share
+        from which ``loading_hours`` uninterrupted operable hours follow; ``loadings``: loadings completed back to back; ``loadings_uninterrupted``: of
+        those, how many without a disconnection; ``hours_per_loading``: mean hours at the berth per completed
+        loading.
+    """
+    up = ~np.asarray(down, dtype=bool)
+    t = np.asarray(times, dtype="datetime64[s]").astype(np.int64)
+    need = int(math.ceil(loading_hours))
+    breaks = np.concatenate([[True], np.diff(t) != 3600]) if t.size else np.zeros(0, dtype=bool)
+    # each hour's segment (the record cut at its gaps) and how many operable hours follow it unbroken
+    seg_end = np.empty(up.size, dtype=np.int64)
+    run_up = np.zeros(up.size + 1, dtype=np.int64)
+    end = up.size
+    for k in range(up.size - 1, -1, -1):
+        seg_end[k] = end
+        if up[k]:
+            run_up[k] = 1 + (run_up[k + 1] if k + 1 < end else 0)
+        if breaks[k]:
+            end = k
+    # a start counts when the segment leaves a whole loading's hours after it (the record's end is no weather)
+    eligible = up & (np.arange(up.size) + need <= seg_end)
+    starts = int(np.sum(eligible))
+    full = int(np.sum(eligible & (run_up[:-1] >= need)))
+    done = clean = 0
+    progress, debt, interrupted, hours, spent = 0, 0, False, 0, []
+    for k in range(up.size):
+        if breaks[k] and k > 0:
+            progress, debt, interrupted, hours = 0, 0, False, 0   # a gap: the loading under way is not counted
+        hours += 1
+        if not up[k]:
+            if progress > 0:
+                interrupted, debt = True, int(math.ceil(reconnect_hours))
+            continue
+        if debt > 0:
+            debt -= 1
+            continue
+        progress += 1
+        if progress >= need:
+            done += 1
+            clean += not interrupted
+            spent.append(hours)
+            progress, interrupted, hours = 0, False, 0
+    return {"windows_fraction": full / starts if starts else None, "loadings": done,
+            "loadings_uninterrupted": clean, "hours_per_loading": float(np.mean(spent)) if spent else None}
 
 
 def write_parquet(df, path: str | Path) -> Path:
@@ -255,15 +376,29 @@ class OperabilityResult(Result):
     gaps: dict = field(default_factory=dict)
     wall_s: float = math.nan
     workers: int = 0
+    criteria: Operability = field(default_factory=Operability)
 
     METRICS = (
         Metric("states", "sea states", "", "d"),
         Metric("downtime_fraction", "downtime", "%", ".1f", scale=100.0),
+        Metric("down_lines_fraction", "  lines above their limit (MEG4)", "%", ".1f", scale=100.0),
+        Metric("down_wind_fraction", "  wind above its limit", "%", ".1f", scale=100.0),
+        Metric("down_fenders_fraction", "  fenders above their rating", "%", ".1f", scale=100.0),
+        Metric("down_motion_fraction", "  motions above PIANC's", "%", ".1f", scale=100.0),
+        Metric("down_arm_fraction", "  the arm (connect, ESD-1)", "%", ".1f", scale=100.0),
         Metric("operable_h", "hours operable", "h", ".0f"),
         Metric("not_connectable_h", "hours the arm could not connect", "h", ".0f"),
-        Metric("esd1_per_year", "ESD-1 per year", "", ".1f"),
-        Metric("releases_per_year", "releases per year", "", ".1f"),
+        Metric("windows_fraction", "loading windows (operable hours a loading can start uninterrupted)", "%",
+               ".1f", scale=100.0),
+        Metric("loadings_per_year", "loadings per year, back to back", "", ".0f"),
+        Metric("loadings_uninterrupted_fraction", "loadings that complete without a disconnection", "%", ".1f",
+               scale=100.0),
+        Metric("esd1_connected_per_year", "ESD-1 per year, connected", "", ".1f"),
+        Metric("releases_connected_per_year", "releases per year, connected", "", ".1f"),
+        Metric("esd1_per_year", "ESD-1 per year, whatever the other criteria", "", ".1f"),
+        Metric("releases_per_year", "releases per year, whatever the other criteria", "", ".1f"),
         Metric("max_beta_deg", "largest beta", "deg", ".1f"),
+        Metric("line_tension_max_mbl", "largest line tension / MBL", "", ".2f"),
         Metric("wall_s", "wall time", "s", ".1f"),
     )
 
@@ -271,11 +406,26 @@ class OperabilityResult(Result):
         df = self.table
         n = len(df)
         years = max(n / 8766.0, 1e-9)
-        return {"states": n, "downtime_fraction": float(df["down"].mean()) if n else math.nan,
+        c = self.criteria
+        others = np.zeros(n, dtype=bool)
+        for name in CRITERIA[:-1]:
+            others |= df[f"down_{name}"].to_numpy(dtype=bool)
+        connected = df["connectable"].to_numpy(dtype=bool) & ~others
+        p = persistence(df["down"].to_numpy(dtype=bool), df["time"].to_numpy(), c.loading_hours,
+                        c.reconnect_hours)
+        per = {f"down_{k}_fraction": float(df[f"down_{k}"].mean()) if n else math.nan for k in CRITERIA}
+        return {"states": n, "downtime_fraction": float(df["down"].mean()) if n else math.nan, **per,
                 "operable_h": int((~df["down"]).sum()), "not_connectable_h": int((~df["connectable"]).sum()),
-                "esd1_per_year": float((df["stage"] >= 2).sum() / years),
+                "windows_fraction": p["windows_fraction"], "loadings_per_year": p["loadings"] / years,
+                "loadings_uninterrupted_fraction": p["loadings_uninterrupted"] / p["loadings"] if p["loadings"]
+                else None, "hours_per_loading": p["hours_per_loading"],
+                "esd1_per_year": float((df["stage"] >= Severity.ESD1).sum() / years),
+                "esd1_connected_per_year": float(((df["stage"] >= Severity.ESD1) & connected).sum() / years),
                 "releases_per_year": float(df["release_s"].notna().sum() / years),
-                "max_beta_deg": float(df["max_beta_deg"].max()) if n else math.nan, "wall_s": self.wall_s}
+                "releases_connected_per_year": float((df["release_s"].notna() & connected).sum() / years),
+                "max_beta_deg": float(df["max_beta_deg"].max()) if n else math.nan,
+                "line_tension_max_mbl": float(df["line_tension_mbl"].max()) if n else math.nan,
+                "wall_s": self.wall_s}
 
     def to_dict(self) -> dict:
         """Headline numbers and the breakdowns (per month, per year, per stage, over Hs and Tp, over wind).
@@ -296,8 +446,14 @@ class OperabilityResult(Result):
         tp_bins = [0, 6, 8, 10, 12, 30]
         grid = df.groupby([pd.cut(df["hs_m"], hs_bins), pd.cut(df["tp_s"], tp_bins)], observed=True)["down"]
         wind = df.groupby(pd.cut(df["wind_speed_ms"], [0, 5, 10, 15, 20, 25, 60]), observed=True)["down"]
+        per_month = {str(k): {c: float(g[f"down_{c}"].mean()) for c in CRITERIA}
+                     for k, g in df.groupby(t.to_period("M"))}
         return {**self._values(), "gaps": dict(self.gaps), "workers": self.workers,
+                "criteria": self.criteria.model_dump(),
                 "downtime_by_month": {str(k): float(v) for k, v in by_month.items()},
+                "downtime_by_criterion_by_month": per_month,
+                "governing_by_month": {k: max(v, key=v.get) if max(v.values()) > 0 else "none"
+                                       for k, v in per_month.items()},
                 "downtime_by_year": {str(k): float(v) for k, v in by_year.items()},
                 "states_by_stage": stages,
                 "downtime_by_hs_tp": [{"hs_m": str(a), "tp_s": str(b), "downtime_fraction": float(v),
@@ -340,6 +496,9 @@ def headline_rows(d: dict) -> list[tuple[str, str]]:
         worst, best = max(months, key=months.get), min(months, key=months.get)
         rows += [("worst month", f"{worst}: {100 * months[worst]:.1f} %"),
                  ("best month", f"{best}: {100 * months[best]:.1f} %")]
+    governs = d.get("governing_by_month") or {}
+    if governs:
+        rows.append(("governing criterion, by month", ", ".join(f"{k} {v}" for k, v in governs.items())))
     gaps = d.get("gaps") or {}
     if gaps and gaps["usable_hours"] < gaps["hours"]:
         rows.append(("gaps in the record (skipped, never filled)",
@@ -366,7 +525,8 @@ def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, pla
     package = Path(__file__).resolve().parents[1]
     for f in sorted(package.rglob("*.py")):
         h.update(str(f.relative_to(package)).encode() + b"\0" + f.read_bytes())
-    h.update(json.dumps({"hours": hours, "settings": settings.__dict__, "plan": plan, "version": __version__},
+    given = dict(settings.__dict__, criteria=None if settings.criteria is None else settings.criteria.model_dump())
+    h.update(json.dumps({"hours": hours, "settings": given, "plan": plan, "version": __version__},
                         sort_keys=True).encode())
     return h.hexdigest()
 
@@ -610,4 +770,4 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     parts = [done[k] if k in done else _read_chunk(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
     table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(COLUMNS))
     write_parquet(table, out)
-    return OperabilityResult(table, gaps.to_dict(), time.perf_counter() - t0, n_workers)
+    return OperabilityResult(table, gaps.to_dict(), time.perf_counter() - t0, n_workers, settings.criteria)

@@ -565,12 +565,12 @@ def test_each_criterion_takes_the_state_down():
     berth = load_berth(ROOT / "examples" / "berths" / "lng150k.toml")
     mo = compile_ship(berth).moorings
     crit = Operability()
-    quiet = StateLoads(0.3 * mo.mbl, np.full(4, 1e6), 0.5, 0.4, 0.2, 0.01, 0.01, 0.01, 0, 0.0)
+    quiet = StateLoads(0.3 * mo.mbl, np.full(4, 1e6), np.full(4, 0.3), 0.5, 0.4, 0.2, 0.01, 0.01, 0.01, 0, 0.0)
     env = berth.environment.model_copy(update={"wind_speed": 10.0, "wind_direction_deg": 90.0})
     assert not judge_state(crit, mo, quiet, env, True, 0)["down"]
     cases = {"lines": (dataclasses.replace(quiet, tension_max=0.51 * mo.mbl), env, True, 0),
              "wind": (quiet, env.model_copy(update={"wind_speed": 16.0, "wind_direction_deg": 30.0}), True, 0),
-             "fenders": (dataclasses.replace(quiet, fender_max=np.full(4, 3.1e6)), env, True, 0),
+             "fenders": (dataclasses.replace(quiet, fender_deflection_max=np.full(4, 1.16)), env, True, 0),
              "motion": (dataclasses.replace(quiet, roll_pp=math.radians(2.5)), env, True, 0),
              "arm": (quiet, env, True, 2)}
     for name, (loads, e, conn, stage) in cases.items():

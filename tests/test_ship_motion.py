@@ -224,7 +224,8 @@ def test_free_decay_loses_the_energy_its_damping_dissipates(ship, berth):
     amplitude: the fenders stay in contact, 4.8 cm compressed, and the lines taut) falls by the work of the
     damping force, within 1 % over 120 s (RK4 at 1 s against 19-26 s periods: its own dissipation is far
     below that). Found: released 5 cm off, the ship leaves its fenders and the quadratic energy no longer
-    holds."""
+    holds. The fenders without friction or hysteresis here (:func:`test_fenders.test_the_fenders_dissipate_what_their_forces_do`
+    adds them)."""
     from loadarm.ship.mooring import stiffness
     from loadarm.ship.motion import _lf_integrate
 
@@ -236,7 +237,8 @@ def test_free_decay_loses_the_energy_its_damping_dissipates(ship, berth):
     _lf_integrate(x0, np.zeros(3), np.zeros((n, 3)), 1, DT, int(round(ship.lf_step / DT)), np.linalg.inv(ship.mass_lf),
                   ship.damping_lf, mo.lines, mo.table, mo.e_brake, mo.e_break, mo.brake, np.zeros((nl, 0)),
                   mo.alive, mo.alive, n + 1, mo.fender_y,
-                  mo.fender_defl, mo.fender_load, mo.fender_npts, mo.hull, mo.psi0, mo.origin, 0.0, 0.0,
+                  mo.fender_defl, mo.fender_load, mo.fender_npts, np.array([[0.0] * 4, [1.0] * 4, [1.152] * 4]),
+                  mo.hull, mo.psi0, mo.origin, 0.0, 0.0,
                   ship.current_kx, ship.current_ky, 0.2 * ship.length, xs, vs, ten, np.empty(nl, dtype=np.int64),
                   np.empty(nl), np.empty(nl))
     k = stiffness(mo, ship.eq0)

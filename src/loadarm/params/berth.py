@@ -15,7 +15,8 @@ Frames (SI units, angles in degrees only in keys ending ``_deg``):
 Lines and fenders are given as a terminal knows them: a line is a main line of a material (HMPE, polyester,
 nylon, steel wire: :data:`ROPE_MATERIALS`, or the berth's own ``[materials.NAME]``) with its MBL, on a winch
 whose brake renders at a fraction of it, and a tail of another material; a fender pushes only (a load-deflection
-curve through the origin, increasing).
+curve through the origin that never falls, past its rated deflection), rubs along the hull with its friction and
+gives back on unloading a fraction of its loading reaction (hysteresis).
 """
 
 from __future__ import annotations
@@ -204,17 +205,39 @@ class MooringLine(Section):
         return min(self.mbl, self.tail_mbl) if self.tail_length > 0 else self.mbl
 
 
+#: Where the example fender's shape comes from (the percentages of the generic curve, scaled to one size).
+_CONE = ("shape of a cone fender's published generic curve (Trelleborg Marine Systems, Safe Berthing and Mooring, "
+         "M1100-S01, Super Cone: reaction rising to its peak near 35-40 % deflection and held to the rated 72 %; "
+         "the slight dip between left out, so the curve never falls), 1.6 m high, 2.0 MN rated; the rise past "
+         "the rating (bottoming out) a loadarm assumption")
+
+
 class Fender(Section):
-    """One fender on the fender line: pushes only, along berth x."""
+    """One fender on the fender line: pushes only, along berth x; rubs along the berth (friction) and gives back
+    less than it took (hysteresis) while the ship moves."""
 
     name: str = Field(..., min_length=1, max_length=40, description="fender name",
                       json_schema_extra={"unit": "", "source": "example"})
     y: float = param(..., unit="m", ge=-500, le=500, source="example", description="position along the berth")
     z: float = param(2.0, unit="m", ge=-20, le=40, source="example", description="height above still water")
-    deflection: tuple[float, ...] = param((0.0, 0.5, 1.0, 1.5), unit="m", source="cone fender catalogue shape",
-                                          description="deflections of the load curve, from 0, increasing")
-    load: tuple[float, ...] = param((0.0, 1.2e6, 2.0e6, 3.0e6), unit="N", source="cone fender catalogue shape",
-                                    description="reaction at each deflection, from 0, increasing")
+    deflection: tuple[float, ...] = param((0.0, 0.08, 0.16, 0.24, 0.32, 0.4, 0.48, 0.56, 0.64, 1.152, 1.216, 1.28),
+                                          unit="m", source=_CONE,
+                                          description="deflections of the load curve, from 0, increasing, past the "
+                                                      "rated deflection (bottoming out)")
+    load: tuple[float, ...] = param((0.0, 3.8e5, 7.6e5, 1.1e6, 1.42e6, 1.68e6, 1.86e6, 1.96e6, 2.0e6, 2.0e6, 2.5e6,
+                                     4.0e6), unit="N", source=_CONE,
+                                    description="reaction at each deflection on loading, from 0, never falling")
+    rated_deflection: float = param(1.152, unit="m", gt=0, le=20, source=_CONE + " (72 % of 1.6 m)",
+                                    description="the manufacturer's rated deflection: the fender criterion's "
+                                                "reference, inside the curve")
+    friction: float = param(0.2, unit="1", ge=0, le=0.6, source="OCIMF MEG4 (fender friction 0.15-0.3); PIANC "
+                                                                   "WG33 (2002), UHMW-PE face pads against steel",
+                            description="coefficient of friction between the fender's face and the hull")
+    unload_ratio: float = param(0.8, unit="1", gt=0, le=1, source="rubber fenders' hysteresis (PIANC WG33, 2002: "
+                                                                    "energy returned less than absorbed); example: "
+                                                                    "set from the manufacturer's test",
+                                description="reaction on unloading as a fraction of the reaction on loading at "
+                                            "the same deflection (1: no hysteresis)")
 
     @model_validator(mode="after")
     def _curve(self) -> "Fender":
@@ -222,10 +245,23 @@ class Fender(Section):
         if len(d) != len(f) or len(d) < 2:
             raise ValueError(f"fenders {self.name!r}: deflection and load need the same number (>= 2) of points, "
                              f"got {len(d)} and {len(f)}")
-        if d[0] != 0 or f[0] != 0 or any(b <= a for a, b in zip(d, d[1:])) or any(b <= a for a, b in zip(f, f[1:])):
-            raise ValueError(f"fenders {self.name!r}: the load curve must start at (0, 0) and increase in both "
-                             f"deflection and load, got deflection {list(d)}, load {list(f)}")
+        if (d[0] != 0 or f[0] != 0 or any(b <= a for a, b in zip(d, d[1:])) or any(b < a for a, b in zip(f, f[1:]))
+                or f[1] <= 0):
+            raise ValueError(f"fenders {self.name!r}: the load curve must start at (0, 0), increase in deflection "
+                             f"and never fall in load (rising from 0), got deflection {list(d)}, load {list(f)}")
+        if self.rated_deflection > d[-1]:
+            raise ValueError(f"fenders {self.name!r}: rated_deflection {self.rated_deflection:g} m lies past the "
+                             f"load curve's last deflection {d[-1]:g} m (allowed (0, {d[-1]:g}] m)")
         return self
+
+    @property
+    def rated_load(self) -> float:
+        """The reaction at the rated deflection (on the loading curve), N."""
+        d, f = self.deflection, self.load
+        for j in range(1, len(d)):
+            if self.rated_deflection <= d[j]:
+                return f[j - 1] + (f[j] - f[j - 1]) * (self.rated_deflection - d[j - 1]) / (d[j] - d[j - 1])
+        return f[-1]
 
 
 class Environment(Section):

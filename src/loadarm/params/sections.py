@@ -486,10 +486,10 @@ class Operability(Section):
                                                     "off_berth_sector_deg of berth +x)")
     off_berth_sector_deg: float = param(45.0, unit="deg", ge=0, le=90, source="engineering choice",
                                         description="half-width of the off-the-berth wind sector")
-    fender_limit: float = param(1.0, unit="1", gt=0, le=2.0,
-                                source="the fender's rated reaction (its curve's last point) (manufacturers' "
-                                       "rated deflection)",
-                                description="largest fender reaction as a fraction of its rated reaction")
+    fender_limit: float = param(1.0, unit="1", gt=0, le=1.2,
+                                source="the manufacturer's rated deflection (the berth's fenders' rated_deflection; "
+                                       "PIANC WG33, 2002: a fender is not to be deflected past its rating)",
+                                description="largest fender deflection as a fraction of its rated deflection")
     surge_limit: float = param(2.0, unit="m", gt=0, le=20,
                                source="PIANC (1995) criteria for moored ships, gas tankers with loading arms: "
                                       "surge 2 m peak to peak",

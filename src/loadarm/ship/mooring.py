@@ -37,8 +37,7 @@ from loadarm.errors import ConfigError
 from loadarm.params.berth import Berth
 
 __all__ = ["Moorings", "compile_moorings", "restoring_force", "equilibrium", "stiffness", "line_tensions",
-           "fender_loads",
-           "MooringEquilibriumError", "segment_strain", "TABLE_POINTS", "line_elongation"]
+           "fender_loads", "fender_deflections", "fender_contact", "MooringEquilibriumError", "segment_strain", "TABLE_POINTS", "line_elongation"]
 
 #: Points of each line's tension-elongation table (linear between: at 64 points the largest error of a
 #: polynomial curve of power up to 1 / 0.6 is below 0.1 % of the breaking load; tests/test_mooring.py).
@@ -122,6 +121,11 @@ class Moorings:
     fender_defl, fender_load : ndarray (m, k)
         Curves padded to a common length by repeating the last segment's slope.
     fender_npts : ndarray (m,) int
+    fender_prop : ndarray (3, m)
+        Rows: friction coefficient, unload ratio (hysteresis), rated deflection (m); for the low-frequency
+        motion's :func:`fender_contact`.
+    fender_rated : ndarray (m,)
+        Reaction at the rated deflection, N.
     side : float
         Ship-frame y of the side against the fenders (+B/2 port side to, -B/2 starboard).
     half_length : float
@@ -152,6 +156,8 @@ class Moorings:
     fender_defl: np.ndarray
     fender_load: np.ndarray
     fender_npts: np.ndarray
+    fender_prop: np.ndarray
+    fender_rated: np.ndarray
     side: float
     half_length: float
     psi0: float
@@ -318,6 +324,9 @@ def compile_moorings(berth: Berth, *, source: str = "<berth>") -> Moorings:
                     fender_names=tuple(f.name for f in berth.fenders),
                     fender_y=np.array([f.y for f in berth.fenders], dtype=float), fender_defl=defl,
                     fender_load=load, fender_npts=np.array([len(f.deflection) for f in berth.fenders]),
+                    fender_prop=np.ascontiguousarray(np.array([[f.friction, f.unload_ratio, f.rated_deflection]
+                                                               for f in berth.fenders], dtype=float).T),
+                    fender_rated=np.array([f.rated_load for f in berth.fenders], dtype=float),
                     side=side, half_length=s.length_pp / 2, psi0=psi0, origin=origin)
 
 
@@ -344,6 +353,49 @@ def _fender_load(d, defl, load, n):
             slope = (load[j] - load[j - 1]) / (defl[j] - defl[j - 1])
             return load[j - 1] + slope * (d - defl[j - 1])
     return 0.0
+
+
+#: Sliding speed of a fender's contact over which its friction builds to ``mu R``, m/s (a regularised Coulomb
+#: law, ``tanh(v / V_SLIP)``: a moored ship's low-frequency speeds are 0.05-0.5 m/s, so friction is fully
+#: developed in motion and smooth through a reversal, which the integration's 0.1 s step needs).
+V_SLIP = 0.01
+#: Speed of the hull off a fender over which its reaction falls to the unloading curve, m/s (the same reason).
+V_UNLOAD = 0.01
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def fender_contact(x, y, c, s, vx, vy, r, fy, fdefl, fload, fn, fprop, hull, origin):
+    """What the fenders add, in motion, to :func:`restoring_kernel`'s loading-curve reaction: the hysteresis
+    (a fender the hull moves off gives back ``unload_ratio`` of its loading reaction, blended in over
+    :data:`V_UNLOAD`) and the friction along the fender's face (``-mu R tanh(v / V_SLIP)`` against the
+    contact's sliding along the berth, at the contact point: a yaw moment too). The pose as the kernel's (``x,
+    y`` and the heading's ``c, s``), the rates ``vx, vy`` (berth frame, m/s) and ``r`` (rad/s); ``fprop``
+    :attr:`Moorings.fender_prop`. Returns the berth-frame x, y force and the yaw moment about midships."""
+    cx, cy = origin[0] + x, origin[1] + y
+    side, half = hull[0], hull[1]
+    qx0, qy0 = cx - s * side, cy + c * side
+    fx = fyy = mz = 0.0
+    for j in range(fy.shape[0]):
+        if abs(s) < 1e-9:
+            continue
+        u = (fy[j] - qy0) / s
+        if abs(u) > half:
+            continue
+        qx = qx0 + u * c
+        f = _fender_load(-qx, fdefl[j], fload[j], fn[j])
+        if f <= 0.0:
+            continue
+        rx, ry = qx - cx, fy[j] - cy
+        wx = vx - r * ry                      # the hull's velocity at the contact
+        wy = vy + r * rx
+        w = wx / V_UNLOAD                     # moving off the fender: unloading
+        w = 0.0 if w < 0.0 else (1.0 if w > 1.0 else w)
+        dn = -(1.0 - fprop[1, j]) * w * f     # the reaction's drop to the unloading curve
+        ft = -fprop[0, j] * (f + dn) * math.tanh(wy / V_SLIP)
+        fx += dn
+        fyy += ft
+        mz += rx * ft - ry * dn
+    return fx, fyy, mz
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
@@ -435,9 +487,9 @@ def restoring_force(mo: Moorings, eta, alive=None, *, rise: float = 0.0, fenders
     return out, ten
 
 
-def fender_loads(mo: Moorings, poses) -> np.ndarray:
-    """Each fender's reaction at each of many poses (NumPy over the poses; the kernel's fender rule: the point
-    of the ship's side abreast of the fender, on the hull, pressed behind the fender line), N.
+def fender_deflections(mo: Moorings, poses) -> np.ndarray:
+    """Each fender's deflection at each of many poses (NumPy over the poses; the kernel's fender rule: the point
+    of the ship's side abreast of the fender, on the hull, pressed behind the fender line; 0 out of contact), m.
 
     Parameters
     ----------
@@ -458,12 +510,31 @@ def fender_loads(mo: Moorings, poses) -> np.ndarray:
     for j, fy in enumerate(mo.fender_y):
         u = (fy - qy0) / safe
         d = -(qx0 + u * c)
+        ok = np.isfinite(u) & (np.abs(u) <= mo.half_length) & (d > 0)
+        out[:, j] = np.where(ok, d, 0.0)
+    return out
+
+
+def fender_loads(mo: Moorings, poses) -> np.ndarray:
+    """Each fender's reaction at each of many poses, on its loading curve (:func:`fender_deflections`), N.
+
+    Parameters
+    ----------
+    mo : Moorings
+    poses : ndarray (k, 3)
+
+    Returns
+    -------
+    ndarray (k, fenders)
+    """
+    d = fender_deflections(mo, poses)
+    out = np.zeros_like(d)
+    for j in range(d.shape[1]):
         n = int(mo.fender_npts[j])
         xs, ys = mo.fender_defl[j, :n], mo.fender_load[j, :n]
         slope = (ys[-1] - ys[-2]) / (xs[-1] - xs[-2])
-        load = np.where(d <= xs[-1], np.interp(d, xs, ys), ys[-1] + slope * (d - xs[-1]))
-        ok = np.isfinite(u) & (np.abs(u) <= mo.half_length) & (d > 0)
-        out[:, j] = np.where(ok, load, 0.0)
+        load = np.where(d[:, j] <= xs[-1], np.interp(d[:, j], xs, ys), ys[-1] + slope * (d[:, j] - xs[-1]))
+        out[:, j] = np.where(d[:, j] > 0, load, 0.0)
     return out
 
 

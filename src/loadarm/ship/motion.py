@@ -41,6 +41,8 @@ from loadarm.ship.loads import (
 from loadarm.ship.model import ShipModel
 from loadarm.ship.mooring import (
     equilibrium,
+    fender_contact,
+    fender_deflections,
     fender_loads,
     line_elongation,
     line_tension,
@@ -140,22 +142,24 @@ def _phasors(amplitude, phase, out):
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, lines, table, alive, fy, fdefl, fload, fn, hull, psi0,
-            origin, current, out_f, ten, per_line):
+def _lf_rhs(x0, x1, x2, v0, v1, v2, f0, f1, f2, minv, damp, lines, table, alive, fy, fdefl, fload, fn, fprop, hull,
+            psi0, origin, current, out_f, ten, per_line):
     """Acceleration (3 floats) of the low-frequency pose: scalars in and out, no allocation (the integration
     calls it four times a step). ``current`` is ``(vx, vy, kx, ky, el)``: the current's velocity and the ship's
     current-load factors. Inlined into the integrator (no reference counting of its arrays per call: found,
     about 0.5 us a call; fewer than 30 arguments, or Python passes them as ``*args``, which numba cannot
     inline). ``lines`` is :attr:`loadarm.ship.mooring.Moorings.lines` (the integration's copy, rendered lengths
-    in it), ``table`` the lines' tension tables, ``per_line`` a (4, n) scratch."""
+    in it), ``table`` the lines' tension tables, ``per_line`` a (4, n) scratch; ``fprop`` the fenders'
+    friction and hysteresis (:func:`loadarm.ship.mooring.fender_contact`)."""
     cur_vx, cur_vy, kx, ky, el = current
     psi = psi0 + x2
     c, s = math.cos(psi), math.sin(psi)
     restoring_kernel(x0, x1, c, s, lines, table, alive, fy, fdefl, fload, fn, hull, origin, out_f, ten, per_line)
+    hx, hy, hz = fender_contact(x0, x1, c, s, v0, v1, v2, fy, fdefl, fload, fn, fprop, hull, origin)
     # external ship-frame load rotated to the berth frame
-    fx = out_f[0] + c * f0 - s * f1
-    fyy = out_f[1] + s * f0 + c * f1
-    mz = out_f[2] + f2
+    fx = out_f[0] + hx + c * f0 - s * f1
+    fyy = out_f[1] + hy + s * f0 + c * f1
+    mz = out_f[2] + hz + f2
     # current on the relative velocity (ship frame)
     rx, ry = cur_vx - v0, cur_vy - v1
     u, w = c * rx + s * ry, -s * rx + c * ry
@@ -258,8 +262,8 @@ def _part_named(k, alive, alive1, part_at, tens):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, lines, table, e_brake, e_break, brake, stretch,
-                  alive0, alive1, i_part, fy, fdefl, fload, fn, hull, psi0, origin, cur_vx, cur_vy, kx, ky, el, xs,
-                  vs, tens, part_at, paid, tmax):
+                  alive0, alive1, i_part, fy, fdefl, fload, fn, fprop, hull, psi0, origin, cur_vx, cur_vy, kx, ky, el,
+                  xs, vs, tens, part_at, paid, tmax):
     """RK4 of the low-frequency pose, ``stride`` output samples per step (the load taken at its samples at the
     step's start, middle and end: it is low-passed first, :data:`LF_CUTOFF`); the samples between from the cubic
     Hermite of the step's ends (error of order ``(w h)^4 / 384``: below 1e-4 of the motion for the 19 s and longer
@@ -308,7 +312,7 @@ def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, lines, table, e
         if changed:
             _elongations(a0, a1, psi0 + a2, work, origin, e_now)
         k1 = _lf_rhs(a0, a1, a2, b0, b1, b2, p0, p1, p2, minv, damp, work, table, alive, fy, fdefl,
-                     fload, fn, hull, psi0, origin, current, out_f, ten, per_line)
+                     fload, fn, fprop, hull, psi0, origin, current, out_f, ten, per_line)
         for j in range(nl):
             e0[j] = e_now[j]
         if k == n - 1:
@@ -331,15 +335,15 @@ def _lf_integrate(x0, v0, f_ship, every, dt, stride, minv, damp, lines, table, e
         x20, x21, x22 = a0 + h * b0, a1 + h * b1, a2 + h * b2
         v20, v21, v22 = b0 + h * k1[0], b1 + h * k1[1], b2 + h * k1[2]
         k2s = _lf_rhs(x20, x21, x22, v20, v21, v22, m0, m1, m2, minv, damp, work, table, alive, fy,
-                      fdefl, fload, fn, hull, psi0, origin, current, out_f, ten, per_line)
+                      fdefl, fload, fn, fprop, hull, psi0, origin, current, out_f, ten, per_line)
         x30, x31, x32 = a0 + h * v20, a1 + h * v21, a2 + h * v22
         v30, v31, v32 = b0 + h * k2s[0], b1 + h * k2s[1], b2 + h * k2s[2]
         k3 = _lf_rhs(x30, x31, x32, v30, v31, v32, m0, m1, m2, minv, damp, work, table, alive, fy,
-                     fdefl, fload, fn, hull, psi0, origin, current, out_f, ten, per_line)
+                     fdefl, fload, fn, fprop, hull, psi0, origin, current, out_f, ten, per_line)
         x40, x41, x42 = a0 + big * v30, a1 + big * v31, a2 + big * v32
         v40, v41, v42 = b0 + big * k3[0], b1 + big * k3[1], b2 + big * k3[2]
         k4 = _lf_rhs(x40, x41, x42, v40, v41, v42, q0, q1, q2, minv, damp, work, table, alive, fy,
-                     fdefl, fload, fn, hull, psi0, origin, current, out_f, ten, per_line)
+                     fdefl, fload, fn, fprop, hull, psi0, origin, current, out_f, ten, per_line)
         c0 = a0 + big / 6 * (b0 + 2 * v20 + 2 * v30 + v40)
         c1 = a1 + big / 6 * (b1 + 2 * v21 + 2 * v31 + v41)
         c2 = a2 + big / 6 * (b2 + 2 * v22 + 2 * v32 + v42)
@@ -674,7 +678,8 @@ def _lf_motion(ship: ShipModel, env: Environment, f_ship: np.ndarray, every: int
     _lf_integrate(eq.copy(), np.zeros(3), f_ship, every, dt, _lf_stride(ship, dt),
                   np.linalg.inv(ship.mass_lf), ship.damping_lf, mo.lines_at(rise_of(env)), mo.table, mo.e_brake,
                   mo.e_break, mo.brake, np.zeros((nl, 0)) if stretch is None else stretch,
-                  alive0, alive1, i_part, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.hull,
+                  alive0, alive1, i_part, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts,
+                  mo.fender_prop, mo.hull,
                   mo.psi0, mo.origin, env.current_speed * math.cos(cur), env.current_speed * math.sin(cur),
                   ship.current_kx, ship.current_ky, E_C * ship.length, pose, pose_v, tension, part_at, paid, tmax)
     return pose, pose_v, tension, part_at, paid, tmax
@@ -848,7 +853,9 @@ class StateLoads:
     tension_max : ndarray (lines,)
         Each line's largest tension, first-order motion included, N.
     fender_max : ndarray (fenders,)
-        Each fender's largest reaction (on the low-frequency pose, 1 s samples), N.
+        Each fender's largest reaction on its loading curve (on the low-frequency pose, 1 s samples), N.
+    fender_deflection_max : ndarray (fenders,)
+        Each fender's largest deflection (the same samples), m.
     surge_pp, heave_pp : float
         Peak-to-peak surge and heave of the centre of gravity, m.
     sway_off : float
@@ -864,6 +871,7 @@ class StateLoads:
 
     tension_max: np.ndarray
     fender_max: np.ndarray
+    fender_deflection_max: np.ndarray
     surge_pp: float
     sway_off: float
     heave_pp: float
@@ -941,6 +949,7 @@ def _state(ship: ShipModel, env: Environment, duration: float, seed: int, dt: fl
         return flange, reference, None
     step = max(1, int(round(1.0 / dt)))
     fenders = fender_loads(mo, pose[::step])
+    deflections = fender_deflections(mo, pose[::step])
     surge, off, heave, roll, pitch, yaw = _ranges(ship, pose, wave)
-    return flange, reference, StateLoads(tmax, np.max(fenders, axis=0), surge, off, heave,
+    return flange, reference, StateLoads(tmax, np.max(fenders, axis=0), np.max(deflections, axis=0), surge, off, heave,
                                          roll, pitch, yaw, int(np.sum(part_at >= 0)), float(np.max(paid)))

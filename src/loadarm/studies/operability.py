@@ -17,7 +17,7 @@ issue 28), each a column of its own so that the result says which governs:
   load limit), or a line parted;
 * **wind**: the hour's mean wind above ``wind_limit``, or above ``wind_limit_off_berth`` when it blows off the
   berth;
-* **fenders**: a fender's reaction above ``fender_limit`` of its rated reaction;
+* **fenders**: a fender deflected past ``fender_limit`` of its rated deflection;
 * **motion**: PIANC's criteria for gas tankers with loading arms (surge, sway off the berth, roll, pitch, yaw);
 * **arm**: the arm could not connect (the flange's significant motion above ``connect_motion_limit``) or,
   connected, the monitoring reached ESD-1 or worse.
@@ -225,8 +225,8 @@ def judge_state(crit: Operability, moorings, loads, env, connectable: bool, stag
     dict
     """
     line = float(np.max(loads.tension_max / moorings.mbl))
-    rated = moorings.fender_load[np.arange(moorings.fender_y.size), moorings.fender_npts - 1]
-    fender = float(np.max(loads.fender_max / rated)) if rated.size else 0.0
+    rated = moorings.fender_prop[2]
+    fender = float(np.max(loads.fender_deflection_max / rated)) if rated.size else 0.0
     off_berth = abs((env.wind_direction_deg + 180.0) % 360.0 - 180.0) <= crit.off_berth_sector_deg
     wind_cap = min(crit.wind_limit, crit.wind_limit_off_berth) if off_berth else crit.wind_limit
     roll, pitch, yaw = (math.degrees(v) for v in (loads.roll_pp, loads.pitch_pp, loads.yaw_pp))

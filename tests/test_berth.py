@@ -58,8 +58,8 @@ def _edit(path: str, value, data=None):
     ("moorings.1.name", "head 1", "moorings: names must be unique, head 1 repeated"),
     ("fenders.0.load", [0.0, 3.8e5, 7.6e5, 1.1e6, 1.42e6, 1.68e6, 1.86e6, 1.96e6, 2e6, 1.9e6, 2.5e6, 4e6],
      "never fall in load"),
-    ("fenders.0.rated_deflection", 1.5, "rated_deflection 1.5 m lies past the load curve's last deflection 1.28 m"),
-    ("fenders.0.friction", 0.9, "valid range [0, 0.6]"),
+    ("fenders.0.rated_deflection", 1.5, "rated_deflection 1.5 m lies past the load curve's last deflection 1.35 m"),
+    ("fenders.0.friction", 0.9, "less than or equal to 0.6"),
     ("fenders.0.deflection", [0.0, 0.5], "the same number (>= 2) of points"),
     ("environment.spreading", float("nan"), "environment.spreading = nan"),
 ])

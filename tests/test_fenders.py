@@ -59,7 +59,7 @@ def test_the_example_fenders_come_from_their_cited_curve(berth):
         assert f.rated_deflection == pytest.approx(0.72 * 1.6)
         assert f.rated_load == pytest.approx(2.0e6)
         assert 0.15 <= f.friction <= 0.3 and 0 < f.unload_ratio < 1
-        assert f.load[-1] > 1.5 * f.rated_load, "past the rating the fender bottoms out"
+        assert f.load[-1] > 1.4 * f.rated_load, "past the rating the fender bottoms out"
         assert "M1100" in Berth.model_fields["fenders"].annotation.__args__[0].model_fields["load"] \
             .json_schema_extra["source"]
 

@@ -386,7 +386,10 @@ def test_the_kernels_current_is_the_vectorised_formula(ship, speed, direction, v
     x = ship.eq0 + np.array([0.0, 0.0, psi])
     cx, cy = speed * math.cos(direction), speed * math.sin(direction)
     zero = np.zeros((3, 3))
-    a = _lf_rhs(x[0], x[1], x[2], vx, vy, 0.0, 0.0, 0.0, 0.0, np.eye(3), zero, mo.lines, mo.table, mo.alive, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts, mo.hull,
+    nf = len(mo.fender_npts)
+    elastic = np.array([[0.0] * nf, [1.0] * nf, list(mo.fender_prop[2])])  # no friction, no hysteresis: moving
+    a = _lf_rhs(x[0], x[1], x[2], vx, vy, 0.0, 0.0, 0.0, 0.0, np.eye(3), zero, mo.lines, mo.table, mo.alive, mo.fender_y, mo.fender_defl, mo.fender_load, mo.fender_npts,
+                elastic, mo.hull,
                 mo.psi0, mo.origin, (cx, cy, ship.current_kx, ship.current_ky, loads.E_C * ship.length),
                 np.zeros(3), np.zeros(len(mo.names)), np.empty((4, len(mo.names))))
     got = np.array(a) - restoring_force(mo, x)[0]
@@ -402,14 +405,15 @@ def test_the_kernels_current_is_the_vectorised_formula(ship, speed, direction, v
 
 def test_the_coarse_low_frequency_step_is_accurate(ship, berth):
     """The integration at the chosen step (1 s for the example: omega h = 0.33) against 0.1 s on the same
-    low-passed load: within 0.5 mm over 30 min (measured 0.08 mm) in a motion of 5 cm standard deviation."""
+    low-passed load: within 1.5 mm over 30 min (measured 0.9 mm; 0.08 mm before the fenders' friction, whose
+    stick-slip regularised over 1 cm/s is the least smooth force) in a motion of 5 cm standard deviation."""
     import dataclasses
 
     assert ship.lf_step == 1.0
     fine = dataclasses.replace(ship, lf_step=0.1)
     a = simulate(ship, berth.environment, 1800.0, seed=1)
     b = simulate(fine, berth.environment, 1800.0, seed=1)
-    assert np.max(np.abs(a.pose[:, :2] - b.pose[:, :2])) < 5e-4
+    assert np.max(np.abs(a.pose[:, :2] - b.pose[:, :2])) < 1.5e-3
     assert np.std(a.pose[:, 0]) > 0.03
 
 

@@ -209,7 +209,8 @@ class MooringLine(Section):
 _CONE = ("shape of a cone fender's published generic curve (Trelleborg Marine Systems, Safe Berthing and Mooring, "
          "M1100-S01, Super Cone: reaction rising to its peak near 35-40 % deflection and held to the rated 72 %; "
          "the slight dip between left out, so the curve never falls), 1.6 m high, 2.0 MN rated; the rise past "
-         "the rating (bottoming out) a loadarm assumption")
+         "the rating (bottoming out) a loadarm assumption, no steeper than the curve's first slope (4.75 MN/m) so "
+         "that the low-frequency step stays 1 s")
 
 
 class Fender(Section):
@@ -220,12 +221,12 @@ class Fender(Section):
                       json_schema_extra={"unit": "", "source": "example"})
     y: float = param(..., unit="m", ge=-500, le=500, source="example", description="position along the berth")
     z: float = param(2.0, unit="m", ge=-20, le=40, source="example", description="height above still water")
-    deflection: tuple[float, ...] = param((0.0, 0.08, 0.16, 0.24, 0.32, 0.4, 0.48, 0.56, 0.64, 1.152, 1.216, 1.28),
+    deflection: tuple[float, ...] = param((0.0, 0.08, 0.16, 0.24, 0.32, 0.4, 0.48, 0.56, 0.64, 1.152, 1.24, 1.35),
                                           unit="m", source=_CONE,
                                           description="deflections of the load curve, from 0, increasing, past the "
                                                       "rated deflection (bottoming out)")
-    load: tuple[float, ...] = param((0.0, 3.8e5, 7.6e5, 1.1e6, 1.42e6, 1.68e6, 1.86e6, 1.96e6, 2.0e6, 2.0e6, 2.5e6,
-                                     4.0e6), unit="N", source=_CONE,
+    load: tuple[float, ...] = param((0.0, 3.8e5, 7.6e5, 1.1e6, 1.42e6, 1.68e6, 1.86e6, 1.96e6, 2.0e6, 2.0e6, 2.4e6,
+                                     2.9e6), unit="N", source=_CONE,
                                     description="reaction at each deflection on loading, from 0, never falling")
     rated_deflection: float = param(1.152, unit="m", gt=0, le=20, source=_CONE + " (72 % of 1.6 m)",
                                     description="the manufacturer's rated deflection: the fender criterion's "

@@ -161,7 +161,7 @@ def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float) -> dict:
     elbow = (arm.b * math.sin(alpha), arm.a + arm.b * math.cos(alpha))
     return {
         "type": "state", "seq": snap.seq, "t": snap.t, "sent_at": sent_at, "published_at": _num(snap.wall),
-        "mode": snap.mode,
+        "mode": snap.mode, "modes": [[int(k), m] for k, m in snap.modes],
         "q": [_num(v) for v in snap.q], "elbow": [_num(v) for v in elbow],
         "coupler": [_num(v) for v in snap.coupler], "flange": [_num(v) for v in snap.flange_estimate],
         "flange_velocity": [_num(v) for v in snap.flange_velocity], "estimate_healthy": snap.estimate_healthy,

@@ -12,6 +12,7 @@ when the client stops renewing it, or its link drops).
 
 from __future__ import annotations
 
+import collections
 import itertools
 import math
 import queue
@@ -21,7 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from loadarm.guidance.modes import CONNECTED_MODES, OperatorInput
-from loadarm.sim.snapshot import Snapshot, snapshot, state_sample
+from loadarm.sim.snapshot import MODE_TAIL, Snapshot, snapshot, state_sample
 from loadarm.vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
 
 __all__ = ["ACTIONS", "JOG_HOLD", "REALTIME_SWITCH_INTERVAL", "Request", "Note", "GuidanceService", "parse_jog"]
@@ -156,6 +157,10 @@ class GuidanceService:
         #: Wall-clock time each mode change was published, ``[(mode, s since the epoch)]`` (the screen's
         #: latency is measured against it).
         self.mode_changes: list[tuple[str, float]] = []
+        #: The last :data:`loadarm.sim.snapshot.MODE_TAIL` mode changes ``(cycle, mode)``, on every snapshot (a
+        #: mode held for less than a screen's frame is still shown in its order: found in CI at 8x, where
+        #: ALARM1 lasted less than one 20 Hz frame).
+        self._mode_tail: collections.deque = collections.deque(maxlen=MODE_TAIL)
         self.finished = threading.Event()
         self.error: BaseException | None = None
 
@@ -291,8 +296,10 @@ class GuidanceService:
         q = (sig["phi"][i], sig["alpha"][i], sig["beta"][i])       # the cycle's joints, as the log records them
         sample = state_sample(cmd, q, loop.estimate, sig["distance"][i], loop.io.feedback.ers_valves_closed,
                               loop.ctrl.state.alarms)
+        if not self._mode_tail or self._mode_tail[-1][1] != cmd.mode.value:
+            self._mode_tail.append((k, cmd.mode.value))
         self._snapshot = snapshot(loop.model, k, now, cmd.mode.value, sample, cycle_us=float(loop.cycle_us[i]),
-                                  late=self.late, plant_ok=self._link_ok, wall=time.time(),
+                                  late=self.late, plant_ok=self._link_ok, wall=time.time(), modes=tuple(self._mode_tail),
                                   pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)))
         if not self.mode_changes or self.mode_changes[-1][0] != cmd.mode.value:
             self.mode_changes.append((cmd.mode.value, self._snapshot.wall))

@@ -368,9 +368,30 @@ def fender_contact(x, y, c, s, vx, vy, r, fy, fdefl, fload, fn, fprop, hull, ori
     """What the fenders add, in motion, to :func:`restoring_kernel`'s loading-curve reaction: the hysteresis
     (a fender the hull moves off gives back ``unload_ratio`` of its loading reaction, blended in over
     :data:`V_UNLOAD`) and the friction along the fender's face (``-mu R tanh(v / V_SLIP)`` against the
-    contact's sliding along the berth, at the contact point: a yaw moment too). The pose as the kernel's (``x,
-    y`` and the heading's ``c, s``), the rates ``vx, vy`` (berth frame, m/s) and ``r`` (rad/s); ``fprop``
-    :attr:`Moorings.fender_prop`. Returns the berth-frame x, y force and the yaw moment about midships."""
+    contact's sliding along the berth, at the contact point: a yaw moment too).
+
+    Parameters
+    ----------
+    x, y : float
+        The pose's offset, m, as :func:`restoring_kernel` takes it.
+    c, s : float
+        Cosine and sine of the heading.
+    vx, vy : float
+        The pose's velocity, berth frame, m/s.
+    r : float
+        Yaw rate, rad/s.
+    fy, fdefl, fload, fn : ndarray
+        :attr:`Moorings.fender_y`, ``fender_defl``, ``fender_load``, ``fender_npts``.
+    fprop : ndarray
+        :attr:`Moorings.fender_prop` (friction, unload ratio, rated deflection; 3 by fenders).
+    hull, origin : ndarray
+        :attr:`Moorings.hull` and ``origin``.
+
+    Returns
+    -------
+    tuple of float
+        The berth-frame x and y force, N, and the yaw moment about midships, N m.
+    """
     cx, cy = origin[0] + x, origin[1] + y
     side, half = hull[0], hull[1]
     qx0, qy0 = cx - s * side, cy + c * side

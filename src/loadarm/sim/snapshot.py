@@ -21,7 +21,11 @@ from loadarm.arm.faces import FACES, face_margins
 from loadarm.arm.slew import forward3d
 from loadarm.vocab import ANNUNCIATED
 
-__all__ = ["Snapshot", "state_sample", "snapshot"]
+__all__ = ["MODE_TAIL", "Snapshot", "state_sample", "snapshot"]
+
+#: Mode changes carried on each snapshot (:attr:`Snapshot.modes`): more than a sequence's modes from the
+#: connection to the return, so a screen a few frames behind still shows each one.
+MODE_TAIL = 12
 
 
 def _finite_or_none(v) -> float | None:
@@ -153,6 +157,9 @@ class Snapshot:
         Wall-clock time the cycle was published, s since the epoch (for the screen's end-to-end latency).
     time_to_faces : dict of str to float
         The forecast's time to each face it crossed within its horizon, s (absent: none in sight).
+    modes : tuple of (int, str)
+        The last :data:`MODE_TAIL` mode changes up to this cycle, ``(cycle, mode)`` (a screen that samples the
+        snapshots shows a mode held for less than its frame; empty: not kept, a replay).
     """
 
     seq: int
@@ -180,3 +187,4 @@ class Snapshot:
     pressures: tuple[float, float, float, float, float] = (math.nan,) * 5
     wall: float = math.nan
     time_to_faces: dict = field(default_factory=dict)
+    modes: tuple = ()

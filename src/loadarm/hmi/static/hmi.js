@@ -12,7 +12,7 @@ const SVGNS = "http://www.w3.org/2000/svg";
 const $ = (id) => document.getElementById(id);
 
 const hmi = {session: null, geo: null, ws: null, lastFrameAt: 0, lastSeq: null, lastSeqAt: 0, frames: 0, cmdSeq: 0,
-             history: [], seenAlarms: [], seenModes: [], modeArrivals: [],
+             history: [], seenAlarms: [], seenModes: [], modeArrivals: [], modeCycle: -1,
              pending: new Map(), jog: null, jogTimer: null, flange0: null, frame: null, rate: 0,
              rateCount: 0, rateSince: performance.now()};
 window.hmi = hmi;               // for the browser tests
@@ -196,6 +196,13 @@ document.addEventListener("keyup", (ev) => { if (hmi.jog && hmi.jog.key === ev.k
 window.addEventListener("blur", () => stopJog());
 
 // ------------------------------------------------------------------ frames
+function noteMode(m) {
+  if (hmi.seenModes[hmi.seenModes.length - 1] !== m) {
+    hmi.seenModes.push(m);
+    hmi.modeArrivals.push([m, Date.now() / 1000]);             // when each mode change reached the screen
+  }
+}
+
 function onFrame(f) {
   hmi.lastFrameAt = performance.now();
   if (f.seq !== hmi.lastSeq || f.replay) { hmi.lastSeqAt = hmi.lastFrameAt; }   // a replay: frames are the life
@@ -210,10 +217,12 @@ function onFrame(f) {
   // in the order raised; alarms raised in one cycle in escalation order (the less urgent first), not the list's
   const raised = [...f.alarms].sort((x, y) => (x.raised_at - y.raised_at) || (y.priority - x.priority));
   for (const a of raised) { if (!hmi.seenAlarms.includes(a.tag)) { hmi.seenAlarms.push(a.tag); } }
-  if (hmi.seenModes[hmi.seenModes.length - 1] !== f.mode) {
-    hmi.seenModes.push(f.mode);
-    hmi.modeArrivals.push([f.mode, Date.now() / 1000]);        // when each mode change reached the screen
+  // every mode the controller passed through, in order, even one held for less than a frame (f.modes: its
+  // last changes by cycle); then the frame's own (a replay carries no changes)
+  for (const [k, m] of (f.modes || [])) {
+    if (k > hmi.modeCycle) { hmi.modeCycle = k; noteMode(m); }
   }
+  noteMode(f.mode);
   hmi.frames += 1;
   hmi.frame = f;
   hmi.rateCount += 1;

@@ -587,7 +587,7 @@ def test_the_replay_shows_what_the_live_screen_showed_at_every_logged_sample(tmp
         events = log.query(run="live")
     replay = ReplayService(events, model, clock=lambda: 0.0)
     replay.pause()
-    only_live = {"cycle_us", "late", "plant_ok", "pressures", "wall", "seq"}
+    only_live = {"cycle_us", "late", "plant_ok", "pressures", "wall", "seq", "modes"}   # modes: the live tail
     samples = [e for e in events if e.kind == "sample"]
     book_r, seen = AlarmBook(), {"ttl": 0, "faces": 0, "moving": 0, "alarms": 0}
     for e in samples:
@@ -605,3 +605,41 @@ def test_the_replay_shows_what_the_live_screen_showed_at_every_logged_sample(tmp
         seen["alarms"] += bool(alarms_l)
     # the comparison covered the defect's states: a time to a limit with its faces, a drifting flange, alarms
     assert len(samples) > 300 and all(n > 5 for n in seen.values()), seen
+
+
+def test_a_screen_that_samples_the_snapshots_still_sees_every_mode(tmp_path):
+    """Found in CI: at 8x the screen's 20 Hz frames (0.4 s of the run apart) missed the drift-off's ALARM1,
+    held for less than a frame. Every snapshot carries the last mode changes by cycle: a screen that reads only
+    every 40th snapshot (4 s of the run), fed through :func:`loadarm.hmi.state.frame`, rebuilds the run's whole
+    mode sequence, in order, from the frames' ``modes``; the frames' ``mode`` alone misses some."""
+    from loadarm.hmi.state import AlarmBook, frame
+    from loadarm.opcua.service import GuidanceService
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import ClosedLoop
+
+    sc, model = load_scenario(SCENARIO)
+    service = GuidanceService(ClosedLoop(sc, model, scripted=True, plant="kinematic"), clock=lambda: 0.0,
+                              sleep=lambda s: None)
+    publish, every_cycle, sampled = service._publish, [], []
+
+    def keep(k, now, cmd):
+        publish(k, now, cmd)
+        snap = service.snapshot()
+        if not every_cycle or every_cycle[-1] != snap.mode:
+            every_cycle.append(snap.mode)
+        if k % 40 == 0:
+            sampled.append(frame(snap, model, AlarmBook().update(snap.t, snap.alarms), sent_at=0.0))
+
+    service._publish = keep
+    service.run()
+    seen, last_cycle, plain = [], -1, []
+    for f in sampled:                                   # what hmi.js's onFrame does
+        for k, m in f["modes"]:
+            if k > last_cycle:
+                last_cycle = k
+                if not seen or seen[-1] != m:
+                    seen.append(m)
+        if not plain or plain[-1] != f["mode"]:
+            plain.append(f["mode"])
+    assert "ALARM1" in every_cycle and seen == every_cycle, (seen, every_cycle)
+    assert plain != every_cycle, "the test samples too often to show the loss"

@@ -85,6 +85,8 @@ class ShipModel:
         The berth file's design environment (scenarios override keys of it).
     lf_step : float
         Low-frequency integration step, s (:func:`lf_step`).
+    long_waves : bool
+        The set-down loads the low-frequency motion (``[berth] bound_long_waves``, :mod:`loadarm.ship.longwave`).
     """
 
     moorings: Moorings
@@ -114,6 +116,7 @@ class ShipModel:
     names: tuple[str, ...] = field(default=())
     environment: object = None
     lf_step: float = 0.1
+    long_waves: bool = True
 
     @property
     def psi0(self) -> float:
@@ -274,7 +277,8 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, s
                      centroid_x=s.windage_centroid_x, current_kx=kx, current_ky=ky, current_cyc=cyc,
                      water_depth=berth.berth.water_depth, lf_damping_ratio=s.lf_damping_ratio,
                      manifold_tolerance=berth.berth.manifold_tolerance, names=mo.names,
-                     environment=berth.environment, lf_step=lf_step(mo, h))
+                     environment=berth.environment, lf_step=lf_step(mo, h),
+                     long_waves=berth.berth.bound_long_waves)
 
 
 def moored_ship(sc: "Scenario") -> "ShipModel | None":

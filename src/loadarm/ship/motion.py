@@ -38,7 +38,8 @@ from loadarm.ship.loads import (
     uniform_draws,
     wind_force,
 )
-from loadarm.ship.model import ShipModel
+from loadarm.ship.longwave import setdown_load
+from loadarm.ship.model import ShipModel, _rot3
 from loadarm.ship.mooring import (
     equilibrium,
     fender_contact,
@@ -614,7 +615,7 @@ def _load_every(n: int, n_out: int, stride: int, i_part: int) -> int:
 def _lf_load(ship: ShipModel, env: Environment, comp: WaveComponents, beta, n: int, n_out: int, dt: float,
              rng: np.random.Generator, every: int = 1) -> np.ndarray:
     """The low-frequency load (ship frame, (n_out - 1) // every + 1 samples by 3, every ``every``-th output
-    sample): Newman slow drift and the wind with its gusts, over the whole (periodic) FFT record, then
+    sample): Newman slow drift, the set-down's (:mod:`loadarm.ship.longwave`) and the wind with its gusts, over the whole (periodic) FFT record, then
     low-passed (the sum-frequency part of Newman's square is not slow drift, and a moored ship does not answer
     faster loads); the current acts in the integration. The low-passed load is a trigonometric sum of the
     first ``k_cut`` bins: on ``n / every`` samples of the same period (``every`` divides ``n``, and
@@ -634,6 +635,11 @@ def _lf_load(ship: ShipModel, env: Environment, comp: WaveComponents, beta, n: i
         sq = _synth(coef, m)
         sq *= sq
         band += (2.0 * np.sign(mean_j))[:, None] * rfft(sq, axis=-1)[:, :k_cut] * (n / m)
+        if ship.long_waves:                                    # the set-down, which Newman's leaves out
+            rot = _rot3(ship.psi0)
+            band += setdown_load(rot.T @ ship.mass_lf @ rot, comp.omega, comp.amplitude, comp.phase,
+                                 math.radians(env.wave_direction_deg) - ship.psi0, ship.water_depth,
+                                 (ship.length, ship.beam), m, n, dt, k_cut)
     if env.wind_speed > 0:
         df = 1.0 / (n * dt)
         f = df * np.arange(1, n // 2)

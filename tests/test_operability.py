@@ -583,9 +583,10 @@ def test_each_criterion_takes_the_state_down():
 
 def test_the_beam_sea_state_is_judged_on_its_first_order_tension():
     """The issue's state, Hs 2 m, Tp 9.3 s, beam seas in the design wind: with the first-order motion in the
-    tensions, twice as many lines pass MEG4's 50 % as on the low-frequency motion alone (measured 8 and 4 on
-    this seed) and the brakes pay out several times as much (1.55 m and 0.24 m: the brakes render on the peaks);
-    the state is down on its lines."""
+    tensions, each line's largest tension is at least the low-frequency motion's, more lines pass MEG4's 50 %
+    (12 and 11 on this seed; 8 and 4 before the set-down, which now renders the brakes on the slow motion alone)
+    and the brakes pay out more (3.39 m and 2.58 m: they render on the first-order peaks too); the state is down
+    on its lines."""
     from loadarm.params.sections import Operability
     from loadarm.ship.motion import moored_state, simulate
     from loadarm.studies.operability import judge_state
@@ -598,8 +599,9 @@ def test_the_beam_sea_state_is_judged_on_its_first_order_tension():
     lf = simulate(ship, env, 3600.0, seed=4, waves=False)
     mbl = ship.moorings.mbl
     assert np.array_equal(loads.tension_max, np.max(full.tension, axis=0))
-    assert np.sum(loads.tension_max / mbl > 0.5) >= 2 * np.sum(np.max(lf.tension, axis=0) / mbl > 0.5) > 0
-    assert np.max(full.paid_out) > 3 * np.max(lf.paid_out)
+    assert np.all(loads.tension_max >= np.max(lf.tension, axis=0) - 1.0)
+    assert np.sum(loads.tension_max / mbl > 0.5) > np.sum(np.max(lf.tension, axis=0) / mbl > 0.5) > 0
+    assert np.max(full.paid_out) > 1.2 * np.max(lf.paid_out)
     assert judge_state(Operability(), ship.moorings, loads, env, True, 0)["down_lines"]
 
 

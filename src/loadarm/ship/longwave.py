@@ -33,6 +33,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.fft import irfft, rfft
 
 from loadarm.ship.hydro import G
 
@@ -174,8 +175,6 @@ def setdown_slope(omega, amplitude, phase, depth: float, m: int, k_cut: int) -> 
     ndarray
         (k_cut,) complex: the slope's bins as :func:`numpy.fft.rfft` gives them on ``m`` samples.
     """
-    from scipy.fft import irfft, rfft
-
     b = amplitude * np.sqrt(setdown_coefficient(omega, depth))
     k = wavenumber(omega, depth)
     coef = b * np.exp(-1j * phase)                      # Re sum coef e^{-i w t} = s at the origin

@@ -17,15 +17,17 @@ The set-down's transfer function
 * For any pair, Hasselmann's (1962) interaction coefficient, *On the non-linear energy transfer in a
   gravity-wave spectrum*, J. Fluid Mech. 12, eqs. 4.2-4.4, for the difference frequency
   (:func:`difference_qtf`): the reference route, ``O(K^2)`` in the components.
-* The load in the motion (:func:`setdown_load`) factorises the transfer function as Newman's approximation does
-  the drift's, ``G_ij ~ sqrt(G_i G_j)`` (the squared sum of components weighted by ``sqrt(G)``, low-passed),
-  times Hasselmann's growth with the difference frequency about the sea's peak (:func:`difference_correction`).
-  ``tests/test_longwave.py`` holds it to the pairwise sum with Hasselmann's coefficient.
+* The load in the motion (:func:`setdown_load`) sums the pairs of the sea's components that hold its energy,
+  each with Hasselmann's coefficient for its frequencies and directions (a spread sea binds less than a
+  long-crested one) and its own difference wave vector, averaged over the hull's waterplane.
+* A closed route for a long-crested sea, the check of the pairs: :func:`setdown_slope` factorises the transfer
+  function as Newman's approximation does the drift's, ``G_ij ~ sqrt(G_i G_j)`` (the squared sum of
+  components weighted by ``sqrt(G)``, low-passed, one FFT), times Hasselmann's growth with the difference
+  frequency about the sea's peak (:func:`difference_correction`).
 
 Left out, and said so: the free (unbound) infragravity waves a coast reflects (they depend on the coast; a
-berth with measured infragravity energy needs them as a record); the bound wave's yaw moment (the slope is
-uniform along a ship short against waves of 0.5-2 km); the long wave's first-order motion of the ship in heave
-and pitch.
+berth with measured infragravity energy needs them as a record); the bound wave's yaw moment; the long wave's
+motion of the ship in heave and pitch.
 """
 
 from __future__ import annotations
@@ -35,10 +37,12 @@ import math
 import numpy as np
 from scipy.fft import irfft, rfft
 
+from loadarm._numba import njit
+
 from loadarm.ship.hydro import G
 
 __all__ = ["wavenumber", "group_velocity", "setdown_coefficient", "difference_qtf", "setdown_slope", "difference_correction",
-           "hull_factor",
+           "hull_factor", "ENERGY_KEPT",
            "setdown_load"]
 
 
@@ -136,10 +140,15 @@ def difference_qtf(w1, w2, theta1, theta2, depth: float) -> np.ndarray:
     ndarray
         1/m.
     """
-    w1 = np.asarray(w1, dtype=float)
-    w2 = -np.asarray(w2, dtype=float)                   # the difference interaction: the second one reversed
-    k1, k2 = wavenumber(np.abs(w1), depth), wavenumber(np.abs(w2), depth)
-    cos12 = -np.cos(np.asarray(theta1) - np.asarray(theta2))    # and its wave vector too
+    w1, w2 = np.asarray(w1, dtype=float), np.asarray(w2, dtype=float)
+    return _qtf(w1, w2, wavenumber(w1, depth), wavenumber(w2, depth),
+                np.cos(np.asarray(theta1) - np.asarray(theta2)), depth)
+
+
+def _qtf(w1, w2, k1, k2, cos_angle, depth: float):
+    """:func:`difference_qtf` on the pairs' frequencies, wavenumbers and the cosine of their angle."""
+    w2 = -w2                                            # the difference interaction: the second one reversed
+    cos12 = -cos_angle                                  # and its wave vector too
     k3 = np.sqrt(np.maximum(k1 * k1 + k2 * k2 + 2.0 * k1 * k2 * cos12, 0.0))
     w3 = w1 + w2
     dp = (w3 * ((w1 * w2) ** 2 / G ** 2 - k1 * k2 * cos12)
@@ -237,47 +246,122 @@ def hull_factor(omega_bins, cg: float, heading: float, length: float, beam: floa
             * np.sinc(dk * beam * math.sin(heading) / (2 * math.pi)))
 
 
-def setdown_load(mass_ship: np.ndarray, omega, amplitude, phase, heading: float, depth: float, size, m: int,
-                 n: int, dt: float, k_cut: int) -> np.ndarray:
+#: The components kept for the pairwise set-down: the largest, until this fraction of the sea's energy (the
+#: bound wave of the rest, below 1e-3 of the energy, is below 1e-3 of the set-down's variance).
+ENERGY_KEPT = 0.999
+
+
+def _strongest(amplitude: np.ndarray) -> np.ndarray:
+    """Indices (ascending) of the fewest components that hold :data:`ENERGY_KEPT` of the energy."""
+    e = amplitude * amplitude
+    order = np.argsort(e)[::-1]
+    n = int(np.searchsorted(np.cumsum(e[order]), ENERGY_KEPT * e.sum())) + 1
+    return np.sort(order[:min(n, order.size)])
+
+
+def setdown_load(mass_ship: np.ndarray, omega, amplitude, phase, heading, depth: float, size, n: int,
+                 k_cut: int, *, compiled: bool = True) -> np.ndarray:
     """The set-down's load on the ship (surge, sway, yaw about midships), ship frame, as FFT bins on ``n``
-    samples ``dt`` apart: ``F = -(M + A(0)) g grad(eta2)`` with the low-frequency mass (the displaced water's
-    and the added mass at the lowest frequency), averaged over the hull (:func:`hull_factor`), no yaw moment.
-    The sea taken long-crested in its mean direction ``heading`` (a spread sea's bound waves are smaller:
-    Herbers, Elgar & Guza 1994, *Infragravity-frequency (0.005-0.05 Hz) motions on the shelf. Part I*, J. Phys.
-    Oceanogr. 24: conservative).
+    samples: every pair of the sea's components (those holding :data:`ENERGY_KEPT` of its energy) with its
+    difference frequency below the cut-off, each with Hasselmann's coefficient for its two frequencies and
+    directions (a spread sea's pairs at an angle bind less) and its own difference wave vector, the force
+    ``F = -(M + A(0)) g grad(eta2)`` of the low-frequency mass (the displaced water's and the added mass at the
+    lowest frequency) averaged over the waterplane as a box's (``sinc(dk_x L / 2) sinc(dk_y B / 2)``: a
+    bound wave shorter than the ship pushes it less); no yaw moment.
 
     Parameters
     ----------
     mass_ship : ndarray (3, 3)
         Low-frequency mass matrix in the ship frame about midships (surge, sway, yaw).
     omega, amplitude, phase : ndarray
-        The components.
-    heading : float
-        Their mean direction relative to the bow (towards), rad.
+        The components, on the record's grid's bins ``1 .. K`` (as
+        :func:`loadarm.ship.motion.wave_components` draws them): rad/s, m, rad.
+    heading : ndarray
+        Each component's direction relative to the bow (towards), rad.
     depth : float
         m.
     size : tuple of float
         The hull's length and beam, m.
-    m : int
-        As :func:`setdown_slope`.
     n : int
-        The record's FFT length (the bins' scale).
-    dt : float
-        s.
+        The record's FFT length (the bins' scale, :func:`numpy.fft.rfft`'s convention).
     k_cut : int
         Bins kept.
+    compiled : bool
+        The numba loop over the pairs (:func:`_pairs_kernel`, allocation-free) or, False, the NumPy route
+        over arrays of pairs (the reference; ``tests/test_longwave.py`` holds the two together).
 
     Returns
     -------
     ndarray
         (3, k_cut) complex.
     """
-    slope = setdown_slope(omega, amplitude, phase, depth, m, k_cut) * (n / m)
-    if amplitude.size:
-        w_peak = float(omega[int(np.argmax(amplitude))])
-        bins = 2 * math.pi * np.arange(k_cut) / (n * dt)
-        cg = float(group_velocity(w_peak, depth)[1])
-        slope = slope * difference_correction(bins, w_peak, depth) * hull_factor(bins, cg, heading, *size)
     out = np.zeros((3, k_cut), dtype=complex)
-    out[:2] = -G * (mass_ship[:2, :2] @ np.array([math.cos(heading), math.sin(heading)]))[:, None] * slope[None, :]
+    if compiled:
+        keep = _strongest(np.asarray(amplitude, dtype=float)) if np.any(amplitude) else np.zeros(0, dtype=np.int64)
+        th = np.asarray(heading, dtype=float) * np.ones(len(omega))
+        sx, sy = np.zeros(k_cut, dtype=complex), np.zeros(k_cut, dtype=complex)
+        k = wavenumber(omega, depth)
+        _pairs_kernel(keep.astype(np.int64), omega, k, 1.0 / np.cosh(np.minimum(k * depth, 350.0)) ** 2, amplitude,
+                      phase, np.cos(th),
+                      np.sin(th), depth, float(size[0]), float(size[1]), 0.5 * n, sx, sy)
+        out[:2] = -G * (mass_ship[:2, :2] @ np.stack([sx, sy]))
+        return out
+    keep = _strongest(np.asarray(amplitude, dtype=float)) if np.any(amplitude) else np.zeros(0, dtype=int)
+    if keep.size < 2:
+        return out
+    i, j = np.triu_indices(keep.size, 1)
+    i, j = keep[j], keep[i]                                 # i the higher frequency of each pair
+    i, j = i[i - j < k_cut], j[i - j < k_cut]
+    w, a, ph, th = omega, amplitude, phase, np.asarray(heading, dtype=float) * np.ones(len(omega))
+    k = wavenumber(w, depth)
+    c, sn = np.cos(th), np.sin(th)
+    d = _qtf(w[i], w[j], k[i], k[j], c[i] * c[j] + sn[i] * sn[j], depth) * a[i] * a[j]
+    dkx = k[i] * c[i] - k[j] * c[j]
+    dky = k[i] * sn[i] - k[j] * sn[j]
+    length, beam = size
+    d = d * np.sinc(dkx * length / (2 * math.pi)) * np.sinc(dky * beam / (2 * math.pi))
+    # the pair's bound wave d cos(dw t + phi_i - phi_j - dk.x): its slope at midships d dk sin(...), as the bin
+    # -i (n / 2) d dk e^{i (phi_i - phi_j)}
+    z = d * np.exp(1j * (ph[i] - ph[j])) * (-0.5j * n)
+    sx = np.bincount(i - j, weights=(dkx * z).real, minlength=k_cut) + 1j * np.bincount(
+        i - j, weights=(dkx * z).imag, minlength=k_cut)
+    sy = np.bincount(i - j, weights=(dky * z).real, minlength=k_cut) + 1j * np.bincount(
+        i - j, weights=(dky * z).imag, minlength=k_cut)
+    out[:2] = -G * (mass_ship[:2, :2] @ np.stack([sx[:k_cut], sy[:k_cut]]))
     return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _sinc(x):
+    return 1.0 if x == 0.0 else math.sin(x) / x
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _pairs_kernel(keep, w, k, sech2, a, ph, c, sn, depth, length, beam, half_n, sx, sy):
+    """:func:`setdown_load`'s pairs, compiled: for each kept pair below the cut-off, Hasselmann's coefficient
+    (:func:`difference_qtf`'s formula; ``sech2`` each component's ``1 / cosh(k h)^2``), the hull's average and
+    the slope's bin, added into ``sx, sy``."""
+    k_cut = sx.size
+    for p in range(keep.size):
+        i = keep[p]
+        for q in range(p - 1, -1, -1):                   # nearest first: stop at the cut-off
+            j = keep[q]
+            b = i - j
+            if b >= k_cut:
+                break
+            w1, w2 = w[i], -w[j]
+            k1, k2 = k[i], k[j]
+            cos12 = -(c[i] * c[j] + sn[i] * sn[j])
+            k3 = math.sqrt(max(k1 * k1 + k2 * k2 + 2.0 * k1 * k2 * cos12, 0.0))
+            w3 = w1 + w2
+            dp = (w3 * ((w1 * w2) ** 2 / G ** 2 - k1 * k2 * cos12)
+                  - 0.5 * (w1 * k2 * k2 * sech2[j] + w2 * k1 * k1 * sech2[i]))
+            t1 = dp * G * w3 / (w1 * w2) / (G * k3 * math.tanh(k3 * depth) - w3 * w3)
+            t2 = -G * k1 * k2 * cos12 / (2.0 * w1 * w2) + 0.5 * (w1 * w1 + w1 * w2 + w2 * w2) / G
+            dkx = k1 * c[i] - k2 * c[j]
+            dky = k1 * sn[i] - k2 * sn[j]
+            d = (t1 + t2) * a[i] * a[j] * _sinc(0.5 * dkx * length) * _sinc(0.5 * dky * beam)
+            dphi = ph[i] - ph[j]
+            zr, zi = d * half_n * math.sin(dphi), -d * half_n * math.cos(dphi)     # d e^{i dphi} (-i n / 2)
+            sx[b] += complex(dkx * zr, dkx * zi)
+            sy[b] += complex(dky * zr, dky * zi)

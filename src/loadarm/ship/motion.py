@@ -637,9 +637,8 @@ def _lf_load(ship: ShipModel, env: Environment, comp: WaveComponents, beta, n: i
         band += (2.0 * np.sign(mean_j))[:, None] * rfft(sq, axis=-1)[:, :k_cut] * (n / m)
         if ship.long_waves:                                    # the set-down, which Newman's leaves out
             rot = _rot3(ship.psi0)
-            band += setdown_load(rot.T @ ship.mass_lf @ rot, comp.omega, comp.amplitude, comp.phase,
-                                 math.radians(env.wave_direction_deg) - ship.psi0, ship.water_depth,
-                                 (ship.length, ship.beam), m, n, dt, k_cut)
+            band += setdown_load(rot.T @ ship.mass_lf @ rot, comp.omega, comp.amplitude, comp.phase, beta,
+                                 ship.water_depth, (ship.length, ship.beam), n, k_cut)
     if env.wind_speed > 0:
         df = 1.0 / (n * dt)
         f = df * np.arange(1, n // 2)

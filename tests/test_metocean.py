@@ -87,14 +87,16 @@ def test_bad_files_are_refused(tmp_path):
 
 
 def test_era5_names_in_netcdf(tmp_path):
-    """An ERA5 point extract (swh, pp1d, mwd, u10, v10 on (valid_time, latitude, longitude)) plus current and
-    tide columns reads as the record; u10 = v10 = -5 is a wind from the north-east (45 deg)."""
+    """An ERA5 point extract (swh, pp1d, mwd, the partitions shww, shts, mdts, u10, v10 on (valid_time,
+    latitude, longitude)) plus current and tide columns reads as the record (docs/operability.md's mapping);
+    u10 = v10 = -5 is a wind from the north-east (45 deg); the swell's height in cm is converted by pint."""
     import pandas as pd
     import xarray as xr
 
     t = pd.date_range("2025-01-01", periods=3, freq="h")
     one = lambda v, u: (("valid_time", "latitude", "longitude"), np.full((3, 1, 1), v), {"units": u})  # noqa: E731
     ds = xr.Dataset({"swh": one(1.2, "m"), "pp1d": one(9.0, "s"), "mwd": one(270.0, "Degree true"),
+                     "shww": one(0.5, "m"), "shts": one(120.0, "cm"), "mdts": one(250.0, "Degree true"),
                      "u10": one(-5.0, "m s**-1"), "v10": one(-5.0, "m s**-1"), "current_speed_ms": one(0.2, "m s**-1"),
                      "current_to_deg": one(10.0, "degrees"), "tide_m": one(0.1, "m")},
                     coords={"valid_time": t, "latitude": [51.0], "longitude": [3.0]})
@@ -106,6 +108,57 @@ def test_era5_names_in_netcdf(tmp_path):
     assert rec["wind_speed_ms"].values[0] == pytest.approx(math.sqrt(50))
     assert rec["wind_from_deg"].values[0] == pytest.approx(45.0)
     assert rec["wave_spreading"].values[0] == 4.0
+    assert rec["windsea_hs_m"].values[0] == pytest.approx(0.5) and rec["swell_hs_m"].values[0] == pytest.approx(1.2)
+    assert rec["swell_from_deg"].values[0] == pytest.approx(250.0) and "swell_tp_s" not in rec
+
+
+@pytest.fixture(scope="module")
+def decade():
+    return synthetic_metocean(10 * 8760, seed=1)
+
+
+def test_the_wind_follows_the_published_weibull(decade):
+    """Ten synthetic years: the 1-hour mean wind exceeds 10, 15 and 20 m/s in the fractions of hours of
+    Johannessen et al.'s (2002) Weibull (shape 1.708, scale 8.426 m/s: 23.6, 6.9 and 1.2 %) within 30 % (the
+    seasons, the extra storms and ten years' sampling: measured 7.3 % above 15 m/s and 1.23 times the published
+    fraction above 20 m/s; the old generator, wind
+    tied to Hs through a fully developed sea, gave 0.18 %)."""
+    from loadarm.studies.plots import johannessen_wind_exceedance
+
+    w = decade["wind_speed_ms"].values
+    for u in (10.0, 15.0, 20.0):
+        assert abs(np.mean(w > u) / johannessen_wind_exceedance(u) - 1) < 0.3, u
+
+
+def test_swell_brings_long_periods_and_the_partitions_make_the_sea(decade):
+    """Swell apart from the local sea: Tp above 13 s in 5-30 % of hours (15 % measured; never with the old
+    generator); the record's Hs is the partitions' root sum of squares (to 1e-12), its Tp the more energetic
+    one's; the swell is not the wind's (correlation below 0.3)."""
+    hs, ws, sw = decade["hs_m"].values, decade["windsea_hs_m"].values, decade["swell_hs_m"].values
+    assert 0.05 < np.mean(decade["tp_s"].values > 13.0) < 0.30
+    inside = (hs > 0.05) & (hs < 19.0)
+    assert np.allclose(hs[inside], np.hypot(ws, sw)[inside], rtol=1e-12, atol=0)
+    swell_sets = sw > ws
+    assert np.array_equal(decade["tp_s"].values[swell_sets], decade["swell_tp_s"].values[swell_sets])
+    assert abs(np.corrcoef(sw, decade["wind_speed_ms"].values)[0, 1]) < 0.3
+
+
+def test_in_a_storm_the_wind_comes_before_the_waves(decade):
+    """The wind sea answers the wind hours later: the cross-correlation of wind speed and wind-sea height
+    peaks at a positive lag (1-2 h measured; the sea's response time is 3 h), higher than at lag 0."""
+    w, ws = decade["wind_speed_ms"].values, decade["windsea_hs_m"].values
+    r = [np.corrcoef(w[:w.size - lag], ws[lag:])[0, 1] for lag in range(0, 8)]
+    assert 1 <= int(np.argmax(r)) <= 6 and r[int(np.argmax(r))] > r[0]
+
+
+def test_a_bad_partition_is_refused_in_one_line(tmp_path):
+    p = tmp_path / "m.csv"
+    p.write_text("time,hs_m,tp_s,wave_from_deg,wind_speed_ms,wind_from_deg,current_speed_ms,current_to_deg,tide_m,"
+                 "swell_tp_s\n2025-01-01T00:00Z,1,9,270,5,270,0.1,0,0,45\n")
+    with pytest.raises(MetoceanError) as exc:
+        read_metocean(p)
+    msg = str(exc.value)
+    assert "\n" not in msg and "swell_tp_s" in msg and "[1, 30]" in msg and str(p) in msg
 
 
 def test_synthetic_year_has_seasons_and_storms():

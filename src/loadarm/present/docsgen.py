@@ -33,7 +33,10 @@ __all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "render_doc_figures", "hmi_screensh
 DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
                "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
                "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
-               "operability.png")
+               "operability.png", "weather.png")
+
+#: Years of synthetic weather drawn for docs/img/weather.png (seed 1).
+WEATHER_YEARS = 10
 
 #: The operator's screen in docs/hmi.md: screenshots a real browser takes of the scripted drift-off
 #: (:func:`hmi_screenshots`; not compared pixel by pixel: a live screen's clock and noise differ each run).
@@ -49,6 +52,13 @@ def _paper_data():
 
     source = packaged_example("paper.toml")
     return ReportData(load_config(source), source)
+
+
+def _weather(_data):
+    from loadarm.studies.metocean import synthetic_metocean
+    from loadarm.studies.plots import weather_figure
+
+    return weather_figure(synthetic_metocean(WEATHER_YEARS * 8760, seed=1))
 
 
 def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:
@@ -68,7 +78,7 @@ def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:
     """
 
     data = _paper_data()
-    builders = figure_builders(data)
+    builders = {**figure_builders(data), "weather.png": (_weather, "")}
     out = {}
     for name in names:
         out[name] = save(builders[name][0](data), Path(dest) / name)

@@ -14,8 +14,10 @@ the current and the direction it goes to, the tide. Directions follow the data's
   :data:`VARIABLES`); a NetCDF variable says its unit in its ``units`` attribute, converted with pint
   (``cm``, ``ms``, ``knot``, ``Degree true``, ``m s**-1`` ...), and its time is a CF time. A missing or unknown
   unit is refused, naming the variable.
-* :func:`synthetic_metocean` generates a seeded multi-year record with seasons and storms, for demos and tests
-  (no data set can be downloaded here; ``examples/metocean/sample.csv`` is two months of it).
+* :func:`synthetic_metocean` generates a seeded multi-year record whose wind (a published Weibull), wind sea
+  (grown from the wind over a fetch, hours behind it) and swell (its own process, long periods) are drawn apart,
+  for demos and tests (no data set can be downloaded here; ``examples/metocean/sample.csv`` is two months of
+  it). ERA5's partitions ``shww``, ``shts``, ``mdts`` map to the optional partition columns.
 """
 
 from __future__ import annotations
@@ -51,11 +53,16 @@ VARIABLES = {
     "current_speed_ms": ("m/s", 0.0, 5.0, True, "depth-averaged current speed"),
     "current_to_deg": ("deg", 0.0, 360.0, True, "direction the current goes to, clockwise from north"),
     "tide_m": ("m", -10.0, 10.0, True, "water level above mean sea level"),
+    "windsea_hs_m": ("m", 0.0, 20.0, False, "significant wave height of the wind sea (partition)"),
+    "swell_hs_m": ("m", 0.0, 20.0, False, "significant wave height of the swell (partition)"),
+    "swell_tp_s": ("s", 1.0, 30.0, False, "peak period of the swell (partition)"),
+    "swell_from_deg": ("deg", 0.0, 360.0, False, "direction the swell comes from, clockwise from north"),
 }
 #: Default spreading when a record has none.
 DEFAULT_SPREADING = 4.0
 #: ERA5 single-level short names and how they map (u10/v10 are combined into speed and direction).
-ERA5 = {"swh": "hs_m", "pp1d": "tp_s", "mwd": "wave_from_deg"}
+ERA5 = {"swh": "hs_m", "pp1d": "tp_s", "mwd": "wave_from_deg", "shww": "windsea_hs_m", "shts": "swell_hs_m",
+        "mdts": "swell_from_deg"}
 #: Largest file read, bytes (a 30-year hourly CSV is about 25 MB).
 MAX_BYTES = 200 * 1024 ** 2
 
@@ -163,6 +170,8 @@ def validate_metocean(ds, source: str = "<metocean>"):
     if "wave_spreading" not in ds:
         ds["wave_spreading"] = ("time", np.full(t.size, DEFAULT_SPREADING))
     for var, (unit, lo, hi, _req, desc) in VARIABLES.items():
+        if var not in ds:                               # an optional one the record does not carry
+            continue
         v = np.asarray(ds[var].values, dtype=float)
         bad = np.flatnonzero(np.isfinite(v) & ((v < lo) | (v > hi)) | np.isinf(v))
         if bad.size:
@@ -171,7 +180,7 @@ def validate_metocean(ds, source: str = "<metocean>"):
                                     f"{bad.size} value(s) out of range)")
         ds[var] = ("time", v, {"units": unit, "long_name": desc})
     full = pd.date_range(t[0], t[-1], freq="h")
-    ds = ds[list(VARIABLES)].reindex(time=full)
+    ds = ds[[v for v in VARIABLES if v in ds]].reindex(time=full)
     present = np.isin(full.asi8, t.asi8)
     required = [v for v, s in VARIABLES.items() if s[3]]
     values = np.stack([np.isfinite(ds[v].values) for v in required])
@@ -218,7 +227,7 @@ def _from_era5(ds):
 
 #: The unit each NetCDF variable is read in (the record's, and ERA5's short names').
 NETCDF_UNITS = {**{k: v[0] for k, v in VARIABLES.items()}, "swh": "m", "pp1d": "s", "mwd": "deg", "u10": "m/s",
-                "v10": "m/s"}
+                "v10": "m/s", "shww": "m", "shts": "m", "mdts": "deg"}
 #: Unit spellings of NetCDF files (CF, ERA5's GRIB-derived ones) that pint does not read as they are.
 UNIT_SPELLINGS = {"Degree true": "degree", "degree true": "degree", "degrees true": "degree",
                   "degree_true": "degree", "degrees_true": "degree", "degrees": "degree", "deg": "degree",
@@ -347,16 +356,89 @@ def write_metocean_csv(ds, path: str | Path) -> Path:
     return atomic_write(path, "\n".join(head) + "\n" + df.to_csv(index=False))
 
 
-def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00:00") -> "object":
-    """A seeded synthetic record with seasons and storms (for demos and tests, not a hindcast).
+#: The synthetic generator's declared values (:func:`synthetic_metocean`), each with its source.
+WEATHER = {
+    # the 1-hour mean wind at 10 m: Weibull, as DNV-RP-C205 (2021) sec. 2.3.2 describes the long-term wind;
+    # shape and scale of Johannessen, Haver & Winterstein (2002), "Joint distribution for wind and waves in the
+    # northern North Sea", Int. J. Offshore Polar Eng. 12(1): an exposed site (wind exceeds 15 m/s 6.9 % of
+    # hours)
+    "wind_shape": 1.708, "wind_scale_ms": 8.426,
+    "wind_season": 0.2,          # scale +-20 % winter to summer (loadarm assumption)
+    "wind_memory_h": 30.0,       # AR(1) time scale of the weather systems, about a day (loadarm assumption)
+    # the wind sea: fetch-limited growth (SPM 1984 / CEM EM 1110-2-1100 Part II-2, eqs. II-2-36 and -37, with
+    # the adjusted wind U_A = 0.71 U10^1.23), capped at the fully developed sea; a fetch for a berth open to
+    # the sea behind a coast (loadarm example) and the sea's response time (it lags the wind)
+    "fetch_m": 10_000.0, "windsea_lag_h": 3.0,
+    # the swell: from the ocean, apart from the local wind: log-normal AR(1) with a slow memory, an annual
+    # cycle and swell events (loadarm assumption, shaped after Atlantic-facing coasts' swell climates: median
+    # 0.3-0.5 m, periods 10-18 s)
+    "swell_median_m": 0.35, "swell_season": 0.4, "swell_sigma": 0.55, "swell_memory_h": 72.0,
+    "swell_events_per_year": 12.0, "swell_from_deg": 255.0,
+    "storms_per_year": 4.0,      # wind storms above the Weibull's own, winter-heavy (loadarm assumption)
+}
 
-    * Hs: a log-normal AR(1) process (hourly correlation 0.98, a day's memory) whose median follows an annual
-      cycle (about 0.45 m in summer to 0.9 m in winter), plus storms (Poisson, about 14 a year, more in winter)
-      that rise and decay over a day or two to peaks of 1.5-4 m;
-    * Tp from the wave steepness of a growing wind sea, ``Tp = 4.4 sqrt(Hs) + 3``, with noise and swell;
-    * wind: fully developed for the sea (Pierson-Moskowitz ``U10 = sqrt(g Hs / 0.21)``) with noise, from a
+
+def _ar1(rng: np.random.Generator, n: int, memory_h: float) -> np.ndarray:
+    """A stationary unit-variance AR(1) series of ``n`` hours with correlation time ``memory_h`` (scipy's
+    recursion, started from the stationary distribution)."""
+    from scipy.signal import lfilter
+
+    phi = math.exp(-1.0 / memory_h)
+    e = rng.normal(size=n)
+    return lfilter([math.sqrt(1 - phi * phi)], [1.0, -phi], e, zi=[phi * rng.normal()])[0]
+
+
+def _events(rng: np.random.Generator, n: int, rate: np.ndarray, peak: tuple, width: tuple) -> np.ndarray:
+    """Poisson events (hourly ``rate``), each a Gaussian bump in time of a random peak and width, maximum
+    taken."""
+    out = np.zeros(n)
+    for s0 in np.flatnonzero(rng.uniform(size=n) < rate):
+        w = rng.uniform(*width)
+        k = np.arange(max(0, int(s0 - 3 * w)), min(n, int(s0 + 3 * w) + 1))
+        out[k] = np.maximum(out[k], rng.uniform(*peak) * np.exp(-0.5 * ((k - s0) / w) ** 2))
+    return out
+
+
+def windsea(u10, fetch: float) -> tuple[np.ndarray, np.ndarray]:
+    """Fetch-limited wind sea of a steady wind (SPM 1984, CEM Part II-2): ``g Hm0 / U_A^2 = 1.6e-3 (g F /
+    U_A^2)^(1/2)``, ``g Tp / U_A = 0.2857 (g F / U_A^2)^(1/3)``, at most the fully developed 0.2433 and 8.134,
+    with ``U_A = 0.71 U10^1.23``.
+
+    Parameters
+    ----------
+    u10 : array_like
+        1-hour mean wind at 10 m, m/s.
+    fetch : float
+        m.
+
+    Returns
+    -------
+    hs, tp : ndarray
+        m and s.
+    """
+    g = 9.80665
+    ua = 0.71 * np.maximum(np.asarray(u10, dtype=float), 0.1) ** 1.23
+    x = g * fetch / ua ** 2
+    hs = np.minimum(1.6e-3 * np.sqrt(x), 0.2433) * ua ** 2 / g
+    tp = np.minimum(0.2857 * np.cbrt(x), 8.134) * ua / g
+    return hs, tp
+
+
+def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00:00") -> "object":
+    """A seeded synthetic record whose wind, wind sea and swell are drawn apart (for demos and tests, not a
+    hindcast; every value in :data:`WEATHER`, with its source).
+
+    * wind: the 1-hour mean at 10 m, Weibull (Johannessen et al. 2002: shape 1.708, scale 8.426 m/s) through a
+      Gaussian AR(1) of a day's memory, its scale following the seasons, plus winter-heavy storms; from a
       prevailing direction that storms veer;
-    * waves come from the wind's direction give or take 20 deg; spreading 4 (wind sea) to 10 (swell);
+    * wind sea: grown from the wind over the berth's fetch (SPM / CEM fetch-limited growth), the wind filtered
+      by the sea's response time first, so the waves follow the wind hours later (storms: wind ahead of
+      waves); from the wind's direction;
+    * swell: apart from the local wind, a log-normal AR(1) of three days' memory with swell events, its period
+      growing with its height (10-18 s), from the ocean's sector;
+    * the record's sea is the two together: ``hs`` the root sum of squares, ``tp``, direction and spreading
+      (4 wind sea, 15 swell) those of the more energetic partition; the partitions are kept
+      (``windsea_hs_m``, ``swell_hs_m``, ``swell_tp_s``, ``swell_from_deg``);
     * current and tide: semi-diurnal (M2, 12.42 h) with the spring-neap modulation of S2 (14.8 days).
 
     Parameters
@@ -374,38 +456,42 @@ def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00
     """
     import pandas as pd
     import xarray as xr
+    from scipy.signal import lfilter
+    from scipy.special import ndtr
 
     if not 1 <= hours <= 30 * 8784:
         raise ValueError(f"hours must be in [1, {30 * 8784}], got {hours}")
+    w = WEATHER
     rng = np.random.default_rng(seed)
     t = pd.date_range(pd.Timestamp(start), periods=hours, freq="h")
     day = (t.dayofyear.to_numpy() - 1) + t.hour.to_numpy() / 24.0
     season = np.cos(2 * math.pi * (day - 15) / 365.25)          # +1 mid-January, -1 mid-July
-    median = np.exp(np.log(0.65) + 0.35 * season)
-    z = np.empty(hours)
-    z[0] = rng.normal()
-    phi = 0.98
-    noise = rng.normal(size=hours) * math.sqrt(1 - phi ** 2)
-    for i in range(1, hours):
-        z[i] = phi * z[i - 1] + noise[i]
-    hs = median * np.exp(0.45 * z)
-    # storms: Poisson in time with a winter-heavy rate; a smooth rise and decay
-    rate = 14 / 8766 * (1 + 0.6 * season)
-    starts = np.flatnonzero(rng.uniform(size=hours) < rate)
-    storm_dir = np.zeros(hours)
-    for s0 in starts:
-        peak = rng.uniform(1.5, 4.0)
-        width = rng.uniform(8.0, 24.0)
-        k = np.arange(max(0, s0 - 48), min(hours, s0 + 72))
-        bump = peak * np.exp(-0.5 * ((k - s0) / width) ** 2)
-        hs[k] = np.maximum(hs[k], bump)
-        storm_dir[k] = np.where(bump > 0.5, rng.uniform(-60, 60), storm_dir[k])
-    hs = np.clip(hs, 0.05, 19.0)
-    tp = np.clip(4.4 * np.sqrt(hs) + 3.0 + rng.normal(0, 0.6, hours), 2.0, 25.0)
-    wind = np.clip(np.sqrt(9.80665 * hs / 0.21) * rng.lognormal(0.0, 0.15, hours), 0.0, 55.0)
-    wind_from = (250.0 + 30 * np.sin(2 * math.pi * day / 365.25) + storm_dir + rng.normal(0, 15, hours)) % 360
-    wave_from = (wind_from + rng.normal(0, 20, hours)) % 360
-    spreading = np.where(hs > 1.0, 4.0, 10.0)
+    # wind: a Weibull marginal through a Gaussian copula, plus storms
+    p = np.clip(ndtr(_ar1(rng, hours, w["wind_memory_h"])), 1e-12, 1 - 1e-12)
+    scale = w["wind_scale_ms"] * (1 + w["wind_season"] * season)
+    wind = scale * (-np.log1p(-p)) ** (1 / w["wind_shape"])
+    storm = _events(rng, hours, w["storms_per_year"] / 8766 * (1 + 0.6 * season), (15.0, 24.0), (6.0, 18.0))
+    wind = np.clip(np.maximum(wind, storm), 0.0, 55.0)
+    veer = np.where(storm > wind * 0.9, 40.0 * np.tanh(np.gradient(storm)), 0.0)
+    wind_from = (245.0 + 25 * np.sin(2 * math.pi * day / 365.25) + veer + 20 * _ar1(rng, hours, 12.0)) % 360
+    # wind sea: the wind filtered by the sea's response (first order, windsea_lag_h), then grown over the fetch
+    a = math.exp(-1.0 / w["windsea_lag_h"])
+    felt = lfilter([1 - a], [1.0, -a], wind, zi=[a * wind[0]])[0]
+    ws_hs, ws_tp = windsea(felt, w["fetch_m"])
+    ws_hs = ws_hs * rng.lognormal(0.0, 0.08, hours)
+    # swell: its own slow process and events, period growing with height
+    median = w["swell_median_m"] * np.exp(w["swell_season"] * season)
+    sw_hs = median * np.exp(w["swell_sigma"] * _ar1(rng, hours, w["swell_memory_h"]))
+    sw_hs = np.maximum(sw_hs, _events(rng, hours, w["swell_events_per_year"] / 8766 * (1 + 0.5 * season),
+                                      (1.0, 3.0), (12.0, 36.0)))
+    sw_tp = np.clip(10.0 + 3.0 * np.sqrt(sw_hs) + rng.normal(0, 0.8, hours), 8.0, 22.0)
+    sw_from = (w["swell_from_deg"] + 10 * _ar1(rng, hours, 48.0)) % 360
+    # the sea: both; period and direction of the more energetic
+    hs = np.clip(np.hypot(ws_hs, sw_hs), 0.05, 19.0)
+    swell_wins = sw_hs > ws_hs
+    tp = np.clip(np.where(swell_wins, sw_tp, ws_tp), 1.5, 25.0)
+    wave_from = np.where(swell_wins, sw_from, wind_from)
+    spreading = np.where(swell_wins, 15.0, 4.0)
     th = np.arange(hours, dtype=float)
     m2 = 2 * math.pi / 12.42
     spring = 1 + 0.3 * np.cos(2 * math.pi * th / (14.77 * 24))
@@ -415,7 +501,9 @@ def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00
     ds = xr.Dataset({"hs_m": ("time", hs), "tp_s": ("time", tp), "wave_from_deg": ("time", wave_from),
                      "wave_spreading": ("time", spreading), "wind_speed_ms": ("time", wind),
                      "wind_from_deg": ("time", wind_from), "current_speed_ms": ("time", cur),
-                     "current_to_deg": ("time", cur_to), "tide_m": ("time", tide)},
+                     "current_to_deg": ("time", cur_to), "tide_m": ("time", tide),
+                     "windsea_hs_m": ("time", ws_hs), "swell_hs_m": ("time", sw_hs), "swell_tp_s": ("time", sw_tp),
+                     "swell_from_deg": ("time", sw_from)},
                     coords={"time": t.to_numpy()})
     ds.attrs["generator"] = f"loadarm.studies.metocean.synthetic_metocean(hours={hours}, seed={seed})"
     return validate_metocean(ds, "synthetic")[0]

@@ -1,4 +1,5 @@
-"""Figures of the studies: operability over a metocean record. matplotlib is imported when a figure is drawn."""
+"""Figures of the studies: operability over a metocean record, the synthetic weather against published
+distributions. matplotlib is imported when a figure is drawn."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import numpy as np
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 
-__all__ = ["operability_figure"]
+__all__ = ["operability_figure", "weather_figure", "johannessen_wind_exceedance"]
 
 
 def operability_figure(result) -> Figure:
@@ -77,5 +78,75 @@ def operability_figure(result) -> Figure:
                     label="down (not connectable, or ESD-1 and worse)")
     cx.set_title("The worst week")
     cx.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    return fig
+
+
+def johannessen_wind_exceedance(wind) -> np.ndarray:
+    """The published long-term distribution of the 1-hour mean wind at 10 m of Johannessen, Haver & Winterstein
+    (2002), "Joint distribution for wind and waves in the northern North Sea", Int. J. Offshore Polar Eng.
+    12(1): Weibull, shape 1.708, scale 8.426 m/s. Returns the fraction of hours above ``wind``.
+
+    Parameters
+    ----------
+    wind : array_like
+        m/s.
+
+    Returns
+    -------
+    ndarray
+    """
+    return np.exp(-(np.asarray(wind, dtype=float) / 8.426) ** 1.708)
+
+
+def weather_figure(ds) -> Figure:
+    """The synthetic generator's marginals (:func:`loadarm.studies.metocean.synthetic_metocean`) against the
+    published distribution of the wind (Johannessen et al. 2002, an exposed site); Hs with its wind sea and swell
+    apart; Tp by the partition that sets it.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        A record with the partitions (``windsea_hs_m``, ``swell_hs_m``).
+
+    Returns
+    -------
+    Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(13, 4.2))
+    axw, axh, axt = fig.subplots(1, 3)
+    wind, hs, tp = ds["wind_speed_ms"].values, ds["hs_m"].values, ds["tp_s"].values
+    years = wind.size / 8766
+    x = np.linspace(0, 30, 121)
+    h = np.linspace(0, 6, 121)
+    pw = johannessen_wind_exceedance(x)
+
+    def exceed(v, grid):
+        return np.array([np.mean(v > g) for g in grid])
+
+    axw.semilogy(x, exceed(wind, x), color="0.2", label=f"synthetic ({years:.0f} years)")
+    axw.semilogy(x, pw, "--", color="0.5", label="Weibull 1.708 / 8.426 m/s\n(Johannessen et al. 2002)")
+    axw.set_xlabel("1-hour mean wind at 10 m [m/s]")
+    axw.set_ylabel("fraction of hours exceeded")
+    axw.set_ylim(1e-5, 1.2)
+    axw.set_title(f"Wind: above 15 m/s {100 * np.mean(wind > 15):.1f} % of hours (published {100 * pw[60]:.1f} %)")
+    axw.legend(fontsize=8)
+    axh.semilogy(h, exceed(hs, h), color="0.2", label="synthetic sea")
+    axh.semilogy(h, exceed(ds["windsea_hs_m"].values, h), ":", color="0.2", label="its wind sea")
+    axh.semilogy(h, exceed(ds["swell_hs_m"].values, h), "-.", color="0.4", label="its swell")
+    axh.set_xlabel("Hs [m]")
+    axh.set_ylim(1e-5, 1.2)
+    axh.set_title(f"Hs: above 1.5 m {100 * np.mean(hs > 1.5):.1f} % of hours")
+    axh.legend(fontsize=8)
+    swell = ds["swell_hs_m"].values > ds["windsea_hs_m"].values
+    bins = np.arange(1.0, 23.0, 0.5)
+    axt.hist([tp[~swell], tp[swell]], bins=bins, stacked=True, color=["0.75", "0.4"],
+             label=["wind sea sets Tp", "swell sets Tp"], density=True)
+    axt.set_xlabel("Tp [s]")
+    axt.set_ylabel("density")
+    axt.set_title(f"Tp: above 13 s {100 * np.mean(tp > 13):.0f} % of hours")
+    axt.legend(fontsize=8)
     fig.tight_layout()
     return fig

@@ -41,7 +41,8 @@ def test_the_shipped_sample_is_the_generator_s_and_reads_back():
     ds, gaps = read_metocean(SAMPLE)
     assert gaps.hours == gaps.usable == 24 * 59 and gaps.summary() == "1416 hourly states, no gap"
     again = synthetic_metocean(24 * 59, seed=7, start="2025-01-01T00:00")
-    for v in VARIABLES:
+    assert set(ds.data_vars) == set(again.data_vars)                # the partitions too
+    for v in [v for v in VARIABLES if v in again]:
         assert np.allclose(ds[v].values, np.round(again[v].values, 3), atol=5e-4), v
     from loadarm.files import written_by_loadarm
 
@@ -112,6 +113,75 @@ def test_era5_names_in_netcdf(tmp_path):
     assert rec["swell_from_deg"].values[0] == pytest.approx(250.0) and "swell_tp_s" not in rec
 
 
+def test_an_era5_file_in_the_cds_layout_reads_with_the_partitions(tmp_path):
+    """A small NetCDF file written in ERA5's layout (the new CDS, 2024+): a ``valid_time`` coordinate with CF units
+    (seconds since 1970), scalar ``latitude``/``longitude``/``number`` and a string ``expver`` along time, float32
+    variables with a ``_FillValue`` and ERA5's units ("m", "s", "degree true", "m s**-1"), the wind-wave and swell
+    partitions. Read by read_metocean: each variable mapped by docs/operability.md's table (the mean periods mpww,
+    mpts kept as mean periods), the fill value a reported gap."""
+    import pandas as pd
+    import xarray as xr
+
+    t = pd.date_range("2024-12-31T22:00", periods=4, freq="h")
+    f32 = lambda v, u: ("valid_time", np.asarray(v, dtype=np.float32), {"units": u})  # noqa: E731
+    ds = xr.Dataset(
+        {"swh": f32([1.5, np.nan, 1.7, 1.8], "m"), "pp1d": f32([9.5, 9.6, 9.7, 9.8], "s"),
+         "mwd": f32([260, 261, 262, 263], "degree true"),
+         "shww": f32([0.9, 1.0, 1.1, 1.2], "m"), "mpww": f32([4.1, 4.2, 4.3, 4.4], "s"),
+         "mdww": f32([230, 231, 232, 233], "degree true"),
+         "shts": f32([1.2, 1.2, 1.3, 1.3], "m"), "mpts": f32([11.0, 11.5, 12.0, 12.5], "s"),
+         "mdts": f32([280, 281, 282, 283], "degree true"),
+         "u10": f32([0, 0, 3, 0], "m s**-1"), "v10": f32([10, 10, 0, -4], "m s**-1"),
+         "current_speed_ms": f32([0.2] * 4, "m s**-1"), "current_to_deg": f32([10] * 4, "degrees"),
+         "tide_m": f32([0.1] * 4, "m")},
+        coords={"valid_time": t, "latitude": 57.5, "longitude": 1.75, "number": 0,
+                "expver": ("valid_time", np.array(["0001"] * 4))})
+    enc = {v: {"dtype": "float32", "_FillValue": np.float32(-32767.0)} for v in ds.data_vars}
+    enc["valid_time"] = {"units": "seconds since 1970-01-01", "dtype": "int64"}
+    p = tmp_path / "era5.nc"
+    ds.to_netcdf(p, encoding=enc)
+    with xr.open_dataset(p, decode_times=False, mask_and_scale=False) as raw:   # the file is as ERA5's
+        assert raw["swh"].dtype == np.float32 and raw["swh"].values[1] == np.float32(-32767.0)
+        assert raw["valid_time"].attrs["units"] == "seconds since 1970-01-01" and "time" not in raw.variables
+    rec, gaps = read_metocean(p)
+    assert list(pd.DatetimeIndex(rec["time"].values)) == list(t)
+    assert gaps.hours == 4 and gaps.usable == 3 and gaps.missing_values == {"hs_m": 1}
+    want = {"hs_m": 1.5, "tp_s": 9.5, "wave_from_deg": 260, "windsea_hs_m": 0.9, "windsea_tm_s": 4.1,
+            "windsea_from_deg": 230, "swell_hs_m": 1.2, "swell_tm_s": 11.0, "swell_from_deg": 280}
+    for v, x in want.items():
+        assert rec[v].values[0] == pytest.approx(x, rel=1e-6), v      # float32's precision
+    assert "windsea_tp_s" not in rec and "swell_tp_s" not in rec        # a mean period is not a peak period
+    # u10, v10 are the wind's components towards east and north: (0, 10) blows north, so it comes from the south
+    assert rec["wind_speed_ms"].values.tolist() == pytest.approx([10, 10, 3, 4])
+    assert rec["wind_from_deg"].values.tolist() == pytest.approx([180, 180, 270, 0])
+
+
+def test_an_era5_expver_dimension_is_merged(tmp_path):
+    """The old CDS's ERA5 with final (expver 1) and preliminary (expver 5) data along an ``expver`` dimension,
+    each hour in one of them: read as one record, the first version with a value hour by hour."""
+    import pandas as pd
+    import xarray as xr
+
+    t = pd.date_range("2025-01-01", periods=3, freq="h")
+    two = lambda a, b, u: (("time", "expver"), np.array([a, b]).T, {"units": u})  # noqa: E731
+    nan3 = [np.nan] * 3
+    ds = xr.Dataset({"swh": two([1.0, 1.1, np.nan], [np.nan, np.nan, 1.3], "m"),
+                     "pp1d": two([8, 8, np.nan], [np.nan, np.nan, 9], "s"),
+                     "mwd": two([200, 200, np.nan], [np.nan, np.nan, 210], "degree true"),
+                     "u10": two([1, 1, np.nan], [np.nan, np.nan, 2], "m s**-1"),
+                     "v10": two([0, 0, np.nan], [np.nan, np.nan, 0], "m s**-1"),
+                     "current_speed_ms": two([0.2] * 3, nan3, "m s**-1"),
+                     "current_to_deg": two([10] * 3, nan3, "degrees"), "tide_m": two([0.1] * 3, nan3, "m")},
+                    coords={"time": t, "expver": [1, 5]})
+    p = tmp_path / "era5x.nc"
+    ds.to_netcdf(p)
+    rec, gaps = read_metocean(p)
+    assert gaps.usable == 3
+    assert rec["hs_m"].values.tolist() == pytest.approx([1.0, 1.1, 1.3])
+    assert rec["tp_s"].values.tolist() == pytest.approx([8, 8, 9])
+    assert rec["wind_speed_ms"].values.tolist() == pytest.approx([1, 1, 2])
+
+
 @pytest.fixture(scope="module")
 def decade():
     return synthetic_metocean(10 * 8760, seed=1)
@@ -140,6 +210,9 @@ def test_swell_brings_long_periods_and_the_partitions_make_the_sea(decade):
     assert np.allclose(hs[inside], np.hypot(ws, sw)[inside], rtol=1e-12, atol=0)
     swell_sets = sw > ws
     assert np.array_equal(decade["tp_s"].values[swell_sets], decade["swell_tp_s"].values[swell_sets])
+    assert np.array_equal(decade["tp_s"].values[~swell_sets], decade["windsea_tp_s"].values[~swell_sets])
+    assert np.array_equal(decade["wave_spreading"].values, np.where(swell_sets, 15.0, 4.0))
+    assert decade["swell_tp_s"].values.min() >= 8.0 and decade["windsea_tp_s"].values.max() < 13.0
     assert abs(np.corrcoef(sw, decade["wind_speed_ms"].values)[0, 1]) < 0.3
 
 
@@ -151,14 +224,26 @@ def test_in_a_storm_the_wind_comes_before_the_waves(decade):
     assert 1 <= int(np.argmax(r)) <= 6 and r[int(np.argmax(r))] > r[0]
 
 
-def test_a_bad_partition_is_refused_in_one_line(tmp_path):
+@pytest.mark.parametrize("column, value, bounds", [("swell_tp_s", 45, "[1, 30]"), ("windsea_hs_m", -0.5, "[0, 20]"),
+                                                   ("windsea_tp_s", 0.2, "[1, 30]"),
+                                                   ("swell_from_deg", 400, "[0, 360]")])
+def test_a_bad_partition_is_refused_in_one_line(tmp_path, column, value, bounds):
     p = tmp_path / "m.csv"
     p.write_text("time,hs_m,tp_s,wave_from_deg,wind_speed_ms,wind_from_deg,current_speed_ms,current_to_deg,tide_m,"
-                 "swell_tp_s\n2025-01-01T00:00Z,1,9,270,5,270,0.1,0,0,45\n")
+                 f"{column}\n2025-01-01T00:00Z,1,9,270,5,270,0.1,0,0,{value}\n")
     with pytest.raises(MetoceanError) as exc:
         read_metocean(p)
     msg = str(exc.value)
-    assert "\n" not in msg and "swell_tp_s" in msg and "[1, 30]" in msg and str(p) in msg
+    assert "\n" not in msg and f"{column}: {float(value)!r}" in msg and bounds in msg and str(p) in msg
+
+
+def test_a_record_without_partitions_still_reads(tmp_path):
+    """The partitions are optional: a record of the required columns only reads, and has none of them."""
+    p = tmp_path / "m.csv"
+    p.write_text("time,hs_m,tp_s,wave_from_deg,wind_speed_ms,wind_from_deg,current_speed_ms,current_to_deg,tide_m\n"
+                 "2025-01-01T00:00Z,1,9,270,5,270,0.1,0,0\n")
+    rec, gaps = read_metocean(p)
+    assert gaps.usable == 1 and not [v for v in rec.data_vars if v.startswith(("windsea_", "swell_"))]
 
 
 def test_synthetic_year_has_seasons_and_storms():
@@ -170,7 +255,17 @@ def test_synthetic_year_has_seasons_and_storms():
     winter, summer = monthly.iloc[[0, 1, 11]].mean(), monthly.iloc[5:8].mean()
     assert winter > 1.3 * summer
     assert 0.4 < np.median(hs) < 1.0 and hs.max() > 2.5
-    assert synthetic_metocean(100, seed=3).equals(synthetic_metocean(100, seed=3))
+
+
+def test_same_seed_same_weather_other_seed_other_weather():
+    """A seed is a record: the same seed twice gives identical values (every variable, partitions included); two
+    seeds differ in every stochastic variable (not one hour equal in wind, wind sea or swell over a week) while the
+    tide, which is not drawn, stays the same."""
+    a, b, c = (synthetic_metocean(168, seed=s) for s in (3, 3, 4))
+    assert a.equals(b) and "swell_hs_m" in a
+    for v in ("wind_speed_ms", "windsea_hs_m", "swell_hs_m", "swell_tp_s", "hs_m"):
+        assert not np.any(a[v].values == c[v].values), v
+    assert np.array_equal(a["tide_m"].values, c["tide_m"].values)
 
 
 @settings(max_examples=examples(60), deadline=None)
@@ -196,5 +291,7 @@ def test_written_record_reads_back(tmp_path):
     p = write_metocean_csv(ds, tmp_path / "r.csv")
     back, gaps = read_metocean(p)
     assert gaps.usable == 48
-    for v in VARIABLES:
-        assert np.allclose(back[v].values, ds[v].values, atol=5e-4)
+    written = [v for v in VARIABLES if v in ds]
+    assert "windsea_tp_s" in written and "swell_from_deg" in written and "windsea_tm_s" not in back
+    for v in written:
+        assert np.allclose(back[v].values, ds[v].values, atol=5e-4), v

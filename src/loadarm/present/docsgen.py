@@ -24,6 +24,8 @@ from loadarm.opcua.server import address_space_markdown
 from loadarm.params.berth import berth_parameter_markdown
 from loadarm.params.config import example_toml, load_config, packaged_example, parameter_markdown
 from loadarm.present.report import ReportData, figure_builders
+from loadarm.studies.metocean import synthetic_metocean
+from loadarm.studies.plots import weather_figure
 from loadarm.testing.browser import find_chromium, launch, scenario_screen, tour
 
 __all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "render_doc_figures", "hmi_screenshots", "regenerate",
@@ -55,9 +57,6 @@ def _paper_data():
 
 
 def _weather(_data):
-    from loadarm.studies.metocean import synthetic_metocean
-    from loadarm.studies.plots import weather_figure
-
     return weather_figure(synthetic_metocean(WEATHER_YEARS * 8760, seed=1))
 
 

@@ -7,9 +7,12 @@ the current and the direction it goes to, the tide. Directions follow the data's
 "from" for wind and waves, oceanographic "to" for current), clockwise from true north; the berth's
 ``[berth] x_bearing_deg`` turns them into the berth frame (:func:`berth_directions`).
 
-* :func:`read_metocean` reads CSV (a ``time`` column in ISO 8601) or NetCDF (also ERA5's short names: ``swh``,
-  ``pp1d``, ``mwd``, ``u10``/``v10``), checks every value against its range, and reports the gaps (missing hours,
-  missing values) in a :class:`GapReport` without filling them: the study skips those hours and says so.
+* :func:`read_metocean` reads CSV (a ``time`` column in ISO 8601) or NetCDF (also ERA5's short names, :data:`ERA5`:
+  ``swh``, ``pp1d``, ``mwd``, ``u10``/``v10`` and the partitions ``shww``/``mpww``/``mdww`` (wind waves) and
+  ``shts``/``mpts``/``mdts`` (total swell), ERA5's mean periods kept as mean periods; a ``time`` or the new CDS's
+  ``valid_time`` axis; an ``expver`` dimension merged), checks every value against its range, and reports the
+  gaps (missing hours, missing values) in a :class:`GapReport` without filling them: the study skips those hours
+  and says so.
   Units: a CSV column's name carries its unit (``hs_m`` in metres, ``tp_s`` in seconds, ``wind_speed_ms`` in m/s:
   :data:`VARIABLES`); a NetCDF variable says its unit in its ``units`` attribute, converted with pint
   (``cm``, ``ms``, ``knot``, ``Degree true``, ``m s**-1`` ...), and its time is a CF time. A missing or unknown
@@ -17,7 +20,7 @@ the current and the direction it goes to, the tide. Directions follow the data's
 * :func:`synthetic_metocean` generates a seeded multi-year record whose wind (a published Weibull), wind sea
   (grown from the wind over a fetch, hours behind it) and swell (its own process, long periods) are drawn apart,
   for demos and tests (no data set can be downloaded here; ``examples/metocean/sample.csv`` is two months of
-  it). ERA5's partitions ``shww``, ``shts``, ``mdts`` map to the optional partition columns.
+  it).
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from scipy.signal import lfilter
+from scipy.special import ndtr
 
 from loadarm import __version__
 from loadarm.errors import ConfigError
@@ -54,15 +59,24 @@ VARIABLES = {
     "current_to_deg": ("deg", 0.0, 360.0, True, "direction the current goes to, clockwise from north"),
     "tide_m": ("m", -10.0, 10.0, True, "water level above mean sea level"),
     "windsea_hs_m": ("m", 0.0, 20.0, False, "significant wave height of the wind sea (partition)"),
+    "windsea_tp_s": ("s", 1.0, 30.0, False, "peak period of the wind sea (partition)"),
+    "windsea_tm_s": ("s", 1.0, 30.0, False, "mean period of the wind sea (partition; ERA5's mpww, not peak)"),
+    "windsea_from_deg": ("deg", 0.0, 360.0, False, "direction the wind sea comes from, clockwise from north"),
     "swell_hs_m": ("m", 0.0, 20.0, False, "significant wave height of the swell (partition)"),
     "swell_tp_s": ("s", 1.0, 30.0, False, "peak period of the swell (partition)"),
+    "swell_tm_s": ("s", 1.0, 30.0, False, "mean period of the swell (partition; ERA5's mpts, not peak)"),
     "swell_from_deg": ("deg", 0.0, 360.0, False, "direction the swell comes from, clockwise from north"),
 }
 #: Default spreading when a record has none.
 DEFAULT_SPREADING = 4.0
-#: ERA5 single-level short names and how they map (u10/v10 are combined into speed and direction).
-ERA5 = {"swh": "hs_m", "pp1d": "tp_s", "mwd": "wave_from_deg", "shww": "windsea_hs_m", "shts": "swell_hs_m",
-        "mdts": "swell_from_deg"}
+#: ERA5 single-level short names and how they map (u10/v10 are combined into speed and direction;
+#: docs/operability.md section 2 has the table). ERA5's partition periods ``mpww`` and ``mpts`` are MEAN periods
+#: of the partition's spectrum, not peak periods: they are kept as such (``windsea_tm_s``, ``swell_tm_s``) and
+#: never turned into ``windsea_tp_s`` / ``swell_tp_s`` by an assumed ratio (for a JONSWAP spectrum a peak period is
+#: 1.1-1.2 times a mean period, depending on which moments define the mean).
+ERA5 = {"swh": "hs_m", "pp1d": "tp_s", "mwd": "wave_from_deg",
+        "shww": "windsea_hs_m", "mpww": "windsea_tm_s", "mdww": "windsea_from_deg",
+        "shts": "swell_hs_m", "mpts": "swell_tm_s", "mdts": "swell_from_deg"}
 #: Largest file read, bytes (a 30-year hourly CSV is about 25 MB).
 MAX_BYTES = 200 * 1024 ** 2
 
@@ -205,6 +219,15 @@ def validate_metocean(ds, source: str = "<metocean>"):
     return ds, gaps
 
 
+def _merge_expver(ds):
+    """ERA5 from the old CDS, with its final (expver 1) and preliminary (expver 5) data along an ``expver``
+    dimension, each hour in one of them and NaN in the other: the first version with a value, hour by hour."""
+    out = ds.isel(expver=0, drop=True)
+    for k in range(1, ds.sizes["expver"]):
+        out = out.fillna(ds.isel(expver=k, drop=True))
+    return out
+
+
 def _from_era5(ds):
     import xarray as xr
 
@@ -216,7 +239,10 @@ def _from_era5(ds):
         # u, v: the wind's components towards east and north; "from" is the opposite bearing
         ds["wind_from_deg"] = (np.degrees(np.arctan2(-u, -v)) % 360.0)
     if "valid_time" in ds.coords and "time" not in ds.coords:
-        ds = ds.rename({"valid_time": "time"})
+        ds = ds.rename({"valid_time": "time"})              # the new CDS (2024+) names ERA5's time valid_time
+    if "expver" in ds.dims:
+        ds = _merge_expver(ds)
+    ds = ds.drop_vars([c for c in ("expver", "number") if c in ds.coords and c not in ds.dims])
     # ERA5 extracts are often (time, latitude, longitude) of one point
     extra = [d for d in ds.dims if d != "time" and ds.sizes[d] == 1]
     ds = ds.squeeze(extra, drop=True) if extra else ds
@@ -226,8 +252,8 @@ def _from_era5(ds):
 
 
 #: The unit each NetCDF variable is read in (the record's, and ERA5's short names').
-NETCDF_UNITS = {**{k: v[0] for k, v in VARIABLES.items()}, "swh": "m", "pp1d": "s", "mwd": "deg", "u10": "m/s",
-                "v10": "m/s", "shww": "m", "shts": "m", "mdts": "deg"}
+NETCDF_UNITS = {**{k: v[0] for k, v in VARIABLES.items()}, **{k: VARIABLES[v][0] for k, v in ERA5.items()},
+                "u10": "m/s", "v10": "m/s"}
 #: Unit spellings of NetCDF files (CF, ERA5's GRIB-derived ones) that pint does not read as they are.
 UNIT_SPELLINGS = {"Degree true": "degree", "degree true": "degree", "degrees true": "degree",
                   "degree_true": "degree", "degrees_true": "degree", "degrees": "degree", "deg": "degree",
@@ -284,7 +310,8 @@ def read_metocean(path: str | Path):
     ----------
     path : str or Path
         ``.csv`` (columns ``time`` and :data:`VARIABLES`; ``#`` lines are comments) or ``.nc`` (variables of
-        :data:`VARIABLES` or ERA5's ``swh``, ``pp1d``, ``mwd``, ``u10``, ``v10``; current and tide as named here).
+        :data:`VARIABLES` or ERA5's short names of :data:`ERA5` and ``u10``, ``v10``; current and tide as named
+        here).
 
     Returns
     -------
@@ -356,33 +383,48 @@ def write_metocean_csv(ds, path: str | Path) -> Path:
     return atomic_write(path, "\n".join(head) + "\n" + df.to_csv(index=False))
 
 
-#: The synthetic generator's declared values (:func:`synthetic_metocean`), each with its source.
+#: The synthetic generator's declared values (:func:`synthetic_metocean`), each with its source; "loadarm
+#: assumption" marks the ones chosen here, for a berth behind a coast open to an ocean's swell.
 WEATHER = {
-    # the 1-hour mean wind at 10 m: Weibull, as DNV-RP-C205 (2021) sec. 2.3.2 describes the long-term wind;
-    # shape and scale of Johannessen, Haver & Winterstein (2002), "Joint distribution for wind and waves in the
-    # northern North Sea", Int. J. Offshore Polar Eng. 12(1): an exposed site (wind exceeds 15 m/s 6.9 % of
-    # hours)
+    # the 1-hour mean wind at 10 m: a two-parameter Weibull (the usual long-term model of the mean wind, e.g.
+    # DNV-RP-C205), shape and scale of Johannessen, Meling & Haver (2001), "Joint distribution for wind and waves
+    # in the northern North Sea", Proc. ISOPE-2001 (journal version: Int. J. Offshore Polar Eng. 12(1), 2002),
+    # fitted to 1973-1999 measurements: an exposed site (wind exceeds 15 m/s 6.9 % of hours)
     "wind_shape": 1.708, "wind_scale_ms": 8.426,
     "wind_season": 0.2,          # scale +-20 % winter to summer (loadarm assumption)
     "wind_memory_h": 30.0,       # AR(1) time scale of the weather systems, about a day (loadarm assumption)
-    # the wind sea: fetch-limited growth (SPM 1984 / CEM EM 1110-2-1100 Part II-2, eqs. II-2-36 and -37, with
-    # the adjusted wind U_A = 0.71 U10^1.23), capped at the fully developed sea; a fetch for a berth open to
-    # the sea behind a coast (loadarm example) and the sea's response time (it lags the wind)
-    "fetch_m": 10_000.0, "windsea_lag_h": 3.0,
+    # storms above the Weibull's own: Poisson, winter-heavy (rate x (1 + 0.6 season)), peaks 15-24 m/s,
+    # Gaussian in time with half-widths 6-18 h; a storm veers the wind by up to 40 deg as it rises and falls
+    # (loadarm assumption)
+    "storms_per_year": 4.0, "storm_season": 0.6, "storm_peak_ms": (15.0, 24.0), "storm_width_h": (6.0, 18.0),
+    "storm_veer_deg": 40.0,
+    # the wind's direction: from the south-west (245 deg) swinging 25 deg over the year, wandering 20 deg with
+    # a 12-hour memory (loadarm assumption: the prevailing sector of the North Sea's and Atlantic coasts' wind)
+    "wind_from_deg": 245.0, "wind_from_season_deg": 25.0, "wind_from_wander_deg": 20.0, "wind_from_memory_h": 12.0,
+    # the wind sea: fetch-limited growth of the Shore Protection Manual (SPM 1984, vol. I ch. 3; restated in the
+    # Coastal Engineering Manual, EM 1110-2-1100 Part II-2), with the adjusted wind U_A = 0.71 U10^1.23, capped
+    # at the fully developed sea (:func:`windsea`); a fetch for a berth open to the sea behind a coast, the
+    # sea's response time (it lags the wind) and an 8 % log-normal scatter of its height (loadarm assumptions)
+    "fetch_m": 10_000.0, "windsea_lag_h": 3.0, "windsea_scatter": 0.08,
     # the swell: from the ocean, apart from the local wind: log-normal AR(1) with a slow memory, an annual
-    # cycle and swell events (loadarm assumption, shaped after Atlantic-facing coasts' swell climates: median
-    # 0.3-0.5 m, periods 10-18 s)
+    # cycle and swell events (Poisson, rate x (1 + 0.5 season), 1-3 m, half-widths 12-36 h); its period
+    # 10 + 3 sqrt(Hs) s with a 0.8 s scatter, within 8-22 s; from 255 deg wandering 10 deg over two days
+    # (loadarm assumption, shaped after Atlantic-facing coasts' swell climates: median 0.3-0.5 m, periods
+    # 10-18 s)
     "swell_median_m": 0.35, "swell_season": 0.4, "swell_sigma": 0.55, "swell_memory_h": 72.0,
-    "swell_events_per_year": 12.0, "swell_from_deg": 255.0,
-    "storms_per_year": 4.0,      # wind storms above the Weibull's own, winter-heavy (loadarm assumption)
+    "swell_events_per_year": 12.0, "swell_event_season": 0.5, "swell_event_hs_m": (1.0, 3.0),
+    "swell_event_width_h": (12.0, 36.0),
+    "swell_tp_s": (10.0, 3.0, 0.8), "swell_tp_range_s": (8.0, 22.0),
+    "swell_from_deg": 255.0, "swell_from_wander_deg": 10.0, "swell_from_memory_h": 48.0,
+    # the record's spreading exponent when the wind sea or the swell dominates (a swell is long-crested) and the
+    # range of the wind sea's peak period kept (loadarm assumption)
+    "windsea_spreading": 4.0, "swell_spreading": 15.0, "windsea_tp_range_s": (1.5, 25.0),
 }
 
 
 def _ar1(rng: np.random.Generator, n: int, memory_h: float) -> np.ndarray:
     """A stationary unit-variance AR(1) series of ``n`` hours with correlation time ``memory_h`` (scipy's
     recursion, started from the stationary distribution)."""
-    from scipy.signal import lfilter
-
     phi = math.exp(-1.0 / memory_h)
     e = rng.normal(size=n)
     return lfilter([math.sqrt(1 - phi * phi)], [1.0, -phi], e, zi=[phi * rng.normal()])[0]
@@ -428,7 +470,7 @@ def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00
     """A seeded synthetic record whose wind, wind sea and swell are drawn apart (for demos and tests, not a
     hindcast; every value in :data:`WEATHER`, with its source).
 
-    * wind: the 1-hour mean at 10 m, Weibull (Johannessen et al. 2002: shape 1.708, scale 8.426 m/s) through a
+    * wind: the 1-hour mean at 10 m, Weibull (Johannessen et al. 2001: shape 1.708, scale 8.426 m/s) through a
       Gaussian AR(1) of a day's memory, its scale following the seasons, plus winter-heavy storms; from a
       prevailing direction that storms veer;
     * wind sea: grown from the wind over the berth's fetch (SPM / CEM fetch-limited growth), the wind filtered
@@ -438,7 +480,8 @@ def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00
       growing with its height (10-18 s), from the ocean's sector;
     * the record's sea is the two together: ``hs`` the root sum of squares, ``tp``, direction and spreading
       (4 wind sea, 15 swell) those of the more energetic partition; the partitions are kept
-      (``windsea_hs_m``, ``swell_hs_m``, ``swell_tp_s``, ``swell_from_deg``);
+      (``windsea_hs_m``, ``windsea_tp_s``, ``windsea_from_deg``, ``swell_hs_m``, ``swell_tp_s``,
+      ``swell_from_deg``);
     * current and tide: semi-diurnal (M2, 12.42 h) with the spring-neap modulation of S2 (14.8 days).
 
     Parameters
@@ -456,8 +499,6 @@ def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00
     """
     import pandas as pd
     import xarray as xr
-    from scipy.signal import lfilter
-    from scipy.special import ndtr
 
     if not 1 <= hours <= 30 * 8784:
         raise ValueError(f"hours must be in [1, {30 * 8784}], got {hours}")
@@ -470,28 +511,33 @@ def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00
     p = np.clip(ndtr(_ar1(rng, hours, w["wind_memory_h"])), 1e-12, 1 - 1e-12)
     scale = w["wind_scale_ms"] * (1 + w["wind_season"] * season)
     wind = scale * (-np.log1p(-p)) ** (1 / w["wind_shape"])
-    storm = _events(rng, hours, w["storms_per_year"] / 8766 * (1 + 0.6 * season), (15.0, 24.0), (6.0, 18.0))
+    storm = _events(rng, hours, w["storms_per_year"] / 8766 * (1 + w["storm_season"] * season),
+                    w["storm_peak_ms"], w["storm_width_h"])
     wind = np.clip(np.maximum(wind, storm), 0.0, 55.0)
-    veer = np.where(storm > wind * 0.9, 40.0 * np.tanh(np.gradient(storm)), 0.0)
-    wind_from = (245.0 + 25 * np.sin(2 * math.pi * day / 365.25) + veer + 20 * _ar1(rng, hours, 12.0)) % 360
+    veer = np.where(storm > wind * 0.9, w["storm_veer_deg"] * np.tanh(np.gradient(storm)), 0.0)
+    wind_from = (w["wind_from_deg"] + w["wind_from_season_deg"] * np.sin(2 * math.pi * day / 365.25) + veer
+                 + w["wind_from_wander_deg"] * _ar1(rng, hours, w["wind_from_memory_h"])) % 360
     # wind sea: the wind filtered by the sea's response (first order, windsea_lag_h), then grown over the fetch
     a = math.exp(-1.0 / w["windsea_lag_h"])
     felt = lfilter([1 - a], [1.0, -a], wind, zi=[a * wind[0]])[0]
     ws_hs, ws_tp = windsea(felt, w["fetch_m"])
-    ws_hs = ws_hs * rng.lognormal(0.0, 0.08, hours)
+    ws_hs = ws_hs * rng.lognormal(0.0, w["windsea_scatter"], hours)
     # swell: its own slow process and events, period growing with height
     median = w["swell_median_m"] * np.exp(w["swell_season"] * season)
     sw_hs = median * np.exp(w["swell_sigma"] * _ar1(rng, hours, w["swell_memory_h"]))
-    sw_hs = np.maximum(sw_hs, _events(rng, hours, w["swell_events_per_year"] / 8766 * (1 + 0.5 * season),
-                                      (1.0, 3.0), (12.0, 36.0)))
-    sw_tp = np.clip(10.0 + 3.0 * np.sqrt(sw_hs) + rng.normal(0, 0.8, hours), 8.0, 22.0)
-    sw_from = (w["swell_from_deg"] + 10 * _ar1(rng, hours, 48.0)) % 360
+    sw_hs = np.maximum(sw_hs, _events(rng, hours, w["swell_events_per_year"] / 8766
+                                      * (1 + w["swell_event_season"] * season), w["swell_event_hs_m"],
+                                      w["swell_event_width_h"]))
+    t0, t1, scatter = w["swell_tp_s"]
+    sw_tp = np.clip(t0 + t1 * np.sqrt(sw_hs) + rng.normal(0, scatter, hours), *w["swell_tp_range_s"])
+    sw_from = (w["swell_from_deg"] + w["swell_from_wander_deg"] * _ar1(rng, hours, w["swell_from_memory_h"])) % 360
     # the sea: both; period and direction of the more energetic
     hs = np.clip(np.hypot(ws_hs, sw_hs), 0.05, 19.0)
     swell_wins = sw_hs > ws_hs
-    tp = np.clip(np.where(swell_wins, sw_tp, ws_tp), 1.5, 25.0)
+    ws_tp = np.clip(ws_tp, *w["windsea_tp_range_s"])
+    tp = np.where(swell_wins, sw_tp, ws_tp)
     wave_from = np.where(swell_wins, sw_from, wind_from)
-    spreading = np.where(swell_wins, 15.0, 4.0)
+    spreading = np.where(swell_wins, w["swell_spreading"], w["windsea_spreading"])
     th = np.arange(hours, dtype=float)
     m2 = 2 * math.pi / 12.42
     spring = 1 + 0.3 * np.cos(2 * math.pi * th / (14.77 * 24))
@@ -502,8 +548,9 @@ def synthetic_metocean(hours: int, *, seed: int = 0, start: str = "2025-01-01T00
                      "wave_spreading": ("time", spreading), "wind_speed_ms": ("time", wind),
                      "wind_from_deg": ("time", wind_from), "current_speed_ms": ("time", cur),
                      "current_to_deg": ("time", cur_to), "tide_m": ("time", tide),
-                     "windsea_hs_m": ("time", ws_hs), "swell_hs_m": ("time", sw_hs), "swell_tp_s": ("time", sw_tp),
-                     "swell_from_deg": ("time", sw_from)},
+                     "windsea_hs_m": ("time", ws_hs), "windsea_tp_s": ("time", ws_tp),
+                     "windsea_from_deg": ("time", wind_from), "swell_hs_m": ("time", sw_hs),
+                     "swell_tp_s": ("time", sw_tp), "swell_from_deg": ("time", sw_from)},
                     coords={"time": t.to_numpy()})
     ds.attrs["generator"] = f"loadarm.studies.metocean.synthetic_metocean(hours={hours}, seed={seed})"
     return validate_metocean(ds, "synthetic")[0]

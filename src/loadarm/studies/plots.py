@@ -6,11 +6,15 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+from scipy.special import ndtr
+
+from loadarm.studies.metocean import WEATHER
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 
-__all__ = ["operability_figure", "weather_figure", "johannessen_wind_exceedance"]
+__all__ = ["operability_figure", "weather_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
+           "seastate_hs_exceedance", "seastate_tp_exceedance"]
 
 
 def operability_figure(result) -> Figure:
@@ -82,10 +86,69 @@ def operability_figure(result) -> Figure:
     return fig
 
 
+#: Published long-term models of the open sea's Hs and Tp (Haver & Nyhus 1986, "A wave climate description for
+#: long term response calculation", Proc. OMAE'86: log-normal Hs up to ``hc``, Weibull above; Tp given Hs
+#: log-normal), with the parameters of Sagli (2000), "Model uncertainty and simplified estimates of long term
+#: extremes of hull girder loads in ships", PhD thesis NTNU, pp. 45-47, as tabulated in the WAFO toolbox
+#: (``pdfseastate.m``). Per site: (Weibull scale, shape, location, hc, mean and variance of ln Hs),
+#: (a1, a2, a3, b1, b2, b3, b4) of mean ln Tp = a1 + a2 ln(Hs + a3) (form 0) or a1 + a2 Hs^a3 (form 1) and
+#: variance b1 + b2 exp(-b3 Hs^b4), and the form. Offshore sites (Ekofisk: central North Sea, 70 m of water;
+#: northern North Sea), exposed to the whole sea: an upper bound for a berth's sea, not a berth's record.
+SEASTATE_MODELS = {
+    "Ekofisk": ((2.08, 1.37, 0.00, 2.65, 0.52, 0.67 ** 2), (1.00, 0.90, 0.25, 0.005, 0.10, 0.44, 1.00), 1),
+    "northern North Sea": ((2.82, 1.55, 0.00, 3.27, 0.84, 0.61 ** 2), (1.59, 0.42, 2.00, 0.005, 0.09, 0.13, 1.34),
+                           0),
+}
+
+
+def seastate_hs_exceedance(hs, site: str) -> np.ndarray:
+    """The fraction of hours above ``hs`` of a published open-sea model (:data:`SEASTATE_MODELS`).
+
+    Parameters
+    ----------
+    hs : array_like
+        m.
+    site : str
+        A key of :data:`SEASTATE_MODELS`.
+
+    Returns
+    -------
+    ndarray
+    """
+    (c1, c2, c3, hc, m1, s1), _, _ = SEASTATE_MODELS[site]
+    h = np.asarray(hs, dtype=float)
+    body = 1 - ndtr((np.log(np.maximum(h, 1e-9)) - m1) / np.sqrt(s1))
+    return np.where(h <= hc, body, np.exp(-(np.maximum(h - c3, 0.0) / c1) ** c2))
+
+
+def seastate_tp_exceedance(tp, site: str) -> np.ndarray:
+    """The fraction of hours with a peak period above ``tp`` of a published open-sea model
+    (:data:`SEASTATE_MODELS`): Tp given Hs integrated over Hs (trapezoids on 1-20 000 mm, 8000 points).
+
+    Parameters
+    ----------
+    tp : array_like
+        s.
+    site : str
+
+    Returns
+    -------
+    ndarray
+    """
+    _, (a1, a2, a3, b1, b2, b3, b4), form = SEASTATE_MODELS[site]
+    h = np.linspace(0.001, 20.0, 8000)
+    f = np.gradient(1 - seastate_hs_exceedance(h, site), h)
+    mu = a1 + a2 * np.log(h + a3) if form == 0 else a1 + a2 * h ** a3
+    sd = np.sqrt(b1 + b2 * np.exp(-b3 * h ** b4))
+    t = np.atleast_1d(np.asarray(tp, dtype=float))
+    return np.array([np.trapezoid(f * (1 - ndtr((np.log(x) - mu) / sd)), h) for x in t])
+
+
 def johannessen_wind_exceedance(wind) -> np.ndarray:
-    """The published long-term distribution of the 1-hour mean wind at 10 m of Johannessen, Haver & Winterstein
-    (2002), "Joint distribution for wind and waves in the northern North Sea", Int. J. Offshore Polar Eng.
-    12(1): Weibull, shape 1.708, scale 8.426 m/s. Returns the fraction of hours above ``wind``.
+    """The published long-term distribution of the 1-hour mean wind at 10 m of Johannessen, Meling & Haver
+    (2001), "Joint distribution for wind and waves in the northern North Sea", Proc. ISOPE-2001 (journal version
+    Int. J. Offshore Polar Eng. 12(1), 2002): Weibull, shape and scale as in
+    :data:`loadarm.studies.metocean.WEATHER` (1.708, 8.426 m/s). Returns the fraction of hours above ``wind``.
 
     Parameters
     ----------
@@ -96,13 +159,14 @@ def johannessen_wind_exceedance(wind) -> np.ndarray:
     -------
     ndarray
     """
-    return np.exp(-(np.asarray(wind, dtype=float) / 8.426) ** 1.708)
+    return np.exp(-(np.asarray(wind, dtype=float) / WEATHER["wind_scale_ms"]) ** WEATHER["wind_shape"])
 
 
 def weather_figure(ds) -> Figure:
-    """The synthetic generator's marginals (:func:`loadarm.studies.metocean.synthetic_metocean`) against the
-    published distribution of the wind (Johannessen et al. 2002, an exposed site); Hs with its wind sea and swell
-    apart; Tp by the partition that sets it.
+    """The synthetic generator's marginals (:func:`loadarm.studies.metocean.synthetic_metocean`) against published
+    distributions: the wind against Johannessen et al.'s (2001) Weibull (an exposed site); Hs (and its wind sea
+    and swell apart) and Tp against the open sea's published models (:data:`SEASTATE_MODELS`, Ekofisk and the
+    northern North Sea: offshore, an upper bound for a berth behind a coast).
 
     Parameters
     ----------
@@ -115,38 +179,50 @@ def weather_figure(ds) -> Figure:
     """
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(13, 4.2))
+    fig = Figure(figsize=(13, 4.4))
     axw, axh, axt = fig.subplots(1, 3)
     wind, hs, tp = ds["wind_speed_ms"].values, ds["hs_m"].values, ds["tp_s"].values
     years = wind.size / 8766
     x = np.linspace(0, 30, 121)
-    h = np.linspace(0, 6, 121)
+    h = np.linspace(0, 8, 161)
+    period = np.linspace(2, 24, 111)
     pw = johannessen_wind_exceedance(x)
+    styles = {"Ekofisk": (0, (5, 2)), "northern North Sea": (0, (1, 1.5))}
 
     def exceed(v, grid):
         return np.array([np.mean(v > g) for g in grid])
 
     axw.semilogy(x, exceed(wind, x), color="0.2", label=f"synthetic ({years:.0f} years)")
-    axw.semilogy(x, pw, "--", color="0.5", label="Weibull 1.708 / 8.426 m/s\n(Johannessen et al. 2002)")
+    axw.semilogy(x, pw, "--", color="0.5", label="Weibull 1.708 / 8.426 m/s, northern\nNorth Sea "
+                                                 "(Johannessen et al. 2001)")
     axw.set_xlabel("1-hour mean wind at 10 m [m/s]")
     axw.set_ylabel("fraction of hours exceeded")
     axw.set_ylim(1e-5, 1.2)
-    axw.set_title(f"Wind: above 15 m/s {100 * np.mean(wind > 15):.1f} % of hours (published {100 * pw[60]:.1f} %)")
-    axw.legend(fontsize=8)
+    axw.set_title(f"Wind: above 15 m/s {100 * np.mean(wind > 15):.1f} % of hours (published {100 * pw[60]:.1f} %)",
+                  fontsize=10)
+    axw.legend(fontsize=7)
     axh.semilogy(h, exceed(hs, h), color="0.2", label="synthetic sea")
     axh.semilogy(h, exceed(ds["windsea_hs_m"].values, h), ":", color="0.2", label="its wind sea")
     axh.semilogy(h, exceed(ds["swell_hs_m"].values, h), "-.", color="0.4", label="its swell")
+    for site, ls in styles.items():
+        axh.semilogy(h, seastate_hs_exceedance(h, site), ls=ls, color="tab:blue",
+                     label=f"open sea, {site}\n(Haver & Nyhus model, Sagli 2000)")
     axh.set_xlabel("Hs [m]")
     axh.set_ylim(1e-5, 1.2)
-    axh.set_title(f"Hs: above 1.5 m {100 * np.mean(hs > 1.5):.1f} % of hours")
-    axh.legend(fontsize=8)
+    axh.set_title(f"Hs: above 1.5 m {100 * np.mean(hs > 1.5):.1f} % of hours (offshore: "
+                  f"{100 * seastate_hs_exceedance(1.5, 'Ekofisk'):.0f}-"
+                  f"{100 * seastate_hs_exceedance(1.5, 'northern North Sea'):.0f} %)", fontsize=10)
+    axh.legend(fontsize=7, loc="upper right")
     swell = ds["swell_hs_m"].values > ds["windsea_hs_m"].values
-    bins = np.arange(1.0, 23.0, 0.5)
-    axt.hist([tp[~swell], tp[swell]], bins=bins, stacked=True, color=["0.75", "0.4"],
-             label=["wind sea sets Tp", "swell sets Tp"], density=True)
+    axt.semilogy(period, exceed(tp, period), color="0.2", label="synthetic sea")
+    axt.semilogy(period, exceed(np.where(swell, tp, 0.0), period), "-.", color="0.4", label="  of which swell sets Tp")
+    for site, ls in styles.items():
+        axt.semilogy(period, seastate_tp_exceedance(period, site), ls=ls, color="tab:blue", label=f"open sea, {site}")
     axt.set_xlabel("Tp [s]")
-    axt.set_ylabel("density")
-    axt.set_title(f"Tp: above 13 s {100 * np.mean(tp > 13):.0f} % of hours")
-    axt.legend(fontsize=8)
+    axt.set_ylim(1e-5, 1.2)
+    axt.set_title(f"Tp: above 13 s {100 * np.mean(tp > 13):.0f} % of hours (offshore: "
+                  f"{100 * seastate_tp_exceedance(13.0, 'Ekofisk')[0]:.0f}-"
+                  f"{100 * seastate_tp_exceedance(13.0, 'northern North Sea')[0]:.0f} %)", fontsize=10)
+    axt.legend(fontsize=7)
     fig.tight_layout()
     return fig

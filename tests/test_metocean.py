@@ -189,7 +189,7 @@ def decade():
 
 def test_the_wind_follows_the_published_weibull(decade):
     """Ten synthetic years: the 1-hour mean wind exceeds 10, 15 and 20 m/s in the fractions of hours of
-    Johannessen et al.'s (2002) Weibull (shape 1.708, scale 8.426 m/s: 23.6, 6.9 and 1.2 %) within 30 % (the
+    Johannessen et al.'s (2001) Weibull (shape 1.708, scale 8.426 m/s: 23.6, 6.9 and 1.2 %) within 30 % (the
     seasons, the extra storms and ten years' sampling: measured 7.3 % above 15 m/s and 1.23 times the published
     fraction above 20 m/s; the old generator, wind
     tied to Hs through a fully developed sea, gave 0.18 %)."""
@@ -198,6 +198,21 @@ def test_the_wind_follows_the_published_weibull(decade):
     w = decade["wind_speed_ms"].values
     for u in (10.0, 15.0, 20.0):
         assert abs(np.mean(w > u) / johannessen_wind_exceedance(u) - 1) < 0.3, u
+
+
+@pytest.mark.parametrize("site", ["Ekofisk", "northern North Sea"])
+def test_the_published_sea_models_are_transcribed_whole(site):
+    """The figure's open-sea references (Haver & Nyhus's model with Sagli's parameters, as WAFO tabulates them):
+    the log-normal body and the Weibull tail were fitted to meet at hc, so a mistyped parameter shows as a step
+    there (they meet within 0.005 in exceedance: measured 0.0005 and 0.0017); the Tp marginal integrates the
+    conditional model over Hs to a distribution (1 at 1 s, 0 at 40 s, within the trapezoids' 0.005)."""
+    from loadarm.studies.plots import SEASTATE_MODELS, seastate_hs_exceedance, seastate_tp_exceedance
+
+    hc = SEASTATE_MODELS[site][0][3]
+    below, above = seastate_hs_exceedance([hc, hc + 1e-9], site)
+    assert abs(below - above) < 0.005 and 0.2 < below < 0.3
+    assert seastate_tp_exceedance(1.0, site)[0] == pytest.approx(1.0, abs=0.005)
+    assert seastate_tp_exceedance(40.0, site)[0] == pytest.approx(0.0, abs=0.005)
 
 
 def test_swell_brings_long_periods_and_the_partitions_make_the_sea(decade):

@@ -31,7 +31,7 @@ from loadarm.params.config import parameter_markdown, read_toml
 from loadarm.params.declare import Section, format_validation_error, param, toml_values
 
 __all__ = ["ShipSection", "BerthSection", "RopeMaterial", "ROPE_MATERIALS", "MooringLine", "Fender", "Environment",
-           "Berth", "parse_berth", "load_berth", "berth_parameter_markdown", "RHO_SEA"]
+           "PassingShip", "Berth", "parse_berth", "load_berth", "berth_parameter_markdown", "RHO_SEA"]
 
 #: Density of sea water, kg/m^3 (ITTC 7.5-02-01-03, 15 deg C, 35 g/kg: 1025.9; 1025 is the usual design value).
 RHO_SEA = 1025.0
@@ -299,6 +299,38 @@ class Environment(Section):
                                              "lowers the fairleads)")
 
 
+_PASS = "example: a 300 m container ship (48 m beam, 12 m draft) at 6 kn, 150 m off the moored ship's centre line"
+
+
+class PassingShip(Section):
+    """A ship passing along the berth (optional ``[passing_ship]``; absent: none): its hull, speed and track, for
+    Wang's (1975) slender-body loads in the berth's water depth (:mod:`loadarm.ship.passing`, which refuses
+    inputs outside its range of validity)."""
+
+    length: float = param(300.0, unit="m", ge=50, le=450, source=_PASS, description="passing ship's length between "
+                                                                                       "perpendiculars")
+    beam: float = param(48.0, unit="m", ge=5, le=70, source=_PASS, description="passing ship's moulded beam")
+    draft: float = param(12.0, unit="m", gt=0, le=25, source=_PASS, description="passing ship's draft")
+    midship_coefficient: float = param(0.97, unit="1", ge=0.8, le=1.0,
+                                       source="midship section coefficients of merchant ships 0.95-0.995 (container "
+                                               "ships about 0.97)",
+                                       description="passing ship's midship section area over beam x draft (Wang's "
+                                                   "parabolic sectional area curve peaks at it)")
+    speed: float = param(3.09, unit="m/s", gt=0, le=10, source=_PASS + " (6 kn; port speed limits 5-8 kn)",
+                         description="passing speed through the water")
+    separation: float = param(150.0, unit="m", ge=10, le=2000, source=_PASS,
+                              description="lateral distance of the passing ship's centre line from the moored ship's, "
+                                          "on the sea side")
+    heading: Literal["same", "opposite"] = Field(
+        "same", description="passing ship's direction: the way the moored ship's bow points (same: it overtakes "
+                            "from astern) or against it (opposite)",
+        json_schema_extra={"unit": "", "source": "example"})
+    closest_approach_time: float = param(600.0, unit="s", ge=0, le=86400,
+                                         source="example: ten minutes into a run",
+                                         description="time from the start of a run at which the two ships are "
+                                                     "abreast, midships to midships")
+
+
 class Berth(BaseModel):
     """A berth file, validated."""
 
@@ -312,6 +344,8 @@ class Berth(BaseModel):
     materials: dict[str, RopeMaterial] = Field(default_factory=dict, max_length=32,
                                               description="rope materials added to or replacing the built-in ones "
                                                           "([materials.NAME] tables)")
+    passing_ship: PassingShip | None = Field(None, description="a ship passing along the berth ([passing_ship]; "
+                                                               "absent: none)")
 
     def material(self, name: str) -> RopeMaterial:
         """A rope material by name: the berth's own, else the built-in table's.
@@ -351,6 +385,12 @@ class Berth(BaseModel):
             if line.bollard[0] > 0:
                 raise ValueError(f"moorings line {line.name!r}: bollard {list(line.bollard)} m lies on the water side "
                                  "of the fender line (berth x must be <= 0)")
+        if self.passing_ship is not None:
+            from loadarm.ship.passing import check_range     # (the ship package imports this module)
+
+            p = self.passing_ship
+            check_range((s.length_pp, s.beam, s.draft), (p.length, p.beam, p.draft), p.speed, p.separation,
+                        b.water_depth)
         return self
 
 
@@ -406,4 +446,4 @@ def berth_parameter_markdown() -> str:
     """
     return parameter_markdown([("ship", ShipSection), ("berth", BerthSection), ("moorings[]", MooringLine),
                                ("fenders[]", Fender), ("environment", Environment),
-                               ("materials.NAME", RopeMaterial)])
+                               ("materials.NAME", RopeMaterial), ("passing_ship", PassingShip)])

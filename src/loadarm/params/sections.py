@@ -511,6 +511,11 @@ class Operability(Section):
                                    source="cool-down, reconnection and leak test after a disconnection "
                                           "(engineering estimate)",
                                    description="operable hours lost to reconnect after a disconnection")
+    passing_ship: bool = Field(
+        False, description="apply the berth file's [passing_ship] once in every hourly state (at its "
+                           "closest_approach_time): the operability with a ship passing each hour; false: none",
+        json_schema_extra={"unit": "1", "source": "issue 28: passing ships are a documented cause of breakaways "
+                                                 "(Wang 1975; loadarm.ship.passing)"})
 
 
 class Sequence(Section):

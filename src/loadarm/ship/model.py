@@ -87,6 +87,9 @@ class ShipModel:
         Low-frequency integration step, s (:func:`lf_step`).
     long_waves : bool
         The set-down loads the low-frequency motion (``[berth] bound_long_waves``, :mod:`loadarm.ship.longwave`).
+    passing : PassingShip or None
+        The berth's ``[passing_ship]`` (:mod:`loadarm.ship.passing`): its load joins the low-frequency one in
+        every run; None: no passing ship.
     """
 
     moorings: Moorings
@@ -117,6 +120,7 @@ class ShipModel:
     environment: object = None
     lf_step: float = 0.1
     long_waves: bool = True
+    passing: object = None
 
     @property
     def psi0(self) -> float:
@@ -278,7 +282,7 @@ def compile_ship(berth: Berth, *, solve: bool = False, progress: bool = False, s
                      water_depth=berth.berth.water_depth, lf_damping_ratio=s.lf_damping_ratio,
                      manifold_tolerance=berth.berth.manifold_tolerance, names=mo.names,
                      environment=berth.environment, lf_step=lf_step(mo, h),
-                     long_waves=berth.berth.bound_long_waves)
+                     long_waves=berth.berth.bound_long_waves, passing=berth.passing_ship)
 
 
 def moored_ship(sc: "Scenario") -> "ShipModel | None":

@@ -50,6 +50,7 @@ from loadarm.ship.mooring import (
     line_tensions,
     restoring_kernel,
 )
+from loadarm.ship.passing import add_passing_load
 
 __all__ = ["ShipMotion", "simulate", "flange_positions", "mean_load", "MIN_RECORD", "DT", "wave_components",
            "fft_length", "rise_of", "line_stretch_coefficients", "moored_state", "StateLoads"]
@@ -797,6 +798,7 @@ def simulate(ship: ShipModel, env: Environment, duration: float, *, seed: int = 
         i_part = n_out + 1 if part_time is None or not parted else int(math.ceil(part_time / dt - 1e-9))
         every = _load_every(n, n_out, _lf_stride(ship, dt), i_part)
         f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng, every)
+        f_ship = add_passing_load(f_ship, ship, every, dt)      # deterministic and slow: no low-pass
         pose, pose_v, tension, part_at, paid, _ = _lf_motion(ship, env, f_ship, every, n_out, eq, dt, alive0,
                                                              alive1, i_part, stretch=stretch)
     else:
@@ -946,6 +948,7 @@ def _state(ship: ShipModel, env: Environment, duration: float, seed: int, dt: fl
         stretch = None
     every = _load_every(n, n_out, _lf_stride(ship, dt), n_out + 1)
     f_ship = _lf_load(ship, env, comp, beta, n, n_out, dt, rng, every)
+    f_ship = add_passing_load(f_ship, ship, every, dt)          # deterministic and slow: no low-pass
     pose, _, _, part_at, paid, tmax = _lf_motion(ship, env, f_ship, every, n_out, eq, dt, mo.alive, mo.alive,
                                                  n_out + 1, rates=False, stretch=stretch)
     flange = _flange_position(ship, pose, d)

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -183,6 +183,7 @@ def run_states(model, ship, table, rows: list[dict], settings: OperabilitySettin
     if settings.duration_per_state is None or settings.connect_motion_limit is None:
         raise ValueError("run_states needs resolved settings (OperabilitySettings.resolved)")
     crit = settings.criteria or Operability()
+    ship = state_ship(ship, crit)
     fx, fz = model.approach.flange
     rel = np.empty((3, 0))
     out = []
@@ -204,6 +205,31 @@ def run_states(model, ship, table, rows: list[dict], settings: OperabilitySettin
                     "min_time_to_limit_s": r.min_time_to_limit_s, "flange_motion_m": motion,
                     "connectable": connectable, "outside": r.outside, **verdict})
     return out
+
+
+def state_ship(ship, crit: Operability):
+    """The ship the hourly states are simulated with: the berth's passing ship in every state with
+    ``[operability] passing_ship = true``, else none.
+
+    Parameters
+    ----------
+    ship : ShipModel
+    crit : Operability
+
+    Returns
+    -------
+    ShipModel
+
+    Raises
+    ------
+    ConfigError
+        ``passing_ship = true`` and the berth declares no ``[passing_ship]``.
+    """
+    if crit.passing_ship:
+        if ship.passing is None:
+            raise ConfigError("operability.passing_ship = true needs a [passing_ship] table in the berth file")
+        return ship
+    return ship if ship.passing is None else replace(ship, passing=None)
 
 
 def judge_state(crit: Operability, moorings, loads, env, connectable: bool, stage: int) -> dict:
@@ -712,6 +738,9 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     settings = settings.resolved(inst.operability)
     model = compile_model(inst, source=str(config))
     bf = load_berth(berth)
+    if settings.criteria.passing_ship and bf.passing_ship is None:
+        raise ConfigError(f"{config}: operability.passing_ship = true needs a [passing_ship] table in the berth file "
+                          f"{berth}")
     out = Path(out)
     chunk_dir = out.with_name(out.name + ".chunks")
     plan = plan_chunks(len(rows), settings.chunks)

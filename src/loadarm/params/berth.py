@@ -21,6 +21,7 @@ gives back on unloading a fraction of its loading reaction (hysteresis).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, Literal
 
@@ -31,7 +32,8 @@ from loadarm.params.config import parameter_markdown, read_toml
 from loadarm.params.declare import Section, format_validation_error, param, toml_values
 
 __all__ = ["ShipSection", "BerthSection", "RopeMaterial", "ROPE_MATERIALS", "MooringLine", "Fender", "Environment",
-           "PassingShip", "Berth", "parse_berth", "load_berth", "berth_parameter_markdown", "RHO_SEA"]
+           "PassingShip", "PassingShipRangeError", "check_passing_range", "Berth", "parse_berth", "load_berth",
+           "berth_parameter_markdown", "RHO_SEA"]
 
 #: Density of sea water, kg/m^3 (ITTC 7.5-02-01-03, 15 deg C, 35 g/kg: 1025.9; 1025 is the usual design value).
 RHO_SEA = 1025.0
@@ -299,6 +301,60 @@ class Environment(Section):
                                              "lowers the fairleads)")
 
 
+#: The passing-ship model's range of validity (:mod:`loadarm.ship.passing`): separation in moored-ship lengths,
+#: depth over either draft, depth Froude number; gravity, m/s^2.
+SEPARATION_MIN_LENGTHS, SEPARATION_MAX_LENGTHS = 0.2, 5.0
+DEPTH_DRAFT_MIN = 1.5
+DEPTH_FROUDE_MAX = 0.5
+GRAVITY = 9.81
+
+
+class PassingShipRangeError(ConfigError):
+    """A passing-ship input outside the range of validity of Wang's slender-body model
+    (:mod:`loadarm.ship.passing`)."""
+
+
+def _refuse(key: str, value: float, lo: float, hi: float, unit: str, why: str, *, open_lo: bool = False) -> None:
+    if not (lo < value if open_lo else lo <= value) or not value <= hi:
+        raise PassingShipRangeError(f"{key} = {value:g} {unit} is outside the passing-ship model's range "
+                                    f"{'(' if open_lo else '['}{lo:.4g}, {hi:.4g}] {unit} ({why})")
+
+
+def check_passing_range(moored: tuple[float, float, float], passing: tuple[float, float, float], speed: float,
+                        separation: float, depth: float) -> None:
+    """Refuse inputs outside the range of validity of the passing-ship model (:mod:`loadarm.ship.passing`: Wang's
+    slender bodies a gap apart, keel clearance for the images' source lines, no waves).
+
+    Parameters
+    ----------
+    moored, passing : tuple of float
+        Length, beam and draft of the moored and of the passing ship, m.
+    speed : float
+        Passing speed, m/s.
+    separation : float
+        Between the two centre lines, m.
+    depth : float
+        Water depth, m.
+
+    Raises
+    ------
+    PassingShipRangeError
+        One line naming the parameter, its value and the allowed range.
+    """
+    (l1, b1, t1), (_, b2, t2) = moored, passing
+    lo = max(SEPARATION_MIN_LENGTHS * l1, b1 + b2)
+    _refuse("passing_ship.separation", separation, lo, SEPARATION_MAX_LENGTHS * l1, "m",
+            "Wang's slender bodies: at least the two beams and 0.2 moored-ship lengths apart, at most 5 lengths")
+    _refuse("passing_ship.draft", t2, 0.0, depth / DEPTH_DRAFT_MIN, "m",
+            f"water depth {depth:g} m at least {DEPTH_DRAFT_MIN:g} drafts: keel clearance for the images' source "
+            "lines")
+    _refuse("berth.water_depth", depth, DEPTH_DRAFT_MIN * t1, math.inf, "m",
+            f"at least {DEPTH_DRAFT_MIN:g} times the moored ship's draft {t1:g} m")
+    _refuse("passing_ship.speed", speed, 0.0, DEPTH_FROUDE_MAX * math.sqrt(GRAVITY * depth), "m/s",
+            f"depth Froude number at most {DEPTH_FROUDE_MAX:g} in {depth:g} m: no waves, Wang's zero Froude number",
+            open_lo=True)
+
+
 _PASS = "example: a 300 m container ship (48 m beam, 12 m draft) at 6 kn, 150 m off the moored ship's centre line"
 
 
@@ -386,10 +442,8 @@ class Berth(BaseModel):
                 raise ValueError(f"moorings line {line.name!r}: bollard {list(line.bollard)} m lies on the water side "
                                  "of the fender line (berth x must be <= 0)")
         if self.passing_ship is not None:
-            from loadarm.ship.passing import check_range     # (the ship package imports this module)
-
             p = self.passing_ship
-            check_range((s.length_pp, s.beam, s.draft), (p.length, p.beam, p.draft), p.speed, p.separation,
+            check_passing_range((s.length_pp, s.beam, s.draft), (p.length, p.beam, p.draft), p.speed, p.separation,
                         b.water_depth)
         return self
 

@@ -28,7 +28,8 @@ their decay with separation (``eta^-3`` instead of ``eta^-4``). The images do no
 draft near the depth); the range of validity below leaves it out.
 
 **Range of validity** (refused outside, :class:`PassingShipRangeError`, one line naming the parameter, its value
-and the range; :func:`check_range`):
+and the range; :func:`check_range`, declared with the berth file's ``[passing_ship]`` in
+:mod:`loadarm.params.berth`, which refuses them as it reads the file):
 
 * separation: at least the sum of the two beams and at least 0.2 of the moored ship's length (slender bodies,
   a gap between them), at most 5 moored-ship lengths (beyond, the loads are negligible);
@@ -49,11 +50,10 @@ from functools import lru_cache
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from loadarm.errors import ConfigError
-from loadarm.params.berth import RHO_SEA
+from loadarm.params.berth import RHO_SEA, PassingShipRangeError
+from loadarm.params.berth import check_passing_range as check_range
 
 __all__ = [
-    "GRAVITY",
     "MOORED_MIDSHIP_COEFFICIENT",
     "PassingShipRangeError",
     "add_passing_load",
@@ -65,60 +65,10 @@ __all__ = [
 
 #: The moored ship's midship section coefficient (its midship area is ``0.98 B T``, as the current load's).
 MOORED_MIDSHIP_COEFFICIENT = 0.98
-#: m/s^2.
-GRAVITY = 9.81
 #: Gauss-Legendre points along each hull (the kernel's width is the separation, at least 0.2 of a length).
 N_GAUSS = 48
 #: Images summed term by term each side; beyond them the sum's tail is its integral from ``N_IMAGES + 1/2``.
 N_IMAGES = 24
-#: Range of validity (see the module's docstring).
-SEPARATION_MIN_LENGTHS, SEPARATION_MAX_LENGTHS = 0.2, 5.0
-DEPTH_DRAFT_MIN = 1.5
-DEPTH_FROUDE_MAX = 0.5
-
-
-class PassingShipRangeError(ConfigError):
-    """A passing-ship input outside the range of validity of Wang's slender-body model."""
-
-
-def _refuse(key: str, value: float, lo: float, hi: float, unit: str, why: str, *, open_lo: bool = False) -> None:
-    if not (lo < value if open_lo else lo <= value) or not value <= hi:
-        raise PassingShipRangeError(f"{key} = {value:g} {unit} is outside the passing-ship model's range "
-                                    f"{'(' if open_lo else '['}{lo:.4g}, {hi:.4g}] {unit} ({why})")
-
-
-def check_range(moored: tuple[float, float, float], passing: tuple[float, float, float], speed: float,
-                separation: float, depth: float) -> None:
-    """Refuse inputs outside the range of validity of the model.
-
-    Parameters
-    ----------
-    moored, passing : tuple of float
-        Length, beam and draft of the moored and of the passing ship, m.
-    speed : float
-        Passing speed, m/s.
-    separation : float
-        Between the two centre lines, m.
-    depth : float
-        Water depth, m.
-
-    Raises
-    ------
-    PassingShipRangeError
-        One line naming the parameter, its value and the allowed range.
-    """
-    (l1, b1, t1), (_, b2, t2) = moored, passing
-    lo = max(SEPARATION_MIN_LENGTHS * l1, b1 + b2)
-    _refuse("passing_ship.separation", separation, lo, SEPARATION_MAX_LENGTHS * l1, "m",
-            "Wang's slender bodies: at least the two beams and 0.2 moored-ship lengths apart, at most 5 lengths")
-    _refuse("passing_ship.draft", t2, 0.0, depth / DEPTH_DRAFT_MIN, "m",
-            f"water depth {depth:g} m at least {DEPTH_DRAFT_MIN:g} drafts: keel clearance for the images' source "
-            "lines")
-    _refuse("berth.water_depth", depth, DEPTH_DRAFT_MIN * t1, math.inf, "m",
-            f"at least {DEPTH_DRAFT_MIN:g} times the moored ship's draft {t1:g} m")
-    _refuse("passing_ship.speed", speed, 0.0, DEPTH_FROUDE_MAX * math.sqrt(GRAVITY * depth), "m/s",
-            f"depth Froude number at most {DEPTH_FROUDE_MAX:g} in {depth:g} m: no waves, Wang's zero Froude number",
-            open_lo=True)
 
 
 def kernel_sum(a2, depth: float, n_images: int = N_IMAGES):

@@ -70,7 +70,7 @@ def _direct(xi, eta, u, moored, passing, rho=RHO_SEA):
     def r2(x1, x2):
         return (x1 - x2 - xi) ** 2 + eta ** 2
 
-    opts = {"epsabs": 0.0, "epsrel": 1e-8}
+    opts = {"epsabs": 1e-9, "epsrel": 1e-8}
     k = rho * u * u / math.pi
     fx = dblquad(lambda x2, x1: ds1(x1) * ds2(x2) * (x1 - x2 - xi) / r2(x1, x2) ** 1.5,
                  -l1 / 2, l1 / 2, -l2 / 2, l2 / 2, **opts)[0]

@@ -190,6 +190,30 @@ def test_the_model_refuses_shallow_water_for_the_moored_ship():
         check_range((278.0, 43.4, 11.5), (300.0, 48.0, 9.0), 3.0, 150.0, 15.0)
 
 
+@pytest.mark.parametrize("side", ["port", "starboard"])
+@pytest.mark.parametrize("heading", ["same", "opposite"])
+def test_the_load_is_in_the_ship_frame_and_pulls_towards_the_sea_side(side, heading):
+    """The ship frame at the reference heading (port side to: bow along berth +y, psi0 = +90 deg; starboard:
+    -90 deg), as ``_lf_load``'s, which the integration turns into the berth frame: abreast, the passing ship
+    on the sea side (berth +x) pulls the moored ship off the berth; before it comes abreast, the passing ship
+    then off the other end, the surge force and the yaw moment reverse with the heading, the sway force not."""
+    from types import SimpleNamespace
+
+    psi0 = math.pi / 2 if side == "port" else -math.pi / 2
+    ship = SimpleNamespace(length=278.0, beam=43.4, draft=11.5, water_depth=20.0, psi0=psi0)
+    p = parse_berth(_with_passing(heading=heading)).passing_ship
+    t = p.closest_approach_time + np.array([0.0, -40.0])
+    f = passing_load(t, ship, p)
+    c, s = math.cos(psi0), math.sin(psi0)
+    off = c * f[:, 0] - s * f[:, 1]                        # berth x
+    assert off[0] > 2e5 and abs(f[0, 0]) < 1e-6 * off[0]
+    other = passing_load(t, ship, parse_berth(_with_passing(heading="opposite" if heading == "same" else
+                                                            "same")).passing_ship)
+    assert f[1, 0] == pytest.approx(-other[1, 0], rel=1e-9) and f[1, 0] != 0
+    assert f[1, 1] == pytest.approx(other[1, 1], rel=1e-9)
+    assert f[1, 2] == pytest.approx(-other[1, 2], rel=1e-9) and f[1, 2] != 0
+
+
 @pytest.fixture(scope="module")
 def ships():
     ship = compile_ship(parse_berth(_with_passing()))

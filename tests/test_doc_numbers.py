@@ -5,6 +5,7 @@ sentence, by recomputing it and formatting it as the page does. A page that chan
 computation that changes its result fails here, and the message says which.
 """
 
+import calendar
 import math
 
 import pytest
@@ -221,7 +222,7 @@ def test_operability_page_synthetic_year(tmp_path):
     t = res.table
     months = d["downtime_by_month"]
     lo, hi = min(months, key=months.get), max(months, key=months.get)
-    name = {"01": "January", "05": "May"}
+    name = {f"{m:02d}": calendar.month_name[m] for m in range(1, 13)}
     releases = int(t["release_s"].notna().sum())
     cited("docs/operability.md", f"downtime {100 * d['downtime_fraction']:.1f} % ({int(t['down'].sum())} hours: "
                                  f"{d['not_connectable_h']} not connectable, {int((t['stage'] >= 2).sum())} states "

@@ -131,7 +131,7 @@ class BerthSection(Section):
         True, description="the set-down (second-order long waves bound to the wave groups) loads the moored ship "
                           "besides Newman's slow drift (false: Newman alone, as in deep water)",
         json_schema_extra={"unit": "", "source": "Longuet-Higgins & Stewart (1962); Hasselmann (1962); "
-                                                  "loadarm.ship.longwave (issue 28)"})
+                                                  "loadarm.ship.longwave"})
     manifold_tolerance: float = param(1.5, unit="m", ge=0, le=20,
                                       source="the mooring master places the manifold within about 1-2 m of the "
                                               "arm's centre line (terminal procedure; example)",

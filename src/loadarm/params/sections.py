@@ -514,7 +514,7 @@ class Operability(Section):
     passing_ship: bool = Field(
         False, description="apply the berth file's [passing_ship] once in every hourly state (at its "
                            "closest_approach_time): the operability with a ship passing each hour; false: none",
-        json_schema_extra={"unit": "1", "source": "issue 28: passing ships are a documented cause of breakaways "
+        json_schema_extra={"unit": "1", "source": "passing ships are a documented cause of breakaways "
                                                  "(Wang 1975; loadarm.ship.passing)"})
 
 

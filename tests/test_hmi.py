@@ -607,6 +607,7 @@ def test_the_replay_shows_what_the_live_screen_showed_at_every_logged_sample(tmp
     assert len(samples) > 300 and all(n > 5 for n in seen.values()), seen
 
 
+@pytest.mark.slow
 def test_a_screen_that_samples_the_snapshots_still_sees_every_mode(tmp_path):
     """Found in CI: at 8x the screen's 20 Hz frames (0.4 s of the run apart) missed the drift-off's ALARM1,
     held for less than a frame. Every snapshot carries the last mode changes by cycle: a screen that reads only

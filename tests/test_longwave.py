@@ -124,6 +124,7 @@ def test_the_pairs_follow_the_closed_long_crested_route():
     assert abs(np.std(slow_fast) / np.std(slow) - 1) < 0.05 and np.corrcoef(slow, slow_fast)[0, 1] > 0.98
 
 
+@pytest.mark.slow
 def test_a_spread_sea_binds_less():
     """The same sea's components spread (cos-2s, s = 4, a wind sea; s = 20, a swell) about the same mean
     direction: pairs at an angle bind less (Hasselmann's coefficient falls with the angle, as Herbers, Elgar &

@@ -135,6 +135,7 @@ def test_sway_is_even_surge_and_yaw_odd_in_the_stagger_and_all_go_with_the_speed
     assert wang_loads(0.0, eta, 3.0, moored, passing, depth)[1] * eta > 0
 
 
+@pytest.mark.slow
 def test_the_loads_decay_with_separation_as_a_dipole_pair():
     """Far off, each hull is a dipole of its volume: the peak forces fall as ``eta^-4`` in deep water and as
     ``eta^-3`` many depths off (the flow spread over the depth), the yaw moment (a fore-and-aft symmetric hull
@@ -264,6 +265,7 @@ def test_the_example_passing_scenario_moves_the_ship_and_loads_the_lines(ships):
     assert np.ptp(calm.pose[:, 1]) < 1e-6
 
 
+@pytest.mark.slow
 def test_ship_motion_page_passing_ship_numbers(ships):
     p, run, calm, _t, f = _scenario(ships)
     rel = run.pose - run.mean_pose

@@ -156,6 +156,7 @@ FULL_DISK = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(signal, "SIGXFSZ"), reason="needs RLIMIT_FSIZE (POSIX)")
 def test_a_full_disk_is_one_line_at_the_end_of_the_run_and_keeps_what_was_committed(tmp_path):
     """A disk that fills up mid-run (simulated with RLIMIT_FSIZE: every file write past 100 kB fails): the run goes

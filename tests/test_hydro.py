@@ -139,6 +139,7 @@ def test_natural_periods_from_hydrostatics(ship):
     assert 8 < p["heave_s"] < 14 and 15 < p["roll_s"] < 30 and 8 < p["pitch_s"] < 13
 
 
+@pytest.mark.slow
 def test_the_mean_drift_is_cached_by_what_it_depends_on(tmp_path, monkeypatch, ship):
     """The cached far-field drift is capytaine's, bit for bit; other RAOs get another file; a damaged file is
     computed again and replaced; a cache that cannot be written still gives the drift."""

@@ -61,6 +61,7 @@ def test_the_leads_count_the_time_left_to_the_valve_timeout_until_the_switches_c
     assert c._leads(105.0)[Severity.RELEASE] == seq.erc_release_time + seq.margin
 
 
+@pytest.mark.slow
 def test_the_slow_valve_holdout_releases_with_the_design_margin():
     """The issue's reproducer: 0.27 m/s at 0.01 m/s^2 off the berth, the valves 4 s slow, seed 1001 (it overstretched
     at 236.04 s, 0.34 s before the coupler was free)."""

@@ -74,6 +74,7 @@ def test_the_leads_are_the_sequence_times(model):
     assert stage_of(50.0, 60.0, 20.0, 22.0, 35.0, 65.0) == 1         # the pre-alarm: measured routes only
 
 
+@pytest.mark.slow
 @settings(max_examples=examples(4), deadline=None)
 @given(x=st.floats(14.5, 16.8), y=st.floats(-1.5, 1.5), z=st.floats(0.5, 1.5), hs=st.floats(0.0, 1.2),
        tp=st.floats(6.0, 12.0), seed=st.integers(0, 2**31 - 1))

@@ -363,6 +363,19 @@ V_SLIP = 0.01
 V_UNLOAD = 0.01
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _abreast(fy_j, qx0, qy0, c, s, half):
+    """Berth x of the point of the hull's side abreast of a fender at berth y ``fy_j`` (the side's points are
+    ``(qx0, qy0) + u (c, s)``), or NaN when none is: the hull along the fender line, or the fender beyond its
+    ends (``|u|`` over ``half`` the length). The restoring force and the fenders' contact share it."""
+    if abs(s) < 1e-9:
+        return math.nan
+    u = (fy_j - qy0) / s
+    if abs(u) > half:
+        return math.nan
+    return qx0 + u * c
+
+
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
 def fender_contact(x, y, c, s, vx, vy, r, fy, fdefl, fload, fn, fprop, hull, origin):
     """What the fenders add, in motion, to :func:`restoring_kernel`'s loading-curve reaction: the hysteresis
@@ -397,12 +410,9 @@ def fender_contact(x, y, c, s, vx, vy, r, fy, fdefl, fload, fn, fprop, hull, ori
     qx0, qy0 = cx - s * side, cy + c * side
     fx = fyy = mz = 0.0
     for j in range(fy.shape[0]):
-        if abs(s) < 1e-9:
+        qx = _abreast(fy[j], qx0, qy0, c, s, half)
+        if qx != qx:
             continue
-        u = (fy[j] - qy0) / s
-        if abs(u) > half:
-            continue
-        qx = qx0 + u * c
         f = _fender_load(-qx, fdefl[j], fload[j], fn[j])
         if f <= 0.0:
             continue
@@ -456,12 +466,9 @@ def restoring_kernel(x, y, c, s, lines, table, alive, fy, fdefl, fload, fn, hull
     side, half = hull[0], hull[1]
     qx0, qy0 = cx - s * side, cy + c * side
     for j in range(fy.shape[0]):
-        if abs(s) < 1e-9:
+        qx = _abreast(fy[j], qx0, qy0, c, s, half)
+        if qx != qx:
             continue
-        u = (fy[j] - qy0) / s
-        if abs(u) > half:
-            continue
-        qx = qx0 + u * c
         f = _fender_load(-qx, fdefl[j], fload[j], fn[j])
         rx, ry = qx - cx, fy[j] - cy
         fx += f

@@ -310,3 +310,32 @@ def test_written_record_reads_back(tmp_path):
     assert "windsea_tp_s" in written and "swell_from_deg" in written and "windsea_tm_s" not in back
     for v in written:
         assert np.allclose(back[v].values, ds[v].values, atol=5e-4), v
+
+
+@pytest.mark.slow
+def test_the_weather_page_quotes_the_generator_s_own_marginals():
+    """docs/operability.md's numbers of the synthetic weather (ten years, seed 1: the figure's record) are the
+    generator's, to the digits printed, and the published curves' at the same points: the page cannot drift from
+    the program (two significant digits; the offshore models' ranges in whole per cent)."""
+    from loadarm.studies.plots import (SEASTATE_MODELS, johannessen_wind_exceedance, seastate_hs_exceedance,
+                                       seastate_tp_exceedance)
+
+    text = " ".join((ROOT / "docs" / "operability.md").read_text().split())
+    ds = synthetic_metocean(10 * 8760, seed=1)
+    wind, hs, tp = ds["wind_speed_ms"].values, ds["hs_m"].values, ds["tp_s"].values
+    pct = lambda x: f"{100 * x:.2g}"  # noqa: E731
+    wind_pub = float(johannessen_wind_exceedance(np.array([15.0]))[0])
+    assert f"exceeds 15 m/s in {pct(np.mean(wind > 15))} % of hours (published: {pct(wind_pub)} %" in text
+    levels = (1.0, 1.5, 2.0, 3.0)
+    ours = ", ".join(pct(np.mean(hs > h)) for h in levels[:-1]) + f" and {pct(np.mean(hs > levels[-1]))}"
+    assert f"exceeds 1, 1.5, 2 and 3 m in {ours} % of hours (median {np.median(hs):.2f} m)" in text
+    ranges = []
+    for h in levels:
+        lo, hi = sorted(100 * float(seastate_hs_exceedance(np.array([h]), s)[0]) for s in SEASTATE_MODELS)
+        ranges.append(f"{lo:.0f}-{hi:.0f} %")
+    assert "the offshore models: " + ", ".join(ranges[:-1]) + f" and {ranges[-1]}" in text
+    eko, nns = (float(seastate_tp_exceedance(np.array([13.0]), s)[0]) for s in ("Ekofisk", "northern North Sea"))
+    assert (f"Tp exceeds 13 s in {pct(np.mean(tp > 13))} % of hours (the swell; never with the old generator), the "
+            f"offshore models {pct(eko)} % (Ekofisk) and {pct(nns)} % (northern North Sea)") in text
+    swell_wind = np.corrcoef(wind, ds["swell_hs_m"].values)[0, 1]
+    assert f"apart from the local wind (correlation {swell_wind:.1g})" in text

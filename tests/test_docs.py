@@ -119,9 +119,9 @@ def test_every_figure_in_the_docs_is_generated():
     """Every image the docs show is in docs/img and drawn by `make docs`; nothing else sits in docs/img."""
     import re as _re
 
-    from loadarm.present.docsgen import DOC_FIGURES, HMI_SCREENSHOTS
+    from loadarm.present.docsgen import DOC_FIGURES, HMI_SCREENSHOTS, STUDY_FIGURES
 
-    DOC_FIGURES = DOC_FIGURES + HMI_SCREENSHOTS              # the screen's: taken in a real browser (make docs)
+    DOC_FIGURES = DOC_FIGURES + HMI_SCREENSHOTS + STUDY_FIGURES   # the screen's (a real browser) and the studies' too
     shown = set()
     for f in DOC_FILES:
         shown |= {Path(m).name for m in _re.findall(r"\]\(((?:docs/)?img/[^)]+\.png)\)", f.read_text())}

@@ -21,21 +21,27 @@ from loadarm.figures import save
 from loadarm.opcua.plc import tags_markdown
 from loadarm.opcua.security import Role, StateDir
 from loadarm.opcua.server import address_space_markdown
-from loadarm.params.berth import berth_parameter_markdown
+from loadarm.params.berth import berth_parameter_markdown, load_berth
 from loadarm.params.config import example_toml, load_config, packaged_example, parameter_markdown
 from loadarm.present.report import ReportData, figure_builders
+from loadarm.ship.model import compile_ship
 from loadarm.studies.metocean import synthetic_metocean
+from loadarm.studies.prediction import calibrate_predictors
 from loadarm.studies.plots import weather_figure
 from loadarm.testing.browser import find_chromium, launch, scenario_screen, tour
 
-__all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "render_doc_figures", "hmi_screenshots", "regenerate",
-           "compare_figures"]
+__all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "STUDY_FIGURES", "render_doc_figures", "hmi_screenshots",
+           "study_figures", "regenerate", "compare_figures"]
 
 #: The figures the docs show (file names in docs/img); the paper's case draws them.
 DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
                "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
                "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
                "operability.png", "weather.png")
+
+#: Figures of studies that take minutes (the predictors over their hold-out records): drawn by ``make docs`` and by
+#: the slow test that runs the same study and compares (:func:`study_figures`), not by :func:`render_doc_figures`.
+STUDY_FIGURES = ("prediction.png",)
 
 #: Years of synthetic weather drawn for docs/img/weather.png (seed 1).
 WEATHER_YEARS = 10
@@ -58,6 +64,25 @@ def _paper_data():
 
 def _weather(_data):
     return weather_figure(synthetic_metocean(WEATHER_YEARS * 8760, seed=1))
+
+
+def study_figures(dest: str | Path, *, prediction=None) -> dict[str, Path]:
+    """Draw :data:`STUDY_FIGURES` into ``dest``: the flange predictors' calibration on their hold-out records.
+
+    Parameters
+    ----------
+    dest : str or Path
+    prediction : PredictionCalibration, optional
+        The study's result, when the caller has run it (default: run here, a few minutes).
+
+    Returns
+    -------
+    dict of str to Path
+    """
+    if prediction is None:
+        berth = load_berth(packaged_example("berths/lng150k.toml"))
+        prediction = calibrate_predictors(compile_ship(berth), berth.environment)
+    return {"prediction.png": save(prediction.plot(), Path(dest) / "prediction.png")}
 
 
 def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:
@@ -176,6 +201,7 @@ def regenerate(root: str | Path = ".") -> list[Path]:
 
     root = Path(root)
     written = list(render_doc_figures(root / "docs" / "img").values())
+    written += study_figures(root / "docs" / "img").values()
 
     if find_chromium() is not None:
         written += hmi_screenshots(root / "docs" / "img")

@@ -1,5 +1,5 @@
 """Figures of the studies: operability over a metocean record, the synthetic weather against published
-distributions. matplotlib is imported when a figure is drawn."""
+distributions, the flange predictors' error and calibration. matplotlib is imported when a figure is drawn."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from loadarm.studies.metocean import WEATHER
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 
-__all__ = ["operability_figure", "weather_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
+__all__ = ["operability_figure", "weather_figure", "prediction_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
            "seastate_hs_exceedance", "seastate_tp_exceedance"]
 
 
@@ -224,5 +224,51 @@ def weather_figure(ds) -> Figure:
                   f"{100 * seastate_tp_exceedance(13.0, 'Ekofisk')[0]:.0f}-"
                   f"{100 * seastate_tp_exceedance(13.0, 'northern North Sea')[0]:.0f} %)", fontsize=10)
     axt.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def prediction_figure(result) -> Figure:
+    """The predictors on the hold-out records: the error of the mean against the horizon (with the climatology, the
+    record's recent mean as the forecast) and the 95 % intervals' coverage against the horizon, with the band
+    every claimed horizon must stay in.
+
+    Parameters
+    ----------
+    result : loadarm.studies.prediction.PredictionCalibration
+
+    Returns
+    -------
+    Figure
+    """
+    from matplotlib.figure import Figure
+
+    band = result.band
+    fig = Figure(figsize=(12, 4.4))
+    axe, axc = fig.subplots(1, 2)
+    styles = {"online AR": "-", "model AR": "--"}
+    axis_names = ("x, off the berth", "y, along it")
+    for name, r in result.routes.items():
+        h = np.arange(1, r.rmse.shape[0] + 1)
+        for ax_i, (label, grey) in enumerate(zip(axis_names, ("0.1", "0.55"), strict=True)):
+            axe.plot(h, r.rmse[:, ax_i], styles[name], color=grey, label=f"{name}, {label}")
+            axc.plot(h, 100 * r.coverage[:, ax_i], styles[name], color=grey, label=f"{name}, {label}")
+    clim = next(iter(result.routes.values())).climatology
+    h = np.arange(1, clim.shape[0] + 1)
+    axe.plot(h, clim[:, 0], ":", color="0.3", label="climatology (recent mean), x")
+    axe.set_xlabel("horizon [s]")
+    axe.set_ylabel("RMS error of the predicted 1-s mean [m]")
+    axe.set_ylim(bottom=0)
+    axe.legend(fontsize=7)
+    axe.set_title(f"error, {result.to_dict()['records']} hold-out records", fontsize=9)
+    axc.axhspan(100 * band[0], 100 * band[1], color="0.9", label=f"{100 * band[0]:.0f}-{100 * band[1]:.0f} %")
+    axc.axhline(95, color="0.6", lw=0.8)
+    axc.set_ylim(85, 100)
+    axc.set_xlabel("horizon [s]")
+    axc.set_ylabel("coverage of the 95 % interval [%]")
+    axc.legend(fontsize=7, loc="lower left")
+    axc.set_title("calibration (intervals claimed only)", fontsize=9)
+    for a in (axe, axc):
+        a.grid(alpha=0.3)
     fig.tight_layout()
     return fig

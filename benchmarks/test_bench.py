@@ -32,7 +32,10 @@ round (the least disturbed by other load), so a ratio compares like with like.
   already run 25 % slower each than one alone, the two vCPUs sharing the memory system; 2026-12-02 on an AMD
   EPYC VM: 1.29-1.46x, a month's fixed cost a third of its run);
 * hostile OPC UA clients: the guidance cycle's p99 with 15 clients asking every variable at 10 ms (revised to
-  the server's least interval) <= 2x its p99 without them, in the same run (issue 27).
+  the server's least interval) <= 2x its p99 without them, in the same run (issue 27);
+* the flange predictor: one second's work (forecast, refit every 30 s, a tenth of the calibration refreshed) at
+  its p99 <= half the guidance cycle's period (a budget, not a peer: 20 ms at 50 Hz; measured 2026-12-05 on the
+  AMD EPYC VM: 4.3 ms, 0.22x; median 2.2 ms, 46x the Kalman workload).
 """
 
 import math
@@ -522,3 +525,47 @@ def test_the_operator_screen_s_update_rate_and_latency(results, tmp_path):
     results["ratio mode-change latency median / frame period"] = float(np.median(lat) / period)
     results["age of the state shown, median [ms]"] = float(np.median(age))
     assert got["modes"][-1] == "RETURN" and rate >= 10 and np.max(lat) < 4 * period, (rate, lat)
+
+
+def test_the_flange_predictor_within_the_guidance_cycle(results):
+    """Issue 30: the online predictor's work each second (a new one-second mean realised, the AR refitted every
+    30 s, the 120-s forecast, 12 horizons' calibration refreshed, the interval) over an hour of the moored
+    flange, the calibration window full. Its p99 against the guidance cycle's period (50 Hz: 20 ms; goal <= 0.5,
+    so one second's prediction fits in half a cycle) and against the fixed Kalman workload timed between its
+    calls (reported)."""
+    from loadarm.guidance import predict as pr
+    from loadarm.params.berth import load_berth
+    from loadarm.params.scenario import Guidance
+    from loadarm.ship.model import compile_ship
+    from loadarm.ship.motion import DT, flange_positions
+
+    bf = load_berth(ROOT / "examples" / "berths" / "lng150k.toml")
+    flange, ref = flange_positions(compile_ship(bf), bf.environment, 5400.0, seed=3)
+    track = pr.block_means(flange - ref, int(round(pr.PREDICT_PERIOD / DT)))
+    steps, window = int(pr.HORIZON), int(pr.FIT_WINDOW)
+    cal = pr.Calibrator(steps)
+    cal.z[:] = np.abs(np.random.default_rng(0).normal(size=cal.z.shape))       # a full window, as after 50 min
+    cal.count[:] = pr.MEMORY
+    calls, kalman, model = [], [], None
+    for t in range(window, track.shape[0] - steps):
+        t0 = time.perf_counter()
+        cal.observe(t, track[t])
+        history = track[t - window + 1: t + 1]
+        if model is None or (t - window) % 30 == 0:
+            model = pr.fit_ar(history)
+        mean, sd = pr.ar_forecast(model, history, steps)
+        q = cal.refreshed(12)
+        pr.interval(mean, sd, q, pr.claimed_steps(q))
+        cal.remember(t, mean, sd)
+        calls.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        _kalman_workload()
+        kalman.append(time.perf_counter() - t0)
+    calls, kalman = np.array(calls) * 1e3, np.array(kalman) * 1e3
+    period = 1e3 / Guidance().rate
+    results["flange predictor, one second's work, median [ms]"] = float(np.median(calls))
+    results["flange predictor, one second's work, p99 [ms]"] = float(np.percentile(calls, 99))
+    results["flange predictor, one second's work, max [ms]"] = float(np.max(calls))
+    results["ratio flange predictor p99 / guidance cycle period"] = float(np.percentile(calls, 99) / period)
+    results["ratio flange predictor median / Kalman workload median"] = float(np.median(calls) / np.median(kalman))
+    assert np.percentile(calls, 99) <= 0.5 * period, (np.percentile(calls, 99), period)

@@ -110,6 +110,10 @@ def test_the_calibration_is_the_conformal_order_statistic_and_claims_nothing_ear
         k = math.ceil(0.95 * 51) - 1
         assert q[j] == pytest.approx(np.sort(last, axis=0)[k], abs=0)
     assert pr.claimed_steps(q) == 3
+    assert np.array_equal(cal.quantiles([2, 0]), q[[2, 0]])
+    first = cal.refreshed(2)                                            # the real-time form: two rows a call
+    assert np.array_equal(first[:2], q[:2]) and np.all(np.isnan(first[2]))
+    assert np.array_equal(cal.refreshed(2), q)                          # row 2, then row 0 again: all of them
     with pytest.raises(ValueError, match="level"):
         pr.Calibrator(3, level=1.2)
 

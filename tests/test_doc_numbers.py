@@ -207,6 +207,11 @@ def test_operability_page_sample_numbers(tmp_path):
     cited("docs/operability.md", f"downtime {100 * d['downtime_fraction']:.1f} % ({d['not_connectable_h']} hours not "
                                  f"connectable, {esd} states with ESD-1")
     assert d["releases_connected_per_year"] == 0      # releases only in states already down on another criterion
+    lo, hi = d["downtime_ci"]
+    e_lo, e_hi = d["esd1_connected_per_year_ci"]
+    cited("docs/operability.md", f"interval by weeks resampled: {100 * lo:.1f}-{100 * hi:.1f} % of downtime, "
+                                 f"{e_lo:.0f}-{e_hi:.0f} ESD-1 a year while connected ({d['esd1_connected_per_year']:.0f} "
+                                 "measured)")
 
 
 @pytest.mark.slow

@@ -54,7 +54,7 @@ from loadarm.studies.metocean import compass_to_berth, read_metocean
 from loadarm.studies.plots import operability_figure
 from loadarm.vocab import Severity
 
-__all__ = ["OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
+__all__ = ["block_bootstrap", "BOOTSTRAP_BLOCK_H", "CI_LEVEL", "OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
            "plan_chunks", "write_parquet", "COLUMNS", "CRITERIA", "headline_rows", "persistence", "judge_state"]
 
 #: The environment of the local cluster's worker processes (start a cluster of your own's workers with the same):
@@ -75,6 +75,53 @@ COLUMNS = ("time", "hs_m", "tp_s", "wind_speed_ms", "current_speed_ms", "tide_m"
            "yaw_pp_deg", "down_lines", "down_wind", "down_fenders", "down_motion", "down_arm", "down")
 #: The terminal's criteria, in the order the result lists them (a column ``down_<name>`` each).
 CRITERIA = ("lines", "wind", "fenders", "motion", "arm")
+
+#: Block of the bootstrap, hours: a week, longer than a storm's persistence (one to three days), so that the
+#: weeks drawn are close to independent while the hours within a week keep their order (Künsch 1989).
+BOOTSTRAP_BLOCK_H = 168
+#: Resamples of the bootstrap (the 5 % and 95 % quantiles of 2000 move by about 0.1 % of downtime between seeds).
+BOOTSTRAP_RESAMPLES = 2000
+#: Two-sided level of the operability's confidence intervals.
+CI_LEVEL = 0.90
+#: Blocks a record must hold for an interval (fewer: none is given; a bootstrap of two or three weeks would
+#: only reshuffle them).
+MIN_BLOCKS = 8
+
+
+def block_bootstrap(values, *, block: int = BOOTSTRAP_BLOCK_H, resamples: int = BOOTSTRAP_RESAMPLES,
+                    level: float = CI_LEVEL, seed: int = 0) -> tuple[float, float]:
+    """A confidence interval of the mean of an hourly series by the circular block bootstrap (Politis & Romano
+    1992): ``ceil(n / block)`` blocks of ``block`` consecutive hours, starting anywhere and wrapping round the
+    record's end, drawn with replacement; the mean of each resample; the interval between its quantiles.
+
+    Parameters
+    ----------
+    values : array_like (n,)
+        One value per hour (0/1 for a fraction of hours, a count per hour for a rate).
+    block, resamples : int
+    level : float
+        Two-sided, in (0, 1).
+    seed : int
+
+    Returns
+    -------
+    tuple of float
+        The interval's ends (``nan`` for an empty series).
+    """
+    x = np.asarray(values, dtype=float)
+    n = x.size
+    if n == 0:
+        return math.nan, math.nan
+    if not 0 < level < 1 or block < 1 or resamples < 1:
+        raise ValueError(f"block_bootstrap: level {level} in (0, 1), block {block} >= 1, resamples {resamples} >= 1")
+    block = min(block, n)
+    m = -(-n // block)
+    circular = np.concatenate([x, x[: block - 1]])
+    sums = np.convolve(circular, np.ones(block), mode="valid")         # the sum of the block starting at each hour
+    starts = np.random.default_rng(seed).integers(0, n, size=(resamples, m))
+    means = sums[starts].sum(axis=1) / (m * block)
+    lo, hi = np.quantile(means, [(1 - level) / 2, (1 + level) / 2])
+    return float(lo), float(hi)
 
 
 @dataclass(frozen=True)
@@ -407,6 +454,8 @@ class OperabilityResult(Result):
     METRICS = (
         Metric("states", "sea states", "", "d"),
         Metric("downtime_fraction", "downtime", "%", ".1f", scale=100.0),
+        Metric("downtime_ci", f"  its {100 * CI_LEVEL:.0f} % confidence interval (weeks resampled)", "%", ".1f",
+               sep=" - ", scale=100.0, none=f"none: the record holds under {MIN_BLOCKS} weeks"),
         Metric("down_lines_fraction", "  lines above their limit (MEG4)", "%", ".1f", scale=100.0),
         Metric("down_wind_fraction", "  wind above its limit", "%", ".1f", scale=100.0),
         Metric("down_fenders_fraction", "  fenders above their rating", "%", ".1f", scale=100.0),
@@ -420,6 +469,8 @@ class OperabilityResult(Result):
         Metric("loadings_uninterrupted_fraction", "loadings that complete without a disconnection", "%", ".1f",
                scale=100.0),
         Metric("esd1_connected_per_year", "ESD-1 per year, connected", "", ".1f"),
+        Metric("esd1_connected_per_year_ci", f"  its {100 * CI_LEVEL:.0f} % confidence interval (weeks resampled)",
+               "", ".1f", sep=" - ", none=f"none: the record holds under {MIN_BLOCKS} weeks"),
         Metric("releases_connected_per_year", "releases per year, connected", "", ".1f"),
         Metric("esd1_per_year", "ESD-1 per year, whatever the other criteria", "", ".1f"),
         Metric("releases_per_year", "releases per year, whatever the other criteria", "", ".1f"),
@@ -440,7 +491,11 @@ class OperabilityResult(Result):
         p = persistence(df["down"].to_numpy(dtype=bool), df["time"].to_numpy(), c.loading_hours,
                         c.reconnect_hours)
         per = {f"down_{k}_fraction": float(df[f"down_{k}"].mean()) if n else math.nan for k in CRITERIA}
-        return {"states": n, "downtime_fraction": float(df["down"].mean()) if n else math.nan, **per,
+        esd1 = ((df["stage"] >= Severity.ESD1) & connected).to_numpy(dtype=float)
+        enough = n >= MIN_BLOCKS * BOOTSTRAP_BLOCK_H
+        ci = {"downtime_ci": list(block_bootstrap(df["down"].to_numpy(dtype=float))) if enough else None,
+              "esd1_connected_per_year_ci": [8766.0 * v for v in block_bootstrap(esd1)] if enough else None}
+        return {"states": n, "downtime_fraction": float(df["down"].mean()) if n else math.nan, **per, **ci,
                 "operable_h": int((~df["down"]).sum()), "not_connectable_h": int((~df["connectable"]).sum()),
                 "windows_fraction": p["windows_fraction"], "loadings_per_year": p["loadings"] / years,
                 "loadings_uninterrupted_fraction": p["loadings_uninterrupted"] / p["loadings"] if p["loadings"]

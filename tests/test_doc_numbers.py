@@ -239,6 +239,9 @@ def test_operability_page_synthetic_year(tmp_path):
     cited("docs/operability.md", f"lines {share['lines']:.1f} %, fenders {share['fenders']:.1f} %, motions "
                                  f"{share['motion']:.1f} %, the arm {share['arm']:.1f} %")
     cited("docs/operability.md", f"ESD-1 {d['esd1_connected_per_year']:.0f} times a year while connected")
+    (lo, hi), (e_lo, e_hi) = d["downtime_ci"], d["esd1_connected_per_year_ci"]
+    cited("docs/operability.md", f"the 90 % confidence interval of the year's downtime is {100 * lo:.1f}-{100 * hi:.1f} %, "
+                                 f"of its ESD-1 while connected {e_lo:.0f}-{e_hi:.0f} a year")
     assert d["releases_connected_per_year"] == 0 and d["states"] == 8760
     size = (tmp_path / "y.parquet").stat().st_size / 1e6
     cited("docs/operability.md", f"the synthetic year's rows are {size:.1f} MB")

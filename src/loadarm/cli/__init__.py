@@ -1,5 +1,5 @@
 """Command line: ``loadarm size | plan | envelope | check | verify | balance | loads | simulate | run | campaign | log |
-mjcf | demo | hydro | alarms | operability | serve | plc-sim | trust | user | warmup``.
+mjcf | demo | hydro | alarms | operability | forecast | serve | plc-sim | trust | user | warmup``.
 
 Bad input of any kind (missing file, invalid config, unreachable target,
 malformed option) prints one line on stderr and exits with status 2; there is
@@ -36,6 +36,7 @@ COMMAND_MODULES = {
     "verify": "loadarm.cli.verify", "balance": "loadarm.cli.dynamics", "loads": "loadarm.cli.dynamics",
     "simulate": "loadarm.cli.dynamics", "run": "loadarm.cli.run", "check": "loadarm.cli.check",
     "hydro": "loadarm.cli.ship", "alarms": "loadarm.cli.ship", "operability": "loadarm.cli.studies",
+    "forecast": "loadarm.cli.forecast",
     "campaign": "loadarm.cli.studies", "log": "loadarm.cli.run", "mjcf": "loadarm.cli.verify",
     "demo": "loadarm.cli.demo", "serve": "loadarm.cli.plant", "plc-sim": "loadarm.cli.plant",
     "trust": "loadarm.cli.plant", "user": "loadarm.cli.users", "warmup": "loadarm.cli.warmup",

@@ -25,13 +25,14 @@ from loadarm.params.berth import berth_parameter_markdown, load_berth
 from loadarm.params.config import example_toml, load_config, packaged_example, parameter_markdown
 from loadarm.present.report import ReportData, figure_builders
 from loadarm.ship.model import compile_ship
+from loadarm.studies.forecast import run_forecast
 from loadarm.studies.metocean import synthetic_metocean
 from loadarm.studies.prediction import calibrate_predictors
 from loadarm.studies.plots import weather_figure
 from loadarm.testing.browser import find_chromium, launch, scenario_screen, tour
 
 __all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "STUDY_FIGURES", "render_doc_figures", "hmi_screenshots",
-           "study_figures", "regenerate", "compare_figures"]
+           "study_figures", "shipped_forecast", "regenerate", "compare_figures"]
 
 #: The figures the docs show (file names in docs/img); the paper's case draws them.
 DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
@@ -39,9 +40,10 @@ DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png
                "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
                "operability.png", "weather.png")
 
-#: Figures of studies that take minutes (the predictors over their hold-out records): drawn by ``make docs`` and by
-#: the slow test that runs the same study and compares (:func:`study_figures`), not by :func:`render_doc_figures`.
-STUDY_FIGURES = ("prediction.png",)
+#: Figures of studies that take minutes (the predictors over their hold-out records, a forecast ensemble): drawn by
+#: ``make docs`` and by the slow tests that run the same studies and compare (:func:`study_figures`), not by
+#: :func:`render_doc_figures`.
+STUDY_FIGURES = ("prediction.png", "forecast.png")
 
 #: Years of synthetic weather drawn for docs/img/weather.png (seed 1).
 WEATHER_YEARS = 10
@@ -66,23 +68,40 @@ def _weather(_data):
     return weather_figure(synthetic_metocean(WEATHER_YEARS * 8760, seed=1))
 
 
-def study_figures(dest: str | Path, *, prediction=None) -> dict[str, Path]:
-    """Draw :data:`STUDY_FIGURES` into ``dest``: the flange predictors' calibration on their hold-out records.
+def study_figures(dest: str | Path, names=STUDY_FIGURES, *, prediction=None, forecast=None) -> dict[str, Path]:
+    """Draw :data:`STUDY_FIGURES` into ``dest``: the flange predictors' calibration on their hold-out records,
+    and the connect windows of the shipped forecast ensemble.
 
     Parameters
     ----------
     dest : str or Path
+    names : sequence of str
+        Which of them.
     prediction : PredictionCalibration, optional
-        The study's result, when the caller has run it (default: run here, a few minutes).
+        The calibration study's result, when the caller has run it (default: run here, a few minutes).
+    forecast : ForecastResult, optional
+        The ensemble's (default: :func:`shipped_forecast`, run here).
 
     Returns
     -------
     dict of str to Path
     """
-    if prediction is None:
-        berth = load_berth(packaged_example("berths/lng150k.toml"))
-        prediction = calibrate_predictors(compile_ship(berth), berth.environment)
-    return {"prediction.png": save(prediction.plot(), Path(dest) / "prediction.png")}
+    written = {}
+    if "prediction.png" in names:
+        if prediction is None:
+            berth = load_berth(packaged_example("berths/lng150k.toml"))
+            prediction = calibrate_predictors(compile_ship(berth), berth.environment)
+        written["prediction.png"] = save(prediction.plot(), Path(dest) / "prediction.png")
+    if "forecast.png" in names:
+        written["forecast.png"] = save((forecast or shipped_forecast()).plot(), Path(dest) / "forecast.png")
+    return written
+
+
+def shipped_forecast():
+    """The connect windows of ``examples/metocean/forecast/`` (five members, 72 hours, one seed) for the paper's
+    arm at the example berth: docs/img/forecast.png."""
+    members = sorted(packaged_example("metocean/forecast").glob("member-*.csv"))
+    return run_forecast(packaged_example("paper.toml"), packaged_example("berths/lng150k.toml"), members)
 
 
 def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:

@@ -39,7 +39,8 @@ from loadarm.errors import ConfigError
 from loadarm.files import SIGNATURE, atomic_write, check_input
 
 __all__ = ["VARIABLES", "GapReport", "read_metocean", "validate_metocean", "synthetic_metocean",
-           "write_metocean_csv", "berth_directions", "compass_to_berth", "MetoceanError"]
+           "write_metocean_csv", "berth_directions", "compass_to_berth", "MetoceanError", "perturbed_ensemble",
+           "ENSEMBLE_SPREAD"]
 
 
 class MetoceanError(ConfigError):
@@ -592,3 +593,61 @@ def berth_directions(ds, x_bearing_deg: float) -> dict:
     return {"wind_direction_deg": compass_to_berth(ds["wind_from_deg"].values + 180.0, x_bearing_deg),
             "wave_direction_deg": compass_to_berth(ds["wave_from_deg"].values + 180.0, x_bearing_deg),
             "current_direction_deg": compass_to_berth(ds["current_to_deg"].values, x_bearing_deg)}
+
+
+#: A synthetic forecast ensemble's errors (:func:`perturbed_ensemble`), each ``(at the first hour, growth per hour
+#: of lead)``: chosen (a loadarm assumption, not a fit to any forecast centre's scores) so that the members
+#: spread over three days about as operational wave ensembles do (Hs by a quarter, wind by 3 m/s at 72 h).
+ENSEMBLE_SPREAD = {"hs_m": (0.06, 0.0028), "tp_s": (0.04, 0.0012), "wind_speed_ms": (0.8, 0.03),
+                   "direction_deg": (8.0, 0.25)}
+#: Hours of memory of the members' errors along the lead time (an AR(1)): errors persist over half a day.
+ENSEMBLE_MEMORY_H = 12.0
+
+
+def perturbed_ensemble(ds, members: int, *, seed: int = 0) -> list:
+    """A synthetic forecast ensemble about a record (taken as the truth): each member's Hs and Tp scaled by a
+    log-normal error, its wind shifted and its directions turned, the errors growing with the lead time
+    (:data:`ENSEMBLE_SPREAD`) and persistent along it (:data:`ENSEMBLE_MEMORY_H`). For demos and tests of
+    ``loadarm forecast``: a real ensemble comes from a forecast centre.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The record (:func:`read_metocean` or :func:`synthetic_metocean`).
+    members : int
+        1-100.
+    seed : int
+
+    Returns
+    -------
+    list of xarray.Dataset
+        One record per member, the same hours.
+    """
+    if not 1 <= members <= 100:
+        raise ValueError(f"members = {members} outside [1, 100]")
+    rng = np.random.default_rng(seed)
+    n = ds.sizes["time"]
+    lead = np.arange(n, dtype=float)
+    rho = math.exp(-1.0 / ENSEMBLE_MEMORY_H)
+
+    def path(key):
+        a, b = ENSEMBLE_SPREAD[key]
+        e = np.empty(n)
+        e[0] = rng.normal()
+        for i in range(1, n):
+            e[i] = rho * e[i - 1] + math.sqrt(1 - rho * rho) * rng.normal()
+        return e * (a + b * lead)
+
+    out = []
+    for _ in range(members):
+        m = ds.copy(deep=True)
+        m["hs_m"] = m["hs_m"] * np.exp(path("hs_m"))
+        m["tp_s"] = np.clip(m["tp_s"] * np.exp(path("tp_s")), VARIABLES["tp_s"][1], VARIABLES["tp_s"][2])
+        m["wind_speed_ms"] = np.maximum(m["wind_speed_ms"] + path("wind_speed_ms"), 0.0)
+        turn = path("direction_deg")
+        for key in ("wave_from_deg", "wind_from_deg"):
+            m[key] = (m[key] + turn) % 360.0
+        for key in [k for k in m.data_vars if k.startswith(("windsea_", "swell_"))]:
+            m = m.drop_vars(key)                  # the partitions are the truth's: a member carries its sea alone
+        out.append(m)
+    return out

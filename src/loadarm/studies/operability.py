@@ -54,7 +54,7 @@ from loadarm.studies.metocean import compass_to_berth, read_metocean
 from loadarm.studies.plots import operability_figure
 from loadarm.vocab import Severity
 
-__all__ = ["block_bootstrap", "BOOTSTRAP_BLOCK_H", "CI_LEVEL", "OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
+__all__ = ["record_rows", "monitor_table", "STATE_VARIABLES", "block_bootstrap", "BOOTSTRAP_BLOCK_H", "CI_LEVEL", "OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
            "plan_chunks", "write_parquet", "COLUMNS", "CRITERIA", "headline_rows", "persistence", "judge_state"]
 
 #: The environment of the local cluster's worker processes (start a cluster of your own's workers with the same):
@@ -587,6 +587,47 @@ def headline_rows(d: dict) -> list[tuple[str, str]]:
     return rows
 
 
+#: The record's variables a state is simulated from.
+STATE_VARIABLES = ("hs_m", "tp_s", "wave_from_deg", "wave_spreading", "wind_speed_ms", "wind_from_deg",
+                   "current_speed_ms", "current_to_deg", "tide_m")
+
+
+def record_rows(metocean, hours: int | None = None) -> tuple[list[dict], object]:
+    """A metocean record's usable hours as the rows :func:`run_states` takes.
+
+    Parameters
+    ----------
+    metocean : path
+    hours : int, optional
+        Only the first ``hours`` usable ones (>= 1).
+
+    Returns
+    -------
+    rows : list of dict
+        ``index`` (the hour's place in the record: its seed), ``time`` and :data:`STATE_VARIABLES`.
+    gaps : GapReport
+    """
+    import pandas as pd
+
+    ds, gaps = read_metocean(metocean)
+    use = np.flatnonzero(ds["usable"].values)
+    if hours is not None:
+        if hours < 1:
+            raise ConfigError(f"--hours must be at least 1, got {hours}")
+        use = use[:hours]
+    values = {k: ds[k].values[use] for k in STATE_VARIABLES}
+    times = pd.DatetimeIndex(ds["time"].values[use])
+    rows = [{"index": int(i), "time": times[j], **{k: float(values[k][j]) for k in STATE_VARIABLES}}
+            for j, i in enumerate(use)]
+    return rows, gaps
+
+
+def monitor_table(model, rows: list[dict]):
+    """The compiled monitor's floor table over the flange's reach in these hours' tides (:func:`floor_table`)."""
+    tides = [r["tide_m"] for r in rows] or [0.0]
+    return floor_table(model, *_box(model, float(np.min(tides)), float(np.max(tides))))
+
+
 def _box(model, tide_lo: float, tide_hi: float):
     fx, fz = model.approach.flange
     margin = 2.5
@@ -776,18 +817,7 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     import pandas as pd
 
     check_workers("--workers", workers)
-    ds, gaps = read_metocean(metocean)
-    use = np.flatnonzero(ds["usable"].values)
-    if hours is not None:
-        if hours < 1:
-            raise ConfigError(f"--hours must be at least 1, got {hours}")
-        use = use[:hours]
-    names = ["hs_m", "tp_s", "wave_from_deg", "wave_spreading", "wind_speed_ms", "wind_from_deg",
-             "current_speed_ms", "current_to_deg", "tide_m"]
-    values = {k: ds[k].values[use] for k in names}
-    times = pd.DatetimeIndex(ds["time"].values[use])
-    rows = [{"index": int(i), "time": times[j], **{k: float(values[k][j]) for k in names}}
-            for j, i in enumerate(use)]
+    rows, gaps = record_rows(metocean, hours)
 
     inst = load_config(config)
     settings = settings.resolved(inst.operability)
@@ -836,7 +866,7 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
             stack.callback(lambda: _close_client(connecting))
             if ship is None:
                 ship = compile_ship(bf, source=str(berth))
-            table = floor_table(model, *_box(model, float(np.min(values["tide_m"])), float(np.max(values["tide_m"]))))
+            table = monitor_table(model, rows)
             compiled = (model, ship, table, bf.berth.x_bearing_deg, bf.environment)
             client = connecting.result()
             n_workers = len(client.scheduler_info()["workers"])

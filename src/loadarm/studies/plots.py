@@ -13,7 +13,7 @@ from loadarm.studies.metocean import WEATHER
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 
-__all__ = ["operability_figure", "weather_figure", "prediction_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
+__all__ = ["operability_figure", "weather_figure", "prediction_figure", "forecast_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
            "seastate_hs_exceedance", "seastate_tp_exceedance"]
 
 
@@ -269,6 +269,50 @@ def prediction_figure(result) -> Figure:
     axc.legend(fontsize=7, loc="lower left")
     axc.set_title("calibration (intervals claimed only)", fontsize=9)
     for a in (axe, axc):
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def forecast_figure(result) -> Figure:
+    """Connect windows of a forecast: per hour the probability of staying connected without ESD-1 and that a
+    loading starting then completes, the expected ESD-1 (bars), and below the members' median Hs and wind.
+
+    Parameters
+    ----------
+    result : loadarm.studies.forecast.ForecastResult
+
+    Returns
+    -------
+    Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12, 6))
+    top, bottom = fig.subplots(2, 1, sharex=True, height_ratios=[3, 2])
+    t = np.arange(result.times.size)
+    top.bar(t, result.esd1 * 100, width=0.8, color="0.85", label="expected ESD-1 in the hour [x 100]")
+    top.step(t, 100 * result.connected, where="mid", color="0.1", label="connected through the hour, no ESD-1")
+    top.plot(t, 100 * result.completes, "--", color="0.45",
+             label=f"a {result.loading_hours:g}-h loading starting then completes")
+    top.set_ylim(0, 105)
+    top.set_ylabel("probability [%]")
+    top.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.02), ncol=3, frameon=False)
+    n = len(result.members)
+    top.set_title(f"{n} member{'s' if n > 1 else ''} x {result.seeds} wave realisation"
+                  f"{'s' if result.seeds > 1 else ''}", fontsize=9)
+    bottom.plot(t, result.hs, color="0.1", label="Hs (members' median) [m]")
+    bottom.set_ylabel("Hs [m]")
+    wind = bottom.twinx()
+    wind.plot(t, result.wind, ":", color="0.4", label="wind [m/s]")
+    wind.set_ylabel("wind [m/s]")
+    ticks = t[:: max(1, t.size // 12)]
+    bottom.set_xticks(ticks)
+    bottom.set_xticklabels([str(np.datetime_as_string(result.times[i], unit="h")).replace("T", "\n") for i in ticks],
+                           fontsize=7)
+    lines = bottom.get_legend_handles_labels()[0] + wind.get_legend_handles_labels()[0]
+    bottom.legend(lines, [h.get_label() for h in lines], fontsize=8, loc="upper left")
+    for a in (top, bottom):
         a.grid(alpha=0.3)
     fig.tight_layout()
     return fig

@@ -1,0 +1,111 @@
+"""``loadarm forecast``: connect windows from a forecast or an ensemble (loadarm.studies.forecast)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from loadarm.errors import ConfigError
+from loadarm.studies.forecast import _completes, run_forecast
+from loadarm.studies.metocean import perturbed_ensemble, read_metocean, write_metocean_csv
+
+from .conftest import ROOT
+from .hypo import examples
+
+EX = ROOT / "examples"
+MEMBERS = sorted((EX / "metocean" / "forecast").glob("member-*.csv"))
+
+
+@settings(max_examples=examples(60), deadline=None)
+@given(up=st.lists(st.lists(st.booleans(), min_size=6, max_size=6), min_size=1, max_size=5),
+       length=st.integers(1, 8))
+def test_a_loading_completes_when_every_one_of_its_hours_is_up_in_the_same_run(up, length):
+    """The windowed probability against a plain loop over the runs and the starts; nan past the forecast."""
+    a = np.array(up, dtype=bool)
+    got = _completes(a, length)
+    for start in range(a.shape[1]):
+        if start + length > a.shape[1]:
+            assert np.isnan(got[start])
+        else:
+            want = np.mean([all(run[start: start + length]) for run in a])
+            assert got[start] == pytest.approx(want, abs=1e-12)
+
+
+@pytest.mark.parametrize("kw, match", [({"members": []}, "0 members"), ({"hours": 0}, "--hours = 0"),
+                                       ({"hours": 241}, "--hours = 241"), ({"seeds": 0}, "--seeds = 0"),
+                                       ({"seeds": 21}, "--seeds = 21")])
+def test_bad_arguments_are_refused_in_one_line_before_any_work(kw, match):
+    args = {"members": [EX / "metocean" / "sample.csv"], **kw}
+    with pytest.raises(ConfigError, match=match) as e:
+        run_forecast(EX / "paper.toml", EX / "berths" / "lng150k.toml", args.pop("members"), **args)
+    assert "\n" not in str(e.value)
+
+
+def test_members_of_other_hours_are_refused_naming_the_member(tmp_path):
+    ds, _ = read_metocean(EX / "metocean" / "sample.csv")
+    late = write_metocean_csv(ds.isel(time=slice(10, 40)), tmp_path / "late.csv")
+    with pytest.raises(ConfigError, match="late.csv: its hours are not those of"):
+        run_forecast(EX / "paper.toml", EX / "berths" / "lng150k.toml", [EX / "metocean" / "sample.csv", late],
+                     hours=24)
+
+
+def test_the_shipped_ensemble_is_the_generator_s():
+    """examples/metocean/forecast/: five members about the sample's first 72 hours (perturbed_ensemble, seed 3),
+    to the CSV's rounding; their spread grows with the lead time (Hs's over the members, the last day against
+    the first six hours)."""
+    ds, _ = read_metocean(EX / "metocean" / "sample.csv")
+    want = perturbed_ensemble(ds.isel(time=slice(0, 72)), 5, seed=3)
+    assert len(MEMBERS) == 5
+    hs = []
+    for path, w in zip(MEMBERS, want, strict=True):
+        got, _ = read_metocean(path)
+        for k in ("hs_m", "tp_s", "wind_speed_ms", "wave_from_deg"):
+            assert np.allclose(got[k].values, w[k].values, atol=6e-4, rtol=0), k
+        hs.append(got["hs_m"].values)
+    spread = np.std(np.log(hs), axis=0)
+    assert spread[48:].mean() > 2 * spread[:6].mean()
+
+
+@pytest.mark.slow
+def test_an_ensemble_in_processes_is_the_ensemble_in_this_one_and_the_cli_prints_it(tmp_path, capsys):
+    """Two members, six hours, two seeds: the spawned workers (a member cut in parts) give exactly the states of
+    this process; probabilities are shares of the 4 runs; `loadarm forecast --json` and the figure."""
+    from loadarm.cli import main
+
+    cfg, berth = EX / "paper.toml", EX / "berths" / "lng150k.toml"
+    from loadarm.studies.operability import OperabilitySettings
+
+    s = OperabilitySettings(duration_per_state=600.0)
+    one = run_forecast(cfg, berth, MEMBERS[:2], hours=6, seeds=2, settings=s, workers=1)
+    many = run_forecast(cfg, berth, MEMBERS[:2], hours=6, seeds=2, settings=s, workers=2)
+    for k in ("connected", "esd1", "completes"):
+        assert np.array_equal(getattr(one, k), getattr(many, k), equal_nan=True), k
+    assert set(np.round(one.connected * 4, 9)) <= {0, 1, 2, 3, 4}
+    png = tmp_path / "f.png"
+    code = main(["forecast", "--config", str(cfg), "--berth", str(berth), "--metocean", str(MEMBERS[0]),
+                 "--metocean", str(MEMBERS[1]), "--hours", "6", "--seeds", "2", "--duration-per-state", "600",
+                 "--json", "--png", str(png)])
+    assert code == 0 and png.stat().st_size > 10_000
+    d = json.loads(capsys.readouterr().out)
+    assert d["members"] == 2 and d["seeds"] == 2 and len(d["hourly"]) == 6
+    assert [h["connected_probability"] for h in d["hourly"]] == pytest.approx(list(one.connected), abs=1e-12)
+
+
+@pytest.mark.slow
+def test_the_shipped_ensemble_s_windows_are_the_docs(tmp_path):
+    """The five shipped members over 72 hours: the numbers docs/operability.md quotes and its figure."""
+    from loadarm.present.docsgen import compare_figures, shipped_forecast, study_figures
+
+    r = shipped_forecast()
+    d = r.to_dict()
+    page = " ".join((ROOT / "docs" / "operability.md").read_text().split())
+    quote = (f"the first hour below 50 % is {d['first_down']}, {d['expected_esd1']:.1f} ESD-1 are expected over the "
+             f"three days, and a loading is best started at {d['best_start']} "
+             f"({100 * d['best_start_probability']:.0f} % of the members complete it)")
+    assert quote in page, quote
+    bad = compare_figures(ROOT / "docs" / "img", study_figures(tmp_path, ("forecast.png",), forecast=r))
+    assert not bad, "stale figure (run `make docs`): " + "; ".join(bad)

@@ -30,6 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from loadarm._numba import njit
+
 __all__ = ["PREDICT_PERIOD", "FIT_WINDOW", "ORDER", "HORIZON", "LEVEL", "MIN_ERRORS", "MEMORY", "ArModel",
            "fit_ar", "ar_forecast", "Forecast", "Calibrator",
            "block_means", "claimed_steps", "interval"]
@@ -97,10 +99,36 @@ def block_means(positions: np.ndarray, per_block: int) -> np.ndarray:
     return positions[: n * per_block].reshape(n, per_block, -1).mean(axis=1)
 
 
-def _lagged(y: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of the ``order`` previous values (lag 1 first) and the value each row predicts."""
-    lagged = np.lib.stride_tricks.sliding_window_view(y[:-1], order)[:, ::-1]      # row i: y[i+p-1] .. y[i]
-    return lagged, y[order:]
+@njit(cache=True, nogil=True)
+def _normal_equations(y, order, gram, rhs):
+    """Least squares' normal equations of ``y[t] ~ sum_k phi_k y[t-k]`` (t from ``order``), added into ``gram``
+    (order, order) and ``rhs`` (order,), and ``sum y[t]^2`` returned: the first row by dot products, the rest by
+    the lag matrix's Toeplitz recurrence ``G[i+1, j+1] = G[i, j] + y[p-2-i] y[p-2-j] - y[n-2-i] y[n-2-j]``
+    (O(n p) in all, one thread: no BLAS pool inside the guidance cycle; found: a refit by ``lagged.T @ lagged``
+    took 150 ms instead of 3 when other threads of the process were busy)."""
+    n, p = y.shape[0], order
+    g = np.zeros((p, p))
+    for j in range(p):
+        acc = 0.0
+        for t in range(p, n):
+            acc += y[t - 1] * y[t - 1 - j]
+        g[0, j] = acc
+    for i in range(p - 1):
+        for j in range(i, p - 1):
+            g[i + 1, j + 1] = g[i, j] + y[p - 2 - i] * y[p - 2 - j] - y[n - 2 - i] * y[n - 2 - j]
+    for i in range(p):
+        for j in range(i, p):
+            gram[i, j] += g[i, j]
+            if j != i:
+                gram[j, i] += g[i, j]
+        acc = 0.0
+        for t in range(p, n):
+            acc += y[t] * y[t - 1 - i]
+        rhs[i] += acc
+    yy = 0.0
+    for t in range(p, n):
+        yy += y[t] * y[t]
+    return yy
 
 
 def fit_ar(tracks, order: int = ORDER, *, ridge: float = 1e-6, route: str = "online AR") -> ArModel:
@@ -125,16 +153,17 @@ def fit_ar(tracks, order: int = ORDER, *, ridge: float = 1e-6, route: str = "onl
     for t in tracks:
         if t.shape[0] <= 2 * order:
             raise ValueError(f"fit_ar needs more than {2 * order} samples, got {t.shape[0]}")
-    centred = [t - t.mean(axis=0) for t in tracks]
+    centred = [np.ascontiguousarray(t - t.mean(axis=0)) for t in tracks]
     phi, s2 = np.empty((3, order)), np.empty(3)
+    rows = sum(c.shape[0] - order for c in centred)
     for ax in range(3):
-        gram, rhs, rows = np.zeros((order, order)), np.zeros(order), [_lagged(c[:, ax], order) for c in centred]
-        for lagged, target in rows:
-            gram += lagged.T @ lagged
-            rhs += lagged.T @ target
+        gram, rhs, yy = np.zeros((order, order)), np.zeros(order), 0.0
+        for c in centred:
+            yy += _normal_equations(np.ascontiguousarray(c[:, ax]), order, gram, rhs)
         scale = max(float(np.trace(gram)) / order, 1e-30)
         phi[ax] = np.linalg.solve(gram + ridge * scale * np.eye(order), rhs)
-        s2[ax] = float(np.mean(np.concatenate([target - lagged @ phi[ax] for lagged, target in rows]) ** 2))
+        # the residual's mean square from the same sums: (y'y - 2 phi'r + phi'G phi) / rows
+        s2[ax] = max((yy - 2.0 * float(phi[ax] @ rhs) + float(phi[ax] @ gram @ phi[ax])) / rows, 0.0)
     variance = np.mean([c.var(axis=0) for c in centred], axis=0)
     return ArModel(phi, s2, variance, None, route)
 

@@ -109,3 +109,15 @@ def test_the_shipped_ensemble_s_windows_are_the_docs(tmp_path):
     assert quote in page, quote
     bad = compare_figures(ROOT / "docs" / "img", study_figures(tmp_path, ("forecast.png",), forecast=r))
     assert not bad, "stale figure (run `make docs`): " + "; ".join(bad)
+
+
+def test_no_loading_start_is_offered_when_none_completes():
+    """A forecast whose loadings all fail names no best start (not the first hour at 0 %)."""
+    from loadarm.studies.forecast import ForecastResult
+
+    t = np.arange("2025-01-01T00", "2025-01-01T04", dtype="datetime64[h]")
+    r = ForecastResult(t, np.zeros(4), np.ones(4), np.array([0.0, 0.0, np.nan, np.nan]), np.ones(4), np.ones(4),
+                       np.ones(4), ("arm",) * 4, ("a.csv",), 1, 2.0)
+    s = r.summary()
+    assert s["best_start"] is None and s["first_down"] == "2025-01-01 00:00"
+    assert "none within the forecast" in str(s)

@@ -104,8 +104,8 @@ class ForecastResult(Result):
 
     def _values(self) -> dict:
         below = np.flatnonzero(self.connected < 0.5)
-        ok = np.isfinite(self.completes)
-        best = int(np.nanargmax(self.completes)) if ok.any() else None
+        ok = np.isfinite(self.completes) & (self.completes > 0)
+        best = int(np.nanargmax(np.where(ok, self.completes, -1.0))) if ok.any() else None
         return {"hours": int(self.times.size), "members": len(self.members), "seeds": self.seeds,
                 "first_down": self._hour(below[0]) if below.size else None,
                 "expected_esd1": float(np.sum(self.esd1)),

@@ -133,14 +133,24 @@ def test_readme_accuracy_claims(paper):
     from loadarm.design.multibody import verify_kinematics
 
     cited("README.md", "7e-15 m round-trip error")
-    cited("README.md", "match the closed form to 2e-9 deg and 2e-8 mm")
+    import inspect
+
+    from loadarm.cli.verify import verify
+    from loadarm.design.multibody import VERIFY_SAMPLES
+    from loadarm.present.report import PLAN_SAMPLES
+
+    # each figure with its sampling (found: the report's 2001-sample differences beside README's 201-sample ones)
+    default = inspect.signature(verify).parameters["samples"].default
+    assert default == VERIFY_SAMPLES                       # the report quotes the CLI's default from the same name
+    cited("README.md", f"match the closed form to 2e-9 deg and 2e-8 mm over the {default} samples of `loadarm verify` "
+                       f"(the report checks {PLAN_SAMPLES} samples and quotes its own")
     arm, mount = compile_model(paper).arm, compile_model(paper).mount
     t = np.linspace(0.0, 1.0, 100_001)
     x, y = 3.82 + t * (14.0 - 3.82), 10.4 + t * (1.0 - 10.4)
     alpha, beta, _, _ = solve_ik_cylinders(arm, mount, x, y)
     xf, yf = forward(arm, alpha, beta)
     assert float(np.max(np.hypot(xf - x, yf - y))) < 7.5e-15
-    v = verify_kinematics(compile_model(paper), plan_approach(compile_model(paper), timing="paper", samples=201)).summary()
+    v = verify_kinematics(compile_model(paper), plan_approach(compile_model(paper), timing="paper", samples=default)).summary()
     assert max(v["max_alpha_diff_deg"], v["max_beta_diff_deg"]) < 2.5e-9
     assert max(v["max_r_ac1_diff_mm"], v["max_r_ac2_diff_mm"]) < 2.5e-8
 

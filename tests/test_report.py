@@ -66,6 +66,54 @@ def test_parameters_in_engineering_units_left_aligned_text(own_report):
     assert not re.search(r"\bissue \d", html)               # no tracker references in user-facing text
 
 
+def test_every_range_in_the_unit_of_its_value_and_the_file_s_unit_beside(own_report):
+    """Found: ``valve.laminar_pressure 1 bar ... (0, 1e+07] Pa``: a value in bar beside its range in Pa, and a user
+    who copied the value into the file was refused. Each range is now in the value's unit (pint converts the
+    declaration's bounds) and the value as the file takes it (SI) stands beside it."""
+    from loadarm.params.config import parameter_table
+    from loadarm.present.report import parameter_rows
+
+    _, html, _ = own_report
+    row = re.search(r"<tr><td>valve\.laminar_pressure</td>((?:<td[^>]*>[^<]*</td>){5})", html)
+    cells = re.findall(r"<td[^>]*>([^<]*)</td>", row.group(1))
+    assert cells == ["1", "bar", "1", "(0, 100] bar", "100000 Pa"], cells
+    declared = {r["key"]: r for r in parameter_table()}
+    inst = load_config(PAPER_TOML)
+    converted = 0
+    for r in parameter_rows(inst):
+        section, key = r["key"].split(".", 1)
+        raw = getattr(getattr(inst, section), key)
+        if re.match(r"[\[(]", r["range"]):                        # a numeric range: in the unit of the value
+            assert r["range"].endswith(f" {r['unit']}") or r["unit"] in ("", "1"), r
+        if isinstance(raw, float):                                 # the file column reads back as the value
+            assert float(r["file"].split()[0]) == raw, r
+        converted += r["unit"] != declared[r["key"]]["unit"]
+    assert converted == 18                                         # every Pa, N and m^3/s parameter
+
+
+def test_summary_json_rounds_as_documented_and_the_sized_corner_sounds(own_report):
+    """docs/cli-and-report.md: JSON rounds floats to 12 significant digits (found: summary.json had
+    123.00000000000003 and -4.699999999999999; --json rounded, the report did not); one function rounds both.
+    The sized arm's first-alarm corner is at 123 deg, where the first alarm sounds (found: labelled normal)."""
+    from loadarm.results import round_floats
+    from loadarm.vocab import Severity
+
+    files, _, summary = own_report
+    text = files.summary.read_text()
+    assert "123.00000000000003" not in text and "-4.699999999999999" not in text
+    assert summary == round_floats(summary)                     # every float already at 12 significant digits
+    corner = summary["sizing"]["corners_sized_arm"][3]
+    assert corner["beta_deg"] == 123.0 and corner["y_m"] == -4.7 and corner["zone"] == int(Severity.ESD1)
+
+
+def test_arrive_is_said_to_be_the_first_time_within_the_tolerance(own_report):
+    """Found: "arrive 67.85 s" beside "final 44.57 mm" read as a contradiction: arrive is the first time within the
+    5 mm tolerance, final the distance when the run ends; the report says so under the table."""
+    _, html, _ = own_report
+    assert "arrive: the first time within 5 mm of the flange (the arrival tolerance);" in html
+    assert "final: the distance from the flange when the run ends" in html
+
+
 @pytest.mark.slow
 def test_paper_case_keeps_its_comparison(tmp_path):
     from loadarm.params.config import parse_config
@@ -112,7 +160,7 @@ def _render_minimal():
                       counterweight_outboard_kg=1.0, moment_outboard_kgm=1.0, max_residual_torque_alpha_Nm=1.0,
                       max_residual_torque_beta_Nm=1.0, configured_max_torque_alpha_Nm=1.0,
                       configured_max_torque_beta_Nm=1.0),
-                mass_text="m", scenario_files="", timelines=[],
+                mass_text="m", scenario_files="", timelines=[], arrival_note="a", verify_samples=201,
                 check=NS(esd_lead=1.0, release_lead=1.0, design_speed=0.1, design_accel=0.01,
                          design_vertical_speed=0.0, ok=False, problems=["<i>bad</i>"], accumulator_usable=1e-3,
                          accumulator_needed=1e-3),

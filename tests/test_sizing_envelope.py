@@ -123,8 +123,10 @@ def test_corner_table_for_sized_and_configured_arm(model, inst, arm):
     res = size_installation(inst)
     rows = check_corners(Arm(7.0, res.inboard, res.outboard), alarms, inst)
     assert len(rows) == 4
-    assert all(r.zone == Severity.NORMAL for r in rows)           # sized arm serves the whole berth
     far_low = rows[3]
+    # the sized arm serves the whole berth: the first alarm sounds at the far-low corner (at its threshold), nowhere
+    # else
+    assert [r.zone for r in rows] == [Severity.NORMAL] * 3 + [Severity.ESD1]
     assert math.degrees(far_low.beta) == pytest.approx(123.0, abs=1e-9)
     conf = check_corners(arm, alarms, inst)
     assert conf[3].zone == Severity.ESD1                   # c = 8.2 < 8.2242: corner just past 123 deg
@@ -144,7 +146,34 @@ def test_beta_severity_boundaries():
     deg = np.array([0.0, 122.9, 123.0, 123.1, 143.0, 143.1, 149.9, 150.0, 170.0, np.nan])
     z = beta_severity(np.radians(deg), al)
     N, E, S, R = (int(v) for v in (Severity.NORMAL, Severity.ESD1, Severity.SECOND, Severity.RELEASE))
-    assert z.tolist() == [N, N, N, E, E, S, S, R, R, UNREACHABLE]
+    assert z.tolist() == [N, N, E, E, S, S, S, R, R, UNREACHABLE]     # at its threshold an alarm sounds
+
+
+def test_at_its_threshold_an_alarm_sounds_one_rule_everywhere(inst):
+    """The boundary rule is inclusive and written once (alarms.zone_level): the envelope's zones, the slew's, the
+    controller's position alarms and the compiled kernel agree on a value exactly at, just under and just over
+    each threshold (found: the sized arm's first-alarm corner at beta = 123.00000000000003 deg read "normal")."""
+    from loadarm.arm.alarms import BETA_TOL_RAD, AlarmThresholds, zone_level
+    from loadarm.arm.model import SlewLimits
+
+    thr_deg = (123.0, 143.0, 150.0)
+    al = AlarmAngles(*np.radians(thr_deg))
+    sl = SlewLimits(*np.radians([40.0, 30.0, 34.0, 37.0, 2.0]))
+    thr = AlarmThresholds(al.first, al.second, al.release, sl.first, sl.second, sl.release)
+    E, S, R = int(Severity.ESD1), int(Severity.SECOND), int(Severity.RELEASE)
+    for t, level in ((al.first, E), (al.second, S), (al.release, R)):
+        for b, want in ((t, level), (t + 1e-14, level), (t - 0.5 * BETA_TOL_RAD, level), 
+                        (t - 1e-6, level - 1 - (level == E))):
+            assert int(beta_severity(b, al)) == want == zone_level(b, al.first, al.second, al.release, BETA_TOL_RAD)
+            assert thr.level(b, 0.0)[0] == want
+            if want >= E:
+                assert thr.face(b, 0.0, Severity(want)) == "beta_max"
+    for t, level in ((sl.first, E), (sl.second, S), (sl.release, R)):
+        assert int(slew_severity(-t, sl)) == level == int(thr.level(0.0, -t)[0])
+        assert int(slew_severity(np.nextafter(t, 0.0), sl)) == level - 1 - (level == E)
+    res = size_installation(inst)
+    corner = check_corners(Arm(7.0, res.inboard, res.outboard), al, inst)[3]
+    assert math.degrees(corner.beta) == pytest.approx(123.0, abs=1e-9) and corner.zone == E
 
 
 def test_one_severity_type_orders_every_stage():

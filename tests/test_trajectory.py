@@ -177,5 +177,5 @@ def test_results_are_data_with_summary_to_dict_and_plot(model):
     # metric names are declared once and every declared one is produced
     assert {m.key for m in SIMULATION_METRICS} <= set(sim.summary())
     rows = dict(sim.summary().rows())
-    assert rows["max deviation from the line"].endswith(" mm") and rows["arrival within the tolerance"] != "n/a"
+    assert rows["max deviation from the line"].endswith(" mm") and rows["first time within the arrival tolerance"] != "n/a"
     assert "max deviation from the line" in str(sim.summary())

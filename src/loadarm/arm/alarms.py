@@ -25,9 +25,9 @@ from loadarm.vocab import UNREACHABLE, Severity
 __all__ = ["AlarmAngles", "beta_severity", "slew_severity", "zone_level",
            "AlarmThresholds", "AlarmState", "next_alarm_state", "BETA_TOL_RAD"]
 
-#: Angular tolerance (rad) when comparing beta with a threshold: 1e-9 rad is
-#: 2e-8 m at the tip of a 20 m arm, so a point computed exactly on a boundary
-#: (like the sized arm's first-alarm corner) stays in the lower stage.
+#: Angular tolerance (rad) when comparing beta with a threshold: 1e-9 rad is 2e-8 m at the tip of a 20 m arm,
+#: so a point computed on a boundary (like the sized arm's first-alarm corner, 123.00000000000003 deg or
+#: 122.99999999999997 deg by rounding) is at it: its alarm sounds (:func:`zone_level`).
 BETA_TOL_RAD = 1e-9
 
 
@@ -47,8 +47,38 @@ class AlarmAngles:
                 + ", ".join(f"{math.degrees(v):.3f}" for v in vals) + " deg")
 
 
+def zone_level(value, first: float, second: float, release: float, tol: float):
+    """The boundary rule of every position alarm, written once: **at its threshold an alarm sounds**
+    (``value >= threshold - tol``; the thresholds inclusive, the stage below ends just short of it). A NaN
+    value (no pose: unreachable) is :data:`UNREACHABLE`.
+
+    Written with comparisons and arithmetic only, so that one body serves a float, a NumPy array
+    (:func:`beta_severity`, :func:`slew_severity`), the controller's position alarms
+    (:meth:`AlarmThresholds.level`) and the operability kernel, which compiles it with numba.
+
+    Parameters
+    ----------
+    value : float or ndarray
+        The elbow angle, or the absolute slew, rad.
+    first, second, release : float
+        Thresholds, rad, increasing.
+    tol : float
+        :data:`BETA_TOL_RAD` for beta, 0 for the slew.
+
+    Returns
+    -------
+    int or ndarray of int
+        A :class:`Severity` value (``NORMAL``, ``ESD1``, ``SECOND``, ``RELEASE``: the position alarms have no
+        pre-alarm), or :data:`UNREACHABLE` for NaN.
+    """
+    reached = (value >= first - tol) * 1 + (value >= second - tol) * 1 + (value >= release - tol) * 1
+    level = reached + (LEVEL_ESD1 - 1) * (reached > 0)          # 0 -> NORMAL, 1 -> ESD1, 2 -> SECOND, 3 -> RELEASE
+    nan = (value != value) * 1
+    return level * (1 - nan) + UNREACHABLE * nan
+
+
 def beta_severity(beta: np.ndarray | float, alarms: AlarmAngles) -> np.ndarray:
-    """Severity of each elbow angle (the envelope's zones).
+    """Severity of each elbow angle (the envelope's zones), by :func:`zone_level`.
 
     Parameters
     ----------
@@ -64,37 +94,7 @@ def beta_severity(beta: np.ndarray | float, alarms: AlarmAngles) -> np.ndarray:
         pre-alarm), :data:`UNREACHABLE` where ``beta`` is NaN; shape of ``beta``.
     """
     beta = np.asarray(beta, dtype=float)
-    sev = np.select([beta >= alarms.release - BETA_TOL_RAD, beta > alarms.second + BETA_TOL_RAD,
-                     beta > alarms.first + BETA_TOL_RAD],
-                    [int(Severity.RELEASE), int(Severity.SECOND), int(Severity.ESD1)], int(Severity.NORMAL))
-    return np.where(np.isnan(beta), UNREACHABLE, sev).astype(int)
-
-
-def zone_level(value: float, first: float, second: float, release: float, tol: float) -> int:
-    """The severity of one value against three thresholds, on plain floats: the rule of :func:`beta_severity`
-    (``tol`` = :data:`BETA_TOL_RAD`, NaN unreachable) and of :func:`slew_severity` (``tol`` 0, the absolute
-    slew) for a compiled per-sample loop (the operability kernel compiles it with numba); a test holds it to
-    the two vectorised functions.
-
-    Parameters
-    ----------
-    value, first, second, release, tol : float
-        rad.
-
-    Returns
-    -------
-    int
-        A :class:`Severity` value, or :data:`UNREACHABLE` for NaN.
-    """
-    if value != value:
-        return UNREACHABLE
-    if value >= release - tol:
-        return LEVEL_RELEASE
-    if value > second + tol:
-        return LEVEL_SECOND
-    if value > first + tol:
-        return LEVEL_ESD1
-    return LEVEL_NORMAL
+    return np.asarray(zone_level(beta, alarms.first, alarms.second, alarms.release, BETA_TOL_RAD), dtype=int)
 
 
 #: :class:`Severity` values as plain ints, for compiled code.
@@ -103,7 +103,7 @@ LEVEL_NORMAL, LEVEL_ESD1, LEVEL_SECOND, LEVEL_RELEASE = (int(Severity.NORMAL), i
 
 
 def slew_severity(phi, slew) -> np.ndarray:
-    """Severity of slew angles against the slew thresholds (either side of the centre line).
+    """Severity of slew angles against the slew thresholds (either side of the centre line), by :func:`zone_level`.
 
     Parameters
     ----------
@@ -118,8 +118,7 @@ def slew_severity(phi, slew) -> np.ndarray:
         :class:`Severity` values.
     """
     a = np.abs(np.asarray(phi, dtype=float))
-    return np.select([a >= slew.release, a > slew.second, a > slew.first],
-                     [int(Severity.RELEASE), int(Severity.SECOND), int(Severity.ESD1)], int(Severity.NORMAL))
+    return np.asarray(zone_level(a, slew.first, slew.second, slew.release, 0.0), dtype=int)
 
 
 @dataclass(frozen=True, slots=True)
@@ -170,17 +169,14 @@ class AlarmThresholds:
             ``NORMAL``, ``ESD1``, ``SECOND`` or ``RELEASE``.
         reason : str
         """
-        a_phi = abs(phi)
-        if beta >= self.beta_release or a_phi >= self.slew_release:
-            return Severity.RELEASE, f"{_where(beta, phi)}: at the release angle"
-        if beta > self.beta_second or a_phi > self.slew_second:
-            return Severity.SECOND, f"{_where(beta, phi)}: beyond the second alarm"
-        if beta > self.beta_first or a_phi > self.slew_first:
-            return Severity.ESD1, f"{_where(beta, phi)}: beyond the first alarm"
-        return Severity.NORMAL, ""
+        level = Severity(max(self._beta_level(beta), zone_level(abs(phi), self.slew_first, self.slew_second,
+                                                                self.slew_release, 0.0), LEVEL_NORMAL))
+        why = {Severity.ESD1: "at or beyond the first alarm", Severity.SECOND: "at or beyond the second alarm",
+               Severity.RELEASE: "at the release angle"}.get(level)
+        return (level, f"{_where(beta, phi)}: {why}") if why else (Severity.NORMAL, "")
 
     def face(self, beta: float, phi: float, level: Severity) -> str:
-        """The face a position alarm of ``level`` guards: ``beta_max`` when the elbow angle is past that
+        """The face a position alarm of ``level`` guards: ``beta_max`` when the elbow angle is at or past that
         level's threshold, else the slew's side (:data:`loadarm.vocab.FACES`); ``""`` for no alarm.
 
         Parameters
@@ -196,10 +192,12 @@ class AlarmThresholds:
         """
         if level < Severity.ESD1:
             return ""
-        beta_thr = {Severity.ESD1: self.beta_first, Severity.SECOND: self.beta_second}.get(level, self.beta_release)
-        if beta > beta_thr or (level >= Severity.RELEASE and beta >= beta_thr):
+        if self._beta_level(beta) >= level:
             return "beta_max"
         return "slew_pos" if phi > 0 else "slew_neg"
+
+    def _beta_level(self, beta: float) -> int:
+        return int(zone_level(beta, self.beta_first, self.beta_second, self.beta_release, BETA_TOL_RAD))
 
 
 def _where(beta: float, phi: float) -> str:

@@ -17,6 +17,7 @@ from loadarm.eventlog import KINDS
 from loadarm.files import guard_outputs, printable
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import load_config
+from loadarm.results import round_floats
 
 EXIT_CODES = "Exit codes: 0 ok, 1 internal error (a bug; LOADARM_DEBUG=1 shows the traceback), 2 bad input, 130 interrupted."
 
@@ -213,18 +214,6 @@ class lazy_progress:  # noqa: N801 - used like progress_bar
     def __exit__(self, *exc) -> None:
         if self._bar is not None:
             self._bar.stop()
-
-
-def round_floats(obj, digits: int = 12):
-    """Floats to ``digits`` significant digits: 233.14000000000001 prints as 233.14. Twelve digits keep
-    every physical quantity here far below its measurement or model precision (0.1 um on 100 m)."""
-    if isinstance(obj, float):
-        return float(f"{obj:.{digits}g}") if math.isfinite(obj) else obj
-    if isinstance(obj, dict):
-        return {k: round_floats(v, digits) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [round_floats(v, digits) for v in obj]
-    return obj
 
 
 def print_json(obj) -> None:

@@ -32,7 +32,7 @@ from loadarm.design.timing import TIMING_LAWS
 from loadarm.design.trajectory import plan_approach
 from loadarm.figures import save
 from loadarm.hydraulics.plots import simulation_figure
-from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
+from loadarm.hydraulics.simulate import SIMULATION_METRICS, arrival_note, simulate_approach
 
 __all__ = ["app"]
 
@@ -143,6 +143,7 @@ def simulate(
         for law, r in rows.items():
             t.add_row(*(m.format(r[m.key], unit=False) for m in cols))
         out.print(t)
+        out.print(arrival_note(next(iter(rows.values()))["arrival_tolerance_mm"]))
         for law, r in rows.items():
             for w in r["warnings"]:
                 out.print(f"[yellow]warning ({law}):[/] {escape(w)}", markup=True)

@@ -10,7 +10,7 @@ import typer
 
 from loadarm.arm.dynamics import mass_model
 from loadarm.cli.common import ConfigOpt, ForceOpt, JsonOpt, Timing, check_outputs, err, out, print_json, read_model
-from loadarm.design.multibody import build_mjcf, load_model, verify_kinematics
+from loadarm.design.multibody import VERIFY_SAMPLES, build_mjcf, load_model, verify_kinematics
 from loadarm.design.plots import verification_figure
 from loadarm.design.trajectory import plan_approach
 from loadarm.figures import save
@@ -24,7 +24,7 @@ app = typer.Typer()
 def verify(
     config: ConfigOpt,
     timing: Annotated[Timing, typer.Option(help="Timing law of the approach to verify.")] = Timing.paper,
-    samples: Annotated[int, typer.Option(help="Number of samples along the approach.")] = 201,
+    samples: Annotated[int, typer.Option(help="Number of samples along the approach.")] = VERIFY_SAMPLES,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Draw closed form and MuJoCo over each other.")] = None,
     force: ForceOpt = False,

@@ -46,7 +46,11 @@ if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel
 
 __all__ = ["build_mjcf", "load_model", "VerificationResult", "verify_kinematics", "inverse_dynamics",
-           "mujoco_moment_arms"]
+           "mujoco_moment_arms", "VERIFY_SAMPLES"]
+
+#: Samples of the approach ``loadarm verify`` checks by default (the report checks its own plans' samples; README
+#: quotes each figure with its sampling).
+VERIFY_SAMPLES = 201
 
 _SETTLE_STEPS = 300
 _CONVERGED_M = 1e-8

@@ -66,9 +66,9 @@ def envelope_figure(model: ArmModel, plan=None, arm: Arm | None = None) -> Figur
     fig, ax = subplots(figsize=(11.5, 7.5))
     top = (0.0, arm.a)
     bands = [
-        (radii["r_min"], radii["first"], Severity.NORMAL, f"<= {math.degrees(model.alarms.first):g} deg"),
-        (radii["first"], radii["second"], Severity.ESD1, f"> {math.degrees(model.alarms.first):g} deg"),
-        (radii["second"], radii["release"], Severity.SECOND, f"> {math.degrees(model.alarms.second):g} deg"),
+        (radii["r_min"], radii["first"], Severity.NORMAL, f"< {math.degrees(model.alarms.first):g} deg"),
+        (radii["first"], radii["second"], Severity.ESD1, f">= {math.degrees(model.alarms.first):g} deg"),
+        (radii["second"], radii["release"], Severity.SECOND, f">= {math.degrees(model.alarms.second):g} deg"),
         (radii["release"], radii["r_max"], Severity.RELEASE, f">= {math.degrees(model.alarms.release):g} deg"),
     ]
     for r0, r1, sev, cond in bands:

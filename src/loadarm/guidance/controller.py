@@ -161,10 +161,10 @@ class GuidanceController(SafetyRules):
         if not bool(reach_mask3d(self.arm, p[0], p[1], p[2])):
             return f"target ({p[0]:.2f}, {p[1]:.2f}, {p[2]:.2f}) m is out of the arm's reach"
         q = inverse3d(self.arm, p[0], p[1], p[2])
-        if float(q.beta) > self.thr.beta_first:
-            return f"target needs beta {math.degrees(float(q.beta)):.1f} deg, beyond the first alarm"
-        if abs(float(q.phi)) > self.thr.slew_first:
-            return f"target needs slew {math.degrees(float(q.phi)):.1f} deg, beyond the slew alarm"
+        if self.thr.level(float(q.beta), 0.0)[0] >= Severity.ESD1:        # the one boundary rule: at it, it sounds
+            return f"target needs beta {math.degrees(float(q.beta)):.1f} deg, at or beyond the first alarm"
+        if self.thr.level(0.0, float(q.phi))[0] >= Severity.ESD1:
+            return f"target needs slew {math.degrees(float(q.phi)):.1f} deg, at or beyond the slew alarm"
         if not self.lim.contains((q.phi, q.alpha, q.beta)):
             return "target is outside the cylinders' strokes"
         return ""

@@ -31,7 +31,7 @@ from loadarm.results import Metric, Result
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel
 
-__all__ = ["SIMULATION_METRICS", "SimulationError", "SimulationResult", "pack_parameters", "initial_state", "simulate_approach",
+__all__ = ["SIMULATION_METRICS", "arrival_note", "SimulationError", "SimulationResult", "pack_parameters", "initial_state", "simulate_approach",
            "simulate_hold", "stable_substeps"]
 
 #: Largest ``h * omega`` allowed for the explicit (semi-implicit Euler) part of the plant step. Symplectic
@@ -210,9 +210,9 @@ def initial_state(model: ArmModel, alpha: float, beta: float, *, fill: float | N
 SIMULATION_METRICS = (
     Metric("timing", "timing law", short="timing"),
     Metric("plan_duration_s", "plan duration", "s", ".2f", short="T"),
-    Metric("arrival_time_s", "arrival within the tolerance", "s", ".2f", short="arrive", none="never"),
+    Metric("arrival_time_s", "first time within the arrival tolerance", "s", ".2f", short="arrive", none="never"),
     Metric("arrival_tolerance_mm", "arrival tolerance", "mm", "g"),
-    Metric("final_position_error_mm", "final position error", "mm", ".2f", short="final"),
+    Metric("final_position_error_mm", "position error at the end of the run", "mm", ".2f", short="final"),
     Metric("max_deviation_mm", "max deviation from the line", "mm", ".1f", short="dev max"),
     Metric("rms_deviation_mm", "RMS deviation from the line", "mm", ".1f", short="dev RMS"),
     Metric("max_tracking_error_mm", "cylinder tracking error (max, 1 / 2)", "mm", ".2f"),
@@ -225,6 +225,26 @@ SIMULATION_METRICS = (
     Metric("pump_energy_kJ", "pump energy", "kJ", ".0f", short="energy"),
     Metric("energy_balance_error_pct", "energy balance error", "%", ".3f"),
 )
+
+
+
+
+def arrival_note(tolerance_mm: float) -> str:
+    """What "arrive" and "final" mean, printed under every table that shows the pair (found: "arrive 67.85 s"
+    beside "final 44.57 mm" read as a contradiction).
+
+    Parameters
+    ----------
+    tolerance_mm : float
+        The arrival tolerance (``controller.arrival_tolerance``), mm.
+
+    Returns
+    -------
+    str
+        Two lines.
+    """
+    return (f"arrive: the first time within {tolerance_mm:g} mm of the flange (the arrival tolerance);\n"
+            "final: the distance from the flange when the run ends (the plan, then settling)")
 
 
 @dataclass(frozen=True)

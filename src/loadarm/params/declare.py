@@ -116,7 +116,7 @@ def param_range(model: type[BaseModel], field: str) -> tuple[float | None, bool,
     return lo, lo_incl, hi, hi_incl, unit
 
 
-def range_text(model: type[BaseModel], field: str) -> str:
+def range_text(model: type[BaseModel], field: str, display: tuple[str, Any] | None = None) -> str:
     """A declared parameter's range as ``[lo, hi] unit`` (brackets open where the bound is), or "" if none.
 
     Parameters
@@ -125,6 +125,9 @@ def range_text(model: type[BaseModel], field: str) -> str:
         A section.
     field : str
         One of its parameters.
+    display : (str, callable), optional
+        Show the bounds in another unit: its name and the conversion of a bound from the declared unit (the
+        report's bar, kN and L/min, converted by pint).
 
     Returns
     -------
@@ -133,6 +136,9 @@ def range_text(model: type[BaseModel], field: str) -> str:
     lo, lo_incl, hi, hi_incl, unit = param_range(model, field)
     if lo is None and hi is None:
         return ""
+    if display is not None:
+        unit, convert = display
+        lo, hi = (None if v is None else convert(v) for v in (lo, hi))
     left = ("[" if lo_incl else "(") + ("-inf" if lo is None else f"{lo:g}")
     right = ("inf" if hi is None else f"{hi:g}") + ("]" if hi_incl else ")")
     return f"{left}, {right} {unit}".rstrip()

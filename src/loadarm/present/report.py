@@ -28,7 +28,7 @@ from loadarm.design.alarm_design import design_alarms
 from loadarm.design.balancing import balance_counterweights
 from loadarm.design.check import design_check
 from loadarm.design.loads import CYLINDER_LOAD_METRICS, actuator_loads
-from loadarm.design.multibody import verify_kinematics
+from loadarm.design.multibody import VERIFY_SAMPLES, verify_kinematics
 from loadarm.design.plots import (
     alpha_beta_figure,
     angles_time_figure,
@@ -47,19 +47,21 @@ from loadarm.design.trajectory import Plan, plan_approach
 from loadarm.figures import save
 from loadarm.files import SIGNATURE, atomic_write, guard_outputs
 from loadarm.hydraulics.plots import simulation_figure
-from loadarm.hydraulics.simulate import SIMULATION_METRICS, simulate_approach
+from loadarm.hydraulics.simulate import SIMULATION_METRICS, arrival_note, simulate_approach
 from loadarm.params.berth import load_berth
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import Installation, paper_installation, parameter_table
+from loadarm.params.declare import range_text
 from loadarm.params.scenario import parse_scenario_file, resolve_berth
 from loadarm.ship.model import compile_ship
 from loadarm.ship.summary import ship_summary
 from loadarm.sim.loop import run_scenario
+from loadarm.results import round_floats
 from loadarm.sim.result import RUN_METRICS
 from loadarm.studies.operability import headline_rows, run_operability, write_parquet
 from loadarm.vocab import Severity
 
-__all__ = ["ReportFiles", "ReportData", "FIGURES", "build_report", "summary_dict", "is_paper_case"]
+__all__ = ["ReportFiles", "ReportData", "FIGURES", "build_report", "summary_dict", "is_paper_case", "parameter_rows"]
 
 
 @dataclass(frozen=True)
@@ -169,21 +171,72 @@ _REPORT_SIM_KEYS = ("timing", "plan_duration_s", "arrival_time_s", "max_deviatio
 _REPORT_RUN_KEYS = ("alarm1_s", "alarm2_s", "release_s", "release_complete_s", "release_margin_s", "overstretched_s",
                     "max_beta_deg")
 
-#: Display units for the parameter table: SI value times factor.
-_DISPLAY_UNITS = {"Pa": ("bar", 1e-5), "N": ("kN", 1e-3), "m^3/s": ("L/min", 6e4)}
+#: Display units of the parameter table: the file's SI unit -> the unit an engineer reads it in (pint converts).
+_DISPLAY_UNITS = {"Pa": "bar", "N": "kN", "m^3/s": "L/min"}
+
+
+@functools.cache
+def _converter(unit: str) -> tuple[str, Callable[[float], float]]:
+    """The unit a value of declared ``unit`` is shown in, and its conversion (pint; the identity for a unit
+    shown as it is declared)."""
+    disp = _DISPLAY_UNITS.get(unit)
+    if disp is None:
+        return unit, lambda v: v
+    import pint
+
+    q = pint.get_application_registry().Quantity
+    return disp, lambda v: float(q(v, unit).to(disp).magnitude)
 
 
 def _display(value, unit: str) -> tuple[str, str]:
     """A parameter value and unit as an engineer reads them (bar, kN, L/min)."""
-    disp, factor = _DISPLAY_UNITS.get(unit, (unit, None))
+    disp, convert = _converter(unit)
 
     def one(v):
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             return str(v)
-        return f"{v * factor:.6g}" if factor else f"{v:.6g}"
+        return f"{convert(v):.6g}"
     if isinstance(value, (list, tuple)):
         return "[" + ", ".join(one(v) for v in value) + "]", disp
     return one(value), disp
+
+
+def _file_value(value) -> str:
+    """A value as the file takes it (SI), exactly: it reads back as the same number."""
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_file_value(v) for v in value) + "]"
+    if isinstance(value, float):
+        return f"{value:.0f}" if value.is_integer() and abs(value) < 1e15 else repr(value)
+    return str(value)
+
+
+def parameter_rows(inst: Installation) -> list[dict]:
+    """The report's parameter table: every declared parameter with this installation's value, its default and
+    its valid range, all three in the unit the value is shown in (:data:`_DISPLAY_UNITS`), and the value as the
+    file takes it (SI). Found: values in bar beside a range in Pa (``1 bar ... (0, 1e+07] Pa``).
+
+    Parameters
+    ----------
+    inst : Installation
+
+    Returns
+    -------
+    list of dict
+        Keys ``key``, ``value``, ``unit``, ``default``, ``range``, ``file``, ``description``, ``source``.
+    """
+    rows = []
+    for row in parameter_table():
+        section, key = row["key"].split(".", 1)
+        model = type(getattr(inst, section))
+        raw = getattr(getattr(inst, section), key)
+        value, unit = _display(raw, row["unit"])
+        default = row["default"]
+        if not default.startswith("required"):
+            default = _display(model.model_fields[key].get_default(call_default_factory=True), row["unit"])[0]
+        rng = range_text(model, key, _converter(row["unit"])) or row["range"]
+        file = _file_value(raw) + (f" {row['unit']}" if row["unit"] not in ("", "1", "path") else "")
+        rows.append({**row, "value": value, "unit": unit, "default": default, "range": rng, "file": file})
+    return rows
 
 
 #: Samples of each timing law's plan: one plan per law serves the tables, the CSV, the figures, the MuJoCo check
@@ -542,7 +595,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     # wall-clock cycle times depend on the machine and its load: they belong to `loadarm run`, not the report
     summary["scenarios"] = {name: {k: v for k, v in rr.summary().items() if not k.startswith("cycle_us")}
                             for name, rr in scen_runs.items()}
-    summary_path = atomic_write(out / "summary.json", json.dumps(summary, indent=2))
+    summary_path = atomic_write(out / "summary.json", json.dumps(round_floats(summary), indent=2))
 
     box = berth_box(inst.datasheet)
     fx, fy = inst.approach.flange
@@ -573,15 +626,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         {"pt": "end (flange)", "x": float(p0.x[-1]), "y": float(p0.y[-1]), "a": math.degrees(p0.alpha[-1]),
          "b": math.degrees(p0.beta[-1]), "r1": float(p0.r_ac1[-1]), "r2": float(p0.r_ac2[-1])},
     ]
-    params = []
-    for row in parameter_table():
-        section, key = row["key"].split(".", 1)
-        value, unit = _display(getattr(getattr(inst, section), key), row["unit"])
-        default = row["default"]
-        if not default.startswith("required"):
-            info = type(getattr(inst, section)).model_fields[key]
-            default = _display(info.get_default(call_default_factory=True), row["unit"])[0]
-        params.append({**row, "value": value, "unit": unit, "default": default})
+    params = parameter_rows(inst)
     vs = summary["verification"]
     bs = summary["balance"]
     ms = inst.masses
@@ -641,7 +686,8 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes")]
                             + [(m.key, m.header) for m in scen_cols]),
         "parameters": _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),
-                                      ("range", "valid range"), ("description", "description"), ("source", "source")]),
+                                      ("range", "valid range"), ("file", "in the file (SI)"),
+                                      ("description", "description"), ("source", "source")]),
     }
     figure_data = {name: _figure(path, builders[name][1]) for name, path in figs.items()}
     text = _template().render(
@@ -653,6 +699,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         timelines=[f"timeline_{n}.png" for n in scen_runs], check=check, seq=d.model.sequence,
         berth=berth, berth_file=d.berth_file.name if berth is not None else "",
         design=design if berth is not None else None, oper=summary.get("operability"),
-        oper_settings=inst.operability)
+        oper_settings=inst.operability, verify_samples=VERIFY_SAMPLES,
+        arrival_note=arrival_note(next(iter(summary["simulation"].values()))["arrival_tolerance_mm"]))
     html_path = atomic_write(out / "report.html", text)
     return ReportFiles(html=html_path, summary=summary_path, csv=csvs, figures=figs)

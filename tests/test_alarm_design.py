@@ -204,3 +204,30 @@ def test_cli_refuses_an_exceedance_out_of_range(value):
                         "--exceedance", value], capture_output=True, text=True, timeout=60)
     assert r.returncode == 2 and "Traceback" not in r.stderr
     assert "--exceedance" in r.stderr.strip().splitlines()[-1] or "exceedance" in r.stderr
+
+
+def test_configured_against_recommended_stage_by_stage_and_one_verdict(design):
+    """Found: section 8 passed the configured 123/143/150 deg, section 8b recommended other angles, and nothing
+    reconciled them. Each face and stage is now judged for both sets against both design cases (intact drift,
+    break-out) with its margin and the case that governs, and one verdict comes of the check and the design."""
+    from loadarm.design.alarm_design import STAGES, alarm_verdict
+    from loadarm.design.check import design_check
+
+    fits = {(f.direction, f.stage, f.settings): f for f in design.stages}
+    guarded = [r.direction for r in design.rows if r.coordinate]
+    assert set(fits) == {(d, st, s) for d in guarded for st, _ in STAGES for s in ("configured", "recommended")}
+    off = "off the berth (+x)"
+    conf, rec = fits[off, "ESD-1", "configured"], fits[off, "ESD-1", "recommended"]
+    assert conf.angle_deg == pytest.approx(123.0) and rec.angle_deg == design.recommended["first_beta_deg"]
+    assert rec.fires_at_m < conf.fires_at_m                          # the recommended fires earlier off the berth
+    for f in design.stages:                                            # margins as stated, the governing case too
+        assert f.margin_m == min(f.intact_margin_m, math.inf if f.breakout_margin_m is None else f.breakout_margin_m)
+        assert f.governs == ("break-out" if f.breakout_margin_m is not None and f.breakout_margin_m < f.intact_margin_m
+                             else "intact drift")
+        assert (f.stage == "second alarm") == (f.breakout_margin_m is None)
+        assert all(math.isfinite(v) for v in (f.intact_margin_m, f.breakout_margin_m or 0.0))
+    assert not conf.ok and conf.governs == "break-out"          # 123 deg alone is late for a break-out off the berth
+    check = design_check(compile_model(load_config(INST)))
+    v = alarm_verdict(check, design)
+    assert v.status == "conditional" and "design-drift floor" in v.reason and "off the berth (+x)" in v.reason
+    json.dumps(design.to_dict(), allow_nan=False)                      # --json never meets an infinity

@@ -29,7 +29,8 @@ def test_paper_case_passes_with_the_worked_example_numbers(model):
     assert off.needed == pytest.approx(0.15 * 35 - 0.15 ** 2 / (2 * 0.01))
     assert off.alarm_at == pytest.approx(off.available - off.needed)
     assert off.max_speed == pytest.approx(off.needed / 20.0)
-    assert c.summary()["verdict"] == "pass"
+    # the customer's 123 deg fires 2.81 m out, past the 1.03 m where the design drift needs ESD-1: not "pass"
+    assert off.angle_late and c.summary()["verdict"] == "holds by the floor alone"
 
 
 def test_available_distance_agrees_with_an_independent_walk(model):
@@ -99,7 +100,7 @@ def test_cli_check_exit_codes_and_json(capsys, tmp_path):
     import json
 
     data = json.loads(capsys.readouterr().out)
-    assert data["verdict"] == "pass" and len(data["directions"]) == 6
+    assert data["verdict"] == "holds by the floor alone" and len(data["directions"]) == 6
     bad = tmp_path / "fast.toml"
     bad.write_text(PAPER_TOML.read_text() + "\n[design_drift]\nspeed = 0.5\nacceleration = 0.1\n")
     assert main(["check", "--config", str(bad), "--png", str(tmp_path / "c.png")]) == 2
@@ -119,3 +120,22 @@ def test_faces_cover_reach_and_every_joint_limit(model):
     side = face_margins(model, 10.0, 10.0 * math.tan(lim.phi[1] + 0.01), 1.0)
     assert FACES[int(first_face(side)[1])] == "slew_pos" and first_face(side)[0]
     assert esd_lead(model.sequence) == 35.0 and release_lead(model.sequence) == 20.0
+
+
+@pytest.mark.parametrize("angles,refused,want", [
+    ([None, 0.5, 1.0], False, "pass"),                      # each angle at or before the bar
+    ([None, 0.5, 1.0 + 1e-9], False, "holds by the floor alone"),
+    ([3.0, None, None], False, "holds by the floor alone"),
+    ([3.0, None, None], True, "refused"),
+    ([None, None, None], False, "pass"),
+])
+def test_a_marker_past_the_bar_is_never_shown_with_a_pass(angles, refused, want):
+    """Found: the section-8 figure drew the customer's 123 deg marker (2.8 m off the berth) past the "fires at the
+    latest" bar (1.03 m) under the verdict "pass". check_verdict, which the figure's title and the report read,
+    never says pass while any angle fires past its bar; the figure draws such a marker red."""
+    from loadarm.design.check import DirectionCheck, check_verdict
+
+    rows = [DirectionCheck(f"d{i}", "beta_max", 5.0, a, 4.0, 1.0, 0.2, math.inf, 0.15) for i, a in enumerate(angles)]
+    assert check_verdict(rows, refused) == want
+    late = any(r.angle_alarm is not None and r.angle_alarm > r.alarm_at for r in rows)
+    assert not (late and check_verdict(rows, refused) == "pass")

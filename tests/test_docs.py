@@ -119,9 +119,10 @@ def test_every_figure_in_the_docs_is_generated():
     """Every image the docs show is in docs/img and drawn by `make docs`; nothing else sits in docs/img."""
     import re as _re
 
-    from loadarm.present.docsgen import DOC_FIGURES, HMI_SCREENSHOTS, STUDY_FIGURES
+    from loadarm.present.docsgen import DOC_FIGURES, HMI_SCREENSHOTS, REPORT_PAGES, STUDY_FIGURES
 
-    DOC_FIGURES = DOC_FIGURES + HMI_SCREENSHOTS + STUDY_FIGURES   # the screen's (a real browser) and the studies' too
+    # the screen's and the report's page (a real browser) and the studies' too
+    DOC_FIGURES = DOC_FIGURES + HMI_SCREENSHOTS + REPORT_PAGES + STUDY_FIGURES
     shown = set()
     for f in DOC_FILES:
         shown |= {Path(m).name for m in _re.findall(r"\]\(((?:docs/)?img/[^)]+\.png)\)", f.read_text())}

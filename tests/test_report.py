@@ -4,11 +4,13 @@ the paper), names its input, date and version, and shows engineering units."""
 import json
 import re
 from datetime import datetime, timezone
+from pathlib import Path
 
 import pytest
 
 from loadarm.params.config import load_config
 from loadarm.present.report import build_report
+from loadarm.testing.browser import CHROMIUM_HINT
 
 from .conftest import PAPER_TOML, ROOT
 
@@ -37,8 +39,8 @@ def test_report_names_its_input_date_and_version(own_report):
 
     files, html, summary = own_report
     digest = hashlib.sha256((files.html.parent.parent / "mine.toml").read_bytes()).hexdigest()
-    assert "Generated 2026-11-23 12:00 UTC" in html and f"loadarm {__version__}" in html
-    assert f"mine.toml (sha256 {digest[:16]}" in html
+    assert "<th>date</th><td>2026-11-23 12:00 UTC</td>" in html and f"loadarm {__version__}" in html
+    assert f"mine.toml (sha256 {digest[:16]}" in html and f"<code>{digest}</code>" in html
     assert summary["generated"] == "2026-11-23 12:00 UTC" and summary["input"].startswith("mine.toml")
 
 
@@ -64,6 +66,33 @@ def test_parameters_in_engineering_units_left_aligned_text(own_report):
     assert re.search(r"<tr><td>cylinders\.coulomb_friction</td><td[^>]*>2</td><td>kN</td>", html)
     assert "td.num{text-align:right" in html and "text-align:left" in html
     assert not re.search(r"\bissue \d", html)               # no tracker references in user-facing text
+
+
+def test_a_document_an_engineer_can_sign(own_report, tmp_path):
+    """The title page: the document number and revision, the date, the input's SHA-256, an approval block
+    (prepared, checked, approved: blank name, signature and date) and a table of contents whose every entry links
+    to a section heading that is there; page numbers in print ("page n of N", the document's number beside)."""
+    import hashlib
+
+    from loadarm.present.report import document_identity, report_sections
+
+    files, html, _ = own_report
+    title_page = html.split("</header>")[0]
+    digest = hashlib.sha256((files.html.parent.parent / "mine.toml").read_bytes()).hexdigest()
+    assert f"<th>document</th><td>LA-{digest[:8].upper()}</td><th>revision</th><td>0</td>" in title_page
+    assert f"<code>{digest}</code>" in title_page
+    for role in ("prepared", "checked", "approved"):
+        assert f"<tr><th>{role}</th><td></td><td></td><td></td></tr>" in title_page
+    toc = re.findall(r'<li><a href="#([^"]+)">([^<]+)</a></li>', title_page)
+    assert [t for _, t in toc] == [x["heading"] for x in report_sections(False, False)]
+    for anchor, heading in toc:
+        assert f'<h2 id="{anchor}">{heading}</h2>' in html
+    assert 'counter(page) " of " counter(pages)' in html and f"LA-{digest[:8].upper()} rev 0" in html
+    # the owner's document control, from the file
+    cfg = tmp_path / "doc.toml"
+    cfg.write_text(PAPER_TOML.read_text().replace("[report]", '[report]\ndocument = "TRM-0042"\nrevision = "B"'))
+    assert document_identity(load_config(cfg), cfg)["number"] == "TRM-0042"
+    assert document_identity(load_config(cfg), cfg)["revision"] == "B"
 
 
 def test_every_range_in_the_unit_of_its_value_and_the_file_s_unit_beside(own_report):
@@ -131,7 +160,7 @@ def test_report_html_is_a_template_that_escapes_user_text(own_report, tmp_path):
 
     files, html, _ = own_report
     assert _template().environment.autoescape("report.html.j2") is True
-    assert html.startswith("<!doctype html>") and html.count("<h2>") == 10     # no [report] berth: no berth section
+    assert html.startswith("<!doctype html>") and html.count('<h2 id="s-') == 10  # no [report] berth: no berth section
     text = _template().render(**{**_render_minimal(), "title": "<script>alert(1)</script>"})
     assert "<script>alert(1)</script>" not in text and "&lt;script&gt;alert(1)&lt;/script&gt;" in text
     assert "<i>bad</i>" not in text and "&lt;i&gt;bad&lt;/i&gt;" in text           # the check's reasons too
@@ -144,12 +173,17 @@ def _render_minimal():
     empty = {"headers": [], "rows": []}
     fig = {"uri": "data:,", "caption": "c"}
     inst = load_config(PAPER_TOML)
-    return dict(css="", stamp="now", version="0", input_line="in", notes=["<b>note</b>"], berth=None, berth_file="",
+    from loadarm.present.report import APPROVALS, report_sections
+
+    sections = report_sections(False, False)
+    return dict(doc={"number": "LA-1", "revision": "0", "sha256": "0"}, sections=sections,
+                section={x["key"]: x for x in sections}, approvals=APPROVALS, mark="[loadarm ",
+                css="", stamp="now", version="0", input_line="in", notes=["<b>note</b>"], berth=None, berth_file="",
                 design=None, oper=None, oper_settings=None,
                 sizing=NS(corner=(1.0, -1.0), r_alarm=1.0, inboard=1.0, outboard=1.0, active_bound="x"), inst=inst,
                 paper=False, arm=NS(b=1.0, c=1.0), tables={k: empty for k in (
                     "corners_sized", "corners_configured", "endpoints", "plans", "loads", "simulation", "scenarios",
-                    "parameters", "check")},
+                    "parameters", "check", "reconciliation")}, verdict=NS(status="refused", reason="<i>bad</i>"),
                 figures={k: fig for k in ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "angles_smooth.png",
                                           "timing.png", "cylinders.png", "voltages.png", "verification.png",
                                           "loads.png", "residual_torque.png", "deviation_by_timing.png",
@@ -221,3 +255,51 @@ def test_report_with_a_berth_has_the_moored_ship_and_its_alarm_design(tmp_path):
     rec = summary["berth"]["alarm_design"]["recommended"]
     assert rec["first_beta_deg"] < rec["second_beta_deg"] < rec["release_beta_deg"]
     assert summary["berth"]["ship"]["roll_period_s"] == pytest.approx(22.7, abs=0.1)
+
+
+def test_report_pdf_without_chromium_is_one_line_and_exit_2(tmp_path, monkeypatch, capsys):
+    """``loadarm report --pdf`` with no Chromium: refused before any work, one line with the install hint, exit 2;
+    ``loadarm demo`` without one says in one line that it skipped the PDF."""
+    from loadarm.cli import main
+    from loadarm.present.report import ReportFiles
+
+    monkeypatch.setenv("LOADARM_CHROMIUM", str(tmp_path / "no-such-chromium"))
+    assert main(["report", "--config", str(PAPER_TOML), "--out", str(tmp_path / "r"), "--pdf"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("loadarm: error: --pdf needs Chromium: no Chromium found: install")
+    assert not (tmp_path / "r").exists()                              # nothing computed, nothing written
+    import loadarm.cli.demo as demo
+
+    def fake_build(inst, out_dir, **kw):
+        assert kw["pdf"] is False
+        return ReportFiles(html=Path(out_dir) / "report.html", summary=Path(out_dir) / "summary.json", csv={},
+                           figures={})
+    monkeypatch.setattr(demo, "build_report", fake_build)
+    assert main(["demo", "--out", str(tmp_path / "d")]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("pdf")]
+    assert lines == [f"pdf: skipped ({CHROMIUM_HINT})"]
+
+
+@pytest.mark.slow
+def test_the_pdf_has_every_section_and_page_numbers(tmp_path):
+    """Chromium's print to PDF of the report: every section of the HTML is in the PDF (its outline, written from
+    the headings Chromium laid out), more pages than sections (each starts a page), the document number in the
+    title, and the file carries loadarm's mark (rerun without --force)."""
+    from loadarm.files import written_by_loadarm
+    from loadarm.present.pdf import pdf_outline
+    from loadarm.present.report import report_sections
+    from loadarm.testing.browser import find_chromium
+
+    if find_chromium() is None:
+        pytest.skip(f"the PDF test needs Chromium: {CHROMIUM_HINT}")
+    from loadarm.params.config import parse_config
+
+    d = load_config(PAPER_TOML).model_dump()
+    d["report"] = {"scenarios": [], "document": "TRM-0042", "revision": "B"}
+    files = build_report(parse_config(d), tmp_path, title="pdf test", pdf=True)
+    outline = pdf_outline(files.pdf)
+    assert outline[0].startswith("pdf test, TRM-0042 rev B [loadarm ")
+    headings = [x["heading"] for x in report_sections(False, False)]
+    assert [t for t in outline if t in headings] == headings and "Contents" in outline
+    data = files.pdf.read_bytes()
+    assert data.count(b"/Type /Page\n") > len(headings) and written_by_loadarm(files.pdf)

@@ -26,7 +26,7 @@ from typing import IO, Any
 
 from loadarm.errors import ConfigError, OutputError
 
-__all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "read_input", "check_depth", "atomic_path",
+__all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "PDF_TITLE_MARK", "read_input", "check_depth", "atomic_path",
            "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs", "read_toml", "printable",
            "check_input", "read_binary"]
 
@@ -325,12 +325,16 @@ METOCEAN_MARK = b" metocean record"
 HTML_MARK = f'<meta name="generator" content="{SIGNATURE}'
 #: The JSON summary's first key.
 JSON_MARK = f'{{\n  "generator": "{SIGNATURE}'
+#: The report's PDF mark: its title (the HTML's ``<title>``, which Chromium writes into the PDF's first object)
+#: ends with ``[loadarm <version>]``.
+PDF_TITLE_MARK = f"[{SIGNATURE} "
 
 
 def written_by_loadarm(path: str | Path) -> bool:
     """Whether an existing file carries loadarm's mark, by its format: a PNG with a ``Software`` text chunk
     starting with :data:`SIGNATURE`, an HTML file with :data:`HTML_MARK` in its head, a JSON file whose first
-    key is loadarm's ``generator`` (:data:`JSON_MARK`), a CSV with one of loadarm's headers, or a Parquet file
+    key is loadarm's ``generator`` (:data:`JSON_MARK`), the report's PDF (:data:`PDF_TITLE_MARK` in its title), a
+    CSV with one of loadarm's headers, or a Parquet file
     whose key-value metadata has loadarm's ``generator``. A text that
     merely mentions loadarm is not loadarm's.
 
@@ -353,6 +357,9 @@ def written_by_loadarm(path: str | Path) -> bool:
         return HTML_MARK.encode() in head[:4096]
     if head.startswith(b"{"):
         return head.startswith(JSON_MARK.encode())
+    if head.startswith(b"%PDF-"):                     # the report printed by Chromium: the mark in its title
+        title = head[:2048].split(b"/Title", 1)[1:]
+        return bool(title) and PDF_TITLE_MARK.encode() in title[0].split(b"\n", 1)[0]
     if head.startswith(b"PAR1"):                      # Parquet: the generator in its key-value metadata
         try:
             import pyarrow.parquet as pq

@@ -1,5 +1,5 @@
 """Command line: ``loadarm size | plan | envelope | check | verify | balance | loads | simulate | run | campaign | log |
-mjcf | demo | hydro | alarms | operability | forecast | serve | plc-sim | trust | user | warmup``.
+mjcf | demo | report | hydro | alarms | operability | forecast | serve | plc-sim | trust | user | warmup``.
 
 Bad input of any kind (missing file, invalid config, unreachable target,
 malformed option) prints one line on stderr and exits with status 2; there is
@@ -38,7 +38,7 @@ COMMAND_MODULES = {
     "hydro": "loadarm.cli.ship", "alarms": "loadarm.cli.ship", "operability": "loadarm.cli.studies",
     "forecast": "loadarm.cli.forecast",
     "campaign": "loadarm.cli.studies", "log": "loadarm.cli.run", "mjcf": "loadarm.cli.verify",
-    "demo": "loadarm.cli.demo", "serve": "loadarm.cli.plant", "plc-sim": "loadarm.cli.plant",
+    "demo": "loadarm.cli.demo", "report": "loadarm.cli.report", "serve": "loadarm.cli.plant", "plc-sim": "loadarm.cli.plant",
     "trust": "loadarm.cli.plant", "user": "loadarm.cli.users", "warmup": "loadarm.cli.warmup",
 }
 #: Commands that are groups of their own (their module's whole ``app``).

@@ -59,7 +59,7 @@ from loadarm.errors import ConfigError
 from loadarm.results import Metric, Result
 from loadarm.ship.motion import flange_kinematics, simulate
 
-__all__ = ["FaceDesign", "AlarmDesign", "design_alarms", "DesignSettings", "breakout_curve", "extreme_level",
+__all__ = ["FaceDesign", "AlarmDesign", "StageFit", "Verdict", "alarm_verdict", "STAGES", "design_alarms", "DesignSettings", "breakout_curve", "extreme_level",
            "ExtremeLevel"]
 
 
@@ -255,6 +255,126 @@ class FaceDesign:
                     "gumbel_scale_m": self.extreme.scale}}
 
 
+#: The stages of the position alarms, in order: their name in the tables, the threshold's key.
+STAGES = (("ESD-1", "first"), ("second alarm", "second"), ("ERS-2 release", "release"))
+
+
+@dataclass(frozen=True)
+class StageFit:
+    """One stage of one face under one set of thresholds (the installation's, or the recommended), judged against
+    both design cases over the flanging area's corners (the least margin of any corner).
+
+    Attributes
+    ----------
+    direction, face : str
+        The drift direction and the face it nears.
+    stage : str
+        ``ESD-1``, ``second alarm`` or ``ERS-2 release`` (:data:`STAGES`).
+    settings : str
+        ``configured`` or ``recommended``.
+    angle_deg : float
+        The threshold, deg (beta, or the slew).
+    fires_at_m : float or None
+        Where it fires at the corner of the least margin, m from that corner towards the face (None: not before
+        the face).
+    intact_margin_m : float
+        How far beyond the intact drift allowance it fires, m (negative: it fires in the design weather with the
+        lines intact more often than the stated probability: false alarms).
+    breakout_margin_m : float or None
+        How far short of the face the break-out is when this stage's part of the sequence is done, m (ESD-1: its
+        whole lead; the release: the coupler free with the margin); negative: too late. None for the second alarm
+        (no deadline of its own).
+    """
+
+    direction: str
+    face: str
+    stage: str
+    settings: str
+    angle_deg: float
+    fires_at_m: float | None
+    intact_margin_m: float
+    breakout_margin_m: float | None
+
+    @property
+    def margin_m(self) -> float:
+        """The smaller of the two margins, m."""
+        return min(self.intact_margin_m, math.inf if self.breakout_margin_m is None else self.breakout_margin_m)
+
+    @property
+    def governs(self) -> str:
+        """The design case that sets the margin: ``intact drift`` or ``break-out``."""
+        return "break-out" if self.breakout_margin_m is not None and self.breakout_margin_m < self.intact_margin_m \
+            else "intact drift"
+
+    @property
+    def ok(self) -> bool:
+        """Both margins at least zero."""
+        return self.margin_m >= 0
+
+    def to_dict(self) -> dict:
+        """As JSON.
+
+        Returns
+        -------
+        dict
+        """
+        return {"direction": self.direction, "face": self.face, "stage": self.stage, "settings": self.settings,
+                "angle_deg": self.angle_deg, "fires_at_m": self.fires_at_m, "intact_margin_m": self.intact_margin_m,
+                "breakout_margin_m": self.breakout_margin_m, "margin_m": self.margin_m, "governs": self.governs,
+                "ok": self.ok}
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The one verdict on an installation's alarms at a berth (:func:`alarm_verdict`).
+
+    Attributes
+    ----------
+    status : str
+        ``pass``, ``conditional`` (holds only by the design-drift floor: the configured angles alone are late, or
+        fire in the intact drift) or ``refused``.
+    reason : str
+        Why, in one paragraph.
+    """
+
+    status: str
+    reason: str
+
+
+def alarm_verdict(check, design: "AlarmDesign | None") -> Verdict:
+    """One verdict from the design check (the installation's design drift against its faces) and, at a berth, the
+    alarm design (the mooring analysis) with the configured thresholds judged stage by stage.
+
+    Parameters
+    ----------
+    check : loadarm.design.check.CheckResult
+    design : AlarmDesign or None
+        None without a berth.
+
+    Returns
+    -------
+    Verdict
+    """
+    problems = list(check.problems) + (list(design.problems) if design is not None else [])
+    if problems:
+        return Verdict("refused", "; ".join(problems))
+    late = [r for r in check.rows if r.angle_alarm is not None and r.angle_alarm > r.alarm_at]
+    bad = [f for f in (design.stages if design is not None else ()) if f.settings == "configured" and not f.ok]
+    if not late and not bad:
+        return Verdict("pass", "the configured angles fire in time in every direction, and never inside the "
+                               "intact drift allowance" if design is not None else
+                               "the configured angles fire before the design drift's latest point in every direction")
+    why = [f"{r.direction}: the configured first alarm fires {r.angle_alarm:.2f} m out, past the {r.alarm_at:.2f} m "
+           "where the design drift needs ESD-1 at the latest" for r in late]
+    why += [f"{f.direction}, {f.stage} at {f.angle_deg:.1f} deg: {f.governs} margin {f.margin_m:+.2f} m" for f in bad]
+    return Verdict("conditional", "holds only by the design-drift floor of the connected-mode monitor (it fires "
+                                  "ESD-1 by the time to the face whatever the angles); the configured angles alone "
+                                  "do not: " + "; ".join(why)
+                                  + (". Adopt the recommended settings, which hold on their own"
+                                     if design is not None and all(f.ok for f in design.stages
+                                                                   if f.settings == "recommended") else ""))
+
+
 @dataclass(frozen=True)
 class AlarmDesign(Result):
     """The alarm design of an arm at a berth (``loadarm alarms``)."""
@@ -273,6 +393,7 @@ class AlarmDesign(Result):
     arm: object = field(repr=False)
     joint_limits: object = field(repr=False)
     exceedance_per_hour: float = 1e-4
+    stages: tuple[StageFit, ...] = ()
 
     METRICS = (
         Metric("ok", "design holds"),
@@ -321,7 +442,8 @@ class AlarmDesign(Result):
                                  "intact_speed_max_ms": max(r.intact_speed_ms for r in self.rows),
                                  "breakout_speed_at_release_ms": self.rows[0].breakout_speed_at_release_ms,
                                  "breakout_distance_in_esd_lead_m": self.rows[0].lead_m - self.rows[0].allowance_m},
-                "faces": [r.to_dict() for r in self.rows], "alarms_toml": self.toml(), "problems": list(self.problems),
+                "faces": [r.to_dict() for r in self.rows], "stages": [f.to_dict() for f in self.stages],
+                "alarms_toml": self.toml(), "problems": list(self.problems),
                 "warnings": list(self.warnings)}
 
     def toml(self) -> str:
@@ -507,7 +629,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
     corners, warnings = _corners(model, ship)
     intact, broken, bt, mean_offset = _mooring_analysis(ship, env, settings, calm, progress)
     st = _Stack(model, corners, lead1, t_rel, t_free)
-    rows, problems, curves = [], [], []
+    rows, problems, curves, contexts = [], [], [], []
     tau_main = s_main = None
     for name, vec, kind, how in _DIRECTIONS:
         d = np.array(vec)
@@ -521,7 +643,13 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
         rows.append(st.face_row(name, vec, kind, d, tau, s, allow, v_int, case, problems, warnings, ext))
         if how == "breakout":
             curves.append((tau, s))
+        if kind is not None:
+            contexts.append((rows[-1], kind, d, tau, s, allow))
     rec = _recommended(rows)
+    stages = tuple(fit for row, kind, d, tau, s, allow in contexts
+                   for label, thr in (("configured", _configured(model, kind)), ("recommended", tuple(
+                       math.radians(rec[f"{k}_{kind}_deg"]) for _, k in STAGES)))
+                   for fit in st.stage_fits(row, kind, d, tau, s, allow, label, thr))
     speed, accel = design_drift_fit(curves, lead1 + t_free)
     rec["design_drift_speed_ms"] = speed
     rec["design_drift_acceleration_ms2"] = accel
@@ -530,7 +658,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
                 "erc_release_time_s": seq.erc_release_time, "margin_s": seq.margin, "esd_lead_s": lead1}
     return AlarmDesign(tuple(rows), rec, sequence, ship.natural_periods(), mean_offset, tau_main, s_main,
                        (box.x_near, x_conn_far, box.y_low, box.y_high), tuple(problems), tuple(warnings), (fx, fz),
-                       model.arm, model.joint_limits, settings.exceedance_per_hour)
+                       model.arm, model.joint_limits, settings.exceedance_per_hour, stages)
 
 
 def _x_conn_far(ds) -> float:
@@ -615,6 +743,12 @@ def _drift(model, how: str, broken, bt, d, settings: DesignSettings):
     if how == "vertical":
         return tau, model.design_drift.vertical_speed * tau, "tide and loading at the design vertical speed"
     return tau, np.zeros_like(tau), "the fenders stop the ship: intact motion only"
+
+
+def _configured(model, kind: str) -> tuple[float, float, float]:
+    """The installation's first, second and release thresholds of one coordinate, rad."""
+    src = model.alarms if kind == "beta" else model.slew
+    return src.first, src.second, src.release
 
 
 def _recommended(rows) -> dict:
@@ -713,6 +847,37 @@ class _Stack:
             if need - avail[ci] > short:
                 short, worst = need - avail[ci], ci
         return short, worst
+
+    def stage_fits(self, row, kind, d, tau, s, allow, label, thresholds) -> list[StageFit]:
+        """Each stage of ``thresholds`` (first, second, release, rad) on one face, judged over the corners: where it
+        fires, its margin beyond the intact allowance, and for ESD-1 and the release how far short of the face the
+        break-out is when its part of the sequence is done (the least over the corners)."""
+        seq = self.model.sequence
+        ang = self.guard(kind, float(np.sign(row.vector[0] + row.vector[1])))
+        out = []
+        for (stage, _), thr in zip(STAGES, thresholds):
+            worst = None
+            for c in self.corners:
+                a = ray_crossing(c, d, self.past_face)
+                avail = 40.0 if a is None else a
+                s_fire = ray_crossing(c, d, lambda p, t=thr: ang(p) >= t)
+                s_fire = None if s_fire is None or s_fire >= avail else s_fire
+                intact = (avail if s_fire is None else s_fire) - allow
+                breakout = None
+                if stage != "second alarm":
+                    s1 = ray_crossing(c, d, lambda p: ang(p) >= thresholds[0])
+                    tau1 = min(_tau_at(tau, s, max((avail if s1 is None else s1) - allow, 0.0)), float(tau[-1]))
+                    if stage == "ESD-1":
+                        breakout = avail - allow - _s_at(tau, s, tau1 + self.lead1)
+                    else:                         # a release that never fires before the face: as if at the face
+                        at = avail if s_fire is None else s_fire
+                        taur = min(max(_tau_at(tau, s, max(at - allow, 0.0)), tau1 + self.t_rel), float(tau[-1]))
+                        breakout = avail - allow - _s_at(tau, s, taur + seq.erc_release_time + seq.margin)
+                fit = StageFit(row.direction, row.face, stage, label, math.degrees(thr), s_fire, intact, breakout)
+                if worst is None or fit.margin_m < worst.margin_m:
+                    worst = fit
+            out.append(worst)
+        return out
 
     def face_row(self, name, vec, kind, d, tau, s, allow, v_int, case, problems, warnings,
                  extreme: ExtremeLevel | None = None) -> FaceDesign:

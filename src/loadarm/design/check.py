@@ -56,7 +56,7 @@ from loadarm.design.surge import surge_check
 from loadarm.results import Metric, Result
 from loadarm.vocab import UNREACHABLE, Severity
 
-__all__ = ["DIRECTIONS", "DirectionCheck", "CheckResult", "CHECK_METRICS", "design_check", "esd_lead",
+__all__ = ["DIRECTIONS", "DirectionCheck", "CheckResult", "check_verdict", "CHECK_METRICS", "design_check", "esd_lead",
            "release_lead", "valve_worst_time", "accumulator_usable_volume", "retraction_oil", "MANIFOLD_CLEARANCE"]
 
 #: Directions a ship can drift, as (name, unit vector, horizontal).
@@ -198,6 +198,33 @@ class DirectionCheck:
         """Whether the design drift is absorbed in this direction."""
         return self.alarm_at > 0 and self.max_speed >= self.design_speed
 
+    @property
+    def angle_late(self) -> bool:
+        """Whether the customer's first-alarm angle fires past where the design drift needs ESD-1 at the latest
+        (only the design-drift floor of the monitor then fires in time)."""
+        return self.angle_alarm is not None and self.angle_alarm > self.alarm_at
+
+
+def check_verdict(rows, refused: bool) -> str:
+    """The design check's verdict as the figure and the report show it: ``REFUSED``, ``pass``, or ``holds by
+    the floor alone`` when some customer's first-alarm angle fires past the latest point (found: the figure drew
+    the 123 deg marker 2.8 m out, past the 1.03 m bar, under "pass"). Never ``pass`` with a late angle.
+
+    Parameters
+    ----------
+    rows : sequence of DirectionCheck
+    refused : bool
+        The check found problems.
+
+    Returns
+    -------
+    str
+        ``refused``, ``holds by the floor alone`` or ``pass``.
+    """
+    if refused:
+        return "refused"
+    return "holds by the floor alone" if any(r.angle_late for r in rows) else "pass"
+
 
 #: The headline numbers of a design check, declared once.
 CHECK_METRICS = (
@@ -261,9 +288,14 @@ class CheckResult(Result):
         """Whether the installation passes."""
         return not self.problems
 
+    @property
+    def verdict(self) -> str:
+        """:func:`check_verdict` of this check."""
+        return check_verdict(self.rows, not self.ok)
+
     def _values(self) -> dict:
         return {
-            "verdict": "pass" if self.ok else "refused",
+            "verdict": self.verdict,
             "flange": list(self.flange),
             "esd_lead_s": self.esd_lead,
             "release_lead_s": self.release_lead,

@@ -499,8 +499,8 @@ def check_figure(result) -> Figure:
         start = max(r.available - r.needed, 0.0)
         ax.barh(yi, r.available - start, left=start, color="none", edgecolor="0.15", hatch="///", height=0.6)
         ax.plot([r.alarm_at] * 2, [yi - 0.35, yi + 0.35], color="0.1", lw=2)
-        if r.angle_alarm is not None:
-            ax.plot(r.angle_alarm, yi, marker="v", color="0.1", ms=7)
+        if r.angle_alarm is not None:          # past the bar: too late on its own (red, and the title says so)
+            ax.plot(r.angle_alarm, yi, marker="v", color="#d62728" if r.angle_late else "0.1", ms=7)
         ax.text(r.available + 0.1, yi, f"{r.face or 'none'}  ({r.max_speed:.2f} m/s absorbed)", va="center",
                 fontsize=8)
     ax.set_yticks(y)
@@ -513,10 +513,12 @@ def check_figure(result) -> Figure:
                        Patch(facecolor="none", edgecolor="0.15", hatch="///",
                              label=f"needed: design drift during the {result.esd_lead:g} s first-alarm lead"),
                        Line2D([], [], color="0.1", lw=2, label="first alarm fires at the latest"),
-                       Line2D([], [], color="0.1", marker="v", ls="none", label="customer's first-alarm angle")],
+                       Line2D([], [], color="0.1", marker="v", ls="none", label="customer's first-alarm angle"),
+                       Line2D([], [], color="#d62728", marker="v", ls="none",
+                              label="... past the bar: late on its own, the floor fires first")],
               fontsize=7, loc="lower right")
     ax.set_xlim(0, max(r.available for r in rows) * 1.45)
-    ax.set_title(f"Design check: {'pass' if result.ok else 'REFUSED'} "
+    ax.set_title(f"Design check: {'REFUSED' if result.verdict == 'refused' else result.verdict} "
                  f"(design drift {result.design_speed:g} m/s, {result.design_accel:g} m/s^2)")
     ax.grid(axis="x", alpha=0.3)
     fig.tight_layout()

@@ -451,6 +451,15 @@ class Report(Section):
                           "relative to this file; needs berth (omit for none)",
         json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case: the shipped "
                                                      "two-month sample)"})
+    document: str | None = Field(
+        None, max_length=40, pattern=r"^[A-Za-z0-9][A-Za-z0-9._/-]*$",
+        description="the report's document number, on its title page (omit: LA- and the first 8 hex digits of the "
+                    "installation file's SHA-256)",
+        json_schema_extra={"unit": "text", "source": "the owner's document control"})
+    revision: str = Field(
+        "0", max_length=8, pattern=r"^[A-Za-z0-9][A-Za-z0-9.-]*$",
+        description="the report's revision, on its title page beside the document number",
+        json_schema_extra={"unit": "text", "source": "the owner's document control"})
 
     @model_validator(mode="after")
     def _metocean_needs_berth(self) -> "Report":

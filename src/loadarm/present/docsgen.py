@@ -23,7 +23,7 @@ from loadarm.opcua.security import Role, StateDir
 from loadarm.opcua.server import address_space_markdown
 from loadarm.params.berth import berth_parameter_markdown, load_berth
 from loadarm.params.config import example_toml, load_config, packaged_example, parameter_markdown
-from loadarm.present.report import ReportData, figure_builders
+from loadarm.present.report import ReportData, build_report, figure_builders
 from loadarm.ship.model import compile_ship
 from loadarm.studies.forecast import run_forecast
 from loadarm.studies.metocean import synthetic_metocean
@@ -31,7 +31,7 @@ from loadarm.studies.prediction import calibrate_predictors
 from loadarm.studies.plots import weather_figure
 from loadarm.testing.browser import find_chromium, launch, scenario_screen, tour
 
-__all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "STUDY_FIGURES", "render_doc_figures", "hmi_screenshots",
+__all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "REPORT_PAGES", "report_page", "STUDY_FIGURES", "render_doc_figures", "hmi_screenshots",
            "study_figures", "shipped_forecast", "regenerate", "compare_figures"]
 
 #: The figures the docs show (file names in docs/img); the paper's case draws them.
@@ -51,6 +51,10 @@ WEATHER_YEARS = 10
 #: The operator's screen in docs/hmi.md: screenshots a real browser takes of the scripted drift-off
 #: (:func:`hmi_screenshots`; not compared pixel by pixel: a live screen's clock and noise differ each run).
 HMI_SCREENSHOTS = ("hmi-approach.png", "hmi-connected.png", "hmi-alarm1.png", "hmi-release.png")
+
+#: The report's title page as printed (docs/cli-and-report.md): drawn by :func:`report_page` from the paper's
+#: report in Chromium with the print stylesheet (not compared pixel by pixel: its date and hash change).
+REPORT_PAGES = ("report-page.png",)
 
 #: Root-mean-square difference (0-255 grey levels) tolerated between a committed and a redrawn figure:
 #: anti-aliasing may differ by a pixel across FreeType builds; any change of a curve, label or legend is far
@@ -204,6 +208,45 @@ def hmi_screenshots(dest: str | Path, *, speedup: float = 4.0) -> list[Path]:
     return out
 
 
+def report_page(dest: str | Path) -> Path:
+    """The title page of the paper's report as printed (A4, the print stylesheet), taken in Chromium:
+    ``report-page.png`` (:data:`REPORT_PAGES`).
+
+    Parameters
+    ----------
+    dest : str or Path
+        Where it goes.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    FileNotFoundError
+        No Chromium (the message says how to install it).
+    """
+    import tempfile
+
+    from playwright.sync_api import sync_playwright
+
+    source = packaged_example("paper.toml")
+    out = Path(dest) / REPORT_PAGES[0]
+    with tempfile.TemporaryDirectory() as tmp:
+        files = build_report(load_config(source), tmp, title="loadarm: the paper's case end to end", source=source)
+        with sync_playwright() as p:
+            browser = launch(p)
+            # A4 at 96 px/in less the page's margins (210 x 297 mm, 14 and 15/18 mm): the printed page's content box
+            page = browser.new_page(viewport={"width": 688, "height": 998}, device_scale_factor=1.5)
+            page.emulate_media(media="print")
+            page.goto(files.html.resolve().as_uri())
+            out.parent.mkdir(parents=True, exist_ok=True)
+            page.screenshot(path=str(out), clip={"x": 0, "y": 0, "width": 688, "height": 998})
+            browser.close()
+    return out
+
+
 def regenerate(root: str | Path = ".") -> list[Path]:
     """Rewrite the generated parts of the docs under ``root``.
 
@@ -226,6 +269,10 @@ def regenerate(root: str | Path = ".") -> list[Path]:
         written += hmi_screenshots(root / "docs" / "img")
     else:
         print("docs/img/hmi-*.png kept: no Chromium to take them (apt-get install chromium)")
+    if find_chromium() is not None:
+        written.append(report_page(root / "docs" / "img"))
+    else:
+        print("docs/img/report-page.png kept: no Chromium to take it (apt-get install chromium)")
 
     return [*written, *regenerate_tables(root)]
 

@@ -24,7 +24,7 @@ from pathlib import Path
 
 from loadarm import __version__
 from loadarm.arm.envelope import berth_box, zone_radii
-from loadarm.design.alarm_design import design_alarms
+from loadarm.design.alarm_design import alarm_verdict, design_alarms
 from loadarm.design.balancing import balance_counterweights
 from loadarm.design.check import design_check
 from loadarm.design.loads import CYLINDER_LOAD_METRICS, actuator_loads
@@ -45,13 +45,14 @@ from loadarm.design.sizing import size_installation, sizing_summary
 from loadarm.design.timing import TIMING_LAWS
 from loadarm.design.trajectory import Plan, plan_approach
 from loadarm.figures import save
-from loadarm.files import SIGNATURE, atomic_write, guard_outputs
+from loadarm.files import PDF_TITLE_MARK, SIGNATURE, atomic_write, guard_outputs
 from loadarm.hydraulics.plots import simulation_figure
 from loadarm.hydraulics.simulate import SIMULATION_METRICS, arrival_note, simulate_approach
 from loadarm.params.berth import load_berth
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import Installation, paper_installation, parameter_table
 from loadarm.params.declare import range_text
+from loadarm.present.pdf import chromium_or_fail, print_pdf
 from loadarm.params.scenario import parse_scenario_file, resolve_berth
 from loadarm.ship.model import compile_ship
 from loadarm.ship.summary import ship_summary
@@ -61,7 +62,8 @@ from loadarm.sim.result import RUN_METRICS
 from loadarm.studies.operability import headline_rows, run_operability, write_parquet
 from loadarm.vocab import Severity
 
-__all__ = ["ReportFiles", "ReportData", "FIGURES", "build_report", "summary_dict", "is_paper_case", "parameter_rows"]
+__all__ = ["ReportFiles", "ReportData", "FIGURES", "SECTIONS", "APPROVALS", "build_report", "summary_dict",
+           "is_paper_case", "parameter_rows", "report_sections", "document_identity"]
 
 
 @dataclass(frozen=True)
@@ -72,6 +74,7 @@ class ReportFiles:
     summary: Path
     csv: dict[str, Path]
     figures: dict[str, Path]
+    pdf: Path | None = None
 
 
 _NUMBER = re.compile(r"[+-]?\d+(\.\d*)?([eE][+-]?\d+)?( / [+-]?\d+(\.\d*)?)?")
@@ -138,6 +141,15 @@ th{background:#f3f3f3} td.num{text-align:right;font-variant-numeric:tabular-nums
 figure{margin:1em 0} figure img{max-width:100%;border:1px solid #eee} figcaption{font-size:.85em;color:#555}
 .note{background:#fff8e1;border-left:4px solid #f0c000;padding:.5em 1em;font-size:.9em}
 code{background:#f4f4f4;padding:0 .2em}
+.titlepage table{width:100%} .titlepage th{width:9em} .approval td{height:2.6em;width:28%}
+.toc ol{list-style:none;padding-left:0;columns:2} .toc li{margin:.15em 0} .toc a{color:#222;text-decoration:none}
+@page{size:A4;margin:15mm 14mm 18mm;
+ @bottom-left{content:"__DOCID__";font:8pt system-ui,sans-serif;color:#555}
+ @bottom-right{content:"page " counter(page) " of " counter(pages);font:8pt system-ui,sans-serif;color:#555}}
+@media print{body{max-width:none;margin:0;padding:0;font-size:10pt} .titlepage{break-after:page}
+ h2{break-before:page;break-after:avoid} h3{break-after:avoid} figure,tr,pre,.note{break-inside:avoid}
+ figure img{max-height:150mm;object-fit:contain} a{color:inherit;text-decoration:none}
+ table{font-size:8pt}}
 """
 
 
@@ -391,6 +403,17 @@ def _operability_rows(od: dict) -> list[dict]:
     return [{"k": k, "v": v} for k, v in rows]
 
 
+def _reconciliation_rows(stages) -> list[dict]:
+    """Configured against recommended, per face and stage, side by side (the alarm design's :class:`StageFit`)."""
+    pairs: dict[tuple, dict] = {}
+    for f in stages:
+        row = pairs.setdefault((f.direction, f.stage), {"dir": f.direction, "face": f.face, "stage": f.stage})
+        key = "c" if f.settings == "configured" else "r"
+        row.update({f"{key}_deg": f.angle_deg, f"{key}_at": f.fires_at_m if f.fires_at_m is not None else "not before",
+                    f"{key}_margin": f.margin_m, f"{key}_case": f.governs + ("" if f.ok else " (SHORT)")})
+    return list(pairs.values())
+
+
 def _timeline(name: str):
     return lambda d: d.scenarios[name].plot()      # the run carries its own thresholds
 
@@ -426,7 +449,8 @@ FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
     "check.png": (lambda d: d.check.plot(),
                   "Design check: per drift direction, the distance to the first face of the envelope (grey), the "
                   "design drift's distance during the first alarm's lead (hatched), where the first alarm fires at "
-                  "the latest (bar) and the customer's first-alarm angle (triangle)."),
+                  "the latest (bar) and the customer's first-alarm angle (triangle; red past the bar: late on its "
+                  "own, the floor fires first, and the verdict is never a plain pass)."),
 }
 
 
@@ -479,6 +503,72 @@ def _template():
     return env.get_template("report.html.j2")
 
 
+#: The report's sections in order: ``key -> (number, title, shown when)``; the template's headings and its table
+#: of contents both read them here. ``when``: always, or only with a ``[report] berth`` or ``metocean``.
+SECTIONS = {
+    "sizing": ("1", "Arm sizing (paper Eqs 1-3, Table 1)", "always"),
+    "envelope": ("2", "Operating envelope and alarm zones (paper Fig. 4)", "always"),
+    "approach": ("3", "Straight-line approach (paper Eqs 4-11, 14)", "always"),
+    "cylinders": ("4", "Cylinders and valve commands (paper Eqs 12-13, Section 5)", "always"),
+    "mujoco": ("5", "Multibody verification in MuJoCo (paper Section 4, Fig. 8)", "always"),
+    "dynamics": ("6", "Dynamics, counterweights and actuator sizing", "always"),
+    "closed_loop": ("7", "Electro-hydraulic closed loop (paper Fig. 11)", "always"),
+    "check": ("8", "Connected-mode safety: the design check", "always"),
+    "berth": ("8b", "The berth: moored ship and alarm design", "berth"),
+    "operability": ("8c", "Operability over the metocean record", "metocean"),
+    "scenarios": ("9", "Live guidance to a moving ship (scenarios)", "always"),
+    "parameters": ("10", "Parameters", "always"),
+}
+
+
+def report_sections(berth: bool, metocean: bool) -> list[dict]:
+    """The sections a report shows, in order, each with its anchor, number and title.
+
+    Parameters
+    ----------
+    berth, metocean : bool
+        Whether the installation names a ``[report] berth`` and a ``metocean`` (run).
+
+    Returns
+    -------
+    list of dict
+        ``{"key", "id", "number", "title", "heading"}``.
+    """
+    shown = {"always": True, "berth": berth, "metocean": metocean}
+    return [{"key": k, "id": f"s-{k.replace('_', '-')}", "number": n, "title": t, "heading": f"{n}. {t}"}
+            for k, (n, t, when) in SECTIONS.items() if shown[when]]
+
+
+#: The approval block of the title page: who signs, in order.
+APPROVALS = ("prepared", "checked", "approved")
+
+
+def _input_digest(source: Path | None, inst: Installation) -> str:
+    """SHA-256 of the installation file (of its canonical JSON for the built-in case)."""
+    data = source.read_bytes() if source is not None else inst.model_dump_json().encode()
+    return hashlib.sha256(data).hexdigest()
+
+
+def document_identity(inst: Installation, source: Path | None) -> dict:
+    """The document number and revision of the title page (``[report] document`` and ``revision``; the number
+    defaults to ``LA-`` and the first 8 hex digits of the input's SHA-256, so a changed file is another document).
+
+    Parameters
+    ----------
+    inst : Installation
+    source : Path or None
+        The installation file.
+
+    Returns
+    -------
+    dict
+        ``number``, ``revision``, ``sha256``.
+    """
+    digest = _input_digest(source, inst)
+    return {"number": inst.report.document or f"LA-{digest[:8].upper()}", "revision": inst.report.revision,
+            "sha256": digest}
+
+
 def _input_line(source: Path | None) -> str:
     if source is None:
         return "input: the built-in paper case (loadarm.params.config.paper_installation)"
@@ -486,8 +576,8 @@ def _input_line(source: Path | None) -> str:
     return f"input: {source.name} (sha256 {digest[:16]}…)"
 
 
-def report_outputs(inst: Installation, out_dir: str | Path,
-                   source: str | Path | None = None) -> tuple[list[Path], list[Path]]:
+def report_outputs(inst: Installation, out_dir: str | Path, source: str | Path | None = None, *,
+                   pdf: bool = False) -> tuple[list[Path], list[Path]]:
     """Every file :func:`build_report` writes, known before anything is computed, and the scenario files it reads.
 
     Parameters
@@ -496,6 +586,8 @@ def report_outputs(inst: Installation, out_dir: str | Path,
     out_dir : str or Path
     source : str or Path, optional
         The installation file (its ``[report] scenarios`` are relative to it).
+    pdf : bool
+        With ``report.pdf``.
 
     Returns
     -------
@@ -508,13 +600,15 @@ def report_outputs(inst: Installation, out_dir: str | Path,
         f"timeline_{Path(f).stem}.png" for f in inst.report.scenarios] + ([OPERABILITY_FIGURE[0]] if oper else [])
     inputs = ([base / f for f in inst.report.scenarios] + ([base / inst.report.berth] if inst.report.berth else [])
               + ([base / inst.report.metocean] if oper else []))
-    return ([out / "report.html", out / "summary.json"] + [out / f"plan_{law}.csv" for law in TIMING_LAWS]
+    return ([out / "report.html", out / "summary.json"] + ([out / "report.pdf"] if pdf else [])
+            + [out / f"plan_{law}.csv" for law in TIMING_LAWS]
             + [out / "figures" / n for n in names] + ([out / "operability.parquet"] if oper else [])), inputs
 
 
 def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loadarm report",
                  source: str | Path | None = None, now: datetime | None = None,
-                 progress: Callable[[str], None] | None = None, force: bool = False) -> ReportFiles:
+                 progress: Callable[[str], None] | None = None, force: bool = False,
+                 pdf: bool = False) -> ReportFiles:
     """Run sizing, envelope, the three timing laws, dynamics, the closed loop and the scenarios; write the report.
 
     Parameters
@@ -533,6 +627,9 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         Called with a short description before each step (for a progress bar).
     force : bool
         Replace existing files of the same names that loadarm did not write (:func:`loadarm.files.guard_outputs`).
+    pdf : bool
+        Print ``report.pdf`` from the HTML with Chromium as well (:func:`loadarm.present.pdf.print_pdf`; without
+        Chromium refused before any work).
 
     Returns
     -------
@@ -544,9 +641,10 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     OutputError
         Before anything is computed: an output would replace an input or a file loadarm did not write.
     """
-    outputs, scenario_files = report_outputs(inst, out_dir, source)
+    outputs, scenario_files = report_outputs(inst, out_dir, source, pdf=pdf)
     guard_outputs([("--out", p) for p in outputs], [*scenario_files, *([Path(source)] if source is not None else [])],
                   force=force)
+    chromium = chromium_or_fail() if pdf else None
     step = progress or (lambda _msg: None)
     src = Path(source) if source is not None else None
     stamp = (now or datetime.now(timezone.utc)).strftime("%Y-%m-%d %H:%M UTC")
@@ -587,6 +685,8 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     if berth is not None:
         summary["berth"] = {"file": str(d.berth_file.name), "ship": ship_sum.to_dict(),
                             "alarm_design": design.to_dict()}
+    verdict = alarm_verdict(check, design if berth is not None else None)
+    summary["verdict"] = {"status": verdict.status, "reason": verdict.reason}
     if oper is not None:
         od = oper.to_dict()
         od.pop("wall_s", None)                # wall time and workers depend on the machine: not in the report
@@ -678,6 +778,12 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
              ("esd", "ESD-1 at [m]"), ("rel", "ERS-2 at [m]"), ("lead", "ESD-1 lead reaches [m]"),
              ("avail", "face at [m]"), ("angles", "first / second / release [deg]"), ("ok", "ok")],
             {"allow": ".2f", "esd": ".2f", "rel": ".2f", "lead": ".2f", "avail": ".2f"}),
+        "reconciliation": _table(_reconciliation_rows(design.stages if berth is not None else ()), [
+            ("dir", "direction"), ("face", "face"), ("stage", "stage"), ("c_deg", "configured [deg]"),
+            ("c_at", "fires at [m]"), ("c_margin", "margin [m]"), ("c_case", "governs"),
+            ("r_deg", "recommended [deg]"), ("r_at", "fires at [m]"), ("r_margin", "margin [m]"),
+            ("r_case", "governs")], {"c_deg": ".1f", "r_deg": ".1f", "c_at": ".2f", "r_at": ".2f",
+                                     "c_margin": "+.2f", "r_margin": "+.2f"}),
         "operability": _table(_operability_rows(summary["operability"]) if oper is not None else [],
                               [("k", "quantity"), ("v", "value")]),
         "operability_stages": _table(
@@ -690,8 +796,11 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
                                       ("description", "description"), ("source", "source")]),
     }
     figure_data = {name: _figure(path, builders[name][1]) for name, path in figs.items()}
+    doc = document_identity(inst, src)
+    sections = report_sections(berth is not None, oper is not None)
     text = _template().render(
-        title=title, css=_CSS, stamp=stamp, version=__version__, input_line=_input_line(src), notes=notes,
+        doc=doc, sections=sections, verdict=verdict, section={x["key"]: x for x in sections}, approvals=APPROVALS, mark=PDF_TITLE_MARK,
+        title=title, css=_CSS.replace("__DOCID__", f"{doc['number']} rev {doc['revision']}"), stamp=stamp, version=__version__, input_line=_input_line(src), notes=notes,
         sizing=sizing, inst=inst, paper=paper, arm=arm, tables=tables, figures=figure_data,
         local_minima=", ".join(f"({b:.3f}, {c:.3f})" for b, c in sizing.local_minima),
         paper_peak_speed=plans["paper"].summary()["peak_path_speed_m_s"], csv_names=[p.name for p in csvs.values()],
@@ -702,4 +811,8 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         oper_settings=inst.operability, verify_samples=VERIFY_SAMPLES,
         arrival_note=arrival_note(next(iter(summary["simulation"].values()))["arrival_tolerance_mm"]))
     html_path = atomic_write(out / "report.html", text)
-    return ReportFiles(html=html_path, summary=summary_path, csv=csvs, figures=figs)
+    pdf_path = None
+    if chromium is not None:
+        step("printing report.pdf (Chromium)")
+        pdf_path = print_pdf(html_path, out / "report.pdf", chromium=chromium)
+    return ReportFiles(html=html_path, summary=summary_path, csv=csvs, figures=figs, pdf=pdf_path)

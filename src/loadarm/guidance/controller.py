@@ -265,12 +265,24 @@ class GuidanceController(SafetyRules):
         """This cycle's command from the state and the final rates."""
         s = self.state
         attached = self.attached()
-        ttl = s.forecast.time if (attached and s.forecast is not None) else math.inf
-        faces = s.forecast.by_face if (attached and s.forecast is not None) else ()
+        f = s.forecast if attached else None
+        ttl = f.time if f is not None else math.inf
+        faces = f.by_face if f is not None else ()
+        horizon = max(s.leads.values()) if (f is not None and s.leads) else math.inf
         return Command(s.mode, tuple(float(v) for v in rates), attached, s.esd_since is not None,
                        s.release_since is not None, s.valves_cmd_since is not None,
                        s.release_started_at is not None, s.level if attached else Severity.NORMAL, ttl,
-                       tuple(s.events), faces)
+                       tuple(s.events), faces, horizon, f.route if f is not None else "",
+                       self._forecast_drift(f))
+
+    def _forecast_drift(self, f) -> tuple:
+        """The measured drift velocity a forecast extrapolated (its route's fit; the drift fit's when the design
+        drift governs), m/s, or ``()``."""
+        if f is None:
+            return ()
+        mon = self.monitor
+        est = {"velocity step": mon.step_est, "break-out": mon.breakout_est}.get(f.route, mon.est)
+        return () if est is None else tuple(float(v) for v in est.v)
 
     def attached(self) -> bool:
         """Whether the coupler is on the flange (a connected mode, or an emergency stop taken from one).

@@ -143,6 +143,14 @@ class Command:
         Events of this cycle, for the event log.
     time_to_faces : tuple of (str, float)
         The forecast's time to each face it crossed within its horizon, nearest first (:class:`LimitForecast`).
+    horizon : float
+        How far ahead the forecast looked, s (the longest stage lead now; ``inf`` when not attached): a
+        ``time_to_limit`` of ``inf`` means beyond it.
+    route : str
+        The forecast's route to the nearest face (:attr:`LimitForecast.route`; ``""``: none in sight).
+    drift : tuple of float
+        The measured drift velocity the forecast extrapolated (the route's fit; the drift fit's when the design
+        drift governs), m/s; ``()`` when there is no fit yet or not attached.
     """
 
     mode: Mode
@@ -156,6 +164,9 @@ class Command:
     time_to_limit: float = math.inf
     events: tuple = ()
     time_to_faces: tuple = ()
+    horizon: float = math.inf
+    route: str = ""
+    drift: tuple = ()
 
 
 @dataclass(frozen=True, slots=True)

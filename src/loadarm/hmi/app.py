@@ -19,7 +19,7 @@ from pathlib import Path
 from urllib.parse import urlsplit
 
 from loadarm.hmi.sessions import COOKIE, SECRET_BYTES, LoginLimiter, Sessions
-from loadarm.hmi.state import AlarmBook, frame, geometry
+from loadarm.hmi.state import JOURNAL_KINDS, AlarmBook, frame, geometry, journal_entry
 from loadarm.opcua.security import StateDir, is_user_name
 from loadarm.opcua.service import JOG_HOLD, Request, parse_jog
 from loadarm.vocab import COMMANDS, TAGGED_ACTIONS
@@ -133,14 +133,15 @@ class _Screen:
     """What the application's routes share: the users, the sessions, the login limit, the alarm book and the frame
     cache of one service. Each route is a method; :func:`create_app` only wires them."""
 
-    def __init__(self, service, state_dir, model, clock, wall, frame_rate: float, name: str):
+    def __init__(self, service, state_dir, model, clock, wall, frame_rate: float, name: str, berth=None):
         self.service, self.model, self.wall, self.frame_rate, self.name = service, model, wall, frame_rate, name
         self.users = StateDir(state_dir).users()
         self.sessions, self.limiter, self.book = Sessions(clock=clock), LoginLimiter(clock=clock), AlarmBook()
-        self.geo = geometry(model)
+        self.geo = geometry(model, berth)
         self.cache: dict = {"seq": None, "alarms": []}
         self.lock = threading.Lock()
         self.replay = hasattr(service, "new_cursor")      # a logged run (loadarm.hmi.replay): no commands, a slider
+        self.anchor = getattr(service, "anchor", None)    # where the flange was first seen healthy (the ship's)
 
     def current(self, request) -> tuple[str | None, object]:
         token = request.cookies.get(COOKIE)
@@ -209,8 +210,53 @@ class _Screen:
         with self.lock:
             if self.cache["seq"] != snap.seq:
                 raised = self.service.raised_at(snap) if self.replay else None
-                self.cache["seq"], self.cache["alarms"] = snap.seq, self.book.update(snap.t, snap.alarms, raised)
+                walls = self.service.raised_wall(snap) if self.replay else None
+                self.cache["seq"], self.cache["alarms"] = snap.seq, self.book.update(
+                    snap.t, snap.alarms, raised, wall=snap.wall, raised_wall=walls)
+            if self.anchor is None and snap.estimate_healthy and all(map(math.isfinite, snap.flange_estimate)):
+                self.anchor = tuple(snap.flange_estimate)
             return self.cache["alarms"]
+
+    def trend(self, snap) -> list[dict]:
+        """The trends' points up to ``snap`` (the last 10 minutes): the replay's from its log, the live
+        service's from its cycles (none from a service that keeps none)."""
+        if self.replay:
+            return self.service.trend(snap.t)
+        log = getattr(self.service, "trend", None)
+        return [] if log is None else log.window_at(snap.t)
+
+    def get_journal(self, request):
+        """The alarm journal, newest first: ``kind`` one of :data:`loadarm.hmi.state.JOURNAL_KINDS`, ``q`` words
+        to find (each, in any case), at most ``limit`` entries; ``total`` those that matched."""
+        if self.current(request)[1] is None:
+            return _json_error("not logged in", 401)
+        p = request.query_params
+        kinds = JOURNAL_KINDS.get(p.get("kind", "all"))
+        if kinds is None:
+            return _json_error(f"kind is one of {', '.join(JOURNAL_KINDS)}", 400)
+        words = p.get("q", "")[:200].lower().split()
+        limit = int(p.get("limit", "500")) if p.get("limit", "500").isdigit() else 500
+        got = [e for e in self.journal() if e["kind"] in kinds
+               and all(w in f"{e['clock']} {e['t']:.1f} {e['kind']} {e['tag'] or ''} {e['text']}".lower()
+                       for w in words)]
+        return {"entries": got[::-1][:limit], "total": len(got), "kinds": list(JOURNAL_KINDS)}
+
+    def journal(self) -> list[dict]:
+        """Every journal entry (:func:`loadarm.hmi.state.journal_entry`), oldest first: the replay's log, or the
+        live run's events (what it writes to its log), each timed on the wall clock from the latest snapshot's
+        (its run time back at the service's speed-up)."""
+        now = self.wall()
+        if self.replay:
+            return self.service.journal(now)
+        loop = getattr(self.service, "loop", None)
+        snap = self.service.snapshot()
+        if loop is None or snap is None:
+            return []
+        speed = getattr(self.service, "speedup", 1.0)
+        base = snap.wall if math.isfinite(snap.wall) else None
+        return [journal_entry(t, None if base is None else base - (snap.t - t) / speed, mode, kind, reason, data,
+                              now)
+                for t, mode, kind, reason, data in list(loop.events) if kind in JOURNAL_KINDS["all"]]
 
     def _refusal(self, s, msg: dict) -> str | None:
         """Why a screen's command is refused before it is built (CSRF, replay, unknown, role), or None."""
@@ -268,7 +314,7 @@ class _Screen:
 
     async def push(self, websocket, cursor, token: str | None) -> None:
         """Frames to one screen, at most ``frame_rate`` a second, a keep-alive at least every ``KEEPALIVE``."""
-        last_seq, last_sent = None, -math.inf
+        last_seq, last_sent, trended = None, -math.inf, None
         while True:
             snap = self.service.snapshot(cursor) if self.replay else self.service.snapshot()
             now = time.monotonic()
@@ -276,12 +322,24 @@ class _Screen:
                 if self.sessions.get(token) is None:       # the session ended (logout, idle): no more frames
                     await websocket.close(code=4401)
                     return
-                f = frame(snap, self.model, self.alarms_for(snap), sent_at=self.wall())
+                f = frame(snap, self.model, self.alarms_for(snap), sent_at=self.wall(), anchor=self.anchor)
                 if self.replay:
                     f["replay"] = cursor.state()
                 await websocket.send_text(json.dumps(f))
+                trended = await self._send_trend(websocket, snap, trended)
                 last_seq, last_sent = snap.seq, now
             await asyncio.sleep(1.0 / self.frame_rate)
+
+    async def _send_trend(self, websocket, snap, last: float | None) -> float | None:
+        """The trend points a screen has not had (``type`` "trend"): the new ones, or the whole window again
+        (``reset``) when the run time went back or jumped (a replay's slider). Returns the last point's time."""
+        points = self.trend(snap)
+        if not points or points[-1]["t"] == last:
+            return last
+        new = [p for p in points if last is not None and p["t"] > last]
+        reset = last is None or points[-1]["t"] < last or not new or new[0]["t"] - last > 2.5
+        await websocket.send_text(json.dumps({"type": "trend", "reset": reset, "points": points if reset else new}))
+        return points[-1]["t"]
 
     def message(self, s, text: str, cursor, jogging: dict, token: str | None) -> tuple[str, bool]:
         """One message from a screen and the reply it gets; True when the session has ended (stop listening)."""
@@ -341,7 +399,8 @@ class _Screen:
 
 
 def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.monotonic,
-               wall: Callable[[], float] = time.time, frame_rate: float = FRAME_RATE, name: str = "loadarm"):
+               wall: Callable[[], float] = time.time, frame_rate: float = FRAME_RATE, name: str = "loadarm",
+               berth=None):
     """The HMI's FastAPI application.
 
     Parameters
@@ -359,6 +418,8 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
         Frames per second to each screen.
     name : str
         Shown in the title.
+    berth : loadarm.params.berth.Berth, optional
+        The ship the top view draws (default the design ship: :func:`loadarm.hmi.state.ship_outline`).
 
     Returns
     -------
@@ -369,7 +430,7 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     from fastapi.responses import FileResponse
     from fastapi.staticfiles import StaticFiles
 
-    screen = _Screen(service, state_dir, model, clock, wall, frame_rate, name)
+    screen = _Screen(service, state_dir, model, clock, wall, frame_rate, name, berth)
     app = FastAPI(title=f"loadarm HMI ({name})", docs_url=None, redoc_url=None, openapi_url=None)
     app.state.sessions, app.state.book = screen.sessions, screen.book
 
@@ -401,6 +462,10 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     @app.get("/api/geometry")
     async def get_geometry(request: HttpRequest):
         return screen.get_geometry(request)
+
+    @app.get("/api/journal")
+    async def get_journal(request: HttpRequest):
+        return screen.get_journal(request)
 
     @app.websocket("/ws")
     async def ws(websocket: WebSocket):

@@ -7,13 +7,15 @@ import math
 import threading
 import time
 from collections.abc import Callable
+from datetime import datetime
 
 import numpy as np
 
 from loadarm.errors import EventLogError
 from loadarm.eventlog import check_samples
 from loadarm.guidance.modes import MODES
-from loadarm.sim.snapshot import snapshot
+from loadarm.hmi.state import JOURNAL_KINDS, journal_entry
+from loadarm.sim.snapshot import TREND_WINDOW, snapshot, trend_point
 from loadarm.vocab import ANNUNCIATED
 
 __all__ = ["ReplayService", "ReplayCursor"]
@@ -54,14 +56,19 @@ class ReplayService:
         # at its logged transition out of normal (found: the 1 Hz sample after it, ESD-1 shown at 212.0 s where
         # the log has 211.2 s), or at the first sample showing it in a log without those transitions
         raises = _raise_times(events)
-        self._alarms, self._raised, since = [], [], {}
+        self._alarms, self._raised, self._raised_wall, since = [], [], [], {}
         for e in self.samples:
             states = {tag: "normal" for tag in ANNUNCIATED}
             states.update(e.data.get("alarms", {}))
-            since = {tag: since.get(tag, _raised_by(raises.get(tag, ()), e.t)) for tag, st in states.items()
-                     if st != "normal"}
+            since = {tag: since.get(tag) or _raised_by(raises.get(tag, ()), e.t, _epoch(e.wall))
+                     for tag, st in states.items() if st != "normal"}
             self._alarms.append(states)
-            self._raised.append(dict(since))
+            self._raised.append({tag: t for tag, (t, _) in since.items()})
+            self._raised_wall.append({tag: w for tag, (_, w) in since.items()})
+        self.events = [e for e in events if e.kind in JOURNAL_KINDS["all"]]
+        healthy = [e for e in self.samples if e.data.get("healthy") and None not in (e.data.get("flange") or [None])]
+        #: Where the flange was first seen healthy (the ship is drawn moved from there).
+        self.anchor = tuple(healthy[0].data["flange"]) if healthy else None
 
     #: A replay takes no command; its screen still runs the login limit.
     jog_speed = 0.0
@@ -99,6 +106,22 @@ class ReplayService:
         """When each alarm active in ``snap`` (one of :meth:`snapshot`'s) was raised, run time s."""
         return self._raised[snap.seq]
 
+    def raised_wall(self, snap) -> dict:
+        """When each alarm active in ``snap`` was raised on the wall clock (the log's), s since the epoch."""
+        return self._raised_wall[snap.seq]
+
+    def trend(self, t: float) -> list[dict]:
+        """The trend points of run time ``(t - TREND_WINDOW, t]``: one per logged sample
+        (:func:`loadarm.sim.snapshot.trend_point`, what the live service keeps at the same times)."""
+        lo = int(np.searchsorted(self.times, t - TREND_WINDOW, side="right"))
+        hi = int(np.searchsorted(self.times, t, side="right"))
+        return [trend_point(self._at(i)) for i in range(lo, hi)]
+
+    def journal(self, now: float) -> list[dict]:
+        """The run's journal (:func:`loadarm.hmi.state.journal_entry`), oldest first, each with the log's wall
+        clock."""
+        return [journal_entry(e.t, _epoch(e.wall), e.state, e.kind, e.reason, e.data, now) for e in self.events]
+
     def request(self, req) -> None:
         raise PermissionError("a replay takes no command")
 
@@ -106,7 +129,9 @@ class ReplayService:
         """The sample at or before a cursor (default the service's own) as a
         :class:`loadarm.sim.snapshot.Snapshot` (its ``seq`` the sample's index)."""
         i = int(np.searchsorted(self.times, (cursor or self._cursor).cursor(), side="right")) - 1
-        i = max(i, 0)
+        return self._at(max(i, 0))
+
+    def _at(self, i: int):
         snap = self._cache.get(i)
         if snap is None:
             snap = self._cache[i] = self._snapshot(i)
@@ -114,12 +139,21 @@ class ReplayService:
 
     def _snapshot(self, i: int):
         e = self.samples[i]
-        return snapshot(self.model, i, e.t, e.state, e.data)
+        return snapshot(self.model, i, e.t, e.state, e.data, wall=_epoch(e.wall))
 
 
-def _raise_times(events) -> dict[str, list[float]]:
-    """Each alarm's logged transitions out of normal, run time s, in order (its ``alarm_state`` events)."""
-    out: dict[str, list[float]] = {}
+def _epoch(wall: str) -> float:
+    """A log's wall-clock time (ISO 8601) in s since the epoch (NaN if it is not one)."""
+    try:
+        return datetime.fromisoformat(wall).timestamp()
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _raise_times(events) -> dict[str, list[tuple[float, float]]]:
+    """Each alarm's logged transitions out of normal, (run time s, wall clock s), in order (its ``alarm_state``
+    events)."""
+    out: dict[str, list[tuple[float, float]]] = {}
     last: dict[str, str] = {}
     for e in events:
         if e.kind != "alarm_state":
@@ -128,15 +162,16 @@ def _raise_times(events) -> dict[str, list[float]]:
         if tag is None or st is None:
             continue
         if st != "normal" and last.get(tag, "normal") == "normal":
-            out.setdefault(tag, []).append(float(e.t))
+            out.setdefault(tag, []).append((float(e.t), _epoch(e.wall)))
         last[tag] = st
     return out
 
 
-def _raised_by(times, t: float) -> float:
-    """The last of an alarm's raise times at or before ``t`` (``t`` itself when the log has none)."""
-    k = int(np.searchsorted(np.asarray(times, dtype=float), t, side="right")) - 1
-    return float(times[k]) if k >= 0 else float(t)
+def _raised_by(times, t: float, wall: float) -> tuple[float, float]:
+    """The last of an alarm's raise times at or before ``t`` (``t`` and ``wall``, the sample's, when the log has
+    none)."""
+    k = int(np.searchsorted(np.asarray([r[0] for r in times], dtype=float), t, side="right")) - 1
+    return times[k] if k >= 0 else (float(t), wall)
 
 
 class ReplayCursor:

@@ -1,16 +1,25 @@
 """What the operator's screen shows: the drawing's fixed geometry from the compiled model, one frame per
 controller snapshot, and the alarm list (ISA-18.2: priority, time, message, state; shelving with a maximum
-time). Pure: the HMI server calls these with the snapshot and its own clock."""
+time; times of day from the injected wall clock), the trends of the last 10 minutes, the forecast's state and the
+alarm journal. Pure: the HMI server calls these with the snapshot and its own clocks."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from datetime import datetime
+
+import numpy as np
 
 from loadarm.arm.alarms import AlarmState
-from loadarm.vocab import CONDITION_TEXT, FACES, PRIORITIES, Severity, priority
+from loadarm.guidance.monitor import stage_leads
+from loadarm.params.berth import RHO_SEA, BerthSection, ShipSection
+from loadarm.ship.hull import hull_mesh
+from loadarm.vocab import (CONDITION_TEXT, EVENTS, FACE_WORDS, FACES, PRIORITIES, Severity, event_label,
+                           priority)
 
-__all__ = ["PRIORITIES", "SHELVE_MAX", "AlarmBook", "AlarmEntry", "geometry", "frame", "priority"]
+__all__ = ["PRIORITIES", "SHELVE_MAX", "JOURNAL_KINDS", "AlarmBook", "AlarmEntry", "clock_text", "drift_words",
+           "forecast_state", "geometry", "frame", "journal_entry", "priority", "ship_outline"]
 
 #: The longest an operator may shelve an alarm, s (ISA-18.2: shelving is time-limited; the alarm comes back).
 SHELVE_MAX = 600.0
@@ -32,6 +41,8 @@ class AlarmEntry:
         Run time it became active, s.
     shelved_until : float or None
         Run time the shelving ends, s (None: not shelved).
+    raised_wall : float or None
+        Wall-clock time it became active, s since the epoch (None: not known).
     """
 
     tag: str
@@ -41,11 +52,12 @@ class AlarmEntry:
     state: str
     raised_at: float
     shelved_until: float | None = None
+    raised_wall: float | None = None
 
     def to_dict(self) -> dict:
         return {"tag": self.tag, "message": self.message, "priority": self.priority,
                 "priority_name": self.priority_name, "state": self.state, "raised_at": self.raised_at,
-                "shelved_until": self.shelved_until}
+                "shelved_until": self.shelved_until, "raised_wall": self.raised_wall}
 
 
 class AlarmBook:
@@ -58,26 +70,34 @@ class AlarmBook:
 
     def __init__(self):
         self.raised: dict[str, float] = {}
+        self.raised_wall: dict[str, float | None] = {}
         self.shelved: dict[str, float] = {}
 
-    def update(self, t: float, alarms: dict, raised: dict | None = None) -> list[AlarmEntry]:
+    def update(self, t: float, alarms: dict, raised: dict | None = None, *, wall: float | None = None,
+               raised_wall: dict | None = None) -> list[AlarmEntry]:
         """The list at run time ``t`` for the controller's alarm states ``alarms`` (tag to state), most urgent
-        first, then newest first; ``raised`` gives when each was raised where known (a replay's log)."""
+        first, then newest first; ``raised`` gives when each was raised where known (a replay's log), run time,
+        and ``raised_wall`` the same on the wall clock; else an alarm was raised now: at ``t`` and ``wall`` (the
+        snapshot's wall-clock time, s since the epoch)."""
         out = []
         for tag, state in alarms.items():
             if state == AlarmState.NORMAL.value:
-                self.raised.pop(tag, None)
-                self.shelved.pop(tag, None)
+                for book in (self.raised, self.raised_wall, self.shelved):
+                    book.pop(tag, None)
                 continue
             if raised and tag in raised:
                 self.raised[tag] = raised[tag]
+            if raised_wall and tag in raised_wall:
+                self.raised_wall[tag] = raised_wall[tag]
             self.raised.setdefault(tag, t)
+            self.raised_wall.setdefault(tag, _num(wall) if wall is not None else None)
             until = self.shelved.get(tag)
             if until is not None and t >= until:
                 del self.shelved[tag]
                 until = None
             rank, name = priority(tag)
-            out.append(AlarmEntry(tag, CONDITION_TEXT.get(tag, tag), rank, name, state, self.raised[tag], until))
+            out.append(AlarmEntry(tag, CONDITION_TEXT.get(tag, tag), rank, name, state, self.raised[tag], until,
+                                  self.raised_wall[tag]))
         out.sort(key=lambda e: (e.priority, -e.raised_at, e.tag))
         return out
 
@@ -98,7 +118,7 @@ class AlarmBook:
         return ""
 
 
-def geometry(model) -> dict:
+def geometry(model, berth=None) -> dict:
     """The drawing's fixed geometry, SI: arm lengths, the alarm angles, the reach of each alarm zone from the
     inboard hinge (bands in the side view), the berth box, the slew limits, and the time the emergency sequence
     needs (ESD-1, ERS valves, release, margin: a time to limit above it is in the normal range).
@@ -106,6 +126,8 @@ def geometry(model) -> dict:
     Parameters
     ----------
     model : ArmModel
+    berth : loadarm.params.berth.Berth, optional
+        The ship drawn in the top view (:func:`ship_outline`).
 
     Returns
     -------
@@ -121,15 +143,51 @@ def geometry(model) -> dict:
     zones = [{"name": name, "from_beta": lo, "to_beta": hi, "from_r": reach(lo), "to_r": reach(hi)}
              for name, lo, hi in (("ESD-1", al.first, al.second), ("second alarm", al.second, al.release),
                                   ("release", al.release, beta_max))]
-    bb, sl, sq = model.berth, model.slew, model.sequence
+    bb, sl, sq, dd = model.berth, model.slew, model.sequence, model.design_drift
     return {"a": arm.a, "b": arm.b, "c": arm.c, "zones": zones,
             "sequence_time": sq.esd_time + sq.ers_valve_time + sq.erc_release_time + sq.margin,
+            "horizon": max(stage_leads(sq).values()),
+            "design_drift": {"speed": dd.speed, "acceleration": dd.acceleration, "vertical": dd.vertical_speed},
             "alarm_beta": {"first": al.first, "second": al.second, "release": al.release},
             "berth": {"jetty_face": bb.jetty_face, "berthing_line": bb.berthing_line, "x_far": bb.x_far,
                       "y_low": bb.y_low, "y_high": bb.y_high},
             "slew": {"limit": sl.limit, "first": sl.first, "second": sl.second, "release": sl.release},
             "limits": {"phi": list(model.joint_limits.phi), "beta": list(model.joint_limits.beta)},
-            "faces": list(FACES)}
+            "faces": list(FACES), "face_words": dict(FACE_WORDS),
+            "ship": ship_outline(model, berth)}
+
+
+def ship_outline(model, berth=None) -> dict:
+    """The ship in the top view: its deck edge from the berth's hull (:func:`loadarm.ship.hull.hull_mesh`, the
+    same parametric hull the hydrodynamics mesh), lying at its moored position: the side given by ``[berth]
+    side`` against the berthing line, midships at ``[berth] ship_y``.
+
+    Parameters
+    ----------
+    model : ArmModel
+        Its berth box (the berthing line).
+    berth : loadarm.params.berth.Berth, optional
+        The berth file's ship and berth (default: the design ship of :mod:`loadarm.params.berth`, for a scenario
+        without a berth file).
+
+    Returns
+    -------
+    dict
+        ``outline``: the deck edge, ``[x, y]`` in the jetty frame (x off the berth, y along it), m; ``length``,
+        ``beam``: m; ``side``.
+    """
+    ship = berth.ship if berth is not None else ShipSection()
+    place = berth.berth if berth is not None else BerthSection()
+    cb = ship.displacement / (RHO_SEA * ship.length_pp * ship.beam * ship.draft)
+    mesh = hull_mesh(ship.length_pp, ship.beam, ship.draft, ship.depth, cb, nx=48, nz=3)
+    v = mesh.vertices
+    deck = v[np.isclose(v[:, 2], ship.depth) & (v[:, 1] >= 0)]
+    deck = deck[np.argsort(deck[:, 0])]
+    ring = np.concatenate([deck[:, :2], deck[::-1, :2] * [1.0, -1.0]])       # port edge forward, starboard aft
+    sign = 1.0 if place.side == "port" else -1.0       # the side against the fenders faces the jetty (-x)
+    x0 = model.berth.berthing_line + ship.beam / 2
+    pts = [[round(float(x0 - sign * ys), 3), round(float(place.ship_y + sign * xs), 3)] for xs, ys in ring]
+    return {"outline": pts, "length": ship.length_pp, "beam": ship.beam, "side": place.side}
 
 
 def _num(v: float) -> float | None:
@@ -138,7 +196,149 @@ def _num(v: float) -> float | None:
     return v if math.isfinite(v) else None
 
 
-def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float) -> dict:
+def clock_text(wall: float | None, now: float) -> str:
+    """A wall-clock time as the alarm list shows it: the local time of day, with the date before it when that
+    day is not ``now``'s ("" when not known).
+
+    Parameters
+    ----------
+    wall, now : float
+        s since the epoch (``now``: the server's injected wall clock).
+
+    Returns
+    -------
+    str
+        ``"14:03:27"`` or ``"2026-12-04 14:03:27"``.
+    """
+    if wall is None or not math.isfinite(wall):
+        return ""
+    at = datetime.fromtimestamp(wall)
+    day = "" if at.date() == datetime.fromtimestamp(now).date() else f"{at:%Y-%m-%d} "
+    return f"{day}{at:%H:%M:%S}"
+
+
+def drift_words(v) -> dict | None:
+    """A horizontal drift velocity as the operator reads it: speed, the direction in degrees from "off the berth"
+    (+x) towards +y along it, and the words of that direction.
+
+    Parameters
+    ----------
+    v : sequence of float
+        m/s, jetty frame (x off the berth, y along it); empty or non-finite: None.
+
+    Returns
+    -------
+    dict or None
+        ``speed`` (m/s), ``direction_deg``, ``words``.
+    """
+    if len(v) < 2 or not all(math.isfinite(float(c)) for c in v[:2]):
+        return None
+    vx, vy = float(v[0]), float(v[1])
+    deg = math.degrees(math.atan2(vy, vx))
+    sector = int(round(deg / 45.0)) % 8
+    words = ("off the berth", "off the berth and along it, +y", "along the berth, +y",
+             "onto the berth and along it, +y", "onto the berth", "onto the berth and along it, -y",
+             "along the berth, -y", "off the berth and along it, -y")[sector]
+    return {"speed": math.hypot(vx, vy), "direction_deg": deg, "words": words}
+
+
+#: The routes of the forecast that extrapolate a measured drift (:class:`loadarm.guidance.monitor.LimitForecast`).
+_MEASURED_ROUTES = ("measured drift", "velocity step", "break-out")
+
+
+def forecast_state(snap, model) -> dict:
+    """What the screen says of the time to limit: ``state`` is ``"time"`` (a face within the forecast's
+    horizon), ``"beyond"`` (none within it: "> H s", H the horizon the forecast used), ``"none"`` (attached but
+    no forecast: no healthy estimate or the plant's values bad) or ``"off"`` (not attached: nothing to forecast);
+    ``text``, the nearest ``face`` and its words, the ``route`` and the ``drift`` the forecast used.
+
+    Parameters
+    ----------
+    snap : loadarm.sim.snapshot.Snapshot
+    model : ArmModel
+
+    Returns
+    -------
+    dict
+    """
+    times = {f: t for f, t in snap.time_to_faces.items() if math.isfinite(t)}
+    face = min(times, key=times.get) if times else ""
+    drift = drift_words(snap.drift)
+    out = {"face": face, "face_words": FACE_WORDS.get(face, ""), "route": snap.route,
+           "horizon": _num(snap.horizon), "drift": drift, "design_speed": model.design_drift.speed,
+           "basis": _basis(snap.route, drift, model.design_drift.speed) if snap.connected else ""}
+    if not snap.connected:
+        return {**out, "state": "off", "text": "not connected"}
+    if not (snap.plant_ok and snap.estimate_healthy and math.isfinite(snap.horizon)):
+        why = "plant values bad" if not snap.plant_ok else "no healthy estimate"
+        return {**out, "state": "none", "text": f"NO FORECAST: {why}"}
+    if math.isfinite(snap.time_to_limit):
+        return {**out, "state": "time", "text": f"{snap.time_to_limit:.1f} s"}
+    return {**out, "state": "beyond", "text": f"> {snap.horizon:.0f} s"}
+
+
+def _basis(route: str, drift: dict | None, design: float) -> str:
+    """The drift a forecast used, in words: the measured one when a measured route found the nearest face,
+    else the berth's design drift (in any horizontal direction), with the measured drift beside it."""
+    measured = None if drift is None else (f"{drift['speed']:.2f} m/s {drift['words']} "
+                                           f"({drift['direction_deg']:.0f} deg)")
+    if route in _MEASURED_ROUTES and measured:
+        return f"{route}: {measured}"
+    text = f"design drift {design:.2f} m/s, any direction"
+    return f"{text}; measured {measured}" if measured else text
+
+
+#: The journal's filters: each a set of event kinds (:data:`loadarm.eventlog.KINDS`; the samples are never in it).
+JOURNAL_KINDS = {"all": ("alarm", "alarm_state", "operator", "security", "mode", "command", "interlock", "info",
+                         "sensor"),
+                 "alarms": ("alarm", "alarm_state"), "operator": ("operator", "security"),
+                 "modes": ("mode", "command", "interlock")}
+
+
+def _journal_text(kind: str, data: dict, reason: str) -> str:
+    """An event's line in the journal, from its codes (the face's and the alarm's words), never its message."""
+    code, tag = data.get("code"), data.get("tag")
+    if kind == "alarm_state" and tag in CONDITION_TEXT:
+        return f"{CONDITION_TEXT[tag]}: {data.get('alarm_state', '')}"
+    if kind == "mode" and "mode" in data:
+        return f"{data.get('previous', '?')} -> {data['mode']}"
+    if kind == "operator" and "action" in data:
+        return f"{data.get('user', '?')}: {data['action']}" + (f" {tag}" if tag else "")
+    if code in EVENTS:
+        face = FACE_WORDS.get(data.get("face", ""), "")
+        return event_label(code) + (f": {face}" if face else "")
+    return reason
+
+
+def journal_entry(t: float, wall: float | None, mode: str, kind: str, reason: str, data: dict, now: float) -> dict:
+    """One line of the alarm journal: run time, wall-clock time and its text (:func:`clock_text`), the kind, the
+    alarm's tag and priority (an alarm's state change), and what happened in the operator's words.
+
+    Parameters
+    ----------
+    t : float
+        Run time, s.
+    wall : float or None
+        Wall-clock time, s since the epoch.
+    mode, kind, reason : str
+        The event's.
+    data : dict
+        The event's data (its codes).
+    now : float
+        The server's wall clock (the date is shown when the day differs).
+
+    Returns
+    -------
+    dict
+    """
+    tag = data.get("tag") if kind == "alarm_state" else None
+    prio = priority(tag) if tag in CONDITION_TEXT else (None, None)
+    return {"t": t, "wall": _num(wall) if wall is not None else None, "clock": clock_text(wall, now),
+            "mode": mode, "kind": kind, "tag": tag, "priority": prio[0], "priority_name": prio[1],
+            "text": _journal_text(kind, data, reason)}
+
+
+def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float, anchor=None) -> dict:
     """One update of the screen: everything in SI (the page converts for display), non-finite values as
     None.
 
@@ -149,7 +349,11 @@ def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float) -> dict:
     alarms : list of AlarmEntry
         :meth:`AlarmBook.update` for this snapshot.
     sent_at : float
-        The HMI server's wall clock, s (the page measures staleness against its own).
+        The HMI server's wall clock, s (the page measures staleness against its own; the alarms' times of day are
+        dated against it).
+    anchor : sequence of float, optional
+        Where the flange was first seen healthy, m: the ship is drawn moved by the estimate's displacement
+        from it (``ship_offset``).
 
     Returns
     -------
@@ -173,6 +377,17 @@ def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float) -> dict:
         "margins": {f: _num(v) for f, v in snap.margins.items()},
         "time_to_faces": {f: _num(v) for f, v in snap.time_to_faces.items()},
         "pressures": [_num(v) for v in snap.pressures],
-        "alarms": [a.to_dict() for a in alarms if a.shelved_until is None],
+        "alarms": [{**a.to_dict(), "clock": clock_text(a.raised_wall, sent_at)} for a in alarms
+                   if a.shelved_until is None],
         "shelved": [a.to_dict() for a in alarms if a.shelved_until is not None],
+        "wall": _num(snap.wall), "forecast": forecast_state(snap, model),
+        "ship_offset": _offset(snap, anchor),
     }
+
+
+def _offset(snap, anchor) -> list[float]:
+    """The flange estimate's horizontal displacement from ``anchor``, m (zero without both)."""
+    f = snap.flange_estimate
+    if anchor is None or not (math.isfinite(f[0]) and math.isfinite(f[1])):
+        return [0.0, 0.0]
+    return [float(f[0] - anchor[0]), float(f[1] - anchor[1])]

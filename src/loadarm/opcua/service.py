@@ -22,7 +22,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from loadarm.guidance.modes import CONNECTED_MODES, OperatorInput
-from loadarm.sim.snapshot import MODE_TAIL, Snapshot, snapshot, state_sample
+from loadarm.sim.snapshot import MODE_TAIL, Snapshot, TrendLog, snapshot, state_sample
 from loadarm.vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
 
 __all__ = ["ACTIONS", "JOG_HOLD", "REALTIME_SWITCH_INTERVAL", "Request", "Note", "GuidanceService", "parse_jog"]
@@ -138,13 +138,18 @@ class GuidanceService:
         Sleeps a number of seconds.
     speedup : float
         Run seconds per wall second.
+    wall : callable
+        Wall-clock seconds since the epoch, stamped on each snapshot (injected: tests pass a fake).
     """
 
     def __init__(self, loop, *, clock: Callable[[], float] = time.monotonic,
-                 sleep: Callable[[float], None] = time.sleep, speedup: float = 1.0):
+                 sleep: Callable[[float], None] = time.sleep, speedup: float = 1.0,
+                 wall: Callable[[], float] = time.time):
         if not speedup > 0:
             raise ValueError(f"speedup must be > 0, got {speedup!r}")
-        self.loop, self.clock, self.sleep, self.speedup = loop, clock, sleep, speedup
+        self.loop, self.clock, self.sleep, self.speedup, self.wall = loop, clock, sleep, speedup, wall
+        #: The screen's trends: the last 10 minutes, a point per logged sample's time (the replay's are the same).
+        self.trend = TrendLog()
         self._requests: queue.SimpleQueue = queue.SimpleQueue()
         self._snapshot: Snapshot | None = None
         self._stop = threading.Event()
@@ -299,7 +304,8 @@ class GuidanceService:
         if not self._mode_tail or self._mode_tail[-1][1] != cmd.mode.value:
             self._mode_tail.append((k, cmd.mode.value))
         self._snapshot = snapshot(loop.model, k, now, cmd.mode.value, sample, cycle_us=float(loop.cycle_us[i]),
-                                  late=self.late, plant_ok=self._link_ok, wall=time.time(), modes=tuple(self._mode_tail),
+                                  late=self.late, plant_ok=self._link_ok, wall=self.wall(), modes=tuple(self._mode_tail),
                                   pressures=tuple(float(v) for v in getattr(loop.io, "pressures", (math.nan,) * 5)))
+        self.trend.add(self._snapshot)
         if not self.mode_changes or self.mode_changes[-1][0] != cmd.mode.value:
             self.mode_changes.append((cmd.mode.value, self._snapshot.wall))

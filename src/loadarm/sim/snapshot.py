@@ -11,6 +11,7 @@ those with the same function, so a replay shows what the live screen showed at t
 
 from __future__ import annotations
 
+import collections
 import math
 from dataclasses import dataclass, field
 
@@ -21,11 +22,17 @@ from loadarm.arm.faces import FACES, face_margins
 from loadarm.arm.slew import forward3d
 from loadarm.vocab import ANNUNCIATED
 
-__all__ = ["MODE_TAIL", "Snapshot", "state_sample", "snapshot"]
+__all__ = ["MODE_TAIL", "TREND_WINDOW", "TREND_EVERY", "Snapshot", "TrendLog", "state_sample", "snapshot",
+           "trend_point"]
 
 #: Mode changes carried on each snapshot (:attr:`Snapshot.modes`): more than a sequence's modes from the
 #: connection to the return, so a screen a few frames behind still shows each one.
 MODE_TAIL = 12
+#: The screen's trends span this much run time, s (the last 10 minutes).
+TREND_WINDOW = 600.0
+#: One trend point per this much run time, s: the event log's sample period, so that a replay's trends, built
+#: from the logged samples, are the live ones.
+TREND_EVERY = 1.0
 
 
 def _finite_or_none(v) -> float | None:
@@ -68,7 +75,9 @@ def state_sample(cmd, q, estimate, distance: float, ers_valves_closed: bool, ala
             "release": bool(cmd.release), "coupler_open": bool(cmd.coupler_open),
             "ers_valves_closed": bool(ers_valves_closed),
             "alarms": {tag: st.value for tag, st in alarms.items() if st.value != "normal"},
-            "time_to_faces": {f: float(t) for f, t in cmd.time_to_faces}}
+            "time_to_faces": {f: float(t) for f, t in cmd.time_to_faces},
+            "horizon": _finite_or_none(cmd.horizon), "route": str(cmd.route),
+            "drift": [_finite_or_none(v) for v in cmd.drift] or None}
 
 
 def snapshot(model, seq: int, t: float, mode: str, sample: dict, **live) -> "Snapshot":
@@ -110,7 +119,9 @@ def snapshot(model, seq: int, t: float, mode: str, sample: dict, **live) -> "Sna
                     ers_valves_closed=bool(sample.get("ers_valves_closed", False)), alarms=alarms,
                     cylinders=(float(c1), float(c2)), margins={f: float(m[..., k]) for k, f in enumerate(FACES)},
                     flange_velocity=tuple(_nan_if_none(v) for v in sample.get("flange_velocity", (0.0,) * 3)),
-                    time_to_faces={f: float(v) for f, v in sample.get("time_to_faces", {}).items()}, **live)
+                    time_to_faces={f: float(v) for f, v in sample.get("time_to_faces", {}).items()},
+                    horizon=_nan_if_none(sample.get("horizon")), route=str(sample.get("route", "")),
+                    drift=tuple(_nan_if_none(v) for v in (sample.get("drift") or ())), **live)
 
 
 @dataclass(frozen=True)
@@ -160,6 +171,13 @@ class Snapshot:
     modes : tuple of (int, str)
         The last :data:`MODE_TAIL` mode changes up to this cycle, ``(cycle, mode)`` (a screen that samples the
         snapshots shows a mode held for less than its frame; empty: not kept, a replay).
+    horizon : float
+        How far ahead the forecast looked, s (NaN: no forecast, not attached or a log without it): a
+        ``time_to_limit`` of inf is beyond it.
+    route : str
+        The forecast's route to the nearest face (``"design drift"``, ``"measured drift"``, ...; ``""``: none).
+    drift : tuple of float
+        The measured drift velocity the forecast extrapolated, m/s (``()``: no drift fit).
     """
 
     seq: int
@@ -188,3 +206,47 @@ class Snapshot:
     wall: float = math.nan
     time_to_faces: dict = field(default_factory=dict)
     modes: tuple = ()
+    horizon: float = math.nan
+    route: str = ""
+    drift: tuple = ()
+
+
+def trend_point(snap: Snapshot) -> dict:
+    """What the screen's trends keep of one snapshot, JSON-ready (SI; None where there is no value): ``t``,
+    ``beta`` (rad), ``margin`` (the nearest face's margin, rad) and ``face``, ``ttl`` (the time to limit, s; None
+    beyond the forecast's horizon or not attached), ``drift`` (the flange estimate's horizontal speed, m/s).
+
+    Parameters
+    ----------
+    snap : Snapshot
+
+    Returns
+    -------
+    dict
+    """
+    margins = {f: v for f, v in snap.margins.items() if math.isfinite(v)}
+    face = min(margins, key=margins.get) if margins else ""
+    vx, vy = snap.flange_velocity[0], snap.flange_velocity[1]
+    return {"t": snap.t, "beta": _finite_or_none(snap.q[2]), "margin": margins[face] if face else None,
+            "face": face, "ttl": _finite_or_none(snap.time_to_limit), "drift": _finite_or_none(math.hypot(vx, vy))}
+
+
+class TrendLog:
+    """The last :data:`TREND_WINDOW` s of trend points, one at the first snapshot at or after each
+    :data:`TREND_EVERY` s (the rule of the event log's samples): the live service feeds it every cycle, the
+    replay every logged sample, and both give the same points."""
+
+    def __init__(self, window: float = TREND_WINDOW, every: float = TREND_EVERY):
+        self.window, self.every = window, every
+        self.points: collections.deque = collections.deque(maxlen=int(window / every) + 2)
+        self.next = 0.0
+
+    def add(self, snap: Snapshot) -> None:
+        """Keep ``snap``'s point if it is due (any thread; a point is appended whole)."""
+        if snap.t >= self.next:
+            self.points.append(trend_point(snap))
+            self.next += self.every                 # as sim.loop's recorder steps its samples
+
+    def window_at(self, t: float) -> list[dict]:
+        """The points of ``(t - window, t]``, oldest first."""
+        return [p for p in list(self.points) if t - self.window < p["t"] <= t]

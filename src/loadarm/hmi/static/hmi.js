@@ -13,8 +13,9 @@ const $ = (id) => document.getElementById(id);
 
 const hmi = {session: null, geo: null, ws: null, lastFrameAt: 0, lastSeq: null, lastSeqAt: 0, frames: 0, cmdSeq: 0,
              history: [], seenAlarms: [], seenModes: [], modeArrivals: [], modeCycle: -1,
-             pending: new Map(), jog: null, jogTimer: null, flange0: null, frame: null, rate: 0,
-             rateCount: 0, rateSince: performance.now()};
+             pending: new Map(), jog: null, jogTimer: null, frame: null, rate: 0, trend: [], page: "overview",
+             rateCount: 0, rateSince: performance.now(),
+             audio: {on: false, ctx: null, silenced: new Set(), playing: null, beeps: 0, next: 0}};
 window.hmi = hmi;               // for the browser tests
 
 async function api(path, options = {}) {
@@ -78,6 +79,7 @@ function connect() {
   ws.onmessage = (ev) => {
     const msg = JSON.parse(ev.data);
     if (msg.type === "state") { onFrame(msg); }
+    else if (msg.type === "trend") { onTrend(msg); }
     else if (msg.type === "ack") { onAck(msg); }
   };
   ws.onclose = () => {
@@ -109,6 +111,7 @@ $("replay-play").addEventListener("click", () => {
 });
 $("replay-speed").addEventListener("change", () => {
   if (hmi.frame && hmi.frame.replay && hmi.frame.replay.playing) { control("play", {speed: Number($("replay-speed").value)}); }
+  $("replay-speed").blur();
 });
 
 function drawReplay(r) {
@@ -119,6 +122,12 @@ function drawReplay(r) {
   $("replay-time").textContent = `${r.t.toFixed(1)} s of ${r.t0.toFixed(0)}-${r.t1.toFixed(0)} s` +
     (r.playing ? ` · playing ${r.speed}x` : " · paused");
   $("replay-play").textContent = r.playing ? "Pause" : "Play";
+  // the speed control shows the cursor's speed (found: it said 10 while the label said "playing 1x")
+  const sel = $("replay-speed"), want = String(r.speed);
+  if (document.activeElement !== sel && sel.value !== want) {
+    if (![...sel.options].some((o) => o.value === want)) { sel.add(new Option(`${want}x`, want)); }
+    sel.value = want;
+  }
 }
 
 function send(action, extra = {}) {
@@ -238,11 +247,17 @@ function onFrame(f) {
     $("link").textContent = `replay · sample ${f.seq} · t ${f.t.toFixed(1)} s`;
   }
   for (const el of document.querySelectorAll("#modes span")) { el.classList.toggle("current", el.textContent === f.mode); }
+  drawPrimary(f);
+  drawAlarms(f);
+  annunciate(f);
+  if (hmi.page === "overview") { drawOverview(f); }
+}
+
+function drawOverview(f) {
   drawSide(f);
   drawTop(f);
   drawBars(f);
   drawTables(f);
-  drawAlarms(f);
 }
 
 setInterval(() => {          // the stale-data watchdog: no frame, or frames with no new controller cycle
@@ -264,6 +279,43 @@ function buildModes() {
   for (const m of MODES) { const s = document.createElement("span"); s.textContent = m; box.appendChild(s); }
 }
 
+// ------------------------------------------------------------------ pages
+for (const b of document.querySelectorAll("#pages button")) {
+  b.addEventListener("click", () => showPage(b.dataset.page));
+}
+
+function showPage(name) {
+  hmi.page = name;
+  for (const b of document.querySelectorAll("#pages button")) { b.classList.toggle("current", b.dataset.page === name); }
+  for (const p of ["overview", "trends", "journal"]) { $(`page-${p}`).hidden = p !== name; }
+  if (name === "overview" && hmi.frame) { drawOverview(hmi.frame); }
+  if (name === "trends") { drawTrends(); }
+  if (name === "journal") { loadJournal(); }
+}
+
+// ------------------------------------------------------------------ the primary state
+function tile(id, text, cls) {
+  const t = $(`tile-${id}`);
+  t.querySelector(".v").textContent = text;
+  t.className = "tile" + (t.id === "tile-ttl" ? " wide" : "") + (cls ? ` ${cls}` : "");
+}
+
+function drawPrimary(f) {
+  const fc = f.forecast;
+  const short = fc.state === "time" && f.time_to_limit < hmi.geo.sequence_time;
+  tile("ttl", fc.text, fc.state === "none" || short ? "abnormal" : (fc.state === "off" ? "dim" : ""));
+  const face = fc.state === "time" ? `nearest: ${fc.face_words} · ` : "";
+  $("ttl-detail").textContent = fc.state === "off" ? "" : face + fc.basis;
+  $("ttl-detail").title = $("ttl-detail").textContent;
+  tile("esd", f.esd ? "ACTIVE" : "not active", f.esd ? "abnormal" : "dim");
+  tile("ers", f.ers_valves_closed ? "CLOSED" : "open", f.ers_valves_closed && f.esd ? "" : (f.ers_valves_closed ? "abnormal" : ""));
+  tile("coupler", f.coupler_open ? "OPEN" : (f.connected ? "on the flange" : "closed"), f.coupler_open ? "abnormal" : "");
+  const estop = f.mode === "ESTOP";
+  tile("estop", estop ? "ACTIVE" : "not active", estop ? "abnormal" : "dim");
+  tile("estimate", f.estimate_healthy ? "healthy" : "UNHEALTHY", f.estimate_healthy ? "" : "abnormal");
+}
+
+// ------------------------------------------------------------------ drawing
 function el(name, attrs, parent, text) {
   const e = document.createElementNS(SVGNS, name);
   for (const [k, v] of Object.entries(attrs)) { e.setAttribute(k, v); }
@@ -285,6 +337,47 @@ function arcPath(P, cx, cy, r, a0, a1) {
   return `M ${x0} ${y0} A ${rr} ${rr} 0 0 0 ${x1} ${y1}`;
 }
 
+// Labels never collide: each takes the first of its candidate places where its box meets no label placed
+// before it and no drawn line it must keep clear of (the arm, the limits), inside the view; with no such
+// place it is left out rather than drawn over something.
+function boxHitsSegment(b, [x1, y1, x2, y2]) {
+  const inside = (x, y) => x >= b.x && x <= b.x + b.width && y >= b.y && y <= b.y + b.height;
+  if (inside(x1, y1) || inside(x2, y2)) { return true; }
+  const edges = [[b.x, b.y, b.x + b.width, b.y], [b.x + b.width, b.y, b.x + b.width, b.y + b.height],
+                 [b.x, b.y + b.height, b.x + b.width, b.y + b.height], [b.x, b.y, b.x, b.y + b.height]];
+  return edges.some((e) => segmentsCross([x1, y1, x2, y2], e));
+}
+
+function segmentsCross([ax, ay, bx, by], [cx, cy, dx, dy]) {
+  const o = (px, py, qx, qy, rx, ry) => Math.sign((qx - px) * (ry - py) - (qy - py) * (rx - px));
+  return o(ax, ay, bx, by, cx, cy) !== o(ax, ay, bx, by, dx, dy) && o(cx, cy, dx, dy, ax, ay) !== o(cx, cy, dx, dy, bx, by);
+}
+
+function boxesMeet(a, b) {
+  return a.x < b.x + b.width && b.x < a.x + a.width && a.y < b.y + b.height && b.y < a.y + a.height;
+}
+
+function label(svg, text, candidates, scene) {
+  const t = el("text", {class: "label"}, svg, text);
+  for (const [x, y, anchor] of candidates) {
+    t.setAttribute("x", x); t.setAttribute("y", y); t.setAttribute("text-anchor", anchor || "start");
+    const b = t.getBBox(), pad = {x: b.x - 2, y: b.y - 1, width: b.width + 4, height: b.height + 2};
+    const inView = b.x >= 0 && b.y >= 0 && b.x + b.width <= 400 && b.y + b.height <= 300;
+    if (inView && !scene.labels.some((o) => boxesMeet(o, pad)) && !scene.lines.some((s) => boxHitsSegment(pad, s))) {
+      scene.labels.push(pad);
+      return t;
+    }
+  }
+  t.remove();
+  return null;
+}
+
+function segments(points) {          // a polyline's points to its segments
+  const out = [];
+  for (let i = 1; i < points.length; i++) { out.push([...points[i - 1], ...points[i]]); }
+  return out;
+}
+
 const ZONE_LEVEL = {2: 0, 3: 1, 4: 2};       // alarm level (ESD-1, second, release) to its band
 const ZONE_PRIORITY = ["p3", "p2", "p1"];    // each band's alarm colour (the alarm's priority), when active
 
@@ -293,23 +386,20 @@ function drawSide(f) {
   svg.textContent = "";
   const R = g.b + g.c;
   const P = fit(svg, -0.25 * R, 1.1 * R, Math.min(g.berth.y_low, 0) - 1, g.a + 0.9 * R);
+  const rho = Math.hypot(f.coupler[0], f.coupler[1]);
+  const pts = [[0, 0], [0, g.a], f.elbow, [rho, f.coupler[2]]].map(([x, y]) => P(x, y));
   const [gx0, gy] = P(-0.25 * R, 0), [gx1] = P(1.1 * R, 0);
-  el("line", {x1: gx0, y1: gy, x2: gx1, y2: gy, class: "ground"}, svg);
-  el("text", {x: gx0 + 2, y: gy + 12}, svg, "jetty deck");
   const [bx, by0] = P(g.berth.berthing_line, Math.min(g.berth.y_low, 0) - 1), [, by1] = P(g.berth.berthing_line, g.a);
+  const scene = {labels: [], lines: [...segments(pts), [gx0, gy, gx1, gy], [bx, by0, bx, by1]]};
+  el("line", {x1: gx0, y1: gy, x2: gx1, y2: gy, class: "ground"}, svg);
   el("line", {x1: bx, y1: by0, x2: bx, y2: by1, class: "berth"}, svg);
-  el("text", {x: bx + 3, y: by1}, svg, "berthing line");
   g.zones.forEach((z, i) => {
     const r = 0.5 * (z.from_r + z.to_r);
     const [ox] = P(0, g.a), [wx] = P(z.to_r - z.from_r, g.a);
     const active = ZONE_LEVEL[f.level] === i;
     el("path", {d: arcPath(P, 0, g.a, r, -1.4, 0.9), class: `zone zone${i}` + (active ? ` active ${ZONE_PRIORITY[i]}` : ""),
                 "stroke-width": Math.max(2, wx - ox)}, svg);
-    const [lx, ly] = P(r * Math.cos(-1.4), g.a + r * Math.sin(-1.4));
-    el("text", {x: lx + 3, y: ly}, svg, z.name);
   });
-  const rho = Math.hypot(f.coupler[0], f.coupler[1]);
-  const pts = [[0, 0], [0, g.a], f.elbow, [rho, f.coupler[2]]].map(([x, y]) => P(x, y));
   el("polyline", {points: pts.slice(0, 2).map((p) => p.join(",")).join(" "), class: "riser"}, svg);
   el("polyline", {points: pts.slice(1).map((p) => p.join(",")).join(" "), class: "arm"}, svg);
   for (const p of pts.slice(1, 3)) { el("circle", {cx: p[0], cy: p[1], r: 4, class: "joint"}, svg); }
@@ -317,8 +407,22 @@ function drawSide(f) {
   if (f.flange[0] !== null) {
     const [fx, fy] = P(Math.hypot(f.flange[0], f.flange[1]), f.flange[2]);
     el("circle", {cx: fx, cy: fy, r: 6, class: "flange" + (f.estimate_healthy ? "" : " unhealthy")}, svg);
-    el("text", {x: fx + 8, y: fy + 4}, svg, f.estimate_healthy ? "flange" : "flange (estimate unhealthy)");
+    scene.labels.push({x: fx - 6, y: fy - 6, width: 12, height: 12});      // the flange itself stays clear
+    label(svg, f.estimate_healthy ? "flange" : "flange (estimate unhealthy)",
+          [[fx + 9, fy + 4], [fx - 9, fy + 4, "end"], [fx, fy + 18, "middle"], [fx, fy - 10, "middle"],
+           [fx + 9, fy + 16], [fx - 9, fy - 8, "end"]], scene);
   }
+  label(svg, "berthing line", [[bx + 3, by1], [bx - 3, by1, "end"], [bx + 3, by0 - 3], [bx - 3, by0 - 3, "end"],
+                               [bx + 3, (by0 + by1) / 2], [bx - 3, (by0 + by1) / 2, "end"]], scene);
+  label(svg, "jetty deck", [[gx0 + 2, gy + 12], [gx0 + 2, gy - 4], [gx1 - 2, gy + 12, "end"], [gx1 - 2, gy - 4, "end"]], scene);
+  g.zones.forEach((z) => {
+    const r = 0.5 * (z.from_r + z.to_r), cand = [];
+    for (const a of [-1.4, -1.2, -1.0, 0.7, 0.5, 0.3, -0.8]) {
+      const [lx, ly] = P(r * Math.cos(a), g.a + r * Math.sin(a));
+      cand.push([lx + 3, ly], [lx - 3, ly, "end"]);
+    }
+    label(svg, z.name, cand, scene);
+  });
 }
 
 function drawTop(f) {
@@ -331,47 +435,73 @@ function drawTop(f) {
   const R = g.b + g.c;
   const P = fit(svg, -0.2 * R, 1.3 * R, -0.6 * R, 0.6 * R);
   const [ox, oy] = P(0, 0);
+  const [, yTop] = P(0, 0.6 * R), [, yBot] = P(0, -0.6 * R);
+  // the ship: the berth's hull at its moored position, moved as the flange estimate has moved
+  const [dx, dy] = f.ship_offset || [0, 0];
+  const hull = g.ship.outline.map(([x, y]) => P(x + dx, y + dy));
+  el("polygon", {points: hull.map((p) => p.join(",")).join(" "), class: "ship"}, svg);
+  const [cx, cy] = P(f.coupler[0], f.coupler[1]);
+  const [bx] = P(g.berth.berthing_line, 0), [jx] = P(g.berth.jetty_face, 0);
+  const scene = {labels: [], lines: [[ox, oy, cx, cy], [bx, yTop, bx, yBot], [jx, yTop, jx, yBot]]};
   for (const a of [g.slew.limit, -g.slew.limit]) {
     const [x, y] = P(R * Math.cos(a), R * Math.sin(a));
     el("line", {x1: ox, y1: oy, x2: x, y2: y, class: "slew-limit"}, svg);
+    scene.lines.push([ox, oy, x, y]);
   }
-  const [, yTop] = P(0, 0.6 * R), [, yBot] = P(0, -0.6 * R);
-  if (f.flange[0] !== null && f.estimate_healthy && hmi.flange0 === null) { hmi.flange0 = f.flange.slice(); }
-  const dx = hmi.flange0 && f.flange[0] !== null ? f.flange[0] - hmi.flange0[0] : 0;
-  const dy = hmi.flange0 && f.flange[1] !== null ? f.flange[1] - hmi.flange0[1] : 0;
-  const [sx, sy0] = P(g.berth.berthing_line + dx, 0.6 * R + dy), [sx1, sy1] = P(g.berth.berthing_line + dx + 40, -0.6 * R + dy);
-  el("rect", {x: sx, y: sy0, width: Math.max(0, sx1 - sx), height: Math.max(0, sy1 - sy0), class: "ship"}, svg);
-  el("text", {x: sx + 4, y: yBot - 4}, svg, "ship (schematic)");
-  const [bx] = P(g.berth.berthing_line, 0), [jx] = P(g.berth.jetty_face, 0);
   el("line", {x1: bx, y1: yTop, x2: bx, y2: yBot, class: "berth"}, svg);
   el("line", {x1: jx, y1: yTop, x2: jx, y2: yBot, class: "ground"}, svg);
-  el("text", {x: jx - 52, y: yTop + 12}, svg, "jetty face");
-  const [cx, cy] = P(f.coupler[0], f.coupler[1]);
   el("line", {x1: ox, y1: oy, x2: cx, y2: cy, class: "arm"}, svg);
   el("circle", {cx: ox, cy: oy, r: 5, class: "joint"}, svg);
   el("rect", {x: cx - 4, y: cy - 4, width: 8, height: 8, class: "coupler"}, svg);
+  let drift = null;
   if (f.flange[0] !== null) {
     const [fx, fy] = P(f.flange[0], f.flange[1]);
     el("circle", {cx: fx, cy: fy, r: 6, class: "flange" + (f.estimate_healthy ? "" : " unhealthy")}, svg);
+    scene.labels.push({x: fx - 6, y: fy - 6, width: 12, height: 12});      // the flange itself stays clear
     const v = f.flange_velocity, speed = Math.hypot(v[0] || 0, v[1] || 0);
     if (speed > 0.01) {
       const [tx, ty] = P(f.flange[0] + 60 * v[0], f.flange[1] + 60 * v[1]);
       el("line", {x1: fx, y1: fy, x2: tx, y2: ty, class: "drift"}, svg);
-      el("text", {x: tx > 240 ? tx - 4 : tx + 4, y: ty - 6, "text-anchor": tx > 240 ? "end" : "start"}, svg,
-         `drift ${speed.toFixed(2)} m/s (1 min)`);
+      scene.lines.push([fx, fy, tx, ty]);
+      drift = [`drift ${speed.toFixed(2)} m/s (1 min)`, tx, ty];
     }
   }
+  if (drift) {
+    const [text, tx, ty] = drift;
+    label(svg, text, [[tx + 4, ty - 6], [tx - 4, ty - 6, "end"], [tx + 4, ty + 14], [tx - 4, ty + 14, "end"],
+                      [tx, ty - 14, "middle"], [tx, ty + 22, "middle"]], scene);
+  }
+  label(svg, "jetty face", [[jx - 4, yTop + 12, "end"], [jx - 4, yBot - 4, "end"], [jx + 4, yTop + 12]], scene);
+  label(svg, "berthing line", [[bx + 4, yTop + 12], [bx + 4, yBot - 4], [bx + 4, yTop + 26], [bx + 4, yBot - 18]], scene);
+  const side = Math.max(...hull.map((p) => p[0]).filter((x) => x >= 0 && x <= 400).concat([0]));
+  const near = Math.min(...hull.map((p) => p[0]));
+  const sx = Math.max(near, 0) + 6;
+  if (near < 400) {
+    label(svg, `ship (${g.ship.length.toFixed(0)} x ${g.ship.beam.toFixed(1)} m)`,
+          [[sx, yBot - 4], [sx, yTop + 12], [sx, yBot - 18], [sx, yTop + 26], [Math.min(side, 396), yBot - 4, "end"]], scene);
+  }
+  label(svg, "slew limit", (() => {
+    const out = [];
+    for (const a of [g.slew.limit, -g.slew.limit]) {
+      for (const k of [0.55, 0.75, 0.35]) {
+        const [x, y] = P(k * R * Math.cos(a), k * R * Math.sin(a));
+        out.push([x + 4, y + (a > 0 ? -4 : 12)], [x - 4, y + (a > 0 ? -4 : 12), "end"]);
+      }
+    }
+    return out;
+  })(), scene);
 }
 
-function bar(label, value, unit, lo, hi, normalLo, normalHi, digits = 1) {
+function bar(label_, value, unit, lo, hi, normalLo, normalHi, digits = 1, none = "none") {
   const box = document.createElement("div");
   const ok = value === null ? true : value >= normalLo && value <= normalHi;
   box.className = "bar" + (ok ? "" : " abnormal");
   const pos = (v) => `${100 * Math.min(1, Math.max(0, (v - lo) / (hi - lo)))}%`;
-  const shown = value === null ? "none" : `${value.toFixed(digits)} ${unit}`;
+  const shown = value === null ? none : `${value.toFixed(digits)} ${unit}`;
   box.innerHTML = `<div class="label"><span></span><span class="value"></span></div>` +
     `<div class="track"><div class="normal"></div><div class="needle"></div></div>`;
-  box.querySelector(".label span").textContent = label;
+  box.querySelector(".label span").textContent = label_;
+  box.querySelector(".label span").title = label_;
   box.querySelector(".value").textContent = shown;
   const n = box.querySelector(".normal");
   n.style.left = pos(normalLo);
@@ -384,19 +514,21 @@ function bar(label, value, unit, lo, hi, normalLo, normalHi, digits = 1) {
 const DEG = 180 / Math.PI;
 
 function drawBars(f) {
-  const g = hmi.geo, box = $("bars");
+  const g = hmi.geo, box = $("bars"), fc = f.forecast;
   box.textContent = "";
   box.appendChild(bar("coupler to flange", f.distance, "m", 0, 20, 0, 20, 2));
-  const ttl = f.time_to_limit;
-  box.appendChild(bar("time to limit", ttl === null ? null : Math.min(ttl, 600), "s", 0, 600, g.sequence_time, 600, 0));
+  // no time: beyond the forecast's horizon ("> H s"), no forecast, or not connected: the forecast says which
+  const none = fc.state === "time" ? `> ${(fc.horizon || g.horizon).toFixed(0)} s` : fc.text;
+  const ttl = fc.state === "time" ? f.time_to_limit : null;
+  box.appendChild(bar("time to limit", ttl, "s", 0, 120, g.sequence_time, 120, 1, fc.text));
   const normal = {beta_max: g.limits.beta[1] - g.alarm_beta.first, slew_pos: g.slew.limit - g.slew.first,
                   slew_neg: g.slew.limit - g.slew.first};
   for (const face of g.faces) {
-    const v = f.margins[face];
-    box.appendChild(bar(`margin ${face}`, v === null ? null : v * DEG, "deg", 0, 180,
+    const v = f.margins[face], words = g.face_words[face];
+    box.appendChild(bar(`margin: ${words}`, v === null ? null : v * DEG, "deg", 0, 180,
                         (normal[face] || 5 / DEG) * DEG, 180, 1));
     const t = face in f.time_to_faces ? f.time_to_faces[face] : null;   // none: not within the forecast's horizon
-    const b = bar(`time to ${face}`, t, "s", 0, 120, g.sequence_time, 120, 0);
+    const b = bar(`time to it`, t, "s", 0, 120, g.sequence_time, 120, 0, none);
     b.classList.add("face-time");
     box.appendChild(b);
   }
@@ -419,9 +551,7 @@ function drawTables(f) {
     ["velocity (m/s)", f.flange_velocity.map((v) => fmt(v, 3)).join(", ")],
     ["health", f.estimate_healthy ? "healthy" : "UNHEALTHY"],
     ["coupler (m)", f.coupler.map((v) => fmt(v)).join(", ")],
-    ["cylinders (m)", f.cylinders.map((v) => fmt(v, 3)).join(", ")],
-    ["ERS valves", f.ers_valves_closed ? "closed" : "open"],
-    ["coupler", f.coupler_open ? "open" : "closed"]]);
+    ["cylinders (m)", f.cylinders.map((v) => fmt(v, 3)).join(", ")]]);
   const bar_ = (v) => (v === null ? "not measured" : `${(v / 1e5).toFixed(1)} bar`);
   const p = f.pressures;
   rows(document.querySelector("#pressures tbody"), [
@@ -432,7 +562,7 @@ function drawTables(f) {
 function drawAlarms(f) {
   // Rebuilt only when the list changes: rows rebuilt at every frame would swallow a click whose press and
   // release fall on two different buttons (found: an acknowledge lost that way in the browser test).
-  const key = JSON.stringify([f.alarms.map((a) => [a.tag, a.state]), f.shelved.map((a) => [a.tag, a.state])]);
+  const key = JSON.stringify([f.alarms.map((a) => [a.tag, a.state, a.clock]), f.shelved.map((a) => [a.tag, a.state])]);
   if (key === hmi.alarmKey) { return; }
   hmi.alarmKey = key;
   const canAck = hmi.session.commands.includes("ack"), canShelve = hmi.session.commands.includes("shelve");
@@ -440,13 +570,16 @@ function drawAlarms(f) {
   tbody.textContent = "";
   for (const a of f.alarms) {
     const tr = document.createElement("tr");
-    tr.className = `alarm p${a.priority} ${a.state.startsWith("returned") ? "rtn" : a.state}`;
+    tr.className = `alarm p${a.priority} ${a.state.startsWith("returned") ? "rtn unacknowledged" : a.state}`;
     tr.dataset.tag = a.tag;
-    tr.innerHTML = "<td class=prio><span></span></td><td class=time></td><td class=msg></td><td class=state></td><td class=act></td>";
+    tr.innerHTML = "<td class=prio><span></span></td><td class=time></td><td class=msg></td>" +
+                   "<td class=state><span class=ind></span><span class=text></span></td><td class=act></td>";
     tr.querySelector(".prio span").textContent = a.priority_name;
-    tr.querySelector(".time").textContent = `${a.raised_at.toFixed(1)} s`;
+    // the time of day it was raised (the date too when not today); the run time when the clock is not known
+    tr.querySelector(".time").textContent = a.clock || `${a.raised_at.toFixed(1)} s`;
+    tr.querySelector(".time").title = `run time ${a.raised_at.toFixed(1)} s`;
     tr.querySelector(".msg").textContent = a.message;
-    tr.querySelector(".state").textContent = a.state;
+    tr.querySelector(".state .text").textContent = a.state;
     const act = tr.querySelector(".act");
     if (a.state !== "acknowledged") {
       const b = document.createElement("button");
@@ -473,6 +606,131 @@ function drawAlarms(f) {
     tr.querySelector(".act").appendChild(b);
     sh.appendChild(tr);
   }
+  $("shelved-box").hidden = f.shelved.length === 0;
+}
+
+// ------------------------------------------------------------------ audible annunciation (WebAudio, no file)
+// Each priority its own pattern: [tone Hz, beeps, repeat every s]. It sounds while an unacknowledged alarm
+// is not silenced; Silence quiets those sounding now, and a new alarm sounds again (ISA-18.2).
+const SOUND = {1: [880, 3, 1.0], 2: [660, 2, 2.0], 3: [520, 1, 3.0], 4: [440, 1, 5.0]};
+
+$("sound-on").addEventListener("change", () => {
+  const au = hmi.audio;
+  au.on = $("sound-on").checked;
+  if (au.on && !au.ctx) { au.ctx = new AudioContext(); }       // created on the click: a user gesture
+  if (au.on && au.ctx.state === "suspended") { au.ctx.resume(); }
+  au.next = 0;
+  if (hmi.frame) { annunciate(hmi.frame); }
+});
+$("silence").addEventListener("click", () => {
+  const au = hmi.audio;
+  for (const a of (hmi.frame ? hmi.frame.alarms : [])) { au.silenced.add(`${a.tag}@${a.raised_at}`); }
+  au.playing = null;
+  if (hmi.frame) { annunciate(hmi.frame); }
+});
+
+function annunciate(f) {
+  const au = hmi.audio;
+  const loud = f.alarms.filter((a) => a.state !== "acknowledged" && !au.silenced.has(`${a.tag}@${a.raised_at}`));
+  const top = loud.length ? Math.min(...loud.map((a) => a.priority)) : null;
+  au.playing = au.on ? top : null;
+  $("sound-state").textContent = !au.on ? "sound off" :
+    (top === null ? "quiet" : `sounding: ${loud.find((a) => a.priority === top).priority_name}`);
+  if (au.playing === null || !au.ctx) { return; }
+  const now = au.ctx.currentTime;
+  if (now < au.next) { return; }
+  const [hz, n, every] = SOUND[top];
+  for (let i = 0; i < n; i++) { beep(au.ctx, hz, now + 0.2 * i, 0.12); }
+  au.beeps += n;
+  au.next = now + every;
+}
+
+function beep(ctx, hz, at, length) {
+  const osc = ctx.createOscillator(), gain = ctx.createGain();
+  osc.type = "square";
+  osc.frequency.value = hz;
+  gain.gain.setValueAtTime(0.0, at);
+  gain.gain.linearRampToValueAtTime(0.15, at + 0.01);
+  gain.gain.setValueAtTime(0.15, at + length - 0.02);
+  gain.gain.linearRampToValueAtTime(0.0, at + length);
+  osc.connect(gain).connect(ctx.destination);
+  osc.start(at);
+  osc.stop(at + length + 0.01);
+}
+
+// ------------------------------------------------------------------ trends (the last 10 minutes)
+const TREND_S = 600;
+
+function onTrend(msg) {
+  hmi.trend = msg.reset ? msg.points.slice() : hmi.trend.concat(msg.points);
+  const last = hmi.trend.length ? hmi.trend[hmi.trend.length - 1].t : 0;
+  while (hmi.trend.length && hmi.trend[0].t <= last - TREND_S) { hmi.trend.shift(); }
+  if (hmi.page === "trends") { drawTrends(); }
+}
+
+function chart(svg, series, lo, hi, limits = []) {
+  svg.textContent = "";
+  const pts = hmi.trend, t1 = pts.length ? pts[pts.length - 1].t : 0, t0 = t1 - TREND_S;
+  const X = (t) => 600 * (t - t0) / TREND_S, Y = (v) => 150 - 140 * (Math.min(Math.max(v, lo), hi) - lo) / (hi - lo);
+  for (let k = 0; k <= 10; k++) { el("line", {x1: 60 * k, y1: 10, x2: 60 * k, y2: 150, class: "grid"}, svg); }
+  for (const v of [lo, (lo + hi) / 2, hi]) { el("line", {x1: 0, y1: Y(v), x2: 600, y2: Y(v), class: "grid"}, svg); }
+  for (const v of limits) { el("line", {x1: 0, y1: Y(v), x2: 600, y2: Y(v), class: "limit"}, svg); }
+  series.forEach(([get, cls]) => {
+    let d = "", pen = false;
+    for (const p of pts) {
+      const v = get(p);
+      if (v === null || v === undefined) { pen = false; continue; }
+      d += `${pen ? "L" : "M"} ${X(p.t).toFixed(1)} ${Y(v).toFixed(1)} `;
+      pen = true;
+    }
+    if (d) { el("path", {d, class: `trace ${cls}`}, svg); }
+  });
+}
+
+function drawTrends() {
+  const g = hmi.geo, pts = hmi.trend;
+  const deg = (v) => (v === null ? null : v * DEG);
+  chart($("trend-angles"), [[(p) => deg(p.beta), ""], [(p) => deg(p.margin), "second"]], 0, 180,
+        [g.alarm_beta.first * DEG, g.limits.beta[1] * DEG]);
+  chart($("trend-ttl"), [[(p) => p.ttl, ""]], 0, g.horizon, [g.sequence_time]);
+  const top = Math.max(0.3, ...pts.map((p) => p.drift || 0));
+  chart($("trend-drift"), [[(p) => p.drift, ""]], 0, top, [g.design_drift.speed]);
+  const t1 = pts.length ? pts[pts.length - 1].t : 0;
+  $("trend-note").textContent = `run time ${Math.max(0, t1 - TREND_S).toFixed(0)}-${t1.toFixed(0)} s, a grid ` +
+    `line a minute. Beta solid, the nearest face's margin dashed; dotted: the first alarm angle and beta's limit, ` +
+    `the time the emergency sequence needs, the berth's design drift (${g.design_drift.speed} m/s). A gap in ` +
+    `the time to limit: beyond the forecast's ${g.horizon.toFixed(0)} s horizon, or not connected.`;
+}
+
+// ------------------------------------------------------------------ the alarm journal (the event log)
+let journalTimer = null;
+$("journal-kind").addEventListener("change", () => loadJournal());
+$("journal-search").addEventListener("input", () => {
+  clearTimeout(journalTimer);
+  journalTimer = setTimeout(loadJournal, 200);
+});
+setInterval(() => { if (hmi.page === "journal" && !$("screen").hidden) { loadJournal(); } }, 2000);
+
+async function loadJournal() {
+  const q = new URLSearchParams({kind: $("journal-kind").value, q: $("journal-search").value});
+  const r = await api(`/api/journal?${q}`);
+  if (r.status !== 200) { return; }
+  const tbody = document.querySelector("#journal tbody");
+  tbody.textContent = "";
+  for (const e of r.body.entries) {
+    const tr = document.createElement("tr");
+    tr.className = "entry" + (e.priority ? ` alarm p${e.priority}` : "");
+    tr.dataset.kind = e.kind;
+    tr.innerHTML = "<td class=time></td><td class=run></td><td class=kind></td><td class=prio><span></span></td><td class=msg></td>";
+    tr.querySelector(".time").textContent = e.clock;
+    tr.querySelector(".run").textContent = `${e.t.toFixed(1)} s`;
+    tr.querySelector(".kind").textContent = e.kind.replace("_", " ");
+    if (e.priority_name) { tr.querySelector(".prio span").textContent = e.priority_name; }
+    tr.querySelector(".msg").textContent = e.text;
+    tbody.appendChild(tr);
+  }
+  $("journal-count").textContent = `${r.body.entries.length} of ${r.body.total} shown, newest first`;
+  hmi.journal = r.body;
 }
 
 boot();

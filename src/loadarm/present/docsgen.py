@@ -242,7 +242,9 @@ def report_page(dest: str | Path) -> Path:
             page.emulate_media(media="print")
             page.goto(files.html.resolve().as_uri())
             out.parent.mkdir(parents=True, exist_ok=True)
-            page.screenshot(path=str(out), clip={"x": 0, "y": 0, "width": 688, "height": 998})
+            # the title page: it ends after the table of contents (the print stylesheet breaks the page there)
+            bottom = page.evaluate("document.querySelector('header.titlepage').getBoundingClientRect().bottom")
+            page.screenshot(path=str(out), clip={"x": 0, "y": 0, "width": 688, "height": min(998, bottom + 16)})
             browser.close()
     return out
 

@@ -35,6 +35,8 @@ class FakeService:
         self.alarms = {tag: "normal" for tag in ANNUNCIATED}
         self.mode = "MANUAL"
         self.t = 0.0
+        self.wall = math.nan
+        self.loop = type("Loop", (), {"events": []})()
 
     def snapshot(self):
         from loadarm.sim.snapshot import Snapshot
@@ -43,7 +45,7 @@ class FakeService:
                         flange_estimate=(10.0, 0.0, 2.0), estimate_healthy=True, distance=0.0, level=0,
                         time_to_limit=math.inf, connected=False, esd=False, release=False, coupler_open=False,
                         ers_valves_closed=False, alarms=dict(self.alarms),
-                        margins={"beta_max": math.nan, "slew_pos": 0.3})
+                        margins={"beta_max": math.nan, "slew_pos": 0.3}, wall=self.wall)
 
     jog_speed = 0.15
 
@@ -68,10 +70,10 @@ def app_env(tmp_path, model):
     st = StateDir(tmp_path / "state")
     st.users().add("alice", Role.OPERATOR, "pw-alice")
     st.users().add("victor", Role.VIEWER, "pw-victor")
-    service, clock = FakeService(), FakeClock()
-    app = create_app(service, st.path, model, clock=clock, frame_rate=100.0, name="test")
+    service, clock, wall = FakeService(), FakeClock(), FakeClock(1.8e9)
+    app = create_app(service, st.path, model, clock=clock, wall=wall, frame_rate=100.0, name="test")
     client = TestClient(app)                   # host "testserver", for HTTP and the WebSocket alike
-    return {"client": client, "service": service, "clock": clock, "app": app}
+    return {"client": client, "service": service, "clock": clock, "app": app, "wall": wall}
 
 
 def _login(client, user="alice", password="pw-alice"):
@@ -605,6 +607,9 @@ def test_the_replay_shows_what_the_live_screen_showed_at_every_logged_sample(tmp
         seen["alarms"] += bool(alarms_l)
     # the comparison covered the defect's states: a time to a limit with its faces, a drifting flange, alarms
     assert len(samples) > 300 and all(n > 5 for n in seen.values()), seen
+    # issue 29 item 6: the same trends, point by point (the live service's, kept at the log's sample times)
+    end = samples[-1].t
+    assert replay.trend(end) == service.trend.window_at(end) and len(replay.trend(end)) == len(samples)
 
 
 @pytest.mark.slow
@@ -644,3 +649,137 @@ def test_a_screen_that_samples_the_snapshots_still_sees_every_mode(tmp_path):
             plain.append(f["mode"])
     assert "ALARM1" in every_cycle and seen == every_cycle, (seen, every_cycle)
     assert plain != every_cycle, "the test samples too often to show the loss"
+
+
+# --------------------------------------------------------------------------- issue 29: what the screen says
+
+def _snap(model, **kw):
+    from loadarm.sim.snapshot import Snapshot
+
+    base = dict(seq=1, t=100.0, mode="CONNECTED", q=(0.0, 1.0, 1.5), coupler=(13.0, 0.0, 1.0),
+                flange_estimate=(13.0, 0.0, 1.0), estimate_healthy=True, distance=0.0, level=0,
+                time_to_limit=math.inf, connected=True, esd=False, release=False, coupler_open=False,
+                ers_valves_closed=False, horizon=65.0, route="", drift=(0.19, 0.03, 0.0))
+    return Snapshot(**{**base, **kw})
+
+
+def test_time_to_limit_beyond_the_horizon_reads_greater_than_it_and_no_forecast_is_its_own_state(model):
+    """Issue 29 item 2: "none" read as safe. Beyond the forecast's horizon (the longest stage lead, from the
+    code) the screen says "> H s"; attached without a healthy estimate, "NO FORECAST"; not attached, "not
+    connected"; the drift the forecast used is said with its speed and direction."""
+    from loadarm.guidance.monitor import stage_leads
+    from loadarm.hmi.state import forecast_state, geometry
+    from loadarm.sim.snapshot import snapshot, state_sample
+
+    horizon = max(stage_leads(model.sequence).values())
+    assert geometry(model)["horizon"] == horizon
+    f = forecast_state(_snap(model, horizon=horizon), model)
+    assert (f["state"], f["text"]) == ("beyond", f"> {horizon:.0f} s")
+    assert "design drift 0.15 m/s, any direction; measured 0.19 m/s off the berth (9 deg)" == f["basis"]
+    f = forecast_state(_snap(model, time_to_limit=28.9, route="break-out",
+                             time_to_faces={"beta_max": 28.9, "slew_pos": 40.0}), model)
+    assert (f["state"], f["text"], f["face_words"]) == ("time", "28.9 s", "arm stretched: flange too far out")
+    assert f["basis"].startswith("break-out: 0.19 m/s off the berth")
+    assert forecast_state(_snap(model, estimate_healthy=False), model)["text"] == "NO FORECAST: no healthy estimate"
+    assert forecast_state(_snap(model, horizon=math.nan), model)["state"] == "none"
+    assert forecast_state(_snap(model, connected=False), model)["text"] == "not connected"
+    # the horizon, the route and the drift travel from the controller's command through the log's sample
+    from loadarm.guidance.modes import Command, Mode
+    from loadarm.guidance.estimator import Estimate
+
+    cmd = Command(Mode.CONNECTED, (0.0, 0.0, 0.0), True, False, False, horizon=horizon, route="measured drift",
+                  drift=(0.1, 0.0, 0.0))
+    est = Estimate(t=1.0, position=(13.0, 0.0, 1.0), velocity=(0.1, 0.0, 0.0), sigma=0.01, age=0.0, healthy=True,
+                   reason="")
+    snap = snapshot(model, 0, 1.0, "CONNECTED", json.loads(json.dumps(
+        state_sample(cmd, (0.0, 1.0, 1.5), est, 0.0, False, {}))))
+    assert (snap.horizon, snap.route, snap.drift) == (horizon, "measured drift", (0.1, 0.0, 0.0))
+
+
+def test_faces_are_named_in_the_operator_s_words_and_the_ship_is_the_berth_s_hull(model):
+    """Issue 29 item 4: the geometry gives the vocabulary's words of every face (the page writes those, never
+    a code), and the ship is the berth's hull lying against the berthing line, its length and beam."""
+    from loadarm.hmi.app import _static_dir
+    from loadarm.hmi.state import geometry
+    from loadarm.params.berth import ShipSection
+    from loadarm.vocab import FACE_WORDS, FACES
+
+    g = geometry(model)
+    assert g["face_words"] == FACE_WORDS and g["faces"] == list(FACES)
+    js = (_static_dir() / "hmi.js").read_text()
+    assert "g.face_words[face]" in js and "`margin ${face}`" not in js and "time to ${face}" not in js
+    ship, pts = ShipSection(), g["ship"]["outline"]
+    xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+    assert min(xs) == pytest.approx(model.berth.berthing_line, abs=1e-3)
+    assert max(xs) - min(xs) == pytest.approx(ship.beam, abs=1e-3)
+    assert max(ys) - min(ys) == pytest.approx(ship.length_pp, abs=1e-3)
+    assert len(pts) > 40                                 # a hull's waterline, not a box
+
+
+def test_only_the_state_indicator_blinks_never_the_priority():
+    """Issue 29 item 3: the blink is on the state's indicator; no rule animates the priority cell."""
+    from loadarm.hmi.app import _static_dir
+
+    css = re.sub(r"/\*.*?\*/", "", (_static_dir() / "hmi.css").read_text(), flags=re.S)
+    animated = [sel.strip() for sel, body in re.findall(r"([^{}]+)\{([^}]*)\}", css)
+                if "animation" in body or "visibility" in body and "@keyframes" not in sel]
+    assert animated and all(".prio" not in a for a in animated), animated
+    assert any("td.state .ind" in a for a in animated), animated
+
+
+def test_alarm_times_are_the_time_of_day_from_the_injected_wall_clock_dated_when_not_today(app_env):
+    """Issue 29 item 4: an alarm carries the wall-clock time its snapshot was published (the service's
+    injected clock), shown as the time of day, with the date once the day has changed."""
+    from datetime import datetime
+
+    from loadarm.hmi.state import clock_text
+
+    c, service = app_env["client"], app_env["service"]
+    raised = datetime(2026, 12, 4, 14, 3, 27).timestamp()
+    assert clock_text(raised, raised + 60) == "14:03:27"
+    assert clock_text(raised, raised + 86400) == "2026-12-04 14:03:27"
+    _login(c)
+    service.step(t=10.0, wall=raised, alarms={**service.alarms, "ESD1": "unacknowledged"})
+    app_env["wall"].t = raised + 5
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        f = _frame(ws)
+        assert [(a["tag"], a["raised_wall"], a["clock"], a["raised_at"]) for a in f["alarms"]] == [
+            ("ESD1", raised, "14:03:27", 10.0)]
+
+
+def test_the_journal_lists_the_event_log_with_a_filter_and_a_search(app_env):
+    """Issue 29 item 5: the journal is the run's events (never its samples), newest first, in the operator's
+    words from their codes, filtered by kind and searched by words."""
+    c, service = app_env["client"], app_env["service"]
+    assert c.get("/api/journal").status_code == 401
+    _login(c)
+    service.step(t=12.0, wall=1.8e9)
+    service.loop.events += [
+        (10.0, "CONNECTED", "alarm", "ALARM1: break-out: beta_max face in 20 s", {"code": "stage.esd1",
+                                                                                   "face": "beta_max"}),
+        (10.0, "ALARM1", "alarm_state", "ESD1: unacknowledged", {"tag": "ESD1", "alarm_state": "unacknowledged"}),
+        (11.0, "ALARM1", "operator", "alice: ack ESD1", {"user": "alice", "action": "ack", "tag": "ESD1"}),
+        (11.0, "ALARM1", "sample", "state sample", {}),
+        (11.5, "ALARM1", "mode", "ALARM1 -> RELEASE", {"previous": "ALARM1", "mode": "RELEASE"})]
+    j = c.get("/api/journal").json()
+    assert [e["kind"] for e in j["entries"]] == ["mode", "operator", "alarm_state", "alarm"]
+    assert j["entries"][-1]["text"] == "ALARM1: arm stretched: flange too far out"
+    assert j["entries"][-2]["priority_name"] == "medium" and j["entries"][-1]["wall"] == 1.8e9 - 2.0
+    assert [e["kind"] for e in c.get("/api/journal?kind=alarms").json()["entries"]] == ["alarm_state", "alarm"]
+    assert [e["text"] for e in c.get("/api/journal?q=alice+ack").json()["entries"]] == ["alice: ack ESD1"]
+    assert c.get("/api/journal?kind=nope").status_code == 400
+
+
+def test_the_trend_log_keeps_ten_minutes_at_the_log_s_sample_times(model):
+    """Issue 29 items 5, 6: a point at the first snapshot at or after each whole second (the event log's
+    sample rule, so the replay's trends are the live ones), the last 600 s of them."""
+    from loadarm.sim.snapshot import TREND_WINDOW, TrendLog
+
+    log = TrendLog()
+    for k in range(0, 14000):
+        log.add(_snap(model, t=k * 0.05, time_to_limit=30.0, margins={"beta_max": 0.5, "slew_pos": 0.2},
+                      flange_velocity=(0.19, 0.03, 0.0)))
+    pts = log.window_at(699.95)
+    assert [p["t"] for p in pts[:2]] == [100.0, 101.0] and pts[-1]["t"] == 699.0 and len(pts) == TREND_WINDOW
+    assert pts[-1] == {"t": 699.0, "beta": 1.5, "margin": 0.2, "face": "slew_pos", "ttl": 30.0,
+                       "drift": pytest.approx(math.hypot(0.19, 0.03))}

@@ -7,6 +7,7 @@ suite (`make test SLOW=1`, CI) to keep it within two minutes on two cores."""
 from __future__ import annotations
 
 import math
+import re
 import time
 
 import pytest
@@ -313,3 +314,229 @@ def test_a_new_operator_approaches_connects_and_sees_the_drift_off_from_the_butt
     assert [a for a in page.evaluate("hmi.seenAlarms") if a in ("ESD1", "SECOND", "RELEASE")] == [
         "ESD1", "SECOND", "RELEASE"]
     assert page.errors == []
+
+
+# --------------------------------------------------------------------------- issue 29: the screen that fits
+
+SIZES = ((1920, 1080), (1366, 768))
+#: The primary state: always inside the window, never below the fold (issue 29, item 1).
+PRIMARY = ("#modes span.current", "#tile-ttl", "#tile-esd", "#tile-ers", "#tile-coupler", "#tile-estop", "#estop",
+           "#alarm-panel", "tr.alarm")
+
+
+@pytest.fixture(scope="module")
+def replay_server(state, tmp_path_factory):
+    """The drift-off (kinematic plant) logged, and ``serve --replay``'s screen on it; the release's time."""
+    from loadarm.eventlog import EventLog
+    from loadarm.hmi.app import HmiServer, create_app
+    from loadarm.hmi.replay import ReplayService
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+
+    db = tmp_path_factory.mktemp("replay29") / "events.db"
+    sc, model = load_scenario(SCENARIO)
+    with EventLog(db, run="r") as log:
+        res = run_scenario(sc, model, log=log, plant="kinematic")
+    with EventLog.open_existing(db) as log:
+        service = ReplayService(log.query(run="r"), model)
+    server = HmiServer(create_app(service, state.path, model, name="replay"), "127.0.0.1", 0)
+    server.start()
+    yield {"url": server.url, "release": res.first("alarm", "RELEASE"), "connect": res.first("mode", "-> CONNECTED")}
+    server.stop()
+
+
+def _seek(page, t):
+    page.evaluate(f"control('pause'); control('seek', {{t: {t}}})")
+    wait_for(page, f"hmi.frame.t === {t}", what=f"the frame at {t} s")
+    time.sleep(0.15)                                    # the frame drawn
+
+
+def _sized(browser, w, h):
+    ctx = browser.new_context(viewport={"width": w, "height": h})
+    pg = ctx.new_page()
+    pg.errors = []
+    pg.on("pageerror", lambda e: pg.errors.append(str(e)))
+    pg.on("console", lambda m: pg.errors.append(m.text) if m.type == "error" else None)
+    return ctx, pg
+
+
+def _outside(page, selectors):
+    """The primary elements whose box is not wholly inside the window (or that are missing)."""
+    return page.evaluate("""(sels) => sels.flatMap((s) => {
+        const els = [...document.querySelectorAll(s)];
+        if (!els.length) { return [s + ': missing']; }
+        return els.flatMap((e) => { const r = e.getBoundingClientRect();
+          return r.width > 0 && r.height > 0 && r.left >= 0 && r.top >= 0 && r.right <= innerWidth
+            && r.bottom <= innerHeight ? [] : [`${s}: ${JSON.stringify(r)}`]; }); })""", list(selectors))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("w, h", SIZES)
+def test_the_primary_state_fits_without_scrolling(browser, replay_server, w, h):
+    """Issue 29 item 1: at a 1920x1080 console and a 1366x768 laptop, with the release's four alarms in the
+    list, the mode, the time to limit, ESD-1, the ERS valves, the coupler, the E-stop (state and button) and
+    every active alarm's row lie inside the window, and the page does not scroll."""
+    ctx, page = _sized(browser, w, h)
+    try:
+        log_in(page, replay_server["url"], "alice", "pw-alice")
+        _seek(page, math.ceil(replay_server["release"] + 1.0))
+        assert page.evaluate("hmi.frame.alarms.length") == 4
+        assert _outside(page, PRIMARY) == []
+        assert page.evaluate("document.scrollingElement.scrollHeight <= innerHeight"
+                             " && document.scrollingElement.scrollWidth <= innerWidth")
+        assert page.errors == []
+    finally:
+        ctx.close()
+
+
+_OVERLAPS = """() => {
+  const hits = [];
+  for (const id of ['side', 'top']) {
+    const svg = document.getElementById(id);
+    const boxes = [...svg.querySelectorAll('text')].map((t) => [t.textContent, t.getBBox()]);
+    const segs = [];
+    for (const p of svg.querySelectorAll('polyline.arm, polyline.riser')) {
+      const pts = p.getAttribute('points').split(' ').map((q) => q.split(',').map(Number));
+      for (let i = 1; i < pts.length; i++) { segs.push([...pts[i - 1], ...pts[i]]); }
+    }
+    for (const l of svg.querySelectorAll('line.arm')) {
+      segs.push(['x1', 'y1', 'x2', 'y2'].map((k) => Number(l.getAttribute(k))));
+    }
+    boxes.forEach(([a, b], i) => {
+      boxes.slice(i + 1).forEach(([c, d]) => { if (boxesMeet(b, d)) { hits.push(`${id}: ${a} / ${c}`); } });
+      segs.forEach((s) => { if (boxHitsSegment(b, s)) { hits.push(`${id}: ${a} / the arm`); } });
+    });
+  }
+  return hits;
+}"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("w, h", SIZES)
+def test_no_label_collides_with_another_or_the_arm(browser, replay_server, w, h):
+    """Issue 29 item 4: through the drift-off (stored, approach, connected, the drift, the release, the
+    return), no text box of the side or top view meets another or the arm's drawn lines; the labels the
+    issue found colliding are there: the berthing line, the drift, the ship (drawn from the berth's hull)."""
+    ctx, page = _sized(browser, w, h)
+    try:
+        log_in(page, replay_server["url"], "alice", "pw-alice")
+        rel = math.ceil(replay_server["release"])
+        texts = set()
+        for t in (0, 60, math.ceil(replay_server["connect"] + 2), 205, rel - 1, rel + 1, rel + 8, 260, 320):
+            _seek(page, t)
+            assert page.evaluate(_OVERLAPS) == [], t
+            texts |= set(page.evaluate("[...document.querySelectorAll('#side text, #top text')]"
+                                       ".map((e) => e.textContent)"))
+        assert {"berthing line", "flange"} <= texts and any(x.startswith("drift ") for x in texts), texts
+        assert any(x.startswith("ship (278 x 43.4 m)") for x in texts), texts
+        assert page.evaluate("document.querySelectorAll('#top polygon.ship').length") == 1
+        assert page.errors == []
+    finally:
+        ctx.close()
+
+
+@pytest.mark.slow
+def test_the_screen_says_what_the_forecast_says_in_the_operator_s_words(browser, replay_server):
+    """Issue 29 items 2, 3, 4: connected before the drift, the time to limit is a time or "> H s" (H the
+    forecast's own horizon), never "none", with the drift it used; in the release the alarm list times are
+    times of day, the priorities never blink (only the state's indicator does), and no face is named by its
+    code anywhere on the page."""
+    from loadarm.vocab import FACES
+
+    ctx, page = _sized(browser, 1920, 1080)
+    try:
+        log_in(page, replay_server["url"], "alice", "pw-alice")
+        _seek(page, 150)
+        ttl = page.inner_text("#ttl-value")
+        horizon = page.evaluate("hmi.frame.forecast.horizon")
+        assert re.fullmatch(r"\d+\.\d s", ttl) or ttl == f"> {horizon:.0f} s", ttl
+        assert "drift" in page.inner_text("#ttl-detail") and "none" not in page.inner_text("#values")
+        _seek(page, math.ceil(replay_server["release"] + 1.0))
+        times = page.evaluate("[...document.querySelectorAll('tr.alarm td.time')].map((e) => e.textContent)")
+        assert times and all(re.fullmatch(r"(\d{4}-\d\d-\d\d )?\d\d:\d\d:\d\d", x) for x in times), times
+        blink = page.evaluate("""() => [...document.querySelectorAll('tr.alarm.unacknowledged')].map((tr) => [
+            tr.querySelector('td.prio').getAnimations({subtree: true}).length,
+            tr.querySelector('td.state .ind').getAnimations().length])""")
+        assert blink and all(p == 0 and s == 1 for p, s in blink), blink
+        shown = page.inner_text("body")
+        assert not [f for f in FACES if f in shown], shown
+        assert page.errors == []
+    finally:
+        ctx.close()
+
+
+@pytest.mark.slow
+def test_trends_journal_and_the_replay_s_speed(browser, replay_server):
+    """Issue 29 items 5, 6: the trends page draws the last 10 minutes (beta, the margin, the time to limit, the
+    drift speed) from the frames' points, the journal lists the alarms from the log and its filter and search
+    narrow it, and the replay's speed control shows the speed its label says it plays at."""
+    ctx, page = _sized(browser, 1366, 768)
+    try:
+        log_in(page, replay_server["url"], "alice", "pw-alice")
+        assert page.input_value("#replay-speed") == "1" and "playing 1x" in page.inner_text("#replay-time")
+        page.select_option("#replay-speed", "4")
+        wait_for(page, "document.getElementById('replay-time').textContent.includes('playing 4x')",
+                 what="playing 4x")
+        rel = math.ceil(replay_server["release"] + 1.0)
+        _seek(page, rel)
+        page.click("#pages button[data-page='trends']")
+        wait_for(page, "hmi.trend.length > 0 && hmi.trend[hmi.trend.length - 1].t === %d" % rel)
+        assert page.evaluate("hmi.trend.length") == rel + 1                  # 1 Hz from 0 s: within 10 minutes
+        for svg in ("trend-angles", "trend-ttl", "trend-drift"):
+            assert page.evaluate(f"document.querySelectorAll('#{svg} path.trace').length") >= 1, svg
+        assert _outside(page, PRIMARY) == []
+        page.click("#pages button[data-page='journal']")
+        wait_for(page, "document.querySelectorAll('#journal tbody tr').length > 0", what="the journal")
+        kinds = set(page.evaluate("[...document.querySelectorAll('#journal tbody tr')].map((r) => r.dataset.kind)"))
+        assert kinds <= {"alarm", "alarm_state"} and "alarm_state" in kinds
+        page.fill("#journal-search", "ERS-2")
+        wait_for(page, "document.querySelectorAll('#journal tbody tr').length > 0 && [...document.querySelectorAll("
+                       "'#journal tbody tr')].every((r) => r.textContent.includes('ERS-2'))", what="the search")
+        page.select_option("#journal-kind", "modes")
+        page.fill("#journal-search", "")
+        wait_for(page, "[...document.querySelectorAll('#journal tbody tr')].some((r) => r.dataset.kind === 'mode')",
+                 what="the modes")
+        assert page.errors == []
+    finally:
+        ctx.close()
+
+
+@pytest.mark.slow
+def test_audible_annunciation_per_priority_with_silence(browser, replay_server):
+    """Issue 29 item 5: off until the operator turns it on (WebAudio, no file); on, the most urgent
+    unacknowledged alarm sounds its priority's pattern, Silence quiets it, and a new alarm sounds again."""
+    ctx, page = _sized(browser, 1366, 768)
+    try:
+        log_in(page, replay_server["url"], "alice", "pw-alice")
+        _seek(page, math.ceil(replay_server["release"] + 1.0))
+        assert page.evaluate("hmi.audio.playing") is None
+        page.check("#sound-on")
+        wait_for(page, "hmi.audio.playing === 1 && hmi.audio.beeps >= 3", what="the critical pattern")
+        page.click("#silence")
+        assert page.evaluate("hmi.audio.playing") is None and "quiet" in page.inner_text("#sound-state")
+        _seek(page, 150)                                  # before the drift: no alarm
+        _seek(page, math.ceil(replay_server["release"] + 1.0))
+        assert page.evaluate("hmi.audio.playing") is None  # the same activation: still silenced
+        requests = page.evaluate("performance.getEntriesByType('resource').map((e) => e.name)")
+        assert not [u for u in requests if re.search(r"\.(wav|mp3|ogg)$", u)]
+        assert page.errors == []
+    finally:
+        ctx.close()
+
+
+@pytest.mark.slow
+def test_the_ship_s_view_a_viewer_on_a_tablet(screen, browser, state):
+    """Issue 29 item 5: the viewer role on a 1024x768 tablet: the primary state is in view without scrolling,
+    and only ESD-1 can be pressed."""
+    s = screen()
+    ctx, page = _sized(browser, 1024, 768)
+    try:
+        log_in(page, s.url, "victor", "pw-victor")
+        assert _outside(page, [p for p in PRIMARY if p != "tr.alarm"]) == []
+        assert page.evaluate("document.scrollingElement.scrollHeight <= innerHeight"
+                             " && document.scrollingElement.scrollWidth <= innerWidth")
+        enabled = page.evaluate("[...document.querySelectorAll('#controls button')].filter(b => !b.disabled)"
+                                ".map(b => b.id)")
+        assert enabled == ["esd"] and page.errors == []
+    finally:
+        ctx.close()

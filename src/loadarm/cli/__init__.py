@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import re
 import sys
 from typing import Annotated
 
@@ -45,9 +46,43 @@ COMMAND_MODULES = {
 GROUPS = frozenset({"user"})
 
 
+#: What rich's help renderer would take for a markup tag (``[guidance]``, ``[/x]``, ``[#fff]``; rich.markup's
+#: grammar): the help screens escape it, so a docstring's TOML section names are printed, not swallowed.
+_MARKUP_TAG = re.compile(r"(\\*)(\[[a-z#/@][^[]*?])")
+
+
+def _literal(text: str | None) -> str | None:
+    """``text`` with every would-be rich markup tag escaped (rich.markup.escape's rule, without importing rich:
+    ``loadarm plan --json`` never loads it)."""
+    return None if text is None else _MARKUP_TAG.sub(lambda m: f"{m[1]}{m[1]}\\{m[2]}", text)
+
+
+def literal_help(cmd, ctx) -> None:
+    """Make a command's help screen say what its source says (issue 29, items 12-13), and its sub-commands':
+
+    * help texts are literal: typer renders them as rich markup, which swallowed ``[guidance] and [sensor]`` in
+      ``serve --help`` and ``[operability]`` in ``operability --help``; every text is escaped;
+    * a flag is shown as a flag: typer's rich help gave every bool option a ``<bool>`` type, inviting
+      ``--json true`` (which fails); a flag's value column is left empty.
+    """
+    if getattr(cmd, "_loadarm_literal", False):
+        return
+    cmd._loadarm_literal = True
+    cmd.help, cmd.short_help, cmd.epilog = _literal(cmd.help), _literal(cmd.short_help), _literal(cmd.epilog)
+    for param in [*cmd.params, cmd.get_help_option(ctx)]:
+        if param is None:
+            continue
+        param.help = _literal(getattr(param, "help", None))
+        if getattr(param, "is_flag", False) and not getattr(param, "count", False):
+            param.metavar = ""                  # typer's rich help prints the metavar as the type: none
+    for sub in getattr(cmd, "commands", {}).values():
+        literal_help(sub, ctx)
+
+
 class _Commands(TyperGroup):
     """The top-level group: it knows its commands' names from :data:`COMMAND_MODULES` and imports a command's module
-    only when that command is asked for (to run it, or to list its help)."""
+    only when that command is asked for (to run it, or to list its help). Every command's help is made literal
+    (:func:`literal_help`)."""
 
     def list_commands(self, ctx) -> list[str]:
         return list(COMMAND_MODULES)
@@ -56,7 +91,14 @@ class _Commands(TyperGroup):
         if cmd_name not in COMMAND_MODULES:
             return None
         group = get_group(importlib.import_module(COMMAND_MODULES[cmd_name]).app)
-        return group if cmd_name in GROUPS else group.commands.get(cmd_name)
+        cmd = group if cmd_name in GROUPS else group.commands.get(cmd_name)
+        if cmd is not None:
+            literal_help(cmd, ctx)
+        return cmd
+
+    def format_help(self, ctx, formatter) -> None:
+        literal_help(self, ctx)
+        super().format_help(ctx, formatter)
 
 
 app = typer.Typer(cls=_Commands, add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,

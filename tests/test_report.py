@@ -251,6 +251,10 @@ def test_report_with_a_berth_has_the_moored_ship_and_its_alarm_design(tmp_path):
     html = files.html.read_text()
     summary = json.loads(files.summary.read_text())
     assert "8b. The berth: moored ship and alarm design" in html and "[alarms]" in html
+    # one verdict, configured against recommended side by side (found: section 8 passed, 8b recommended others)
+    assert summary["verdict"]["status"] == "conditional" and "Verdict: CONDITIONAL" in html
+    assert "<th>configured [deg]</th>" in html and "<th>recommended [deg]</th>" in html
+    assert "Pre-alarm: recommended from" in html and "Verdict: <b>holds" not in html
     assert {"rao.png", "alarm_design.png"} <= {p.name for p in files.figures.values()}
     rec = summary["berth"]["alarm_design"]["recommended"]
     assert rec["first_beta_deg"] < rec["second_beta_deg"] < rec["release_beta_deg"]

@@ -367,12 +367,15 @@ def alarm_verdict(check, design: "AlarmDesign | None") -> Verdict:
     why = [f"{r.direction}: the configured first alarm fires {r.angle_alarm:.2f} m out, past the {r.alarm_at:.2f} m "
            "where the design drift needs ESD-1 at the latest" for r in late]
     why += [f"{f.direction}, {f.stage} at {f.angle_deg:.1f} deg: {f.governs} margin {f.margin_m:+.2f} m" for f in bad]
+    rec_bad = sorted({f"{f.direction} ({f.stage})" for f in (design.stages if design is not None else ())
+                      if f.settings == "recommended" and not f.ok})
+    advice = "" if design is None else (
+        ". Adopt the recommended settings, which hold on their own" if not rec_bad else
+        ". The recommended angles alone are short too at " + ", ".join(rec_bad) + " (one angle cannot serve the "
+        "whole flanging area there): adopt them with the recommended design drift, whose floor covers the rest")
     return Verdict("conditional", "holds only by the design-drift floor of the connected-mode monitor (it fires "
                                   "ESD-1 by the time to the face whatever the angles); the configured angles alone "
-                                  "do not: " + "; ".join(why)
-                                  + (". Adopt the recommended settings, which hold on their own"
-                                     if design is not None and all(f.ok for f in design.stages
-                                                                   if f.settings == "recommended") else ""))
+                                  "do not: " + "; ".join(why) + advice)
 
 
 @dataclass(frozen=True)

@@ -548,6 +548,14 @@ def test_the_hmi_page_states_the_figures_the_code_uses():
                  f"the nearest to 1/{1 / defaults['resolution'].default:g} s",
                  f"the scan's {defaults['step'].default:g} s step"):
         assert text in doc, text
+    # issue 29 item 2: the horizon the page quotes is the code's (the longest stage lead of the paper's case)
+    from loadarm.guidance.monitor import stage_leads
+    from loadarm.params.config import load_config
+    from loadarm.params.compiler import compile_model
+
+    horizon = max(stage_leads(compile_model(load_config("examples/paper.toml")).sequence).values())
+    assert f"Beyond the forecast's horizon (the longest stage lead, from the code: {horizon:g} s" in doc
+    assert f'it reads **"> {horizon:g} s"**' in doc
     assert stale < 1.2                                  # the banner's example is past the watchdog's limit
 
 

@@ -480,7 +480,7 @@ def test_trends_journal_and_the_replay_s_speed(browser, replay_server):
         rel = math.ceil(replay_server["release"] + 1.0)
         _seek(page, rel)
         page.click("#pages button[data-page='trends']")
-        wait_for(page, "hmi.trend.length > 0 && hmi.trend[hmi.trend.length - 1].t === %d" % rel)
+        wait_for(page, f"hmi.trend.length > 0 && hmi.trend[hmi.trend.length - 1].t === {rel}")
         assert page.evaluate("hmi.trend.length") == rel + 1                  # 1 Hz from 0 s: within 10 minutes
         for svg in ("trend-angles", "trend-ttl", "trend-drift"):
             assert page.evaluate(f"document.querySelectorAll('#{svg} path.trace').length") >= 1, svg

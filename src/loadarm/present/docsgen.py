@@ -13,13 +13,11 @@ Run ``python -m loadarm.present.docsgen [--check]`` from the repository root.
 
 from __future__ import annotations
 
-import shutil
 import sys
 from pathlib import Path
 
 from loadarm.figures import save
 from loadarm.opcua.plc import tags_markdown
-from loadarm.opcua.security import Role, StateDir
 from loadarm.opcua.server import address_space_markdown
 from loadarm.params.berth import berth_parameter_markdown, load_berth
 from loadarm.params.config import example_toml, load_config, packaged_example, parameter_markdown
@@ -29,7 +27,7 @@ from loadarm.studies.forecast import run_forecast
 from loadarm.studies.metocean import synthetic_metocean
 from loadarm.studies.prediction import calibrate_predictors
 from loadarm.studies.plots import weather_figure
-from loadarm.testing.browser import find_chromium, launch, scenario_screen, tour
+from loadarm.testing.browser import SCREENSHOTS, find_chromium, launch, screenshots
 
 __all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "REPORT_PAGES", "report_page", "STUDY_FIGURES", "render_doc_figures", "hmi_screenshots",
            "study_figures", "shipped_forecast", "regenerate", "compare_figures"]
@@ -50,7 +48,7 @@ WEATHER_YEARS = 10
 
 #: The operator's screen in docs/hmi.md: screenshots a real browser takes of the scripted drift-off
 #: (:func:`hmi_screenshots`; not compared pixel by pixel: a live screen's clock and noise differ each run).
-HMI_SCREENSHOTS = ("hmi-approach.png", "hmi-connected.png", "hmi-alarm1.png", "hmi-release.png")
+HMI_SCREENSHOTS = SCREENSHOTS
 
 #: The report's title page as printed (docs/cli-and-report.md): drawn by :func:`report_page` from the paper's
 #: report in Chromium with the print stylesheet (not compared pixel by pixel: its date and hash change).
@@ -164,8 +162,9 @@ def compare_figures(committed: str | Path, fresh: dict[str, Path], tol: float = 
 
 
 def hmi_screenshots(dest: str | Path, *, speedup: float = 4.0) -> list[Path]:
-    """Screenshots of the operator's screen in each mode of the scripted drift-off (the hydraulic plant, at
-    ``speedup``), taken in Debian's Chromium; only :data:`HMI_SCREENSHOTS` are kept.
+    """The screenshots of docs/hmi.md (:data:`HMI_SCREENSHOTS`, at a 1920x1080 console): each mode of the
+    scripted drift-off live (the hydraulic plant, at ``speedup``), then the same run replayed and its alarm
+    journal, taken in Debian's Chromium (:func:`loadarm.testing.browser.screenshots`).
 
     Parameters
     ----------
@@ -184,28 +183,7 @@ def hmi_screenshots(dest: str | Path, *, speedup: float = 4.0) -> list[Path]:
     FileNotFoundError
         No Chromium (the message says how to install it).
     """
-    import tempfile
-
-    from playwright.sync_api import sync_playwright
-
-    dest = Path(dest)
-    with tempfile.TemporaryDirectory() as tmp:
-        st = StateDir(Path(tmp) / "state")
-        st.users().add("operator", Role.OPERATOR, "docs-only")
-        with scenario_screen(packaged_example("scenarios/driftoff.toml"), st.path,
-                             speedup=speedup) as (_service, server), sync_playwright() as p:
-            browser = launch(p)
-            page = browser.new_page(viewport={"width": 1400, "height": 900})
-            got = tour(page, server.url, "operator", "docs-only", Path(tmp))
-            browser.close()
-        out = []
-        for name in HMI_SCREENSHOTS:
-            shot = Path(tmp) / name
-            if not shot.exists():
-                raise RuntimeError(f"the screen never showed {name} (modes seen: {got['modes']})")
-            dest.mkdir(parents=True, exist_ok=True)
-            out.append(Path(shutil.copy(shot, dest / name)))
-    return out
+    return screenshots(packaged_example("scenarios/driftoff.toml"), dest, speedup=speedup)
 
 
 def report_page(dest: str | Path) -> Path:

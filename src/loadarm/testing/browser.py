@@ -10,12 +10,22 @@ import shutil
 import time
 from pathlib import Path
 
+from loadarm.eventlog import EventLog
 from loadarm.hmi.app import HmiServer, create_app
+from loadarm.hmi.replay import ReplayService
+from loadarm.opcua.security import Role, StateDir
 from loadarm.opcua.service import GuidanceService
 from loadarm.params.scenario import load_scenario
-from loadarm.sim.loop import ClosedLoop
+from loadarm.sim.loop import ClosedLoop, run_scenario
 
-__all__ = ["CHROMIUM_HINT", "find_chromium", "launch", "log_in", "wait_for", "tour", "scenario_screen"]
+__all__ = ["CHROMIUM_HINT", "SCREENSHOTS", "SCREEN_SIZE", "find_chromium", "launch", "log_in", "wait_for", "tour",
+           "scenario_screen", "screenshots"]
+
+#: The screenshots of docs/hmi.md (:func:`screenshots`): the live drift-off's modes, then its replay and journal.
+SCREENSHOTS = ("hmi-approach.png", "hmi-connected.png", "hmi-alarm1.png", "hmi-release.png", "hmi-journal.png",
+               "hmi-replay.png")
+#: They are taken at a jetty console's size.
+SCREEN_SIZE = (1920, 1080)
 
 #: What to do when no Chromium is found.
 CHROMIUM_HINT = ("no Chromium found: install Debian's (`apt-get install chromium`) or set LOADARM_CHROMIUM to a "
@@ -197,3 +207,79 @@ def scenario_screen(scenario, state_dir, *, speedup: float = 1.0, scripted: bool
     finally:
         service.stop()
         server.stop()
+
+
+def screenshots(scenario, dest, *, speedup: float = 4.0) -> list[Path]:
+    """The screenshots of docs/hmi.md (:data:`SCREENSHOTS`, at :data:`SCREEN_SIZE`): the scripted run of
+    ``scenario`` live at ``speedup`` (a screenshot of each mode, :func:`tour`), then the same run logged and
+    replayed on ``serve --replay``'s screen: the replay one second into the release, and the alarm journal.
+
+    Parameters
+    ----------
+    scenario : path
+        The drift-off's scenario file.
+    dest : str or Path
+        Where they go.
+    speedup : float
+        Run seconds per wall second of the live run.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Raises
+    ------
+    FileNotFoundError
+        No Chromium (the message says how to install it).
+    RuntimeError
+        The live screen never showed one of the modes.
+    """
+    import math
+    import tempfile
+
+    from playwright.sync_api import sync_playwright
+
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    w, h = SCREEN_SIZE
+    with tempfile.TemporaryDirectory() as tmp, sync_playwright() as p:
+        st = StateDir(Path(tmp) / "state")
+        st.users().add("operator", Role.OPERATOR, "docs-only")
+        browser = launch(p)
+        try:
+            with scenario_screen(scenario, st.path, speedup=speedup) as (_service, server):
+                page = browser.new_page(viewport={"width": w, "height": h})
+                got = tour(page, server.url, "operator", "docs-only", Path(tmp))
+                page.close()
+            out = []
+            for name in SCREENSHOTS[:4]:
+                if not (Path(tmp) / name).exists():
+                    raise RuntimeError(f"the screen never showed {name} (modes seen: {got['modes']})")
+                out.append(Path(shutil.copy(Path(tmp) / name, dest / name)))
+            sc, model = load_scenario(scenario)
+            with EventLog(Path(tmp) / "events.db", run="docs") as log:
+                res = run_scenario(sc, model, log=log)
+            with EventLog.open_existing(Path(tmp) / "events.db") as log:
+                service = ReplayService(log.query(run="docs"), model)
+            server = HmiServer(create_app(service, st.path, model, name=f"{sc.scenario.name} (replay)"),
+                               "127.0.0.1", 0)
+            server.start()
+            try:
+                page = browser.new_page(viewport={"width": w, "height": h})
+                log_in(page, server.url, "operator", "docs-only")
+                t = math.ceil(res.first("alarm", "RELEASE") + 1.0)
+                page.evaluate(f"control('pause'); control('seek', {{t: {t}}})")
+                wait_for(page, f"hmi.frame.t === {t}", what=f"the replay at {t} s")
+                time.sleep(0.3)
+                page.screenshot(path=str(dest / "hmi-replay.png"))
+                page.click("#pages button[data-page='journal']")
+                wait_for(page, "document.querySelectorAll('#journal tbody tr').length > 0", what="the journal")
+                time.sleep(0.2)
+                page.screenshot(path=str(dest / "hmi-journal.png"))
+                out += [dest / "hmi-journal.png", dest / "hmi-replay.png"]
+            finally:
+                server.stop()
+        finally:
+            browser.close()
+    return out

@@ -8,9 +8,10 @@ criteria, the arm's monitoring), ``seeds`` times with other wave realisations. P
 
 * the probability of staying connected through the hour without ESD-1: the share of members and seeds in which
   the hour is up on every criterion and raises no ESD-1;
-* the expected number of ESD-1 in the hour (a state raises at most one: the share that raises it);
-* the weather that drives it: the members' median Hs, Tp and wind, and the criterion that takes the most hours
-  down;
+* the expected number of ESD-1 in the hour while connected (up on the terminal's other criteria; a state raises
+  at most one: the share that raises it);
+* the weather that drives it: the members' median Hs, Tp and wind, and the criterion down in the most states
+  of the hour;
 * for a loading of ``loading_hours`` starting then: the probability that it completes, every one of its hours
   connected without ESD-1 in the same member and seed.
 """
@@ -71,7 +72,7 @@ class ForecastResult(Result):
     connected : ndarray (k,)
         Probability of staying connected through each hour without ESD-1.
     esd1 : ndarray (k,)
-        Expected ESD-1 in each hour.
+        Expected ESD-1 in each hour, while up on the terminal's other criteria (the operability's "connected").
     completes : ndarray (k,)
         Probability that a loading starting at each hour completes (``nan`` where it would run past the forecast).
     hs, tp, wind : ndarray (k,)
@@ -143,22 +144,27 @@ class ForecastResult(Result):
         return forecast_figure(self)
 
 
-def _job(compiled: bytes, rows: list[dict], settings, seed: int, first: int = 0) \
+def _job(compiled: bytes, rows: list[dict], settings, seed: int, first: int = 0, member: int = 0) \
         -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One member's hours with one wave realisation (a worker's task): whether each hour is up (connected without
-    ESD-1), raises ESD-1, and the criterion that takes it down (``"arm"`` for ESD-1 alone, ``"none"``).
+    ESD-1), raises ESD-1 while up on the terminal's other criteria (as the operability counts ESD-1 connected),
+    and the criteria that take it down (a tuple, ESD-1 counted as ``"arm"``).
     ``compiled`` is the model, ship, table, bearing and environment by cloudpickle (the compiled model's record
     types are made at run time, which the standard pickle cannot name: Dask sends them the same way); ``rows``
-    are the member's hours from its ``first``-th (the seed of each hour is its place in the member, so a member cut
-    into parts gives the same states)."""
+    are the member's hours from its ``first``-th. Every member, seed and hour has waves of its own (the seed is
+    made of the three: found, members sharing their waves were more alike than an ensemble is), and a member cut
+    into parts gives the same states."""
     model, ship, table, bearing, env = cloudpickle.loads(compiled)
-    seeded = [{**r, "index": SEED_BASE * (seed + 1) + first + j} for j, r in enumerate(rows)]
+    base = SEED_BASE * (1 + seed + MAX_SEEDS * member)
+    seeded = [{**r, "index": base + first + j} for j, r in enumerate(rows)]
     states = run_states(model, ship, table, seeded, settings, bearing, env)
-    esd = np.array([int(st["stage"]) >= Severity.ESD1 for st in states], dtype=bool)
-    up = np.array([not st["down"] for st in states], dtype=bool) & ~esd
-    why = np.array([next((c for c in CRITERIA if st[f"down_{c}"]), "arm" if e else "none")
-                    for st, e in zip(states, esd, strict=True)], dtype=object)
-    return up, esd, why
+    raised = np.array([int(st["stage"]) >= Severity.ESD1 for st in states], dtype=bool)
+    others = np.array([any(st[f"down_{c}"] for c in CRITERIA if c != "arm") for st in states], dtype=bool)
+    up = np.array([not st["down"] for st in states], dtype=bool) & ~raised
+    why = np.empty(len(states), dtype=object)
+    why[:] = [tuple(c for c in CRITERIA if st[f"down_{c}"] or (c == "arm" and e))
+              for st, e in zip(states, raised, strict=True)]
+    return up, raised & ~others, why
 
 
 def _run_jobs(args: list[tuple], workers: int, progress) -> list:
@@ -248,15 +254,15 @@ def run_forecast(config, berth, members, *, hours: int = 72, seeds: int = 1,
     parts = max(1, -(-n_workers // (len(records) * seeds)))           # a member cut in parts when the cores outnumber
     cuts = [c for c in np.array_split(np.arange(times.size), parts) if c.size]   # the members and seeds
     jobs = [(r, seed, c) for r in range(len(records)) for seed in range(seeds) for c in cuts]
-    args = [(compiled, records[r][c[0]: c[-1] + 1], settings, seed, int(c[0])) for r, seed, c in jobs]
+    args = [(compiled, records[r][c[0]: c[-1] + 1], settings, seed, int(c[0]), r) for r, seed, c in jobs]
     results = _run_jobs(args, n_workers, progress)
     per_run = len(cuts)                                   # consecutive jobs: one member and seed, its parts in order
     up, esd, why = (np.stack([np.concatenate([results[g * per_run + p][i] for p in range(per_run)])
                               for g in range(len(records) * seeds)]) for i in range(3))
     governs = []
-    for j in range(times.size):
-        names, counts = np.unique(why[:, j][why[:, j] != "none"], return_counts=True)
-        governs.append(str(names[np.argmax(counts)]) if names.size else "none")
+    for j in range(times.size):                # the criterion down in the most states of the hour (CRITERIA's order on ties)
+        counts = [sum(c in w for w in why[:, j]) for c in CRITERIA]
+        governs.append(CRITERIA[int(np.argmax(counts))] if max(counts) else "none")
     med = {k: np.median([[r[k] for r in rec] for rec in records], axis=0)
            for k in ("hs_m", "tp_s", "wind_speed_ms")}
     length = max(1, int(math.ceil(settings.criteria.loading_hours)))

@@ -78,3 +78,29 @@ def test_a_flag_given_a_value_is_refused_in_one_line(capsys):
     code = main(["plan", "--config", "examples/paper.toml", "--json", "true"])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1
+
+
+def test_log_never_cuts_a_run_id_at_80_columns(capsys, monkeypatch, tmp_path):
+    """Item 14: the run column showed "drift-off@20261…" at 80 columns, yet the id is what --run takes: each run's
+    id is printed whole, and it selects that run."""
+    from loadarm.cli.common import out
+    from loadarm.eventlog import EventLog
+
+    db = tmp_path / "ev.db"
+    ids = ["drift-off@20261107T101010.123456Z", "serve:drift-off@20261107T101011.654321Z",
+           "a-scenario-with-a-long-name-" * 3 + "@20261107T101012.000000Z"]
+    for run_id in ids:
+        with EventLog(db, run=run_id) as log:
+            log.append(1.0, "APPROACH", "operator", "start")
+            log.append(2.5, "APPROACH", "mode", "STORED -> APPROACH: the operator started the approach, a reason "
+                                                "long enough to wrap at eighty columns")
+    monkeypatch.setenv("COLUMNS", "80")
+    monkeypatch.setattr(out, "_console", None)          # a console made at 80 columns
+    assert main(["log", "--db", str(db)]) == 0
+    text = capsys.readouterr().out
+    assert "…" not in text and all(len(ln) <= 80 for ln in text.splitlines() if ln[:1] in "┏┃┡│└")
+    for run_id in ids:
+        assert f"run {run_id}: 2 events" in text.splitlines()
+        assert main(["log", "--db", str(db), "--run", run_id]) == 0
+        one = capsys.readouterr().out
+        assert f"run {run_id}: 2 events" in one and "2 events in 1 run" in one

@@ -149,14 +149,27 @@ def log_cmd(
     if as_json:
         print_json([e.as_dict() for e in events])
         return
-    t = Table(title=f"{db}: {len(events)} events" + ("" if samples or kind else " (samples hidden; --samples)"))
-    for col in ("id", "run", "t [s]", "mode", "kind", "reason"):
-        t.add_column(col)
-    for e in events:
-        t.add_row(str(e.id), e.run, f"{e.t:.2f}", e.state, e.kind, e.reason)
-    out.print(t)
+    _print_events(db, events, "" if samples or kind else " (samples hidden; --samples)")
     if png is not None:
         out.print(f"timeline written to {str(png)}")
+
+
+def _print_events(db: Path, events, note: str) -> None:
+    """The events as one table per run, under a line with the run's id whole: the id is what ``--run`` takes, so it
+    is never cut (found: a run column at 80 columns showed "drift-off@20261…"). The table's other cells wrap."""
+    by_run: dict[str, list] = {}
+    for e in events:
+        by_run.setdefault(e.run, []).append(e)
+    out.print(f"{db}: {len(events)} events in {len(by_run)} run{'' if len(by_run) == 1 else 's'}{note}")
+    for run_id, evs in by_run.items():
+        out.print(f"run {run_id}: {len(evs)} events")
+        t = Table()
+        for col in ("id", "t [s]", "mode", "kind"):
+            t.add_column(col, no_wrap=True)
+        t.add_column("reason", overflow="fold")
+        for e in evs:
+            t.add_row(str(e.id), f"{e.t:.2f}", e.state, e.kind, e.reason)
+        out.print(t)
 
 
 def _replay_png(png: Path, events) -> None:

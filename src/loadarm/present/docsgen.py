@@ -101,7 +101,12 @@ def study_figures(dest: str | Path, names=STUDY_FIGURES, *, prediction=None, for
 
 def shipped_forecast():
     """The connect windows of ``examples/metocean/forecast/`` (five members, 72 hours, one seed) for the paper's
-    arm at the example berth: docs/img/forecast.png."""
+    arm at the example berth: docs/img/forecast.png.
+
+    Returns
+    -------
+    ForecastResult
+    """
     members = sorted(packaged_example("metocean/forecast").glob("member-*.csv"))
     return run_forecast(packaged_example("paper.toml"), packaged_example("berths/lng150k.toml"), members)
 

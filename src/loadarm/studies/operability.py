@@ -623,7 +623,18 @@ def record_rows(metocean, hours: int | None = None) -> tuple[list[dict], object]
 
 
 def monitor_table(model, rows: list[dict]):
-    """The compiled monitor's floor table over the flange's reach in these hours' tides (:func:`floor_table`)."""
+    """The compiled monitor's floor table over the flange's reach in these hours' tides (:func:`floor_table`).
+
+    Parameters
+    ----------
+    model : ArmModel
+    rows : list of dict
+        Hours (:func:`record_rows`), their ``tide_m`` read.
+
+    Returns
+    -------
+    FloorTable
+    """
     tides = [r["tide_m"] for r in rows] or [0.0]
     return floor_table(model, *_box(model, float(np.min(tides)), float(np.max(tides))))
 

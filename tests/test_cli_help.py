@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import importlib
+import json
 import re
 
 import pytest
 from typer.main import get_group
 
 from loadarm.cli import COMMAND_MODULES, GROUPS, main
+
+from .conftest import ROOT
 
 
 def _commands():
@@ -104,3 +107,86 @@ def test_log_never_cuts_a_run_id_at_80_columns(capsys, monkeypatch, tmp_path):
         assert main(["log", "--db", str(db), "--run", run_id]) == 0
         one = capsys.readouterr().out
         assert f"run {run_id}: 2 events" in one and "2 events in 1 run" in one
+
+
+EXAMPLES = ROOT / "examples"
+
+
+@pytest.mark.parametrize("args, kind, command", [
+    (["plan", "--config", "examples/scenarios/driftoff.toml"], "a scenario file, not an installation file",
+     "loadarm run --scenario examples/scenarios/driftoff.toml"),
+    (["size", "--config", "examples/berths/lng150k.toml"], "a berth file, not an installation file",
+     "loadarm hydro --berth examples/berths/lng150k.toml"),
+    (["plan", "--config", "examples/metocean/sample.csv"], "a metocean record, not an installation file",
+     "loadarm operability --metocean examples/metocean/sample.csv"),
+    (["run", "--scenario", "examples/paper.toml"], "an installation file, not a scenario file",
+     "loadarm plan --config examples/paper.toml"),
+    (["run", "--scenario", "examples/berths/lng150k.toml"], "a berth file, not a scenario file",
+     "loadarm hydro --berth examples/berths/lng150k.toml"),
+    (["hydro", "--berth", "examples/scenarios/driftoff.toml"], "a scenario file, not a berth file",
+     "loadarm run --scenario examples/scenarios/driftoff.toml"),
+])
+def test_a_file_of_another_kind_is_named_with_the_command_that_takes_it(capsys, monkeypatch, args, kind, command):
+    """Item 16: `plan --config` a scenario file said "unknown key 'scenario' ... (and 8 more problems)"."""
+    monkeypatch.chdir(ROOT)
+    code = main(args)
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and f"this is {kind}; `{command}` takes it" in err, err
+    assert "unknown key" not in err
+
+
+def test_a_file_of_the_right_kind_keeps_its_own_error(capsys, tmp_path):
+    bad = tmp_path / "s.toml"
+    bad.write_text("[scenario]\nduration = 100\n[drift]\nspeed = 99\n")
+    assert main(["run", "--scenario", str(bad), "--no-db"]) == 2
+    err = capsys.readouterr().err
+    assert "drift.speed = 99" in err and "(0, 2] m/s" in err and "this is" not in err
+
+
+@pytest.mark.parametrize("path, kind, command", [
+    ("paper.toml", "an installation file", "loadarm plan --config"),
+    ("full.toml", "an installation file", "loadarm plan --config"),
+    ("datasheet.toml", "an installation file", "loadarm size --config"),
+    ("scenarios/driftoff.toml", "a scenario file", "loadarm run --scenario"),
+    ("scenarios/hs15_moored.toml", "a scenario file", "loadarm run --scenario"),
+    ("berths/lng150k.toml", "a berth file", "loadarm hydro --berth"),
+    ("metocean/sample.csv", "a metocean record", "loadarm operability --metocean"),
+])
+def test_validate_names_the_kind_of_every_example(capsys, path, kind, command):
+    f = EXAMPLES / path
+    code = main(["validate", str(f)])
+    text = " ".join(capsys.readouterr().out.split())
+    assert code == 0 and text.startswith(f"{f}: {kind}, valid: ") and f"`{command} {f}` takes it" in text, text
+    assert main(["validate", str(f), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["valid"] is True and d["command"] == command and kind.split()[1] in (d["kind"], "installation")
+
+
+@pytest.mark.parametrize("text, suffix, fragment", [
+    ("[scenario]\nduration = 100\n[drift]\nspeed = 99\n", ".toml",
+     "drift.speed = 99: Input should be less than or equal to 2; valid range (0, 2] m/s (read as a scenario file)"),
+    ("[berth]\nwater_depth = 15\n", ".toml", "(read as a berth file)"),
+    ("[datasheet]\n[arm]\n", ".toml", "missing required key 'datasheet.A'"),
+    ("[datasheet]\n[moorings]\n", ".toml", "[datasheet], [moorings]: not an installation"),
+    ("a = 1\n", ".toml", "[a]: not an installation ([datasheet], [arm], ...), a scenario"),
+    ("# not toml\nx y\n", ".txt", "not valid TOML"),
+    ("time,hs_m\n2025-01-01T00:00,1\n", ".csv", "(read as a metocean record)"),
+])
+def test_validate_refuses_in_one_line_exit_2(capsys, tmp_path, text, suffix, fragment):
+    f = tmp_path / f"input{suffix}"
+    f.write_text(text)
+    code = main(["validate", str(f)])
+    cap = capsys.readouterr()
+    assert code == 2 and cap.out == "" and cap.err.count("\n") == 1 and cap.err.startswith(f"loadarm: error: {f}")
+    assert fragment in cap.err, cap.err
+    assert main(["validate", str(tmp_path / "nope.toml")]) == 2
+    assert "not found" in capsys.readouterr().err
+
+
+def test_every_kind_is_told_from_its_own_tables():
+    from loadarm.params.kinds import KINDS, kind_of_tables
+
+    for kind in KINDS.values():
+        if kind.tables:
+            assert kind_of_tables(kind.tables) is kind
+    assert kind_of_tables({"ship", "environment"}) is None          # a scenario's and a berth's alike

@@ -17,7 +17,20 @@ class LoadarmError(Exception):
 
 
 class ConfigError(LoadarmError, ValueError):
-    """A configuration file is missing, malformed, or holds an invalid value."""
+    """A configuration file is missing, malformed, or holds an invalid value.
+
+    Attributes
+    ----------
+    source : str or None
+        The file refused, when a reader of one kind of input refused it (an installation, a scenario, a berth).
+    expected : str or None
+        That kind (``"installation"``, ``"scenario"``, ``"berth"``): the command line then names the kind the file
+        really is and the command that takes it (:mod:`loadarm.params.kinds`; issue 29, item 16).
+    """
+
+    def __init__(self, message: str = "", *, source: str | None = None, expected: str | None = None):
+        super().__init__(message)
+        self.source, self.expected = source, expected
 
 
 class OutputError(LoadarmError):

@@ -170,6 +170,10 @@ def read_binary(path: str | Path, what: str, *, limit: int = MAX_INPUT_BYTES) ->
     return data
 
 
+#: The kind of input (:mod:`loadarm.params.kinds`) a reader of :func:`read_toml` expects, by its ``what``.
+_KIND_OF = {"config": "installation", "scenario": "scenario", "berth": "berth"}
+
+
 def read_toml(path: str | Path, what: str = "config") -> dict[str, Any]:
     """Read a TOML file into a mapping, with one-line errors.
 
@@ -196,7 +200,7 @@ def read_toml(path: str | Path, what: str = "config") -> dict[str, Any]:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML: {exc}") from None
+        raise ConfigError(f"{p}: not valid TOML: {exc}", source=str(p), expected=_KIND_OF.get(what)) from None
     except RecursionError:
         raise ConfigError(f"{p}: not valid TOML: values nested too deeply") from None
     check_depth(data, str(p))

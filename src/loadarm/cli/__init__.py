@@ -1,5 +1,6 @@
 """Command line: ``loadarm size | plan | envelope | check | verify | balance | loads | simulate | run | campaign | log |
-mjcf | demo | report | hydro | alarms | operability | forecast | serve | plc-sim | trust | user | warmup``.
+mjcf | demo | report | hydro | alarms | operability | forecast | serve | plc-sim | trust | user | validate |
+warmup``.
 
 Bad input of any kind (missing file, invalid config, unreachable target,
 malformed option) prints one line on stderr and exits with status 2; there is
@@ -40,7 +41,8 @@ COMMAND_MODULES = {
     "forecast": "loadarm.cli.forecast",
     "campaign": "loadarm.cli.studies", "log": "loadarm.cli.run", "mjcf": "loadarm.cli.verify",
     "demo": "loadarm.cli.demo", "report": "loadarm.cli.report", "serve": "loadarm.cli.plant", "plc-sim": "loadarm.cli.plant",
-    "trust": "loadarm.cli.plant", "user": "loadarm.cli.users", "warmup": "loadarm.cli.warmup",
+    "trust": "loadarm.cli.plant", "user": "loadarm.cli.users", "validate": "loadarm.cli.validate",
+    "warmup": "loadarm.cli.warmup",
 }
 #: Commands that are groups of their own (their module's whole ``app``).
 GROUPS = frozenset({"user"})
@@ -122,6 +124,15 @@ def _root(
     guidance, event log, report."""
 
 
+def _explained(exc: Exception) -> str:
+    """An error's line; a file refused by the reader of one kind of input that is another kind is named for what
+    it is, with the command that takes it (:func:`loadarm.params.kinds.wrong_kind`, loaded only then)."""
+    expected = getattr(exc, "expected", None)
+    if expected is None:
+        return str(exc)
+    return importlib.import_module("loadarm.params.kinds").wrong_kind(exc.source, expected) or str(exc)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns (and exits with) the process status.
 
@@ -140,7 +151,7 @@ def main(argv: list[str] | None = None) -> int:
         rv = app(args=args, prog_name="loadarm", standalone_mode=False)
         code = rv if isinstance(rv, int) else 0
     except (LoadarmError, UserError, ValueError) as exc:
-        fail(str(exc))
+        fail(_explained(exc))
         code = 2
     except OSError as exc:
         fail(f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": "))

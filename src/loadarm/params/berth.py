@@ -469,7 +469,7 @@ def parse_berth(data: dict[str, Any], *, source: str = "<berth>") -> Berth:
     try:
         return Berth.model_validate(toml_values(data))
     except ValidationError as err:
-        raise ConfigError(format_validation_error(err, source, Berth)) from None
+        raise ConfigError(format_validation_error(err, source, Berth), source=source, expected="berth") from None
 
 
 def load_berth(path: str | Path) -> Berth:

@@ -97,7 +97,8 @@ def parse_config(data: dict[str, Any], *, source: str = "<config>") -> Installat
     try:
         return Installation.model_validate(toml_values(data))
     except ValidationError as err:
-        raise ConfigError(format_validation_error(err, source, Installation)) from None
+        raise ConfigError(format_validation_error(err, source, Installation), source=source,
+                          expected="installation") from None
 
 
 def load_config(path: str | Path) -> Installation:
@@ -189,7 +190,8 @@ def load_sizing_case(path: str | Path) -> Any:
     try:
         return sizing_case_model().model_validate(toml_values(read_toml(path)))
     except ValidationError as err:
-        raise ConfigError(format_validation_error(err, str(path), sizing_case_model())) from None
+        raise ConfigError(format_validation_error(err, str(path), sizing_case_model()), source=str(path),
+                          expected="installation") from None
 
 
 def packaged_example(name: str) -> Path:

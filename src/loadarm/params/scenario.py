@@ -319,7 +319,7 @@ def parse_scenario(data: dict, *, source: str = "<scenario>") -> Scenario:
         return Scenario.model_validate(toml_values(data))
     except ValidationError as err:
         msg = format_validation_error(err, source, Scenario)
-        raise ConfigError(msg) from None
+        raise ConfigError(msg, source=source, expected="scenario") from None
 
 
 def parse_scenario_file(path: str | Path) -> Scenario:

@@ -362,6 +362,9 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("security.login_refused", "security", "login refused"),
     EventCode("security.login_limited", "security", "login refused: too many failures"),
     EventCode("security.command_refused", "security", "command refused"),
+    EventCode("security.user_added", "security", "user added"),
+    EventCode("security.user_removed", "security", "user removed"),
+    EventCode("security.password_changed", "security", "password changed"),
 )
 #: Code to its record.
 EVENTS: dict[str, EventCode] = {e.code: e for e in EVENT_TABLE}

@@ -160,9 +160,10 @@ def _print_events(db: Path, events, note: str) -> None:
     by_run: dict[str, list] = {}
     for e in events:
         by_run.setdefault(e.run, []).append(e)
-    out.print(f"{db}: {len(events)} events in {len(by_run)} run{'' if len(by_run) == 1 else 's'}{note}")
+    out.print(f"{db}: {len(events)} event{'' if len(events) == 1 else 's'} in {len(by_run)} "
+              f"run{'' if len(by_run) == 1 else 's'}{note}")
     for run_id, evs in by_run.items():
-        out.print(f"run {run_id}: {len(evs)} events")
+        out.print(f"run {run_id}: {len(evs)} event{'' if len(evs) == 1 else 's'}")
         t = Table()
         for col in ("id", "t [s]", "mode", "kind"):
             t.add_column(col, no_wrap=True)

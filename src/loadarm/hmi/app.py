@@ -20,7 +20,7 @@ from urllib.parse import urlsplit
 
 from loadarm.hmi.sessions import COOKIE, SECRET_BYTES, LoginLimiter, Sessions
 from loadarm.hmi.state import JOURNAL_KINDS, AlarmBook, frame, geometry, journal_entry
-from loadarm.opcua.security import StateDir, is_user_name
+from loadarm.opcua.security import LiveUsers, StateDir, is_user_name
 from loadarm.opcua.service import JOG_HOLD, Request, parse_jog
 from loadarm.vocab import COMMANDS, TAGGED_ACTIONS
 
@@ -135,8 +135,9 @@ class _Screen:
 
     def __init__(self, service, state_dir, model, clock, wall, frame_rate: float, name: str, berth=None):
         self.service, self.model, self.wall, self.frame_rate, self.name = service, model, wall, frame_rate, name
-        self.users = StateDir(state_dir).users()
-        self.sessions, self.limiter, self.book = Sessions(clock=clock), LoginLimiter(clock=clock), AlarmBook()
+        self.users = LiveUsers(StateDir(state_dir).users_file)       # the file as it is now (loadarm user)
+        self.sessions = Sessions(clock=clock, users=self.users)          # a removed user's session ends at once
+        self.limiter, self.book = LoginLimiter(clock=clock), AlarmBook()
         self.geo = geometry(model, berth)
         self.cache: dict = {"seq": None, "alarms": []}
         self.lock = threading.Lock()

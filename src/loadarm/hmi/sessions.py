@@ -34,6 +34,7 @@ class Session:
     csrf: str
     last: float
     last_cmd: int = 0
+    stamp: str | None = None
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False, compare=False)
 
     def csrf_ok(self, token) -> bool:
@@ -54,31 +55,39 @@ class Session:
 
 
 class Sessions:
-    """Session tokens to sessions (thread-safe; the server's event loop and tests share it)."""
+    """Session tokens to sessions (thread-safe; the server's event loop and tests share it).
 
-    def __init__(self, *, clock: Callable[[], float] = time.monotonic, idle: float = SESSION_IDLE):
-        self.clock, self.idle = clock, idle
+    Given the users (:class:`loadarm.opcua.security.LiveUsers`, the file as it is now), a session lasts only while
+    its user's entry is the one it was opened under: a user removed (``loadarm user remove``), a password changed
+    or a user added again ends the user's sessions at their next request, the screen's WebSocket included.
+    """
+
+    def __init__(self, *, clock: Callable[[], float] = time.monotonic, idle: float = SESSION_IDLE, users=None):
+        self.clock, self.idle, self.users = clock, idle, users
         self._by_token: dict[str, Session] = {}
         self._lock = threading.Lock()
 
     def open(self, user: str, role: Role) -> tuple[str, Session]:
         """A new session: its token (for the cookie) and itself."""
         token = secrets.token_urlsafe(32)
-        s = Session(user, role, secrets.token_urlsafe(32), self.clock())
+        stamp = None if self.users is None else self.users.stamp(user)
+        s = Session(user, role, secrets.token_urlsafe(32), self.clock(), stamp=stamp)
         with self._lock:
             self._by_token[token] = s
         return token, s
 
     def get(self, token: str | None) -> Session | None:
-        """The live session of a token, its last use renewed (None: no such session, or it expired)."""
+        """The live session of a token, its last use renewed (None: no such session, it expired, or its user was
+        removed or changed)."""
         if not token:
             return None
         now = self.clock()
+        stamps = None if self.users is None else self.users.current()
         with self._lock:
             s = self._by_token.get(token)
             if s is None:
                 return None
-            if now - s.last > self.idle:
+            if now - s.last > self.idle or (stamps is not None and stamps.stamp(s.user) != s.stamp):
                 del self._by_token[token]
                 return None
             s.last = now

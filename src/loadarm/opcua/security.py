@@ -37,7 +37,7 @@ from loadarm.errors import ConfigError
 from loadarm.files import atomic_write, read_binary, read_toml
 from loadarm.vocab import Role
 
-__all__ = ["Role", "User", "Users", "StateDir", "hash_password", "verify_password", "SCRYPT", "SECRET_BYTES",
+__all__ = ["Role", "User", "Users", "LiveUsers", "StateDir", "hash_password", "verify_password", "SCRYPT", "SECRET_BYTES",
            "LOGIN_FAILURES", "LOGIN_WINDOW", "LoginLimiter", "is_user_name", "client_certificate", "thumbprint"]
 
 #: scrypt cost (n, r, p) and salt length, bytes.
@@ -192,6 +192,17 @@ class Users:
             return None
         return User(name, entry[0]) if verify_password(password, entry[1]) else None
 
+    def role(self, name: str) -> Role | None:
+        """A user's role (None: no such user)."""
+        entry = self._entries.get(name)
+        return None if entry is None else entry[0]
+
+    def stamp(self, name: str) -> str | None:
+        """What a user's entry is now (its role and password hash; None: no such user): a session opened under one
+        stamp ends when it changes (the user removed, the password changed, the user added again)."""
+        entry = self._entries.get(name)
+        return None if entry is None else f"{entry[0].name}:{entry[1]}"
+
     def add(self, name: str, role: Role, password: str) -> None:
         """Add or replace a user and write the file (atomically, mode 0600).
 
@@ -204,12 +215,98 @@ class Users:
         if not _NAME.match(name):
             raise ConfigError(f"user name {name!r}: 1-64 letters, digits or _.@-")
         self._entries[name] = (role, hash_password(password))
-        lines = ["# loadarm users: written by `loadarm user add`; passwords are scrypt hashes", ""]
+        self._write()
+
+    def _known(self, name: str) -> tuple[Role, str]:
+        entry = self._entries.get(name)
+        if entry is None:
+            raise ConfigError(f"{self.path}: no user {name!r} (users: {', '.join(self.names()) or 'none'})")
+        return entry
+
+    def remove(self, name: str) -> Role:
+        """Remove a user and write the file; the role the user had.
+
+        Raises
+        ------
+        ConfigError
+            No such user (the users named).
+        """
+        role = self._known(name)[0]
+        del self._entries[name]
+        self._write()
+        return role
+
+    def set_password(self, name: str, password: str) -> Role:
+        """Change a user's password (the role kept) and write the file; the user's role.
+
+        Raises
+        ------
+        ConfigError
+            No such user, or a password empty or too long.
+        """
+        role = self._known(name)[0]
+        self._entries[name] = (role, hash_password(password))
+        self._write()
+        return role
+
+    def _write(self) -> None:
+        lines = ["# loadarm users: written by `loadarm user`; passwords are scrypt hashes", ""]
         for n in sorted(self._entries):
             r, h = self._entries[n]
             lines += [f"[users.{n!s}]", f'role = "{r.name.lower()}"', f'password = "{h}"', ""]
 
         atomic_write(self.path, "\n".join(lines), private=True)
+
+
+class LiveUsers:
+    """The users file as it is now, for a server that runs for hours: it is read again whenever it changes (its
+    inode, size or modification time; ``loadarm user`` replaces it atomically), so a user removed or a password
+    changed counts from the next request. A file made invalid by hand keeps the last valid users (a typo in the
+    file must not log every operator out mid-transfer); a file removed means no users.
+
+    Parameters
+    ----------
+    path : Path
+        ``users.toml``.
+    """
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+        self._lock = threading.Lock()
+        self._key = self._file_key()
+        self._users = Users(self.path)
+
+    def _file_key(self):
+        try:
+            st = os.stat(self.path)
+        except FileNotFoundError:
+            return None
+        return st.st_ino, st.st_size, st.st_mtime_ns
+
+    def current(self) -> Users:
+        """The users as the file has them now."""
+        key = self._file_key()
+        with self._lock:
+            if key != self._key:
+                try:
+                    self._users, self._key = Users(self.path), key
+                except ConfigError:
+                    pass
+            return self._users
+
+    def __len__(self) -> int:
+        return len(self.current())
+
+    def names(self) -> list[str]:
+        return self.current().names()
+
+    def authenticate(self, name: str | None, password: str | None) -> User | None:
+        """:meth:`Users.authenticate` on the file as it is now."""
+        return self.current().authenticate(name, password)
+
+    def stamp(self, name: str) -> str | None:
+        """:meth:`Users.stamp` on the file as it is now."""
+        return self.current().stamp(name)
 
 
 #: The largest certificate file read, bytes (an X.509 certificate is one or two kilobytes; a chain a few).

@@ -29,6 +29,9 @@ from loadarm.sim.spec import RunSpec, compile_run, load_run
 
 #: On stop, ``serve`` waits this long for an unavailable event log to take the events it holds, s.
 LOG_WAIT = 10.0
+#: On stop, ``serve`` gives the OPC UA server and the screen this long each to end, s (their threads are daemons:
+#: the process ends without them).
+STOP_WAIT = 0.3
 #: ``serve --plc`` waits this long for the PLC's first answer before it refuses to start, s.
 PLC_WAIT = 10.0
 
@@ -171,7 +174,7 @@ def serve(
     check_outputs({"--db": db}, [scenario, inst_file, config], force, appended=("--db",))
     run_id = f"serve:{sc.scenario.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
     link = None if plc is None else _plc_link(plc, plc_map, plc_password_file, state_dir, plc_user, plc_cert)
-    interrupted = False
+    interrupted, said = False, []
     service = None
     log = LogWriter(EventLog(db, run=run_id))     # off the control path: a locked log or a full disk is an alarm
     try:
@@ -190,9 +193,10 @@ def serve(
             out.print(f"events to {db} (run {run_id}); Ctrl-C stops")
             service.run()
         finally:
+            _say_stopped(service, said)         # at once: the servers' ends below take their own time
             if screen is not None:
-                screen.stop()
-            server.stop(timeout=5.0)          # bounded: a Ctrl-C ends the process within seconds
+                screen.stop(timeout=STOP_WAIT)
+            server.stop(timeout=STOP_WAIT)      # bounded (daemon threads): a Ctrl-C ends the process within 1 s
     except KeyboardInterrupt:   # the documented way to stop (found: a Ctrl-C just after the line that says so, before
         interrupted = True      # the loop's own handler, left no "stopped at" line): say where, then exit 130
     finally:
@@ -202,13 +206,23 @@ def serve(
     if unwritten:
         out.print(f"event log {db}: {unwritten} events could not be written in {LOG_WAIT:g} s "
                   f"({log.status().error or 'the log stalled'})")
-    snap = None if service is None else service.snapshot()
-    if snap is not None:
-        out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")
-    elif service is not None:               # a Ctrl-C before the first cycle (found: it said nothing)
-        out.print("stopped at t = 0.0 s, before the first cycle; 0 late cycles")
+    _say_stopped(service, said)
     if interrupted:
         raise KeyboardInterrupt
+
+
+def _say_stopped(service, said: list) -> None:
+    """The closing line, once (``said`` remembers): where the run stopped (found, issue 29: a Ctrl-C printed it
+    only after the OPC UA server's and the screen's ends, about 6 s with clients connected)."""
+    if service is None or said:
+        return
+    said.append(True)
+    snap = service.snapshot()
+    if snap is not None:
+        out.print(f"stopped at t = {snap.t:.1f} s in {snap.mode}; {snap.late} late cycles")
+    else:                                   # a Ctrl-C before the first cycle (found: it said nothing)
+        out.print("stopped at t = 0.0 s, before the first cycle; 0 late cycles")
+    sys.stdout.flush()
 
 
 def _serve_arguments(endpoint, hmi, replay, plc, plc_cert, plc_password_file, scenario, scripted):
@@ -345,7 +359,7 @@ def plc_sim(
         sys.stdout.flush()
         sim.run()
     finally:
-        server.stop()
+        server.stop(timeout=STOP_WAIT)
 
 
 @app.command()

@@ -38,7 +38,8 @@ from loadarm.files import atomic_write, read_binary, read_toml
 from loadarm.vocab import Role
 
 __all__ = ["Role", "User", "Users", "LiveUsers", "StateDir", "hash_password", "verify_password", "SCRYPT", "SECRET_BYTES",
-           "LOGIN_FAILURES", "LOGIN_WINDOW", "LoginLimiter", "is_user_name", "client_certificate", "thumbprint"]
+           "LOGIN_FAILURES", "LOGIN_WINDOW", "LoginLimiter", "is_user_name", "client_certificate", "thumbprint",
+           "host_names"]
 
 #: scrypt cost (n, r, p) and salt length, bytes.
 SCRYPT = (2 ** 14, 8, 1)
@@ -373,6 +374,39 @@ def thumbprint(cert) -> str:
     return hashlib.sha1(cert.public_bytes(serialization.Encoding.DER)).hexdigest()
 
 
+def host_names(host: str = "localhost") -> list:
+    """The subject alternative names of this host for a certificate it makes for itself: the endpoint's host, the
+    host's name and fully qualified name (a client, and asyncua's own check, compare them: found, issue 29: every
+    ``serve`` start warned "certificate does not contain the hostname in DNSNames vm"), ``localhost``, and the
+    loopback addresses; an address as an IP address, a name as a DNS name.
+
+    Parameters
+    ----------
+    host : str
+        The endpoint's host.
+
+    Returns
+    -------
+    list of cryptography.x509.GeneralName
+    """
+    import ipaddress
+    import socket
+
+    from cryptography import x509
+
+    names, addresses = [], []
+    for h in (host, socket.gethostname(), socket.getfqdn(), "localhost", "127.0.0.1", "::1"):
+        try:
+            ip = ipaddress.ip_address(h)
+        except ValueError:
+            if h and h not in names:
+                names.append(h)
+            continue
+        if ip not in addresses:
+            addresses.append(ip)
+    return [*(x509.DNSName(n) for n in names), *(x509.IPAddress(a) for a in addresses)]
+
+
 class StateDir:
     """The state directory of a plant-interface application (:mod:`loadarm.opcua.security`).
 
@@ -412,8 +446,8 @@ class StateDir:
 
     def ensure(self, app_uri: str, host: str = "localhost", *, name: str = "loadarm") -> None:
         """Create the directories and, on first start, the application certificate and key (RSA 2048,
-        SHA-256, valid five years, the application URI and host in its subject alternative names). An
-        existing key readable by anyone but its owner is refused.
+        SHA-256, valid five years, the application URI and the host's names (:func:`host_names`) in its subject
+        alternative names). An existing key readable by anyone but its owner is refused.
 
         Parameters
         ----------
@@ -449,7 +483,7 @@ class StateDir:
 
         key = cert_gen.generate_private_key()
         cert = cert_gen.generate_self_signed_app_certificate(
-            key, name, {"organizationName": "loadarm"}, [x509.UniformResourceIdentifier(app_uri), x509.DNSName(host)],
+            key, name, {"organizationName": "loadarm"}, [x509.UniformResourceIdentifier(app_uri), *host_names(host)],
             extended=[ExtendedKeyUsageOID.SERVER_AUTH, ExtendedKeyUsageOID.CLIENT_AUTH], days=5 * 365)
 
         atomic_write(self.key, cert_gen.dump_private_key_as_pem(key), private=True)

@@ -53,7 +53,7 @@ class Severity(enum.IntEnum):
 __all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "FACES", "FACE_LABELS", "FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
            "CONDITION_SEVERITY", "CONDITION_TEXT", "RESET_BLOCKING", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
-           "EVENTS", "STAGE_EVENT", "event_label", "alarm_label"]
+           "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -356,6 +356,7 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("fault.event_log", "alarm", "EVENT LOG UNAVAILABLE"),
     EventCode("fault.events_lost", "alarm", "events lost"),
     EventCode("info.event_log_restored", "info", "event log restored"),
+    EventCode("info.measured_esd1", "info", "measured drift calls for ESD-1"),
     EventCode("interlock.valves_confirmed", "interlock", "ERS valves confirmed closed"),
     EventCode("command.coupler_opening", "command", "ERS-2: coupler opening"),
     EventCode("command.release_complete", "command", "ERS-2 release complete"),
@@ -370,6 +371,21 @@ EVENT_TABLE: tuple[EventCode, ...] = (
 EVENTS: dict[str, EventCode] = {e.code: e for e in EVENT_TABLE}
 #: The code of each connected-mode alarm stage's event.
 STAGE_EVENT: dict[Severity, str] = {e.stage: e.code for e in EVENT_TABLE if e.stage is not None}
+
+
+#: The rules that raise a connected-mode alarm stage, by code (an alarm event carries its rule's code in its data
+#: as ``rule``; the figures, the journal and the campaigns read the code): the customer's position alarm, the
+#: design-drift floor (Lanquetin), a drift measured on the track (the drift fit, its velocity-step and break-out
+#: tests), the flange prediction's calibrated bound (issue 30), the operator's manual ESD-1 or ERS, and an
+#: equipment fault (angle sensors that cannot be voted).
+ALARM_RULES: dict[str, str] = {
+    "position": "position alarm",
+    "floor": "design-drift floor",
+    "measured": "measured drift",
+    "prediction": "prediction",
+    "operator": "operator's request",
+    "fault": "equipment fault",
+}
 
 
 def event_label(code: str) -> str:

@@ -56,6 +56,7 @@ from loadarm.guidance.modes import (
     PlantFeedback,
 )
 from loadarm.guidance.monitor import EnvelopeMonitor
+from loadarm.guidance.predict import FlangePredictor
 from loadarm.guidance.rules import SafetyRules
 from loadarm.guidance.voting import AXES, reset_votes, vote
 from loadarm.params.scenario import GuidanceSettings, check_drift_window
@@ -101,6 +102,7 @@ class GuidanceController(SafetyRules):
         # its time base is exact at any guidance rate
         per_sample = max(1, math.ceil(FIT_PERIOD * g.rate - 1e-9))
         self.monitor = EnvelopeMonitor(model, g.drift_window, period=per_sample / g.rate)
+        self.predictor = None if g.prediction == "off" else FlangePredictor(g.prediction)
         self.v_max = model.approach.max_speed
         self.a_max = model.approach.max_accel
         sx, sz = model.approach.stored
@@ -229,12 +231,39 @@ class GuidanceController(SafetyRules):
         self.state.events = []
         acts = frozenset(op.actions)
         cyc = Cycle(now, self._voted(now, q, est, fb, acts), est, op, acts, self.dt_nominal, fb)
+        self._track(cyc)
         for action in op.actions:
             self._event("operator", action)
         for rule in self.SAFETY_RULES:
             getattr(self, rule)(cyc)
         rates = getattr(self, self.HANDLERS[self.state.mode])(cyc)
-        return self._command(self.rule_no_motion_when_held_or_attached(rates))
+        return self._command(self.rule_no_motion_when_held_or_attached(rates), now)
+
+    def preload(self, t, p) -> None:
+        """Feed the predictor a track of the flange before the run (a terminal's berth monitoring: the ship at
+        its berth before the arm connects).
+
+        Parameters
+        ----------
+        t : ndarray (n,)
+            Times, s (before the first cycle's), increasing.
+        p : ndarray (n, 3)
+            Positions, m.
+        """
+        if self.predictor is not None:
+            for ti, pi in zip(t, p):
+                self.predictor.push(float(ti), pi)
+
+    def _track(self, cyc: "Cycle") -> None:
+        """Feed the predictor this cycle's flange position: the encoders' while attached, the flange tracker's
+        healthy estimate before (none: a gap, which starts its track again)."""
+        pr = self.predictor
+        if pr is None or cyc.now < pr.next_sample:
+            return
+        if self.attached():
+            pr.push(cyc.now, np.array([float(v) for v in forward3d(self.arm, *cyc.q)]))
+        elif cyc.est.healthy:
+            pr.push(cyc.now, np.asarray(cyc.est.position, dtype=float))
 
     def _voted(self, now: float, q, est: Estimate, fb: PlantFeedback, acts: frozenset) -> tuple:
         """The joint angles to use: the encoders voted against the second channel (:mod:`.voting`), the
@@ -261,7 +290,7 @@ class GuidanceController(SafetyRules):
                         severity=int(Severity.SECOND), severity_label="fault", axis=AXES[j])
         return v.q
 
-    def _command(self, rates) -> Command:
+    def _command(self, rates, now: float) -> Command:
         """This cycle's command from the state and the final rates."""
         s = self.state
         attached = self.attached()
@@ -273,7 +302,16 @@ class GuidanceController(SafetyRules):
                        s.release_since is not None, s.valves_cmd_since is not None,
                        s.release_started_at is not None, s.level if attached else Severity.NORMAL, ttl,
                        tuple(s.events), faces, horizon, f.route if f is not None else "",
-                       self._forecast_drift(f))
+                       self._forecast_drift(f), None if self.predictor is None else self.predictor.forecast,
+                       self._predicted(now) if attached else (), s.rule if attached else "")
+
+    def _predicted(self, now: float) -> tuple:
+        """The prediction's times to the nearest face now, ``(bound, mean)`` s, or ``()``."""
+        p = self.state.predicted
+        if not p:
+            return ()
+        age = max(now - p[2], 0.0)
+        return (max(p[0] - age, 0.0), max(p[1] - age, 0.0))
 
     def _forecast_drift(self, f) -> tuple:
         """The measured drift velocity a forecast extrapolated (its route's fit; the drift fit's when the design
@@ -370,6 +408,7 @@ class GuidanceController(SafetyRules):
             self._event("command", "actuators released: the arm follows the ship")
             self.monitor.reset()
             s.forecast, s.next_forecast, s.raised, s.level = None, -math.inf, Severity.NORMAL, Severity.NORMAL
+            s.shadow_esd1_at, s.rule = None, ""
             return np.zeros(3)
         return self._move_towards(now, q, target, np.array(est.velocity), cyc.dt)
 

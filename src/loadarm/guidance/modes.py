@@ -151,6 +151,14 @@ class Command:
     drift : tuple of float
         The measured drift velocity the forecast extrapolated (the route's fit; the drift fit's when the design
         drift governs), m/s; ``()`` when there is no fit yet or not attached.
+    prediction : Forecast or None
+        The flange predictor's latest claimed forecast (:class:`loadarm.guidance.predict.Forecast`: mean and
+        calibrated interval per horizon), whether or not it is trusted for the alarms; None: no prediction.
+    predicted : tuple of float
+        The time to the nearest face by the prediction, s: ``(bound, mean)``, the calibrated bound's (what the
+        predictive alarms use) and the mean track's (``inf``: none within the claimed horizon); ``()``: none.
+    rule : str
+        The rule behind this cycle's connected-mode level (:data:`loadarm.vocab.ALARM_RULES`; ``""``: normal).
     """
 
     mode: Mode
@@ -167,6 +175,9 @@ class Command:
     horizon: float = math.inf
     route: str = ""
     drift: tuple = ()
+    prediction: object = None
+    predicted: tuple = ()
+    rule: str = ""
 
 
 @dataclass(frozen=True, slots=True)
@@ -262,6 +273,18 @@ class GuidanceState:
         ``EVENT_LOG_FAULT``, it changes nothing of the arm's control).
     votes : VoteState
         The joint-angle voter's memory.
+    trusted : Forecast or None
+        The prediction the last time-to-limit forecast trusted in place of the measured routes (None: it did not).
+    predicted : tuple of float
+        ``(bound, mean, at, forecast, lead)``: the prediction's time to the nearest face by its calibrated bound
+        and by its mean, s from ``at``, and the forecast and lead they were found for; ``()`` when there is none.
+    predicted_face : str
+        The face of the bound's crossing.
+    shadow_esd1_at : float or None
+        When the rule without the prediction (the measured routes and the floor) first called for ESD-1 in this
+        connection: what a campaign compares the predictive alarms with.
+    rule : str
+        The rule behind the connected-mode level (:data:`loadarm.vocab.ALARM_RULES`).
     events : list
         Events of the current cycle.
     """
@@ -293,6 +316,11 @@ class GuidanceState:
     switch_fault: bool = False
     log_fault: bool = False
     votes: VoteState = field(default_factory=VoteState)
+    trusted: object = None
+    predicted: tuple = ()
+    predicted_face: str = ""
+    shadow_esd1_at: float | None = None
+    rule: str = ""
     events: list = field(default_factory=list)
 
 

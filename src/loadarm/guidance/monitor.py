@@ -31,7 +31,7 @@ from loadarm.arm.sequence import esd_lead, lead_values, valve_worst_time
 from loadarm.guidance.drift import FIT_PERIOD, DriftEstimate, DriftFit
 from loadarm.vocab import Severity
 
-__all__ = ["stage_leads", "LimitForecast", "EnvelopeMonitor"]
+__all__ = ["stage_leads", "LimitForecast", "EnvelopeMonitor", "predicted_crossing"]
 
 
 def stage_leads(seq, *, valves_left: float | None = None, release_left: float | None = None) -> dict:
@@ -83,6 +83,9 @@ class LimitForecast:
         The time to the first face by the measured routes alone (drift, velocity step, break-out), s (``inf``
         when none crosses within the horizon): what the pre-alarm, a warning of a drift actually seen, is
         raised on (the design floor alone would make it a standing alarm at the nominal flange).
+    design : float
+        The time to the first face by the design drift alone, s (``inf``: none within the horizon; ``nan``: not
+        computed, when the forecast was not asked for it): the floor under the predictive alarms.
     """
 
     time: float
@@ -90,6 +93,7 @@ class LimitForecast:
     route: str
     by_face: tuple = ()
     measured: float = math.inf
+    design: float = math.nan
 
 
 _CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
@@ -242,7 +246,8 @@ class EnvelopeMonitor:
         by_face[hit[0]] = lo
         return lo, hit[0], hit[1], by_face
 
-    def time_to_limit(self, p_now, horizon: float, *, alarmed: bool = False, now: float | None = None) -> LimitForecast:
+    def time_to_limit(self, p_now, horizon: float, *, alarmed: bool = False, now: float | None = None,
+                      design_too: bool = False) -> LimitForecast:
         """Earliest time the flange could cross a face within ``horizon`` seconds.
 
         Parameters
@@ -259,6 +264,9 @@ class EnvelopeMonitor:
         now : float, optional
             Time, s: use the fit of the last :meth:`refit` (made for the same ``alarmed``), extrapolated from the
             time of its newest sample to ``now``. Without it the drift is fitted here.
+        design_too : bool
+            Also give the design drift's own time (:attr:`LimitForecast.design`) when a measured route crosses
+            first (one more scan).
 
         Returns
         -------
@@ -301,12 +309,13 @@ class EnvelopeMonitor:
 
         t, face, k, by_face = self._first_crossing(points, horizon)
         if not face:
-            return LimitForecast(math.inf, "", "")
+            return LimitForecast(math.inf, "", "", design=math.inf)
         faces = tuple(sorted(by_face.items(), key=lambda kv: kv[1]))
         if k < n_design:
             t_m = self._first_crossing(measured, horizon)[0] if routes else math.inf
-            return LimitForecast(t, face, "design drift", faces, t_m)
-        return LimitForecast(t, face, names[(k - n_design) // len(_CORNERS)], faces, t)
+            return LimitForecast(t, face, "design drift", faces, t_m, t)
+        t_d = self._first_crossing(design, horizon)[0] if design_too else math.nan
+        return LimitForecast(t, face, names[(k - n_design) // len(_CORNERS)], faces, t, t_d)
 
     def _measured(self, est: DriftEstimate, age: float):
         """The measured route of one drift estimate: ``tau`` (shape (T,)) to the corners of its box (T, 8, 3).
@@ -326,3 +335,51 @@ class EnvelopeMonitor:
             return centre[:, None, :] + half[:, None, :] * _CORNERS[None]
 
         return points
+
+
+def predicted_crossing(model, forecast, within, now: float, lead: float) -> tuple[float, str]:
+    """The predictive alarms' time to a face: the first horizon, within ``lead`` of now, at which the box of the
+    calibrated interval (widened by the motion within a block) reaches a face.
+
+    The interval's edges are the declared threshold's one-sided bounds (:data:`loadarm.guidance.predict.THRESHOLD`):
+    a box corner past a face at a horizon means a probability of being past it then of at least about that
+    much (per axis, marginal), so the probability of reaching the face by then is at least as large. A block
+    mean of horizon ``h`` covers ``(t + h - 1, t + h]`` after the forecast's time ``t``: its crossing is dated at
+    the block's start (early, never late).
+
+    Parameters
+    ----------
+    model : ArmModel
+    forecast : Forecast
+        :class:`loadarm.guidance.predict.Forecast` (its claimed horizons only).
+    within : ndarray (3,)
+        The motion within a block about its mean, m (:attr:`FlangePredictor.within`).
+    now : float
+        s.
+    lead : float
+        How far ahead to look, s (the longest stage lead).
+
+    Returns
+    -------
+    time : float
+        s from ``now`` (``inf``: none within the claimed horizons and the lead).
+    face : str
+        ``""`` when none.
+    """
+    age = now - forecast.time
+    start = forecast.horizon - forecast.horizon[0] - age                    # each block's start, s from now
+    keep = np.flatnonzero((np.arange(start.size) < int(round(forecast.claimed / forecast.horizon[0])))
+                          & (start <= lead))
+    if keep.size == 0:
+        return math.inf, ""
+    centre = 0.5 * (forecast.lo[keep] + forecast.hi[keep])
+    half = 0.5 * (forecast.hi[keep] - forecast.lo[keep]) + np.asarray(within)
+    pts = centre[:, None, :] + half[:, None, :] * _CORNERS[None]
+    m = face_margins(model, pts[..., 0], pts[..., 1], pts[..., 2])
+    outside, face = first_face(m)
+    rows = np.flatnonzero(outside.any(axis=1))
+    if rows.size == 0:
+        return math.inf, ""
+    i = int(rows[0])
+    k = int(np.flatnonzero(outside[i])[0])
+    return max(float(start[keep[i]]), 0.0), FACES[int(face[i, k])]

@@ -37,7 +37,8 @@ from loadarm._numba import njit
 
 __all__ = ["PREDICT_PERIOD", "FIT_WINDOW", "ORDER", "HORIZON", "LEVEL", "MIN_ERRORS", "MEMORY", "ArModel",
            "fit_ar", "ar_forecast", "Forecast", "Calibrator",
-           "block_means", "claimed_steps", "interval", "CLAIMS"]
+           "block_means", "claimed_steps", "interval", "CLAIMS", "FlangePredictor", "REFIT", "MIN_FIT",
+           "SAMPLE_PERIOD", "MAX_GAP", "GATE_HORIZONS", "GATE_FACTOR", "GATE_PERSIST", "THRESHOLD"]
 
 #: Sampling period of the predicted track, s (the mean of each second's positions).
 PREDICT_PERIOD = 1.0
@@ -58,6 +59,31 @@ MIN_ERRORS = 300
 #: tuning records, seeds 0-3 of six other states: a 10-minute window under-covers at horizons past a minute, its
 #: errors there being few and correlated).
 MEMORY = 3000
+#: Seconds between two refits of the online AR (the hold-out study's).
+REFIT = 30
+#: Track the online route needs before its first fit, s (ten periods of a 60 s sway; the fit window then grows to
+#: :data:`FIT_WINDOW`).
+MIN_FIT = 600.0
+#: Period of the positions the live predictor keeps, s (five to a block: their spread about the block's mean is
+#: the motion within a second that the block means do not carry).
+SAMPLE_PERIOD = 0.2
+#: The horizons the departure test compares each new block mean with, s.
+GATE_HORIZONS = (5, 10, 20)
+#: How far outside its calibrated interval (as a multiple of the half-width) a block mean must fall, on x or y,
+#: to count against the model: 2 half-widths are about 4 standard deviations of a normal error (a chance of
+#: about 6e-5 per horizon and block); on 14 hours of five hold-out sea states the largest ratio was 3.0 (the
+#: errors are heavier-tailed than normal), its 99.99 % quantile 2.4-2.6.
+GATE_FACTOR = 3.0
+#: Consecutive blocks that must count before the track is taken to have left the model (a drift or break-out
+#: the autoregression has not seen): the predictive rule then stands down for the rest of the connection.
+GATE_PERSIST = 2
+#: The longest gap in the positions the live predictor bridges (its block means filled in by a straight line), s:
+#: a sensor's dropout or the seconds between the berth monitoring's record and the guidance's own track. A
+#: longer gap starts the track again.
+MAX_GAP = 10.0
+#: The declared probability threshold of the predictive alarms: a stage is raised when the calibrated one-sided
+#: bound at this level (the 95 % interval's edge: 2.5 % per side) reaches a face within the stage's lead.
+THRESHOLD = (1.0 - LEVEL) / 2.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -174,6 +200,18 @@ def fit_ar(tracks, order: int = ORDER, *, ridge: float = 1e-6, route: str = "onl
     return ArModel(phi, s2, variance, None, route)
 
 
+@njit(cache=True, nogil=True)
+def _recursion(phi_rev, buf, p, steps):
+    """The AR recursion in place: ``buf[a, p + j] = sum_k phi_rev[a, k] buf[a, j + k]`` (lag ``p`` first), one
+    thread, summed in the order of the lags (a test holds it to the companion matrix's powers)."""
+    for a in range(buf.shape[0]):
+        for j in range(steps):
+            acc = 0.0
+            for k in range(p):
+                acc += phi_rev[a, k] * buf[a, j + k]
+            buf[a, p + j] = acc
+
+
 def _psi_variance(phi: np.ndarray, steps: int) -> np.ndarray:
     """Cumulative sums of the squared psi-weights per axis, (steps, 3): the forecast variance over sigma2."""
     p = phi.shape[1]
@@ -206,9 +244,7 @@ def ar_forecast(model: ArModel, history: np.ndarray, steps: int, *, extra_varian
     mu = history.mean(axis=0) if model.mean is None else model.mean
     buf = np.zeros((3, p + steps))
     buf[:, :p] = (history[-p:] - mu).T                                   # oldest first, as the track
-    phi_rev = model.phi[:, ::-1]                                          # lag p first: dot with the last p values
-    for j in range(steps):
-        buf[:, p + j] = np.einsum("ak,ak->a", phi_rev, buf[:, j: j + p])
+    _recursion(np.ascontiguousarray(model.phi[:, ::-1]), buf, p, steps)
     mean = buf[:, p:].T + mu
     var = _psi_variance(model.phi, steps) * model.sigma2
     if extra_variance is not None:
@@ -266,9 +302,31 @@ class Calibrator:
         self.steps, self.level, self.min_errors, self.memory = steps, level, min_errors, memory
         self.z = np.full((steps, 3, memory), np.inf)       # normalised errors, a ring per horizon and axis
         self.count = np.zeros(steps, dtype=np.int64)
-        self.pending: deque = deque()                      # (index of the block the forecast was made after, mean, sd)
+        # the forecasts not yet realised, a ring of ``steps`` by the index of the block each was made after
+        self._made = np.full(steps, np.iinfo(np.int64).min // 2, dtype=np.int64)
+        self._mean = np.zeros((steps, steps, 3))
+        self._sd = np.ones((steps, steps, 3))
+        self._js = np.arange(steps)
         self._cache: np.ndarray | None = None              # refreshed(): the multipliers as last computed
         self._next = 0
+
+    def outstanding(self, index: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The forecasts a block ``index`` answers: per horizon ``j`` (0-based), the mean and model standard
+        deviation the forecast made after block ``index - 1 - j`` gave for it, where that forecast was made.
+
+        Parameters
+        ----------
+        index : int
+
+        Returns
+        -------
+        valid : ndarray (steps,) bool
+        mean, sd : ndarray (steps, 3)
+        """
+        made = index - 1 - self._js
+        slots = made % self.steps
+        valid = self._made[slots] == made
+        return valid, self._mean[slots, self._js], self._sd[slots, self._js]
 
     def observe(self, index: int, value: np.ndarray) -> None:
         """A new block mean, the ``index``-th of the track: realise the errors of the forecasts it answers.
@@ -278,20 +336,30 @@ class Calibrator:
         index : int
         value : ndarray (3,)
         """
-        for made, mean, sd in self.pending:
-            j = index - made - 1
-            if 0 <= j < self.steps:
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    z = np.abs(value - mean[j]) / sd[j]
-                still = np.where(value == mean[j], 0.0, np.inf)          # a still axis: exact, or never covered
-                self.z[j, :, self.count[j] % self.memory] = np.where(sd[j] > 0, z, still)
-                self.count[j] += 1
-        while self.pending and index - self.pending[0][0] >= self.steps:
-            self.pending.popleft()
+        valid, mean, sd = self.outstanding(index)
+        j = self._js[valid]
+        if j.size == 0:
+            return
+        mean, sd = mean[valid], sd[valid]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = np.abs(value - mean) / sd
+        still = np.where(value == mean, 0.0, np.inf)                      # a still axis: exact, or never covered
+        self.z[j, :, self.count[j] % self.memory] = np.where(sd > 0, z, still)
+        self.count[j] += 1
 
     def remember(self, index: int, mean: np.ndarray, sd: np.ndarray) -> None:
-        """Keep a forecast made after block ``index`` until its horizons are realised."""
-        self.pending.append((index, mean, sd))
+        """Keep a forecast made after block ``index`` until its horizons are realised (the ring keeps the last
+        ``steps``: a forecast older than that has no horizon left).
+
+        Parameters
+        ----------
+        index : int
+        mean, sd : ndarray (steps, 3)
+        """
+        slot = index % self.steps
+        self._made[slot] = index
+        self._mean[slot] = mean[: self.steps]
+        self._sd[slot] = sd[: self.steps]
 
     def refreshed(self, rows: int) -> np.ndarray:
         """The calibrated multipliers with ``rows`` horizons recomputed, in turn (the rest as last computed): the
@@ -377,3 +445,150 @@ def interval(mean: np.ndarray, sd: np.ndarray, q: np.ndarray, claimed: int) -> t
     lo[claimed:] = math.nan
     hi[claimed:] = math.nan
     return lo, hi
+
+
+class FlangePredictor:
+    """The online AR route live (mutable state: one per guidance controller), fed the flange's position every
+    cycle.
+
+    Positions are kept every :data:`SAMPLE_PERIOD` and averaged into :data:`PREDICT_PERIOD` blocks. At each new
+    block: the calibration realises the errors it answers, the departure test compares it with the forecasts of
+    :data:`GATE_HORIZONS` ago, the AR is refitted every :data:`REFIT` s once :data:`MIN_FIT` s of track are in
+    (on the last :data:`FIT_WINDOW` s), and a new forecast of :data:`HORIZON` s is made with its calibrated
+    interval (:class:`Forecast`; ``None`` while no horizon is claimed). A gap in the positions (no healthy
+    estimate) up to :data:`MAX_GAP` is bridged by a straight line between the blocks either side; a longer one
+    starts the track again: an AR needs a contiguous history.
+
+    Parameters
+    ----------
+    route : str
+        ``"online AR"``.
+    """
+
+    def __init__(self, route: str = "online AR"):
+        if route not in CLAIMS:
+            raise ValueError(f"route {route!r}: one of {sorted(CLAIMS)}")
+        self.route = route
+        self.steps = int(round(HORIZON / PREDICT_PERIOD))
+        self.per_block = int(round(PREDICT_PERIOD / SAMPLE_PERIOD))
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the track, the model, the calibration and the departure (a new ship, or a gap)."""
+        self.track: deque = deque(maxlen=int(FIT_WINDOW / PREDICT_PERIOD))
+        self.index = -1                                   # the last block's index
+        self.block = -1                                   # the block being filled (floor(t / PREDICT_PERIOD))
+        self.samples: list = []
+        self.next_sample = -math.inf
+        self.spread: deque = deque(maxlen=600)            # per block: the largest excursion about its mean (3,)
+        self.cal = Calibrator(self.steps)
+        self.model: ArModel | None = None
+        self.fitted_at = -1
+        self.forecast: Forecast | None = None
+        self.departed_at: float | None = None
+        self.outside = 0
+
+    @property
+    def within(self) -> np.ndarray:
+        """The motion within a block the block means do not carry: the largest excursion of a kept position about
+        its block's mean over the last ten minutes, per axis, m."""
+        return np.max(np.array(self.spread), axis=0) if self.spread else np.zeros(3)
+
+    def push(self, t: float, p) -> bool:
+        """Feed a position.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        p : sequence of float
+            Flange position, m (installation frame).
+
+        Returns
+        -------
+        bool
+            True when it closed a block (a new forecast may have been made).
+        """
+        if t < self.next_sample:
+            return False
+        self.next_sample = (math.floor(t / SAMPLE_PERIOD + 1e-9) + 1) * SAMPLE_PERIOD
+        b = int(math.floor(t / PREDICT_PERIOD + 1e-9))
+        p = np.asarray(p, dtype=float)
+        closed = False
+        if b != self.block:
+            closed = self._bridge(b, p) if self.samples else False
+            self.block, self.samples = b, []
+        self.samples.append(p)
+        return closed
+
+    def _bridge(self, b: int, p: np.ndarray) -> bool:
+        """Close the block being filled, and bridge the blocks up to block ``b`` (of the new position ``p``): a
+        straight line from the last block mean; or, over a gap longer than :data:`MAX_GAP`, start again."""
+        full = len(self.samples) >= self.per_block - 1
+        missing = b - self.block - (1 if full else 0)
+        if missing * PREDICT_PERIOD > MAX_GAP or (missing and not self.track):
+            self.reset()
+            self.next_sample = (math.floor(b * PREDICT_PERIOD / SAMPLE_PERIOD + 1e-9) + 1) * SAMPLE_PERIOD
+            return False
+        if full:
+            self._close(np.array(self.samples), (self.block + 1) * PREDICT_PERIOD)
+        last, first = self.track[-1], b - missing
+        for j in range(missing):                          # the blocks of the gap, on a line to the new position
+            w = (j + 1) / (missing + 1)
+            self._close(((1 - w) * last + w * p)[None], (first + j + 1) * PREDICT_PERIOD, bridged=True)
+        return True
+
+    def _close(self, samples: np.ndarray, t_end: float, bridged: bool = False) -> None:
+        mean = samples.mean(axis=0)
+        if not bridged:
+            self.spread.append(np.max(np.abs(samples - mean), axis=0))
+        self.track.append(mean)
+        self.index += 1
+        if not bridged:
+            self._gate(mean, t_end)
+        self.cal.observe(self.index, mean)
+        n = len(self.track)
+        if n * PREDICT_PERIOD < MIN_FIT:
+            return
+        history = np.array(self.track)
+        if self.model is None or self.index - self.fitted_at >= REFIT / PREDICT_PERIOD:
+            self.model, self.fitted_at = fit_ar(history, route=self.route), self.index
+        m, sd = ar_forecast(self.model, history, self.steps)
+        self.cal.remember(self.index, m, sd)
+        q = self.cal.refreshed(12)
+        claimed = claimed_steps(q, self.route)
+        lo, hi = interval(m, sd, q, claimed)
+        self._q = q
+        horizon = np.arange(1, self.steps + 1) * PREDICT_PERIOD
+        self.forecast = Forecast(horizon, m, lo, hi, claimed * PREDICT_PERIOD, t_end, self.route) if claimed else None
+
+    def _gate(self, value: np.ndarray, t_end: float) -> None:
+        """The departure test: the new block mean against the forecasts made :data:`GATE_HORIZONS` ago."""
+        if self.departed_at is not None or self.forecast is None:
+            return
+        q = self._q
+        valid, mean, sd = self.cal.outstanding(self.index)
+        j = np.array(GATE_HORIZONS) - 1
+        j = j[valid[j] & np.all(np.isfinite(q[j, :2]), axis=1)]
+        out = bool(np.any(np.abs(value[:2] - mean[j, :2]) > GATE_FACTOR * q[j, :2] * sd[j, :2]))
+        self.outside = self.outside + 1 if out else 0
+        if self.outside >= GATE_PERSIST:
+            self.departed_at = t_end
+
+    def trusted(self, lead: float) -> Forecast | None:
+        """The forecast, when it may replace the measured routes for a stage of ``lead`` seconds: claimed at
+        least that far, and the track has not left the model.
+
+        Parameters
+        ----------
+        lead : float
+            s.
+
+        Returns
+        -------
+        Forecast or None
+        """
+        f = self.forecast
+        if f is None or self.departed_at is not None or f.claimed < lead:
+            return None
+        return f

@@ -27,7 +27,8 @@ from loadarm.guidance.modes import (
     Cycle,
     Mode,
 )
-from loadarm.guidance.monitor import stage_leads
+from loadarm.guidance.monitor import predicted_crossing, stage_leads
+from loadarm.guidance.predict import Forecast
 from loadarm.guidance.voting import AXES
 from loadarm.vocab import ANNUNCIATED, CONDITION_TEXT, RESET_BLOCKING, STAGE_EVENT, Severity, event_label
 
@@ -60,7 +61,7 @@ class SafetyRules:
             axes = ", ".join(AXES[j] for j in range(3) if st.lost[j])
             why = f"{axes} angle sensors disagree and cannot be voted: the position alarms cannot be trusted"
             self._command_esd1(cyc.now, why)
-            self._raise(cyc.now, cyc.q, Severity.ESD1, why)
+            self._raise(cyc.now, cyc.q, Severity.ESD1, why, rule="fault")
 
     def rule_ers_switches(self, cyc: "Cycle") -> None:
         """The ERS valves' two closed limit switches must agree: one made and the other not for longer than
@@ -120,7 +121,7 @@ class SafetyRules:
             return
         if "esd" in acts:
             self._command_esd1(now, "manual ESD-1 by the operator")
-            self._raise(now, cyc.q, Severity.ESD1, "manual ESD-1 by the operator")
+            self._raise(now, cyc.q, Severity.ESD1, "manual ESD-1 by the operator", rule="operator")
         if "ers" in acts and s.release_since is None:
             s.ers_armed_at = now
             self._event("info", f"manual ERS armed: confirm within {ERS_CONFIRM_WINDOW:g} s")
@@ -128,7 +129,7 @@ class SafetyRules:
             if s.ers_armed_at is not None and now - s.ers_armed_at <= ERS_CONFIRM_WINDOW:
                 s.ers_armed_at = None
                 self._command_esd1(now, "manual ERS by the operator")
-                self._raise(now, cyc.q, Severity.RELEASE, "manual ERS confirmed by the operator")
+                self._raise(now, cyc.q, Severity.RELEASE, "manual ERS confirmed by the operator", rule="operator")
             elif s.release_since is None:
                 self._event("info", "ERS confirmation refused: no manual ERS armed in the last "
                                     f"{ERS_CONFIRM_WINDOW:g} s")
@@ -147,9 +148,10 @@ class SafetyRules:
         release_left = None if s.release_started_at is None else s.release_started_at + q.erc_release_time - now
         return stage_leads(q, valves_left=valves_left, release_left=release_left)
 
-    def _connected_level(self, now: float, q) -> tuple[Severity, str, str]:
-        """Position alarms and time to the nearest face (measured and design drift), the more severe: the level,
-        its cause in words and the face it guards (:data:`loadarm.vocab.FACES`)."""
+    def _connected_level(self, now: float, q) -> tuple[Severity, str, str, str]:
+        """Position alarms and time to the nearest face (measured and design drift, or the prediction), the more
+        severe: the level, its cause in words, the face it guards (:data:`loadarm.vocab.FACES`) and the rule
+        that raised it (:data:`loadarm.vocab.ALARM_RULES`)."""
         s = self.state
         alarmed = s.esd_since is not None
         mon = self.monitor
@@ -166,25 +168,71 @@ class SafetyRules:
             s.forecast = None
         level, why = self.thr.level(q[2], q[0])
         face = self.thr.face(q[2], q[0], level)
+        rule = "position" if level > Severity.NORMAL else ""
         if s.forecast is None:
             s.leads = self._leads(now)
             if p is None:
                 p = tuple(float(v) for v in forward3d(self.arm, *q))
-            s.forecast = mon.time_to_limit(p, max(s.leads.values()), alarmed=alarmed, now=now)
+            # the prediction stands in for the measured routes before ESD-1 only (after it, every route acts)
+            s.trusted = None if (self.predictor is None or alarmed) else self.predictor.trusted(s.leads[Severity.ESD1])
+            s.forecast = mon.time_to_limit(p, max(s.leads.values()), alarmed=alarmed, now=now,
+                                           design_too=s.trusted is not None)
             s.next_forecast = now + mon.fit.period
-        f = s.forecast
-        if math.isfinite(f.time):
-            ld = s.leads                         # the one rule (loadarm.arm.sequence.stage_of): the pre-alarm warns
-            stage = Severity(stage_of(f.time, f.measured, ld[Severity.RELEASE], ld[Severity.SECOND],  # of a drift
-                                      ld[Severity.ESD1], ld.get(Severity.PRE_ALARM, -math.inf)))   # it sees
-            if stage > level:
-                t = f.measured if stage == Severity.PRE_ALARM else f.time
-                route = f.route if t == f.time else "measured drift"
-                level, face, why = stage, f.face, (f"{route}: {f.face} face in {t:.1f} s, the {stage.label} "
-                                                   f"needs {ld[stage]:.1f} s")
-        return level, why, face
+            self._predict(now)
+        stage, t, route, face_f, rule_f = self._forecast_stage(now)
+        if stage > level:
+            level, face, rule = stage, face_f, rule_f
+            why = f"{route}: {face_f} face in {t:.1f} s, the {stage.label} needs {s.leads[stage]:.1f} s"
+        return level, why, face, rule
 
-    def _raise(self, now: float, q, level: Severity, why: str, face: str = "") -> None:
+    def _predict(self, now: float) -> None:
+        """The prediction's time to the nearest face (bound and mean), kept for the cycles until the next
+        forecast."""
+        s = self.state
+        f = None if self.predictor is None else self.predictor.forecast
+        if f is None:
+            s.predicted, s.predicted_face = (), ""
+            return
+        lead = max(s.leads.values())
+        if s.predicted and s.predicted[3] is f and s.predicted[4] == lead:
+            return                               # the same forecast, the same lead: its times stand (from "at")
+        bound, s.predicted_face = predicted_crossing(self.monitor.model, f, self.predictor.within, now, lead)
+        zero = np.zeros(3)
+        mean_f = Forecast(f.horizon, f.mean, f.mean, f.mean, f.claimed, f.time, f.route)
+        s.predicted = (bound, predicted_crossing(self.monitor.model, mean_f, zero, now, lead)[0], now, f, lead)
+
+    def _forecast_stage(self, now: float) -> tuple[Severity, float, str, str, str]:
+        """The stage the forecasts call for: ``(stage, time to the face, route in words, face, rule)``.
+
+        Without a trusted prediction: the time-to-limit forecast's (the measured routes and the design-drift
+        floor; the one rule :func:`loadarm.arm.sequence.stage_of`: the pre-alarm warns of a drift it sees).
+        With one: the floor's and the prediction's, the more severe (the prediction also warns).
+        """
+        s, f, ld = self.state, self.state.forecast, self.state.leads
+        legs = (ld[Severity.RELEASE], ld[Severity.SECOND], ld[Severity.ESD1], ld.get(Severity.PRE_ALARM, -math.inf))
+        today = Severity(stage_of(f.time, f.measured, *legs)) if math.isfinite(f.time) else Severity.NORMAL
+        if today >= Severity.ESD1 and s.shadow_esd1_at is None:
+            s.shadow_esd1_at = now
+            held = " (held: the prediction is trusted and does not)" if s.trusted is not None else ""
+            self._event("info", f"{event_label('info.measured_esd1')}: {f.route}: {f.face} face in {f.time:.1f} s"
+                                f"{held}", code="info.measured_esd1", held=bool(held))
+        if s.trusted is None:
+            if today == Severity.NORMAL:
+                return today, math.inf, "", "", ""
+            t = f.measured if today == Severity.PRE_ALARM else f.time
+            route = f.route if t == f.time else "measured drift"
+            return today, t, route, f.face, "floor" if route == "design drift" else "measured"
+        floor = Severity(stage_of(f.design, math.inf, *legs)) if math.isfinite(f.design) else Severity.NORMAL
+        t_p = s.predicted[0] - (now - s.predicted[2]) if s.predicted else math.inf
+        pre = t_p if s.trusted.claimed >= ld.get(Severity.PRE_ALARM, 0.0) else math.inf
+        pred = Severity(stage_of(t_p, pre, *legs)) if math.isfinite(t_p) else Severity.NORMAL
+        if pred == floor == Severity.NORMAL:
+            return Severity.NORMAL, math.inf, "", "", ""
+        if pred >= floor:
+            return pred, max(t_p, 0.0), "prediction", s.predicted_face, "prediction"
+        return floor, f.design, "design drift", f.face, "floor"
+
+    def _raise(self, now: float, q, level: Severity, why: str, face: str = "", rule: str = "") -> None:
         """Raise the connected-mode stage to ``level`` (one alarm event per stage passed), commanding ESD-1 at
         the first alarm and requesting ERS-2 at release."""
         s = self.state
@@ -196,7 +244,7 @@ class SafetyRules:
             if s.raised < stage <= level:
                 code = STAGE_EVENT[stage]
                 self._event("alarm", f"{event_label(code)}: {why}", code=code, severity=int(stage),
-                            severity_label=stage.label, face=face,
+                            severity_label=stage.label, face=face, rule=rule,
                             beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]))
         s.raised = level
         if level >= Severity.ESD1:
@@ -226,8 +274,8 @@ class SafetyRules:
         if not self.attached():
             s.level = Severity.NORMAL
             return
-        s.level, why, face = self._connected_level(cyc.now, cyc.q)
-        self._raise(cyc.now, cyc.q, s.level, why, face)
+        s.level, why, face, s.rule = self._connected_level(cyc.now, cyc.q)
+        self._raise(cyc.now, cyc.q, s.level, why, face, s.rule)
 
     def _command_esd1(self, now: float, why: str) -> None:
         s = self.state

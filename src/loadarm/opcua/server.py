@@ -194,6 +194,12 @@ VARIABLES = (
     ("FlangeZ_m", ("MTR", "m", "metre"), (-100.0, 100.0), "flange estimate (Kalman filter)"),
     ("DistanceToFlange_m", ("MTR", "m", "metre"), (0.0, 200.0), "coupler to flange"),
     ("TimeToLimit_s", ("SEC", "s", "second"), (0.0, 3600.0), "design-drift time to the nearest face (-1: none)"),
+    ("PredictedTimeToLimit_s", ("SEC", "s", "second"), (0.0, 3600.0),
+     "the flange prediction's time to the nearest face by its calibrated bound (-1: none within its horizon)"),
+    ("PredictedTimeToLimitMean_s", ("SEC", "s", "second"), (0.0, 3600.0),
+     "the flange prediction's time to the nearest face by its mean track (-1: none within its horizon)"),
+    ("PredictionHorizon_s", ("SEC", "s", "second"), (0.0, 3600.0),
+     "how far ahead the flange prediction is claimed (0: no prediction)"),
     ("CycleTime_us", ("B98", "us", "microsecond"), (0.0, 1e6), "guidance cycle computing time"),
     ("Cylinder1Length_m", ("MTR", "m", "metre"), (0.0, 10.0), "cylinder 1 pin-to-pin length"),
     ("Cylinder2Length_m", ("MTR", "m", "metre"), (0.0, 10.0), "cylinder 2 pin-to-pin length"),
@@ -202,7 +208,7 @@ VARIABLES = (
 #: Boolean and integer state variables.
 STATES = (("EstimateHealthy", bool), ("Connected", bool), ("ESDActive", bool), ("ReleaseRequested", bool),
           ("CouplerOpen", bool), ("ERSValvesClosed", bool), ("AlarmStage", int), ("AlarmStageText", str),
-          ("Mode", str), ("Cycle", int), ("LateCycles", int), ("PlantLinkOK", bool))
+          ("Mode", str), ("Cycle", int), ("LateCycles", int), ("PlantLinkOK", bool), ("AlarmRule", str))
 #: Methods: browse name, request action, input arguments, what it does (the one action table,
 #: :data:`loadarm.vocab.ACTION_TABLE`, with the service's jog hold and the controller's ERS window filled in).
 METHODS = tuple((name, action, args, what.format(jog_hold=JOG_HOLD, ers_window=ERS_CONFIRM_WINDOW))
@@ -562,6 +568,7 @@ class OpcUaServer(SecureServer):
                   "CouplerZ_m": snap.coupler[2], "FlangeX_m": snap.flange_estimate[0],
                   "FlangeY_m": snap.flange_estimate[1], "FlangeZ_m": snap.flange_estimate[2],
                   "DistanceToFlange_m": snap.distance, "TimeToLimit_s": num(snap.time_to_limit),
+                  **_prediction_values(snap.prediction),
                   "CycleTime_us": snap.cycle_us, "Cylinder1Length_m": snap.cylinders[0],
                   "Cylinder2Length_m": snap.cylinders[1],
                   **{f"Margin_{f}_deg": math.degrees(v) for f, v in snap.margins.items()}}
@@ -580,6 +587,7 @@ class OpcUaServer(SecureServer):
             await nodes[k].write_value(ua.Variant(int(v), ua.VariantType.Int64))
         await nodes["AlarmStageText"].write_value(Severity(snap.level).label)
         await nodes["Mode"].write_value(snap.mode)
+        await nodes["AlarmRule"].write_value(snap.rule)
         for key, state in (("GuidanceMode", snap.mode), ("MachineryOperationMode",
                                                        OPERATION_MODE.get(snap.mode, "Processing")),
                            ("MachineryItemState", ITEM_STATE.get(snap.mode, "Executing"))):
@@ -590,6 +598,17 @@ class OpcUaServer(SecureServer):
             cond = nodes["conditions"].get(tag)
             if cond is not None and cond.state != state:
                 await cond.report(state)
+
+
+def _prediction_values(p: dict | None) -> dict:
+    """The prediction's variables from a snapshot's (:func:`loadarm.sim.snapshot.prediction_sample`): -1 where
+    there is no time within the claim, a horizon of 0 for no prediction."""
+    if p is None:
+        return {"PredictedTimeToLimit_s": -1.0, "PredictedTimeToLimitMean_s": -1.0, "PredictionHorizon_s": 0.0}
+    bound, mean = p["ttl"]
+    return {"PredictedTimeToLimit_s": -1.0 if bound is None else float(bound),
+            "PredictedTimeToLimitMean_s": -1.0 if mean is None else float(mean),
+            "PredictionHorizon_s": float(p["claimed"])}
 
 
 def _method_request(action: str, user: str, values, jog_speed: float) -> Request:

@@ -49,6 +49,12 @@ class Ship(_S):
     draft_rate: float = param(0.0, unit="m/s", ge=-0.01, le=0.01,
                               source="a ship loading 10 m of draft over 24 h sinks about 1e-4 m/s",
                               description="vertical speed of the flange from loading (negative: sinking)")
+    history: float = param(0.0, unit="s", ge=0, le=7200,
+                           source="a terminal's berth monitoring watches a moored ship from its mooring on, hours "
+                                  "before the arm connects; 0 = the run starts with no track",
+                           description="how long the flange's track before the run starts is known (the flange "
+                                       "sensor's readings of the ship at its berth): the predictor is fitted and "
+                                       "calibrated on it")
 
     @model_validator(mode="after")
     def _finite(self) -> "Ship":
@@ -169,6 +175,10 @@ class Guidance(_S):
                                              "alarms")
     jog_speed: float = param(0.15, unit="m/s", gt=0, le=1, source="same as the approach speed limit",
                              description="coupler speed at full joystick deflection")
+    prediction: Literal["online AR", "off"] = Field(
+        "online AR", description="the flange predictor behind the predictive alarms (issue 30): the online "
+                                 "autoregression, or off (the measured-drift routes alone, as before)",
+        json_schema_extra={"unit": "", "source": "docs/guidance.md section 12"})
 
     def compile(self) -> "GuidanceSettings":
         """The section as the controller takes it: a frozen record, validated here once.
@@ -191,6 +201,7 @@ class GuidanceSettings:
     max_estimate_age: float
     drift_window: float
     jog_speed: float
+    prediction: str = "online AR"
 
 
 class Faults(_S):

@@ -109,19 +109,22 @@ class MooredFlangeMotion:
     offset : ndarray (3,)
         Installation minus berth frame.
     slow_rate : ndarray (3,)
+    start : float
+        How long before the run's time 0 the simulated record starts, s (``[ship] history``).
     """
 
     motion: object
     offset: np.ndarray
     slow_rate: np.ndarray
+    start: float = 0.0
 
     def _at(self, t: np.ndarray):
         m = self.motion
         dt = float(m.t[1] - m.t[0])
-        t = np.asarray(t, dtype=float)
+        t = np.asarray(t, dtype=float) + self.start
         if t.size and (np.min(t) < -1e-9 or np.max(t) > m.t[-1] + 1e-9):
-            raise ValueError(f"times from {np.min(t):g} to {np.max(t):g} s lie outside the simulated "
-                             f"0-{m.t[-1]:g} s of the moored ship")
+            raise ValueError(f"times from {np.min(t) - self.start:g} to {np.max(t) - self.start:g} s lie outside "
+                             f"the simulated {-self.start:g}-{m.t[-1] - self.start:g} s of the moored ship")
         k = np.clip(np.floor(t / dt).astype(int), 0, m.t.size - 2)
         s = t / dt - k
         return k, s[..., None], dt
@@ -153,11 +156,12 @@ def _moored(sc: Scenario, ship) -> MooredFlangeMotion:
     env = scenario_environment(sc, ship.environment)
     mf = sc.mooring_failure
     parted = tuple(ship.names) if mf.all_lines else tuple(mf.lines)
-    m = simulate(ship, env, sc.scenario.duration + MOORED_LOOKAHEAD, seed=sc.scenario.seed,
-                 parted=parted if mf.time is not None else (), part_time=mf.time)
+    start = sc.ship.history
+    m = simulate(ship, env, start + sc.scenario.duration + MOORED_LOOKAHEAD, seed=sc.scenario.seed,
+                 parted=parted if mf.time is not None else (), part_time=None if mf.time is None else start + mf.time)
     offset = np.asarray(sc.ship.flange, dtype=float) - m.flange_reference
     return MooredFlangeMotion(motion=m, offset=offset,
-                              slow_rate=np.array([0.0, 0.0, sc.ship.tide_rate + sc.ship.draft_rate]))
+                              slow_rate=np.array([0.0, 0.0, sc.ship.tide_rate + sc.ship.draft_rate]), start=start)
 
 
 def flange_motion(sc: Scenario, ship=None) -> FlangeMotion | MooredFlangeMotion:

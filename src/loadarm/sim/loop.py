@@ -33,7 +33,7 @@ from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
 from loadarm.sim.limits import ClearanceWatch, first_limit
 from loadarm.sim.result import RunResult
-from loadarm.sim.sensors import sensor_readings
+from loadarm.sim.sensors import history_readings, sensor_readings
 from loadarm.sim.snapshot import state_sample
 from loadarm.sim.world import AngleSensors, ArmPlant, ErsValves, ScriptedOperator
 from loadarm.vocab import Severity
@@ -147,6 +147,7 @@ class SimulatedPlant:
             ship = moored_ship(sc)
         self.motion = flange_motion(sc, ship)
         self.readings = sensor_readings(sc, self.motion)
+        self.history = history_readings(sc, self.motion)
         self.flange = self.motion.position(np.arange(n) * dt)
         q0 = inverse3d(model.arm, *stored)
         self.arm = ArmPlant(model, np.array([float(q0.phi), float(q0.alpha), float(q0.beta)]), plant, emit,
@@ -265,6 +266,9 @@ class ClosedLoop:
         self._limiter = RateLimiter()
         self.io = SimulatedPlant(sc, model, self.ctrl.stored, self.n, self.dt, plant, self.emit, ship) if io is None \
             else io
+        history = getattr(self.io, "history", None)
+        if history is not None:
+            self.ctrl.preload(*history)
         self.operator = ScriptedOperator(sc.operator, self.dt) if scripted else None
         self.rec = _Recorder(self.n, log, sample_every)
         self.clearance = ClearanceWatch(self.emit)

@@ -247,6 +247,7 @@ class RunResult(Result):
             "mode_sequence": seq,
             "final_mode": modes[-1],
             "alarm1_s": self.first_code("stage.esd1"),
+            "alarm1_measured_s": self.first_code("info.measured_esd1"),
             "alarm2_s": self.first_code("stage.second"),
             "release_s": self.first_code("stage.release"),
             "release_complete_s": self.first_code("command.release_complete"),

@@ -16,7 +16,7 @@ import numpy as np
 from loadarm.params.scenario import Scenario
 from loadarm.ship.flange import FlangeMotion
 
-__all__ = ["Readings", "sensor_readings"]
+__all__ = ["Readings", "sensor_readings", "history_readings"]
 
 
 @dataclass(frozen=True)
@@ -69,3 +69,28 @@ def sensor_readings(sc: Scenario, motion: FlangeMotion) -> Readings:
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         xyz[out] += s.outlier_size * d
     return Readings(t_meas + s.latency, t_meas, xyz, out)
+
+
+def history_readings(sc: Scenario, motion) -> tuple[np.ndarray, np.ndarray] | None:
+    """The flange sensor's readings of the ship before the run starts (``[ship] history`` seconds of them): what
+    a terminal's berth monitoring has seen of the moored ship by the time the arm connects, for the predictor.
+    The sensor's rate and noise; no outliers or dropouts (a history is a cleaned record). Deterministic for the
+    seed, and apart from the run's own readings (which stay bit for bit as without a history).
+
+    Parameters
+    ----------
+    sc : Scenario
+    motion : FlangeMotion or MooredFlangeMotion
+        The true flange trajectory (defined from ``-history``).
+
+    Returns
+    -------
+    (t, xyz) or None
+        Times (s, negative) and positions (m); None without a history.
+    """
+    h = sc.ship.history
+    if h <= 0:
+        return None
+    rng = np.random.default_rng(sc.scenario.seed + 2)
+    t = -h + np.arange(int(round(h * sc.sensor.rate))) / sc.sensor.rate
+    return t, motion.position(t) + rng.normal(0.0, sc.sensor.noise, (t.size, 3))

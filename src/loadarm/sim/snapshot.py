@@ -77,7 +77,43 @@ def state_sample(cmd, q, estimate, distance: float, ers_valves_closed: bool, ala
             "alarms": {tag: st.value for tag, st in alarms.items() if st.value != "normal"},
             "time_to_faces": {f: float(t) for f, t in cmd.time_to_faces},
             "horizon": _finite_or_none(cmd.horizon), "route": str(cmd.route),
-            "drift": [_finite_or_none(v) for v in cmd.drift] or None}
+            "drift": [_finite_or_none(v) for v in cmd.drift] or None,
+            "prediction": prediction_sample(cmd.prediction, cmd.predicted), "rule": str(cmd.rule)}
+
+
+#: Seconds between the predicted track's points kept in a sample (and drawn on the screen).
+PREDICTION_EVERY = 5
+
+
+def prediction_sample(forecast, predicted) -> dict | None:
+    """The prediction as a sample keeps it, JSON-ready: ``claimed`` (s), ``t`` (when it was made, s), ``h`` (the
+    horizons kept, every :data:`PREDICTION_EVERY` s up to the claim), ``mean``, ``lo``, ``hi`` (m, per kept
+    horizon, x y z), ``ttl`` (the time to the nearest face by the calibrated bound and by the mean, s; None:
+    none within the claim). None: no prediction.
+
+    Parameters
+    ----------
+    forecast : Forecast or None
+        :class:`loadarm.guidance.predict.Forecast`.
+    predicted : tuple of float
+        ``(bound, mean)`` s, or ``()``.
+
+    Returns
+    -------
+    dict or None
+    """
+    if forecast is None:
+        return None
+    n = int(round(forecast.claimed / forecast.horizon[0]))
+    keep = np.arange(PREDICTION_EVERY - 1, n, PREDICTION_EVERY)
+
+    def rows(a):
+        return [[round(float(v), 4) for v in r] for r in a[keep]]
+
+    ttl = [_finite_or_none(v) for v in predicted] if predicted else [None, None]
+    return {"claimed": float(forecast.claimed), "t": float(forecast.time),
+            "h": [float(v) for v in forecast.horizon[keep]], "mean": rows(forecast.mean), "lo": rows(forecast.lo),
+            "hi": rows(forecast.hi), "ttl": ttl}
 
 
 def snapshot(model, seq: int, t: float, mode: str, sample: dict, **live) -> "Snapshot":
@@ -121,7 +157,8 @@ def snapshot(model, seq: int, t: float, mode: str, sample: dict, **live) -> "Sna
                     flange_velocity=tuple(_nan_if_none(v) for v in sample.get("flange_velocity", (0.0,) * 3)),
                     time_to_faces={f: float(v) for f, v in sample.get("time_to_faces", {}).items()},
                     horizon=_nan_if_none(sample.get("horizon")), route=str(sample.get("route", "")),
-                    drift=tuple(_nan_if_none(v) for v in (sample.get("drift") or ())), **live)
+                    drift=tuple(_nan_if_none(v) for v in (sample.get("drift") or ())),
+                    prediction=sample.get("prediction"), rule=str(sample.get("rule", "")), **live)
 
 
 @dataclass(frozen=True)
@@ -178,6 +215,10 @@ class Snapshot:
         The forecast's route to the nearest face (``"design drift"``, ``"measured drift"``, ...; ``""``: none).
     drift : tuple of float
         The measured drift velocity the forecast extrapolated, m/s (``()``: no drift fit).
+    prediction : dict or None
+        The flange prediction (:func:`prediction_sample`; None: no prediction, or a log without it).
+    rule : str
+        The rule behind the connected-mode level (:data:`loadarm.vocab.ALARM_RULES`; ``""``: none).
     """
 
     seq: int
@@ -209,6 +250,8 @@ class Snapshot:
     horizon: float = math.nan
     route: str = ""
     drift: tuple = ()
+    prediction: dict | None = None
+    rule: str = ""
 
 
 def trend_point(snap: Snapshot) -> dict:

@@ -127,6 +127,9 @@ class CampaignRun:
         The face crossed.
     connected_s : float
         Time the coupler was on the flange, s (the exposure a false-alarm count is out of).
+    alarm1_measured_s : float or None
+        When the rule without the prediction (the measured drift and the floor) first called for ESD-1, s: the
+        same as ``alarm1_s`` unless the prediction held it back or raised it sooner.
     """
 
     seed: int
@@ -142,6 +145,21 @@ class CampaignRun:
     release_margin_s: float | None
     limit_face: str
     connected_s: float = 0.0
+    alarm1_measured_s: float | None = None
+
+    @property
+    def false_alarm_measured(self) -> bool:
+        """The rule without the prediction would have raised a false alarm (ESD-1 without a face reached)."""
+        return self.alarm1_measured_s is not None and self.limit_s is None
+
+    @property
+    def lead_gained_s(self) -> float | None:
+        """How much sooner ESD-1 came than the rule without the prediction would have raised it, s (negative:
+        later; with no ESD-1 at all, as if it came when the face was reached), for a run whose flange reaches a
+        face; None otherwise."""
+        if self.limit_s is None or self.alarm1_measured_s is None:
+            return None
+        return self.alarm1_measured_s - (self.alarm1_s if self.alarm1_s is not None else self.limit_s)
 
 
 def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
@@ -156,7 +174,7 @@ def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
         false_alarm=bool(alarm1 is not None and limit is None),
         missed_alarm="missed_alarm" in fails,
         alarm1_s=alarm1, release_complete_s=done, limit_s=limit, release_margin_s=v["release_margin_s"],
-        limit_face=v["limit_face"], connected_s=v["connected_s"])
+        limit_face=v["limit_face"], connected_s=v["connected_s"], alarm1_measured_s=v.get("alarm1_measured_s"))
 
 
 class _Draw:
@@ -228,6 +246,10 @@ CAMPAIGN_METRICS = (
     Metric("overstretches_before_isolation", "overstretch before isolation (product live)", "", "d"),
     Metric("opened_on_live_product", "coupler opened before the ERS valves closed", "", "d"),
     Metric("false_alarms", "false alarms (ESD-1 without reaching a face)", "", "d"),
+    Metric("false_alarms_measured", "false alarms by the rule without the prediction", "", "d"),
+    Metric("alarm1_later", "ESD-1 later than the rule without the prediction", "", "d"),
+    Metric("lead_gained_min_s", "ESD-1 lead gained on that rule, min", "s", ".1f", none="-"),
+    Metric("lead_gained_median_s", "ESD-1 lead gained on that rule, median", "s", ".1f", none="-"),
     Metric("missed_alarms", "missed alarms (face reached before the release completed)", "", "d"),
     Metric("releases", "releases", "", "d"),
     Metric("margin_min_s", "release margin, min", "s", ".2f", none="-"),
@@ -262,6 +284,7 @@ class CampaignResult(Result):
         runs = self.runs
         margins = np.array([r.release_margin_s for r in runs if r.release_margin_s is not None])
         leads = np.array([r.limit_s - r.alarm1_s for r in runs if r.limit_s is not None and r.alarm1_s is not None])
+        gained = np.array([r.lead_gained_s for r in runs if r.lead_gained_s is not None])
 
         def q(a, p):
             return float(np.percentile(a, p)) if a.size else None
@@ -277,6 +300,9 @@ class CampaignResult(Result):
             "overstretches_before_isolation": sum(r.overstretched_before_isolation for r in runs),
             "opened_on_live_product": sum(r.opened_on_live_product for r in runs),
             "false_alarms": sum(r.false_alarm for r in runs),
+            "false_alarms_measured": sum(r.false_alarm_measured for r in runs),
+            "alarm1_later": int(np.sum(gained < 0)),
+            "lead_gained_min_s": q(gained, 0), "lead_gained_median_s": q(gained, 50),
             "missed_alarms": sum(r.missed_alarm for r in runs),
             "releases": sum(r.release_complete_s is not None for r in runs),
             "margin_min_s": q(margins, 0), "margin_p5_s": q(margins, 5), "margin_median_s": q(margins, 50),

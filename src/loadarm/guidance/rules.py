@@ -30,7 +30,8 @@ from loadarm.guidance.modes import (
 from loadarm.guidance.monitor import predicted_crossing, stage_leads
 from loadarm.guidance.predict import Forecast
 from loadarm.guidance.voting import AXES
-from loadarm.vocab import ANNUNCIATED, CONDITION_TEXT, RESET_BLOCKING, STAGE_EVENT, Severity, event_label
+from loadarm.vocab import (ALARM_RULES, ANNUNCIATED, CONDITION_TEXT, RESET_BLOCKING, STAGE_EVENT, Severity,
+                           event_label)
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     pass
@@ -243,7 +244,8 @@ class SafetyRules:
                 continue                         # no pre-alarm configured
             if s.raised < stage <= level:
                 code = STAGE_EVENT[stage]
-                self._event("alarm", f"{event_label(code)}: {why}", code=code, severity=int(stage),
+                by = f" [{ALARM_RULES[rule]}]" if rule else ""
+                self._event("alarm", f"{event_label(code)}: {why}{by}", code=code, severity=int(stage),
                             severity_label=stage.label, face=face, rule=rule,
                             beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]))
         s.raised = level

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import math
+
+import numpy as np
 import re
 
 import pytest
@@ -791,3 +793,38 @@ def test_the_trend_log_keeps_ten_minutes_at_the_log_s_sample_times(model):
     assert [p["t"] for p in pts[:2]] == [100.0, 101.0] and pts[-1]["t"] == 699.0 and len(pts) == TREND_WINDOW
     assert pts[-1] == {"t": 699.0, "beta": 1.5, "margin": 0.2, "face": "slew_pos", "ttl": 30.0,
                        "drift": pytest.approx(math.hypot(0.19, 0.03))}
+
+
+def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model):
+    """Issue 30 item 5: the controller's prediction travels through the log's sample (every 5 s of its claim)
+    to the screen: the time to limit with its interval ("face in 42-65 s"), whether it is used (trusted) or
+    only shown, the predicted track and band for the top view, and the rule that raised the level in words."""
+    from loadarm.guidance.estimator import Estimate
+    from loadarm.guidance.modes import Command, Mode
+    from loadarm.guidance.predict import Forecast
+    from loadarm.hmi.state import forecast_state, prediction_state
+    from loadarm.sim.snapshot import snapshot, state_sample
+
+    h = np.arange(1, 121, dtype=float)
+    mean = np.array([13.0, 1.0, 0.5]) + 0.01 * h[:, None] * np.array([1.0, 0.0, 0.0])
+    lo, hi = mean - 0.2, mean + 0.2
+    lo[60:], hi[60:] = np.nan, np.nan
+    fc = Forecast(h, mean, lo, hi, 60.0, 99.0, "online AR")
+    cmd = Command(Mode.ALARM1, (0.0, 0.0, 0.0), True, True, False, horizon=65.0, route="design drift",
+                  prediction=fc, predicted=(42.0, 65.0), rule="prediction", trusted=True)
+    est = Estimate(t=1.0, position=(13.0, 1.0, 0.5), velocity=(0.0, 0.0, 0.0), sigma=0.01, age=0.0, healthy=True,
+                   reason="")
+    sample = state_sample(cmd, (0.0, 1.0, 1.5), est, 0.0, False, {})
+    p = sample["prediction"]
+    assert p["claimed"] == 60.0 and p["h"] == [5.0 * k for k in range(1, 13)] and p["trusted"] is True
+    assert p["ttl"] == [42.0, 65.0] and len(p["mean"]) == 12
+    snap = snapshot(model, 1, 100.0, "ALARM1", json.loads(json.dumps(sample)))
+    f = forecast_state(snap, model)
+    assert f["prediction"]["state"] == "trusted" and f["prediction"]["text"] == "prediction: face in 42-65 s"
+    assert f["rule_words"] == "prediction"
+    assert len(f["prediction"]["track"]) == 12 and len(f["prediction"]["band"]) == 12
+    x0, y0, x1, y1 = f["prediction"]["band"][0]
+    assert x0 < mean[4, 0] < x1 and y0 < mean[4, 1] < y1
+    assert prediction_state(None, True)["state"] == "none"
+    assert prediction_state({**p, "trusted": False}, True)["text"].startswith("prediction (not used): ")
+    assert prediction_state({**p, "ttl": [None, None]}, True)["text"] == "prediction: no face within 60 s"

@@ -540,3 +540,53 @@ def test_the_ship_s_view_a_viewer_on_a_tablet(screen, browser, state):
         assert enabled == ["esd"] and page.errors == []
     finally:
         ctx.close()
+
+
+@pytest.fixture(scope="module")
+def tracked_replay(state, tmp_path_factory):
+    """The drift-off on a tracked ship (35 minutes of track before the run: the prediction trusted from the
+    connection) logged, and a replay screen on it."""
+    from loadarm.eventlog import EventLog
+    from loadarm.hmi.app import HmiServer, create_app
+    from loadarm.hmi.replay import ReplayService
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+
+    db = tmp_path_factory.mktemp("replay30") / "events.db"
+    sc, model = load_scenario("examples/scenarios/driftoff_tracked.toml")
+    with EventLog(db, run="r") as log:
+        res = run_scenario(sc, model, log=log, plant="kinematic")
+    with EventLog.open_existing(db) as log:
+        service = ReplayService(log.query(run="r"), model)
+    server = HmiServer(create_app(service, state.path, model, name="replay"), "127.0.0.1", 0)
+    server.start()
+    yield {"url": server.url, "connect": res.first("mode", "-> CONNECTED"), "esd1": res.first("alarm", "ALARM1")}
+    server.stop()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("w, h", SIZES)
+def test_the_predicted_track_and_its_band_are_drawn_and_the_time_to_limit_has_its_interval(browser, tracked_replay,
+                                                                                         w, h, tmp_path):
+    """Issue 30 item 5: connected to a tracked ship before the drift, the top view draws the predicted track
+    (a grey dashed line) and its interval (a grey band per 5 s of the 120 s claim), the time to limit's detail
+    says the prediction's ("prediction: no face within 120 s" or "face in A-B s"), nothing collides with a
+    label, and the primary state still fits; after ESD-1 the rule that raised it is named."""
+    ctx, page = _sized(browser, w, h)
+    try:
+        log_in(page, tracked_replay["url"], "alice", "pw-alice")
+        _seek(page, math.ceil(tracked_replay["connect"] + 20))
+        assert page.evaluate("document.querySelectorAll('#top polyline.predicted').length") == 1
+        assert page.evaluate("document.querySelectorAll('#top rect.band').length") == 24
+        detail = page.evaluate("document.getElementById('ttl-detail').textContent")
+        assert re.search(r"prediction: (no face within 120 s|face in \d+(-\d+)? s)", detail), detail
+        assert page.evaluate(_OVERLAPS) == []
+        assert _outside(page, [s for s in PRIMARY if s != "tr.alarm"]) == []           # no alarm active yet
+        page.screenshot(path=str(tmp_path / f"prediction-{w}.png"))
+        _seek(page, math.ceil(tracked_replay["esd1"] + 1))
+        detail = page.evaluate("document.getElementById('ttl-detail').textContent")
+        assert "raised by the measured drift" in detail or "raised by the design-drift floor" in detail, detail
+        assert "prediction (not used)" in detail, detail
+        assert page.errors == []
+    finally:
+        ctx.close()

@@ -303,7 +303,8 @@ class GuidanceController(SafetyRules):
                        s.release_started_at is not None, s.level if attached else Severity.NORMAL, ttl,
                        tuple(s.events), faces, horizon, f.route if f is not None else "",
                        self._forecast_drift(f), None if self.predictor is None else self.predictor.forecast,
-                       self._predicted(now) if attached else (), s.rule if attached else "")
+                       self._predicted(now) if attached else (), s.rule if attached else "",
+                       attached and s.trusted is not None)
 
     def _predicted(self, now: float) -> tuple:
         """The prediction's times to the nearest face now, ``(bound, mean)`` s, or ``()``."""

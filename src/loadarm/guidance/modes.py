@@ -159,6 +159,9 @@ class Command:
         predictive alarms use) and the mean track's (``inf``: none within the claimed horizon); ``()``: none.
     rule : str
         The rule behind this cycle's connected-mode level (:data:`loadarm.vocab.ALARM_RULES`; ``""``: normal).
+    trusted : bool
+        The prediction stands in for the measured routes (claimed past the ESD-1 lead, the track within its
+        intervals, ESD-1 not raised).
     """
 
     mode: Mode
@@ -178,6 +181,7 @@ class Command:
     prediction: object = None
     predicted: tuple = ()
     rule: str = ""
+    trusted: bool = False
 
 
 @dataclass(frozen=True, slots=True)

@@ -15,11 +15,11 @@ from loadarm.arm.alarms import AlarmState
 from loadarm.guidance.monitor import stage_leads
 from loadarm.params.berth import RHO_SEA, BerthSection, ShipSection
 from loadarm.ship.hull import hull_mesh
-from loadarm.vocab import (CONDITION_TEXT, EVENTS, FACE_WORDS, FACES, PRIORITIES, Severity, event_label,
-                           priority)
+from loadarm.vocab import (ALARM_RULES, CONDITION_TEXT, EVENTS, FACE_WORDS, FACES, PRIORITIES, Severity,
+                           event_label, priority)
 
 __all__ = ["PRIORITIES", "SHELVE_MAX", "JOURNAL_KINDS", "AlarmBook", "AlarmEntry", "clock_text", "drift_words",
-           "forecast_state", "geometry", "frame", "journal_entry", "priority", "ship_outline"]
+           "forecast_state", "prediction_state", "geometry", "frame", "journal_entry", "priority", "ship_outline"]
 
 #: The longest an operator may shelve an alarm, s (ISA-18.2: shelving is time-limited; the alarm comes back).
 SHELVE_MAX = 600.0
@@ -266,7 +266,9 @@ def forecast_state(snap, model) -> dict:
     drift = drift_words(snap.drift)
     out = {"face": face, "face_words": FACE_WORDS.get(face, ""), "route": snap.route,
            "horizon": _num(snap.horizon), "drift": drift, "design_speed": model.design_drift.speed,
-           "basis": _basis(snap.route, drift, model.design_drift.speed) if snap.connected else ""}
+           "basis": _basis(snap.route, drift, model.design_drift.speed) if snap.connected else "",
+           "rule": snap.rule, "rule_words": ALARM_RULES.get(snap.rule, ""),
+           "prediction": prediction_state(snap.prediction, snap.connected)}
     if not snap.connected:
         return {**out, "state": "off", "text": "not connected"}
     if not (snap.plant_ok and snap.estimate_healthy and math.isfinite(snap.horizon)):
@@ -275,6 +277,42 @@ def forecast_state(snap, model) -> dict:
     if math.isfinite(snap.time_to_limit):
         return {**out, "state": "time", "text": f"{snap.time_to_limit:.1f} s"}
     return {**out, "state": "beyond", "text": f"> {snap.horizon:.0f} s"}
+
+
+def prediction_state(p: dict | None, connected: bool) -> dict:
+    """What the screen says and draws of the flange prediction: ``state`` ``"trusted"`` (it stands in for the
+    measured drift), ``"shown"`` (claimed, not trusted: the track left its intervals, or ESD-1 is raised),
+    ``"none"`` (no prediction: the track is too short or not yet calibrated); ``text``; the time to limit with
+    its interval (``bound``: the calibrated bound's, what the alarms use; ``mean``: the mean track's; s, None:
+    no face within the claim); the top view's ``track`` (x, y of the mean, m) and ``band`` (x0, y0, x1, y1 of the
+    interval at each kept horizon, m).
+
+    Parameters
+    ----------
+    p : dict or None
+        The snapshot's :attr:`~loadarm.sim.snapshot.Snapshot.prediction`.
+    connected : bool
+
+    Returns
+    -------
+    dict
+    """
+    if p is None:
+        return {"state": "none", "text": "no prediction (track too short or calibrating)", "track": [], "band": [],
+                "bound": None, "mean": None, "claimed": 0.0}
+    bound, mean = p["ttl"]
+    claimed = float(p["claimed"])
+    if bound is None:
+        when = f"no face within {claimed:.0f} s"
+    elif mean is None:
+        when = f"face in {bound:.0f} s at the earliest (mean track: none within {claimed:.0f} s)"
+    else:
+        when = f"face in {bound:.0f}-{mean:.0f} s"
+    trusted = bool(p.get("trusted")) and connected
+    text = f"prediction{'' if trusted else ' (not used)'}: {when}"
+    return {"state": "trusted" if trusted else "shown", "text": text, "bound": bound, "mean": mean,
+            "claimed": claimed, "track": [[m[0], m[1]] for m in p["mean"]],
+            "band": [[lo[0], lo[1], hi[0], hi[1]] for lo, hi in zip(p["lo"], p["hi"])]}
 
 
 def _basis(route: str, drift: dict | None, design: float) -> str:

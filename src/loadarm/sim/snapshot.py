@@ -78,18 +78,18 @@ def state_sample(cmd, q, estimate, distance: float, ers_valves_closed: bool, ala
             "time_to_faces": {f: float(t) for f, t in cmd.time_to_faces},
             "horizon": _finite_or_none(cmd.horizon), "route": str(cmd.route),
             "drift": [_finite_or_none(v) for v in cmd.drift] or None,
-            "prediction": prediction_sample(cmd.prediction, cmd.predicted), "rule": str(cmd.rule)}
+            "prediction": prediction_sample(cmd.prediction, cmd.predicted, cmd.trusted), "rule": str(cmd.rule)}
 
 
 #: Seconds between the predicted track's points kept in a sample (and drawn on the screen).
 PREDICTION_EVERY = 5
 
 
-def prediction_sample(forecast, predicted) -> dict | None:
+def prediction_sample(forecast, predicted, trusted: bool = False) -> dict | None:
     """The prediction as a sample keeps it, JSON-ready: ``claimed`` (s), ``t`` (when it was made, s), ``h`` (the
     horizons kept, every :data:`PREDICTION_EVERY` s up to the claim), ``mean``, ``lo``, ``hi`` (m, per kept
     horizon, x y z), ``ttl`` (the time to the nearest face by the calibrated bound and by the mean, s; None:
-    none within the claim). None: no prediction.
+    none within the claim), ``trusted`` (it stands in for the measured routes). None: no prediction.
 
     Parameters
     ----------
@@ -97,6 +97,7 @@ def prediction_sample(forecast, predicted) -> dict | None:
         :class:`loadarm.guidance.predict.Forecast`.
     predicted : tuple of float
         ``(bound, mean)`` s, or ``()``.
+    trusted : bool
 
     Returns
     -------
@@ -113,7 +114,7 @@ def prediction_sample(forecast, predicted) -> dict | None:
     ttl = [_finite_or_none(v) for v in predicted] if predicted else [None, None]
     return {"claimed": float(forecast.claimed), "t": float(forecast.time),
             "h": [float(v) for v in forecast.horizon[keep]], "mean": rows(forecast.mean), "lo": rows(forecast.lo),
-            "hi": rows(forecast.hi), "ttl": ttl}
+            "hi": rows(forecast.hi), "ttl": ttl, "trusted": bool(trusted)}
 
 
 def snapshot(model, seq: int, t: float, mode: str, sample: dict, **live) -> "Snapshot":

@@ -305,7 +305,8 @@ function drawPrimary(f) {
   const short = fc.state === "time" && f.time_to_limit < hmi.geo.sequence_time;
   tile("ttl", fc.text, fc.state === "none" || short ? "abnormal" : (fc.state === "off" ? "dim" : ""));
   const face = fc.state === "time" ? `nearest: ${fc.face_words} · ` : "";
-  $("ttl-detail").textContent = fc.state === "off" ? "" : face + fc.basis;
+  const rule = fc.rule_words ? ` · raised by the ${fc.rule_words}` : "";
+  $("ttl-detail").textContent = fc.state === "off" ? "" : `${face}${fc.basis} · ${fc.prediction.text}${rule}`;
   $("ttl-detail").title = $("ttl-detail").textContent;
   tile("esd", f.esd ? "ACTIVE" : "not active", f.esd ? "abnormal" : "dim");
   tile("ers", f.ers_valves_closed ? "CLOSED" : "open", f.ers_valves_closed && f.esd ? "" : (f.ers_valves_closed ? "abnormal" : ""));
@@ -453,6 +454,17 @@ function drawTop(f) {
   el("line", {x1: ox, y1: oy, x2: cx, y2: cy, class: "arm"}, svg);
   el("circle", {cx: ox, cy: oy, r: 5, class: "joint"}, svg);
   el("rect", {x: cx - 4, y: cy - 4, width: 8, height: 8, class: "coupler"}, svg);
+  const pr = f.forecast.prediction;
+  if (f.connected && pr.track.length) {           // the predicted track (mean) and its interval, grey: not an alarm
+    for (const [x0, y0, x1, y1] of pr.band) {
+      const [ax, ay] = P(x0, y1), [bx2, by2] = P(x1, y0);
+      el("rect", {x: Math.min(ax, bx2), y: Math.min(ay, by2), width: Math.abs(bx2 - ax), height: Math.abs(by2 - ay),
+                  class: "band"}, svg);
+    }
+    const pts = pr.track.map(([x, y]) => P(x, y));
+    el("polyline", {points: pts.map((p) => p.join(",")).join(" "), class: "predicted"}, svg);
+    scene.lines.push(...segments(pts));
+  }
   let drift = null;
   if (f.flange[0] !== null) {
     const [fx, fy] = P(f.flange[0], f.flange[1]);

@@ -639,3 +639,23 @@ def test_twenty_clients_at_10_hz_do_not_make_the_guidance_cycle_late(tmp_path):
         if all(ok):
             break
     assert all(ok), f"(late cycles, cycles, notifications, p99 us) of each measurement: {tries}"
+
+
+def test_the_prediction_and_the_alarm_rule_are_served(served):
+    """Issue 30 item 5: OPC UA serves the prediction's horizon and its time to limit with its interval, and the
+    rule behind the alarm stage. The served drift-off has no track before the run: no prediction (horizon 0,
+    times -1), no stage (rule empty); the values of a prediction are the sample's (unit)."""
+    from loadarm.opcua.server import _prediction_values
+
+    async def main():
+        c = await _client(served, "victor", "pw-victor")()
+        async with c:
+            ns, guidance, var = await _nodes(c)
+            names = ["PredictionHorizon_s", "PredictedTimeToLimit_s", "PredictedTimeToLimitMean_s", "AlarmRule"]
+            return dict(zip(names, await c.read_values([var(n) for n in names])))
+
+    v = asyncio.run(main())
+    assert v == {"PredictionHorizon_s": 0.0, "PredictedTimeToLimit_s": -1.0, "PredictedTimeToLimitMean_s": -1.0,
+                 "AlarmRule": ""}, v
+    assert _prediction_values({"claimed": 120.0, "ttl": [42.0, None]}) == {
+        "PredictedTimeToLimit_s": 42.0, "PredictedTimeToLimitMean_s": -1.0, "PredictionHorizon_s": 120.0}

@@ -248,6 +248,8 @@ class RunResult(Result):
             "final_mode": modes[-1],
             "alarm1_s": self.first_code("stage.esd1"),
             "alarm1_measured_s": self.first_code("info.measured_esd1"),
+            "alarm1_rule": next((d.get("rule", "") for _, _, _, _, d in self.events
+                                 if d and d.get("code") == "stage.esd1"), ""),
             "alarm2_s": self.first_code("stage.second"),
             "release_s": self.first_code("stage.release"),
             "release_complete_s": self.first_code("command.release_complete"),

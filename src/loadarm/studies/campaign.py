@@ -41,6 +41,7 @@ from loadarm.results import Metric, Result
 from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import run_scenario
 from loadarm.studies.cluster import connect_scheduler, plan_workers
+from loadarm.vocab import ALARM_RULES
 
 __all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign",
            "MAX_SEEDS"]
@@ -130,6 +131,8 @@ class CampaignRun:
     alarm1_measured_s : float or None
         When the rule without the prediction (the measured drift and the floor) first called for ESD-1, s: the
         same as ``alarm1_s`` unless the prediction held it back or raised it sooner.
+    alarm1_rule : str
+        The rule that raised ESD-1 (:data:`loadarm.vocab.ALARM_RULES`; ``""``: none).
     """
 
     seed: int
@@ -146,6 +149,7 @@ class CampaignRun:
     limit_face: str
     connected_s: float = 0.0
     alarm1_measured_s: float | None = None
+    alarm1_rule: str = ""
 
     @property
     def false_alarm_measured(self) -> bool:
@@ -174,7 +178,8 @@ def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
         false_alarm=bool(alarm1 is not None and limit is None),
         missed_alarm="missed_alarm" in fails,
         alarm1_s=alarm1, release_complete_s=done, limit_s=limit, release_margin_s=v["release_margin_s"],
-        limit_face=v["limit_face"], connected_s=v["connected_s"], alarm1_measured_s=v.get("alarm1_measured_s"))
+        limit_face=v["limit_face"], connected_s=v["connected_s"], alarm1_measured_s=v.get("alarm1_measured_s"),
+        alarm1_rule=v.get("alarm1_rule", ""))
 
 
 class _Draw:
@@ -310,6 +315,8 @@ class CampaignResult(Result):
             "lead_median_s": q(leads, 50),
             "failed_seeds": [r.seed for r in runs if r.overstretched or r.opened_on_live_product or r.missed_alarm],
             "false_alarm_seeds": [r.seed for r in runs if r.false_alarm],
+            "false_alarms_by_rule": {rule: n for rule in ALARM_RULES
+                                     if (n := sum(r.false_alarm and r.alarm1_rule == rule for r in runs))},
             "worst": [{"seed": r.seed, "release_margin_s": r.release_margin_s, "face": r.limit_face, **r.draws}
                       for r in worst],
         }

@@ -667,3 +667,22 @@ def test_weeks_resampled_widen_the_interval_of_persistent_weather():
     lo7, hi7 = block_bootstrap(x)
     assert hi7 - lo7 > 2.0 * (hi1 - lo1)
     assert lo7 <= x.mean() <= hi7
+
+
+def test_no_event_at_all_gives_the_rule_of_three_over_blocks_not_a_zero_width_interval():
+    """A record without a single event (no ESD-1 in a calm year) has nothing to resample: the interval is
+    (0, -ln(0.05) / m) over its m blocks (the rule of three, 3.0 / m), not (0, 0); and Poisson's exact 95 %
+    one-sided bound of a zero count, found as the rate whose probability of no event in m blocks is 5 %, is the
+    same number (an independent route)."""
+    from scipy.stats import poisson
+    from scipy.optimize import brentq
+
+    from loadarm.studies.operability import BOOTSTRAP_BLOCK_H, block_bootstrap
+
+    x = np.zeros(8760)
+    lo, hi = block_bootstrap(x)
+    m = -(-x.size // BOOTSTRAP_BLOCK_H)
+    assert lo == 0.0 and hi == pytest.approx(3.0 / m, rel=0.002)
+    rate = brentq(lambda r: poisson.cdf(0, r * m) - 0.05, 1e-9, 10.0)
+    assert hi == pytest.approx(rate, rel=1e-9)
+    assert block_bootstrap(np.zeros(100), block=1)[1] == pytest.approx(-math.log(0.05) / 100)

@@ -106,7 +106,11 @@ def block_bootstrap(values, *, block: int = BOOTSTRAP_BLOCK_H, resamples: int = 
     Returns
     -------
     tuple of float
-        The interval's ends (``nan`` for an empty series).
+        The interval's ends (``nan`` for an empty series). A series of zeros (no event at all) has no spread to
+        resample: its interval is ``(0, -ln((1 - level) / 2) / m)`` over its ``m`` blocks (the rule of three
+        for a 95 % one-sided bound, Hanley & Lippman-Hand 1983), as if an event filled the whole of each block
+        it fell in (the events of a record cluster in storms: counting hours as independent would claim too
+        much).
     """
     x = np.asarray(values, dtype=float)
     n = x.size
@@ -116,6 +120,8 @@ def block_bootstrap(values, *, block: int = BOOTSTRAP_BLOCK_H, resamples: int = 
         raise ValueError(f"block_bootstrap: level {level} in (0, 1), block {block} >= 1, resamples {resamples} >= 1")
     block = min(block, n)
     m = -(-n // block)
+    if not np.any(x):
+        return 0.0, float(-math.log((1 - level) / 2) / m)
     circular = np.concatenate([x, x[: block - 1]])
     sums = np.convolve(circular, np.ones(block), mode="valid")         # the sum of the block starting at each hour
     starts = np.random.default_rng(seed).integers(0, n, size=(resamples, m))

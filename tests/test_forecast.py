@@ -53,6 +53,20 @@ def test_members_of_other_hours_are_refused_naming_the_member(tmp_path):
                      hours=24)
 
 
+def test_a_forecast_with_a_gap_is_refused_naming_the_file_and_the_hour(tmp_path):
+    """Review of issue 30: a missing hour joined two hours that are not neighbours (a loading window ran across
+    it). A forecast with an hour dropped is refused in one line naming the file and the hour before the gap."""
+    import numpy as np
+
+    ds, _ = read_metocean(EX / "metocean" / "sample.csv")
+    keep = np.r_[0:10, 11:30]
+    gap = write_metocean_csv(ds.isel(time=keep), tmp_path / "gap.csv")
+    when = f"{np.datetime_as_string(ds['time'].values[9], unit='m').replace('T', ' ')}"
+    with pytest.raises(ConfigError, match=f"gap.csv: time: the forecast has a gap after {when}") as e:
+        run_forecast(EX / "paper.toml", EX / "berths" / "lng150k.toml", [gap], hours=24, seeds=1, workers=1)
+    assert "\n" not in str(e.value)
+
+
 def test_the_shipped_ensemble_is_the_generator_s():
     """examples/metocean/forecast/: five members about the sample's first 72 hours (perturbed_ensemble, seed 3),
     to the CSV's rounding; their spread grows with the lead time (Hs's over the members, the last day against

@@ -187,6 +187,20 @@ def _run_jobs(args: list[tuple], workers: int, progress) -> list:
         return out
 
 
+def _gapless(member: Path, rows: list[dict], gaps) -> list[dict]:
+    """A forecast's rows, refused in one line if its hours are not consecutive: a connect window runs over whole
+    hours, and a gap (an hour missing, or a value) would join two hours that are not neighbours (found in
+    review: the probability that a loading completes ran straight across a gap)."""
+    if len(rows) > 1:
+        step = np.diff(np.array([r["index"] for r in rows]))
+        if np.any(step != 1):
+            k = int(np.flatnonzero(step != 1)[0])
+            raise ConfigError(f"{member}: time: the forecast has a gap after {rows[k]['time']:%Y-%m-%d %H:%M} "
+                              f"({int(step[k]) - 1} hour(s) missing or unusable; {gaps.summary()}); a forecast "
+                              "must be hourly without gaps")
+    return rows
+
+
 def _completes(up: np.ndarray, length: int) -> np.ndarray:
     """Probability (over the first axis) that ``length`` hours from each start are all up; ``nan`` past the end."""
     k = up.shape[-1]
@@ -236,7 +250,7 @@ def run_forecast(config, berth, members, *, hours: int = 72, seeds: int = 1,
     if not 1 <= seeds <= MAX_SEEDS:
         raise ConfigError(f"--seeds = {seeds} is outside [1, {MAX_SEEDS}]")
     t0 = time.perf_counter()
-    records = [record_rows(m, hours)[0] for m in members]
+    records = [_gapless(m, *record_rows(m, hours)) for m in members]
     times = np.array([r["time"].to_datetime64() for r in records[0]])
     for m, rec in zip(members[1:], records[1:], strict=True):
         got = np.array([r["time"].to_datetime64() for r in rec])

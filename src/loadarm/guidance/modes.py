@@ -285,8 +285,9 @@ class GuidanceState:
     predicted_face : str
         The face of the bound's crossing.
     shadow_esd1_at : float or None
-        When the rule without the prediction (the measured routes and the floor) first called for ESD-1 in this
-        connection: what a campaign compares the predictive alarms with.
+        Since when the rule without the prediction (the measured routes and the floor) has called for ESD-1
+        without a break (None: it does not; after ESD-1, its first call's time): what a campaign compares the
+        predictive alarms with.
     rule : str
         The rule behind the connected-mode level (:data:`loadarm.vocab.ALARM_RULES`).
     events : list

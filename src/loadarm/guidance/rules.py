@@ -202,6 +202,23 @@ class SafetyRules:
         mean_f = Forecast(f.horizon, f.mean, f.mean, f.mean, f.claimed, f.time, f.route)
         s.predicted = (bound, predicted_crossing(self.monitor.model, mean_f, zero, now, lead)[0], now, f, lead)
 
+    def _shadow(self, now: float, today: Severity, f) -> None:
+        """Follow the rule without the prediction (the measured routes and the floor): each onset of its call for
+        ESD-1 is an event (``info.measured_esd1``, held or not), and the onset of the call in progress is kept
+        until the call ends (before ESD-1) or the connection does: the ESD-1 event says since when that rule had
+        called for it (``measured_since``), how a campaign compares both rules on the same runs."""
+        s = self.state
+        if today < Severity.ESD1:
+            if s.esd_since is None:
+                s.shadow_esd1_at = None
+            return
+        if s.shadow_esd1_at is not None:
+            return
+        s.shadow_esd1_at = now
+        held = " (held: the prediction is trusted and does not)" if s.trusted is not None else ""
+        self._event("info", f"{event_label('info.measured_esd1')}: {f.route}: {f.face} face in {f.time:.1f} s"
+                            f"{held}", code="info.measured_esd1", held=bool(held))
+
     def _forecast_stage(self, now: float) -> tuple[Severity, float, str, str, str]:
         """The stage the forecasts call for: ``(stage, time to the face, route in words, face, rule)``.
 
@@ -212,11 +229,7 @@ class SafetyRules:
         s, f, ld = self.state, self.state.forecast, self.state.leads
         legs = (ld[Severity.RELEASE], ld[Severity.SECOND], ld[Severity.ESD1], ld.get(Severity.PRE_ALARM, -math.inf))
         today = Severity(stage_of(f.time, f.measured, *legs)) if math.isfinite(f.time) else Severity.NORMAL
-        if today >= Severity.ESD1 and s.shadow_esd1_at is None:
-            s.shadow_esd1_at = now
-            held = " (held: the prediction is trusted and does not)" if s.trusted is not None else ""
-            self._event("info", f"{event_label('info.measured_esd1')}: {f.route}: {f.face} face in {f.time:.1f} s"
-                                f"{held}", code="info.measured_esd1", held=bool(held))
+        self._shadow(now, today, f)
         if s.trusted is None:
             if today == Severity.NORMAL:
                 return today, math.inf, "", "", ""
@@ -247,6 +260,7 @@ class SafetyRules:
                 by = f" [{ALARM_RULES[rule]}]" if rule else ""
                 self._event("alarm", f"{event_label(code)}: {why}{by}", code=code, severity=int(stage),
                             severity_label=stage.label, face=face, rule=rule,
+                            **({"measured_since": s.shadow_esd1_at} if stage == Severity.ESD1 else {}),
                             beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]))
         s.raised = level
         if level >= Severity.ESD1:

@@ -99,6 +99,23 @@ class RunResult(Result):
                 return t
         return None
 
+    def measured_alarm1(self) -> float | None:
+        """When the rule without the prediction would have raised the ESD-1 that came: the onset of its call in
+        progress at the ESD-1 (the stage event's ``measured_since``), else its first call after it; with no
+        ESD-1, its first call; None: it never called, s.
+
+        Returns
+        -------
+        float or None
+        """
+        esd = next((e for e in self.events if e[4] and e[4].get("code") == "stage.esd1"), None)
+        calls = [e[0] for e in self.events if e[4] and e[4].get("code") == "info.measured_esd1"]
+        if esd is None:
+            return calls[0] if calls else None
+        if esd[4].get("measured_since") is not None:
+            return float(esd[4]["measured_since"])
+        return next((t for t in calls if t >= esd[0]), None)
+
     def first_code(self, code: str) -> float | None:
         """Time of the first event with an event code (:data:`loadarm.vocab.EVENT_TABLE`), s (None if none).
 
@@ -247,7 +264,8 @@ class RunResult(Result):
             "mode_sequence": seq,
             "final_mode": modes[-1],
             "alarm1_s": self.first_code("stage.esd1"),
-            "alarm1_measured_s": self.first_code("info.measured_esd1"),
+            "alarm1_measured_s": self.measured_alarm1(),
+            "alarm1_measured_first_s": self.first_code("info.measured_esd1"),
             "alarm1_rule": next((d.get("rule", "") for _, _, _, _, d in self.events
                                  if d and d.get("code") == "stage.esd1"), ""),
             "alarm2_s": self.first_code("stage.second"),

@@ -133,6 +133,8 @@ class CampaignRun:
         same as ``alarm1_s`` unless the prediction held it back or raised it sooner.
     alarm1_rule : str
         The rule that raised ESD-1 (:data:`loadarm.vocab.ALARM_RULES`; ``""``: none).
+    alarm1_measured_first_s : float or None
+        The first time that rule called for ESD-1 at all (a false alarm of that rule, in a run without a face).
     """
 
     seed: int
@@ -150,11 +152,12 @@ class CampaignRun:
     connected_s: float = 0.0
     alarm1_measured_s: float | None = None
     alarm1_rule: str = ""
+    alarm1_measured_first_s: float | None = None
 
     @property
     def false_alarm_measured(self) -> bool:
         """The rule without the prediction would have raised a false alarm (ESD-1 without a face reached)."""
-        return self.alarm1_measured_s is not None and self.limit_s is None
+        return self.alarm1_measured_first_s is not None and self.limit_s is None
 
     @property
     def lead_gained_s(self) -> float | None:
@@ -179,7 +182,7 @@ def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
         missed_alarm="missed_alarm" in fails,
         alarm1_s=alarm1, release_complete_s=done, limit_s=limit, release_margin_s=v["release_margin_s"],
         limit_face=v["limit_face"], connected_s=v["connected_s"], alarm1_measured_s=v.get("alarm1_measured_s"),
-        alarm1_rule=v.get("alarm1_rule", ""))
+        alarm1_rule=v.get("alarm1_rule", ""), alarm1_measured_first_s=v.get("alarm1_measured_first_s"))
 
 
 class _Draw:
@@ -315,6 +318,7 @@ class CampaignResult(Result):
             "lead_median_s": q(leads, 50),
             "failed_seeds": [r.seed for r in runs if r.overstretched or r.opened_on_live_product or r.missed_alarm],
             "false_alarm_seeds": [r.seed for r in runs if r.false_alarm],
+            "later_seeds": [r.seed for r in runs if r.lead_gained_s is not None and r.lead_gained_s < 0],
             "false_alarms_by_rule": {rule: n for rule in ALARM_RULES
                                      if (n := sum(r.false_alarm and r.alarm1_rule == rule for r in runs))},
             "worst": [{"seed": r.seed, "release_margin_s": r.release_margin_s, "face": r.limit_face, **r.draws}

@@ -4,6 +4,7 @@ the assets (nothing from outside). The browser tests are in tests/test_hmi_brows
 
 from __future__ import annotations
 
+from datetime import datetime
 import json
 import math
 
@@ -270,12 +271,14 @@ def test_alarms_are_listed_by_priority_with_their_time_and_can_be_shelved_for_a_
         ws.send_text(json.dumps({"type": "cmd", "seq": 3, "action": "shelve", "tag": "PRE_ALARM", "seconds": 60,
                                  "csrf": csrf}))
         assert _ack(ws)["ok"]
-        service.step(t=13.0)
+        service.step(t=13.0, wall=datetime(2026, 12, 4, 14, 3, 0).timestamp())
         f = _frame(ws)
         while f["seq"] != service.seq:
             f = _frame(ws)
         assert [a["tag"] for a in f["alarms"]] == ["ESD1"]
         assert [(a["tag"], a["shelved_until"]) for a in f["shelved"]] == [("PRE_ALARM", 72.0)]
+        # issue 29 item 4: the shelving's end as a time of day (59 s of run time after this snapshot's 14:03:00)
+        assert f["shelved"][0]["until_clock"].endswith("14:03:59")
         service.step(t=72.0)                       # the shelving's time is up: back in the list
         f = _frame(ws)
         while f["seq"] != service.seq:
@@ -778,6 +781,22 @@ def test_the_journal_lists_the_event_log_with_a_filter_and_a_search(app_env):
     assert [e["kind"] for e in c.get("/api/journal?kind=alarms").json()["entries"]] == ["alarm_state", "alarm"]
     assert [e["text"] for e in c.get("/api/journal?q=alice+ack").json()["entries"]] == ["alice: ack ESD1"]
     assert c.get("/api/journal?kind=nope").status_code == 400
+
+
+def test_the_journal_names_no_face_by_its_code_even_from_an_event_without_codes():
+    """Issue 29 item 4 (found in review: the journal's "everything" showed the drift-off's ESD-1 command as
+    "(velocity step: beta_max face in 27.9 s, ...)"): an event without codes keeps its message, every face in it
+    in the operator's words."""
+    from loadarm.hmi.state import journal_entry
+    from loadarm.vocab import FACE_WORDS, FACES
+
+    reason = ("ESD-1: stop transfer pumps, close ESD and ERS valves (velocity step: beta_max face in 27.9 s, "
+              "slew_neg and alpha_min)")
+    text = journal_entry(211.2, None, "ALARM1", "command", reason, {}, 0.0)["text"]
+    assert text == ('ESD-1: stop transfer pumps, close ESD and ERS valves (velocity step: '
+                    f'"{FACE_WORDS["beta_max"]}" in 27.9 s, "{FACE_WORDS["slew_neg"]}" and '
+                    f'"{FACE_WORDS["alpha_min"]}")')
+    assert not [f for f in FACES if f in text]
 
 
 def test_the_trend_log_keeps_ten_minutes_at_the_log_s_sample_times(model):

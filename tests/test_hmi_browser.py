@@ -384,51 +384,103 @@ def test_the_primary_state_fits_without_scrolling(browser, replay_server, w, h):
         assert _outside(page, PRIMARY) == []
         assert page.evaluate("document.scrollingElement.scrollHeight <= innerHeight"
                              " && document.scrollingElement.scrollWidth <= innerWidth")
+        # nothing of it cut: the forecast's detail whole, with the drift's speed and direction (item 2)
+        assert page.evaluate(_CUT) == []
+        detail = page.inner_text("#ttl-detail")
+        assert re.search(r"\d\.\d\d m/s .*\(-?\d+ deg\)", detail), detail
+        # and every alarm the controller can raise, all at once, in view (found: four rows fitted, the list
+        # scrolled from the fifth)
+        from loadarm.vocab import ANNUNCIATED
+
+        assert page.evaluate(_ALL_ALARMS, list(ANNUNCIATED)) == [len(ANNUNCIATED), 0, True]
         assert page.errors == []
     finally:
         ctx.close()
 
 
+#: Text the primary state shows that is cut off: wider or taller than its box (an ellipsis, or text running
+#: over the next tile: found in review, "on the flang" into the E-stop tile on a tablet, and the forecast's drift
+#: direction cut at 1366x768).
+_CUT = """() => [...document.querySelectorAll('#primary .tile .v, #primary .tile .d, #primary .tile .k, #modes span')]
+  .filter((e) => e.scrollWidth > e.clientWidth + 1 || e.scrollHeight > e.clientHeight + 1
+          || e.getBoundingClientRect().right > e.closest('.tile, #modes').getBoundingClientRect().right + 1)
+  .map((e) => `${e.id || e.className}: ${e.textContent}`)"""
+
+#: Every alarm the controller annunciates, active at once, drawn into the list (the next frame redraws it): the
+#: rows' boxes measured before that.
+_ALL_ALARMS = """(tags) => {
+  const f = JSON.parse(JSON.stringify(hmi.frame));
+  f.alarms = tags.map((tag, i) => ({tag, message: `alarm ${tag} with a message as long as the longest we have`,
+    priority: 1 + (i % 4), priority_name: ['critical', 'high', 'medium', 'low'][i % 4], state: 'unacknowledged',
+    raised_at: 10 + i, shelved_until: null, raised_wall: null, clock: '14:03:27'}));
+  hmi.alarmKey = null;
+  drawAlarms(f);
+  const rows = [...document.querySelectorAll('tr.alarm')];
+  return [rows.length, rows.filter((e) => { const r = e.getBoundingClientRect();
+    return !(r.top >= 0 && r.bottom <= innerHeight && r.left >= 0 && r.right <= innerWidth); }).length,
+    document.scrollingElement.scrollHeight <= innerHeight];
+}"""
+
+
 _OVERLAPS = """() => {
+  // every text box of the two views against every other, every drawn line (sampled along its length, widened
+  // by half its stroke: the arm, the riser, the deck, the berthing line, the alarm bands, the slew limits, the
+  // drift, the predicted track; leaders only against the labels they do not name) and every joint and flange
   const hits = [];
   for (const id of ['side', 'top']) {
     const svg = document.getElementById(id);
-    const boxes = [...svg.querySelectorAll('text')].map((t) => [t.textContent, t.getBBox()]);
-    const segs = [];
-    for (const p of svg.querySelectorAll('polyline.arm, polyline.riser')) {
-      const pts = p.getAttribute('points').split(' ').map((q) => q.split(',').map(Number));
-      for (let i = 1; i < pts.length; i++) { segs.push([...pts[i - 1], ...pts[i]]); }
-    }
-    for (const l of svg.querySelectorAll('line.arm')) {
-      segs.push(['x1', 'y1', 'x2', 'y2'].map((k) => Number(l.getAttribute(k))));
-    }
-    boxes.forEach(([a, b], i) => {
-      boxes.slice(i + 1).forEach(([c, d]) => { if (boxesMeet(b, d)) { hits.push(`${id}: ${a} / ${c}`); } });
-      segs.forEach((s) => { if (boxHitsSegment(b, s)) { hits.push(`${id}: ${a} / the arm`); } });
+    const texts = [...svg.querySelectorAll('text')].map((t) => [t.textContent, t.getBBox()]);
+    const near = (b, x, y, d) => x >= b.x - d && x <= b.x + b.width + d && y >= b.y - d && y <= b.y + b.height + d;
+    texts.forEach(([a, b], i) => {
+      texts.slice(i + 1).forEach(([c, d]) => { if (boxesMeet(b, d)) { hits.push(`${id}: ${a} / ${c}`); } });
+      for (const g of svg.querySelectorAll('line, polyline, path.zone')) {
+        if (g.closest('marker') || (g.classList.contains('leader') && near(b, +g.getAttribute('x2'),
+                                                                          +g.getAttribute('y2'), 3))) { continue; }
+        const half = parseFloat(getComputedStyle(g).strokeWidth) / 2, n = g.getTotalLength();
+        for (let s = 0; s <= n; s += 1) {
+          const p = g.getPointAtLength(s);
+          if (near(b, p.x, p.y, half)) { hits.push(`${id}: ${a} / ${g.getAttribute('class')}`); break; }
+        }
+      }
+      for (const g of svg.querySelectorAll('circle')) {
+        if (boxesMeet(b, g.getBBox())) { hits.push(`${id}: ${a} / ${g.getAttribute('class')}`); }
+      }
     });
   }
   return hits;
 }"""
 
+#: The labels each view must show (none left out for want of room): the side view's, the top view's.
+_SIDE = {"berthing line", "jetty deck", "ESD-1", "second alarm", "release"}
+_TOP = {"jetty face", "berthing line", "slew limit"}
+
+
+def _labels(page, view):
+    return set(page.evaluate(f"[...document.querySelectorAll('#{view} text')].map((e) => e.textContent)"))
+
 
 @pytest.mark.slow
 @pytest.mark.parametrize("w, h", SIZES)
 def test_no_label_collides_with_another_or_the_arm(browser, replay_server, w, h):
-    """Issue 29 item 4: through the drift-off (stored, approach, connected, the drift, the release, the
-    return), no text box of the side or top view meets another or the arm's drawn lines; the labels the
-    issue found colliding are there: the berthing line, the drift, the ship (drawn from the berth's hull)."""
+    """Issue 29 item 4: through the drift-off (stored, approach, connected, the drift, ESD-1, the release, the
+    return), no text box of the side or top view meets another, any drawn line (the arm, the alarm bands, the
+    limits, the drift...) or a joint; and none is left out: in every state each view has its labels, the flange's
+    and the drift's when there are, the ship's (drawn from the berth's hull). Found in review: the bands' names sat
+    on the bands (the release's red band through "ESD-1"); the old check looked at the arm only."""
     ctx, page = _sized(browser, w, h)
     try:
         log_in(page, replay_server["url"], "alice", "pw-alice")
         rel = math.ceil(replay_server["release"])
-        texts = set()
         for t in (0, 60, math.ceil(replay_server["connect"] + 2), 205, rel - 1, rel + 1, rel + 8, 260, 320):
             _seek(page, t)
             assert page.evaluate(_OVERLAPS) == [], t
-            texts |= set(page.evaluate("[...document.querySelectorAll('#side text, #top text')]"
-                                       ".map((e) => e.textContent)"))
-        assert {"berthing line", "flange"} <= texts and any(x.startswith("drift ") for x in texts), texts
-        assert any(x.startswith("ship (278 x 43.4 m)") for x in texts), texts
+            side, top = _labels(page, "side"), _labels(page, "top")
+            assert _SIDE <= side and _TOP <= top, (t, side, top)
+            assert any(x.startswith("ship (278 x 43.4 m)") for x in top), (t, top)
+            if page.evaluate("hmi.frame.flange[0] !== null"):
+                assert "flange" in side, (t, side)
+            if page.evaluate("Math.hypot(...hmi.frame.flange_velocity.slice(0, 2)) > 0.01"):
+                assert any("drift " in x for x in top), (t, top)            # beside its arrow, or at the edge
         assert page.evaluate("document.querySelectorAll('#top polygon.ship').length") == 1
         assert page.errors == []
     finally:
@@ -477,6 +529,17 @@ def test_trends_journal_and_the_replay_s_speed(browser, replay_server):
         page.select_option("#replay-speed", "4")
         wait_for(page, "document.getElementById('replay-time').textContent.includes('playing 4x')",
                  what="playing 4x")
+        # paused, the speed chosen stays for Play, and says so (found in review: the next frame reset it to the
+        # last speed, and Play played at 4x under a control that had said 10x)
+        page.click("#replay-play")
+        wait_for(page, "document.getElementById('replay-time').textContent.includes('paused')", what="paused")
+        page.select_option("#replay-speed", "10")
+        time.sleep(0.6)                                   # a dozen frames
+        assert page.input_value("#replay-speed") == "10" and "Play plays at 10x" in page.inner_text("#replay-time")
+        page.click("#replay-play")
+        wait_for(page, "document.getElementById('replay-time').textContent.includes('playing 10x')",
+                 what="playing 10x")
+        assert page.input_value("#replay-speed") == "10" and page.evaluate("hmi.frame.replay.speed") == 10
         rel = math.ceil(replay_server["release"] + 1.0)
         _seek(page, rel)
         page.click("#pages button[data-page='trends']")
@@ -496,6 +559,15 @@ def test_trends_journal_and_the_replay_s_speed(browser, replay_server):
         page.fill("#journal-search", "")
         wait_for(page, "[...document.querySelectorAll('#journal tbody tr')].some((r) => r.dataset.kind === 'mode')",
                  what="the modes")
+        # everything the log has, every face in the operator's words (found in review: the ESD-1 command's
+        # message "velocity step: beta_max face in 27.9 s")
+        from loadarm.vocab import FACES
+
+        page.select_option("#journal-kind", "all")
+        wait_for(page, "[...document.querySelectorAll('#journal tbody tr')].some((r) => r.dataset.kind === 'command')",
+                 what="the commands")
+        shown = page.inner_text("#journal")
+        assert not [f for f in FACES if f in shown], shown
         assert page.errors == []
     finally:
         ctx.close()
@@ -525,19 +597,28 @@ def test_audible_annunciation_per_priority_with_silence(browser, replay_server):
 
 
 @pytest.mark.slow
-def test_the_ship_s_view_a_viewer_on_a_tablet(screen, browser, state):
-    """Issue 29 item 5: the viewer role on a 1024x768 tablet: the primary state is in view without scrolling,
-    and only ESD-1 can be pressed."""
+def test_the_ship_s_view_a_viewer_on_a_tablet(screen, browser, state, replay_server):
+    """Issue 29 item 5: the viewer role on a 1024x768 tablet: only ESD-1 can be pressed; in the release (its
+    four alarms, the coupler "on the flange", ESD-1 active) the primary state is in view without scrolling, no
+    text of it cut, and the two views at a readable scale."""
     s = screen()
     ctx, page = _sized(browser, 1024, 768)
     try:
         log_in(page, s.url, "victor", "pw-victor")
-        assert _outside(page, [p for p in PRIMARY if p != "tr.alarm"]) == []
-        assert page.evaluate("document.scrollingElement.scrollHeight <= innerHeight"
-                             " && document.scrollingElement.scrollWidth <= innerWidth")
         enabled = page.evaluate("[...document.querySelectorAll('#controls button')].filter(b => !b.disabled)"
                                 ".map(b => b.id)")
         assert enabled == ["esd"] and page.errors == []
+        log_in(page, replay_server["url"], "victor", "pw-victor")
+        _seek(page, math.ceil(replay_server["release"] + 1.0))
+        assert page.inner_text("#coupler-value") == "on the flange" and page.evaluate("hmi.frame.alarms.length") == 4
+        assert _outside(page, PRIMARY) == []
+        assert page.evaluate(_CUT) == []                 # found in review: "on the flang" over the E-stop tile
+        # the views at a readable scale (found: 150 px high, their 10 px labels drawn at 5 px)
+        assert page.evaluate("Math.min(...['side', 'top'].map((id) => document.getElementById(id)"
+                             ".getBoundingClientRect().height))") >= 220
+        assert page.evaluate("document.scrollingElement.scrollHeight <= innerHeight"
+                             " && document.scrollingElement.scrollWidth <= innerWidth")
+        assert page.errors == []
     finally:
         ctx.close()
 

@@ -6,6 +6,7 @@ alarm journal. Pure: the HMI server calls these with the snapshot and its own cl
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from datetime import datetime
 
@@ -19,7 +20,8 @@ from loadarm.vocab import (ALARM_RULES, CONDITION_TEXT, EVENTS, FACE_WORDS, FACE
                            event_label, priority)
 
 __all__ = ["PRIORITIES", "SHELVE_MAX", "JOURNAL_KINDS", "AlarmBook", "AlarmEntry", "clock_text", "drift_words",
-           "forecast_state", "prediction_state", "geometry", "frame", "journal_entry", "priority", "ship_outline"]
+           "forecast_state", "prediction_state", "geometry", "frame", "in_words", "journal_entry", "priority",
+           "ship_outline"]
 
 #: The longest an operator may shelve an alarm, s (ISA-18.2: shelving is time-limited; the alarm comes back).
 SHELVE_MAX = 600.0
@@ -333,8 +335,29 @@ JOURNAL_KINDS = {"all": ("alarm", "alarm_state", "operator", "security", "mode",
                  "modes": ("mode", "command", "interlock")}
 
 
+#: A face's code in an event's message, with the word "face" after it when there is one.
+_FACE_CODE = re.compile(r"\b(" + "|".join(FACES) + r")\b( face\b)?")
+
+
+def in_words(text: str) -> str:
+    """A message with every face's code replaced by the face's words in quotes: an event without codes of its own
+    (an ESD-1 command's message: "velocity step: beta_max face in 27.9 s") still reads in the operator's words
+    ('velocity step: "the face's words" in 27.9 s').
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    str
+    """
+    return _FACE_CODE.sub(lambda m: f'"{FACE_WORDS[m[1]]}"', text)
+
+
 def _journal_text(kind: str, data: dict, reason: str) -> str:
-    """An event's line in the journal, from its codes (the face's and the alarm's words), never its message."""
+    """An event's line in the journal, from its codes (the face's and the alarm's words); an event without codes
+    has its message, its faces in words (:func:`in_words`)."""
     code, tag = data.get("code"), data.get("tag")
     if kind == "alarm_state" and tag in CONDITION_TEXT:
         return f"{CONDITION_TEXT[tag]}: {data.get('alarm_state', '')}"
@@ -345,7 +368,7 @@ def _journal_text(kind: str, data: dict, reason: str) -> str:
     if code in EVENTS:
         face = FACE_WORDS.get(data.get("face", ""), "")
         return event_label(code) + (f": {face}" if face else "")
-    return reason
+    return in_words(reason)
 
 
 def journal_entry(t: float, wall: float | None, mode: str, kind: str, reason: str, data: dict, now: float) -> dict:
@@ -417,10 +440,18 @@ def frame(snap, model, alarms: list[AlarmEntry], *, sent_at: float, anchor=None)
         "pressures": [_num(v) for v in snap.pressures],
         "alarms": [{**a.to_dict(), "clock": clock_text(a.raised_wall, sent_at)} for a in alarms
                    if a.shelved_until is None],
-        "shelved": [a.to_dict() for a in alarms if a.shelved_until is not None],
+        "shelved": [{**a.to_dict(), "until_clock": clock_text(_until_wall(snap, a.shelved_until, sent_at), sent_at)}
+                    for a in alarms if a.shelved_until is not None],
         "wall": _num(snap.wall), "forecast": forecast_state(snap, model),
         "ship_offset": _offset(snap, anchor),
     }
+
+
+def _until_wall(snap, until: float, sent_at: float) -> float:
+    """When a shelving ends on the wall clock: the snapshot's wall-clock time (else the frame's) plus the run time
+    left, s since the epoch."""
+    base = snap.wall if math.isfinite(snap.wall) else sent_at
+    return base + (until - snap.t)
 
 
 def _offset(snap, anchor) -> list[float]:

@@ -122,9 +122,11 @@ function drawReplay(r) {
   $("replay-time").textContent = `${r.t.toFixed(1)} s of ${r.t0.toFixed(0)}-${r.t1.toFixed(0)} s` +
     (r.playing ? ` · playing ${r.speed}x` : " · paused");
   $("replay-play").textContent = r.playing ? "Pause" : "Play";
-  // the speed control shows the cursor's speed (found: it said 10 while the label said "playing 1x")
+  // playing, the speed control shows the cursor's speed (found: it said 10 while the label said "playing 1x");
+  // paused, it keeps the speed the operator chose for Play (found: reset to the last speed at the next frame)
   const sel = $("replay-speed"), want = String(r.speed);
-  if (document.activeElement !== sel && sel.value !== want) {
+  if (!r.playing) { $("replay-time").textContent += ` · Play plays at ${sel.value}x`; }
+  else if (document.activeElement !== sel && sel.value !== want) {
     if (![...sel.options].some((o) => o.value === want)) { sel.add(new Option(`${want}x`, want)); }
     sel.value = want;
   }
@@ -143,7 +145,8 @@ function onAck(msg) {
   if (typeof msg.last_seq === "number") { hmi.cmdSeq = Math.max(hmi.cmdSeq, msg.last_seq); }
   const p = hmi.pending.get(msg.seq);
   hmi.pending.delete(msg.seq);
-  if (p && (p.action === "jog" || p.action === "seek") && msg.ok) { return; }   // renewals and drags: not news
+  // renewals, and a replay's cursor moves (its bar shows them): not news
+  if (p && ["jog", "seek", "play", "pause"].includes(p.action) && msg.ok) { return; }
   showAck(msg.seq, msg.ok, msg.message);
 }
 
@@ -304,9 +307,10 @@ function drawPrimary(f) {
   const fc = f.forecast;
   const short = fc.state === "time" && f.time_to_limit < hmi.geo.sequence_time;
   tile("ttl", fc.text, fc.state === "none" || short ? "abnormal" : (fc.state === "off" ? "dim" : ""));
+  // never cut (it wraps): the nearest face and the drift the forecast used (speed, direction); the prediction
   const face = fc.state === "time" ? `nearest: ${fc.face_words} · ` : "";
   const rule = fc.rule_words ? ` · raised by the ${fc.rule_words}` : "";
-  $("ttl-detail").textContent = fc.state === "off" ? "" : `${face}${fc.basis} · ${fc.prediction.text}${rule}`;
+  $("ttl-detail").textContent = fc.state === "off" ? "" : `${face}${fc.basis}\n${fc.prediction.text}${rule}`;
   $("ttl-detail").title = $("ttl-detail").textContent;
   tile("esd", f.esd ? "ACTIVE" : "not active", f.esd ? "abnormal" : "dim");
   tile("ers", f.ers_valves_closed ? "CLOSED" : "open", f.ers_valves_closed && f.esd ? "" : (f.ers_valves_closed ? "abnormal" : ""));
@@ -360,8 +364,9 @@ function boxesMeet(a, b) {
 
 function label(svg, text, candidates, scene) {
   const t = el("text", {class: "label"}, svg, text);
-  for (const [x, y, anchor] of candidates) {
+  for (const [x, y, anchor, at] of candidates) {
     t.setAttribute("x", x); t.setAttribute("y", y); t.setAttribute("text-anchor", anchor || "start");
+    if (at !== undefined) { t.dataset.at = at; }
     const b = t.getBBox(), pad = {x: b.x - 2, y: b.y - 1, width: b.width + 4, height: b.height + 2};
     const inView = b.x >= 0 && b.y >= 0 && b.x + b.width <= 400 && b.y + b.height <= 300;
     if (inView && !scene.labels.some((o) => boxesMeet(o, pad)) && !scene.lines.some((s) => boxHitsSegment(pad, s))) {
@@ -394,12 +399,17 @@ function drawSide(f) {
   const scene = {labels: [], lines: [...segments(pts), [gx0, gy, gx1, gy], [bx, by0, bx, by1]]};
   el("line", {x1: gx0, y1: gy, x2: gx1, y2: gy, class: "ground"}, svg);
   el("line", {x1: bx, y1: by0, x2: bx, y2: by1, class: "berth"}, svg);
+  const [ox] = P(0, g.a), px = P(1, g.a)[0] - ox;            // px per m
+  let rOut = 0;
   g.zones.forEach((z, i) => {
-    const r = 0.5 * (z.from_r + z.to_r);
-    const [ox] = P(0, g.a), [wx] = P(z.to_r - z.from_r, g.a);
+    const r = 0.5 * (z.from_r + z.to_r), width = Math.max(2, (z.to_r - z.from_r) * px);
     const active = ZONE_LEVEL[f.level] === i;
-    el("path", {d: arcPath(P, 0, g.a, r, -1.4, 0.9), class: `zone zone${i}` + (active ? ` active ${ZONE_PRIORITY[i]}` : ""),
-                "stroke-width": Math.max(2, wx - ox)}, svg);
+    el("path", {d: arcPath(P, 0, g.a, r, ZONE_ARC[0], ZONE_ARC[1]),
+                class: `zone zone${i}` + (active ? ` active ${ZONE_PRIORITY[i]}` : ""), "stroke-width": width}, svg);
+    for (const edge of [r - width / 2 / px, r + width / 2 / px]) {       // a label keeps clear of the band
+      scene.lines.push(...segments(arcPoints(P, g.a, edge)));
+    }
+    rOut = Math.max(rOut, r + width / 2 / px);
   });
   el("polyline", {points: pts.slice(0, 2).map((p) => p.join(",")).join(" "), class: "riser"}, svg);
   el("polyline", {points: pts.slice(1).map((p) => p.join(",")).join(" "), class: "arm"}, svg);
@@ -416,14 +426,33 @@ function drawSide(f) {
   label(svg, "berthing line", [[bx + 3, by1], [bx - 3, by1, "end"], [bx + 3, by0 - 3], [bx - 3, by0 - 3, "end"],
                                [bx + 3, (by0 + by1) / 2], [bx - 3, (by0 + by1) / 2, "end"]], scene);
   label(svg, "jetty deck", [[gx0 + 2, gy + 12], [gx0 + 2, gy - 4], [gx1 - 2, gy + 12, "end"], [gx1 - 2, gy - 4, "end"]], scene);
+  // each band's name outside the outermost band, a leader line to its own band (found: the names sat on the
+  // bands, the release's red band through "ESD-1")
   g.zones.forEach((z) => {
     const r = 0.5 * (z.from_r + z.to_r), cand = [];
-    for (const a of [-1.4, -1.2, -1.0, 0.7, 0.5, 0.3, -0.8]) {
-      const [lx, ly] = P(r * Math.cos(a), g.a + r * Math.sin(a));
-      cand.push([lx + 3, ly], [lx - 3, ly, "end"]);
+    for (const a of [0.25, 0.1, -0.05, 0.4, -0.2, 0.55, -0.35, 0.7, -0.5]) {
+      const [lx, ly] = P((rOut + 6 / px) * Math.cos(a), g.a + (rOut + 6 / px) * Math.sin(a));
+      cand.push([lx + 2, ly + 4, "start", a]);
     }
-    label(svg, z.name, cand, scene);
+    const t = label(svg, z.name, cand, scene);
+    if (t) {
+      const a = Number(t.dataset.at), [x0, y0] = P(r * Math.cos(a), g.a + r * Math.sin(a));
+      const [x1, y1] = [Number(t.getAttribute("x")) - 2, Number(t.getAttribute("y")) - 4];
+      el("line", {x1: x0, y1: y0, x2: x1, y2: y1, class: "leader"}, svg);
+      scene.lines.push([x0, y0, x1, y1]);
+    }
   });
+}
+
+const ZONE_ARC = [-1.4, 0.9];        // the bands' arc in the side view, rad from the horizontal at the hinge
+
+function arcPoints(P, cy, r, n = 24) {          // an arc of the bands as view points
+  const out = [];
+  for (let k = 0; k <= n; k++) {
+    const a = ZONE_ARC[0] + (ZONE_ARC[1] - ZONE_ARC[0]) * k / n;
+    out.push(P(r * Math.cos(a), cy + r * Math.sin(a)));
+  }
+  return out;
 }
 
 function drawTop(f) {
@@ -466,22 +495,34 @@ function drawTop(f) {
     scene.lines.push(...segments(pts));
   }
   let drift = null;
-  if (f.flange[0] !== null) {
-    const [fx, fy] = P(f.flange[0], f.flange[1]);
+  const [fx0, fy0] = f.flange[0] === null ? [0, 0] : P(f.flange[0], f.flange[1]);
+  const out = f.flange[0] !== null && !(fx0 >= 6 && fx0 <= 394 && fy0 >= 6 && fy0 <= 294);
+  if (out) {           // the ship has gone off the view (after a release): said at the edge, not drawn cut off
+    const v = f.flange_velocity, speed = Math.hypot(v[0] || 0, v[1] || 0);
+    drift = [`flange out of view, ${Math.hypot(f.flange[0], f.flange[1]).toFixed(1)} m from the hinge; ` +
+             `drift ${speed.toFixed(2)} m/s`, Math.min(Math.max(fx0, 6), 394), Math.min(Math.max(fy0, 20), 294)];
+  } else if (f.flange[0] !== null) {
+    const [fx, fy] = [fx0, fy0];
     el("circle", {cx: fx, cy: fy, r: 6, class: "flange" + (f.estimate_healthy ? "" : " unhealthy")}, svg);
     scene.labels.push({x: fx - 6, y: fy - 6, width: 12, height: 12});      // the flange itself stays clear
     const v = f.flange_velocity, speed = Math.hypot(v[0] || 0, v[1] || 0);
     if (speed > 0.01) {
-      const [tx, ty] = P(f.flange[0] + 60 * v[0], f.flange[1] + 60 * v[1]);
+      // a minute of the drift, or less where that would leave the view (found: at 0.3 m/s the arrow and its
+      // label were off the view's edge, the label left out)
+      const [ex, ey] = P(f.flange[0] + 60 * v[0], f.flange[1] + 60 * v[1]);
+      const k = Math.min(1, ...[[ex - fx, 30 - fx, 370 - fx], [ey - fy, 20 - fy, 280 - fy]].map(
+        ([d, lo, hi]) => (d > 0 ? hi / d : (d < 0 ? lo / d : 1))).map((q) => Math.max(q, 0)));
+      const [tx, ty] = [fx + k * (ex - fx), fy + k * (ey - fy)];
       el("line", {x1: fx, y1: fy, x2: tx, y2: ty, class: "drift"}, svg);
       scene.lines.push([fx, fy, tx, ty]);
-      drift = [`drift ${speed.toFixed(2)} m/s (1 min)`, tx, ty];
+      drift = [`drift ${speed.toFixed(2)} m/s (${k === 1 ? "1 min" : `${(60 * k).toFixed(0)} s`})`, tx, ty];
     }
   }
   if (drift) {
     const [text, tx, ty] = drift;
     label(svg, text, [[tx + 4, ty - 6], [tx - 4, ty - 6, "end"], [tx + 4, ty + 14], [tx - 4, ty + 14, "end"],
-                      [tx, ty - 14, "middle"], [tx, ty + 22, "middle"]], scene);
+                      [tx, ty - 14, "middle"], [tx, ty + 22, "middle"], [396, ty - 6, "end"], [396, ty + 14, "end"],
+                      [396, 14, "end"], [396, 270, "end"]], scene);
   }
   label(svg, "jetty face", [[jx - 4, yTop + 12, "end"], [jx - 4, yBot - 4, "end"], [jx + 4, yTop + 12]], scene);
   label(svg, "berthing line", [[bx + 4, yTop + 12], [bx + 4, yBot - 4], [bx + 4, yTop + 26], [bx + 4, yBot - 18]], scene);
@@ -609,9 +650,12 @@ function drawAlarms(f) {
   sh.textContent = "";
   for (const a of f.shelved) {
     const tr = document.createElement("tr");
+    tr.className = `shelved p${a.priority}`;
+    tr.dataset.tag = a.tag;
     tr.innerHTML = "<td class=msg></td><td class=until></td><td class=act></td>";
-    tr.querySelector(".msg").textContent = `${a.tag}: ${a.message} (${a.state})`;
-    tr.querySelector(".until").textContent = `until ${a.shelved_until.toFixed(0)} s`;
+    tr.querySelector(".msg").textContent = `${a.priority_name}: ${a.message} (${a.state})`;
+    // until a time of day, as the list's times (the run time when the clock is not known)
+    tr.querySelector(".until").textContent = `until ${a.until_clock || `${a.shelved_until.toFixed(0)} s`}`;
     const b = document.createElement("button");
     b.textContent = "Unshelve"; b.disabled = !canShelve;
     b.addEventListener("click", () => send("unshelve", {tag: a.tag}));

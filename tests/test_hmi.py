@@ -807,11 +807,16 @@ def test_the_trend_log_keeps_ten_minutes_at_the_log_s_sample_times(model):
     log = TrendLog()
     for k in range(0, 14000):
         log.add(_snap(model, t=k * 0.05, time_to_limit=30.0, margins={"beta_max": 0.5, "slew_pos": 0.2},
-                      flange_velocity=(0.19, 0.03, 0.0)))
+                      flange_velocity=(0.12, 0.16, 0.0)))
     pts = log.window_at(699.95)
     assert [p["t"] for p in pts[:2]] == [100.0, 101.0] and pts[-1]["t"] == 699.0 and len(pts) == TREND_WINDOW
     assert pts[-1] == {"t": 699.0, "beta": 1.5, "margin": 0.2, "face": "slew_pos", "ttl": 30.0,
-                       "drift": pytest.approx(math.hypot(0.19, 0.03))}
+                       "drift": pytest.approx(math.hypot(0.19, 0.03)), "speed": pytest.approx(0.2)}
+    # the drift is the forecast's (found in review: the flange's speed, waves and all, was trended as the drift)
+    log = TrendLog()
+    log.add(_snap(model, t=0.0, flange_velocity=(0.3, 0.0, 0.0), drift=()))
+    log.add(_snap(model, t=1.0, flange_velocity=(0.0, 0.1, 0.0), drift=(0.01, 0.0, 0.0)))
+    assert [(p["drift"], p["speed"]) for p in log.window_at(1.0)] == [(None, 0.3), (0.01, 0.1)]
 
 
 def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model):

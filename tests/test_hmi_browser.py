@@ -479,8 +479,12 @@ def test_no_label_collides_with_another_or_the_arm(browser, replay_server, w, h)
             assert any(x.startswith("ship (278 x 43.4 m)") for x in top), (t, top)
             if page.evaluate("hmi.frame.flange[0] !== null"):
                 assert "flange" in side, (t, side)
-            if page.evaluate("Math.hypot(...hmi.frame.flange_velocity.slice(0, 2)) > 0.01"):
-                assert any("drift " in x for x in top), (t, top)            # beside its arrow, or at the edge
+            # the forecast's drift beside its arrow (or at the edge), else the flange's own motion
+            drift = page.evaluate("hmi.frame.forecast.drift && hmi.frame.forecast.drift.speed")
+            if drift is not None:
+                assert drift <= 0.01 or any(f"drift {drift:.2f} m/s" in x for x in top), (t, top)
+            elif page.evaluate("Math.hypot(...hmi.frame.flange_velocity.slice(0, 2)) > 0.01"):
+                assert any("moving " in x for x in top), (t, top)
         assert page.evaluate("document.querySelectorAll('#top polygon.ship').length") == 1
         assert page.errors == []
     finally:
@@ -547,6 +551,13 @@ def test_trends_journal_and_the_replay_s_speed(browser, replay_server):
         assert page.evaluate("hmi.trend.length") == rel + 1                  # 1 Hz from 0 s: within 10 minutes
         for svg in ("trend-angles", "trend-ttl", "trend-drift"):
             assert page.evaluate(f"document.querySelectorAll('#{svg} path.trace').length") >= 1, svg
+        # each with its scale and its latest values (found in review: no value anywhere on the charts), and the
+        # drift is the forecast's, the flange's speed with the waves beside it (found: that speed was the drift)
+        caps = page.evaluate("[...document.querySelectorAll('#page-trends figcaption')].map((e) => e.textContent)")
+        assert all(re.search(r"scale [\d.]+ to [\d.]+ .*now: ", c) for c in caps), caps
+        last = page.evaluate("hmi.trend[hmi.trend.length - 1]")
+        assert f"drift {last['drift']:.2f}, flange speed {last['speed']:.2f}" in caps[2], (caps[2], last)
+        assert page.evaluate("document.querySelectorAll('#trend-drift path.trace').length") == 2
         assert _outside(page, PRIMARY) == []
         page.click("#pages button[data-page='journal']")
         wait_for(page, "document.querySelectorAll('#journal tbody tr').length > 0", what="the journal")

@@ -258,7 +258,10 @@ class Snapshot:
 def trend_point(snap: Snapshot) -> dict:
     """What the screen's trends keep of one snapshot, JSON-ready (SI; None where there is no value): ``t``,
     ``beta`` (rad), ``margin`` (the nearest face's margin, rad) and ``face``, ``ttl`` (the time to limit, s; None
-    beyond the forecast's horizon or not attached), ``drift`` (the flange estimate's horizontal speed, m/s).
+    beyond the forecast's horizon or not attached), ``drift`` (the horizontal speed of the drift the forecast
+    extrapolated, m/s; None without a drift fit) and ``speed`` (the flange estimate's horizontal speed, m/s: the
+    waves' motion included, so not the drift: found in review, the trend called it the drift and it crossed the
+    berth's design drift at every wave while the forecast's drift was nil).
 
     Parameters
     ----------
@@ -271,8 +274,10 @@ def trend_point(snap: Snapshot) -> dict:
     margins = {f: v for f, v in snap.margins.items() if math.isfinite(v)}
     face = min(margins, key=margins.get) if margins else ""
     vx, vy = snap.flange_velocity[0], snap.flange_velocity[1]
+    drift = _finite_or_none(math.hypot(snap.drift[0], snap.drift[1])) if len(snap.drift) >= 2 else None
     return {"t": snap.t, "beta": _finite_or_none(snap.q[2]), "margin": margins[face] if face else None,
-            "face": face, "ttl": _finite_or_none(snap.time_to_limit), "drift": _finite_or_none(math.hypot(vx, vy))}
+            "face": face, "ttl": _finite_or_none(snap.time_to_limit), "drift": drift,
+            "speed": _finite_or_none(math.hypot(vx, vy))}
 
 
 class TrendLog:

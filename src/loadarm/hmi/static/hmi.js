@@ -497,31 +497,38 @@ function drawTop(f) {
   let drift = null;
   const [fx0, fy0] = f.flange[0] === null ? [0, 0] : P(f.flange[0], f.flange[1]);
   const out = f.flange[0] !== null && !(fx0 >= 6 && fx0 <= 394 && fy0 >= 6 && fy0 <= 294);
+  // the arrow: the drift the forecast extrapolates (the time to limit's detail says the same), or without a
+  // drift fit the flange's own motion, waves included (found in review: that was drawn and named the drift)
+  const fd = f.forecast.drift, rad = fd ? fd.direction_deg / DEG : 0;
+  const [v, moving] = fd ? [[fd.speed * Math.cos(rad), fd.speed * Math.sin(rad)], "drift"]
+    : [f.flange_velocity, "flange moving"];
+  const speed = Math.hypot(v[0] || 0, v[1] || 0), span = fd ? 60 : 10;       // the arrow's length, s
   if (out) {           // the ship has gone off the view (after a release): said at the edge, not drawn cut off
-    const v = f.flange_velocity, speed = Math.hypot(v[0] || 0, v[1] || 0);
-    drift = [`flange out of view, ${Math.hypot(f.flange[0], f.flange[1]).toFixed(1)} m from the hinge; ` +
-             `drift ${speed.toFixed(2)} m/s`, Math.min(Math.max(fx0, 6), 394), Math.min(Math.max(fy0, 20), 294)];
+    drift = [`flange out of view (${Math.hypot(f.flange[0], f.flange[1]).toFixed(0)} m), ` +
+             `${fd ? "drift" : "moving"} ${speed.toFixed(2)} m/s`,
+             Math.min(Math.max(fx0, 6), 394), Math.min(Math.max(fy0, 20), 294)];
   } else if (f.flange[0] !== null) {
     const [fx, fy] = [fx0, fy0];
     el("circle", {cx: fx, cy: fy, r: 6, class: "flange" + (f.estimate_healthy ? "" : " unhealthy")}, svg);
     scene.labels.push({x: fx - 6, y: fy - 6, width: 12, height: 12});      // the flange itself stays clear
-    const v = f.flange_velocity, speed = Math.hypot(v[0] || 0, v[1] || 0);
     if (speed > 0.01) {
       // a minute of the drift, or less where that would leave the view (found: at 0.3 m/s the arrow and its
       // label were off the view's edge, the label left out)
-      const [ex, ey] = P(f.flange[0] + 60 * v[0], f.flange[1] + 60 * v[1]);
+      const [ex, ey] = P(f.flange[0] + span * v[0], f.flange[1] + span * v[1]);
       const k = Math.min(1, ...[[ex - fx, 30 - fx, 370 - fx], [ey - fy, 20 - fy, 280 - fy]].map(
         ([d, lo, hi]) => (d > 0 ? hi / d : (d < 0 ? lo / d : 1))).map((q) => Math.max(q, 0)));
       const [tx, ty] = [fx + k * (ex - fx), fy + k * (ey - fy)];
       el("line", {x1: fx, y1: fy, x2: tx, y2: ty, class: "drift"}, svg);
       scene.lines.push([fx, fy, tx, ty]);
-      drift = [`drift ${speed.toFixed(2)} m/s (${k === 1 ? "1 min" : `${(60 * k).toFixed(0)} s`})`, tx, ty];
+      const shown = span * k === 60 ? "1 min" : `${(span * k).toFixed(0)} s`;
+      drift = [`${moving} ${speed.toFixed(2)} m/s (${shown})`, tx, ty];
     }
   }
   if (drift) {
     const [text, tx, ty] = drift;
     label(svg, text, [[tx + 4, ty - 6], [tx - 4, ty - 6, "end"], [tx + 4, ty + 14], [tx - 4, ty + 14, "end"],
-                      [tx, ty - 14, "middle"], [tx, ty + 22, "middle"], [396, ty - 6, "end"], [396, ty + 14, "end"],
+                      [tx, ty - 14, "middle"], [tx, ty + 22, "middle"], [tx + 10, ty - 18], [tx + 10, ty + 28],
+                      [tx - 10, ty - 18, "end"], [tx - 10, ty + 28, "end"], [396, ty - 6, "end"], [396, ty + 14, "end"],
                       [396, 14, "end"], [396, 270, "end"]], scene);
   }
   label(svg, "jetty face", [[jx - 4, yTop + 12, "end"], [jx - 4, yBot - 4, "end"], [jx + 4, yTop + 12]], scene);
@@ -743,19 +750,37 @@ function chart(svg, series, lo, hi, limits = []) {
   });
 }
 
+// Each trend's scale and its latest values, in its caption (found in review: the charts had no value on them)
+function legend(svg, lo, hi, unit, digits, now) {
+  const cap = svg.parentElement.querySelector("figcaption");
+  let span = cap.querySelector(".legend");
+  if (!span) { span = document.createElement("span"); span.className = "legend"; cap.appendChild(span); }
+  const last = hmi.trend.length ? hmi.trend[hmi.trend.length - 1] : null;
+  const values = last ? now.map(([name, get]) => {
+    const v = get(last);
+    return `${name} ${v === null || v === undefined ? "none" : v.toFixed(digits)}`;
+  }).join(", ") : "no value yet";
+  span.textContent = `scale ${lo.toFixed(digits)} to ${hi.toFixed(digits)} ${unit}, grid in the middle · now: ${values}`;
+}
+
 function drawTrends() {
   const g = hmi.geo, pts = hmi.trend;
-  const deg = (v) => (v === null ? null : v * DEG);
-  chart($("trend-angles"), [[(p) => deg(p.beta), ""], [(p) => deg(p.margin), "second"]], 0, 180,
+  const deg = (v) => (v === null || v === undefined ? null : v * DEG);
+  const angles = [["beta", (p) => deg(p.beta)], ["margin", (p) => deg(p.margin)]];
+  chart($("trend-angles"), [[angles[0][1], ""], [angles[1][1], "second"]], 0, 180,
         [g.alarm_beta.first * DEG, g.limits.beta[1] * DEG]);
+  legend($("trend-angles"), 0, 180, "deg", 1, angles);
   chart($("trend-ttl"), [[(p) => p.ttl, ""]], 0, g.horizon, [g.sequence_time]);
-  const top = Math.max(0.3, ...pts.map((p) => p.drift || 0));
-  chart($("trend-drift"), [[(p) => p.drift, ""]], 0, top, [g.design_drift.speed]);
+  legend($("trend-ttl"), 0, g.horizon, "s", 0, [["time to limit", (p) => p.ttl]]);
+  const top = Math.max(0.3, ...pts.map((p) => Math.max(p.drift || 0, p.speed || 0)));
+  chart($("trend-drift"), [[(p) => p.drift, ""], [(p) => p.speed, "second thin"]], 0, top, [g.design_drift.speed]);
+  legend($("trend-drift"), 0, top, "m/s", 2, [["drift", (p) => p.drift], ["flange speed", (p) => p.speed]]);
   const t1 = pts.length ? pts[pts.length - 1].t : 0;
   $("trend-note").textContent = `run time ${Math.max(0, t1 - TREND_S).toFixed(0)}-${t1.toFixed(0)} s, a grid ` +
-    `line a minute. Beta solid, the nearest face's margin dashed; dotted: the first alarm angle and beta's limit, ` +
-    `the time the emergency sequence needs, the berth's design drift (${g.design_drift.speed} m/s). A gap in ` +
-    `the time to limit: beyond the forecast's ${g.horizon.toFixed(0)} s horizon, or not connected.`;
+    `line a minute. Beta solid, the nearest face's margin dashed; the forecast's drift solid, the flange's ` +
+    `speed with the waves dashed; dotted: the first alarm angle and beta's limit, the time the emergency ` +
+    `sequence needs, the berth's design drift (${g.design_drift.speed} m/s). A gap in the time to limit: beyond ` +
+    `the forecast's ${g.horizon.toFixed(0)} s horizon, or not connected; in the drift: no drift fit.`;
 }
 
 // ------------------------------------------------------------------ the alarm journal (the event log)

@@ -507,6 +507,14 @@ def test_the_screen_says_what_the_forecast_says_in_the_operator_s_words(browser,
         horizon = page.evaluate("hmi.frame.forecast.horizon")
         assert re.fullmatch(r"\d+\.\d s", ttl) or ttl == f"> {horizon:.0f} s", ttl
         assert "drift" in page.inner_text("#ttl-detail") and "none" not in page.inner_text("#values")
+        # no forecast is a state of its own: the tile inverted, and every time in the bars says so
+        got = page.evaluate("""() => { const f = JSON.parse(JSON.stringify(hmi.frame));
+            f.forecast = Object.assign(f.forecast, {state: 'none', text: 'NO FORECAST: no healthy estimate'});
+            f.time_to_limit = null; drawPrimary(f); drawBars(f);
+            return [document.getElementById('tile-ttl').className, document.getElementById('ttl-value').textContent,
+                    [...document.querySelectorAll('#bars .bar .value')].map((e) => e.textContent)]; }""")
+        assert got[0] == "tile wide abnormal" and got[1] == "NO FORECAST: no healthy estimate", got
+        assert got[2].count("NO FORECAST: no healthy estimate") == 7, got          # the time to limit, 6 faces
         _seek(page, math.ceil(replay_server["release"] + 1.0))
         times = page.evaluate("[...document.querySelectorAll('tr.alarm td.time')].map((e) => e.textContent)")
         assert times and all(re.fullmatch(r"(\d{4}-\d\d-\d\d )?\d\d:\d\d:\d\d", x) for x in times), times
@@ -600,6 +608,13 @@ def test_audible_annunciation_per_priority_with_silence(browser, replay_server):
         _seek(page, 150)                                  # before the drift: no alarm
         _seek(page, math.ceil(replay_server["release"] + 1.0))
         assert page.evaluate("hmi.audio.playing") is None  # the same activation: still silenced
+        # a new alarm sounds again, at its own priority's pattern, in the page's own audio
+        got = page.evaluate("""() => { const f = JSON.parse(JSON.stringify(hmi.frame)), n = hmi.audio.beeps;
+            f.alarms.push({tag: 'SENSOR_FAULT', priority: 2, priority_name: 'high', state: 'unacknowledged',
+                           raised_at: f.t, message: 'x'});
+            hmi.audio.next = 0; annunciate(f);
+            return [hmi.audio.playing, hmi.audio.beeps - n, hmi.audio.ctx instanceof AudioContext]; }""")
+        assert got == [2, 2, True], got                   # high: two beeps
         requests = page.evaluate("performance.getEntriesByType('resource').map((e) => e.name)")
         assert not [u for u in requests if re.search(r"\.(wav|mp3|ogg)$", u)]
         assert page.errors == []

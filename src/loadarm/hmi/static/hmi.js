@@ -587,7 +587,8 @@ function drawBars(f) {
     const v = f.margins[face], words = g.face_words[face];
     box.appendChild(bar(`margin: ${words}`, v === null ? null : v * DEG, "deg", 0, 180,
                         (normal[face] || 5 / DEG) * DEG, 180, 1));
-    const t = face in f.time_to_faces ? f.time_to_faces[face] : null;   // none: not within the forecast's horizon
+    // none: not within the forecast's horizon; no forecast (or not connected): never a time left from before
+    const t = fc.state === "time" && face in f.time_to_faces ? f.time_to_faces[face] : null;
     const b = bar(`time to it`, t, "s", 0, 120, g.sequence_time, 120, 0, none);
     b.classList.add("face-time");
     box.appendChild(b);
@@ -612,7 +613,8 @@ function drawTables(f) {
     ["health", f.estimate_healthy ? "healthy" : "UNHEALTHY"],
     ["coupler (m)", f.coupler.map((v) => fmt(v)).join(", ")],
     ["cylinders (m)", f.cylinders.map((v) => fmt(v, 3)).join(", ")]]);
-  const bar_ = (v) => (v === null ? "not measured" : `${(v / 1e5).toFixed(1)} bar`);
+  // a replay's log keeps no pressure: said so, not "not measured" (the live run measured them)
+  const bar_ = (v) => (v === null ? (f.replay ? "not in the log" : "not measured") : `${(v / 1e5).toFixed(1)} bar`);
   const p = f.pressures;
   rows(document.querySelector("#pressures tbody"), [
     ["inboard cylinder A / B", `${bar_(p[0])} / ${bar_(p[1])}`],

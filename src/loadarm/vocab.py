@@ -50,7 +50,8 @@ class Severity(enum.IntEnum):
         return _LABELS[int(self)]
 
 
-__all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "FACES", "FACE_LABELS", "FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
+__all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "FACES", "FACE_LABELS", "FACE_WORDS",
+           "SWIVEL_FACE_TABLE", "CLASH_FACE", "BANK_FACE_TABLE", "BANK_FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
            "CONDITION_SEVERITY", "CONDITION_TEXT", "RESET_BLOCKING", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
            "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES"]
@@ -81,6 +82,9 @@ class Face:
         :attr:`towards`.
     unit : str
         The unit of the face's margin (the joint angle's).
+    turning : tuple of float
+        A face of the connected coupler (:data:`SWIVEL_FACE_TABLE`): the ship's rotation (unit rotation vector in
+        the jetty frame) that brings it nearer (held by ``tests/test_bank.py``); zero for the arm's faces.
     """
 
     name: str
@@ -91,6 +95,7 @@ class Face:
     towards: tuple[float, float, float]
     radial: int = 0
     unit: str = "rad"
+    turning: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     @property
     def label(self) -> str:
@@ -121,6 +126,42 @@ FACES: tuple[str, ...] = tuple(f.name for f in FACE_TABLE)
 FACE_WORDS: dict[str, str] = {f.name: f.words for f in FACE_TABLE}
 #: Words and detail of each face (the design check's refusals, the OPC UA margins' descriptions).
 FACE_LABELS: dict[str, str] = {f.name: f.label for f in FACE_TABLE}
+
+
+#: The style-80 triple swivel's travel limits and the clash between two arms of a bank (issue 31): faces of the
+#: connected bank, declared apart from :data:`FACE_TABLE` (the single arm's monitor, kernel, screen and OPC UA
+#: margins iterate that one and its fixed order; these reach them when the bank does). Swivel 1 turns about the
+#: arm's hinge axis (along the berth: it takes the ship's roll), swivel 2 about the coupler's vertical drop (the
+#: ship's yaw and the slew), swivel 3 about the flange's normal (the ship's pitch): :mod:`loadarm.arm.swivel`.
+#: ``turning`` is the ship's rotation, in the jetty frame, that nears each face wherever the arm connects.
+SWIVEL_FACE_TABLE: tuple[Face, ...] = (
+    Face("swivel1_max", "coupler swivel 1 at its limit: ship heeled away from the jetty",
+         "swivel 1 (about the hinge axis) at its upper stop", "swivel1", "max", (0.0, 0.0, 0.0),
+         turning=(0.0, 1.0, 0.0)),
+    Face("swivel1_min", "coupler swivel 1 at its limit: ship heeled towards the jetty",
+         "swivel 1 (about the hinge axis) at its lower stop", "swivel1", "min", (0.0, 0.0, 0.0),
+         turning=(0.0, -1.0, 0.0)),
+    Face("swivel2_max", "coupler swivel 2 at its limit: ship yawed anticlockwise (seen from above)",
+         "swivel 2 (about the coupler's drop) at its upper stop", "swivel2", "max", (0.0, 0.0, 0.0),
+         turning=(0.0, 0.0, 1.0)),
+    Face("swivel2_min", "coupler swivel 2 at its limit: ship yawed clockwise (seen from above)",
+         "swivel 2 (about the coupler's drop) at its lower stop", "swivel2", "min", (0.0, 0.0, 0.0),
+         turning=(0.0, 0.0, -1.0)),
+    Face("swivel3_max", "coupler swivel 3 at its limit: ship pitched, its +y end up",
+         "swivel 3 (about the flange's normal) at its upper stop", "swivel3", "max", (0.0, 0.0, 0.0),
+         turning=(1.0, 0.0, 0.0)),
+    Face("swivel3_min", "coupler swivel 3 at its limit: ship pitched, its -y end up",
+         "swivel 3 (about the flange's normal) at its lower stop", "swivel3", "min", (0.0, 0.0, 0.0),
+         turning=(-1.0, 0.0, 0.0)),
+)
+#: Two arms of a bank closer than the bank's minimum clearance (:mod:`loadarm.arm.clearance`).
+CLASH_FACE = Face("clash", "arms too close: clash with the next arm",
+                  "capsule clearance between two arms of the bank below its minimum", "clearance", "min",
+                  (0.0, 0.0, 0.0), unit="m")
+#: The bank's faces: the swivels' and the clash.
+BANK_FACE_TABLE: tuple[Face, ...] = SWIVEL_FACE_TABLE + (CLASH_FACE,)
+#: Their words.
+BANK_FACE_WORDS: dict[str, str] = {f.name: f.words for f in BANK_FACE_TABLE}
 
 
 #: ISA-18.2 priorities, most urgent first, with the OPC UA severity (1-1000) each starts at.

@@ -9,6 +9,7 @@ import typer
 
 from loadarm.cli.common import JsonOpt, UserError, out, print_json, read_model
 from loadarm.errors import ConfigError
+from loadarm.params.bank import load_bank
 from loadarm.params.berth import load_berth
 from loadarm.params.config import Installation, load_sizing_case
 from loadarm.params.kinds import KINDS, identify
@@ -40,6 +41,9 @@ def _check(kind: str, path: Path, tables) -> tuple[str, str]:
     if kind == "berth":
         b = load_berth(path)
         return f"{len(b.moorings)} mooring lines, {len(b.fenders)} fenders", command
+    if kind == "bank":
+        k = load_bank(path)
+        return f"{len(k.shapes)} arms ({', '.join(k.names)}), {len(k.file.manifold.flanges)} flanges", command
     _, gaps = read_metocean(path)
     return gaps.summary(), command
 

@@ -1,5 +1,5 @@
 """The kinds of input loadarm reads, told apart by what is in the file (issue 29, item 16): an installation (or
-its datasheet, enough for sizing), a scenario, a berth (TOML, each by its tables) and a metocean record (CSV or
+its datasheet, enough for sizing), a scenario, a berth, a bank of arms (TOML, each by its tables) and a metocean record (CSV or
 NetCDF). A file given to the wrong command is named for what it is, with the command that takes it
 (``loadarm plan --config`` a scenario file: "this is a scenario file; loadarm run --scenario takes it"), and
 ``loadarm validate`` checks any input as its own command would.
@@ -12,6 +12,7 @@ from pathlib import Path
 
 from loadarm.errors import ConfigError
 from loadarm.files import read_toml
+from loadarm.params.bank import BankFile
 from loadarm.params.berth import Berth
 from loadarm.params.config import Installation
 from loadarm.params.scenario import Scenario
@@ -48,6 +49,8 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     Kind("installation", "loadarm plan --config", frozenset(Installation.model_fields)),
     Kind("scenario", "loadarm run --scenario", frozenset(Scenario.model_fields)),
     Kind("berth", "loadarm hydro --berth", frozenset(Berth.model_fields)),
+    # a bank's commands (loadarm check --bank, ...) are to come (issue 31, item 6): validate reads it meanwhile
+    Kind("bank", "loadarm validate", frozenset(BankFile.model_fields)),
     Kind("metocean", "loadarm operability --metocean", frozenset()),
 )}
 #: A metocean record's file suffixes (``studies.metocean.read_metocean`` reads them).
@@ -105,13 +108,14 @@ def identify(path: str | Path) -> tuple[Kind, dict]:
     except ConfigError as exc:
         if "not valid TOML" not in str(exc):
             raise
-        raise ConfigError(f"{exc}: not an installation, a scenario or a berth (TOML), nor a metocean record (.csv "
-                          "or .nc)") from None
+        raise ConfigError(f"{exc}: not an installation, a scenario, a berth or a bank (TOML), nor a metocean record "
+                          "(.csv or .nc)") from None
     kind = kind_of_tables(data)
     if kind is None:
         found = ", ".join(f"[{k}]" for k in sorted(data)) or "no tables"
         raise ConfigError(f"{p}: {found}: not an installation ([datasheet], [arm], ...), a scenario ([scenario], "
-                          "[drift], ...) or a berth ([berth], [[moorings]], ...), nor a metocean record (.csv or .nc)")
+                          "[drift], ...), a berth ([berth], [[moorings]], ...) or a bank ([bank], [[arms]], ...), "
+                          "nor a metocean record (.csv or .nc)")
     return kind, data
 
 

@@ -1,0 +1,270 @@
+"""Arm-to-arm clearance in a bank (issue 31, item 3).
+
+Each arm is a set of capsules (a segment and a radius): its riser, inboard and outboard pipes, the triple
+swivel at the coupler and its two counterweights (the primary one on the inboard arm's rear extension, the
+secondary one on the pantograph lever at the riser top, parallel to the outboard arm and pointing away from it:
+:class:`loadarm.arm.dynamics.MassModel`'s layout). The clearance between two arms is the smallest distance
+between the surfaces of any capsule of one and any capsule of the other: the segment-segment distance less the
+two radii, computed for many poses at once (:func:`segment_distance`, vectorised NumPy; Ericson, *Real-Time
+Collision Detection*, 2005, section 5.1.9).
+
+Frames: the bank's frame (x towards the ship, y along the jetty, z up from the jetty deck); each arm's own frame
+(:mod:`loadarm.arm.slew`) is the bank's shifted to the foot of its riser.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from loadarm.arm.geometry import Arm
+from loadarm.arm.plots import clearance_figure
+from loadarm.results import Metric, Result
+
+__all__ = ["PARTS", "ArmShape", "segment_distance", "capsules", "pair_clearance", "ClearanceResult",
+           "path_clearance"]
+
+#: The capsules of an arm, in the order of :func:`capsules`' second-to-last axis.
+PARTS: tuple[str, ...] = ("riser", "inboard pipe", "outboard pipe", "triple swivel", "inboard counterweight",
+                          "outboard counterweight")
+
+
+@dataclass(frozen=True, slots=True)
+class ArmShape:
+    """One arm of a bank as capsules: where its riser stands and how thick each part is.
+
+    Attributes
+    ----------
+    name : str
+    arm : Arm
+        Lengths, m.
+    base : tuple of float
+        The riser's foot in the bank's frame, m.
+    counterweight_distances : tuple of float
+        Primary counterweight behind the inboard hinge, secondary one along the pantograph lever, m.
+    radii : tuple of float
+        One radius per part of :data:`PARTS`, m.
+    """
+
+    name: str
+    arm: Arm
+    base: tuple[float, float, float]
+    counterweight_distances: tuple[float, float]
+    radii: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        if len(self.radii) != len(PARTS) or not all(r >= 0 for r in self.radii):
+            raise ValueError(f"arm {self.name!r}: radii must be {len(PARTS)} non-negative lengths ({', '.join(PARTS)})")
+
+
+def segment_distance(p0, p1, q0, q1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Distance between segments ``p0-p1`` and ``q0-q1``, vectorised over any leading axes.
+
+    Parameters
+    ----------
+    p0, p1, q0, q1 : array_like, shape (..., 3)
+        End points, m (broadcast together).
+
+    Returns
+    -------
+    distance : ndarray
+        m.
+    s, t : ndarray
+        Where the closest points lie along each segment, in [0, 1].
+    """
+    p0, p1, q0, q1 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (p0, p1, q0, q1)))
+    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
+    a = np.einsum("...i,...i", d1, d1)
+    e = np.einsum("...i,...i", d2, d2)
+    f = np.einsum("...i,...i", d2, r)
+    c = np.einsum("...i,...i", d1, r)
+    b = np.einsum("...i,...i", d1, d2)
+    tiny = 1e-12
+    p_point, q_point = a <= tiny, e <= tiny
+    denom = a * e - b * b
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # the general case: the closest point of the infinite lines, clamped; parallel lines (denom 0) take s = 0
+        s = np.where(denom > tiny * np.maximum(a * e, tiny), np.clip((b * f - c * e) / denom, 0.0, 1.0), 0.0)
+        t = np.where(q_point, 0.0, (b * s + f) / np.where(q_point, 1.0, e))
+        # t outside [0, 1]: clamp it and recompute s for the clamped t
+        s = np.where(t < 0.0, np.clip(-c / np.where(p_point, 1.0, a), 0.0, 1.0), s)
+        s = np.where(t > 1.0, np.clip((b - c) / np.where(p_point, 1.0, a), 0.0, 1.0), s)
+        t = np.clip(t, 0.0, 1.0)
+        # a segment that is a point
+        s = np.where(p_point, 0.0, s)
+        t = np.where(p_point & ~q_point, np.clip(f / np.where(q_point, 1.0, e), 0.0, 1.0), t)
+        s = np.where(q_point & ~p_point, np.clip(-c / np.where(p_point, 1.0, a), 0.0, 1.0), s)
+    gap = (p0 + s[..., None] * d1) - (q0 + t[..., None] * d2)
+    return np.sqrt(np.einsum("...i,...i", gap, gap)), s, t
+
+
+def capsules(shape: ArmShape, phi, alpha, beta) -> np.ndarray:
+    """The arm's capsule segments in the bank's frame, for many poses at once.
+
+    Parameters
+    ----------
+    shape : ArmShape
+    phi, alpha, beta : float or ndarray
+        Slew, inboard and elbow angles, rad (broadcast together).
+
+    Returns
+    -------
+    ndarray, shape (..., len(PARTS), 2, 3)
+        Each part's two end points, m.
+    """
+    phi, alpha, beta = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (phi, alpha, beta)))
+    arm = shape.arm
+    cp, sp = np.cos(phi), np.sin(phi)
+    gamma = alpha - beta
+    d1, d2 = shape.counterweight_distances
+    # in the slewed vertical plane: (rho, z) of each point
+    top = (np.zeros_like(alpha), np.full_like(alpha, arm.a))
+    elbow = (arm.b * np.sin(alpha), arm.a + arm.b * np.cos(alpha))
+    tip = (elbow[0] - arm.c * np.sin(gamma), elbow[1] - arm.c * np.cos(gamma))
+    cw1 = (-d1 * np.sin(alpha), arm.a - d1 * np.cos(alpha))
+    cw2 = (d2 * np.sin(gamma), arm.a + d2 * np.cos(gamma))
+    foot = (np.zeros_like(alpha), np.zeros_like(alpha))
+    pairs = ((foot, top), (top, elbow), (elbow, tip), (tip, tip), (top, cw1), (top, cw2))
+    base = np.asarray(shape.base, dtype=float)
+    out = np.empty(alpha.shape + (len(PARTS), 2, 3))
+    for k, ends in enumerate(pairs):
+        for e, (rho, z) in enumerate(ends):
+            out[..., k, e, 0] = base[0] + rho * cp
+            out[..., k, e, 1] = base[1] + rho * sp
+            out[..., k, e, 2] = base[2] + z
+    return out
+
+
+def pair_clearance(first: ArmShape, second: ArmShape, q_first, q_second) -> tuple[np.ndarray, np.ndarray]:
+    """Clearance between two arms at many poses: the smallest surface-to-surface distance of their capsules.
+
+    Parameters
+    ----------
+    first, second : ArmShape
+    q_first, q_second : array_like, shape (..., 3)
+        Each arm's (slew, inboard, elbow) angles, rad, pose by pose.
+
+    Returns
+    -------
+    clearance : ndarray, shape (...)
+        m; negative where the capsules overlap.
+    parts : ndarray of int, shape (..., 2)
+        The two parts (indices of :data:`PARTS`) that come closest.
+    """
+    qa, qb = np.asarray(q_first, dtype=float), np.asarray(q_second, dtype=float)
+    ca = capsules(first, qa[..., 0], qa[..., 1], qa[..., 2])[..., :, None, :, :]
+    cb = capsules(second, qb[..., 0], qb[..., 1], qb[..., 2])[..., None, :, :, :]
+    dist, _, _ = segment_distance(ca[..., 0, :], ca[..., 1, :], cb[..., 0, :], cb[..., 1, :])
+    gap = dist - (np.asarray(first.radii)[:, None] + np.asarray(second.radii)[None, :])
+    n = len(PARTS)
+    flat = gap.reshape(gap.shape[:-2] + (n * n,))
+    k = np.argmin(flat, axis=-1)
+    return np.take_along_axis(flat, k[..., None], axis=-1)[..., 0], np.stack((k // n, k % n), axis=-1)
+
+
+@dataclass(frozen=True)
+class ClearanceResult(Result):
+    """The bank's arms against each other along their paths: the smallest clearance and where.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,)
+        Times, s.
+    names : tuple of str
+        The arms.
+    minimum : ndarray, shape (n,)
+        The smallest clearance of any pair at each time, m.
+    pair_minimum : ndarray, shape (n_pairs, n)
+        Each pair's clearance, m, pairs in the order of :attr:`pairs`.
+    pairs : tuple of (int, int)
+    index : int
+        The time step of the smallest clearance.
+    pair : tuple of int
+        The two arms there.
+    parts : tuple of str
+        Their two parts that come closest.
+    required : float
+        The bank's minimum clearance, m.
+    """
+
+    METRICS = (
+        Metric("min_clearance_m", "smallest clearance between arms", "m", ".3f", "clearance"),
+        Metric("required_clearance_m", "required clearance", "m", ".3f", "required"),
+        Metric("at_time_s", "at", "s", ".2f"),
+        Metric("arms", "between arms", ""),
+        Metric("parts", "between parts", ""),
+        Metric("clear", "clear", ""),
+    )
+
+    t: np.ndarray
+    names: tuple[str, ...]
+    minimum: np.ndarray
+    pair_minimum: np.ndarray
+    pairs: tuple[tuple[int, int], ...]
+    index: int
+    pair: tuple[int, int]
+    parts: tuple[str, str]
+    required: float
+
+    @property
+    def min_clearance(self) -> float:
+        """The smallest clearance, m."""
+        return float(self.minimum[self.index])
+
+    @property
+    def clear(self) -> bool:
+        """True if the arms keep the required clearance all along."""
+        return self.min_clearance >= self.required
+
+    def where(self) -> str:
+        """One line: the smallest clearance, between which parts of which arms, when."""
+        a, b = self.pair
+        return (f"{self.min_clearance:.3f} m between the {self.parts[0]} of {self.names[a]} and the {self.parts[1]} "
+                f"of {self.names[b]} at t = {float(self.t[self.index]):.2f} s")
+
+    def _values(self) -> dict:
+        a, b = self.pair
+        return {"min_clearance_m": self.min_clearance, "required_clearance_m": float(self.required),
+                "at_time_s": float(self.t[self.index]), "arms": f"{self.names[a]} / {self.names[b]}",
+                "parts": f"{self.parts[0]} / {self.parts[1]}", "clear": self.clear}
+
+    def _figure(self):
+        return clearance_figure(self)
+
+
+def path_clearance(shapes, trajectories, t=None, *, required: float = 0.0) -> ClearanceResult:
+    """Check planned motions along their whole path: every pair of arms at every time step.
+
+    Parameters
+    ----------
+    shapes : sequence of ArmShape
+        The bank's arms.
+    trajectories : sequence of array_like, shape (n, 3)
+        Each arm's (slew, inboard, elbow) angles, rad, on one time base (an arm that waits holds its pose).
+    t : array_like, shape (n,), optional
+        The time base, s (default: the step index).
+    required : float
+        The bank's minimum clearance, m.
+
+    Returns
+    -------
+    ClearanceResult
+    """
+    qs = [np.atleast_2d(np.asarray(q, dtype=float)) for q in trajectories]
+    if len(qs) != len(shapes) or len(shapes) < 2:
+        raise ValueError(f"need one trajectory per arm and at least two arms, got {len(qs)} for {len(shapes)}")
+    n = qs[0].shape[0]
+    if any(q.shape != (n, 3) for q in qs):
+        raise ValueError(f"every trajectory must have shape ({n}, 3): {[q.shape for q in qs]}")
+    tt = np.arange(n, dtype=float) if t is None else np.asarray(t, dtype=float)
+    pairs = tuple((i, j) for i in range(len(shapes)) for j in range(i + 1, len(shapes)))
+    clear, parts = zip(*(pair_clearance(shapes[i], shapes[j], qs[i], qs[j]) for i, j in pairs), strict=True)
+    per_pair = np.stack(clear)
+    which = np.argmin(per_pair, axis=0)
+    minimum = per_pair[which, np.arange(n)]
+    index = int(np.argmin(minimum))
+    p = int(which[index])
+    ka, kb = (int(v) for v in parts[p][index])
+    return ClearanceResult(tt, tuple(s.name for s in shapes), minimum, per_pair, pairs, index, pairs[p],
+                           (PARTS[ka], PARTS[kb]), float(required))

@@ -497,15 +497,14 @@ function drawTop(f) {
   let drift = null;
   const [fx0, fy0] = f.flange[0] === null ? [0, 0] : P(f.flange[0], f.flange[1]);
   const out = f.flange[0] !== null && !(fx0 >= 6 && fx0 <= 394 && fy0 >= 6 && fy0 <= 294);
-  // the arrow: the drift the forecast extrapolates (the time to limit's detail says the same), or without a
-  // drift fit the flange's own motion, waves included (found in review: that was drawn and named the drift)
+  // the arrow: the drift the forecast extrapolates (the time to limit's detail says the same); none without a
+  // drift fit (found in review: the flange's own motion, waves included, was drawn and named the drift)
   const fd = f.forecast.drift, rad = fd ? fd.direction_deg / DEG : 0;
-  const [v, moving] = fd ? [[fd.speed * Math.cos(rad), fd.speed * Math.sin(rad)], "drift"]
-    : [f.flange_velocity, "flange moving"];
-  const speed = Math.hypot(v[0] || 0, v[1] || 0), span = fd ? 60 : 10;       // the arrow's length, s
+  const v = fd ? [fd.speed * Math.cos(rad), fd.speed * Math.sin(rad)] : [0, 0];
+  const speed = Math.hypot(v[0], v[1]), span = 60;       // the arrow's length, s
   if (out) {           // the ship has gone off the view (after a release): said at the edge, not drawn cut off
-    drift = [`flange out of view (${Math.hypot(f.flange[0], f.flange[1]).toFixed(0)} m), ` +
-             `${fd ? "drift" : "moving"} ${speed.toFixed(2)} m/s`,
+    drift = [`flange out of view (${Math.hypot(f.flange[0], f.flange[1]).toFixed(0)} m)` +
+             (fd ? `, drift ${speed.toFixed(2)} m/s` : ""),
              Math.min(Math.max(fx0, 6), 394), Math.min(Math.max(fy0, 20), 294)];
   } else if (f.flange[0] !== null) {
     const [fx, fy] = [fx0, fy0];
@@ -521,7 +520,7 @@ function drawTop(f) {
       el("line", {x1: fx, y1: fy, x2: tx, y2: ty, class: "drift"}, svg);
       scene.lines.push([fx, fy, tx, ty]);
       const shown = span * k === 60 ? "1 min" : `${(span * k).toFixed(0)} s`;
-      drift = [`${moving} ${speed.toFixed(2)} m/s (${shown})`, tx, ty];
+      drift = [`drift ${speed.toFixed(2)} m/s (${shown})`, tx, ty];
     }
   }
   if (drift) {
@@ -616,6 +615,10 @@ function drawTables(f) {
   // a replay's log keeps no pressure: said so, not "not measured" (the live run measured them)
   const bar_ = (v) => (v === null ? (f.replay ? "not in the log" : "not measured") : `${(v / 1e5).toFixed(1)} bar`);
   const p = f.pressures;
+  if (f.replay && p.every((v) => v === null)) {
+    rows(document.querySelector("#pressures tbody"), [["pressures", "not in the log"]]);
+    return;
+  }
   rows(document.querySelector("#pressures tbody"), [
     ["inboard cylinder A / B", `${bar_(p[0])} / ${bar_(p[1])}`],
     ["outboard cylinder A / B", `${bar_(p[2])} / ${bar_(p[3])}`], ["supply", bar_(p[4])]]);

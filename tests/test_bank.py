@@ -349,3 +349,31 @@ def test_rotations_are_right_handed():
     assert np.allclose(rot_z(math.pi / 2) @ [1, 0, 0], [0, 1, 0])
     assert np.allclose(rot_x(math.pi / 2) @ [0, 1, 0], [0, 0, 1])
     assert np.allclose(rot_y(math.pi / 2) @ [0, 0, 1], [1, 0, 0])
+
+
+def test_the_bank_s_planned_approaches_are_checked_all_along(bank):
+    """All at once or one after another, each arm ends on its flange and the check covers the whole run: one
+    after another takes the sum of the plans' durations; the clearance at the end is the connected one."""
+    from loadarm.design.bank import bank_approaches, check_bank_approaches
+
+    t, qs = bank_approaches(bank)
+    for i, q in enumerate(qs):
+        assert np.allclose(q[-1], bank.connected[i], atol=1e-9) and np.allclose(q[0], bank.stowed[i], atol=1e-6)
+    order = ("V1", "L2", "L3", "L1")
+    t2, qs2 = bank_approaches(bank, order=order)
+    assert t2[-1] > 3 * t[-1]
+    first = bank.names.index("V1")
+    assert np.allclose(qs2[bank.names.index("L1")][: len(t2) // 2], bank.stowed[bank.names.index("L1")], atol=1e-6)
+    assert not np.allclose(qs2[first][len(t2) // 8], bank.stowed[first])
+    r = check_bank_approaches(bank, order=order)
+    connected = path_clearance(bank.shapes, [q[None, :] for q in bank.connected]).min_clearance
+    assert r.clear and r.min_clearance == pytest.approx(connected, abs=1e-9)
+    with pytest.raises(ValueError, match="must name every arm"):
+        bank_approaches(bank, order=("L1", "L2"))
+
+
+def test_the_bank_page_shows_the_bank_file_s_parameters():
+    from loadarm.params.bank import bank_parameter_markdown
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "bank.md").read_text()
+    assert bank_parameter_markdown() in doc, "regenerate with: python -m loadarm.present.docsgen --tables"

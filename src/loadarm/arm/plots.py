@@ -35,7 +35,7 @@ def clearance_figure(result) -> Figure:
     ax.set_xlabel("t [s]")
     ax.set_ylabel("clearance [m]")
     ax.set_title(f"Clearance between arms: {r.where()}", fontsize=9)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="center right")
     ax.grid(alpha=0.3)
     return fig
 

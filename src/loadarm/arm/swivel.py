@@ -32,7 +32,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["rot_x", "rot_y", "rot_z", "ship_rotation", "tip_rotation", "coupler_rotation", "swivel_angles",
+from loadarm.arm.plots import swivel_figure
+from loadarm.results import Metric, Result
+from loadarm.vocab import SWIVEL_FACE_TABLE
+
+__all__ = ["SwivelTrack", "swivel_track", "rot_x", "rot_y", "rot_z", "ship_rotation", "tip_rotation", "coupler_rotation", "swivel_angles",
            "SwivelAngles", "swivel_margins"]
 
 
@@ -218,3 +222,77 @@ def swivel_margins(angles: SwivelAngles, limits) -> np.ndarray:
     for s, (lo, hi) in zip(angles, limits, strict=True):
         cols += [hi - np.asarray(s), np.asarray(s) - lo]
     return np.stack(np.broadcast_arrays(*cols), axis=-1)
+
+
+@dataclass(frozen=True)
+class SwivelTrack(Result):
+    """The three swivels through a record of the ship's motion: their angles, their margins to the stops, the
+    nearest face and when.
+
+    Attributes
+    ----------
+    t : ndarray, shape (n,)
+        s.
+    angles : SwivelAngles
+        Each of shape (n,), rad.
+    limits : tuple of (float, float)
+        Each swivel's stops, rad.
+    margins : ndarray, shape (n, 6)
+        In the order of :data:`loadarm.vocab.SWIVEL_FACE_TABLE`, rad.
+    """
+
+    METRICS = (
+        Metric("min_margin_deg", "smallest swivel margin", "deg", ".1f", "margin"),
+        Metric("nearest_face", "nearest swivel face", ""),
+        Metric("at_time_s", "at", "s", ".1f"),
+        Metric("swivel_ranges_deg", "swivel 1 / 2 / 3 travel used", "deg", ".1f"),
+        Metric("within_travel", "within travel", ""),
+    )
+
+    t: np.ndarray
+    angles: SwivelAngles
+    limits: tuple[tuple[float, float], ...]
+    margins: np.ndarray
+
+    @property
+    def nearest(self) -> tuple[int, int]:
+        """(sample, face) of the smallest margin."""
+        k = int(np.argmin(self.margins))
+        return divmod(k, self.margins.shape[1])
+
+    def _values(self) -> dict:
+        i, f = self.nearest
+        return {"min_margin_deg": float(np.degrees(self.margins[i, f])),
+                "nearest_face": SWIVEL_FACE_TABLE[f].name, "at_time_s": float(self.t[i]),
+                "swivel_ranges_deg": [float(np.degrees(np.ptp(s))) for s in self.angles],
+                "within_travel": bool(self.margins[i, f] >= 0.0)}
+
+    def _figure(self):
+        return swivel_figure(self.t, self.angles, self.limits)
+
+
+def swivel_track(t, q, roll, pitch, yaw, limits, *, heading: float = np.pi / 2) -> SwivelTrack:
+    """The swivels through a record: the arm's joints and the ship's rotation at the manifold, sample by sample.
+
+    Parameters
+    ----------
+    t : array_like, shape (n,)
+        s.
+    q : array_like, shape (n, 3) or (3,)
+        Slew, inboard, elbow angles, rad (one pose: held).
+    roll, pitch, yaw : array_like, shape (n,)
+        rad.
+    limits : sequence of (float, float)
+        Each swivel's stops, rad.
+    heading : float
+        The ship's bow direction in the arm's frame, rad.
+
+    Returns
+    -------
+    SwivelTrack
+    """
+    t = np.asarray(t, dtype=float)
+    q = np.broadcast_to(np.asarray(q, dtype=float), t.shape + (3,))
+    angles = swivel_angles(q[:, 0], q[:, 1], q[:, 2], roll, pitch, yaw, heading=heading)
+    limits = tuple((float(lo), float(hi)) for lo, hi in limits)
+    return SwivelTrack(t, angles, limits, swivel_margins(angles, limits))

@@ -16,9 +16,14 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
+
+from loadarm.arm.swivel import swivel_track
+from loadarm.design.bank import check_bank_approaches
 from loadarm.figures import save
 from loadarm.opcua.plc import tags_markdown
 from loadarm.opcua.server import address_space_markdown
+from loadarm.params.bank import bank_parameter_markdown, load_bank
 from loadarm.params.berth import berth_parameter_markdown, load_berth
 from loadarm.params.config import example_toml, load_config, packaged_example, parameter_markdown
 from loadarm.present.report import ReportData, build_report, figure_builders
@@ -36,7 +41,7 @@ __all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "REPORT_PAGES", "report_page", "STU
 DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
                "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
                "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
-               "operability.png", "weather.png")
+               "operability.png", "weather.png", "bank_clearance.png", "bank_swivels.png")
 
 #: Figures of studies that take minutes (the predictors over their hold-out records, a forecast ensemble): drawn by
 #: ``make docs`` and by the slow tests that run the same studies and compare (:func:`study_figures`), not by
@@ -68,6 +73,23 @@ def _paper_data():
 
 def _weather(_data):
     return weather_figure(synthetic_metocean(WEATHER_YEARS * 8760, seed=1))
+
+
+#: The example bank of docs/bank.md, and the ship's rotation its swivel figure shows: roll, pitch, yaw amplitudes
+#: (rad) and periods (s), an illustrative moored LNG carrier's (not the moored-ship model's output).
+BANK_EXAMPLE = "banks/lng150k_bank.toml"
+BANK_SHIP_TURNING = ((0.0524, 14.0), (0.0087, 9.0), (0.0175, 60.0))
+
+
+def _bank_clearance(_data):
+    return check_bank_approaches(load_bank(packaged_example(BANK_EXAMPLE))).plot()
+
+
+def _bank_swivels(_data):
+    bank = load_bank(packaged_example(BANK_EXAMPLE))
+    t = np.linspace(0.0, 120.0, 1201)
+    roll, pitch, yaw = (a * np.sin(2 * np.pi * t / period) for a, period in BANK_SHIP_TURNING)
+    return swivel_track(t, bank.connected[0], roll, pitch, yaw, bank.file.swivels.limits()).plot()
 
 
 def study_figures(dest: str | Path, names=STUDY_FIGURES, *, prediction=None, forecast=None) -> dict[str, Path]:
@@ -128,7 +150,8 @@ def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:
     """
 
     data = _paper_data()
-    builders = {**figure_builders(data), "weather.png": (_weather, "")}
+    builders = {**figure_builders(data), "weather.png": (_weather, ""), "bank_clearance.png": (_bank_clearance, ""),
+                "bank_swivels.png": (_bank_swivels, "")}
     out = {}
     for name in names:
         out[name] = save(builders[name][0](data), Path(dest) / name)
@@ -281,6 +304,7 @@ def regenerate_tables(root: str | Path = ".") -> list[Path]:
     plant = root / "docs" / "plant-integration.md"
     tables = [(root / "docs" / "configuration.md", parameter_markdown(), "| key | unit | default |"),
               (root / "docs" / "ship-motion.md", berth_parameter_markdown(), "| key | unit | default |"),
+              (root / "docs" / "bank.md", bank_parameter_markdown(), "| key | unit | default |"),
               (plant, variables, "| variable | unit | range |"), (plant, methods, "| method | arguments |"),
               (plant, tags_markdown(), "| tag | direction |")]
     for page, table, header in tables:

@@ -21,6 +21,7 @@ import numpy as np
 from loadarm.arm.geometry import Arm
 from loadarm.arm.plots import clearance_figure
 from loadarm.results import Metric, Result
+from loadarm.vocab import CLASH_FACE
 
 __all__ = ["PARTS", "ArmShape", "segment_distance", "capsules", "pair_clearance", "ClearanceResult",
            "path_clearance"]
@@ -195,6 +196,7 @@ class ClearanceResult(Result):
         Metric("arms", "between arms", ""),
         Metric("parts", "between parts", ""),
         Metric("clear", "clear", ""),
+        Metric("face", "face reached", "", none="none"),
     )
 
     t: np.ndarray
@@ -227,7 +229,8 @@ class ClearanceResult(Result):
         a, b = self.pair
         return {"min_clearance_m": self.min_clearance, "required_clearance_m": float(self.required),
                 "at_time_s": float(self.t[self.index]), "arms": f"{self.names[a]} / {self.names[b]}",
-                "parts": f"{self.parts[0]} / {self.parts[1]}", "clear": self.clear}
+                "parts": f"{self.parts[0]} / {self.parts[1]}", "clear": self.clear,
+                "face": None if self.clear else CLASH_FACE.name}
 
     def _figure(self):
         return clearance_figure(self)
@@ -259,12 +262,21 @@ def path_clearance(shapes, trajectories, t=None, *, required: float = 0.0) -> Cl
         raise ValueError(f"every trajectory must have shape ({n}, 3): {[q.shape for q in qs]}")
     tt = np.arange(n, dtype=float) if t is None else np.asarray(t, dtype=float)
     pairs = tuple((i, j) for i in range(len(shapes)) for j in range(i + 1, len(shapes)))
-    clear, parts = zip(*(pair_clearance(shapes[i], shapes[j], qs[i], qs[j]) for i, j in pairs), strict=True)
-    per_pair = np.stack(clear)
+    first, second = (np.array(v) for v in zip(*pairs, strict=True))
+    # every arm's capsules once, every pair of arms and of parts in one call: (pairs, n, parts, parts)
+    caps = np.stack([capsules(s, q[:, 0], q[:, 1], q[:, 2]) for s, q in zip(shapes, qs, strict=True)])
+    radii = np.array([s.radii for s in shapes])
+    ca, cb = caps[first][:, :, :, None], caps[second][:, :, None, :]
+    dist, _, _ = segment_distance(ca[..., 0, :], ca[..., 1, :], cb[..., 0, :], cb[..., 1, :])
+    gap = dist - (radii[first][:, None, :, None] + radii[second][:, None, None, :])
+    k = len(PARTS)
+    flat = gap.reshape(len(pairs), n, k * k)
+    best = np.argmin(flat, axis=-1)
+    per_pair = np.take_along_axis(flat, best[..., None], axis=-1)[..., 0]
     which = np.argmin(per_pair, axis=0)
     minimum = per_pair[which, np.arange(n)]
     index = int(np.argmin(minimum))
     p = int(which[index])
-    ka, kb = (int(v) for v in parts[p][index])
+    ka, kb = divmod(int(best[p, index]), k)
     return ClearanceResult(tt, tuple(s.name for s in shapes), minimum, per_pair, pairs, index, pairs[p],
                            (PARTS[ka], PARTS[kb]), float(required))

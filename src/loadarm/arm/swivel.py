@@ -22,8 +22,10 @@ the ship, ``y`` along the berth, ``z`` up.
   far outside any swivel's travel.
 
 The ship's rotation at the manifold (roll about its own longitudinal axis, pitch about its transverse axis, yaw
-about its vertical, the z-y-x convention of :mod:`loadarm.ship`) is given in the ship's axes; the ship's heading in
-the arm's frame (the bow's direction, +pi/2 with the bow along +y) turns it into the arm's frame.
+about its vertical) is given in the ship's axes and composed z-y-x here; the ship's heading in the arm's frame (the
+bow's direction, +pi/2 with the bow along +y) turns it into the arm's frame. The moored-ship model's
+``ShipMotion.flange_angles`` are first-order roll and pitch and the yaw off the reference heading: at their few
+degrees, any order of composition differs from this one by second-order terms only.
 """
 
 from __future__ import annotations

@@ -379,8 +379,12 @@ def test_the_primary_state_fits_without_scrolling(browser, replay_server, w, h):
     ctx, page = _sized(browser, w, h)
     try:
         log_in(page, replay_server["url"], "alice", "pw-alice")
+        _seek(page, 60)                                   # the approach: not connected, no detail to the time
+        row = page.evaluate("document.getElementById('primary').getBoundingClientRect().height")
         _seek(page, math.ceil(replay_server["release"] + 1.0))
         assert page.evaluate("hmi.frame.alarms.length") == 4
+        if w >= 1920:           # the tiles' row keeps its height as the arm connects (its two lines kept)
+            assert page.evaluate("document.getElementById('primary').getBoundingClientRect().height") == row
         assert _outside(page, PRIMARY) == []
         assert page.evaluate("document.scrollingElement.scrollHeight <= innerHeight"
                              " && document.scrollingElement.scrollWidth <= innerWidth")

@@ -243,7 +243,7 @@ function onFrame(f) {
   document.body.classList.remove("stale");
   $("stale-banner").hidden = true;
   $("link").textContent = (f.plant_ok ? "live" : "PLC LINK LOST: plant values bad") +
-    ` · cycle ${f.seq} · t ${f.t.toFixed(1)} s · ${hmi.rate.toFixed(0)} Hz`;
+    ` · cycle ${f.seq} · t ${f.t.toFixed(1)} s` + (hmi.rate ? ` · ${hmi.rate.toFixed(0)} Hz` : "");   // none yet: not "0 Hz"
   document.body.dataset.mode = f.mode;
   if (f.replay) {
     drawReplay(f.replay);

@@ -9,7 +9,7 @@ command line can print them verbatim (exit status 2) without a traceback.
 from __future__ import annotations
 
 __all__ = ["LoadarmError", "ConfigError", "OutputError", "EventLogError", "UnreachableError", "PathError",
-           "TimingError", "SizingError", "ActuatorError", "ValveRangeError"]
+           "TimingError", "SizingError", "ActuatorError", "ValveRangeError", "ReleaseError"]
 
 
 class LoadarmError(Exception):
@@ -82,3 +82,18 @@ class ActuatorError(LoadarmError, ValueError):
 
 class ValveRangeError(LoadarmError, ValueError):
     """A plan would need a valve voltage beyond the configured valve range."""
+
+
+class ReleaseError(LoadarmError, ValueError):
+    """A bank's power unit cannot release every arm at once with its pumps lost (issue 31, item 5): its
+    accumulators run out, or a step of the sequence ends late.
+
+    Attributes
+    ----------
+    result : object
+        The release as simulated (``loadarm.hydraulics.bank_release.BankRelease``).
+    """
+
+    def __init__(self, message: str, *, result=None):
+        super().__init__(message)
+        self.result = result

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Optional
 
+import numpy as np
 import typer
 
+from loadarm.arm.swivel import swivel_angles, swivel_margins
 from loadarm.cli.common import (
-    ConfigOpt,
     ForceOpt,
     JsonOpt,
     Table,
@@ -18,8 +20,11 @@ from loadarm.cli.common import (
     print_json,
     read_model,
 )
+from loadarm.design.bank import check_bank_approaches
 from loadarm.design.check import design_check
 from loadarm.figures import save
+from loadarm.hydraulics.bank_release import STEPS, require_release
+from loadarm.params.bank import load_bank
 
 __all__ = ["app"]
 
@@ -28,7 +33,11 @@ app = typer.Typer()
 
 @app.command()
 def check(
-    config: ConfigOpt,
+    config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML file (see "
+                                                                          "examples/paper.toml).")] = None,
+    bank: Annotated[Optional[Path], typer.Option("--bank", help="A bank of arms (see "
+                                                                "examples/banks/lng150k_bank.toml) instead of one "
+                                                                "installation.")] = None,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Figure: distance needed against available, per "
                                                               "direction.")] = None,
@@ -38,9 +47,18 @@ def check(
     sequence times and the arm's limits; refuses (exit 2) an installation whose alarms cannot absorb its own
     design drift.
 
+    With --bank: the bank's arms along their approaches (clearance), their swivels at the design case, and one
+    emergency release for all on the shared power unit's accumulators, the pumps lost; refuses (exit 2) a bank
+    whose power unit cannot release every arm in time, naming the shortfall.
+
     Example: loadarm check --config examples/paper.toml --png out/check.png
     """
 
+    if (config is None) == (bank is None):
+        raise UserError("loadarm check takes one of --config FILE or --bank FILE")
+    if bank is not None:
+        _check_bank(bank, as_json, png, force)
+        return
     check_outputs({"--png": png}, [config], force)
     res = design_check(read_model(config))
     if png is not None:
@@ -58,3 +76,39 @@ def check(
         out.print(t)
     if not res.ok:
         raise UserError(f"{config}: refused: " + "; ".join(res.problems))
+
+
+def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> None:
+    """``loadarm check --bank``: clearance along the approaches, swivel margins at the design case, the release."""
+    check_outputs({"--png": png}, [path], force)
+    bank = load_bank(path)
+    clearance = check_bank_approaches(bank)
+    q = bank.connected
+    heading = math.radians(bank.file.manifold.heading_deg)
+    margins = swivel_margins(swivel_angles(q[:, 0], q[:, 1], q[:, 2], heading=heading), bank.file.swivels.limits())
+    if not clearance.clear:
+        raise UserError(f"{path}: the arms' approaches come {clearance.where()}, below clearance.min_clearance = "
+                        f"{clearance.required:g} m")
+    release = require_release(bank)
+    if png is not None:
+        save(release.plot(), png)
+    names = bank.names
+    pairs = clearance.pair_minimum.min(axis=1)
+    nearest = [min(float(g) for (a, b), g in zip(clearance.pairs, pairs, strict=True) if i in (a, b))
+               for i in range(len(names))]
+    if as_json:
+        print_json({"bank": str(path), "clearance": clearance.to_dict(), "release": release.to_dict(),
+                    "swivel_margin_deg": {n: float(np.degrees(margins[i].min())) for i, n in enumerate(names)},
+                    "nearest_arm_m": dict(zip(names, nearest, strict=True))})
+        return
+    out.print(f"{path}: {bank.file.bank.name}: {len(names)} arms, pass")
+    out.print(str(clearance.summary()))
+    out.print(str(release.summary()))
+    t = Table("arm", "nearest arm on approach m", "swivel margin deg",
+              *(f"{s} done s (limit)" for s in STEPS[:2]), "clear s")
+    for i, n in enumerate(names):
+        st = [s for s in release.steps if s.arm == i]
+        t.add_row(n, f"{nearest[i]:.2f}", f"{np.degrees(margins[i].min()):.1f}",
+                  *(f"{release.end[i, j] - release.start[i, j]:.2f} ({st[j].limit:g})" for j in range(2)),
+                  f"{release.end[i, 2]:.2f}")
+    out.print(t)

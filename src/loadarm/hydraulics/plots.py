@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 from loadarm.figures import subplots
@@ -9,7 +10,7 @@ from loadarm.figures import subplots
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 
-__all__ = ["simulation_figure"]
+__all__ = ["simulation_figure", "release_figure"]
 
 
 def simulation_figure(result) -> Figure:
@@ -60,5 +61,43 @@ def simulation_figure(result) -> Figure:
         if a.get_legend_handles_labels()[0]:
             a.legend(fontsize=7)
     fig.suptitle(f"Electro-hydraulic closed loop (paper Fig. 11), {result.timing} timing")
+    fig.tight_layout()
+    return fig
+
+
+def release_figure(result) -> Figure:
+    """The bank's release on its accumulators: their pressure and the oil delivered, and each arm's steps.
+
+    Parameters
+    ----------
+    result : loadarm.hydraulics.bank_release.BankRelease
+
+    Returns
+    -------
+    Figure
+    """
+    fig, ax = subplots(2, 1, figsize=(10, 7), sharex=True)
+    ax[0].plot(result.t, result.pressure / 1e5, "C0", label="pressure")
+    ax[0].axhline(result.min_pressure / 1e5, color="C3", ls="--", lw=1, label="minimum working pressure")
+    ax[0].set_ylabel("accumulators [bar]")
+    twin = ax[0].twinx()
+    twin.plot(result.t, result.oil * 1e3, "C1", label="oil delivered")
+    twin.set_ylabel("oil delivered [L]")
+    ax[0].legend(loc="upper right", fontsize=8)
+    ax[0].set_title(f"the power unit's accumulators, pumps lost: {result.summary()['verdict']}")
+    colours = ("C2", "C4", "C7")
+    for i, name in enumerate(result.names):
+        for j in range(3):
+            a, b = result.start[i, j], result.end[i, j]
+            if math.isfinite(a):
+                b = b if math.isfinite(b) else float(result.t[-1])
+                ax[1].barh(i, b - a, left=a, color=colours[j], edgecolor="k", lw=0.5,
+                           label=("ERS valves", "coupler", "retraction")[j] if i == 0 else None)
+    ax[1].set_yticks(range(len(result.names)), result.names)
+    ax[1].set_xlabel("t [s]")
+    ax[1].set_title("each arm's steps")
+    ax[1].legend(fontsize=8)
+    for a in ax:
+        a.grid(alpha=0.3)
     fig.tight_layout()
     return fig

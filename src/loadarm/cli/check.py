@@ -105,7 +105,7 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     out.print(str(clearance.summary()))
     out.print(str(release.summary()))
     t = Table("arm", "nearest arm on approach m", "swivel margin deg",
-              *(f"{s} done s (limit)" for s in STEPS[:2]), "clear s")
+              *(f"{s} took s (limit)" for s in STEPS[:2]), "clear at s")
     for i, n in enumerate(names):
         st = [s for s in release.steps if s.arm == i]
         t.add_row(n, f"{nearest[i]:.2f}", f"{np.degrees(margins[i].min()):.1f}",

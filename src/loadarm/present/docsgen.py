@@ -21,6 +21,7 @@ import numpy as np
 from loadarm.arm.swivel import swivel_track
 from loadarm.design.bank import check_bank_approaches
 from loadarm.figures import save
+from loadarm.hydraulics.bank_release import simulate_release
 from loadarm.opcua.plc import tags_markdown
 from loadarm.opcua.server import address_space_markdown
 from loadarm.params.bank import bank_parameter_markdown, load_bank
@@ -41,7 +42,7 @@ __all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "REPORT_PAGES", "report_page", "STU
 DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
                "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
                "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
-               "operability.png", "weather.png", "bank_clearance.png", "bank_swivels.png")
+               "operability.png", "weather.png", "bank_clearance.png", "bank_swivels.png", "bank_release.png")
 
 #: Figures of studies that take minutes (the predictors over their hold-out records, a forecast ensemble): drawn by
 #: ``make docs`` and by the slow tests that run the same studies and compare (:func:`study_figures`), not by
@@ -90,6 +91,10 @@ def _bank_swivels(_data):
     t = np.linspace(0.0, 120.0, 1201)
     roll, pitch, yaw = (a * np.sin(2 * np.pi * t / period) for a, period in BANK_SHIP_TURNING)
     return swivel_track(t, bank.connected[0], roll, pitch, yaw, bank.file.swivels.limits()).plot()
+
+
+def _bank_release(_data):
+    return simulate_release(load_bank(packaged_example(BANK_EXAMPLE))).plot()
 
 
 def study_figures(dest: str | Path, names=STUDY_FIGURES, *, prediction=None, forecast=None) -> dict[str, Path]:
@@ -151,7 +156,7 @@ def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:
 
     data = _paper_data()
     builders = {**figure_builders(data), "weather.png": (_weather, ""), "bank_clearance.png": (_bank_clearance, ""),
-                "bank_swivels.png": (_bank_swivels, "")}
+                "bank_swivels.png": (_bank_swivels, ""), "bank_release.png": (_bank_release, "")}
     out = {}
     for name in names:
         out[name] = save(builders[name][0](data), Path(dest) / name)

@@ -13,14 +13,14 @@ Engineering Approach*, section on polytropic processes); the same law as the sin
 a few per cent; the index's source is the bank file's.
 
 **Oil.** Each arm's steps draw the oil the single arm's check counts (one formula, one place): its installation's
-``[accumulator] required_volume`` (the ERS valve actuators and the PERC's release stroke, split by
-:data:`ERS_VALVE_SHARE`) and :func:`loadarm.design.check.retraction_oil`.
+``[accumulator] required_volume`` (the ERS valve actuators and the PERC's release stroke, split by the power
+unit's ``ers_valve_share``) and :func:`loadarm.design.check.retraction_oil`.
 
 **Flow.** Each step fills through an orifice from the common supply to tank (gauge 0; the actuators' load is
 not modelled, the power unit's ``min_pressure`` stands for the pressure they need to move):
 :func:`loadarm.hydraulics.components.orifice_flow` with the arm's ``[valve] laminar_pressure``. The ERS valve
 actuators' and the coupler's orifices are sized so that at ``max_pressure`` they stroke in their rated time
-(:data:`ERS_VALVE_STROKE_TIME`, :data:`ERC_STROKE_TIME`); the retraction runs through the arm's two
+(the power unit's ``ers_valve_stroke_time``, ``erc_stroke_time``); the retraction runs through the arm's two
 proportional valves fully open (``[valve] nominal_flow`` at ``nominal_pressure_drop`` over both lands,
 :func:`~loadarm.hydraulics.components.valve_coefficient`), the arm balanced by its counterweights.
 
@@ -43,32 +43,11 @@ from loadarm.hydraulics.components import orifice_flow, valve_coefficient
 from loadarm.hydraulics.plots import release_figure
 from loadarm.results import Metric, Result
 
-__all__ = [
-    "ERC_STROKE_TIME",
-    "ERS_VALVE_SHARE",
-    "ERS_VALVE_STROKE_TIME",
-    "STEPS",
-    "BankRelease",
-    "ReleaseStep",
-    "gas_pressure",
-    "release_shortfall",
-    "release_steps",
-    "require_release",
-    "simulate_release",
-]
+__all__ = ["STEPS", "DT", "ReleaseStep", "BankRelease", "release_steps", "gas_pressure", "simulate_release",
+           "require_release", "release_shortfall"]
 
 #: The steps of each arm's release, in order.
 STEPS = ("ERS valves", "coupler", "retraction")
-#: The ERS valve actuators' share of an installation's ``[accumulator] required_volume``, 1 (range (0, 1)):
-#: about 1 L of the 1.5 L, the rest the PERC's release stroke (the required volume's own source: suppliers'
-#: figures).
-ERS_VALVE_SHARE = 1.0 / 1.5
-#: The ERS valve actuators' stroke at ``max_pressure``, s (range (0, ers_valve_time)): suppliers quote about 5 s
-#: for the ERS double-block valves (the installation's ``[sequence] ers_valve_time`` source).
-ERS_VALVE_STROKE_TIME = 5.0
-#: The coupler's release stroke at ``max_pressure``, s (range (0, erc_release_time)): suppliers quote 1-2 s for
-#: the PERC (the installation's ``[sequence] erc_release_time`` source).
-ERC_STROKE_TIME = 1.5
 #: Largest time step of the integration, s: 1 ms, 1/5000 of the ERS valves' 5 s stroke.
 DT = 1e-3
 
@@ -133,16 +112,17 @@ def release_steps(bank) -> tuple[ReleaseStep, ...]:
     tuple of ReleaseStep
         Arm by arm, in the order of :data:`STEPS`.
     """
-    p_max = bank.file.power_unit.max_pressure
+    pu = bank.file.power_unit
+    p_max = pu.max_pressure
     out = []
     for i, (model, inst) in enumerate(zip(bank.models, bank.installations, strict=True)):
         p_lam = inst.valve.laminar_pressure
         req, seq = model.accumulator.required_volume, model.sequence
-        ers, erc = req * ERS_VALVE_SHARE, req * (1.0 - ERS_VALVE_SHARE)
+        ers, erc = req * pu.ers_valve_share, req * (1.0 - pu.ers_valve_share)
         unit = orifice_flow(1.0, p_max, p_lam)
         valves = 2.0 * valve_coefficient(inst.valve.nominal_flow, inst.valve.nominal_pressure_drop) / math.sqrt(2.0)
-        out += [ReleaseStep(i, 0, ers, ers / (ERS_VALVE_STROKE_TIME * unit), p_lam, seq.ers_valve_time),
-                ReleaseStep(i, 1, erc, erc / (ERC_STROKE_TIME * unit), p_lam, seq.erc_release_time),
+        out += [ReleaseStep(i, 0, ers, ers / (pu.ers_valve_stroke_time * unit), p_lam, seq.ers_valve_time),
+                ReleaseStep(i, 1, erc, erc / (pu.erc_stroke_time * unit), p_lam, seq.erc_release_time),
                 ReleaseStep(i, 2, retraction_oil(model), valves, p_lam, math.inf)]
     return tuple(out)
 

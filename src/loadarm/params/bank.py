@@ -123,6 +123,21 @@ class PowerUnit(Section):
                                 description="minimum working pressure")
     polytropic_index: float = param(1.4, unit="1", ge=1, le=1.67, source="adiabatic nitrogen (a fast discharge)",
                                     description="gas expansion exponent during the release")
+    ers_valve_share: float = param(1.0 / 1.5, unit="1", gt=0, lt=1,
+                                   source="about 1 L of each installation's 1.5 L [accumulator] required_volume "
+                                          "(its source: supplier's figures; the rest the PERC's release stroke)",
+                                   description="the ERS valve actuators' share of each arm's [accumulator] "
+                                               "required_volume in the release (loadarm check --bank)")
+    ers_valve_stroke_time: float = param(5.0, unit="s", gt=0, le=60,
+                                         source="suppliers quote about 5 s for the ERS double-block valves (as the "
+                                                "installation's [sequence] ers_valve_time)",
+                                         description="the ERS valve actuators' stroke at max_pressure (sizes their "
+                                                     "orifice in the release)")
+    erc_stroke_time: float = param(1.5, unit="s", gt=0, le=30,
+                                   source="suppliers quote 1-2 s for the PERC (as the installation's [sequence] "
+                                          "erc_release_time)",
+                                   description="the coupler's release stroke at max_pressure (sizes its orifice in "
+                                               "the release)")
 
     @model_validator(mode="after")
     def _pressures(self) -> "PowerUnit":

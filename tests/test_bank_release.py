@@ -156,6 +156,17 @@ def test_check_bank_refuses_in_one_line(capsys, name, fragment):
     assert fragment in err and len(err.strip().splitlines()) == 1
 
 
+def test_check_bank_json(capsys):
+    import json
+
+    code, out, err = run(capsys, "check", "--bank", str(BANKS / "lng150k_bank.toml"), "--json")
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["release"]["verdict"] == "pass" and len(d["release"]["arms"]) == 4
+    assert d["release"]["end_pressure_pa"] > d["release"]["min_pressure_pa"]
+    assert d["clearance"]["clear"] and set(d["swivel_margin_deg"]) == {"L1", "L2", "V1", "L3"}
+
+
 def test_check_takes_one_of_config_and_bank(capsys):
     code, _, err = run(capsys, "check")
     assert code == 2 and "one of --config FILE or --bank FILE" in err

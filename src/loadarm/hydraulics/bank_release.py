@@ -150,10 +150,10 @@ class BankRelease(Result):
 
     METRICS = (
         Metric("verdict", "verdict"),
-        Metric("usable_l", "accumulators, usable oil", "L", ".2f", scale=1e3),
-        Metric("needed_l", "every arm's release needs", "L", ".2f", scale=1e3),
-        Metric("end_pressure_bar", "accumulators' end pressure", "bar", ".1f", scale=1e-5),
-        Metric("min_pressure_bar", "minimum working pressure", "bar", ".1f", scale=1e-5),
+        Metric("usable_m3", "accumulators, usable oil", "L", ".2f", scale=1e3),
+        Metric("needed_m3", "every arm's release needs", "L", ".2f", scale=1e3),
+        Metric("end_pressure_pa", "accumulators' end pressure", "bar", ".1f", scale=1e-5),
+        Metric("min_pressure_pa", "minimum working pressure", "bar", ".1f", scale=1e-5),
         Metric("last_clear_s", "last arm retracted clear", "s", ".2f", none="never"),
     )
 
@@ -177,8 +177,8 @@ class BankRelease(Result):
 
     def _values(self) -> dict:
         done = bool(np.all(np.isfinite(self.end)))
-        return {"verdict": "pass" if self.ok else "refused", "usable_l": self.usable, "needed_l": self.needed,
-                "end_pressure_bar": float(self.pressure[-1]), "min_pressure_bar": self.min_pressure,
+        return {"verdict": "pass" if self.ok else "refused", "usable_m3": self.usable, "needed_m3": self.needed,
+                "end_pressure_pa": float(self.pressure[-1]), "min_pressure_pa": self.min_pressure,
                 "last_clear_s": float(np.max(self.end[:, 2])) if done else None,
                 "arms": [{"arm": n, **{f"{s.replace(' ', '_')}_start_s": _num(self.start[i, j])
                                        for j, s in enumerate(STEPS)},

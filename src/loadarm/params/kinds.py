@@ -49,8 +49,7 @@ KINDS: dict[str, Kind] = {k.name: k for k in (
     Kind("installation", "loadarm plan --config", frozenset(Installation.model_fields)),
     Kind("scenario", "loadarm run --scenario", frozenset(Scenario.model_fields)),
     Kind("berth", "loadarm hydro --berth", frozenset(Berth.model_fields)),
-    # a bank's commands (loadarm check --bank, ...) are to come (issue 31, item 6): validate reads it meanwhile
-    Kind("bank", "loadarm validate", frozenset(BankFile.model_fields)),
+    Kind("bank", "loadarm check --bank", frozenset(BankFile.model_fields)),
     Kind("metocean", "loadarm operability --metocean", frozenset()),
 )}
 #: A metocean record's file suffixes (``studies.metocean.read_metocean`` reads them).

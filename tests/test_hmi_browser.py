@@ -324,23 +324,29 @@ PRIMARY = ("#modes span.current", "#tile-ttl", "#tile-esd", "#tile-ers", "#tile-
            "#alarm-panel", "tr.alarm")
 
 
-@pytest.fixture(scope="module")
-def replay_server(state, tmp_path_factory):
-    """The drift-off (kinematic plant) logged, and ``serve --replay``'s screen on it; the release's time."""
+def _replay_screen(state, db, scenario):
+    """A scenario run (kinematic plant) logged to ``db``, and ``serve --replay``'s screen on it, started: the
+    server and the run's result."""
     from loadarm.eventlog import EventLog
     from loadarm.hmi.app import HmiServer, create_app
     from loadarm.hmi.replay import ReplayService
     from loadarm.params.scenario import load_scenario
     from loadarm.sim.loop import run_scenario
 
-    db = tmp_path_factory.mktemp("replay29") / "events.db"
-    sc, model = load_scenario(SCENARIO)
+    sc, model = load_scenario(scenario)
     with EventLog(db, run="r") as log:
         res = run_scenario(sc, model, log=log, plant="kinematic")
     with EventLog.open_existing(db) as log:
         service = ReplayService(log.query(run="r"), model)
     server = HmiServer(create_app(service, state.path, model, name="replay"), "127.0.0.1", 0)
     server.start()
+    return server, res
+
+
+@pytest.fixture(scope="module")
+def replay_server(state, tmp_path_factory):
+    """The drift-off (kinematic plant) logged, and ``serve --replay``'s screen on it; the release's time."""
+    server, res = _replay_screen(state, tmp_path_factory.mktemp("replay29") / "events.db", SCENARIO)
     yield {"url": server.url, "release": res.first("alarm", "RELEASE"), "connect": res.first("mode", "-> CONNECTED")}
     server.stop()
 
@@ -661,20 +667,8 @@ def test_the_ship_s_view_a_viewer_on_a_tablet(screen, browser, state, replay_ser
 def tracked_replay(state, tmp_path_factory):
     """The drift-off on a tracked ship (35 minutes of track before the run: the prediction trusted from the
     connection) logged, and a replay screen on it."""
-    from loadarm.eventlog import EventLog
-    from loadarm.hmi.app import HmiServer, create_app
-    from loadarm.hmi.replay import ReplayService
-    from loadarm.params.scenario import load_scenario
-    from loadarm.sim.loop import run_scenario
-
-    db = tmp_path_factory.mktemp("replay30") / "events.db"
-    sc, model = load_scenario("examples/scenarios/driftoff_tracked.toml")
-    with EventLog(db, run="r") as log:
-        res = run_scenario(sc, model, log=log, plant="kinematic")
-    with EventLog.open_existing(db) as log:
-        service = ReplayService(log.query(run="r"), model)
-    server = HmiServer(create_app(service, state.path, model, name="replay"), "127.0.0.1", 0)
-    server.start()
+    server, res = _replay_screen(state, tmp_path_factory.mktemp("replay30") / "events.db",
+                                 "examples/scenarios/driftoff_tracked.toml")
     yield {"url": server.url, "connect": res.first("mode", "-> CONNECTED"), "esd1": res.first("alarm", "ALARM1")}
     server.stop()
 

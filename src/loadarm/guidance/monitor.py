@@ -21,6 +21,7 @@ severe whose lead is at least the time to the limit.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -31,7 +32,7 @@ from loadarm.arm.sequence import esd_lead, lead_values, valve_worst_time
 from loadarm.guidance.drift import FIT_PERIOD, DriftEstimate, DriftFit
 from loadarm.vocab import Severity
 
-__all__ = ["stage_leads", "LimitForecast", "EnvelopeMonitor", "predicted_crossing"]
+__all__ = ["stage_leads", "LimitForecast", "EnvelopeMonitor", "predicted_crossing", "prediction_times"]
 
 
 def stage_leads(seq, *, valves_left: float | None = None, release_left: float | None = None) -> dict:
@@ -383,3 +384,24 @@ def predicted_crossing(model, forecast, within, now: float, lead: float) -> tupl
     i = int(rows[0])
     k = int(np.flatnonzero(outside[i])[0])
     return max(float(start[keep[i]]), 0.0), FACES[int(face[i, k])]
+
+
+def prediction_times(model, forecast, within, now: float, lead: float) -> tuple[float, float, str]:
+    """The prediction's time to the nearest face with its interval: by the calibrated bound (widened by the
+    motion within a block: what the predictive alarms use) and by the mean track alone.
+
+    Parameters
+    ----------
+    model, forecast, within, now, lead
+        As :func:`predicted_crossing`.
+
+    Returns
+    -------
+    bound, mean : float
+        s from ``now`` (``inf``: none within the claim and the lead).
+    face : str
+        The bound's face (``""``: none).
+    """
+    bound, face = predicted_crossing(model, forecast, within, now, lead)
+    centre = dataclasses.replace(forecast, lo=forecast.mean, hi=forecast.mean)
+    return bound, predicted_crossing(model, centre, np.zeros(3), now, lead)[0], face

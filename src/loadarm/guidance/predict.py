@@ -466,8 +466,8 @@ class FlangePredictor:
     """
 
     def __init__(self, route: str = "online AR"):
-        if route not in CLAIMS:
-            raise ValueError(f"route {route!r}: one of {sorted(CLAIMS)}")
+        if route != "online AR":                          # the model route is fitted apart, never live
+            raise ValueError(f"route {route!r}: the live predictor is the online AR")
         self.route = route
         self.steps = int(round(HORIZON / PREDICT_PERIOD))
         self.per_block = int(round(PREDICT_PERIOD / SAMPLE_PERIOD))
@@ -487,6 +487,7 @@ class FlangePredictor:
         self.forecast: Forecast | None = None
         self.departed_at: float | None = None
         self.outside = 0
+        self._q: np.ndarray | None = None                 # the calibrated multipliers of the last forecast
 
     @property
     def within(self) -> np.ndarray:

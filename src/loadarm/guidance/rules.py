@@ -27,8 +27,7 @@ from loadarm.guidance.modes import (
     Cycle,
     Mode,
 )
-from loadarm.guidance.monitor import predicted_crossing, stage_leads
-from loadarm.guidance.predict import Forecast
+from loadarm.guidance.monitor import prediction_times, stage_leads
 from loadarm.guidance.voting import AXES
 from loadarm.vocab import (ALARM_RULES, ANNUNCIATED, CONDITION_TEXT, RESET_BLOCKING, STAGE_EVENT, Severity,
                            event_label)
@@ -197,10 +196,8 @@ class SafetyRules:
         lead = max(s.leads.values())
         if s.predicted and s.predicted[3] is f and s.predicted[4] == lead:
             return                               # the same forecast, the same lead: its times stand (from "at")
-        bound, s.predicted_face = predicted_crossing(self.monitor.model, f, self.predictor.within, now, lead)
-        zero = np.zeros(3)
-        mean_f = Forecast(f.horizon, f.mean, f.mean, f.mean, f.claimed, f.time, f.route)
-        s.predicted = (bound, predicted_crossing(self.monitor.model, mean_f, zero, now, lead)[0], now, f, lead)
+        bound, mean, s.predicted_face = prediction_times(self.monitor.model, f, self.predictor.within, now, lead)
+        s.predicted = (bound, mean, now, f, lead)
 
     def _shadow(self, now: float, today: Severity, f) -> None:
         """Follow the rule without the prediction (the measured routes and the floor): each onset of its call for

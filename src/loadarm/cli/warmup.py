@@ -24,7 +24,7 @@ import typer
 
 from loadarm.cli.common import out
 from loadarm.design.trajectory import plan_approach
-from loadarm.guidance.predict import fit_ar
+from loadarm.guidance.predict import ar_forecast, fit_ar
 from loadarm.hydraulics.reference import cylinder_rig, reference_simulation
 from loadarm.hydraulics.simulate import simulate_approach
 from loadarm.params.berth import load_berth
@@ -78,7 +78,7 @@ def _moored_ship() -> None:
 
 def _operability() -> None:
     """The operability monitor (the floor table's lookup, the per-sample pass, the scan of a record, including
-    samples beyond the table) and the flange predictor's refit."""
+    samples beyond the table) and the flange predictor's refit and forecast."""
     model = compile_model(load_config(_examples() / "full.toml"))
     fx, fz = model.approach.flange
     table = floor_table(model, [fx - 1.0, -1.0, fz - 1.0], [fx + 1.0, 1.0, fz + 1.0], spacing=0.5)
@@ -87,7 +87,8 @@ def _operability() -> None:
     monitor_record(model, table, p, 0.1)
     relative_record(p, p[0].copy(), np.zeros(3), np.empty((3, len(p))))
     table.lookup(np.array([[fx, 0.0, fz]]))
-    fit_ar(np.random.default_rng(0).normal(size=(200, 3)), order=10)          # the flange predictor's refit
+    track = np.random.default_rng(0).normal(size=(200, 3))
+    ar_forecast(fit_ar(track, order=10), track, 20)                    # the flange predictor's refit and forecast
 
 
 #: Each family of kernels and the workload that compiles it (one process each).

@@ -394,6 +394,7 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("fault.overstretched", "alarm", "ARM OVERSTRETCHED"),
     EventCode("fault.servo", "alarm", "hydraulic servo fault"),
     EventCode("fault.not_clear", "alarm", "coupler not clear of the ship's manifold"),
+    EventCode("fault.manifold_load", "alarm", "MANIFOLD LOAD"),
     EventCode("fault.event_log", "alarm", "EVENT LOG UNAVAILABLE"),
     EventCode("fault.events_lost", "alarm", "events lost"),
     EventCode("info.event_log_restored", "info", "event log restored"),

@@ -161,6 +161,26 @@ class ManifoldLoads(Section):
                                   description="allowable bending moment (resultant, about the flange's face)")
     torsion_moment: float = param(10.0e3, unit="N m", gt=0, le=1e7, source=_AS_QUOTED,
                                   description="allowable moment about the flange's normal")
+    coupler_length: float = param(1.0, unit="m", ge=0, le=5,
+                                  source="the QCDC and the ERS's lower half between the triple swivel and the flange "
+                                         "(example; the supplier's drawing gives it)",
+                                  description="the flange's face ahead of the triple swivel's centre (the arm's tip) "
+                                              "along the flange's normal: the lever of the bending moment")
+    swivel_friction_torque: float = param(1.0e3, unit="N m", ge=0, le=1e5,
+                                          source="engineering estimate for a 16 in cryogenic product swivel (the "
+                                                 "supplier's breakaway torque to be given)",
+                                          description="Coulomb friction torque of each of the chain's six swivel "
+                                                      "joints (slew, inboard, outboard and the triple swivel's three), "
+                                                      "against its motion")
+    wind_speed: float = param(20.0, unit="m/s", ge=0, le=60,
+                              source="connected-operation limit of the order of 40 kn (terminal rules; as the berth's "
+                                     "[environment] wind_speed, example)",
+                              description="wind on the connected arm for the design check (loadarm check --bank)")
+    drag_coefficient: float = param(1.0, unit="1", gt=0, le=3,
+                                    source="engineering choice: an insulated (rough) circular cylinder at "
+                                           "supercritical Reynolds number is of the order of 1",
+                                    description="drag coefficient of the arm's pipes, on clearance.pipe_radius x 2 "
+                                                "across the flow normal to the pipe")
 
 
 class Clearance(Section):

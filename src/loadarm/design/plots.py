@@ -24,7 +24,7 @@ if TYPE_CHECKING:  # the model is only ever received, never built, here
 __all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
            "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure",
            "timing_comparison_figure", "sizing_figure", "plan3d_figure", "check_figure", "alarm_design_figure",
-           "surge_figure"]
+           "surge_figure", "manifold_check_figure", "manifold_record_figure"]
 
 
 _SEVERITY_COLOURS = {Severity.NORMAL: "#cfe8cf", Severity.ESD1: "#ffe08a", Severity.SECOND: "#ffb366",
@@ -642,4 +642,77 @@ def surge_figure(result) -> Figure:
     top.legend(handles + extra[0], labels + extra[1], fontsize=8, loc="center right")
     verdict = "passes" if result.ok else "REFUSED"
     ax.set_title(f"ERS valve closure in {result.closure_time:g} s ({result.route}): {verdict}")
+    return fig
+
+
+def manifold_check_figure(names, labels, utilisation: np.ndarray, static: np.ndarray) -> Figure:
+    """Each arm's worst load on its flange as a share of the allowable, per load, with the static share.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The arms.
+    labels : sequence of str
+        The loads.
+    utilisation : ndarray, shape (arms, loads)
+        Worst load over the check's cases / allowable.
+    static : ndarray, shape (arms, loads)
+        The design case, calm, no friction / allowable (signed).
+
+    Returns
+    -------
+    Figure
+    """
+    fig, ax = subplots(figsize=(10, 4.2))
+    n = len(names)
+    width = 0.8 / n
+    x = np.arange(len(labels))
+    for i, name in enumerate(names):
+        bars = ax.bar(x + (i - (n - 1) / 2) * width, utilisation[i], width, label=f"{name}: worst")
+        ax.bar(x + (i - (n - 1) / 2) * width, np.abs(static[i]), width * 0.5, color="k", alpha=0.45,
+               label="design case, calm, no friction" if i == 0 else None)
+        ax.bar_label(bars, fmt="%.2f", fontsize=6)
+    ax.axhline(1.0, color="r", lw=1.2, ls="--", label="allowable")
+    ax.set_xticks(x, labels)
+    ax.set_ylabel("load / allowable")
+    ax.set_ylim(0, max(1.15, float(np.max(utilisation)) * 1.15))
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=7, ncol=3)
+    ax.set_title("Loads on the ship's flanges: worst over the design case, the flange box's corners, the wind "
+                 "and the friction", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def manifold_record_figure(t: np.ndarray, names, labels, utilisation: np.ndarray) -> Figure:
+    """Each arm's loads on its flange through a record of the ship's motion, as shares of the allowable.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        s.
+    names, labels : sequence of str
+        The arms and the loads.
+    utilisation : ndarray, shape (arms, n, loads)
+        Signed load / allowable.
+
+    Returns
+    -------
+    Figure
+    """
+    fig, axes = subplots(len(labels), 1, figsize=(10, 1.6 * len(labels) + 0.8), sharex=True)
+    for j, (ax, label) in enumerate(zip(axes, labels, strict=True)):
+        for i, name in enumerate(names):
+            ax.plot(t, utilisation[i, :, j], lw=0.8, label=name)
+        lo = 0.0 if j == 3 else -1.0
+        for level in (lo, 1.0):
+            if level:
+                ax.axhline(level, color="r", lw=1.0, ls="--")
+        ax.set_ylabel(label.replace(" ", "\n", 1), fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=len(names), loc="upper right")
+    axes[-1].set_xlabel("t [s]")
+    fig.suptitle("Loads on the ship's flanges through the moored ship's motion (load / allowable; allowable dashed)",
+                 fontsize=9)
+    fig.tight_layout()
     return fig

@@ -1,0 +1,389 @@
+"""The bank over OPC UA (issue 31, item 6): ``loadarm serve --bank``.
+
+:class:`BankService` runs the bank's kinematic world (:class:`loadarm.sim.bank.BankWorld`: every arm connected to
+one moored ship) on the wall clock in its own thread and publishes each state as an immutable
+:class:`BankSnapshot`; :class:`BankServer` serves it, secure as the single arm's server
+(:class:`loadarm.opcua.server.SecureServer`: its endpoints, certificates, users and roles).
+
+The address space follows OPC 40001-1 (Machinery)'s idea of a machine made of components: under
+``Objects/Machines/LoadingArmBank``, the bank's ``Identification`` and its own variables (the nearest clash between
+any two arms, which pair, which parts), and a ``Components`` object (Machinery's MachineComponentsType browse name)
+with one object per arm, each with its ``Identification`` (DI's browse name) and a ``Guidance`` object holding the
+arm's variables under the single arm's names (:data:`loadarm.opcua.server.VARIABLES`: joints, margins) and the
+bank's per arm (swivel angles and margins, the nearest neighbour). As for the single arm, the companion nodesets'
+types are not loaded: their browse names, in their namespaces.
+
+Every variable is read-only: this world has no controller to take a request (no method is offered; a write is
+refused with ``BadUserAccessDenied``, an engineer's too). On a
+jetty, each arm's own ``loadarm serve`` takes its requests and the PLC owns the E-stop and the ERS.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from loadarm import __version__
+from loadarm.opcua.server import (
+    APP_URI,
+    DI_NS,
+    MACHINERY_NS,
+    NAMESPACE,
+    PUBLISH_RATE,
+    SecureServer,
+    _unit_id,
+)
+from loadarm.sim.bank import BankState, BankWorld
+from loadarm.vocab import FACE_LABELS, SWIVEL_FACE_TABLE, Severity
+
+__all__ = [
+    "ARM_STATES",
+    "ARM_VARIABLES",
+    "BANK_APP_URI",
+    "BANK_STATES",
+    "BANK_VARIABLES",
+    "BankServer",
+    "BankService",
+    "BankSnapshot",
+    "arm_values",
+    "bank_address_space_markdown",
+    "bank_values",
+]
+
+#: The bank server's application URI (in its certificate).
+BANK_APP_URI = f"{APP_URI}:bank"
+#: The bank's world is computed this often, Hz (the moored ship's motion is sampled at 10 Hz).
+WORLD_RATE = 10.0
+
+_DEG, _M, _S = ("DD", "deg", "degree"), ("MTR", "m", "metre"), ("SEC", "s", "second")
+#: Each arm's Double variables: browse name, unit (UNECE code, symbol, description), range, what it is (the single
+#: arm's names where it has them).
+ARM_VARIABLES = (
+    ("Slew_deg", _DEG, (-180.0, 180.0), "slew angle"),
+    ("Alpha_deg", _DEG, (-180.0, 180.0), "inboard arm angle"),
+    ("Beta_deg", _DEG, (0.0, 180.0), "elbow angle (customer's beta)"),
+    ("FlangeX_m", _M, (-100.0, 100.0), "the arm's flange (its coupler), bank frame"),
+    ("FlangeY_m", _M, (-100.0, 100.0), "the arm's flange (its coupler), bank frame"),
+    ("FlangeZ_m", _M, (-100.0, 100.0), "the arm's flange (its coupler), bank frame"),
+) + tuple((f"Margin_{face}_deg", _DEG, (-180.0, 180.0), f"margin to the face, in its joint's angle: {text}")
+          for face, text in FACE_LABELS.items()) + tuple(
+    (f"Swivel{k}_deg", _DEG, (-180.0, 180.0), f"swivel {k}'s angle") for k in (1, 2, 3)) + tuple(
+    (f"SwivelMargin_{f.name}_deg", _DEG, (-360.0, 360.0), f"margin to the swivel's stop: {f.label}")
+    for f in SWIVEL_FACE_TABLE) + (
+    ("NearestClearance_m", _M, (-100.0, 200.0), "clearance to the nearest other arm (capsules, negative: overlap)"),)
+#: Each arm's other variables: browse name, type, what it is.
+ARM_STATES = (("Mode", str, "the arm's mode (CONNECTED: every arm of this world is on its flange)"),
+              ("AlarmStage", int, "the position alarm's severity (the customer's angles)"),
+              ("AlarmStageText", str, "its words"),
+              ("NearestArm", str, "the nearest other arm"),
+              ("NearestParts", str, "the two parts that come closest (this arm's first)"))
+#: The bank's Double variables.
+BANK_VARIABLES = (
+    ("NearestClearance_m", _M, (-100.0, 200.0), "the smallest clearance between any two arms"),
+    ("RequiredClearance_m", _M, (0.0, 10.0), "the bank's minimum clearance (clearance.min_clearance)"),
+    ("Time_s", _S, (0.0, 1e7), "the world's time"),
+)
+#: The bank's other variables.
+BANK_STATES = (("NearestPair", str, "the two arms closest to each other, A/B"),
+               ("NearestParts", str, "their two parts that come closest"),
+               ("ClashAbnormal", bool, "the nearest clearance is below the required one"),
+               ("AlarmStage", int, "the most severe arm's position alarm"),
+               ("Cycle", int, "counts the world's states"))
+_KINDS = {bool: "Boolean", int: "Int64", str: "String"}
+
+_log = logging.getLogger(__name__)
+
+
+def bank_address_space_markdown() -> str:
+    """The bank's node tree's tables for docs/plant-integration.md, from the server's own declarations.
+
+    Returns
+    -------
+    str
+        Markdown: the bank's variables, then each arm's.
+    """
+    rows = ["| node | type | unit | what |", "|---|---|---|---|"]
+    rows += [f"| `{n}` | Double | {u[1]} | {w} |" for n, u, _, w in BANK_VARIABLES]
+    rows += [f"| `{n}` | {_KINDS[k]} |  | {w} |" for n, k, w in BANK_STATES]
+    rows += [f"| `Components/ARM/Guidance/{n}` | Double | {u[1]} | {w} |" for n, u, _, w in ARM_VARIABLES]
+    rows += [f"| `Components/ARM/Guidance/{n}` | {_KINDS[k]} |  | {w} |" for n, k, w in ARM_STATES]
+    return "\n".join(rows) + "\n"
+
+
+@dataclass(frozen=True)
+class BankSnapshot:
+    """One published state of the bank.
+
+    Attributes
+    ----------
+    seq : int
+        Counts the states.
+    wall : float
+        Wall-clock time it was computed, s since the epoch.
+    state : BankState
+    """
+
+    seq: int
+    wall: float
+    state: BankState
+
+
+def _deg(v) -> float:
+    return math.degrees(float(v))
+
+
+def arm_values(state: BankState, i: int) -> dict:
+    """Arm ``i``'s variables as the server publishes them (:data:`ARM_VARIABLES` and :data:`ARM_STATES`).
+
+    Parameters
+    ----------
+    state : BankState
+    i : int
+
+    Returns
+    -------
+    dict
+    """
+    k = state.nearest_of(i)
+    a, b = state.pairs[k]
+    other = b if a == i else a
+    parts = state.clash(k)["parts"]
+    mine = parts if a == i else parts[::-1]
+    stage = Severity(state.stages[i])
+    out = {"Slew_deg": _deg(state.q[i, 0]), "Alpha_deg": _deg(state.q[i, 1]), "Beta_deg": _deg(state.q[i, 2]),
+           "FlangeX_m": float(state.flanges[i, 0]), "FlangeY_m": float(state.flanges[i, 1]),
+           "FlangeZ_m": float(state.flanges[i, 2]),
+           **{f"Margin_{face}_deg": _deg(state.margins[i, j]) for j, face in enumerate(FACE_LABELS)},
+           **{f"Swivel{j + 1}_deg": _deg(state.swivels[i, j]) for j in range(3)},
+           **{f"SwivelMargin_{f.name}_deg": _deg(state.swivel_margins[i, j]) for j, f in enumerate(SWIVEL_FACE_TABLE)},
+           "NearestClearance_m": float(state.pair_clearance[k]),
+           "Mode": "CONNECTED", "AlarmStage": int(stage), "AlarmStageText": stage.label,
+           "NearestArm": state.names[other], "NearestParts": " / ".join(mine)}
+    return out
+
+
+def bank_values(snap: BankSnapshot) -> dict:
+    """The bank's own variables as the server publishes them (:data:`BANK_VARIABLES` and :data:`BANK_STATES`).
+
+    Parameters
+    ----------
+    snap : BankSnapshot
+
+    Returns
+    -------
+    dict
+    """
+    st = snap.state
+    c = st.clash(st.nearest_pair)
+    return {"NearestClearance_m": c["clearance"], "RequiredClearance_m": st.required, "Time_s": st.t,
+            "NearestPair": "/".join(c["arms"]), "NearestParts": " / ".join(c["parts"]),
+            "ClashAbnormal": bool(c["abnormal"]), "AlarmStage": int(max(st.stages)), "Cycle": int(snap.seq)}
+
+
+class BankService:
+    """The bank's world in real time: a state every ``1 / WORLD_RATE`` run seconds, on the wall clock, in its own
+    thread; the latest published as one reference (read by the servers without a lock).
+
+    Parameters
+    ----------
+    world : BankWorld
+    clock : callable
+        Monotonic seconds (injected: tests pass a fake).
+    sleep : callable
+    speedup : float
+        Run seconds per wall second.
+    wall : callable
+        Wall-clock seconds since the epoch.
+    """
+
+    def __init__(self, world: BankWorld, *, clock: Callable[[], float] = time.monotonic,
+                 sleep: Callable[[float], None] = time.sleep, speedup: float = 1.0,
+                 wall: Callable[[], float] = time.time):
+        if not speedup > 0:
+            raise ValueError(f"speedup must be > 0, got {speedup!r}")
+        self.world, self.clock, self.sleep, self.speedup, self.wall = world, clock, sleep, speedup, wall
+        self._snapshot: BankSnapshot | None = None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.finished = threading.Event()
+        self.error: BaseException | None = None
+        self.late = 0
+        #: Events from outside (refused logins), with the time they came: this world keeps no event log.
+        self.notes: list[tuple[float, str, str, dict]] = []
+
+    @property
+    def bank(self):
+        """The bank."""
+        return self.world.bank
+
+    def snapshot(self) -> BankSnapshot | None:
+        """The latest state (None before the first)."""
+        return self._snapshot
+
+    def note(self, kind: str, reason: str, data: dict) -> None:
+        """An event from outside the world's thread (a refused login): kept and logged.
+
+        Parameters
+        ----------
+        kind : str
+        reason : str
+        data : dict
+        """
+        self.notes.append((self.wall(), kind, reason, dict(data)))
+        _log.warning("%s", reason)
+
+    def step(self, k: int) -> BankSnapshot:
+        """Compute and publish the ``k``-th state.
+
+        Parameters
+        ----------
+        k : int
+
+        Returns
+        -------
+        BankSnapshot
+        """
+        snap = BankSnapshot(k, self.wall(), self.world.state(k / WORLD_RATE))
+        self._snapshot = snap
+        return snap
+
+    def start(self) -> None:
+        """Run in its own thread."""
+        self._thread = threading.Thread(target=self._guarded, name="loadarm-bank", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop and wait for the thread."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout)
+
+    def _guarded(self) -> None:
+        try:
+            self.run()
+        except BaseException as exc:             # reported to the caller
+            self.error = exc
+        finally:
+            self.finished.set()
+
+    def run(self) -> None:
+        """Every state of the world's length on the clock (in the calling thread), until its end or :meth:`stop`."""
+        start = self.clock()
+        n = math.floor(self.world.duration * WORLD_RATE + 1e-9) + 1
+        for k in range(n):
+            if self._stop.is_set():
+                break
+            delay = start + k / WORLD_RATE / self.speedup - self.clock()
+            if delay > 0:
+                self.sleep(delay)
+            elif delay < -1.0 / WORLD_RATE / self.speedup:
+                self.late += 1
+            self.step(k)
+
+
+class BankServer(SecureServer):
+    """The OPC UA server of a :class:`BankService`, in its own thread (see the module's notes).
+
+    Parameters
+    ----------
+    service : BankService
+    state_dir : path
+    endpoint : str
+        ``opc.tcp://HOST:PORT`` (default loopback).
+    insecure : bool
+        Also offer the unsecured endpoint (a lab only).
+    anonymous : bool
+        Also accept anonymous, read-only sessions.
+    """
+
+    def __init__(self, service: BankService, state_dir, endpoint: str = "opc.tcp://127.0.0.1:4840", *,
+                 insecure: bool = False, anonymous: bool = False):
+        name = service.bank.file.bank.name
+        super().__init__(state_dir, endpoint, BANK_APP_URI, f"loadarm bank ({name})", insecure=insecure,
+                         period=1.0 / PUBLISH_RATE, anonymous=anonymous)
+        self.service, self.name = service, name
+        self._last = -1
+
+    def _security_event(self, code: str, reason: str, data: dict) -> None:
+        """A refused login: kept by the service."""
+        self.service.note("security", reason, {"code": code, **data})
+
+    async def _tick(self, nodes: dict) -> None:
+        snap = self.service.snapshot()
+        if snap is not None and snap.seq != self._last:
+            self._last = snap.seq
+            await self._publish(nodes, snap)
+
+    async def _build(self, server) -> dict:
+        from asyncua import ua
+
+        ns = await server.register_namespace(NAMESPACE)
+        mns = await server.register_namespace(MACHINERY_NS)
+        dns = await server.register_namespace(DI_NS)
+        machines = await server.nodes.objects.add_folder(ua.NodeId("Machines", ns), ua.QualifiedName("Machines", mns))
+        bank = await machines.add_object(ua.NodeId("Bank", ns), ua.QualifiedName("LoadingArmBank", ns))
+        await _identification(bank, "Bank", ns, dns, self.name, f"{BANK_APP_URI}:{self.name}")
+        nodes: dict = {"bank": {}, "arms": []}
+        await _variables(bank, "Bank", ns, BANK_VARIABLES, BANK_STATES, nodes["bank"])
+        comps = await bank.add_object(ua.NodeId("Bank.Components", ns), ua.QualifiedName("Components", mns))
+        bk = self.service.bank
+        for arm, path in zip(bk.file.arms, bk.paths, strict=True):
+            base = f"Bank.Components.{arm.name}"
+            obj = await comps.add_object(ua.NodeId(base, ns), ua.QualifiedName(arm.name, ns))
+            await _identification(obj, base, ns, dns, f"{arm.name} ({path.name})",
+                                  f"{BANK_APP_URI}:{self.name}:{arm.name}")
+            guidance = await obj.add_object(ua.NodeId(f"{base}.Guidance", ns), ua.QualifiedName("Guidance", ns))
+            mine: dict = {}
+            await _variables(guidance, f"{base}.Guidance", ns, ARM_VARIABLES, ARM_STATES, mine)
+            nodes["arms"].append(mine)
+        return nodes
+
+    async def _publish(self, nodes: dict, snap: BankSnapshot) -> None:
+        await _write(nodes["bank"], bank_values(snap))
+        for i, mine in enumerate(nodes["arms"]):
+            await _write(mine, arm_values(snap.state, i))
+
+
+async def _identification(parent, base: str, ns: int, dns: int, model: str, uri: str) -> None:
+    """An Identification object (DI's browse name) with the nameplate's properties."""
+    from asyncua import ua
+
+    ident = await parent.add_object(ua.NodeId(f"{base}.Identification", ns), ua.QualifiedName("Identification", dns))
+    for key, value in (("Manufacturer", ua.LocalizedText("loadarm (open source)")), ("Model", model),
+                       ("ProductInstanceUri", uri), ("SoftwareRevision", __version__), ("SerialNumber", model)):
+        await ident.add_property(ua.NodeId(f"{base}.Identification.{key}", ns), ua.QualifiedName(key, dns), value)
+
+
+async def _variables(parent, base: str, ns: int, doubles, others, out: dict) -> None:
+    """Read-only variables under ``parent``: Doubles with their EngineeringUnits and EURange, the others typed."""
+    from asyncua import ua
+
+    for bname, (code, symbol, text), (lo, hi), what in doubles:
+        v = await parent.add_variable(ua.NodeId(f"{base}.{bname}", ns), ua.QualifiedName(bname, ns), math.nan,
+                                      varianttype=ua.VariantType.Double)
+        await v.write_attribute(ua.AttributeIds.Description, ua.DataValue(ua.Variant(ua.LocalizedText(what))))
+        await v.add_property(ua.NodeId(f"{base}.{bname}.EngineeringUnits", ns), ua.QualifiedName("EngineeringUnits", 0),
+                             ua.EUInformation(NamespaceUri="http://www.opcfoundation.org/UA/units/un/cefact",
+                                              UnitId=_unit_id(code), DisplayName=ua.LocalizedText(symbol),
+                                              Description=ua.LocalizedText(text)))
+        await v.add_property(ua.NodeId(f"{base}.{bname}.EURange", ns), ua.QualifiedName("EURange", 0),
+                             ua.Range(Low=lo, High=hi))
+        out[bname] = (v, ua.VariantType.Double)
+    for bname, kind, what in others:
+        vt = getattr(ua.VariantType, _KINDS[kind])
+        v = await parent.add_variable(ua.NodeId(f"{base}.{bname}", ns), ua.QualifiedName(bname, ns), kind(),
+                                      varianttype=vt)
+        await v.write_attribute(ua.AttributeIds.Description, ua.DataValue(ua.Variant(ua.LocalizedText(what))))
+        out[bname] = (v, vt)
+
+
+async def _write(nodes: dict, values: dict) -> None:
+    from asyncua import ua
+
+    for key, (node, vt) in nodes.items():
+        v = values[key]
+        await node.write_value(ua.Variant(float(v) if vt == ua.VariantType.Double else v, vt))

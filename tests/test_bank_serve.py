@@ -1,0 +1,262 @@
+"""The bank over OPC UA (issue 31, item 6): ``loadarm serve --bank``'s server on an ephemeral loopback port, read by
+a real asyncua client: the node tree after OPC 40001-1 (a machine made of components, one per arm), every arm's
+values against the direct computation (the inverse kinematics, the faces, the swivels and the capsules of each
+pair called here on the flanges computed here from the ship's motion), read-only to every role."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from loadarm.opcua.security import Role, StateDir, client_certificate
+
+ROOT = Path(__file__).resolve().parents[1]
+BANK = ROOT / "examples" / "banks" / "lng150k_bank.toml"
+SCENARIO = ROOT / "examples" / "scenarios" / "hs15_moored.toml"
+
+
+@pytest.fixture(scope="module")
+def world():
+    from loadarm.params.bank import load_bank
+    from loadarm.sim.bank import BankWorld
+    from loadarm.sim.spec import load_run
+
+    spec = load_run(SCENARIO)
+    return BankWorld.from_scenario(load_bank(BANK), spec.scenario, spec.ship)
+
+
+@pytest.fixture(scope="module")
+def bank_served(world, tmp_path_factory):
+    """The bank's server over a service whose states the tests step themselves (no clock: each value is of a
+    known time); stopped after the module."""
+    from loadarm.opcua.bank import BankServer, BankService
+    from loadarm.testing.loadtest import free_port
+
+    tmp = tmp_path_factory.mktemp("bank")
+    st = StateDir(tmp / "state")
+    st.users().add("eve", Role.ENGINEER, "pw-eve")
+    cert, key = client_certificate(tmp, "client", "urn:test:client")
+    st.trust(cert)
+    service = BankService(world)
+    service.step(0)
+    endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
+    server = BankServer(service, st.path, endpoint, anonymous=True)
+    server.start()
+    yield {"endpoint": endpoint, "state": st, "cert": cert, "key": key, "service": service}
+    server.stop()
+
+
+def _run(served, body, user=None, password=None):
+    """``body(client, ns)`` in a secure session (anonymous unless a user is given)."""
+    from asyncua import Client
+    from asyncua.crypto.security_policies import SecurityPolicyBasic256Sha256
+
+    from loadarm.opcua.server import NAMESPACE
+
+    async def main():
+        c = Client(served["endpoint"], timeout=10)
+        c.application_uri = "urn:test:client"
+        if user is not None:
+            c.set_user(user)
+            c.set_password(password)
+        await c.set_security(SecurityPolicyBasic256Sha256, str(served["cert"]), str(served["key"]),
+                             server_certificate=str(served["state"].cert))
+        async with c:
+            return await body(c, await c.get_namespace_index(NAMESPACE))
+
+    return asyncio.run(main())
+
+
+async def _published(c, ns, seq, timeout=5.0):
+    """Wait until the server has copied state ``seq`` into its variables."""
+    from asyncua import ua
+
+    node = c.get_node(ua.NodeId("Bank.Cycle", ns))
+    for _ in range(int(timeout / 0.05)):
+        if await node.read_value() == seq:
+            return
+        await asyncio.sleep(0.05)
+    raise AssertionError(f"state {seq} never published")
+
+
+def test_the_bank_is_a_machine_with_one_component_per_arm(bank_served, world):
+    """Objects/Machines/LoadingArmBank: its Identification, its own variables, and Components (OPC 40001-1's
+    browse name, in the Machinery namespace) holding one object per arm, each with its Identification (DI's) and a
+    Guidance object with every declared variable."""
+    from loadarm.opcua.bank import (
+        ARM_STATES,
+        ARM_VARIABLES,
+        BANK_STATES,
+        BANK_VARIABLES,
+    )
+    from loadarm.opcua.server import DI_NS, MACHINERY_NS
+
+    async def body(c, ns):
+        mns, dns = await c.get_namespace_index(MACHINERY_NS), await c.get_namespace_index(DI_NS)
+        machines = await c.nodes.objects.get_child([f"{mns}:Machines"])
+        bank = await machines.get_child([f"{ns}:LoadingArmBank"])
+        own = {(await n.read_browse_name()).to_string() for n in await bank.get_children()}
+        model = await (await bank.get_child([f"{dns}:Identification", f"{dns}:Model"])).read_value()
+        comps = await bank.get_child([f"{mns}:Components"])
+        arms = {}
+        for arm in await comps.get_children():
+            name = (await arm.read_browse_name()).Name
+            ident = await arm.get_child([f"{dns}:Identification", f"{dns}:Model"])
+            guidance = await arm.get_child([f"{ns}:Guidance"])
+            arms[name] = ((await ident.read_value()),
+                          {(await n.read_browse_name()).Name for n in await guidance.get_children()})
+        return ns, mns, dns, own, model, arms
+
+    ns, mns, dns, own, model, arms = _run(bank_served, body)
+    assert model == "LNG jetty 1, berth A"
+    assert {f"{dns}:Identification", f"{mns}:Components"} <= own
+    assert {f"{ns}:{n}" for n, *_ in BANK_VARIABLES + BANK_STATES} <= own
+    assert list(arms) == list(world.bank.names) == ["L1", "L2", "V1", "L3"]
+    every = {n for n, *_ in ARM_VARIABLES + ARM_STATES}
+    assert len(every) == 6 + 6 + 3 + 6 + 1 + 5
+    for name, (ident, children) in arms.items():
+        assert ident == f"{name} (full.toml)" and children == every, (name, every - children)
+
+
+def _direct(world, t):
+    """The bank at ``t`` computed here: the manifold moved and turned with the ship, then each arm on its flange
+    by the arm's own functions, each pair's clearance pair by pair."""
+    from loadarm.arm.alarms import AlarmThresholds
+    from loadarm.arm.clearance import PARTS, pair_clearance
+    from loadarm.arm.faces import face_margins
+    from loadarm.arm.slew import inverse3d
+    from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
+
+    bank = world.bank
+    d = world.motion.position(t) - world.reference
+    roll, pitch, yaw = world.motion.orientation(t)
+    h = math.radians(bank.file.manifold.heading_deg)
+    r = ship_rotation(roll, pitch, yaw, h) @ ship_rotation(0.0, 0.0, 0.0, h).T
+    out, qs = [], []
+    for i, arm in enumerate(bank.file.arms):
+        f = bank.flanges[i]
+        p = np.asarray(bank.file.manifold.position) + d + r @ np.array([0.0, f.offset, f.height])
+        local = p - np.array([arm.x, arm.y, 0.0])
+        j = inverse3d(bank.models[i].arm, *local)
+        q = (float(j.phi), float(j.alpha), float(j.beta))
+        s = swivel_angles(*q, roll, pitch, yaw, heading=h)
+        out.append({"flange": p, "q": q, "margins": face_margins(bank.models[i], *local),
+                    "swivels": [float(v) for v in s],
+                    "swivel_margins": swivel_margins(s, bank.file.swivels.limits()),
+                    "stage": int(AlarmThresholds.from_model(bank.models[i]).level(q[2], q[0])[0])})
+        qs.append(q)
+    for i in range(len(out)):
+        best = None
+        for j in range(len(out)):
+            if j != i:
+                gap, parts = pair_clearance(bank.shapes[i], bank.shapes[j], qs[i], qs[j])
+                if best is None or float(gap) < best[0]:
+                    best = (float(gap), bank.names[j], f"{PARTS[int(parts[0])]} / {PARTS[int(parts[1])]}")
+        out[i]["nearest"] = best
+    return out
+
+
+def test_each_arm_s_values_are_the_direct_computation_at_the_state_s_time(bank_served, world):
+    """State 437 (43.7 s into the Hs 1.5 m moored sea) stepped, published, and read over a session: each arm's
+    joints, flange, face and swivel margins, swivel angles, position alarm and nearest neighbour are what the
+    arm's functions give on the flanges computed here (1e-9 deg, 1e-12 m: the same numbers through OPC UA's
+    Doubles); the bank's nearest pair is the least of the arms'."""
+    from asyncua import ua
+
+    from loadarm.vocab import FACES, SWIVEL_FACE_TABLE
+
+    service = bank_served["service"]
+    snap = service.step(437)
+
+    async def body(c, ns):
+        await _published(c, ns, 437)
+        got = {}
+        for name in world.bank.names:
+            base = f"Bank.Components.{name}.Guidance"
+            got[name] = {}
+            for var in ("Slew_deg", "Alpha_deg", "Beta_deg", "FlangeX_m", "FlangeY_m", "FlangeZ_m",
+                        "Swivel1_deg", "Swivel2_deg", "Swivel3_deg", "NearestClearance_m", "NearestArm",
+                        "NearestParts", "Mode", "AlarmStage", "AlarmStageText",
+                        *(f"Margin_{f}_deg" for f in FACES),
+                        *(f"SwivelMargin_{f.name}_deg" for f in SWIVEL_FACE_TABLE)):
+                got[name][var] = await c.get_node(ua.NodeId(f"{base}.{var}", ns)).read_value()
+        bank = {v: await c.get_node(ua.NodeId(f"Bank.{v}", ns)).read_value()
+                for v in ("Time_s", "NearestClearance_m", "NearestPair", "NearestParts", "ClashAbnormal",
+                          "RequiredClearance_m", "AlarmStage")}
+        return got, bank
+
+    got, bank = _run(bank_served, body)
+    assert bank["Time_s"] == pytest.approx(43.7, abs=1e-12) == snap.state.t
+    want = _direct(world, 43.7)
+    for name, w in zip(world.bank.names, want, strict=True):
+        g = got[name]
+        assert [g["Slew_deg"], g["Alpha_deg"], g["Beta_deg"]] == pytest.approx(np.degrees(w["q"]), abs=1e-9)
+        assert [g["FlangeX_m"], g["FlangeY_m"], g["FlangeZ_m"]] == pytest.approx(w["flange"], abs=1e-12)
+        assert [g[f"Margin_{f}_deg"] for f in FACES] == pytest.approx(np.degrees(w["margins"]), abs=1e-9)
+        assert [g[f"Swivel{k}_deg"] for k in (1, 2, 3)] == pytest.approx(np.degrees(w["swivels"]), abs=1e-9)
+        assert [g[f"SwivelMargin_{f.name}_deg"] for f in SWIVEL_FACE_TABLE] == pytest.approx(
+            np.degrees(w["swivel_margins"]), abs=1e-9)
+        gap, other, parts = w["nearest"]
+        assert g["NearestClearance_m"] == pytest.approx(gap, abs=1e-12)
+        assert (g["NearestArm"], g["NearestParts"]) == (other, parts)
+        assert (g["Mode"], g["AlarmStage"], g["AlarmStageText"]) == ("CONNECTED", w["stage"], "normal")
+    # the ship moved the flanges off their design places, the bank's figures are the arms' least
+    assert not np.allclose(want[0]["flange"], world.bank.flange_position(0) + [0.0, -5.25, 0.0], atol=1e-3)
+    least = min(got.values(), key=lambda g: g["NearestClearance_m"])
+    assert bank["NearestClearance_m"] == least["NearestClearance_m"]
+    assert set(bank["NearestPair"].split("/")) in ({n, got[n]["NearestArm"]} for n in got
+                                                   if got[n]["NearestClearance_m"] == least["NearestClearance_m"])
+    assert bank["NearestParts"] == "triple swivel / triple swivel" and 1.7 < bank["NearestClearance_m"] < 1.9
+    assert bank["RequiredClearance_m"] == 0.5 and bank["ClashAbnormal"] is False and bank["AlarmStage"] == 0
+
+
+@pytest.mark.parametrize("user, password", [(None, None), ("eve", "pw-eve")])
+def test_the_bank_is_read_only_to_every_role(bank_served, user, password):
+    """No method, no write: the variables' access level is read only, and a write is refused, an anonymous
+    session's and an engineer's alike (this world has no controller to take a request)."""
+    from asyncua import ua
+
+    async def body(c, ns):
+        node = c.get_node(ua.NodeId("Bank.Components.L1.Guidance.Mode", ns))
+        with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+            await node.write_value("ESTOP")
+        level = await node.get_access_level()
+        bank = c.get_node(ua.NodeId("Bank", ns))
+        methods = await bank.get_children(refs=ua.ObjectIds.HierarchicalReferences, nodeclassmask=ua.NodeClass.Method)
+        return level, methods, await node.read_value()
+
+    level, methods, mode = _run(bank_served, body, user, password)
+    assert ua_level_is_read_only(level) and methods == [] and mode == "CONNECTED"
+
+
+def ua_level_is_read_only(level) -> bool:
+    """CurrentRead without CurrentWrite."""
+    from asyncua import ua
+
+    return ua.AccessLevel.CurrentRead in level and ua.AccessLevel.CurrentWrite not in level
+
+
+def test_the_service_runs_the_world_on_its_clock_and_stops_at_its_end(world):
+    """The service's thread computes a state every 0.1 run seconds on the clock (a fake one here: each sleep
+    moves it), at its speed-up, until the world's length."""
+    from dataclasses import replace
+
+    from loadarm.opcua.bank import BankService
+
+    now = [0.0]
+    slept = []
+
+    def sleep(s):
+        slept.append(s)
+        now[0] += s
+
+    short = replace(world, duration=2.0)
+    service = BankService(short, clock=lambda: now[0], sleep=sleep, speedup=4.0)
+    service.run()
+    snap = service.snapshot()
+    assert snap.seq == 20 and snap.state.t == pytest.approx(2.0) and service.late == 0
+    assert now[0] == pytest.approx(0.5) and all(s == pytest.approx(0.025) for s in slept)

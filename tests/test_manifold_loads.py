@@ -236,3 +236,29 @@ def test_lumps_and_model_are_unchanged_by_the_check(bank):
     assert math.isclose(full.total_mass - empty.total_mass, per_m * (bank.models[0].arm.b + bank.models[0].arm.c),
                         rel_tol=1e-12)
     assert isinstance(full.lumps[0], Lump)
+
+
+def _run(capsys, *args):
+    from loadarm.cli import main
+
+    code = main(list(args))
+    cap = capsys.readouterr()
+    return code, cap.out, cap.err
+
+
+def test_check_bank_gives_each_arm_s_flange_load_and_refuses_an_overloaded_manifold_in_one_line(capsys):
+    """``loadarm check --bank``: the example's verdict per arm (its largest load over its allowable) in the table
+    and the JSON; a manifold a quarter as strong refused (exit 2) in one line naming the alarm's label, the arm,
+    the load and the key."""
+    import json
+
+    code, out, err = _run(capsys, "check", "--bank", str(EXAMPLE))
+    assert code == 0, err
+    line = next(x for x in out.splitlines() if x.startswith("within the allowable loads"))
+    assert "flange load / allowable, largest" in out and line.split()[-1] == "True"
+    code, out, err = _run(capsys, "check", "--bank", str(EXAMPLE), "--json")
+    d = json.loads(out)["manifold_loads"]
+    assert d["within_allowable"] is True and set(d["arms"]) == {"L1", "L2", "V1", "L3"}
+    code, _, err = _run(capsys, "check", "--bank", str(EXAMPLE.parent / "overloaded_manifold.toml"))
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "MANIFOLD LOAD: arm 'V1'" in err and "manifold_loads.bending_moment = 5 kN m" in err

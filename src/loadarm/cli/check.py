@@ -9,6 +9,7 @@ from typing import Annotated, Optional
 import numpy as np
 import typer
 
+from loadarm.arm.manifold import LOAD_NAMES
 from loadarm.arm.swivel import swivel_angles, swivel_margins
 from loadarm.cli.common import (
     ForceOpt,
@@ -22,9 +23,11 @@ from loadarm.cli.common import (
 )
 from loadarm.design.bank import check_bank_approaches
 from loadarm.design.check import design_check
+from loadarm.design.manifold import LOAD_LABELS, check_manifold_loads
 from loadarm.figures import save
 from loadarm.hydraulics.bank_release import STEPS, require_release
 from loadarm.params.bank import load_bank
+from loadarm.vocab import event_label
 
 __all__ = ["app"]
 
@@ -47,9 +50,11 @@ def check(
     sequence times and the arm's limits; refuses (exit 2) an installation whose alarms cannot absorb its own
     design drift.
 
-    With --bank: the bank's arms along their approaches (clearance), their swivels at the design case, and one
-    emergency release for all on the shared power unit's accumulators, the pumps lost; refuses (exit 2) a bank
-    whose power unit cannot release every arm in time, naming the shortfall.
+    With --bank: the bank's arms along their approaches (clearance), their swivels at the design case, their
+    loads on the ship's flanges (connected and free-wheeling, over the design case and the flange box's corners,
+    wind and friction) against the allowable, and one emergency release for all on the shared power unit's
+    accumulators, the pumps lost; refuses (exit 2) a bank whose power unit cannot release every arm in time, or
+    whose arms overload the manifold, naming the shortfall.
 
     Example: loadarm check --config examples/paper.toml --png out/check.png
     """
@@ -89,6 +94,9 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     if not clearance.clear:
         raise UserError(f"{path}: the arms' approaches come {clearance.where()}, below clearance.min_clearance = "
                         f"{clearance.required:g} m")
+    loads = check_manifold_loads(bank)
+    if not loads.ok:
+        raise UserError(_overload(path, loads.exceeded))
     release = require_release(bank)
     if png is not None:
         save(release.plot(), png)
@@ -98,17 +106,29 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
                for i in range(len(names))]
     if as_json:
         print_json({"bank": str(path), "clearance": clearance.to_dict(), "release": release.to_dict(),
+                    "manifold_loads": loads.to_dict(),
                     "swivel_margin_deg": {n: float(np.degrees(margins[i].min())) for i, n in enumerate(names)},
                     "nearest_arm_m": dict(zip(names, nearest, strict=True))})
         return
     out.print(f"{path}: {bank.file.bank.name}: {len(names)} arms, pass")
     out.print(str(clearance.summary()))
+    out.print(str(loads.summary()))
     out.print(str(release.summary()))
-    t = Table("arm", "nearest arm on approach m", "swivel margin deg",
+    use = loads.utilisation.max(axis=1)
+    t = Table("arm", "nearest arm on approach m", "swivel margin deg", "flange load / allowable",
               *(f"{s} took s (limit)" for s in STEPS[:2]), "clear at s")
     for i, n in enumerate(names):
         st = [s for s in release.steps if s.arm == i]
-        t.add_row(n, f"{nearest[i]:.2f}", f"{np.degrees(margins[i].min()):.1f}",
+        t.add_row(n, f"{nearest[i]:.2f}", f"{np.degrees(margins[i].min()):.1f}", f"{use[i]:.2f}",
                   *(f"{release.end[i, j] - release.start[i, j]:.2f} ({st[j].limit:g})" for j in range(2)),
                   f"{release.end[i, 2]:.2f}")
     out.print(t)
+
+
+def _overload(path: Path, exceeded: list[dict]) -> str:
+    """One line naming the worst load past its allowable (the alarm's label, the arm, the load and the key)."""
+    e = max(exceeded, key=lambda e: e["value"] / e["allowable"])
+    unit = "kN" if e["load"].endswith("force") else "kN m"
+    return (f"{path}: {event_label(e['code'])}: arm {e['arm']!r} loads its flange with {e['value'] / 1e3:.2f} {unit} "
+            f"of {LOAD_LABELS[LOAD_NAMES.index(e['load'])]}; manifold_loads.{e['load']} = "
+            f"{e['allowable'] / 1e3:g} {unit} ({len(exceeded)} loads of the bank over their allowable)")

@@ -51,6 +51,7 @@ __all__ = [
     "ManifoldLoadRecord",
     "allowable",
     "arm_masses",
+    "berth_wind",
     "check_manifold_loads",
     "motion_manifold_loads",
     "mujoco_flange_wrench",
@@ -148,9 +149,9 @@ class ManifoldLoadCheck(Result):
     """
 
     METRICS = (
-        Metric("max_utilisation", "largest utilisation of an allowable", "", ".2f"),
-        Metric("governing", "at", ""),
-        Metric("design_vertical_force_kN", "vertical force at the design case, calm (per arm)", "kN", ".2f"),
+        Metric("max_utilisation", "flange load / allowable, largest", "", ".2f"),
+        Metric("governing", "which, where", ""),
+        Metric("design_vertical_force_kN", "vertical force, design case, calm", "kN", ".2f"),
         Metric("within_allowable", "within the allowable loads", ""),
     )
 
@@ -255,7 +256,7 @@ def _case_words(cases, winds, speed: float, shape, flat: int) -> str:
     if w == 0:
         return f"{cases[c]}, calm"
     to = math.degrees(math.atan2(winds[w, 1], winds[w, 0]))
-    return f"{cases[c]}, wind {speed:g} m/s towards {to:+.0f} deg"
+    return f"{cases[c]}, wind {speed:g} m/s to {to:+.0f} deg"
 
 
 @dataclass(frozen=True)
@@ -273,8 +274,8 @@ class ManifoldLoadRecord(Result):
     """
 
     METRICS = (
-        Metric("max_utilisation", "largest utilisation of an allowable over the record", "", ".2f"),
-        Metric("governing", "at", ""),
+        Metric("max_utilisation", "flange load / allowable, largest over the record", "", ".2f"),
+        Metric("governing", "which", ""),
         Metric("at_time_s", "when", "s", ".1f"),
         Metric("within_allowable", "within the allowable loads", ""),
     )
@@ -374,6 +375,22 @@ def record_manifold_loads(bank: Bank, t, displacement, angles, *, wind=(0.0, 0.0
         out.append(flange_wrench(arm_masses(bank, i), q, qd, qdd, s, wind=wind, wind_k=k, friction=friction,
                                  coupler_length=ml.coupler_length).loads)
     return ManifoldLoadRecord(t, bank.names, np.array(out), allowable(bank))
+
+
+def berth_wind(environment) -> np.ndarray:
+    """The mean wind of a berth's environment as a velocity in the bank's frame (``x`` off the berth), m/s.
+
+    Parameters
+    ----------
+    environment : loadarm.params.berth.Environment
+        Its ``wind_speed`` and ``wind_direction_deg`` (where the wind blows to).
+
+    Returns
+    -------
+    ndarray, shape (3,)
+    """
+    to = math.radians(environment.wind_direction_deg)
+    return environment.wind_speed * np.array([math.cos(to), math.sin(to), 0.0])
 
 
 def motion_manifold_loads(bank: Bank, motion, *, wind=(0.0, 0.0, 0.0)) -> ManifoldLoadRecord:

@@ -704,10 +704,10 @@ def manifold_record_figure(t: np.ndarray, names, labels, utilisation: np.ndarray
     for j, (ax, label) in enumerate(zip(axes, labels, strict=True)):
         for i, name in enumerate(names):
             ax.plot(t, utilisation[i, :, j], lw=0.8, label=name)
-        lo = 0.0 if j == 3 else -1.0
-        for level in (lo, 1.0):
-            if level:
-                ax.axhline(level, color="r", lw=1.0, ls="--")
+        for level in ((1.0,) if j == 3 else (-1.0, 1.0)):
+            ax.axhline(level, color="r", lw=1.0, ls="--")
+        if j == 3:
+            ax.set_ylim(0.0, 1.1)
         ax.set_ylabel(label.replace(" ", "\n", 1), fontsize=8)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, ncol=len(names), loc="upper right")

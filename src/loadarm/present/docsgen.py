@@ -20,6 +20,7 @@ import numpy as np
 
 from loadarm.arm.swivel import swivel_track
 from loadarm.design.bank import check_bank_approaches
+from loadarm.design.manifold import berth_wind, check_manifold_loads, motion_manifold_loads
 from loadarm.figures import save
 from loadarm.hydraulics.bank_release import simulate_release
 from loadarm.opcua.plc import tags_markdown
@@ -29,6 +30,7 @@ from loadarm.params.berth import berth_parameter_markdown, load_berth
 from loadarm.params.config import example_toml, load_config, packaged_example, parameter_markdown
 from loadarm.present.report import ReportData, build_report, figure_builders
 from loadarm.ship.model import compile_ship
+from loadarm.ship.motion import simulate
 from loadarm.studies.forecast import run_forecast
 from loadarm.studies.metocean import synthetic_metocean
 from loadarm.studies.prediction import calibrate_predictors
@@ -42,7 +44,8 @@ __all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "REPORT_PAGES", "report_page", "STU
 DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png", "timing.png", "cylinders.png",
                "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
                "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
-               "operability.png", "weather.png", "bank_clearance.png", "bank_swivels.png", "bank_release.png")
+               "operability.png", "weather.png", "bank_clearance.png", "bank_swivels.png", "bank_release.png",
+               "bank_manifold_loads.png", "bank_manifold_record.png")
 
 #: Figures of studies that take minutes (the predictors over their hold-out records, a forecast ensemble): drawn by
 #: ``make docs`` and by the slow tests that run the same studies and compare (:func:`study_figures`), not by
@@ -95,6 +98,23 @@ def _bank_swivels(_data):
 
 def _bank_release(_data):
     return simulate_release(load_bank(packaged_example(BANK_EXAMPLE))).plot()
+
+
+#: The moored ship's record of docs/bank.md's manifold-load figure: the example berth's design environment,
+#: duration (s) and seed.
+BANK_RECORD = ("berths/lng150k.toml", 300.0, 1)
+
+
+def _bank_manifold_loads(_data):
+    return check_manifold_loads(load_bank(packaged_example(BANK_EXAMPLE))).plot()
+
+
+def _bank_manifold_record(_data):
+    berth_file, duration, seed = BANK_RECORD
+    berth = load_berth(packaged_example(berth_file))
+    motion = simulate(compile_ship(berth), berth.environment, duration, seed=seed)
+    return motion_manifold_loads(load_bank(packaged_example(BANK_EXAMPLE)), motion,
+                                 wind=berth_wind(berth.environment)).plot()
 
 
 def study_figures(dest: str | Path, names=STUDY_FIGURES, *, prediction=None, forecast=None) -> dict[str, Path]:
@@ -156,7 +176,9 @@ def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:
 
     data = _paper_data()
     builders = {**figure_builders(data), "weather.png": (_weather, ""), "bank_clearance.png": (_bank_clearance, ""),
-                "bank_swivels.png": (_bank_swivels, ""), "bank_release.png": (_bank_release, "")}
+                "bank_swivels.png": (_bank_swivels, ""), "bank_release.png": (_bank_release, ""),
+                "bank_manifold_loads.png": (_bank_manifold_loads, ""),
+                "bank_manifold_record.png": (_bank_manifold_record, "")}
     out = {}
     for name in names:
         out[name] = save(builders[name][0](data), Path(dest) / name)

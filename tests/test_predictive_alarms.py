@@ -218,6 +218,25 @@ def test_on_a_tracked_ship_the_prediction_holds_the_measured_false_alarm(tmp_pat
 
 
 @pytest.mark.slow
+def test_a_break_out_s_call_is_not_held_once_the_track_leaves_the_intervals():
+    """Found in the 100-seed break-out campaign (breakout_tracked, seed 111): the break-out test called for ESD-1
+    at 412.88 s, the trusted prediction held it until the departure test's second block, and ESD-1 came 0.2 s
+    later than without the prediction. Now a change detector's call is not held once the track's latest block is
+    outside the intervals (two tests agree): ESD-1 at the call, the call not marked held."""
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+
+    sc, model = load_scenario(SCEN / "breakout_tracked.toml")
+    sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"seed": 111})})
+    res = run_scenario(sc, model, plant="kinematic")
+    calls = [e for e in res.events if e[4].get("code") == "info.measured_esd1"]
+    esd1 = res.first_data("stage.esd1")
+    assert calls and calls[0][4]["held"] is False
+    assert res.first_code("stage.esd1") == calls[0][0] == esd1["measured_since"]
+    assert esd1["rule"] == "measured"
+
+
+@pytest.mark.slow
 def test_on_tracked_ships_false_esd1_are_at_least_halved_and_no_esd1_is_later():
     """A fresh sample of the campaigns of docs/guidance.md section 13 (seeds 5000-5011, kinematic plant): Hs 1.5 m
     on the tracked ship, its false ESD-1 at most half of the rule's without the prediction, and a break-out's

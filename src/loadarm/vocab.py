@@ -54,7 +54,9 @@ __all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "F
            "SWIVEL_FACE_TABLE", "CLASH_FACE", "BANK_FACE_TABLE", "BANK_FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
            "CONDITION_SEVERITY", "CONDITION_TEXT", "RESET_BLOCKING", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
-           "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES"]
+           "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES",
+           "ROUTE_DESIGN", "ROUTE_MEASURED", "ROUTE_STEP", "ROUTE_BREAKOUT", "ROUTE_PREDICTION", "MEASURED_ROUTES",
+           "CHANGE_ROUTES"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -428,6 +430,17 @@ ALARM_RULES: dict[str, str] = {
     "operator": "operator's request",
     "fault": "equipment fault",
 }
+
+#: The routes of the time-to-limit forecast, in the words its events and the screen show: the design-drift floor,
+#: the drift fitted on the track, the fit's two change detectors (a step in the velocity, a break-out's growing
+#: acceleration) and the flange prediction (issue 30).
+ROUTE_DESIGN, ROUTE_MEASURED, ROUTE_STEP, ROUTE_BREAKOUT, ROUTE_PREDICTION = (
+    "design drift", "measured drift", "velocity step", "break-out", "prediction")
+#: The routes measured on the flange's track.
+MEASURED_ROUTES: tuple[str, ...] = (ROUTE_MEASURED, ROUTE_STEP, ROUTE_BREAKOUT)
+#: The routes of a detected change of regime: their call for ESD-1 is not held by the prediction (learned on the
+#: regime before the change) once the track has left the prediction's intervals (``guidance.rules``).
+CHANGE_ROUTES: tuple[str, ...] = (ROUTE_STEP, ROUTE_BREAKOUT)
 
 
 def event_label(code: str) -> str:

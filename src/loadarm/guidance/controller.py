@@ -60,7 +60,7 @@ from loadarm.guidance.predict import FlangePredictor
 from loadarm.guidance.rules import SafetyRules
 from loadarm.guidance.voting import AXES, reset_votes, vote
 from loadarm.params.scenario import GuidanceSettings, check_drift_window
-from loadarm.vocab import CONDITION_TEXT, RESET_BLOCKING, Severity, event_label
+from loadarm.vocab import CONDITION_TEXT, RESET_BLOCKING, ROUTE_BREAKOUT, ROUTE_STEP, Severity, event_label
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from loadarm.arm.model import ArmModel
@@ -320,7 +320,7 @@ class GuidanceController(SafetyRules):
         if f is None:
             return ()
         mon = self.monitor
-        est = {"velocity step": mon.step_est, "break-out": mon.breakout_est}.get(f.route, mon.est)
+        est = {ROUTE_STEP: mon.step_est, ROUTE_BREAKOUT: mon.breakout_est}.get(f.route, mon.est)
         return () if est is None else tuple(float(v) for v in est.v)
 
     def attached(self) -> bool:

@@ -16,8 +16,8 @@ from loadarm.arm.alarms import AlarmState
 from loadarm.guidance.monitor import stage_leads
 from loadarm.params.berth import RHO_SEA, BerthSection, ShipSection
 from loadarm.ship.hull import hull_mesh
-from loadarm.vocab import (ALARM_RULES, CONDITION_TEXT, EVENTS, FACE_WORDS, FACES, PRIORITIES, Severity,
-                           event_label, priority)
+from loadarm.vocab import (ALARM_RULES, CONDITION_TEXT, EVENTS, FACE_WORDS, FACES, MEASURED_ROUTES, PRIORITIES,
+                           Severity, event_label, priority)
 
 __all__ = ["PRIORITIES", "SHELVE_MAX", "JOURNAL_KINDS", "AlarmBook", "AlarmEntry", "clock_text", "drift_words",
            "forecast_state", "prediction_state", "geometry", "frame", "in_words", "journal_entry", "priority",
@@ -244,10 +244,6 @@ def drift_words(v) -> dict | None:
     return {"speed": math.hypot(vx, vy), "direction_deg": deg, "words": words}
 
 
-#: The routes of the forecast that extrapolate a measured drift (:class:`loadarm.guidance.monitor.LimitForecast`).
-_MEASURED_ROUTES = ("measured drift", "velocity step", "break-out")
-
-
 def forecast_state(snap, model) -> dict:
     """What the screen says of the time to limit: ``state`` is ``"time"`` (a face within the forecast's
     horizon), ``"beyond"`` (none within it: "> H s", H the horizon the forecast used), ``"none"`` (attached but
@@ -322,7 +318,7 @@ def _basis(route: str, drift: dict | None, design: float) -> str:
     else the berth's design drift (in any horizontal direction), with the measured drift beside it."""
     measured = None if drift is None else (f"{drift['speed']:.2f} m/s {drift['words']} "
                                            f"({drift['direction_deg']:.0f} deg)")
-    if route in _MEASURED_ROUTES and measured:
+    if route in MEASURED_ROUTES and measured:
         return f"{route}: {measured}"
     text = f"design drift {design:.2f} m/s, any direction"
     return f"{text}; measured {measured}" if measured else text

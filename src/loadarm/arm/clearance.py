@@ -14,17 +14,19 @@ Frames: the bank's frame (x towards the ship, y along the jetty, z up from the j
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from loadarm._numba import njit
 from loadarm.arm.geometry import Arm
 from loadarm.arm.plots import clearance_figure
 from loadarm.results import Metric, Result
 from loadarm.vocab import CLASH_FACE
 
-__all__ = ["PARTS", "ArmShape", "segment_distance", "capsules", "pair_clearance", "ClearanceResult",
-           "path_clearance"]
+__all__ = ["PARTS", "ArmShape", "segment_distance", "capsules", "pair_clearance", "pair_clearance_compiled",
+           "capsule_gaps", "ClearanceResult", "path_clearance"]
 
 #: The capsules of an arm, in the order of :func:`capsules`' second-to-last axis.
 PARTS: tuple[str, ...] = ("riser", "inboard pipe", "outboard pipe", "triple swivel", "inboard counterweight",
@@ -59,6 +61,12 @@ class ArmShape:
             raise ValueError(f"arm {self.name!r}: radii must be {len(PARTS)} non-negative lengths ({', '.join(PARTS)})")
 
 
+def _vdot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Dot products over the last axis (3), summed in order: the compiled route's sum, bit for bit (``einsum``
+    sums in another order)."""
+    return x[..., 0] * y[..., 0] + x[..., 1] * y[..., 1] + x[..., 2] * y[..., 2]
+
+
 def segment_distance(p0, p1, q0, q1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Distance between segments ``p0-p1`` and ``q0-q1``, vectorised over any leading axes.
 
@@ -76,11 +84,11 @@ def segment_distance(p0, p1, q0, q1) -> tuple[np.ndarray, np.ndarray, np.ndarray
     """
     p0, p1, q0, q1 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (p0, p1, q0, q1)))
     d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a = np.einsum("...i,...i", d1, d1)
-    e = np.einsum("...i,...i", d2, d2)
-    f = np.einsum("...i,...i", d2, r)
-    c = np.einsum("...i,...i", d1, r)
-    b = np.einsum("...i,...i", d1, d2)
+    a = _vdot(d1, d1)
+    e = _vdot(d2, d2)
+    f = _vdot(d2, r)
+    c = _vdot(d1, r)
+    b = _vdot(d1, d2)
     tiny = 1e-12
     p_point, q_point = a <= tiny, e <= tiny
     denom = a * e - b * b
@@ -97,7 +105,7 @@ def segment_distance(p0, p1, q0, q1) -> tuple[np.ndarray, np.ndarray, np.ndarray
         t = np.where(p_point & ~q_point, np.clip(f / np.where(q_point, 1.0, e), 0.0, 1.0), t)
         s = np.where(q_point & ~p_point, np.clip(-c / np.where(p_point, 1.0, a), 0.0, 1.0), s)
     gap = (p0 + s[..., None] * d1) - (q0 + t[..., None] * d2)
-    return np.sqrt(np.einsum("...i,...i", gap, gap)), s, t
+    return np.sqrt(_vdot(gap, gap)), s, t
 
 
 def capsules(shape: ArmShape, phi, alpha, beta) -> np.ndarray:
@@ -162,6 +170,152 @@ def pair_clearance(first: ArmShape, second: ArmShape, q_first, q_second) -> tupl
     flat = gap.reshape(gap.shape[:-2] + (n * n,))
     k = np.argmin(flat, axis=-1)
     return np.take_along_axis(flat, k[..., None], axis=-1)[..., 0], np.stack((k // n, k % n), axis=-1)
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _dot(x0, x1, x2, y0, y1, y2):
+    return x0 * y0 + x1 * y1 + x2 * y2
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _clip01(x):
+    return min(max(x, 0.0), 1.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _segment_distance(p0, p1, q0, q1):
+    """:func:`segment_distance` of one pair of segments (each end a (3,) array), compiled for the guidance cycle:
+    the same operations in the same order, branch by branch (a test holds it to the vectorised route)."""
+    d10, d11, d12 = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+    d20, d21, d22 = q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]
+    r0, r1, r2 = p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2]
+    a = _dot(d10, d11, d12, d10, d11, d12)
+    e = _dot(d20, d21, d22, d20, d21, d22)
+    f = _dot(d20, d21, d22, r0, r1, r2)
+    c = _dot(d10, d11, d12, r0, r1, r2)
+    b = _dot(d10, d11, d12, d20, d21, d22)
+    tiny = 1e-12
+    p_point = a <= tiny
+    q_point = e <= tiny
+    denom = a * e - b * b
+    s = _clip01((b * f - c * e) / denom) if denom > tiny * max(a * e, tiny) else 0.0
+    t = 0.0 if q_point else (b * s + f) / e
+    a_safe = 1.0 if p_point else a
+    if t < 0.0:
+        s = _clip01(-c / a_safe)
+    if t > 1.0:
+        s = _clip01((b - c) / a_safe)
+    t = _clip01(t)
+    if p_point:
+        s = 0.0
+        if not q_point:
+            t = _clip01(f / e)
+    if q_point and not p_point:
+        s = _clip01(-c / a)
+    g0 = (p0[0] + s * d10) - (q0[0] + t * d20)
+    g1 = (p0[1] + s * d11) - (q0[1] + t * d21)
+    g2 = (p0[2] + s * d12) - (q0[2] + t * d22)
+    return math.sqrt(_dot(g0, g1, g2, g0, g1, g2))
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _half_length(c, m, i):
+    """Half the length of capsule ``i`` at pose ``m``."""
+    return 0.5 * math.sqrt((c[m, i, 1, 0] - c[m, i, 0, 0]) ** 2 + (c[m, i, 1, 1] - c[m, i, 0, 1]) ** 2
+                           + (c[m, i, 1, 2] - c[m, i, 0, 2]) ** 2)
+
+
+@njit(cache=True, nogil=True, inline="always", error_model="numpy")
+def _bound(ca, cb, m, i, j, half_a, half_b):
+    """A lower bound of the distance of capsules ``i`` and ``j`` (their segments inside spheres about their
+    midpoints)."""
+    d2 = 0.0
+    for k in range(3):
+        e = 0.5 * (ca[m, i, 0, k] + ca[m, i, 1, k]) - 0.5 * (cb[m, j, 0, k] + cb[m, j, 1, k])
+        d2 += e * e
+    return math.sqrt(d2) - half_a[i] - half_b[j]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _pose_gap(ca, cb, ra, rb, m, half_a, half_b, seed):
+    """The smallest gap of two arms' capsules at pose ``m`` and its pair (the first smallest, as NumPy's argmin:
+    the seed pair is computed first, then every pair in order, a pair whose lower bound lies more than 1e-9 m
+    above the smallest so far skipped: the result is that of the full loop)."""
+    n = ra.shape[0]
+    for i in range(n):
+        half_a[i] = _half_length(ca, m, i)
+        half_b[i] = _half_length(cb, m, i)
+    si, sj = seed // n, seed % n
+    low = _segment_distance(ca[m, si, 0], ca[m, si, 1], cb[m, sj, 0], cb[m, sj, 1]) - (ra[si] + rb[sj])
+    k_low = seed
+    if low != low:                    # an undefined pose: the first undefined pair, as argmin
+        low, k_low = np.inf, 0
+    for i in range(n):
+        for j in range(n):
+            k = i * n + j
+            if k == seed:
+                continue
+            if _bound(ca, cb, m, i, j, half_a, half_b) - (ra[i] + rb[j]) > low + 1e-9:
+                continue
+            d = _segment_distance(ca[m, i, 0], ca[m, i, 1], cb[m, j, 0], cb[m, j, 1]) - (ra[i] + rb[j])
+            if d != d:
+                return d, k
+            if d < low or (d == low and k < k_low):
+                low, k_low = d, k
+    return low, k_low
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def capsule_gaps(ca, cb, ra, rb, gap, best, seed=21):
+    """The clearance of two arms at many poses, compiled: for each pose the smallest segment distance of their
+    capsules less the two radii, and which pair of parts (``i * len(PARTS) + j``, the first smallest, as
+    :func:`pair_clearance`; a pose with an undefined distance, NaN, gives NaN and the first such pair, as NumPy's
+    ``argmin``).
+
+    Parameters
+    ----------
+    ca, cb : ndarray, shape (n, P, 2, 3)
+        The two arms' capsules at each pose (:func:`capsules`, flattened over the poses), m.
+    ra, rb : ndarray, shape (P,)
+        Their radii, m.
+    gap : ndarray, shape (n,)
+        Written: the clearance, m.
+    best : ndarray of int, shape (n,)
+        Written: the closest parts.
+    seed : int
+        The pair computed first (default: triple swivel to triple swivel, the connected neighbours' nearest
+        parts), so that the lower bounds skip the pairs that cannot be nearer.
+    """
+    n = ra.shape[0]
+    half_a, half_b = np.empty(n), np.empty(n)
+    for m in range(ca.shape[0]):
+        gap[m], best[m] = _pose_gap(ca, cb, ra, rb, m, half_a, half_b, seed)
+
+
+def pair_clearance_compiled(first: ArmShape, second: ArmShape, q_first, q_second) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pair_clearance` with the capsules' distances compiled (:func:`capsule_gaps`): the guidance cycle's
+    route (the bank's monitor), held to the vectorised one by a test.
+
+    Parameters
+    ----------
+    first, second : ArmShape
+    q_first, q_second : array_like, shape (..., 3)
+        Each arm's (slew, inboard, elbow) angles, rad, pose by pose (broadcast together).
+
+    Returns
+    -------
+    clearance : ndarray, shape (...)
+        m.
+    parts : ndarray of int, shape (..., 2)
+    """
+    qa, qb = np.broadcast_arrays(np.asarray(q_first, dtype=float), np.asarray(q_second, dtype=float))
+    lead = qa.shape[:-1]
+    n = len(PARTS)
+    ca = capsules(first, qa[..., 0], qa[..., 1], qa[..., 2]).reshape(-1, n, 2, 3)
+    cb = capsules(second, qb[..., 0], qb[..., 1], qb[..., 2]).reshape(-1, n, 2, 3)
+    gap, best = np.empty(ca.shape[0]), np.empty(ca.shape[0], dtype=np.int64)
+    capsule_gaps(ca, cb, np.asarray(first.radii, dtype=float), np.asarray(second.radii, dtype=float), gap, best)
+    return gap.reshape(lead), np.stack((best // n, best % n), axis=-1).reshape(lead + (2,))
 
 
 @dataclass(frozen=True)

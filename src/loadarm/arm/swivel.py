@@ -171,7 +171,7 @@ class SwivelAngles:
 
 
 def swivel_angles(phi, alpha, beta, roll=0.0, pitch=0.0, yaw=0.0, *, heading: float = np.pi / 2,
-                  coupler: np.ndarray | None = None) -> SwivelAngles:
+                  coupler: np.ndarray | None = None, rotation: np.ndarray | None = None) -> SwivelAngles:
     """The three swivel angles that put the coupler on the ship's flange (inverse of :func:`coupler_rotation`).
 
     The coupler's orientation is the ship's rotation applied to its orientation at rest
@@ -189,13 +189,16 @@ def swivel_angles(phi, alpha, beta, roll=0.0, pitch=0.0, yaw=0.0, *, heading: fl
         The ship's bow direction in the arm's frame, rad (:func:`ship_rotation`).
     coupler : ndarray (3, 3), optional
         The coupler's orientation with the ship at rest.
+    rotation : ndarray (..., 3, 3), optional
+        :func:`ship_rotation` of ``roll, pitch, yaw, heading``, already computed (the bank's arms share it);
+        ``roll``, ``pitch``, ``yaw`` and ``heading`` are then not read.
 
     Returns
     -------
     SwivelAngles
         Each of the broadcast shape of the inputs.
     """
-    target = ship_rotation(roll, pitch, yaw, heading)
+    target = ship_rotation(roll, pitch, yaw, heading) if rotation is None else np.asarray(rotation, dtype=float)
     if coupler is not None:
         target = target @ np.asarray(coupler, dtype=float)
     m = np.swapaxes(tip_rotation(phi, alpha, beta), -1, -2) @ target

@@ -32,7 +32,8 @@ from loadarm.arm.sequence import esd_lead, lead_values, valve_worst_time
 from loadarm.guidance.drift import FIT_PERIOD, DriftEstimate, DriftFit
 from loadarm.vocab import Severity
 
-__all__ = ["stage_leads", "LimitForecast", "EnvelopeMonitor", "predicted_crossing", "prediction_times"]
+__all__ = ["stage_leads", "LimitForecast", "ForecastRoutes", "EnvelopeMonitor", "first_crossing", "measured_route",
+           "predicted_crossing", "prediction_times", "CORNERS"]
 
 
 def stage_leads(seq, *, valves_left: float | None = None, release_left: float | None = None) -> dict:
@@ -97,7 +98,164 @@ class LimitForecast:
     design: float = math.nan
 
 
-_CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+#: The eight corners of a forecast's box, in the order of a measured route's points.
+CORNERS = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], dtype=float)
+
+
+def first_crossing(points, horizon: float, outside, faces, *, step: float, resolution: float) \
+        -> tuple[float, str, int, dict]:
+    """First time any of the forecast's points lies past a face: a coarse scan at ``step``, then bisection to
+    ``resolution``, reported at the last time found inside (early by up to ``resolution``, never late within the
+    scan). The one scan of every time to a face: the arm's faces (:class:`EnvelopeMonitor`) and the bank's
+    (:class:`loadarm.guidance.bank.BankMonitor`).
+
+    Parameters
+    ----------
+    points : callable
+        ``tau`` (shape (T,), s) to the forecast's points, shape (T, K, ...).
+    horizon : float
+        s.
+    outside : callable
+        Points (T, K, ...) to ``(past, face)``, both (T, K): past a face, and which (an index of ``faces``).
+    faces : sequence of str
+        The faces' names.
+    step, resolution : float
+        s.
+
+    Returns
+    -------
+    time : float
+        The last time found inside, s (``inf``: none within the horizon).
+    face : str
+        ``""`` if none.
+    index : int
+        The point (of K) that crossed it (-1: none).
+    by_face : dict of str to float
+        From the coarse scan, the last time inside before each face crossed (the first face's refined).
+    """
+    tau = np.arange(0.0, horizon + step, step)
+    past, face = outside(points(tau))
+    rows = np.flatnonzero(past.any(axis=1))
+    if rows.size == 0:
+        return math.inf, "", -1, {}
+    by_face = {}
+    for j, name in enumerate(faces):
+        crossed = np.flatnonzero((past & (face == j)).any(axis=1))
+        if crossed.size:
+            r = int(crossed[0])
+            by_face[name] = float(tau[r - 1]) if r > 0 else 0.0
+    i = int(rows[0])
+    k = int(np.flatnonzero(past[i])[0])
+    hit = (faces[int(face[i, k])], k)
+    if i == 0:
+        by_face[hit[0]] = 0.0
+        return 0.0, hit[0], hit[1], by_face
+    lo, hi = float(tau[i - 1]), float(tau[i])
+    while hi - lo > resolution + 1e-12:
+        mid = 0.5 * (lo + hi)
+        out, f = outside(points(np.array([mid])))
+        if out.any():
+            hi = mid
+            k = int(np.flatnonzero(out[0])[0])
+            hit = (faces[int(f[0, k])], k)
+        else:
+            lo = mid
+    by_face = {f: max(t, lo) for f, t in by_face.items()}   # no face is crossed before the first one
+    by_face[hit[0]] = lo
+    return lo, hit[0], hit[1], by_face
+
+
+def measured_route(est: DriftEstimate, age: float, k_sigma: float):
+    """The measured route of one drift estimate: ``tau`` (shape (T,)) to the corners of its box (T, 8, d).
+
+    The fit extrapolated from its newest sample (its acceleration only where it is significant: an acceleration
+    too small to tell from the waves is the design floor's to cover, from rest), a decelerating drift stopping at
+    its vertex, widened by the wave excursion and ``k_sigma`` standard deviations of the position and velocity.
+
+    Parameters
+    ----------
+    est : DriftEstimate
+        Of any three channels (the flange's position, m; the ship's roll, pitch and yaw, rad).
+    age : float
+        From the estimate's newest sample to now, s.
+    k_sigma : float
+
+    Returns
+    -------
+    callable
+    """
+    a = np.where(np.abs(est.a) > k_sigma * est.sigma_a, est.a, 0.0)
+    t_stop = np.where(est.v * a < 0, -est.v / np.where(a == 0, 1.0, a), np.inf)
+
+    def points(tau):
+        t = np.minimum(tau[:, None] + age, t_stop)
+        centre = est.p + est.v * t + 0.5 * a * t * t
+        half = est.wave + k_sigma * (est.sigma_p + est.sigma_v * (tau[:, None] + age))
+        return centre[:, None, :] + half[:, None, :] * CORNERS[None]
+
+    return points
+
+
+@dataclass(frozen=True)
+class ForecastRoutes:
+    """The forecast of the flange's position by every route, as functions of the time ahead.
+
+    Attributes
+    ----------
+    design : callable
+        ``tau`` (T,) to the design drift's points (T, :attr:`n_design`, 3): a break-out from where the flange is
+        in every horizontal direction, and the design vertical speed up and down.
+    measured : tuple of callable
+        Each measured route's ``tau`` to its box's corners (T, 8, 3).
+    names : tuple of str
+        The measured routes' names (``"measured drift"``, ``"velocity step"``, ``"break-out"``).
+    n_design : int
+    """
+
+    design: object
+    measured: tuple
+    names: tuple[str, ...]
+    n_design: int
+
+    def points(self, tau) -> np.ndarray:
+        """Every route's points, the design drift's first: (T, K, 3).
+
+        Parameters
+        ----------
+        tau : ndarray (T,)
+            s ahead.
+
+        Returns
+        -------
+        ndarray
+        """
+        return np.concatenate([self.design(tau)] + [r(tau) for r in self.measured], axis=1)   # one evaluation
+
+    def measured_points(self, tau) -> np.ndarray:
+        """The measured routes' points alone: (T, 8 x routes, 3).
+
+        Parameters
+        ----------
+        tau : ndarray (T,)
+
+        Returns
+        -------
+        ndarray
+        """
+        return np.concatenate([r(tau) for r in self.measured], axis=1)
+
+    def route(self, k: int) -> str:
+        """The route of point ``k`` of :meth:`points`.
+
+        Parameters
+        ----------
+        k : int
+
+        Returns
+        -------
+        str
+        """
+        return "design drift" if k < self.n_design else self.names[(k - self.n_design) // len(CORNERS)]
 
 
 class EnvelopeMonitor:
@@ -212,40 +370,8 @@ class EnvelopeMonitor:
         return first_face(m)
 
     def _first_crossing(self, points, horizon: float) -> tuple[float, str, int, dict]:
-        """First time any of ``points(tau)`` (shape (T, K, 3) for times ``tau``) lies past a face: a coarse scan
-        at :attr:`step`, then bisection to :attr:`resolution`; returns the last time found inside, the face, the
-        index of the point that crossed it (``inf, "", -1`` if none within the horizon) and, from the coarse
-        scan, the last time inside before each face crossed (the first face's refined)."""
-        tau = np.arange(0.0, horizon + self.step, self.step)
-        outside, face = self._outside(points(tau))
-        rows = np.flatnonzero(outside.any(axis=1))
-        if rows.size == 0:
-            return math.inf, "", -1, {}
-        by_face = {}
-        for j, name in enumerate(FACES):
-            crossed = np.flatnonzero((outside & (face == j)).any(axis=1))
-            if crossed.size:
-                r = int(crossed[0])
-                by_face[name] = float(tau[r - 1]) if r > 0 else 0.0
-        i = int(rows[0])
-        k = int(np.flatnonzero(outside[i])[0])
-        hit = (FACES[int(face[i, k])], k)
-        if i == 0:
-            by_face[hit[0]] = 0.0
-            return 0.0, hit[0], hit[1], by_face
-        lo, hi = float(tau[i - 1]), float(tau[i])
-        while hi - lo > self.resolution + 1e-12:
-            mid = 0.5 * (lo + hi)
-            out, f = self._outside(points(np.array([mid])))
-            if out.any():
-                hi = mid
-                k = int(np.flatnonzero(out[0])[0])
-                hit = (FACES[int(f[0, k])], k)
-            else:
-                lo = mid
-        by_face = {f: max(t, lo) for f, t in by_face.items()}   # no face is crossed before the first one
-        by_face[hit[0]] = lo
-        return lo, hit[0], hit[1], by_face
+        """:func:`first_crossing` of the arm's faces at this monitor's step and resolution."""
+        return first_crossing(points, horizon, self._outside, FACES, step=self.step, resolution=self.resolution)
 
     def time_to_limit(self, p_now, horizon: float, *, alarmed: bool = False, now: float | None = None,
                       design_too: bool = False) -> LimitForecast:
@@ -273,22 +399,52 @@ class EnvelopeMonitor:
         -------
         LimitForecast
         """
+        routes = self.routes(p_now, alarmed=alarmed, now=now)
+        points = routes.points if routes.measured else routes.design
+        t, face, k, by_face = self._first_crossing(points, horizon)
+        if not face:
+            return LimitForecast(math.inf, "", "", design=math.inf)
+        faces = tuple(sorted(by_face.items(), key=lambda kv: kv[1]))
+        if k < routes.n_design:
+            t_m = self._first_crossing(routes.measured_points, horizon)[0] if routes.measured else math.inf
+            return LimitForecast(t, face, "design drift", faces, t_m, t)
+        t_d = self._first_crossing(routes.design, horizon)[0] if design_too else math.nan
+        return LimitForecast(t, face, routes.route(k), faces, t, t_d)
+
+    def routes(self, p_now, *, alarmed: bool = False, now: float | None = None) -> ForecastRoutes:
+        """The forecast of the flange by every route, as :meth:`time_to_limit` scans it (one forecast for the
+        arm's faces and the bank's: :class:`loadarm.guidance.bank.BankMonitor`).
+
+        Parameters
+        ----------
+        p_now : sequence of float
+            Flange position now, m.
+        alarmed : bool
+            ESD-1 is already active (:meth:`time_to_limit`).
+        now : float, optional
+            Time, s: use the fit of the last :meth:`refit` (made for the same ``alarmed``); without it the drift
+            is fitted here.
+
+        Returns
+        -------
+        ForecastRoutes
+        """
         if now is None or alarmed != self.est_alarmed or (self.est is None and self.fit.count):
             self.refit(alarmed)
         est = self.est
         age = 0.0 if (now is None or est is None) else max(now - self.est_t, 0.0)
         base = np.asarray(p_now, dtype=float) if est is None else est.p + est.v * age
         dd = self.dd
+        dirs_h = self.dirs_h
         dirs_v = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]])
 
         def design(tau):
             # a break-out from where the flange is, every horizontal direction, and vertically
             d_h = breakout_distance(tau, dd.speed, dd.acceleration)
             d_v = dd.vertical_speed * tau
-            return np.concatenate([base + d_h[:, None, None] * self.dirs_h[None],
+            return np.concatenate([base + d_h[:, None, None] * dirs_h[None],
                                    base + d_v[:, None, None] * dirs_v[None]], axis=1)
 
-        n_design = self.dirs_h.shape[0] + 2
         routes, names = [], []
         if est is not None:
             routes.append(self._measured(est, age))
@@ -298,44 +454,11 @@ class EnvelopeMonitor:
                 if e is not None:
                     routes.append(self._measured(e, step_age))
                     names.append(name)
-        if not routes:
-            points = design
-        else:
-
-            def measured(tau):
-                return np.concatenate([r(tau) for r in routes], axis=1)
-
-            def points(tau):
-                return np.concatenate([design(tau)] + [r(tau) for r in routes], axis=1)   # one evaluation
-
-        t, face, k, by_face = self._first_crossing(points, horizon)
-        if not face:
-            return LimitForecast(math.inf, "", "", design=math.inf)
-        faces = tuple(sorted(by_face.items(), key=lambda kv: kv[1]))
-        if k < n_design:
-            t_m = self._first_crossing(measured, horizon)[0] if routes else math.inf
-            return LimitForecast(t, face, "design drift", faces, t_m, t)
-        t_d = self._first_crossing(design, horizon)[0] if design_too else math.nan
-        return LimitForecast(t, face, names[(k - n_design) // len(_CORNERS)], faces, t, t_d)
+        return ForecastRoutes(design, tuple(routes), tuple(names), dirs_h.shape[0] + 2)
 
     def _measured(self, est: DriftEstimate, age: float):
-        """The measured route of one drift estimate: ``tau`` (shape (T,)) to the corners of its box (T, 8, 3).
-
-        The fit extrapolated from its newest sample (its acceleration only where it is significant: an
-        acceleration too small to tell from the waves is the design floor's to cover, from rest), a decelerating
-        drift stopping at its vertex, widened by the wave excursion and k standard deviations of the position
-        and velocity.
-        """
-        a = np.where(np.abs(est.a) > self.k * est.sigma_a, est.a, 0.0)
-        t_stop = np.where(est.v * a < 0, -est.v / np.where(a == 0, 1.0, a), np.inf)
-
-        def points(tau):
-            t = np.minimum(tau[:, None] + age, t_stop)
-            centre = est.p + est.v * t + 0.5 * a * t * t
-            half = est.wave + self.k * (est.sigma_p + est.sigma_v * (tau[:, None] + age))
-            return centre[:, None, :] + half[:, None, :] * _CORNERS[None]
-
-        return points
+        """:func:`measured_route` at this monitor's ``k``."""
+        return measured_route(est, age, self.k)
 
 
 def predicted_crossing(model, forecast, within, now: float, lead: float) -> tuple[float, str]:
@@ -375,7 +498,7 @@ def predicted_crossing(model, forecast, within, now: float, lead: float) -> tupl
         return math.inf, ""
     centre = 0.5 * (forecast.lo[keep] + forecast.hi[keep])
     half = 0.5 * (forecast.hi[keep] - forecast.lo[keep]) + np.asarray(within)
-    pts = centre[:, None, :] + half[:, None, :] * _CORNERS[None]
+    pts = centre[:, None, :] + half[:, None, :] * CORNERS[None]
     m = face_margins(model, pts[..., 0], pts[..., 1], pts[..., 2])
     outside, face = first_face(m)
     rows = np.flatnonzero(outside.any(axis=1))

@@ -1,0 +1,367 @@
+"""Connected monitoring of a bank of arms (issue 31, items 2-3): the triple swivels' travel and the clearance
+between neighbouring arms, with their time to limit from the same forecast as the arm's own faces.
+
+All the bank's flanges are on one ship. The monitor watches the ship's manifold: its centre's position (bank
+frame) and the ship's roll, pitch and yaw there (:func:`loadarm.arm.swivel.ship_rotation`). Each arm's flange is
+the manifold's pose at the flange's offset, rigidly; each arm's joints are the inverse kinematics of its flange
+(the arm connected follows it), its swivels the closed form of :func:`loadarm.arm.swivel.swivel_angles`, its
+capsules :func:`loadarm.arm.clearance.capsules`.
+
+**The forecast is the single arm's** (:class:`loadarm.guidance.monitor.EnvelopeMonitor`, called, not copied): its
+drift fit of the manifold centre, the velocity-step and break-out tests, the design drift's break-out in every
+horizontal direction and the vertical, as :meth:`EnvelopeMonitor.routes` gives them; the ship's rotation is
+forecast by the same least-squares fit (:class:`loadarm.guidance.drift.DriftFit` on roll, pitch and yaw, and
+:func:`loadarm.guidance.monitor.measured_route`: extrapolated, widened by the wave excursion and ``k`` standard
+deviations, the eight corners of its box). The berth declares no design rotation, so the rotation has no design
+floor: until its window fills it is held at the angles now (a limit, stated in docs/bank.md). Every position
+hypothesis is paired with every rotation hypothesis, and the scan is the monitor's own
+(:func:`loadarm.guidance.monitor.first_crossing`: 2 s steps, bisection to 1/16 s, early never late).
+
+The faces (:data:`loadarm.vocab.BANK_FACE_TABLE`): each arm's six swivel stops, and the clash of each pair of
+neighbouring arms (along the jetty) closer than the bank's ``clearance.min_clearance``. Their clearance is the
+compiled route (:func:`loadarm.arm.clearance.capsule_gaps`, held bit for bit to the vectorised one).
+
+The stage: :func:`loadarm.guidance.monitor.stage_leads` and :func:`loadarm.arm.sequence.stage_of` per arm (the
+emergency sequence written once); ESD-1 and ERS-2 act on every arm of the bank, so the bank's stage is the most
+severe arm's.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from loadarm.arm.clearance import PARTS, capsule_gaps, capsules
+from loadarm.arm.sequence import stage_of
+from loadarm.arm.slew import inverse3d
+from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
+from loadarm.guidance.drift import FIT_PERIOD, DriftEstimate, DriftFit
+from loadarm.guidance.monitor import EnvelopeMonitor, first_crossing, measured_route, stage_leads
+from loadarm.params.bank import Bank
+from loadarm.vocab import CLASH_FACE, SWIVEL_FACE_TABLE, Severity
+
+__all__ = ["BankMargins", "BankForecast", "BankMonitor", "neighbours"]
+
+_N_SWIVEL = len(SWIVEL_FACE_TABLE)
+
+
+def neighbours(bank: Bank) -> tuple[tuple[int, int], ...]:
+    """The pairs of neighbouring arms along the jetty (by their risers' ``y``), each as (lower, upper) indices of
+    the bank's arms.
+
+    Parameters
+    ----------
+    bank : Bank
+
+    Returns
+    -------
+    tuple of (int, int)
+    """
+    order = sorted(range(len(bank.names)), key=lambda i: bank.file.arms[i].y)
+    return tuple((a, b) for a, b in zip(order, order[1:], strict=False))
+
+
+@dataclass(frozen=True)
+class BankMargins:
+    """The bank's faces at one manifold pose.
+
+    Attributes
+    ----------
+    swivel : ndarray, shape (n_arms, 6)
+        Each arm's swivel margins, rad, in the order of :data:`loadarm.vocab.SWIVEL_FACE_TABLE` (NaN: the arm
+        cannot reach its flange there, its own faces' matter).
+    clearance : ndarray, shape (n_pairs,)
+        Each pair of neighbours' clearance, m (the capsules' surfaces).
+    parts : tuple of (str, str)
+        The two parts closest, per pair.
+    """
+
+    swivel: np.ndarray
+    clearance: np.ndarray
+    parts: tuple[tuple[str, str], ...]
+
+
+@dataclass(frozen=True)
+class BankForecast:
+    """When the bank would first reach one of its faces, and each arm's stage.
+
+    Attributes
+    ----------
+    time : float
+        Time to the first face, s (``inf``: none within the horizon).
+    face : str
+        Its code (``swivel1_max``, ..., ``clash``; ``""``: none).
+    arms : tuple of str
+        The arm (a swivel face) or the two arms (the clash).
+    route : str
+        The position's route that crossed first (``"design drift"``, ``"measured drift"``, ...).
+    by_arm : tuple of float
+        Each arm's time to its nearest bank face (its swivels, and the clash of a pair it belongs to), s: from the
+        scan's steps, the first face's refined (early by up to a scan step, never late).
+    measured_by_arm : tuple of float
+        The same by the measured routes alone, s (the pre-alarm's).
+    stages : tuple of Severity
+        Each arm's stage (:func:`loadarm.arm.sequence.stage_of` on its leads).
+    """
+
+    time: float
+    face: str
+    arms: tuple[str, ...]
+    route: str
+    by_arm: tuple[float, ...]
+    measured_by_arm: tuple[float, ...]
+    stages: tuple[Severity, ...]
+
+    @property
+    def stage(self) -> Severity:
+        """The bank's stage: ESD-1 and ERS-2 act on every arm, so the most severe arm's."""
+        return max(self.stages, default=Severity.NORMAL)
+
+
+def _design_model(bank: Bank):
+    """The first arm's model with the most severe design drift of the bank's installations (one ship, one
+    berth: their design drifts should agree; the largest speed, acceleration and vertical speed are kept)."""
+    dds = [m.design_drift for m in bank.models]
+    worst = dataclasses.replace(dds[0], speed=max(d.speed for d in dds),
+                                acceleration=max(d.acceleration for d in dds),
+                                vertical_speed=max(d.vertical_speed for d in dds))
+    return dataclasses.replace(bank.models[0], design_drift=worst)
+
+
+class BankMonitor:
+    """Time to the bank's faces (the swivels' stops, the clash of neighbours) from the manifold's forecast.
+
+    Parameters
+    ----------
+    bank : Bank
+    window : float
+        Drift-fit window, s (as the arm's monitor).
+    k_sigma : float
+        Standard deviations of the fit added to the forecast.
+    step, resolution : float
+        The scan's step and the bisection's resolution, s.
+    period : float
+        Sampling period of the fits, s.
+    """
+
+    def __init__(self, bank: Bank, window: float = 60.0, k_sigma: float = 2.0, step: float = 2.0,
+                 resolution: float = 0.0625, period: float = FIT_PERIOD):
+        self.bank = bank
+        self.position = EnvelopeMonitor(_design_model(bank), window, k_sigma, step, resolution, period)
+        self.rotation = DriftFit(window, period)
+        self.rot_est: DriftEstimate | None = None
+        self.rot_t = math.nan
+        self.k = k_sigma
+        self.heading = math.radians(bank.file.manifold.heading_deg)
+        self.offsets = np.array([[0.0, f.offset, f.height] for f in bank.flanges])
+        self.risers = np.array([[a.x, a.y, 0.0] for a in bank.file.arms])
+        self.limits = bank.file.swivels.limits()
+        self.required = float(bank.file.clearance.min_clearance)
+        self.pairs = neighbours(bank)
+        names = bank.names
+        self.faces = tuple(f"{names[i]}:{f.name}" for i in range(len(names)) for f in SWIVEL_FACE_TABLE) + tuple(
+            f"{names[a]}/{names[b]}:{CLASH_FACE.name}" for a, b in self.pairs)
+        # the arms each face concerns, for each arm's time
+        self._face_arms = [(i,) for i in range(len(names)) for _ in SWIVEL_FACE_TABLE] + list(self.pairs)
+
+    def reset(self) -> None:
+        """A new connection: forget the history."""
+        self.position.reset()
+        self.rotation.reset()
+        self.rot_est, self.rot_t = None, math.nan
+
+    def observe(self, t: float, centre, angles) -> bool:
+        """Feed the manifold's pose.
+
+        Parameters
+        ----------
+        t : float
+            s.
+        centre : sequence of float
+            The manifold's centre, bank frame, m.
+        angles : sequence of float
+            The ship's roll, pitch and yaw at the manifold, rad.
+
+        Returns
+        -------
+        bool
+            True when the sample was kept (time to :meth:`refit`).
+        """
+        kept = self.position.observe(t, centre)
+        self.rotation.push(t, angles)
+        return kept
+
+    def refit(self, alarmed: bool = False) -> None:
+        """Fit the manifold's drift (with the step and break-out tests) and the ship's rotation now.
+
+        Parameters
+        ----------
+        alarmed : bool
+            ESD-1 is active (the fits then use whatever history there is, as the arm's monitor).
+        """
+        self.position.refit(alarmed)
+        least = int(round(EnvelopeMonitor.ALARMED_MIN_HISTORY / self.rotation.period)) if alarmed else None
+        self.rot_est, self.rot_t = self.rotation.estimate(least), self.rotation.t_last
+
+    # ----------------------------------------------------------------------------------------------- the faces
+
+    def arm_poses(self, centre, angles, rotation=None) -> list:
+        """Each arm's joints at manifold poses: the inverse kinematics of its flange (NaN out of reach).
+
+        Parameters
+        ----------
+        centre : ndarray, shape (..., 3)
+            m.
+        angles : ndarray, shape (..., 3)
+            Roll, pitch, yaw, rad.
+        rotation : ndarray, shape (..., 3, 3), optional
+            Their :func:`loadarm.arm.swivel.ship_rotation`, if already computed.
+
+        Returns
+        -------
+        list of ndarray, shape (..., 3)
+            Slew, inboard, elbow angles per arm, rad.
+        """
+        centre, angles = np.asarray(centre, dtype=float), np.asarray(angles, dtype=float)
+        rot = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], self.heading) if rotation is None \
+            else rotation
+        flanges = centre[..., None, :] + np.einsum("...ij,aj->...ai", rot, self.offsets) - self.risers
+        poses = []
+        for i, model in enumerate(self.bank.models):
+            q = inverse3d(model.arm, flanges[..., i, 0], flanges[..., i, 1], flanges[..., i, 2], check=False)
+            poses.append(np.stack([q.phi, q.alpha, q.beta], axis=-1))
+        return poses
+
+    def _margins(self, centre, angles) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every face's margin (swivels rad, then clash m less the required), shape (..., faces), and the closest
+        parts of each pair (..., pairs)."""
+        angles = np.asarray(angles, dtype=float)
+        rot = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], self.heading)
+        poses = self.arm_poses(centre, angles, rot)
+        lead = poses[0].shape[:-1]
+        cols = []
+        for q in poses:
+            sw = swivel_angles(q[..., 0], q[..., 1], q[..., 2], heading=self.heading, rotation=rot)
+            cols.append(swivel_margins(sw, self.limits))
+        caps = [capsules(s, q[..., 0], q[..., 1], q[..., 2]).reshape(-1, len(PARTS), 2, 3)
+                for s, q in zip(self.bank.shapes, poses, strict=True)]
+        radii = [np.asarray(s.radii, dtype=float) for s in self.bank.shapes]
+        gaps, best = [], []
+        for a, b in self.pairs:
+            gap, k = np.empty(caps[a].shape[0]), np.empty(caps[a].shape[0], dtype=np.int64)
+            capsule_gaps(caps[a], caps[b], radii[a], radii[b], gap, k)
+            gaps.append(gap.reshape(lead + (1,)) - self.required)
+            best.append(k.reshape(lead))
+        return np.concatenate(cols + gaps, axis=-1), np.stack(best, axis=-1) if best else np.zeros(lead + (0,))
+
+    def margins(self, centre, angles) -> BankMargins:
+        """The bank's faces now.
+
+        Parameters
+        ----------
+        centre : sequence of float
+            The manifold's centre, m.
+        angles : sequence of float
+            Roll, pitch, yaw, rad.
+
+        Returns
+        -------
+        BankMargins
+        """
+        m, best = self._margins(np.asarray(centre, dtype=float), np.asarray(angles, dtype=float))
+        n = len(self.bank.names) * _N_SWIVEL
+        n_parts = len(PARTS)
+        parts = tuple((PARTS[int(k) // n_parts], PARTS[int(k) % n_parts]) for k in np.atleast_1d(best))
+        return BankMargins(m[:n].reshape(-1, _N_SWIVEL), m[n:] + self.required, parts)
+
+    def _outside(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Past a face at each hypothesis (T, K, 6: the centre, then roll, pitch, yaw), and the first face past."""
+        m, _ = self._margins(pts[..., :3], pts[..., 3:])
+        past = m < 0.0                                          # NaN (out of the arm's reach): the arm's faces'
+        return past.any(axis=-1), np.argmax(past, axis=-1)
+
+    # -------------------------------------------------------------------------------------------- the forecast
+
+    def _rotation_route(self, angles_now, now: float | None):
+        """``tau`` to the rotation's hypotheses (T, R, 3): the fit's box corners, or the angles now held."""
+        if self.rot_est is None:
+            held = np.asarray(angles_now, dtype=float)
+            return lambda tau: np.broadcast_to(held, (tau.shape[0], 1, 3))
+        age = 0.0 if now is None else max(now - self.rot_t, 0.0)
+        return measured_route(self.rot_est, age, self.k)
+
+    @staticmethod
+    def _paired(position, rotation):
+        """Every position hypothesis with every rotation hypothesis: ``tau`` to (T, P x R, 6)."""
+
+        def points(tau):
+            p, r = position(tau), rotation(tau)
+            n_p, n_r = p.shape[1], r.shape[1]
+            return np.concatenate([np.repeat(p, n_r, axis=1), np.tile(r, (1, n_p, 1))], axis=-1)
+
+        return points
+
+    def _scan(self, points, horizon: float):
+        return first_crossing(points, horizon, self._outside, self.faces, step=self.position.step,
+                              resolution=self.position.resolution)
+
+    def _by_arm(self, by_face: dict) -> list[float]:
+        times = [math.inf] * len(self.bank.names)
+        for j, name in enumerate(self.faces):
+            if name in by_face:
+                for i in self._face_arms[j]:
+                    times[i] = min(times[i], by_face[name])
+        return times
+
+    def time_to_limit(self, centre_now, angles_now, horizon: float, *, alarmed: bool = False,
+                      now: float | None = None, valves_left=None, release_left=None) -> BankForecast:
+        """Earliest time the bank could reach one of its faces within ``horizon``, and each arm's stage.
+
+        Parameters
+        ----------
+        centre_now : sequence of float
+            The manifold's centre now, m.
+        angles_now : sequence of float
+            Roll, pitch, yaw now, rad.
+        horizon : float
+            s (the longest stage lead).
+        alarmed : bool
+            ESD-1 is active (:meth:`EnvelopeMonitor.time_to_limit`).
+        now : float, optional
+            Time, s: the fits of the last :meth:`refit`, extrapolated to now; without it the position is fitted
+            here.
+        valves_left, release_left : sequence of float, optional
+            Per arm, as :func:`loadarm.guidance.monitor.stage_leads` (default: the whole sequence to run).
+
+        Returns
+        -------
+        BankForecast
+        """
+        routes = self.position.routes(centre_now, alarmed=alarmed, now=now)
+        rotation = self._rotation_route(angles_now, now)
+        position = routes.points if routes.measured else routes.design
+        n_rot = rotation(np.zeros(1)).shape[1]
+        t, face, k, by_face = self._scan(self._paired(position, rotation), horizon)
+        by_arm = self._by_arm(by_face)
+        measured = [math.inf] * len(by_arm)
+        if face and routes.measured:
+            measured = self._by_arm(self._scan(self._paired(routes.measured_points, rotation), horizon)[3])
+        stages = self._stages(by_arm, measured, valves_left, release_left)
+        if not face:
+            return BankForecast(math.inf, "", (), "", tuple(by_arm), tuple(measured), stages)
+        arms, _, code = face.rpartition(":")
+        return BankForecast(t, code, tuple(arms.split("/")), routes.route(k // n_rot), tuple(by_arm),
+                            tuple(measured), stages)
+
+    def _stages(self, by_arm, measured, valves_left, release_left) -> tuple[Severity, ...]:
+        out = []
+        for i, model in enumerate(self.bank.models):
+            leads = stage_leads(model.sequence, valves_left=None if valves_left is None else valves_left[i],
+                                release_left=None if release_left is None else release_left[i])
+            pre = leads.get(Severity.PRE_ALARM, -math.inf)
+            out.append(Severity(stage_of(by_arm[i], measured[i], leads[Severity.RELEASE], leads[Severity.SECOND],
+                                         leads[Severity.ESD1], pre)))
+        return tuple(out)

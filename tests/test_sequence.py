@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from loadarm.arm.sequence import esd_lead, lead_values, release_lead, stage_of, valve_worst_time
@@ -78,13 +78,22 @@ def test_the_leads_are_the_sequence_times(model):
 @settings(max_examples=examples(4), deadline=None)
 @given(x=st.floats(14.5, 16.8), y=st.floats(-1.5, 1.5), z=st.floats(0.5, 1.5), hs=st.floats(0.0, 1.2),
        tp=st.floats(6.0, 12.0), seed=st.integers(0, 2**31 - 1))
+@example(x=15.0, y=0.0, z=1.0, hs=0.75, tp=11.5, seed=436306)      # found: the loop's measured drift, after ESD-1
+@example(x=15.0, y=0.0, z=1.0, hs=0.75, tp=12.0, seed=436306)      # found: the floor grazing the lead
 def test_the_kernel_and_the_closed_loop_agree_on_the_stage_its_time_and_its_face(x, y, z, hs, tp, seed):
     """Issue 26: over random sea states and flanges across the flanging area's far side (where the waves take the
     arm past its first alarm), the full closed loop (``loadarm run``, kinematic plant, its controller stepping
     the sequence) and the operability kernel (compiled, on the same flange motion from the connection on)
     reach the same stage, ESD-1 at the same time within the kernel's 0.1 s sample, and name the same face.
     Measured on 12 draws (seed 2): the same stage and face every time, the time within 0.04 s. The moored ship's
-    version, 600 s runs, is ``test_operability.py::test_the_kernel_agrees_with_loadarm_run`` (slow)."""
+    version, 600 s runs, is ``test_operability.py::test_the_kernel_agrees_with_loadarm_run`` (slow).
+
+    Two differences are the kernel's by design, found under ``HYPOTHESIS_PROFILE=thorough`` (x=15, y=0, z=1,
+    Hs 0.75 m, seed 436306): the kernel has no measured-drift rule (after ESD-1 the loop's fit over the short
+    track since the connection raised the second alarm at Tp 11.5 s: the kernel's stage may only be lower then);
+    and the loop's time to limit is found by bisection to the monitor's resolution (0.0625 s, never late), so
+    where the floor's time to limit grazes the lead (Tp 12 s: falling 0.31 s per s at ESD-1) the loop may call
+    ESD-1 up to ``resolution / rate`` earlier than the kernel's exact table (0.18 s there)."""
     from hypothesis import assume
 
     from loadarm.params.scenario import load_scenario
@@ -107,9 +116,18 @@ def test_the_kernel_and_the_closed_loop_agree_on_the_stage_its_time_and_its_face
     k = monitor_record(model, floor_table(model, p.min(0) - 0.3, p.max(0) + 0.3), p, 0.1)
     codes = ("stage.esd1", "stage.second", "stage.release")
     stage = max([0] + [int(Severity.ESD1) + i for i, c in enumerate(codes) if r.first_code(c) is not None])
-    assert k.stage == stage
-    if stage:
-        assert tt[0] + k.esd1_s == pytest.approx(r.first_code("stage.esd1"), abs=0.1)
-        assert k.esd1_face == r.first_data("stage.esd1")["face"] != ""
-    else:
+    rules = {e[4].get("rule") for e in r.events if str(e[4].get("code", "")).startswith("stage.")}
+    assert k.stage <= stage if "measured" in rules else k.stage == stage
+    esd = r.first_data("stage.esd1")
+    if stage and esd["rule"] != "measured":
+        t1 = r.first_code("stage.esd1")
+        tol = 0.1
+        if esd["rule"] == "floor":              # the loop's bisection resolution, over the time to limit's rate
+            t, ttl = r.signals["t"], r.signals["ttl"]
+            w = (t >= t1 - 2.0) & (t <= t1) & np.isfinite(ttl)       # before ESD-1 changes the routes
+            rate = abs(np.polyfit(t[w], ttl[w], 1)[0]) if w.sum() > 2 else 0.0
+            tol += 0.0625 / max(rate, 1e-3)
+        assert tt[0] + k.esd1_s == pytest.approx(t1, abs=tol)
+        assert k.esd1_face == esd["face"] != ""
+    elif not stage:
         assert k.esd1_face == "" and r.first_data("stage.esd1") is None

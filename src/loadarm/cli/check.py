@@ -21,7 +21,7 @@ from loadarm.cli.common import (
     print_json,
     read_model,
 )
-from loadarm.design.bank import check_bank_approaches
+from loadarm.design.bank import order_bank_approaches
 from loadarm.design.check import design_check
 from loadarm.design.manifold import LOAD_LABELS, check_manifold_loads
 from loadarm.figures import save
@@ -87,7 +87,8 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     """``loadarm check --bank``: clearance along the approaches, swivel margins at the design case, the release."""
     check_outputs({"--png": png}, [path], force)
     bank = load_bank(path)
-    clearance = check_bank_approaches(bank)
+    order = order_bank_approaches(bank)           # the approaches in the order that keeps the clearance
+    clearance = order.clearance
     q = bank.connected
     heading = math.radians(bank.file.manifold.heading_deg)
     margins = swivel_margins(swivel_angles(q[:, 0], q[:, 1], q[:, 2], heading=heading), bank.file.swivels.limits())
@@ -105,13 +106,15 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     nearest = [min(float(g) for (a, b), g in zip(clearance.pairs, pairs, strict=True) if i in (a, b))
                for i in range(len(names))]
     if as_json:
-        print_json({"bank": str(path), "clearance": clearance.to_dict(), "release": release.to_dict(),
+        print_json({"bank": str(path), "clearance": clearance.to_dict(), "approach_order": order.to_dict(),
+                    "release": release.to_dict(),
                     "manifold_loads": loads.to_dict(),
                     "swivel_margin_deg": {n: float(np.degrees(margins[i].min())) for i, n in enumerate(names)},
                     "nearest_arm_m": dict(zip(names, nearest, strict=True))})
         return
     out.print(f"{path}: {bank.file.bank.name}: {len(names)} arms, pass")
     out.print(str(clearance.summary()))
+    out.print(str(order.summary()))
     out.print(str(loads.summary()))
     out.print(str(release.summary()))
     use = loads.utilisation.max(axis=1)

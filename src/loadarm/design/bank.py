@@ -1,24 +1,38 @@
-"""The bank's planned approaches checked for clearance along their whole path (issue 31, item 3).
+"""The bank's planned approaches checked for clearance along their whole path, and the order they run in (issue
+31, item 3).
 
 Each arm's approach is its own straight-line plan (:func:`loadarm.design.trajectory.plan_approach_3d`) from its
 stowed position to its flange at the manifold's design position; the bank's arms run them on one time base, all
-at once or one after another in a given order (an arm waiting holds its stowed pose, an arm connected holds its
-flange), and :func:`loadarm.arm.clearance.path_clearance` checks every pair of arms at every sample.
+at once, one after another in a given order, or in waves (the arms of a wave together, each wave once the last
+finished); an arm waiting holds its stowed pose, an arm connected holds its flange, and
+:func:`loadarm.arm.clearance.path_clearance` checks every pair of arms at every sample.
+
+:func:`order_bank_approaches` decides the order: the clearance is a property of pairs, so three checks of each
+pair decide it (one arm's approach past the other stowed, past it connected, and both approaching together); the
+waves are then formed greedily, in the bank's order: an arm joins the current wave when its approach keeps the
+clearance to every arm still stowed, to every arm connected and to every arm of the wave moving with it; an arm
+that cannot waits for the arms it would clash with. The schedule is checked as a whole at the end.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from loadarm.arm.clearance import ClearanceResult, path_clearance
+from loadarm.design.plots import bank_order_figure
 from loadarm.design.trajectory import plan_approach_3d
+from loadarm.errors import PathError
 from loadarm.params.bank import Bank
+from loadarm.results import Metric, Result
 
-__all__ = ["bank_approaches", "check_bank_approaches"]
+__all__ = ["bank_approaches", "check_bank_approaches", "BankOrder", "order_bank_approaches"]
 
 
 def bank_approaches(bank: Bank, *, order: tuple[str, ...] | None = None, timing: str = "smooth",
-                    samples: int = 201) -> tuple[np.ndarray, list[np.ndarray]]:
+                    samples: int = 201, waves: tuple[tuple[str, ...], ...] | None = None) \
+        -> tuple[np.ndarray, list[np.ndarray]]:
     """Every arm's approach on one time base.
 
     Parameters
@@ -26,6 +40,8 @@ def bank_approaches(bank: Bank, *, order: tuple[str, ...] | None = None, timing:
     bank : Bank
     order : tuple of str, optional
         The arms, in the order they move one after another (default: all at once).
+    waves : tuple of tuple of str, optional
+        Instead of ``order``: groups of arms that move together, each group once the previous one has arrived.
     timing : str
         The timing law of each plan.
     samples : int
@@ -39,20 +55,22 @@ def bank_approaches(bank: Bank, *, order: tuple[str, ...] | None = None, timing:
         Each arm's (slew, inboard, elbow) angles, rad, in the bank's order of arms.
     """
     names = bank.names
-    if order is not None and sorted(order) != sorted(names):
-        raise ValueError(f"order {list(order)} must name every arm of the bank once: {list(names)}")
+    if order is not None:
+        waves = tuple((name,) for name in order)
+    if waves is not None and sorted(n for w in waves for n in w) != sorted(names):
+        raise ValueError(f"order {[list(w) for w in waves]} must name every arm of the bank once: {list(names)}")
     plans = []
     for i, model in enumerate(bank.models):
         p = bank.flange_position(i)
         plans.append(plan_approach_3d(model, target=(float(p[0]), float(p[1]), float(p[2])), timing=timing,
                                       samples=samples))
     starts = np.zeros(len(plans))
-    if order is not None:
+    if waves is not None:
         clock = 0.0
-        for name in order:
-            i = names.index(name)
-            starts[i] = clock
-            clock += plans[i].duration
+        for wave in waves:
+            idx = [names.index(name) for name in wave]
+            starts[idx] = clock
+            clock += max(plans[i].duration for i in idx)
     end = max(s + p.duration for s, p in zip(starts, plans, strict=True))
     t = np.linspace(0.0, end, max(samples, int(np.ceil(samples * end / max(p.duration for p in plans)))))
     trajectories = []
@@ -80,3 +98,168 @@ def check_bank_approaches(bank: Bank, *, order: tuple[str, ...] | None = None, t
     """
     t, qs = bank_approaches(bank, order=order, timing=timing, samples=samples)
     return path_clearance(bank.shapes, qs, t, required=bank.file.clearance.min_clearance)
+
+
+@dataclass(frozen=True)
+class BankOrder(Result):
+    """The order of the bank's approaches: which arms move first, which wait and for whom, and the schedule's
+    clearance.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The bank's arms.
+    waves : tuple of tuple of str
+        The arms moving together, wave by wave (the first moves first).
+    waits_for : tuple of (str, tuple of str)
+        Each arm of a later wave and the arms it would clash with, had it moved in an earlier wave.
+    alone, connected, together : ndarray (n, n) of float
+        The smallest clearance of arm ``i``'s approach against arm ``j`` stowed, against it connected, and both
+        approaching at once, m (diagonal NaN).
+    clearance : ClearanceResult
+        The whole schedule's.
+    start_s, end_s : tuple of float
+        When each arm's approach starts and ends in the schedule, s.
+    """
+
+    METRICS = (
+        Metric("moves_first", "moves first", ""),
+        Metric("order", "approach order (waves)", ""),
+        Metric("waits", "waits for", "", none="none"),
+    )
+
+    names: tuple[str, ...]
+    waves: tuple[tuple[str, ...], ...]
+    waits_for: tuple[tuple[str, tuple[str, ...]], ...]
+    alone: np.ndarray
+    connected: np.ndarray
+    together: np.ndarray
+    clearance: ClearanceResult
+    start_s: tuple[float, ...]
+    end_s: tuple[float, ...]
+
+    def wave_of(self, name: str) -> int:
+        """The wave an arm moves in (0: first).
+
+        Parameters
+        ----------
+        name : str
+
+        Returns
+        -------
+        int
+        """
+        return next(k for k, w in enumerate(self.waves) if name in w)
+
+    def _values(self) -> dict:
+        waits = "; ".join(f"{a} waits for {', '.join(b)}" for a, b in self.waits_for) or None
+        return {"moves_first": ", ".join(self.waves[0]), "order": " -> ".join(" + ".join(w) for w in self.waves),
+                "waits": waits, "min_clearance_m": self.clearance.min_clearance, "clear": self.clearance.clear,
+                "waves": [list(w) for w in self.waves], "waits_for": {a: list(b) for a, b in self.waits_for}}
+
+    def _figure(self):
+        return bank_order_figure(self)
+
+
+def _pair_clearances(bank: Bank, t: np.ndarray, qs: list[np.ndarray]) -> tuple[np.ndarray, ...]:
+    """Each ordered pair's smallest clearance: arm i approaching against arm j stowed, connected, approaching."""
+    n = len(qs)
+    alone, connected, together = (np.full((n, n), np.nan) for _ in range(3))
+    hold = np.ones((t.size, 1))
+    for i in range(n):
+        for j in range(n):
+            if i == j:
+                continue
+            pair = (bank.shapes[i], bank.shapes[j])
+            alone[i, j] = path_clearance(pair, [qs[i], hold * bank.stowed[j]], t).min_clearance
+            connected[i, j] = path_clearance(pair, [qs[i], hold * bank.connected[j]], t).min_clearance
+            together[i, j] = path_clearance(pair, [qs[i], qs[j]], t).min_clearance
+    return alone, connected, together
+
+
+def _sequence(n: int, ok) -> list[int] | None:
+    """One arm at a time: the first order (depth first, the bank's order preferred) in which each arm's approach
+    keeps the clearance to the arms still stowed and to those connected; None if there is none."""
+    alone, connected, _ = ok
+
+    def extend(done: list[int]) -> list[int] | None:
+        if len(done) == n:
+            return done
+        rest = [j for j in range(n) if j not in done]
+        for i in rest:
+            if all(alone[i, j] for j in rest if j != i) and all(connected[i, c] for c in done):
+                found = extend(done + [i])
+                if found is not None:
+                    return found
+        return None
+
+    return extend([])
+
+
+def _fits(k: int, w: int, wave: dict[int, int], ok) -> bool:
+    """Arm ``k`` may move in wave ``w`` against every arm already placed."""
+    alone, connected, together = ok
+    for m, wm in wave.items():
+        if wm < w and not (alone[m, k] and connected[k, m]):
+            return False
+        if wm == w and not (together[k, m] and together[m, k]):
+            return False
+        if wm > w and not (alone[k, m] and connected[m, k]):
+            return False
+    return True
+
+
+def _waves(names, ok) -> tuple[list[list[int]], dict[int, list[int]]]:
+    """The approaches in waves: a one-at-a-time order first (:func:`_sequence`), then each arm, in that order,
+    in the earliest wave that keeps every pair's clearance with the arms already placed (the clearance is a
+    property of pairs: pairwise clear is clear); an arm of a later wave waits for the arms of earlier waves its
+    approach would clash with, stowed or moving with it."""
+    alone, _, together = ok
+    order = _sequence(len(names), ok)
+    if order is None:
+        raise PathError(f"no order of the approaches of {', '.join(names)} keeps the bank's clearance: an arm's "
+                        f"approach comes too close to another arm both stowed and connected")
+    wave: dict[int, int] = {}
+    for k in order:
+        wave[k] = next(w for w in range(max(wave.values(), default=-1) + 2) if _fits(k, w, wave, ok))
+    waves = [[i for i in order if wave[i] == w] for w in range(max(wave.values()) + 1)]
+    waits = {k: [m for m in order if wave[m] < wave[k] and not (alone[k, m] and together[k, m])] for k in order}
+    return waves, waits
+
+
+def order_bank_approaches(bank: Bank, *, timing: str = "smooth", samples: int = 201) -> BankOrder:
+    """Which arm moves first and which must wait: the approaches in waves that keep every pair's clearance.
+
+    Parameters
+    ----------
+    bank : Bank
+    timing : str
+        The timing law of each arm's plan.
+    samples : int
+        Samples of each plan.
+
+    Returns
+    -------
+    BankOrder
+
+    Raises
+    ------
+    PathError
+        One line when no order keeps the clearance (an arm's approach clashes with a neighbour both stowed and
+        connected, or two arms block each other).
+    """
+    names = bank.names
+    t, qs = bank_approaches(bank, timing=timing, samples=samples)
+    need = bank.file.clearance.min_clearance
+    alone, connected, together = _pair_clearances(bank, t, qs)
+    waves, waits = _waves(names, (alone >= need, connected >= need, together >= need))
+    named = tuple(tuple(names[i] for i in w) for w in waves)
+    t2, qs2 = bank_approaches(bank, timing=timing, samples=samples, waves=named)
+    schedule = path_clearance(bank.shapes, qs2, t2, required=need)
+    if not schedule.clear:       # pairwise clear implies clear: a failure here is a bug, not an input
+        raise AssertionError(f"the ordered approaches come too close: {schedule.where()}")
+    waits_for = tuple((names[i], tuple(names[j] for j in js)) for i, js in sorted(waits.items()) if js)
+    moving = [np.flatnonzero(np.any(np.diff(q, axis=0) != 0, axis=1)) for q in qs2]
+    start = tuple(float(t2[m[0]]) if m.size else 0.0 for m in moving)
+    end = tuple(float(t2[m[-1] + 1]) if m.size else 0.0 for m in moving)
+    return BankOrder(names, named, waits_for, alone, connected, together, schedule, start, end)

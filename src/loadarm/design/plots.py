@@ -716,3 +716,35 @@ def manifold_record_figure(t: np.ndarray, names, labels, utilisation: np.ndarray
                  fontsize=9)
     fig.tight_layout()
     return fig
+
+
+def bank_order_figure(order) -> Figure:
+    """The bank's approach order: each arm's approach in time (coloured by its wave), and each pair's clearance
+    along the schedule with the required clearance dashed.
+
+    Parameters
+    ----------
+    order : loadarm.design.bank.BankOrder
+
+    Returns
+    -------
+    Figure
+    """
+    r = order.clearance
+    fig, (top, bottom) = subplots(2, 1, figsize=(8, 5.5), sharex=True, height_ratios=(1, 2))
+    for k, name in enumerate(order.names):
+        wave = order.wave_of(name)
+        top.barh(k, order.end_s[k] - order.start_s[k], left=order.start_s[k], color=f"C{wave}", height=0.6)
+        top.text(order.end_s[k], k, f"  wave {wave + 1}", va="center", fontsize=8)
+    top.set_yticks(range(len(order.names)), order.names)
+    top.invert_yaxis()
+    top.set_title(f"Approach order: {' -> '.join(' + '.join(w) for w in order.waves)}", fontsize=9)
+    for (i, j), c in zip(r.pairs, r.pair_minimum, strict=True):
+        bottom.plot(r.t, c, label=f"{r.names[i]} / {r.names[j]}")
+    bottom.axhline(r.required, color="k", ls="--", lw=1, label="required clearance")
+    bottom.plot([r.t[r.index]], [r.min_clearance], "o", mfc="none", color="r", ms=9, label="smallest")
+    bottom.set_xlabel("t [s]")
+    bottom.set_ylabel("clearance [m]")
+    bottom.legend(fontsize=8, loc="center right")
+    bottom.grid(alpha=0.3)
+    return fig

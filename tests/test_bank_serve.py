@@ -260,3 +260,92 @@ def test_the_service_runs_the_world_on_its_clock_and_stops_at_its_end(world):
     snap = service.snapshot()
     assert snap.seq == 20 and snap.state.t == pytest.approx(2.0) and service.late == 0
     assert now[0] == pytest.approx(0.5) and all(s == pytest.approx(0.025) for s in slept)
+
+
+def test_the_bank_s_screen_serves_its_drawing_and_frames_to_a_session_and_takes_no_command(bank_served, world):
+    """The screen's routes (the single arm's login): the geometry and the frames to a logged-in session only; each
+    arm's capsules in a frame are the world's, the nearest clash is the least pair's; a command is refused."""
+    from fastapi.testclient import TestClient
+
+    from loadarm.hmi.bank import create_bank_app
+
+    service = bank_served["service"]
+    snap = service.step(120)
+    st = bank_served["state"]
+    c = TestClient(create_bank_app(service, st.path, frame_rate=100.0))
+    assert c.get("/api/bank").status_code == 401
+    assert c.get("/").headers["content-security-policy"].startswith("default-src 'self'")
+    r = c.post("/api/login", json={"user": "eve", "password": "pw-eve"})
+    assert r.status_code == 200 and r.json()["bank"] is True and r.json()["commands"] == []
+    geo = c.get("/api/bank").json()
+    assert [a["name"] for a in geo["arms"]] == ["L1", "L2", "V1", "L3"] and geo["required"] == 0.5
+    assert [f["name"] for f in geo["flanges"]] == ["F1", "F2", "F3", "F4"]
+    with c.websocket_connect("/ws", headers={"origin": "http://testserver"}) as ws:
+        f = ws.receive_json()
+        ws.send_json({"type": "cmd", "action": "estop", "seq": 1})
+        while (reply := ws.receive_json())["type"] != "ack":
+            pass
+    assert reply == {"type": "ack", "seq": 1, "ok": False, "message": "refused: the bank's screen takes no command"}
+    assert f["seq"] == 120 and f["t"] == 12.0
+    for i, arm in enumerate(f["arms"]):
+        assert np.allclose(arm["capsules"], snap.state.capsules[i], atol=1e-4)
+    k = int(np.argmin(snap.state.pair_clearance))
+    assert f["clash"]["clearance"] == pytest.approx(float(snap.state.pair_clearance[k]), abs=1e-3)
+    assert f["clash"]["abnormal"] is False and f["clash"]["parts"] == ["triple swivel", "triple swivel"]
+
+
+@pytest.mark.slow
+def test_loadarm_serve_bank_serves_the_bank_until_ctrl_c(tmp_path):
+    """``loadarm serve --bank`` in its own process: an (insecure, anonymous: a lab's) client browses one component
+    per arm and reads the bank's nearest clash while the world runs; Ctrl-C ends it with its closing line."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    from asyncua import Client, ua
+
+    from loadarm.opcua.server import NAMESPACE
+    from loadarm.testing.loadtest import free_port
+
+    endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
+    proc = subprocess.Popen([sys.executable, "-u", "-m", "loadarm.cli", "serve", "--bank", str(BANK), "--scenario",
+                             str(SCENARIO), "--state-dir", str(tmp_path / "st"), "--endpoint", endpoint, "--insecure",
+                             "--anonymous", "--speedup", "4"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+
+    async def read():
+        c = Client(endpoint, timeout=10)
+        async with c:
+            ns = await c.get_namespace_index(NAMESPACE)
+            comps = c.get_node(ua.NodeId("Bank.Components", ns))
+            names = [(await n.read_browse_name()).Name for n in await comps.get_children()]
+            t0 = math.nan
+            for _ in range(100):                # NaN until the first state is published
+                t0 = await c.get_node(ua.NodeId("Bank.Time_s", ns)).read_value()
+                if math.isfinite(t0):
+                    break
+                await asyncio.sleep(0.05)
+            await asyncio.sleep(1.0)
+            return (names, t0, await c.get_node(ua.NodeId("Bank.Time_s", ns)).read_value(),
+                    await c.get_node(ua.NodeId("Bank.NearestClearance_m", ns)).read_value())
+
+    try:
+        lines = []
+        for line in proc.stdout:
+            lines.append(line)
+            if "Ctrl-C stops" in line:
+                break
+        assert lines and "L1, L2, V1, L3 connected" in lines[-1], "".join(lines) + proc.stderr.read()
+        names, t0, t1, gap = asyncio.run(read())
+        os.killpg(proc.pid, signal.SIGINT)
+        closing = proc.stdout.readline()
+        code = proc.wait(10)
+    finally:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        proc.wait(10)
+    assert names == ["L1", "L2", "V1", "L3"] and t1 - t0 > 2.0 and 1.7 < gap < 1.9    # 4x: 4 s in a wall second
+    assert closing.startswith("stopped at t = ") and "late states" in closing and code == 130, closing

@@ -17,13 +17,17 @@ from loadarm.cli.common import ForceOpt, UserError, check_outputs, latest_run, o
 from loadarm.eventlog import EventLog, LogWriter
 from loadarm.files import printable, read_input
 from loadarm.hmi.app import HmiServer, create_app, parse_hmi_address, valid_host
+from loadarm.hmi.bank import create_bank_app
 from loadarm.hmi.replay import ReplayService
+from loadarm.opcua.bank import BankServer, BankService
 from loadarm.opcua.plc import PlcLink, PlcServer, PlcSimulator, load_tag_map
 from loadarm.opcua.security import StateDir, load_certificate, thumbprint
 from loadarm.opcua.server import OpcUaServer
 from loadarm.opcua.service import REALTIME_SWITCH_INTERVAL, GuidanceService
+from loadarm.params.bank import load_bank
 from loadarm.params.declare import in_range, range_text
 from loadarm.params.scenario import Scenario, ScenarioHead, check_scenario
+from loadarm.sim.bank import BankWorld
 from loadarm.sim.loop import ClosedLoop
 from loadarm.sim.spec import RunSpec, compile_run, load_run
 
@@ -152,6 +156,9 @@ def serve(
                                                                     "event log; needs --hmi) instead of "
                                                                     "running the controller.")] = None,
     run_id: Annotated[Optional[str], typer.Option("--run", help="The run to replay (default the latest).")] = None,
+    bank: Annotated[Optional[Path], typer.Option("--bank", help="Serve a bank of arms (a bank file) instead of one "
+                                                                "arm: every arm connected to --scenario's ship, "
+                                                                "read-only.")] = None,
     force: ForceOpt = False,
 ) -> None:
     """Run the guidance controller in real time against a scenario's simulated plant (or a PLC) and serve it over
@@ -159,9 +166,15 @@ def serve(
     client certificates trusted from STATE_DIR/pki/trusted). With --plc and no --scenario it runs until
     stopped, with the default guidance and sensor settings, on --config's installation. Ctrl-C stops.
 
+    With --bank: the bank's world, every arm connected to the scenario's (moored) ship, served read-only (one OPC UA
+    object per arm under the bank, and the bank's screen with --hmi).
+
     Example: loadarm serve --scenario examples/scenarios/driftoff.toml --state-dir out/state
     """
 
+    if bank is not None:
+        other = [("--plc", plc), ("--replay", replay), ("--config", config), ("--scripted", scripted)]
+        return _serve_bank(bank, scenario, endpoint, state_dir, insecure, anonymous, speedup, hmi, other=other)
     hmi_address = _serve_arguments(endpoint, hmi, replay, plc, plc_cert, plc_password_file, scenario, scripted)
     _stop_on_signals()
     _one_line_logging()
@@ -209,6 +222,50 @@ def serve(
     _say_stopped(service, said)
     if interrupted:
         raise KeyboardInterrupt
+
+
+def _serve_bank(bank_file: Path, scenario: Optional[Path], endpoint: str, state_dir: Path, insecure: bool,
+                anonymous: bool, speedup: float, hmi: Optional[str], other) -> None:
+    """``serve --bank``: the bank's kinematic world on the scenario's ship in real time, its OPC UA server and,
+    with ``--hmi``, its screen, until the scenario's end or Ctrl-C."""
+    given = [name for name, value in other if value]
+    if given:
+        raise UserError(f"--bank serves the bank's kinematic world: {', '.join(given)} cannot go with it")
+    if scenario is None:
+        raise UserError("--bank needs --scenario: the ship (and sea) every arm is connected to")
+    _check_endpoint("--endpoint", endpoint)
+    try:
+        hmi_address = None if hmi is None else parse_hmi_address(hmi)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    _stop_on_signals()
+    _one_line_logging()
+    spec = _realtime_scenario(scenario, None, speedup, "serve --bank")
+    service = BankService(BankWorld.from_scenario(load_bank(bank_file), spec.scenario, spec.ship), speedup=speedup)
+    server = BankServer(service, state_dir, endpoint, insecure=insecure, anonymous=anonymous)
+    _start_server(server)
+    screen = None
+    try:
+        if hmi_address is not None:
+            screen = HmiServer(create_bank_app(service, state_dir, berth=spec.berth), *hmi_address)
+            try:
+                screen.start()
+            except OSError as exc:
+                raise UserError(str(exc)) from None
+            out.print(f"bank's screen on {screen.url} (users from {server.state.users_file})")
+        _announce(server, endpoint, insecure, state_dir)
+        names = ", ".join(service.bank.names)
+        out.print(f"bank {service.bank.file.bank.name}: {names} connected to the ship of {scenario.name} "
+                  f"({spec.scenario.scenario.duration:g} s at {speedup:g}x); Ctrl-C stops", soft_wrap=True)
+        sys.stdout.flush()
+        service.run()
+    finally:                # the closing line at once, Ctrl-C or the scenario's end; then the servers' ends
+        snap = service.snapshot()
+        out.print(f"stopped at t = {snap.state.t if snap else 0.0:.1f} s; {service.late} late states")
+        sys.stdout.flush()
+        if screen is not None:
+            screen.stop(timeout=STOP_WAIT)
+        server.stop(timeout=STOP_WAIT)
 
 
 def _say_stopped(service, said: list) -> None:

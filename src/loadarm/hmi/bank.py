@@ -1,0 +1,255 @@
+"""The bank's screen (issue 31, item 6): ``loadarm serve --bank ... --hmi HOST:PORT``.
+
+One page (``/``, also ``/bank``) over a :class:`loadarm.opcua.bank.BankService`: a top view and a side view (seen
+from the ship, the jetty behind) drawing every arm from its capsules (:mod:`loadarm.arm.clearance`, the same
+segments the clearance is computed on), the manifold's flanges and the ship, and the nearest clash between two
+arms (the pair, their parts, the distance), drawn grey while the clearance keeps the bank's minimum and
+highlighted only below it (ISA-101: colour and emphasis for the abnormal only).
+
+The login, sessions, users and security headers are the single arm's screen's (:mod:`loadarm.hmi.app`: the same
+users file, the same roles). The page is read-only: the bank's world has no controller to command (the WebSocket
+answers any command with a refusal).
+"""
+
+
+import asyncio
+import json
+import math
+import threading
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from loadarm.hmi.app import _CSP, FRAME_RATE, KEEPALIVE, WS_MESSAGE, _reply, _Screen, _static_dir, same_origin
+from loadarm.hmi.sessions import COOKIE, LoginLimiter, Sessions
+from loadarm.hmi.state import ship_outline
+from loadarm.opcua.bank import BankSnapshot
+from loadarm.opcua.security import LiveUsers, StateDir
+from loadarm.params.berth import BerthSection
+from loadarm.vocab import FACE_WORDS, FACES, SWIVEL_FACE_TABLE, Severity
+
+__all__ = ["bank_geometry", "bank_frame", "create_bank_app"]
+
+
+def _r(v, nd: int = 4):
+    """JSON has no NaN: None; else rounded (a frame is sent 20 times a second)."""
+    v = float(v)
+    return round(v, nd) if math.isfinite(v) else None
+
+
+def bank_geometry(bank, berth=None) -> dict:
+    """The bank's fixed drawing: its arms (riser, lengths, capsule radii), the flanges at the design case, the
+    required clearance, the ship's deck edge and the berthing line, in the bank's frame.
+
+    Parameters
+    ----------
+    bank : loadarm.params.bank.Bank
+    berth : loadarm.params.berth.Berth, optional
+        The ship drawn (default the design ship of :mod:`loadarm.params.berth`): its deck edge from the berth's
+        hull (:func:`loadarm.hmi.state.ship_outline`), midships at the manifold's centre, its side on the first
+        arm's berthing line.
+
+    Returns
+    -------
+    dict
+        JSON-ready.
+    """
+    m = bank.file.manifold
+    first = bank.file.arms[0]
+    ship = ship_outline(bank.models[0], berth)
+    ship_y = (berth.berth if berth is not None else BerthSection()).ship_y
+    outline = [[x + first.x, y - ship_y + m.position[1]] for x, y in ship["outline"]]
+    arms = [{"name": a.name, "base": list(s.base), "a": mo.arm.a, "b": mo.arm.b, "c": mo.arm.c,
+             "radii": list(s.radii), "flange": f.name, "product": f.product}
+            for a, s, mo, f in zip(bank.file.arms, bank.shapes, bank.models, bank.flanges, strict=True)]
+    flanges = [{"name": f.name, "arm": a.name, "product": f.product,
+                "position": (bank.flange_position(i) + np.array([a.x, a.y, 0.0])).tolist()}
+               for i, (a, f) in enumerate(zip(bank.file.arms, bank.flanges, strict=True))]
+    return {"name": bank.file.bank.name, "arms": arms, "flanges": flanges, "manifold": list(m.position),
+            "heading_deg": m.heading_deg, "required": bank.file.clearance.min_clearance,
+            "berthing_line": bank.models[0].berth.berthing_line + first.x,
+            "ship": {"outline": outline, "length": ship["length"], "beam": ship["beam"], "side": ship["side"]},
+            "faces": list(FACES), "face_words": dict(FACE_WORDS),
+            "swivel_faces": [f.name for f in SWIVEL_FACE_TABLE],
+            "swivel_words": {f.name: f.words for f in SWIVEL_FACE_TABLE}}
+
+
+def _arm_frame(state, i: int) -> dict:
+    """One arm in a frame: its capsules, flange, joints, stage, nearest neighbour and least margins."""
+    k = state.nearest_of(i)
+    a, b = state.pairs[k]
+    clash = state.clash(k)
+    mine = clash["parts"] if a == i else clash["parts"][::-1]
+    margins, swm = state.margins[i], state.swivel_margins[i]
+    f, s = int(np.argmin(margins)), int(np.argmin(swm))
+    stage = Severity(state.stages[i])
+    return {"name": state.names[i], "q_deg": [_r(math.degrees(v), 3) for v in state.q[i]],
+            "flange": [_r(v) for v in state.flanges[i]],
+            "capsules": [[[_r(v) for v in end] for end in part] for part in state.capsules[i]],
+            "stage": int(stage), "stage_text": stage.label,
+            "nearest": {"arm": state.names[b if a == i else a], "clearance": _r(clash["clearance"], 3),
+                        "parts": mine},
+            "face": {"name": FACES[f], "margin_deg": _r(math.degrees(margins[f]), 2)},
+            "swivel": {"name": SWIVEL_FACE_TABLE[s].name, "margin_deg": _r(math.degrees(swm[s]), 2)},
+            "swivels_deg": [_r(math.degrees(v), 2) for v in state.swivels[i]]}
+
+
+def bank_frame(snap: BankSnapshot, *, sent_at: float) -> dict:
+    """A frame of the bank's screen (JSON-ready): every arm, the nearest clash, the ship's motion.
+
+    Parameters
+    ----------
+    snap : BankSnapshot
+    sent_at : float
+        Wall-clock time it is sent, s since the epoch.
+
+    Returns
+    -------
+    dict
+    """
+    st = snap.state
+    clash = st.clash(st.nearest_pair)
+    return {"type": "state", "seq": snap.seq, "t": _r(st.t, 3), "wall": snap.wall, "sent_at": sent_at,
+            "arms": [_arm_frame(st, i) for i in range(len(st.names))],
+            "clash": {"arms": clash["arms"], "parts": clash["parts"], "clearance": _r(clash["clearance"], 3),
+                      "abnormal": clash["abnormal"], "points": [[_r(v) for v in p] for p in clash["points"]]},
+            "required": st.required, "manifold": [_r(v) for v in st.manifold],
+            "ship_deg": [_r(math.degrees(v), 3) for v in st.ship_angles],
+            "stage": int(max(st.stages))}
+
+
+class _BankScreen(_Screen):
+    """The bank's routes: the single arm's login, sessions and logout (inherited), its own geometry and frames."""
+
+    def __init__(self, service, state_dir, clock, wall, frame_rate: float, name: str, berth=None):
+        self.service, self.model, self.wall, self.frame_rate, self.name = service, None, wall, frame_rate, name
+        self.users = LiveUsers(StateDir(state_dir).users_file)
+        self.sessions = Sessions(clock=clock, users=self.users)
+        self.limiter = LoginLimiter(clock=clock)
+        self.geo = bank_geometry(service.bank, berth)
+        self.cache, self.lock, self.replay, self.anchor = {}, threading.Lock(), False, None
+
+    def session_json(self, s) -> dict:
+        return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": self.name, "bank": True,
+                "replay": False, "last_seq": s.last_cmd, "commands": []}
+
+    async def push(self, websocket, cursor, token: str | None) -> None:
+        """Frames to one screen, at most ``frame_rate`` a second, a keep-alive at least every ``KEEPALIVE``."""
+        last_seq, last_sent = None, -math.inf
+        while True:
+            snap = self.service.snapshot()
+            now = time.monotonic()
+            if snap is not None and (snap.seq != last_seq or now - last_sent >= KEEPALIVE):
+                if self.sessions.get(token) is None:
+                    await websocket.close(code=4401)
+                    return
+                await websocket.send_text(json.dumps(bank_frame(snap, sent_at=self.wall())))
+                last_seq, last_sent = snap.seq, now
+            await asyncio.sleep(1.0 / self.frame_rate)
+
+    async def ws(self, websocket) -> None:
+        from fastapi import WebSocketDisconnect
+
+        token = websocket.cookies.get(COOKIE)
+        s = self.sessions.get(token)
+        if s is None or not same_origin(websocket.headers.get("origin"), websocket.headers.get("host"),
+                                        websocket.url.scheme):
+            await websocket.close(code=4403)
+            return
+        await websocket.accept()
+        sender = asyncio.create_task(self.push(websocket, None, token))
+        try:
+            while True:
+                got = await websocket.receive()
+                if got.get("type") == "websocket.disconnect":
+                    break
+                text = got.get("text") or ""
+                seq = None
+                if len(text) <= WS_MESSAGE:
+                    try:
+                        msg = json.loads(text)
+                        seq = msg.get("seq") if isinstance(msg, dict) else None
+                    except (ValueError, RecursionError):
+                        seq = None
+                await websocket.send_text(_reply(seq, False, "refused: the bank's screen takes no command"))
+        except WebSocketDisconnect:
+            pass
+        finally:
+            sender.cancel()
+
+
+def create_bank_app(service, state_dir, *, clock: Callable[[], float] = time.monotonic,
+                    wall: Callable[[], float] = time.time, frame_rate: float = FRAME_RATE, name: str | None = None,
+                    berth=None):
+    """The bank's screen, a FastAPI application.
+
+    Parameters
+    ----------
+    service : BankService
+        Its :meth:`snapshot`, :attr:`bank` and :meth:`note`.
+    state_dir : path
+        The OPC UA server's state directory: its ``users.toml``.
+    clock : callable
+        Monotonic seconds, for sessions and the login limit.
+    wall : callable
+        Wall-clock seconds, stamped on each frame.
+    frame_rate : float
+        Frames per second to each screen.
+    name : str, optional
+        Shown in the title (default the bank's name).
+    berth : loadarm.params.berth.Berth, optional
+        The ship drawn.
+
+    Returns
+    -------
+    FastAPI
+    """
+    from fastapi import FastAPI, WebSocket
+    from fastapi import Request as HttpRequest
+    from fastapi.responses import FileResponse
+    from fastapi.staticfiles import StaticFiles
+
+    screen = _BankScreen(service, state_dir, clock, wall, frame_rate, name or service.bank.file.bank.name, berth)
+    app = FastAPI(title=f"loadarm bank ({screen.name})", docs_url=None, redoc_url=None, openapi_url=None)
+    app.state.sessions = screen.sessions
+
+    @app.middleware("http")
+    async def headers(request, call_next):
+        response = await call_next(request)
+        response.headers["Content-Security-Policy"] = _CSP
+        response.headers["X-Content-Type-Options"] = "nosniff"
+        response.headers["Referrer-Policy"] = "no-referrer"
+        response.headers["Cache-Control"] = "no-store"
+        return response
+
+    @app.get("/")
+    async def index():
+        return FileResponse(_static_dir() / "bank.html", media_type="text/html")
+
+    @app.get("/bank")
+    async def bank_page():
+        return FileResponse(_static_dir() / "bank.html", media_type="text/html")
+
+    @app.get("/api/session")
+    async def get_session(request: HttpRequest):
+        return screen.get_session(request)
+
+    @app.post("/api/login")
+    async def login(request: HttpRequest):
+        return await screen.login(request)
+
+    @app.post("/api/logout")
+    async def logout(request: HttpRequest):
+        return screen.logout(request)
+
+    @app.get("/api/bank")
+    async def get_geometry(request: HttpRequest):
+        return screen.get_geometry(request)
+
+    @app.websocket("/ws")
+    async def ws(websocket: WebSocket):
+        await screen.ws(websocket)
+
+    app.mount("/static", StaticFiles(directory=_static_dir()), name="static")
+    return app

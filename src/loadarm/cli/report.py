@@ -30,7 +30,7 @@ def report_steps(inst: Installation, pdf: bool) -> int:
     -------
     int
     """
-    return 13 + len(inst.report.scenarios) + (inst.report.metocean is not None) + pdf
+    return 13 + len(inst.report.scenarios) + (inst.report.metocean is not None) + (inst.report.bank is not None) + pdf
 
 
 @app.command()

@@ -451,6 +451,12 @@ class Report(Section):
                           "relative to this file; needs berth (omit for none)",
         json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case: the shipped "
                                                      "two-month sample)"})
+    bank: str | None = Field(
+        None, description="bank file (the arms on this jetty, the ship's manifold, the shared power unit) whose "
+                          "clearance, swivels, loads on the manifold and emergency release the report shows, relative "
+                          "to this file (omit for none)",
+        json_schema_extra={"unit": "path", "source": "installation owner's choice (the paper's case: the example "
+                                                     "four-arm LNG bank)"})
     document: str | None = Field(
         None, max_length=40, pattern=r"^[A-Za-z0-9][A-Za-z0-9._/-]*$",
         description="the report's document number, on its title page (omit: LA- and the first 8 hex digits of the "

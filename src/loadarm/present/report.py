@@ -25,9 +25,11 @@ from pathlib import Path
 from loadarm import __version__
 from loadarm.arm.envelope import berth_box, zone_radii
 from loadarm.design.alarm_design import alarm_verdict, design_alarms
+from loadarm.design.bank import check_bank_approaches
 from loadarm.design.balancing import balance_counterweights
 from loadarm.design.check import design_check
 from loadarm.design.loads import CYLINDER_LOAD_METRICS, actuator_loads
+from loadarm.design.manifold import LOAD_LABELS, berth_wind, check_manifold_loads, motion_manifold_loads
 from loadarm.design.multibody import VERIFY_SAMPLES, verify_kinematics
 from loadarm.design.plots import (
     alpha_beta_figure,
@@ -46,8 +48,10 @@ from loadarm.design.timing import TIMING_LAWS
 from loadarm.design.trajectory import Plan, plan_approach
 from loadarm.figures import save
 from loadarm.files import PDF_TITLE_MARK, SIGNATURE, atomic_write, guard_outputs
+from loadarm.hydraulics.bank_release import simulate_release
 from loadarm.hydraulics.plots import simulation_figure
 from loadarm.hydraulics.simulate import SIMULATION_METRICS, arrival_note, simulate_approach
+from loadarm.params.bank import load_bank
 from loadarm.params.berth import load_berth
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import Installation, paper_installation, parameter_table
@@ -55,6 +59,7 @@ from loadarm.params.declare import range_text
 from loadarm.present.pdf import chromium_or_fail, print_pdf
 from loadarm.params.scenario import parse_scenario_file, resolve_berth
 from loadarm.ship.model import compile_ship
+from loadarm.ship.motion import simulate
 from loadarm.ship.summary import ship_summary
 from loadarm.sim.loop import run_scenario
 from loadarm.results import round_floats
@@ -251,6 +256,10 @@ def parameter_rows(inst: Installation) -> list[dict]:
     return rows
 
 
+#: Seconds of the moored ship's motion the bank section's manifold loads run through (the berth's design
+#: environment, seed 1; docs/bank.md's figure is the same record, ``docsgen.BANK_RECORD``).
+BANK_RECORD_S = 300.0
+
 #: Samples of each timing law's plan: one plan per law serves the tables, the CSV, the figures, the MuJoCo check
 #: and the closed loop (whose references need this density).
 PLAN_SAMPLES = 2001
@@ -383,6 +392,32 @@ class ReportData:
         return design_alarms(self.model, self.ship, self.berth.environment)
 
     @cached_property
+    def bank_file(self) -> Path | None:
+        """The installation's ``[report] bank``, resolved against its file."""
+        if self.inst.report.bank is None:
+            return None
+        base = self.source.parent if self.source is not None else Path.cwd()
+        return base / self.inst.report.bank
+
+    @cached_property
+    def bank(self) -> dict | None:
+        """The bank's checks (None without a ``[report] bank``): ``file``, the read ``bank``, its approaches'
+        ``clearance``, its ``release``, its ``loads`` on the manifold and, with a berth, their ``record`` through
+        :data:`BANK_RECORD_S` of the moored ship in the berth's design environment (seed 1)."""
+
+        if self.bank_file is None:
+            return None
+        self._progress("the bank: clearance, manifold loads, emergency release")
+        bank = load_bank(self.bank_file)
+        record = None
+        if self.berth is not None:
+            env = self.berth.environment
+            record = motion_manifold_loads(bank, simulate(self.ship, env, BANK_RECORD_S, seed=1),
+                                           wind=berth_wind(env))
+        return {"file": self.bank_file, "bank": bank, "clearance": check_bank_approaches(bank),
+                "release": simulate_release(bank), "loads": check_manifold_loads(bank), "record": record}
+
+    @cached_property
     def operability(self):
         """``loadarm operability`` of this arm at the report's berth over its ``[report] metocean`` (the local
         cluster; its chunks in a scratch folder), or None without a record or an installation file."""
@@ -465,6 +500,23 @@ BERTH_FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
 }
 
 
+#: The bank section's figures (drawn when the installation names a ``[report] bank``; the record's with a berth).
+BANK_FIGURES: dict[str, tuple[Callable[[ReportData], object], str]] = {
+    "bank_clearance.png": (lambda d: d.bank["clearance"].plot(),
+                           "The bank's arms approaching their flanges all at once: the clearance of each pair, the "
+                           "smallest marked, the required clearance dashed."),
+    "bank_manifold_loads.png": (lambda d: d.bank["loads"].plot(),
+                                "Each arm's worst load on its flange as a share of the allowable, over the design "
+                                "case, the flange box's corners, the wind from 12 directions and calm and the "
+                                "friction's extremes (bars); the design case alone, calm, without friction (dark)."),
+    "bank_release.png": (lambda d: d.bank["release"].plot(),
+                         "One emergency release for all on the shared power unit's accumulators, the pumps lost."),
+}
+BANK_RECORD_FIGURE = ("bank_manifold_record.png",
+                      "The arms' loads on their flanges through the moored ship's motion in the berth's design "
+                      "environment, as shares of the allowable (allowable dashed).")
+
+
 #: The operability section's figure (drawn when the installation names a ``[report] metocean``).
 OPERABILITY_FIGURE = ("operability.png", "Operability over the metocean record: downtime per month, over Hs and Tp "
                                          "(hours per cell), and the worst week in time.")
@@ -486,6 +538,10 @@ def figure_builders(data: ReportData) -> dict[str, tuple[Callable[[ReportData], 
     figs = dict(FIGURES)
     if data.inst.report.berth is not None:
         figs.update(BERTH_FIGURES)
+    if data.inst.report.bank is not None:
+        figs.update(BANK_FIGURES)
+        if data.inst.report.berth is not None:
+            figs[BANK_RECORD_FIGURE[0]] = (lambda d: d.bank["record"].plot(), BANK_RECORD_FIGURE[1])
     if data.inst.report.metocean is not None and data.source is not None:
         figs[OPERABILITY_FIGURE[0]] = (lambda d: d.operability.plot(), OPERABILITY_FIGURE[1])
     for f in data.scenario_files:
@@ -504,7 +560,7 @@ def _template():
 
 
 #: The report's sections in order: ``key -> (number, title, shown when)``; the template's headings and its table
-#: of contents both read them here. ``when``: always, or only with a ``[report] berth`` or ``metocean``.
+#: of contents both read them here. ``when``: always, or only with a ``[report] berth``, ``metocean`` or ``bank``.
 SECTIONS = {
     "sizing": ("1", "Arm sizing (paper Eqs 1-3, Table 1)", "always"),
     "envelope": ("2", "Operating envelope and alarm zones (paper Fig. 4)", "always"),
@@ -516,25 +572,28 @@ SECTIONS = {
     "check": ("8", "Connected-mode safety: the design check", "always"),
     "berth": ("8b", "The berth: moored ship and alarm design", "berth"),
     "operability": ("8c", "Operability over the metocean record", "metocean"),
+    "bank": ("8d", "The bank of arms: clearance, loads on the manifold, emergency release", "bank"),
     "scenarios": ("9", "Live guidance to a moving ship (scenarios)", "always"),
     "parameters": ("10", "Parameters", "always"),
 }
 
 
-def report_sections(berth: bool, metocean: bool) -> list[dict]:
+def report_sections(berth: bool, metocean: bool, bank: bool = False) -> list[dict]:
     """The sections a report shows, in order, each with its anchor, number and title.
 
     Parameters
     ----------
     berth, metocean : bool
         Whether the installation names a ``[report] berth`` and a ``metocean`` (run).
+    bank : bool
+        Whether it names a ``[report] bank``.
 
     Returns
     -------
     list of dict
         ``{"key", "id", "number", "title", "heading"}``.
     """
-    shown = {"always": True, "berth": berth, "metocean": metocean}
+    shown = {"always": True, "berth": berth, "metocean": metocean, "bank": bank}
     return [{"key": k, "id": f"s-{k.replace('_', '-')}", "number": n, "title": t, "heading": f"{n}. {t}"}
             for k, (n, t, when) in SECTIONS.items() if shown[when]]
 
@@ -598,11 +657,40 @@ def report_outputs(inst: Installation, out_dir: str | Path, source: str | Path |
     oper = inst.report.metocean is not None and source is not None
     names = list(FIGURES) + (list(BERTH_FIGURES) if inst.report.berth is not None else []) + [
         f"timeline_{Path(f).stem}.png" for f in inst.report.scenarios] + ([OPERABILITY_FIGURE[0]] if oper else [])
+    if inst.report.bank is not None:
+        names += list(BANK_FIGURES) + ([BANK_RECORD_FIGURE[0]] if inst.report.berth is not None else [])
     inputs = ([base / f for f in inst.report.scenarios] + ([base / inst.report.berth] if inst.report.berth else [])
-              + ([base / inst.report.metocean] if oper else []))
+              + ([base / inst.report.metocean] if oper else []) + ([base / inst.report.bank] if inst.report.bank else []))
     return ([out / "report.html", out / "summary.json"] + ([out / "report.pdf"] if pdf else [])
             + [out / f"plan_{law}.csv" for law in TIMING_LAWS]
             + [out / "figures" / n for n in names] + ([out / "operability.parquet"] if oper else [])), inputs
+
+
+def _bank_summary(b: dict | None) -> dict | None:
+    """summary.json's ``bank``: the bank file and each check's numbers (None without a ``[report] bank``)."""
+    if b is None:
+        return None
+    return {"file": b["file"].name, "clearance": b["clearance"].to_dict(), "release": b["release"].to_dict(),
+            "manifold_loads": b["loads"].to_dict(),
+            "manifold_record": None if b["record"] is None else b["record"].to_dict()}
+
+
+def _bank_rows(b: dict | None) -> list[dict]:
+    """The bank section's table: per arm, its flange, its nearest arm on the approach, its worst load on the
+    manifold and its share of the allowable (the design check and the ship's record), its release."""
+    if b is None:
+        return []
+    bank, clearance, loads, release, record = b["bank"], b["clearance"], b["loads"], b["release"], b["record"]
+    pairs = clearance.pair_minimum.min(axis=1)
+    rows = []
+    for i, name in enumerate(bank.names):
+        near = min(float(g) for (p, q), g in zip(clearance.pairs, pairs, strict=True) if i in (p, q))
+        j = int(loads.utilisation[i].argmax())
+        rows.append({"arm": name, "flange": f"{bank.flanges[i].name} ({bank.flanges[i].product})", "near": near,
+                     "load": LOAD_LABELS[j], "use": float(loads.utilisation[i, j]),
+                     "rec": "-" if record is None else f"{float((record.worst[i] / record.allowable).max()):.2f}",
+                     "clear": float(release.end[i, 2])})
+    return rows
 
 
 def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loadarm report",
@@ -665,6 +753,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     if berth is not None:
         ship_sum, design = d.ship_summary, d.alarm_design
     oper = d.operability
+    bank = d.bank
     if oper is not None:
 
         write_parquet(oper.table, out / "operability.parquet")
@@ -685,6 +774,8 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     if berth is not None:
         summary["berth"] = {"file": str(d.berth_file.name), "ship": ship_sum.to_dict(),
                             "alarm_design": design.to_dict()}
+    if bank is not None:
+        summary["bank"] = _bank_summary(bank)
     verdict = alarm_verdict(check, design if berth is not None else None)
     summary["verdict"] = {"status": verdict.status, "reason": verdict.reason}
     if oper is not None:
@@ -789,6 +880,12 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         "operability_stages": _table(
             [{"stage": k, "n": v} for k, v in summary["operability"]["states_by_stage"].items()]
             if oper is not None else [], [("stage", "most severe stage reached"), ("n", "hourly states")]),
+        "bank_summary": _table([{"k": label, "v": text} for r in (("clearance", "loads", "release") if bank else ())
+                                for label, text in bank[r].summary().rows()], [("k", "quantity"), ("v", "value")]),
+        "bank": _table(_bank_rows(bank), [("arm", "arm"), ("flange", "flange"), ("near", "nearest arm on approach [m]"),
+                                          ("load", "governing load"), ("use", "load / allowable, design check"),
+                                          ("rec", "load / allowable, ship's record"), ("clear", "release: clear at [s]")],
+                       {"near": ".2f", "use": ".2f", "clear": ".2f"}),
         "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes")]
                             + [(m.key, m.header) for m in scen_cols]),
         "parameters": _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),
@@ -797,7 +894,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
     }
     figure_data = {name: _figure(path, builders[name][1]) for name, path in figs.items()}
     doc = document_identity(inst, src)
-    sections = report_sections(berth is not None, oper is not None)
+    sections = report_sections(berth is not None, oper is not None, bank is not None)
     text = _template().render(
         doc=doc, sections=sections, verdict=verdict, section={x["key"]: x for x in sections}, approvals=APPROVALS, mark=PDF_TITLE_MARK,
         title=title, css=_CSS.replace("__DOCID__", f"{doc['number']} rev {doc['revision']}"), stamp=stamp, version=__version__, input_line=_input_line(src), notes=notes,
@@ -808,7 +905,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         timelines=[f"timeline_{n}.png" for n in scen_runs], check=check, seq=d.model.sequence,
         berth=berth, berth_file=d.berth_file.name if berth is not None else "",
         design=design if berth is not None else None, oper=summary.get("operability"),
-        oper_settings=inst.operability, verify_samples=VERIFY_SAMPLES,
+        oper_settings=inst.operability, verify_samples=VERIFY_SAMPLES, bank=bank,
         arrival_note=arrival_note(next(iter(summary["simulation"].values()))["arrival_tolerance_mm"]))
     html_path = atomic_write(out / "report.html", text)
     pdf_path = None

@@ -262,3 +262,33 @@ def test_check_bank_gives_each_arm_s_flange_load_and_refuses_an_overloaded_manif
     code, _, err = _run(capsys, "check", "--bank", str(EXAMPLE.parent / "overloaded_manifold.toml"))
     assert code == 2 and len(err.strip().splitlines()) == 1
     assert "MANIFOLD LOAD: arm 'V1'" in err and "manifold_loads.bending_moment = 5 kN m" in err
+
+
+def test_a_report_naming_a_bank_has_its_section(tmp_path):
+    """An installation naming a ``[report] bank`` (no berth: no ship's record): the report's section 8d with each
+    arm's row (its flange, its nearest arm, its governing load and its share of the allowable, its release),
+    the bank's three figures, and summary.json's ``bank`` with the manifold loads' verdict."""
+    import json
+    import re
+    import shutil
+
+    from loadarm.params.config import load_config
+    from loadarm.present.report import build_report
+
+    root = Path(__file__).resolve().parents[1] / "src" / "loadarm" / "examples"
+    (tmp_path / "banks").mkdir()
+    shutil.copy(EXAMPLE, tmp_path / "banks" / EXAMPLE.name)
+    shutil.copy(root / "full.toml", tmp_path / "full.toml")
+    text = re.sub(r"\[report\].*", '[report]\nbank = "banks/lng150k_bank.toml"\n', (root / "paper.toml").read_text(),
+                  flags=re.S)
+    (tmp_path / "mine.toml").write_text(text)
+    files = build_report(load_config(tmp_path / "mine.toml"), tmp_path / "out", source=tmp_path / "mine.toml")
+    html = files.html.read_text()
+    summary = json.loads(files.summary.read_text())
+    assert "8d. The bank of arms: clearance, loads on the manifold, emergency release" in html
+    assert "F3 (vapour)" in html and "MANIFOLD LOAD" in html
+    assert {"bank_clearance.png", "bank_manifold_loads.png", "bank_release.png"} <= {p.name for p in files.figures.values()}
+    assert "bank_manifold_record.png" not in {p.name for p in files.figures.values()}
+    b = summary["bank"]
+    assert b["manifold_loads"]["within_allowable"] is True and b["manifold_record"] is None
+    assert b["release"]["verdict"] == "pass" and b["file"] == "lng150k_bank.toml"

@@ -292,3 +292,20 @@ def test_a_report_naming_a_bank_has_its_section(tmp_path):
     b = summary["bank"]
     assert b["manifold_loads"]["within_allowable"] is True and b["manifold_record"] is None
     assert b["release"]["verdict"] == "pass" and b["file"] == "lng150k_bank.toml"
+
+
+def test_a_record_past_the_allowable_gives_each_exceedance_its_code_and_first_time(bank):
+    """A manifold a tenth as strong through a heaving ship: each exceedance carries the alarm's event code and the
+    first sample past the allowable, where the load is past it and no earlier sample is."""
+    small = bank.file.manifold_loads.model_copy(update={k: getattr(bank.file.manifold_loads, k) / 10
+                                                         for k in LOAD_NAMES})
+    weak = dataclasses.replace(bank, file=bank.file.model_copy(update={"manifold_loads": small}))
+    t = np.arange(0.0, 30.0, 0.1)
+    d = np.column_stack([0 * t, 0 * t, 0.3 * np.sin(2 * np.pi * t / 8.0)])
+    r = record_manifold_loads(weak, t, d, np.zeros((t.size, 3)), wind=(10.0, 0.0, 0.0))
+    assert r.exceeded and not r.summary()["within_allowable"]
+    for e in r.exceeded:
+        i, j = weak.names.index(e["arm"]), LOAD_NAMES.index(e["load"])
+        k = int(np.searchsorted(t, e["first_time_s"]))
+        series = np.abs(r.loads[i, :, j])
+        assert e["code"] == MANIFOLD_LOAD_EVENT and series[k] > e["allowable"] and np.all(series[:k] <= e["allowable"])

@@ -309,3 +309,35 @@ def test_a_record_past_the_allowable_gives_each_exceedance_its_code_and_first_ti
         k = int(np.searchsorted(t, e["first_time_s"]))
         series = np.abs(r.loads[i, :, j])
         assert e["code"] == MANIFOLD_LOAD_EVENT and series[k] > e["allowable"] and np.all(series[:k] <= e["allowable"])
+
+
+def test_the_worst_load_over_a_metocean_record_per_state_and_when(bank):
+    """Over the shipped record's first 4 hours (each a sea state of 120 s at the example berth, as the operability
+    study takes them): one row per state; each state's worst is the record of that state's ship motion in its wind
+    and tide recomputed (the same seed); the summary names the worst, its hour and second; a manifold a tenth as
+    strong is over in every hour, each exceedance with the alarm's code."""
+    from loadarm.design.manifold import berth_wind, motion_manifold_loads
+    from loadarm.params.berth import load_berth
+    from loadarm.ship.model import compile_ship
+    from loadarm.ship.motion import simulate
+    from loadarm.studies.manifold import manifold_states
+    from loadarm.studies.operability import record_rows, state_environment
+
+    ex = EXAMPLE.parents[1]
+    bf = load_berth(ex / "berths" / "lng150k.toml")
+    ship = compile_ship(bf)
+    rows, _ = record_rows(ex / "metocean" / "sample.csv", 4)
+    r = manifold_states(bank, ship, bf.environment, rows, x_bearing_deg=bf.berth.x_bearing_deg, duration=120.0)
+    assert r.worst.shape == (4, 4, 5) and len(r.times) == 4
+    env = state_environment(bf.environment, rows[2], bf.berth.x_bearing_deg)
+    again = motion_manifold_loads(bank, simulate(ship, env, 120.0, seed=int(rows[2]["index"])), wind=berth_wind(env),
+                                  lift=(0.0, 0.0, rows[2]["tide_m"]))
+    np.testing.assert_allclose(r.worst[2], again.worst, rtol=1e-12)
+    np.testing.assert_allclose(r.when[2], again.worst_time, rtol=0)
+    s = r.summary()
+    assert s["states"] == 4 and s["within_allowable"] is True and s["hours_over"] == 0 and s["at"].startswith("20")
+    small = bank.file.manifold_loads.model_copy(update={k: getattr(bank.file.manifold_loads, k) / 10
+                                                         for k in LOAD_NAMES})
+    weak = dataclasses.replace(bank, file=bank.file.model_copy(update={"manifold_loads": small}))
+    w = manifold_states(weak, ship, bf.environment, rows, x_bearing_deg=bf.berth.x_bearing_deg, duration=120.0)
+    assert w.summary()["hours_over"] == 4 and {e["code"] for e in w.exceeded} == {MANIFOLD_LOAD_EVENT}

@@ -393,7 +393,7 @@ def berth_wind(environment) -> np.ndarray:
     return environment.wind_speed * np.array([math.cos(to), math.sin(to), 0.0])
 
 
-def motion_manifold_loads(bank: Bank, motion, *, wind=(0.0, 0.0, 0.0)) -> ManifoldLoadRecord:
+def motion_manifold_loads(bank: Bank, motion, *, wind=(0.0, 0.0, 0.0), lift=(0.0, 0.0, 0.0)) -> ManifoldLoadRecord:
     """The bank's loads through a moored ship's motion (the manifold's record of :mod:`loadarm.ship.motion`).
 
     Parameters
@@ -403,12 +403,15 @@ def motion_manifold_loads(bank: Bank, motion, *, wind=(0.0, 0.0, 0.0)) -> Manifo
         Its ``flange`` (berth frame: x off the berth, as the bank's), ``flange_reference`` and ``flange_angles``.
     wind : array_like, shape (3,) or (n, 3)
         m/s, bank frame.
+    lift : array_like, shape (3,)
+        A constant displacement of the manifold added to the motion's (the tide's rise), m.
 
     Returns
     -------
     ManifoldLoadRecord
     """
-    d = np.asarray(motion.flange, dtype=float) - np.asarray(motion.flange_reference, dtype=float)
+    d = (np.asarray(motion.flange, dtype=float) - np.asarray(motion.flange_reference, dtype=float)
+         + np.asarray(lift, dtype=float))
     return record_manifold_loads(bank, motion.t, d, motion.flange_angles, wind=wind)
 
 

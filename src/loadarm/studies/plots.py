@@ -13,7 +13,7 @@ from loadarm.studies.metocean import WEATHER
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 
-__all__ = ["operability_figure", "weather_figure", "prediction_figure", "forecast_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
+__all__ = ["manifold_study_figure", "operability_figure", "weather_figure", "prediction_figure", "forecast_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
            "seastate_hs_exceedance", "seastate_tp_exceedance"]
 
 
@@ -314,5 +314,39 @@ def forecast_figure(result) -> Figure:
     bottom.legend(lines, [h.get_label() for h in lines], fontsize=8, loc="upper left")
     for a in (top, bottom):
         a.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def manifold_study_figure(times, names, utilisation: np.ndarray) -> Figure:
+    """Each arm's largest load on its flange (as a share of its allowable) per sea state of a record.
+
+    Parameters
+    ----------
+    times : sequence of str
+        Each state's hour (ISO 8601).
+    names : sequence of str
+        The arms.
+    utilisation : ndarray, shape (states, arms)
+        The largest load / allowable of each arm in each state.
+
+    Returns
+    -------
+    Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10, 3.6))
+    ax = fig.add_subplot()
+    t = np.array(times, dtype="datetime64[s]")
+    for i, name in enumerate(names):
+        ax.plot(t, utilisation[:, i], lw=0.9, marker="." if len(t) < 200 else None, label=name)
+    ax.axhline(1.0, color="r", ls="--", lw=1.0, label="allowable")
+    ax.set_ylim(0.0, max(1.1, float(np.max(utilisation)) * 1.1))
+    ax.set_ylabel("largest load / allowable")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=len(names) + 1)
+    ax.set_title("Loads on the ship's flanges over the metocean record: each arm's worst per sea state", fontsize=9)
+    fig.autofmt_xdate()
     fig.tight_layout()
     return fig

@@ -148,7 +148,8 @@ def test_the_bank_s_screen_draws_every_arm_and_the_nearest_clash(browser, bank_s
         pair = tuple(frame["clash"]["arms"])
         assert gaps[pair] == pytest.approx(min(gaps.values()), abs=1e-9)
         assert shown["clash"].startswith(f"{pair[0]} / {pair[1]}: {gaps[pair]:.2f} m"), shown["clash"]
-        assert shown["detail"] == f"triple swivel of {pair[0]} to triple swivel of {pair[1]}"
+        assert shown["detail"] == ("below the required 2.00 m: " if abnormal else "") + (
+            f"triple swivel of {pair[0]} to triple swivel of {pair[1]}")
         for view in ("top", "side"):
             assert shown["lines"][view] == [["/".join(pair), abnormal]], (view, shown["lines"])
         assert shown["tileAbnormal"] is abnormal and shown["abnormalRows"] == (4 if abnormal else 0)

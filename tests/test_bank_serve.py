@@ -117,7 +117,7 @@ def test_the_bank_is_a_machine_with_one_component_per_arm(bank_served, world):
     assert {f"{ns}:{n}" for n, *_ in BANK_VARIABLES + BANK_STATES} <= own
     assert list(arms) == list(world.bank.names) == ["L1", "L2", "V1", "L3"]
     every = {n for n, *_ in ARM_VARIABLES + ARM_STATES}
-    assert len(every) == 6 + 6 + 3 + 6 + 1 + 5
+    assert len(every) == 6 + 6 + 3 + 6 + 2 + 5
     for name, (ident, children) in arms.items():
         assert ident == f"{name} (full.toml)" and children == every, (name, every - children)
 
@@ -179,14 +179,14 @@ def test_each_arm_s_values_are_the_direct_computation_at_the_state_s_time(bank_s
             base = f"Bank.Components.{name}.Guidance"
             got[name] = {}
             for var in ("Slew_deg", "Alpha_deg", "Beta_deg", "FlangeX_m", "FlangeY_m", "FlangeZ_m",
-                        "Swivel1_deg", "Swivel2_deg", "Swivel3_deg", "NearestClearance_m", "NearestArm",
+                        "Swivel1_deg", "Swivel2_deg", "Swivel3_deg", "NearestClearance_m", "NearestArm", "TimeToLimit_s",
                         "NearestParts", "Mode", "AlarmStage", "AlarmStageText",
                         *(f"Margin_{f}_deg" for f in FACES),
                         *(f"SwivelMargin_{f.name}_deg" for f in SWIVEL_FACE_TABLE)):
                 got[name][var] = await c.get_node(ua.NodeId(f"{base}.{var}", ns)).read_value()
         bank = {v: await c.get_node(ua.NodeId(f"Bank.{v}", ns)).read_value()
                 for v in ("Time_s", "NearestClearance_m", "NearestPair", "NearestParts", "ClashAbnormal",
-                          "RequiredClearance_m", "AlarmStage")}
+                          "RequiredClearance_m", "AlarmStage", "TimeToLimit_s", "NearestFace")}
         return got, bank
 
     got, bank = _run(bank_served, body)
@@ -212,6 +212,11 @@ def test_each_arm_s_values_are_the_direct_computation_at_the_state_s_time(bank_s
                                                    if got[n]["NearestClearance_m"] == least["NearestClearance_m"])
     assert bank["NearestParts"] == "triple swivel / triple swivel" and 1.7 < bank["NearestClearance_m"] < 1.9
     assert bank["RequiredClearance_m"] == 0.5 and bank["ClashAbnormal"] is False and bank["AlarmStage"] == 0
+    # the bank monitor's forecast as the snapshot carries it (guidance.bank.BankMonitor, fed by the service): this
+    # sea brings no bank face within the horizon
+    fc = snap.forecast
+    assert fc is not None and (bank["TimeToLimit_s"], bank["NearestFace"]) == (-1.0, "") and fc.face == ""
+    assert [got[n]["TimeToLimit_s"] for n in world.bank.names] == [-1.0] * 4 and fc.by_arm == (math.inf,) * 4
 
 
 @pytest.mark.parametrize("user, password", [(None, None), ("eve", "pw-eve")])

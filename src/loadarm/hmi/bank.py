@@ -27,7 +27,7 @@ from loadarm.hmi.state import ship_outline
 from loadarm.opcua.bank import BankSnapshot
 from loadarm.opcua.security import LiveUsers, StateDir
 from loadarm.params.berth import BerthSection
-from loadarm.vocab import FACE_WORDS, FACES, SWIVEL_FACE_TABLE, Severity
+from loadarm.vocab import BANK_FACE_WORDS, FACE_WORDS, FACES, SWIVEL_FACE_TABLE
 
 __all__ = ["bank_geometry", "bank_frame", "create_bank_app"]
 
@@ -75,19 +75,22 @@ def bank_geometry(bank, berth=None) -> dict:
             "swivel_words": {f.name: f.words for f in SWIVEL_FACE_TABLE}}
 
 
-def _arm_frame(state, i: int) -> dict:
-    """One arm in a frame: its capsules, flange, joints, stage, nearest neighbour and least margins."""
+def _arm_frame(snap: BankSnapshot, i: int) -> dict:
+    """One arm in a frame: its capsules, flange, joints, stage, nearest neighbour, time to a bank face and least
+    margins."""
+    state = snap.state
     k = state.nearest_of(i)
     a, b = state.pairs[k]
     clash = state.clash(k)
     mine = clash["parts"] if a == i else clash["parts"][::-1]
     margins, swm = state.margins[i], state.swivel_margins[i]
     f, s = int(np.argmin(margins)), int(np.argmin(swm))
-    stage = Severity(state.stages[i])
+    stage = snap.stage(i)
+    ttl = snap.forecast.by_arm[i] if snap.forecast is not None else math.inf
     return {"name": state.names[i], "q_deg": [_r(math.degrees(v), 3) for v in state.q[i]],
             "flange": [_r(v) for v in state.flanges[i]],
             "capsules": [[[_r(v) for v in end] for end in part] for part in state.capsules[i]],
-            "stage": int(stage), "stage_text": stage.label,
+            "stage": int(stage), "stage_text": stage.label, "ttl": _r(ttl, 1),
             "nearest": {"arm": state.names[b if a == i else a], "clearance": _r(clash["clearance"], 3),
                         "parts": mine},
             "face": {"name": FACES[f], "margin_deg": _r(math.degrees(margins[f]), 2)},
@@ -108,15 +111,18 @@ def bank_frame(snap: BankSnapshot, *, sent_at: float) -> dict:
     -------
     dict
     """
-    st = snap.state
+    st, fc = snap.state, snap.forecast
     clash = st.clash(st.nearest_pair)
+    face = fc.face if fc is not None else ""
     return {"type": "state", "seq": snap.seq, "t": _r(st.t, 3), "wall": snap.wall, "sent_at": sent_at,
-            "arms": [_arm_frame(st, i) for i in range(len(st.names))],
+            "arms": [_arm_frame(snap, i) for i in range(len(st.names))],
+            "forecast": {"time": _r(fc.time if fc is not None else math.inf, 1), "face": face,
+                         "words": BANK_FACE_WORDS.get(face, ""), "arms": list(fc.arms) if fc is not None else []},
             "clash": {"arms": clash["arms"], "parts": clash["parts"], "clearance": _r(clash["clearance"], 3),
                       "abnormal": clash["abnormal"], "points": [[_r(v) for v in p] for p in clash["points"]]},
             "required": st.required, "manifold": [_r(v) for v in st.manifold],
             "ship_deg": [_r(math.degrees(v), 3) for v in st.ship_angles],
-            "stage": int(max(st.stages))}
+            "stage": max(int(snap.stage(i)) for i in range(len(st.names)))}
 
 
 class _BankScreen(_Screen):

@@ -28,6 +28,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from loadarm import __version__
+from loadarm.guidance.bank import BankForecast, BankMonitor
+from loadarm.guidance.monitor import stage_leads
 from loadarm.opcua.server import (
     APP_URI,
     DI_NS,
@@ -58,6 +60,9 @@ __all__ = [
 BANK_APP_URI = f"{APP_URI}:bank"
 #: The bank's world is computed this often, Hz (the moored ship's motion is sampled at 10 Hz).
 WORLD_RATE = 10.0
+#: The bank's monitor forecasts its faces every this many states (once a second: a forecast costs about 25 ms on
+#: a loaded two-core machine, 2026-12-05).
+FORECAST_EVERY = 10
 
 _DEG, _M, _S = ("DD", "deg", "degree"), ("MTR", "m", "metre"), ("SEC", "s", "second")
 #: Each arm's Double variables: browse name, unit (UNECE code, symbol, description), range, what it is (the single
@@ -74,10 +79,13 @@ ARM_VARIABLES = (
     (f"Swivel{k}_deg", _DEG, (-180.0, 180.0), f"swivel {k}'s angle") for k in (1, 2, 3)) + tuple(
     (f"SwivelMargin_{f.name}_deg", _DEG, (-360.0, 360.0), f"margin to the swivel's stop: {f.label}")
     for f in SWIVEL_FACE_TABLE) + (
-    ("NearestClearance_m", _M, (-100.0, 200.0), "clearance to the nearest other arm (capsules, negative: overlap)"),)
+    ("NearestClearance_m", _M, (-100.0, 200.0), "clearance to the nearest other arm (capsules, negative: overlap)"),
+    ("TimeToLimit_s", _S, (0.0, 3600.0), "the bank monitor's time to this arm's nearest bank face (its swivels' "
+                                         "stops, its clash with a neighbour; -1: none within the horizon)"),)
 #: Each arm's other variables: browse name, type, what it is.
 ARM_STATES = (("Mode", str, "the arm's mode (CONNECTED: every arm of this world is on its flange)"),
-              ("AlarmStage", int, "the position alarm's severity (the customer's angles)"),
+              ("AlarmStage", int, "the arm's stage: the more severe of its position alarm (the customer's angles) "
+                                  "and the bank monitor's (its time to a bank face against the sequence's leads)"),
               ("AlarmStageText", str, "its words"),
               ("NearestArm", str, "the nearest other arm"),
               ("NearestParts", str, "the two parts that come closest (this arm's first)"))
@@ -86,12 +94,17 @@ BANK_VARIABLES = (
     ("NearestClearance_m", _M, (-100.0, 200.0), "the smallest clearance between any two arms"),
     ("RequiredClearance_m", _M, (0.0, 10.0), "the bank's minimum clearance (clearance.min_clearance)"),
     ("Time_s", _S, (0.0, 1e7), "the world's time"),
+    ("TimeToLimit_s", _S, (0.0, 3600.0), "the bank monitor's time to the bank's nearest face (-1: none within the "
+                                         "horizon)"),
 )
 #: The bank's other variables.
 BANK_STATES = (("NearestPair", str, "the two arms closest to each other, A/B"),
                ("NearestParts", str, "their two parts that come closest"),
                ("ClashAbnormal", bool, "the nearest clearance is below the required one"),
-               ("AlarmStage", int, "the most severe arm's position alarm"),
+               ("AlarmStage", int, "the most severe arm's stage (ESD-1 and ERS-2 act on every arm)"),
+               ("NearestFace", str, "the bank face the monitor forecasts first (a code of vocab.BANK_FACE_TABLE), "
+                                    "empty: none"),
+               ("NearestFaceArms", str, "the arm (a swivel's stop) or the two arms (the clash) of that face"),
                ("Cycle", int, "counts the world's states"))
 _KINDS = {bool: "Boolean", int: "Int64", str: "String"}
 
@@ -125,42 +138,65 @@ class BankSnapshot:
     wall : float
         Wall-clock time it was computed, s since the epoch.
     state : BankState
+    forecast : BankForecast or None
+        The bank monitor's latest forecast (:class:`loadarm.guidance.bank.BankMonitor`; None before the first).
     """
 
     seq: int
     wall: float
     state: BankState
+    forecast: BankForecast | None = None
+
+    def stage(self, i: int) -> Severity:
+        """Arm ``i``'s stage: the more severe of its position alarm and the bank monitor's.
+
+        Parameters
+        ----------
+        i : int
+
+        Returns
+        -------
+        Severity
+        """
+        monitor = self.forecast.stages[i] if self.forecast is not None else Severity.NORMAL
+        return Severity(max(int(self.state.stages[i]), int(monitor)))
 
 
 def _deg(v) -> float:
     return math.degrees(float(v))
 
 
-def arm_values(state: BankState, i: int) -> dict:
+def _ttl(v: float) -> float:
+    return float(v) if math.isfinite(v) else -1.0
+
+
+def arm_values(snap: BankSnapshot, i: int) -> dict:
     """Arm ``i``'s variables as the server publishes them (:data:`ARM_VARIABLES` and :data:`ARM_STATES`).
 
     Parameters
     ----------
-    state : BankState
+    snap : BankSnapshot
     i : int
 
     Returns
     -------
     dict
     """
+    state = snap.state
     k = state.nearest_of(i)
     a, b = state.pairs[k]
     other = b if a == i else a
     parts = state.clash(k)["parts"]
     mine = parts if a == i else parts[::-1]
-    stage = Severity(state.stages[i])
+    stage = snap.stage(i)
+    ttl = snap.forecast.by_arm[i] if snap.forecast is not None else math.inf
     out = {"Slew_deg": _deg(state.q[i, 0]), "Alpha_deg": _deg(state.q[i, 1]), "Beta_deg": _deg(state.q[i, 2]),
            "FlangeX_m": float(state.flanges[i, 0]), "FlangeY_m": float(state.flanges[i, 1]),
            "FlangeZ_m": float(state.flanges[i, 2]),
            **{f"Margin_{face}_deg": _deg(state.margins[i, j]) for j, face in enumerate(FACE_LABELS)},
            **{f"Swivel{j + 1}_deg": _deg(state.swivels[i, j]) for j in range(3)},
            **{f"SwivelMargin_{f.name}_deg": _deg(state.swivel_margins[i, j]) for j, f in enumerate(SWIVEL_FACE_TABLE)},
-           "NearestClearance_m": float(state.pair_clearance[k]),
+           "NearestClearance_m": float(state.pair_clearance[k]), "TimeToLimit_s": _ttl(ttl),
            "Mode": "CONNECTED", "AlarmStage": int(stage), "AlarmStageText": stage.label,
            "NearestArm": state.names[other], "NearestParts": " / ".join(mine)}
     return out
@@ -177,11 +213,15 @@ def bank_values(snap: BankSnapshot) -> dict:
     -------
     dict
     """
-    st = snap.state
+    st, fc = snap.state, snap.forecast
     c = st.clash(st.nearest_pair)
     return {"NearestClearance_m": c["clearance"], "RequiredClearance_m": st.required, "Time_s": st.t,
+            "TimeToLimit_s": _ttl(fc.time if fc is not None else math.inf),
             "NearestPair": "/".join(c["arms"]), "NearestParts": " / ".join(c["parts"]),
-            "ClashAbnormal": bool(c["abnormal"]), "AlarmStage": int(max(st.stages)), "Cycle": int(snap.seq)}
+            "ClashAbnormal": bool(c["abnormal"]),
+            "AlarmStage": int(max(snap.stage(i) for i in range(len(st.names)))),
+            "NearestFace": fc.face if fc is not None else "",
+            "NearestFaceArms": "/".join(fc.arms) if fc is not None else "", "Cycle": int(snap.seq)}
 
 
 class BankService:
@@ -212,6 +252,12 @@ class BankService:
         self.finished = threading.Event()
         self.error: BaseException | None = None
         self.late = 0
+        #: The bank's connected monitoring (the swivels' stops, the clash of neighbours; the single arm's forecast).
+        self.monitor = BankMonitor(world.bank)
+        #: Its horizon: the longest stage lead of the bank's arms, s.
+        self.horizon = max(max(stage_leads(m.sequence).values()) for m in world.bank.models)
+        self._forecast: BankForecast | None = None
+        self._observed = -math.inf
         #: Events from outside (refused logins), with the time they came: this world keeps no event log.
         self.notes: list[tuple[float, str, str, dict]] = []
 
@@ -237,7 +283,8 @@ class BankService:
         _log.warning("%s", reason)
 
     def step(self, k: int) -> BankSnapshot:
-        """Compute and publish the ``k``-th state.
+        """Compute and publish the ``k``-th state: the world's, and the bank monitor's forecast (fed every state,
+        forecast every :data:`FORECAST_EVERY`).
 
         Parameters
         ----------
@@ -247,7 +294,16 @@ class BankService:
         -------
         BankSnapshot
         """
-        snap = BankSnapshot(k, self.wall(), self.world.state(k / WORLD_RATE))
+        state = self.world.state(k / WORLD_RATE)
+        if state.t <= self._observed:          # a time gone back (a test stepping states): a new connection
+            self.monitor.reset()
+            self._forecast = None
+        self._observed = state.t
+        if self.monitor.observe(state.t, state.manifold, state.ship_angles):
+            self.monitor.refit()
+        if k % FORECAST_EVERY == 0 or self._forecast is None:
+            self._forecast = self.monitor.time_to_limit(state.manifold, state.ship_angles, self.horizon, now=state.t)
+        snap = BankSnapshot(k, self.wall(), state, self._forecast)
         self._snapshot = snap
         return snap
 
@@ -345,7 +401,7 @@ class BankServer(SecureServer):
     async def _publish(self, nodes: dict, snap: BankSnapshot) -> None:
         await _write(nodes["bank"], bank_values(snap))
         for i, mine in enumerate(nodes["arms"]):
-            await _write(mine, arm_values(snap.state, i))
+            await _write(mine, arm_values(snap, i))
 
 
 async def _identification(parent, base: str, ns: int, dns: int, model: str, uri: str) -> None:

@@ -265,10 +265,16 @@ function drawTiles(f) {
   $("clash-value").textContent = `${c.arms[0]} / ${c.arms[1]}: ${c.clearance.toFixed(2)} m`;
   $("clash-value").classList.toggle("abnormal", c.abnormal);
   $("tile-clash").classList.toggle("abnormal", c.abnormal);
-  $("clash-detail").textContent = `${c.parts[0]} of ${c.arms[0]} to ${c.parts[1]} of ${c.arms[1]}`;
+  $("clash-detail").textContent = (c.abnormal ? `below the required ${f.required.toFixed(2)} m: ` : "")
+    + `${c.parts[0]} of ${c.arms[0]} to ${c.parts[1]} of ${c.arms[1]}`;
   const worst = f.arms.reduce((a, b) => (b.stage > a.stage ? b : a));
-  $("stage-value").textContent = worst.stage > 0 ? `${worst.stage_text} (${worst.name})` : "none";
+  $("stage-value").textContent = worst.stage > 0 ? worst.stage_text : "none";
+  $("stage-detail").textContent = f.arms.filter((a) => a.stage > 0 && a.stage === worst.stage).map((a) => a.name).join(", ");
   $("tile-stage").classList.toggle("abnormal", worst.stage > 0);
+  const fc = f.forecast;
+  $("ttl-value").textContent = fc.time === null ? "none forecast" : `${fc.time.toFixed(0)} s`;
+  $("ttl-detail").textContent = fc.time === null ? "" : `${fc.words} (${fc.arms.join(" / ")})`;
+  $("tile-ttl").classList.toggle("abnormal", worst.stage > 0);
   $("required-value").textContent = `${f.required.toFixed(2)} m`;
   $("ship-value").textContent = f.ship_deg.map((v) => v.toFixed(2)).join(" / ");
   $("time-value").textContent = `${f.t.toFixed(1)} s`;
@@ -296,7 +302,7 @@ function drawTables(f) {
                a.nearest.clearance === null ? "-" : `${a.nearest.clearance.toFixed(2)} m`], close || a.stage > 0);
     const face = a.face.margin_deg === null ? "out of reach" : `${a.face.margin_deg.toFixed(1)} deg`;
     const sw = a.swivel.margin_deg === null ? "-" : `${a.swivel.margin_deg.toFixed(1)} deg`;
-    row(margins, [a.name, `${face}: ${g.face_words[a.face.name]}`, `${sw}: ${g.swivel_words[a.swivel.name]}`],
+    row(margins, [a.name, a.ttl === null ? "none" : `${a.ttl.toFixed(0)} s`, `${face}: ${g.face_words[a.face.name]}`, `${sw}: ${g.swivel_words[a.swivel.name]}`],
         a.face.margin_deg === null || a.face.margin_deg < 0 || (a.swivel.margin_deg !== null && a.swivel.margin_deg < 0));
   }
 }

@@ -22,6 +22,7 @@ from loadarm.cli.common import (
 )
 from loadarm.figures import save
 from loadarm.results import format_rows
+from loadarm.studies.bank_campaign import check_bank_campaign, run_bank_campaign
 from loadarm.studies.campaign import check_campaign, parse_vary, run_campaign
 from loadarm.studies.cluster import check_workers
 from loadarm.studies.operability import OperabilitySettings, run_operability
@@ -94,16 +95,25 @@ def campaign(
                                                                          "processes.")] = None,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Histogram of the release margins.")] = None,
+    bank: Annotated[Optional[Path], typer.Option("--bank", help="A bank of arms (examples/banks/): every arm "
+                                                                "connected to the scenario's moored ship, the "
+                                                                "bank's sequence (the kernel's route, see "
+                                                                "docs/bank.md).")] = None,
     force: ForceOpt = False,
 ) -> None:
     """Run a scenario over many seeds and parameter draws on every core: overstretches, releases before the ERS
-    valves closed, false and missed alarms, and the distribution of release margins.
+    valves closed, false and missed alarms, and the distribution of release margins. With --bank: the bank's
+    drift-off (overstretch on any arm, a coupler opened before its ERS valves confirm, a clash; the bank stops
+    when any arm does).
 
     Example: loadarm campaign --scenario examples/scenarios/driftoff.toml --seeds 200 --vary drift.speed=0.05:0.3
     """
 
     check_outputs({"--png": png}, [scenario], force)
     check_workers("--workers", workers)
+    if bank is not None:
+        _bank_campaign(bank, scenario, seeds, first_seed, workers, as_json, png, bool(vary) or plant is not None)
+        return
     varied = [parse_vary(v) for v in vary or ()]
     check_campaign(scenario, seeds, vary=varied, first_seed=first_seed,       # refused before the bar starts
                    plant=None if plant is None else plant.value)
@@ -114,6 +124,24 @@ def campaign(
                            progress=lambda done, total: prog.update(task, completed=done), scheduler=scheduler)
     if png is not None:
 
+        save(res.plot(), png)
+    if as_json:
+        print_json(res.to_dict())
+        return
+    out.print(str(res.summary()))
+
+
+def _bank_campaign(bank: Path, scenario: Path, seeds: int, first_seed: int, workers: Optional[int], as_json: bool,
+                   png: Optional[Path], other: bool) -> None:
+    """``loadarm campaign --bank``: the bank's drift-off over seeds."""
+    if other:
+        raise UserError("loadarm campaign --bank takes no --vary or --plant: the bank's route has no plant")
+    check_bank_campaign(bank, scenario, seeds, first_seed)               # refused before the bar starts
+    with progress_bar() as prog:
+        task = prog.add_task(f"bank campaign {bank.name}", total=seeds)
+        res = run_bank_campaign(bank, scenario, seeds, first_seed=first_seed, workers=workers,
+                                progress=lambda done, total: prog.update(task, completed=done))
+    if png is not None:
         save(res.plot(), png)
     if as_json:
         print_json(res.to_dict())

@@ -208,6 +208,29 @@ class BankMonitor:
 
     # ----------------------------------------------------------------------------------------------- the faces
 
+    def flanges(self, centre, angles, rotation=None) -> np.ndarray:
+        """Each arm's flange in its own frame at manifold poses: the centre, plus the flange's offset turned with
+        the ship, less the arm's riser.
+
+        Parameters
+        ----------
+        centre : ndarray, shape (..., 3)
+            m.
+        angles : ndarray, shape (..., 3)
+            Roll, pitch, yaw, rad.
+        rotation : ndarray, shape (..., 3, 3), optional
+            Their :func:`loadarm.arm.swivel.ship_rotation`, if already computed.
+
+        Returns
+        -------
+        ndarray, shape (..., n_arms, 3)
+            m.
+        """
+        centre, angles = np.asarray(centre, dtype=float), np.asarray(angles, dtype=float)
+        rot = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], self.heading) if rotation is None \
+            else rotation
+        return centre[..., None, :] + np.einsum("...ij,aj->...ai", rot, self.offsets) - self.risers
+
     def arm_poses(self, centre, angles, rotation=None) -> list:
         """Each arm's joints at manifold poses: the inverse kinematics of its flange (NaN out of reach).
 
@@ -225,10 +248,7 @@ class BankMonitor:
         list of ndarray, shape (..., 3)
             Slew, inboard, elbow angles per arm, rad.
         """
-        centre, angles = np.asarray(centre, dtype=float), np.asarray(angles, dtype=float)
-        rot = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], self.heading) if rotation is None \
-            else rotation
-        flanges = centre[..., None, :] + np.einsum("...ij,aj->...ai", rot, self.offsets) - self.risers
+        flanges = self.flanges(centre, angles, rotation)
         poses = []
         for i, model in enumerate(self.bank.models):
             q = inverse3d(model.arm, flanges[..., i, 0], flanges[..., i, 1], flanges[..., i, 2], check=False)

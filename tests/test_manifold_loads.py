@@ -341,3 +341,7 @@ def test_the_worst_load_over_a_metocean_record_per_state_and_when(bank):
     weak = dataclasses.replace(bank, file=bank.file.model_copy(update={"manifold_loads": small}))
     w = manifold_states(weak, ship, bf.environment, rows, x_bearing_deg=bf.berth.x_bearing_deg, duration=120.0)
     assert w.summary()["hours_over"] == 4 and {e["code"] for e in w.exceeded} == {MANIFOLD_LOAD_EVENT}
+    flood = [rows[0], {**rows[1], "tide_m": 40.0}]            # a 40 m tide lifts the flanges out of every arm's reach
+    f = manifold_states(bank, ship, bf.environment, flood, x_bearing_deg=bf.berth.x_bearing_deg, duration=60.0)
+    assert list(f.out_of_reach) == [False, True] and f.summary()["out_of_reach"] == 1
+    assert f.summary()["within_allowable"] is True and np.isfinite(f.summary()["max_utilisation"])

@@ -27,6 +27,7 @@ from loadarm.design.manifold import (
     berth_wind,
     motion_manifold_loads,
 )
+from loadarm.errors import UnreachableError
 from loadarm.params.bank import Bank, load_bank
 from loadarm.params.berth import load_berth
 from loadarm.results import Metric, Result
@@ -64,6 +65,7 @@ class ManifoldStudy(Result):
         Metric("governing", "which", ""),
         Metric("at", "when", ""),
         Metric("hours_over", "hours with a load over its allowable", "", "d"),
+        Metric("out_of_reach", "hours the flange left an arm's reach (no loads)", "", "d"),
         Metric("within_allowable", "within the allowable loads", ""),
     )
 
@@ -75,29 +77,36 @@ class ManifoldStudy(Result):
 
     @property
     def utilisation(self) -> np.ndarray:
-        """``worst / allowable``, shape (states, arms, 5)."""
+        """``worst / allowable``, shape (states, arms, 5); NaN in a state where the flange left an arm's reach."""
         return self.worst / self.allowable
+
+    @property
+    def out_of_reach(self) -> np.ndarray:
+        """The states where the flange left an arm's reach (no loads), shape (states,)."""
+        return np.isnan(self.worst).any(axis=(1, 2))
 
     @property
     def exceeded(self) -> list[dict]:
         """Each state, arm and load past its allowable: the alarm's event code, the hour, the second, the arm, the
         load, its value and the allowable."""
-        k, i, j = np.nonzero(self.utilisation > 1.0)
+        k, i, j = np.nonzero(np.nan_to_num(self.utilisation) > 1.0)
         return [{"code": MANIFOLD_LOAD_EVENT, "time": self.times[a], "at_s": float(self.when[a, b, c]),
                  "arm": self.names[b], "load": LOAD_NAMES[c], "value": float(self.worst[a, b, c]),
                  "allowable": float(self.allowable[c])} for a, b, c in zip(k, i, j, strict=True)]
 
     def _values(self) -> dict:
-        u = self.utilisation
+        u = np.nan_to_num(self.utilisation, nan=-1.0)
         k, i, j = np.unravel_index(int(np.argmax(u)), u.shape)
         per_arm = u.max(axis=(0, 2))
+        worst = np.nan_to_num(self.worst, nan=0.0).max(axis=0)
         return {"states": len(self.times), "max_utilisation": float(u[k, i, j]),
                 "governing": f"{self.names[i]} {LOAD_LABELS[j]}",
                 "at": f"{self.times[k]} + {float(self.when[k, i, j]):.1f} s",
                 "hours_over": int(np.any(u > 1.0, axis=(1, 2)).sum()), "within_allowable": bool(np.all(u <= 1.0)),
+                "out_of_reach": int(self.out_of_reach.sum()),
                 "arms": {n: {"max_utilisation": float(per_arm[a]),
-                             "worst": dict(zip(LOAD_NAMES, (float(v) for v in self.worst[:, a].max(axis=0)),
-                                               strict=True))} for a, n in enumerate(self.names)},
+                             "worst": dict(zip(LOAD_NAMES, (float(v) for v in worst[a]), strict=True))}
+                         for a, n in enumerate(self.names)},
                 "exceeded": self.exceeded}
 
     def _figure(self):
@@ -135,10 +144,15 @@ def manifold_states(bank: Bank, ship, base_env, rows: list[dict], *, x_bearing_d
         env = state_environment(base_env, row, x_bearing_deg)
         motion = simulate(ship, env, duration, seed=seed + int(row["index"]))
         lift = np.array([0.0, 0.0, float(row["tide_m"])])
-        r = motion_manifold_loads(bank, motion, wind=berth_wind(env), lift=lift)
+        times.append(str(np.datetime64(row["time"], "s")))
+        try:
+            r = motion_manifold_loads(bank, motion, wind=berth_wind(env), lift=lift)
+        except UnreachableError:          # the flange left an arm's reach: no load to give (the monitor's case)
+            worst.append(np.full((len(bank.names), len(LOAD_NAMES)), np.nan))
+            when.append(np.full((len(bank.names), len(LOAD_NAMES)), np.nan))
+            continue
         worst.append(r.worst)
         when.append(r.worst_time)
-        times.append(str(np.datetime64(row["time"], "s")))
     return ManifoldStudy(tuple(times), bank.names, np.array(worst), np.array(when), allowable(bank))
 
 

@@ -53,6 +53,9 @@ def test_the_forecast_is_the_companion_matrix_s(roots, hist, steps):
         power = a @ power
         assert mean[h, 0] == pytest.approx((power @ x)[0], abs=1e-9)
         assert sd[h] == pytest.approx(np.sqrt(var * model.sigma2), rel=1e-9)
+    kept = pr.psi_variance(model.phi, steps + 7)           # the live predictor's, kept between forecasts of a fit
+    mean_k, sd_k = pr.ar_forecast(model, history, steps, psi2=kept)
+    assert np.array_equal(mean_k, mean) and np.array_equal(sd_k, sd)
 
 
 def test_the_online_fit_recovers_a_known_autoregression():

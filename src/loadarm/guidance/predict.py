@@ -36,7 +36,7 @@ import numpy as np
 from loadarm._numba import njit
 
 __all__ = ["PREDICT_PERIOD", "FIT_WINDOW", "ORDER", "HORIZON", "LEVEL", "MIN_ERRORS", "MEMORY", "ArModel",
-           "fit_ar", "ar_forecast", "Forecast", "Calibrator",
+           "fit_ar", "ar_forecast", "psi_variance", "Forecast", "Calibrator",
            "block_means", "claimed_steps", "interval", "CLAIMS", "FlangePredictor", "REFIT", "MIN_FIT",
            "SAMPLE_PERIOD", "MAX_GAP", "GATE_HORIZONS", "GATE_FACTOR", "GATE_PERSIST", "THRESHOLD"]
 
@@ -212,8 +212,19 @@ def _recursion(phi_rev, buf, p, steps):
             buf[a, p + j] = acc
 
 
-def _psi_variance(phi: np.ndarray, steps: int) -> np.ndarray:
-    """Cumulative sums of the squared psi-weights per axis, (steps, 3): the forecast variance over sigma2."""
+def psi_variance(phi: np.ndarray, steps: int) -> np.ndarray:
+    """Cumulative sums of the squared psi-weights per axis: the forecast variance over sigma2.
+
+    Parameters
+    ----------
+    phi : ndarray (3, order)
+        The AR coefficients per axis.
+    steps : int
+
+    Returns
+    -------
+    ndarray (steps, 3)
+    """
     p = phi.shape[1]
     psi = np.zeros((steps, 3))
     psi[0] = 1.0
@@ -223,7 +234,7 @@ def _psi_variance(phi: np.ndarray, steps: int) -> np.ndarray:
     return np.cumsum(psi ** 2, axis=0)
 
 
-def ar_forecast(model: ArModel, history: np.ndarray, steps: int, *, extra_variance=None) \
+def ar_forecast(model: ArModel, history: np.ndarray, steps: int, *, extra_variance=None, psi2=None) \
         -> tuple[np.ndarray, np.ndarray]:
     """The mean and the model's standard deviation of the next ``steps`` block means.
 
@@ -235,6 +246,9 @@ def ar_forecast(model: ArModel, history: np.ndarray, steps: int, *, extra_varian
     steps : int
     extra_variance : ndarray (3,), optional
         Added to every step (the motion within a block, which the block means do not carry), m^2.
+    psi2 : ndarray (>= steps, 3), optional
+        ``model``'s cumulative squared psi-weights (:func:`psi_variance`), when kept between forecasts of one
+        fit (the live predictor: one computation per refit instead of one per block).
 
     Returns
     -------
@@ -246,7 +260,7 @@ def ar_forecast(model: ArModel, history: np.ndarray, steps: int, *, extra_varian
     buf[:, :p] = (history[-p:] - mu).T                                   # oldest first, as the track
     _recursion(np.ascontiguousarray(model.phi[:, ::-1]), buf, p, steps)
     mean = buf[:, p:].T + mu
-    var = _psi_variance(model.phi, steps) * model.sigma2
+    var = (psi_variance(model.phi, steps) if psi2 is None else psi2[:steps]) * model.sigma2
     if extra_variance is not None:
         var = var + np.asarray(extra_variance)
     return mean, np.sqrt(var)
@@ -488,6 +502,7 @@ class FlangePredictor:
         self.departed_at: float | None = None
         self.outside = 0
         self._q: np.ndarray | None = None                 # the calibrated multipliers of the last forecast
+        self._psi2: np.ndarray | None = None              # the model's cumulative squared psi-weights
 
     @property
     def within(self) -> np.ndarray:
@@ -554,7 +569,8 @@ class FlangePredictor:
         history = np.array(self.track)
         if self.model is None or self.index - self.fitted_at >= REFIT / PREDICT_PERIOD:
             self.model, self.fitted_at = fit_ar(history, route=self.route), self.index
-        m, sd = ar_forecast(self.model, history, self.steps)
+            self._psi2 = psi_variance(self.model.phi, self.steps)       # once per refit, not per block
+        m, sd = ar_forecast(self.model, history, self.steps, psi2=self._psi2)
         self.cal.remember(self.index, m, sd)
         q = self.cal.refreshed(12)
         claimed = claimed_steps(q, self.route)

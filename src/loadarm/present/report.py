@@ -137,6 +137,9 @@ def summary_dict(inst: Installation, plans: dict[str, Plan], sizing: dict | None
     }
 
 
+# The parameter table is laid out in fixed columns, its long keys and sources wrapped (found: it ran past the printed
+# page and Chromium cut its last column from the PDF, the whole document shrunk to fit); in print a section's heading
+# keeps to one line (Chromium's outline of the PDF joins a heading's lines without their space).
 _CSS = """
 body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;color:#222;padding:0 1em}
 h1{font-size:1.6em} h2{border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}
@@ -148,10 +151,14 @@ figure{margin:1em 0} figure img{max-width:100%;border:1px solid #eee} figcaption
 code{background:#f4f4f4;padding:0 .2em}
 .titlepage table{width:100%} .titlepage th{width:9em} .approval td{height:2.6em;width:28%}
 .toc ol{list-style:none;padding-left:0;columns:2} .toc li{margin:.15em 0} .toc a{color:#222;text-decoration:none}
+.params table{table-layout:fixed;width:100%} .params td,.params th{overflow-wrap:anywhere}
+.params th:nth-child(1){width:22%} .params th:nth-child(2){width:10%} .params th:nth-child(3){width:6%}
+.params th:nth-child(4){width:8%} .params th:nth-child(5){width:10%} .params th:nth-child(6){width:11%}
+.params th:nth-child(7){width:17%} .params th:nth-child(8){width:16%}
 @page{size:A4;margin:15mm 14mm 18mm;
  @bottom-left{content:"__DOCID__";font:8pt system-ui,sans-serif;color:#555}
  @bottom-right{content:"page " counter(page) " of " counter(pages);font:8pt system-ui,sans-serif;color:#555}}
-@media print{body{max-width:none;margin:0;padding:0;font-size:10pt} .titlepage{break-after:page}
+@media print{body{max-width:none;margin:0;padding:0;font-size:10pt} .titlepage{break-after:page} h2{font-size:1.3em}
  h2{break-before:page;break-after:avoid} h3{break-after:avoid} figure,tr,pre,.note{break-inside:avoid}
  figure img{max-height:150mm;object-fit:contain} a{color:inherit;text-decoration:none}
  table{font-size:8pt}}

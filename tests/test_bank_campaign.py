@@ -117,11 +117,11 @@ def test_a_bank_campaign_needs_a_moored_ship_and_sane_seeds(capsys):
 
 @pytest.mark.slow
 def test_the_kernel_s_route_is_held_to_the_closed_loop_on_the_same_seeds():
-    """The break-out scenario's own arm, by the kernel's route and by the single arm's closed loop, seeds 0-1:
-    the flange reaches its face at the same time (to the 0.2 s sampling: the same ship), the route's ESD-1 and
-    release are never earlier than the loop's (it lacks the measured routes, which only raise the alarms
-    earlier), and neither overstretches. Measured 2026-12-05: ESD-1 0.8-3.7 s later, the coupler free 2.4-3.3 s
-    later, the release margin 1.0-1.4 s against the loop's 3.6-4.5 s (seeds 0-2)."""
+    """The break-out scenario's own arm, by the campaign's route and by the single arm's closed loop, seeds 0-1:
+    the flange reaches its face at the same time (to the 0.2 s sampling: the same ship), ESD-1 within 1.5 s (the
+    route's monitor sees the true flange at 1 Hz, the loop's the estimate at 5 Hz), the coupler free within
+    0.5 s, and neither overstretches. Measured 2026-12-05, seeds 0-2: ESD-1 238.0 / 245.8 / 245.6 s against the
+    loop's 237.9 / 247.0 / 245.5 s, free 272.4 / 282.8 / 277.8 s against 272.3 / 282.8 / 277.9 s."""
     raw = read_toml(BREAKOUT, "scenario")
     sc0, model = load_scenario(BREAKOUT)
     f = np.asarray(sc0.ship.flange, dtype=float)
@@ -136,22 +136,22 @@ def test_the_kernel_s_route_is_held_to_the_closed_loop_on_the_same_seeds():
         route = single_arm_run(model, table, flange_motion(sc, ship), sc.scenario.duration)
         loop_face = loop["release_complete_s"] + loop["release_margin_s"]
         assert abs(route["face_s"] - loop_face) <= BANK_PERIOD + 0.05
-        assert route["alarm1_s"] >= loop["alarm1_s"] - BANK_PERIOD
-        assert route["release_complete_s"] >= loop["release_complete_s"] - BANK_PERIOD
+        assert abs(route["alarm1_s"] - loop["alarm1_s"]) <= 1.5
+        assert abs(route["release_complete_s"] - loop["release_complete_s"]) <= 0.5
         assert not route["overstretched"] and loop["overstretched_s"] is None
 
 
 @pytest.mark.slow
 def test_the_bank_s_break_out_releases_every_arm_before_its_face():
     """Two seeds of the example bank on the break-out: the bank stops, every arm's coupler opens after its valves
-    and is free before its flange reaches a face; the neighbours keep their clearance and the swivels their
+    and is free at least 2 s before its flange reaches a face; the neighbours keep their clearance and the swivels their
     travel; the campaign's table counts them so."""
     ctx = _Context(str(BANK), str(BREAKOUT))
     runs = [ctx.run(s) for s in (0, 1)]
     for r in runs:
         assert r.esd1_s == r.esd1_s and not any(r.overstretched) and not any(r.opened_early) and not r.clash
         assert all(o >= c for o, c in zip(r.opened_s, r.confirmed_s, strict=True))
-        assert all(m > 0 for m in r.margins) and r.min_clearance > 0.5 and r.min_swivel_margin_deg > 0
+        assert all(m >= 2.0 for m in r.margins) and r.min_clearance > 0.5 and r.min_swivel_margin_deg > 0
     res = run_bank_campaign(BANK, BREAKOUT, 1, first_seed=0, workers=1)
     d = res.to_dict()
     assert d["overstretches"] == d["opened_early"] == d["clashes"] == 0 and d["stopped"] == 1

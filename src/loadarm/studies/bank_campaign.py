@@ -11,9 +11,11 @@ the operability kernel's route (:mod:`loadarm.studies.kernel`), for a bank:
   yaw (:meth:`loadarm.guidance.bank.BankMonitor.flanges`, as :class:`loadarm.sim.bank.BankWorld`);
 * each arm: connected from the record's start, its coupler on its flange (the inverse kinematics, exact: the
   closed loop's attached arm is carried by the flange the same way), sampled at the monitor's 5 Hz;
-* the alarms: each arm's customer angles (beta and slew) and its design-drift floor, the time a break-out at the
+* the alarms: each arm's customer angles (beta and slew), its design-drift floor, the time a break-out at the
   berth's design drift takes to reach a face (the kernel's :func:`~loadarm.studies.kernel.floor_table`, looked up;
-  beyond it the rays cast), and the bank's faces, the swivels' stops and the clash of neighbours, by the bank's
+  beyond it the rays cast), its own monitor's forecast with the measured routes (:func:`measured_times`: the
+  drift fit, the velocity-step and break-out tests on its true flange, every second once the floor is within
+  130 s), and the bank's faces, the swivels' stops and the clash of neighbours, by the bank's
   monitor's design-drift forecast (:class:`loadarm.guidance.bank.BankMonitor` without history, every 2 s, its
   time held down by the time elapsed);
 * the sequence, compiled from :func:`loadarm.arm.sequence.lead_values` and :func:`~loadarm.arm.sequence.stage_of`:
@@ -21,9 +23,8 @@ the operability kernel's route (:mod:`loadarm.studies.kernel`), for a bank:
   ``ers_valve_time`` after their command (intact valves), ERS-2 for every arm at the first sample any arm's stage
   reaches RELEASE, each coupler opening as soon as its own valves confirm, free ``erc_release_time`` later.
 
-Not simulated: the measured routes of the forecast (the drift fit, the velocity-step and break-out tests: they
-only raise the alarms earlier, so their absence makes this route's releases later, never earlier, than the
-closed loop's), the flange sensor and its estimator, the drives and the hydraulics (the release takes its
+Not simulated: the flange sensor and its estimator (the monitor sees the true flange, at 1 Hz rather than the
+controller's 5 Hz), the predictor of issue 30, the pre-alarm, the drives and the hydraulics (the release takes its
 nominal times), valve faults, and the arms' retraction after the release (the clash is counted while both arms
 are connected). The coupler opening before its valves confirm is the scan's interlock: its count checks the
 bank's sequence, not a plant. A slow test holds this route to the single arm's closed loop on the same seeds.
@@ -51,7 +52,7 @@ from loadarm.arm.slew import inverse3d
 from loadarm.errors import ConfigError
 from loadarm.figures import subplots
 from loadarm.guidance.bank import BankMonitor, neighbours
-from loadarm.guidance.monitor import stage_leads
+from loadarm.guidance.monitor import EnvelopeMonitor, stage_leads
 from loadarm.params.bank import Bank, load_bank
 from loadarm.params.config import read_toml
 from loadarm.params.scenario import parse_scenario, resolve_berth
@@ -69,6 +70,11 @@ BANK_PERIOD = 0.2
 #: How often the bank's faces are forecast, s (their time held down by the time elapsed between; the forecast's
 #: own scan steps 2 s).
 BANK_FACE_PERIOD = 2.0
+#: How often each arm's own forecast (the monitor's, measured routes included) is made, s.
+MEASURED_PERIOD = 1.0
+#: The design floor's time to limit under which an arm's own forecast is made, s: a drift the measured routes
+#: would call ESD-1 for (35 s) at up to 0.5 m/s lies within 17.5 m, 124 s away at the floor's design drift.
+MEASURED_GATE = 130.0
 #: Seconds judged past the scenario's end, for where each flange would have crossed its face after the release.
 LOOKAHEAD = 300.0
 
@@ -238,6 +244,40 @@ def arm_record(model, table, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.
     return np.stack([q.phi, q.alpha, q.beta], axis=-1), level.astype(np.int64), np.minimum(th, tv), past
 
 
+def measured_times(model, p: np.ndarray, floor: np.ndarray, horizon: float) -> np.ndarray:
+    """An arm's time to its faces by its own monitor (:class:`loadarm.guidance.monitor.EnvelopeMonitor`, called:
+    the drift fit, the velocity-step and break-out tests, the design drift), fed the true flange at 5 Hz and
+    forecast every :data:`MEASURED_PERIOD` s where the design floor's time is under :data:`MEASURED_GATE`, held
+    down by the time elapsed between (``inf`` elsewhere).
+
+    Parameters
+    ----------
+    model : ArmModel
+    p : ndarray, shape (n, 3)
+        Its flange, its own frame, every :data:`BANK_PERIOD` s from the connection, m.
+    floor : ndarray, shape (n,)
+        The design floor's time to limit there, s.
+    horizon : float
+        s.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        s.
+    """
+    monitor = EnvelopeMonitor(model, window=60.0)
+    every = int(round(MEASURED_PERIOD / BANK_PERIOD))
+    out = np.full(p.shape[0], np.inf)
+    for i in range(p.shape[0]):
+        t = i * BANK_PERIOD
+        monitor.observe(t, p[i])
+        if i % every == 0 and floor[i] < MEASURED_GATE:
+            monitor.refit()
+            k = min(every, p.shape[0] - i)
+            out[i:i + k] = monitor.time_to_limit(p[i], horizon, now=t).time - np.arange(k) * BANK_PERIOD
+    return out
+
+
 def _bank_face_times(monitor: BankMonitor, centre: np.ndarray, angles: np.ndarray, horizon: float,
                      every: int) -> np.ndarray:
     """Each arm's time to its nearest bank face per sample (arms, n): the design-drift forecast every ``every``
@@ -286,8 +326,9 @@ def bank_run(bank: Bank, motion, reference, tables: list, seed: int, duration: f
     # the longest lead this route's stages use (no pre-alarm: no measured route), and one forecast period more
     horizon = max(stage_leads(m.sequence)[Severity.ESD1] for m in bank.models) + BANK_FACE_PERIOD
     every = int(round(BANK_FACE_PERIOD / BANK_PERIOD))
-    ttl = np.minimum(np.stack([p[2][:n_run] for p in per]),
-                     _bank_face_times(monitor, centre[:n_run], angles[:n_run], horizon, every))
+    own = np.stack([np.minimum(p[2][:n_run], measured_times(m, flanges[:n_run, i], p[2][:n_run], horizon))
+                    for i, (m, p) in enumerate(zip(bank.models, per, strict=True))])
+    ttl = np.minimum(own, _bank_face_times(monitor, centre[:n_run], angles[:n_run], horizon, every))
     level = np.ascontiguousarray(np.stack([p[1][:n_run] for p in per]))
     seq = _sequence_table(bank.models)
     idx = [np.full(len(bank.names), -1, dtype=np.int64) for _ in range(3)]
@@ -320,7 +361,11 @@ def single_arm_run(model, table, motion, duration: float) -> dict:
     """
     t = np.arange(0.0, duration + LOOKAHEAD, BANK_PERIOD)
     n_run = int(round(duration / BANK_PERIOD))
-    _, level, ttl, past = arm_record(model, table, np.ascontiguousarray(motion.position(t)))
+    p = np.ascontiguousarray(motion.position(t))
+    _, level, ttl, past = arm_record(model, table, p)
+    horizon = stage_leads(model.sequence)[Severity.ESD1] + MEASURED_PERIOD
+    ttl = np.minimum(ttl, np.concatenate([measured_times(model, p[:n_run], ttl[:n_run], horizon),
+                                          np.full(t.size - n_run, np.inf)]))
     idx = [np.full(1, -1, dtype=np.int64) for _ in range(3)]
     _, i_esd, _, _ = bank_sequence(level[None, :n_run].copy(), ttl[None, :n_run].copy(), _sequence_table([model]),
                                    *idx)
@@ -328,7 +373,7 @@ def single_arm_run(model, table, motion, duration: float) -> dict:
     free = opened + model.sequence.erc_release_time
     face = _when(t, int(np.argmax(past))) if past.any() else math.nan
     return {"alarm1_s": _when(t, i_esd), "release_s": opened, "release_complete_s": free, "face_s": face,
-            "overstretched": bool(face == face and (free != free or face < free))}
+            "overstretched": bool(face == face and (free != free or face <= free + 1e-9))}
 
 
 def _when(t, i) -> float:
@@ -344,8 +389,10 @@ def _judge(bank, seed, t, n_run, idx, bank_idx, past, clearance, swivel) -> Bank
     free = [o + m.sequence.erc_release_time for o, m in zip(opened, bank.models, strict=True)]
     face = [_when(t, int(np.argmax(p))) if p.any() else math.nan for p in past]
     connected = np.array([[ti < f if f == f else True for ti in t[:n_run]] for f in free])      # (arms, n_run)
-    over = [bool(f == f and (fr != fr or f < fr)) for f, fr in zip(face, free, strict=True)]
-    before = [bool(f == f and (c != c or f < c)) for f, c in zip(face, conf, strict=True)]
+    # the face's time is the first sample past it: the crossing lies in the period before, so a face at the
+    # sample the coupler is free was crossed before it (an overstretch of up to one period)
+    over = [bool(f == f and (fr != fr or f <= fr + 1e-9)) for f, fr in zip(face, free, strict=True)]
+    before = [bool(f == f and (c != c or f <= c + 1e-9)) for f, c in zip(face, conf, strict=True)]
     early = [bool(o == o and (c != c or o < c - 1e-9)) for o, c in zip(opened, conf, strict=True)]
     both = np.stack([connected[a] & connected[b] for a, b in neighbours(bank)], axis=-1)
     gaps = np.where(both, clearance, np.inf)
@@ -472,7 +519,9 @@ class BankCampaignResult(Result):
                 "min_clearance_m": min(r.min_clearance for r in self.runs),
                 "min_swivel_margin_deg": min(r.min_swivel_margin_deg for r in self.runs),
                 "seconds_per_run": None if self.seconds_per_run != self.seconds_per_run else self.seconds_per_run,
-                "seeds": [r.seed for r in self.runs]}
+                "seeds": [r.seed for r in self.runs],
+                "margins_s": sorted(round(float(m), 3) for m in margins),
+                "esd1_s": [r.esd1_s for r in self.runs]}
 
     def _figure(self):
         fig, ax = subplots(figsize=(7, 3.5))

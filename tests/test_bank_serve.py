@@ -354,3 +354,15 @@ def test_loadarm_serve_bank_serves_the_bank_until_ctrl_c(tmp_path):
         proc.wait(10)
     assert names == ["L1", "L2", "V1", "L3"] and t1 - t0 > 2.0 and 1.7 < gap < 1.9    # 4x: 4 s in a wall second
     assert closing.startswith("stopped at t = ") and "late states" in closing and code == 130, closing
+
+
+def test_the_docs_list_the_bank_s_node_tree():
+    """docs/plant-integration.md carries the bank's tables as the server declares them (``make docs`` writes
+    them), and docs/bank.md shows the screen (its screenshot by ``make docs``)."""
+    from loadarm.opcua.bank import bank_address_space_markdown
+
+    plant = (ROOT / "docs" / "plant-integration.md").read_text()
+    assert bank_address_space_markdown() in plant, "regenerate with: make docs"
+    assert "Objects/Machines/LoadingArmBank" in plant and "`Bank.Components.ARM.Guidance.NAME`" in plant
+    bank = (ROOT / "docs" / "bank.md").read_text()
+    assert "(img/bank-screen.png)" in bank and (ROOT / "docs" / "img" / "bank-screen.png").is_file()

@@ -23,6 +23,7 @@ from loadarm.design.bank import check_bank_approaches
 from loadarm.design.manifold import berth_wind, check_manifold_loads, motion_manifold_loads
 from loadarm.figures import save
 from loadarm.hydraulics.bank_release import simulate_release
+from loadarm.opcua.bank import bank_address_space_markdown
 from loadarm.opcua.plc import tags_markdown
 from loadarm.opcua.server import address_space_markdown
 from loadarm.params.bank import bank_parameter_markdown, load_bank
@@ -35,6 +36,7 @@ from loadarm.studies.forecast import run_forecast
 from loadarm.studies.metocean import synthetic_metocean
 from loadarm.studies.prediction import calibrate_predictors
 from loadarm.studies.plots import weather_figure
+from loadarm.testing.bank_screen import BANK_SCREENSHOT, bank_screenshot
 from loadarm.testing.browser import SCREENSHOTS, find_chromium, launch, screenshots
 
 __all__ = ["DOC_FIGURES", "HMI_SCREENSHOTS", "REPORT_PAGES", "report_page", "STUDY_FIGURES", "render_doc_figures", "hmi_screenshots",
@@ -57,7 +59,7 @@ WEATHER_YEARS = 10
 
 #: The operator's screen in docs/hmi.md: screenshots a real browser takes of the scripted drift-off
 #: (:func:`hmi_screenshots`; not compared pixel by pixel: a live screen's clock and noise differ each run).
-HMI_SCREENSHOTS = SCREENSHOTS
+HMI_SCREENSHOTS = SCREENSHOTS + (BANK_SCREENSHOT,)      # and the bank's screen in docs/bank.md (regenerate)
 
 #: The report's title page as printed (docs/cli-and-report.md): drawn by :func:`report_page` from the paper's
 #: report in Chromium with the print stylesheet (not compared pixel by pixel: its date and hash change).
@@ -82,6 +84,8 @@ def _weather(_data):
 #: The example bank of docs/bank.md, and the ship's rotation its swivel figure shows: roll, pitch, yaw amplitudes
 #: (rad) and periods (s), an illustrative moored LNG carrier's (not the moored-ship model's output).
 BANK_EXAMPLE = "banks/lng150k_bank.toml"
+#: The ship the bank's screenshot (docs/bank.md) is connected to: the moored LNG carrier in Hs 1.5 m.
+BANK_SCREEN_SCENARIO = "scenarios/hs15_moored.toml"
 BANK_SHIP_TURNING = ((0.0524, 14.0), (0.0087, 9.0), (0.0175, 60.0))
 
 
@@ -217,8 +221,8 @@ def compare_figures(committed: str | Path, fresh: dict[str, Path], tol: float = 
 
 
 def hmi_screenshots(dest: str | Path, *, speedup: float = 4.0) -> list[Path]:
-    """The screenshots of docs/hmi.md (:data:`HMI_SCREENSHOTS`, at a 1920x1080 console): each mode of the
-    scripted drift-off live (the hydraulic plant, at ``speedup``), then the same run replayed and its alarm
+    """The screenshots of docs/hmi.md (:data:`loadarm.testing.browser.SCREENSHOTS`, at a 1920x1080 console): each
+    mode of the scripted drift-off live (the hydraulic plant, at ``speedup``), then the same run replayed and its alarm
     journal, taken in Debian's Chromium (:func:`loadarm.testing.browser.screenshots`).
 
     Parameters
@@ -305,6 +309,11 @@ def regenerate(root: str | Path = ".") -> list[Path]:
     else:
         print("docs/img/hmi-*.png kept: no Chromium to take them (apt-get install chromium)")
     if find_chromium() is not None:
+        written.append(bank_screenshot(packaged_example(BANK_EXAMPLE), packaged_example(BANK_SCREEN_SCENARIO),
+                                       root / "docs" / "img"))
+    else:
+        print(f"docs/img/{BANK_SCREENSHOT} kept: no Chromium to take it (apt-get install chromium)")
+    if find_chromium() is not None:
         written.append(report_page(root / "docs" / "img"))
     else:
         print("docs/img/report-page.png kept: no Chromium to take it (apt-get install chromium)")
@@ -333,7 +342,8 @@ def regenerate_tables(root: str | Path = ".") -> list[Path]:
               (root / "docs" / "ship-motion.md", berth_parameter_markdown(), "| key | unit | default |"),
               (root / "docs" / "bank.md", bank_parameter_markdown(), "| key | unit | default |"),
               (plant, variables, "| variable | unit | range |"), (plant, methods, "| method | arguments |"),
-              (plant, tags_markdown(), "| tag | direction |")]
+              (plant, tags_markdown(), "| tag | direction |"),
+              (plant, bank_address_space_markdown(), "| node | type | unit | what |")]
     for page, table, header in tables:
         text = page.read_text(encoding="utf-8")
         a = text.index(header)

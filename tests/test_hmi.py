@@ -463,7 +463,9 @@ def test_the_replay_screen_has_a_slider_and_takes_no_command(tmp_path, logged_ru
     s = _login(c)
     assert s["replay"] is True and s["commands"] == []
     with c.websocket_connect("/ws", headers=ORIGIN) as ws:
-        assert _frame(ws)["replay"] == {"t": 0.0, "t0": 0.0, "t1": 320.0, "playing": True, "speed": 1.0}
+        # a loadarm run's log (simulated): its times of day from its start, and the bar says so
+        assert _frame(ws)["replay"] == {"t": 0.0, "t0": 0.0, "t1": 320.0, "playing": True, "speed": 1.0,
+                                        "simulated": True}
         # the first logged sample (1 Hz) after ESD-1, showing the mode and alarms the log has there (found: a
         # fixed 212 s in ALARM1 fell after the release once the lead counted the ERS valves' timeout)
         res = logged_run["result"]
@@ -528,6 +530,44 @@ def test_a_replay_refuses_a_damaged_sample_naming_it(model):
         ReplayService([ok, Event(2, "r", 1.0, "", "STORED", "sample", "", {**good, "alpha": "x"})], model)
     with pytest.raises(EventLogError, match="event id 3: state 'NOPE' is not a guidance mode"):
         ReplayService([ok, Event(3, "r", 1.0, "", "NOPE", "sample", "", good)], model)
+
+
+def test_a_simulated_run_s_replay_times_its_events_from_its_start(model):
+    """Found in the second trial of issue 29: the replay of a ``loadarm run`` log (simulated about 2000 times faster
+    than real time) gave every event of the release one time of day, its log's wall clock. A run whose log's clock
+    kept less than :data:`REAL_TIME_FRACTION` of its run time is simulated: its events' times of day are its start's
+    plus their run time, and the replay bar says so; a run on the wall clock keeps its log's times."""
+    from datetime import datetime, timedelta, timezone
+
+    from loadarm.eventlog import Event
+    from loadarm.hmi.app import _static_dir
+    from loadarm.hmi.replay import REAL_TIME_FRACTION, ReplayService
+
+    start = datetime(2026, 12, 5, 17, 29, 43, tzinfo=timezone.utc)
+    sample = {"phi": 0.0, "alpha": 1.0, "beta": 2.0, "distance": 1.0}
+
+    def run(wall_per_run_s):
+        def at(i, t, kind, reason, data):
+            return Event(i, "r", t, (start + timedelta(seconds=t * wall_per_run_s)).isoformat(), "CONNECTED", kind,
+                         reason, data)
+        return [at(1, 0.0, "sample", "", sample), at(2, 211.2, "alarm", "ALARM1: arm stretched", {}),
+                at(3, 211.8, "alarm", "RELEASE: arm stretched", {}), at(4, 229.2, "alarm", "returned", {}),
+                at(5, 300.0, "sample", "", sample)]
+
+    now = start.timestamp()
+    simulated = ReplayService(run(0.0005), model)
+    walls = [j["wall"] - now for j in simulated.journal(now)]
+    assert simulated.simulated and simulated.replay_state()["simulated"] is True
+    assert walls == pytest.approx([211.2, 211.8, 229.2])
+    assert len({j["clock"] for j in simulated.journal(now)}) == 2      # 211.2 and 211.8 s in one second, not 229.2
+    assert simulated.snapshot().wall == pytest.approx(now)
+    assert ReplayService(run(0.5 * REAL_TIME_FRACTION), model).simulated               # serve --speedup 20
+    assert not ReplayService(run(1.0), model).simulated                                 # real time
+    real = ReplayService(run(0.5), model)                                    # serve --speedup 2: its log's clock
+    assert not real.simulated and real.replay_state()["simulated"] is False
+    assert [j["wall"] - now for j in real.journal(now)] == pytest.approx([105.6, 105.9, 114.6])
+    js = (_static_dir() / "hmi.js").read_text()
+    assert "r.simulated ? \" · simulated run: times of day from its start\"" in js
 
 
 def test_the_hmi_page_states_the_figures_the_code_uses():

@@ -325,7 +325,7 @@ class _Screen:
                     return
                 f = frame(snap, self.model, self.alarms_for(snap), sent_at=self.wall(), anchor=self.anchor)
                 if self.replay:
-                    f["replay"] = cursor.state()
+                    f["replay"] = self.service.replay_state(cursor)
                 await websocket.send_text(json.dumps(f))
                 trended = await self._send_trend(websocket, snap, trended)
                 last_seq, last_sent = snap.seq, now

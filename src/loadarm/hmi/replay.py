@@ -18,7 +18,11 @@ from loadarm.hmi.state import JOURNAL_KINDS, journal_entry
 from loadarm.sim.snapshot import TREND_WINDOW, snapshot, trend_point
 from loadarm.vocab import ANNUNCIATED
 
-__all__ = ["ReplayService", "ReplayCursor"]
+__all__ = ["ReplayService", "ReplayCursor", "REAL_TIME_FRACTION"]
+
+#: A run whose log's wall clock advanced by less than this fraction of its run time was simulated (``loadarm run``,
+#: about 2000 times faster than real time; ``serve --speedup`` up to 10x keeps its log's clock).
+REAL_TIME_FRACTION = 0.1
 
 
 class ReplayService:
@@ -52,15 +56,19 @@ class ReplayService:
         self.t0, self.t1 = float(self.times[0]), float(self.times[-1])
         self._cursor = ReplayCursor(self.t0, self.t1, clock)
         self._cache: dict[int, object] = {}
+        #: The run was simulated: its events' times of day are its start's plus their run time (found: the replay of
+        #: a ``loadarm run`` log gave one time of day to the 18 s from ESD-1 to the release's end, its wall clock).
+        self.simulated = _simulated(self.samples)
+        self._start = (_epoch(self.samples[0].wall), float(self.samples[0].t))
         # each sample's alarms (every annunciated one, normal if not logged) and when each active one was raised:
         # at its logged transition out of normal (found: the 1 Hz sample after it, ESD-1 shown at 212.0 s where
         # the log has 211.2 s), or at the first sample showing it in a log without those transitions
-        raises = _raise_times(events)
+        raises = _raise_times(events, self.wall_of)
         self._alarms, self._raised, self._raised_wall, since = [], [], [], {}
         for e in self.samples:
             states = {tag: "normal" for tag in ANNUNCIATED}
             states.update(e.data.get("alarms", {}))
-            since = {tag: since.get(tag) or _raised_by(raises.get(tag, ()), e.t, _epoch(e.wall))
+            since = {tag: since.get(tag) or _raised_by(raises.get(tag, ()), e.t, self.wall_of(e))
                      for tag, st in states.items() if st != "normal"}
             self._alarms.append(states)
             self._raised.append({tag: t for tag, (t, _) in since.items()})
@@ -99,8 +107,15 @@ class ReplayService:
         self._cursor.pause()
 
     def replay_state(self, cursor: "ReplayCursor | None" = None) -> dict:
-        """A cursor's slider state (default the service's own)."""
-        return (cursor or self._cursor).state()
+        """A cursor's slider state (default the service's own), and whether the run was simulated."""
+        return {**(cursor or self._cursor).state(), "simulated": self.simulated}
+
+    def wall_of(self, event) -> float:
+        """When an event of the run happened on the wall clock, s since the epoch: the log's time, or for a
+        simulated run (:attr:`simulated`) the run's start on the log's clock plus the event's run time."""
+        if self.simulated:
+            return self._start[0] + (float(event.t) - self._start[1])
+        return _epoch(event.wall)
 
     def raised_at(self, snap) -> dict:
         """When each alarm active in ``snap`` (one of :meth:`snapshot`'s) was raised, run time s."""
@@ -118,9 +133,9 @@ class ReplayService:
         return [trend_point(self._at(i)) for i in range(lo, hi)]
 
     def journal(self, now: float) -> list[dict]:
-        """The run's journal (:func:`loadarm.hmi.state.journal_entry`), oldest first, each with the log's wall
-        clock."""
-        return [journal_entry(e.t, _epoch(e.wall), e.state, e.kind, e.reason, e.data, now) for e in self.events]
+        """The run's journal (:func:`loadarm.hmi.state.journal_entry`), oldest first, each at its time of day
+        (:meth:`wall_of`)."""
+        return [journal_entry(e.t, self.wall_of(e), e.state, e.kind, e.reason, e.data, now) for e in self.events]
 
     def request(self, req) -> None:
         raise PermissionError("a replay takes no command")
@@ -139,7 +154,7 @@ class ReplayService:
 
     def _snapshot(self, i: int):
         e = self.samples[i]
-        return snapshot(self.model, i, e.t, e.state, e.data, wall=_epoch(e.wall))
+        return snapshot(self.model, i, e.t, e.state, e.data, wall=self.wall_of(e))
 
 
 def _epoch(wall: str) -> float:
@@ -150,9 +165,16 @@ def _epoch(wall: str) -> float:
         return math.nan
 
 
-def _raise_times(events) -> dict[str, list[tuple[float, float]]]:
-    """Each alarm's logged transitions out of normal, (run time s, wall clock s), in order (its ``alarm_state``
-    events)."""
+def _simulated(samples) -> bool:
+    """Whether a run's log's wall clock advanced by less than :data:`REAL_TIME_FRACTION` of its run time."""
+    run = float(samples[-1].t) - float(samples[0].t)
+    wall = _epoch(samples[-1].wall) - _epoch(samples[0].wall)
+    return run > 0 and math.isfinite(wall) and wall < REAL_TIME_FRACTION * run
+
+
+def _raise_times(events, wall_of) -> dict[str, list[tuple[float, float]]]:
+    """Each alarm's logged transitions out of normal, (run time s, wall clock s by ``wall_of``), in order (its
+    ``alarm_state`` events)."""
     out: dict[str, list[tuple[float, float]]] = {}
     last: dict[str, str] = {}
     for e in events:
@@ -162,7 +184,7 @@ def _raise_times(events) -> dict[str, list[tuple[float, float]]]:
         if tag is None or st is None:
             continue
         if st != "normal" and last.get(tag, "normal") == "normal":
-            out.setdefault(tag, []).append((float(e.t), _epoch(e.wall)))
+            out.setdefault(tag, []).append((float(e.t), wall_of(e)))
         last[tag] = st
     return out
 

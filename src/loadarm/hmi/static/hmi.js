@@ -120,7 +120,8 @@ function drawReplay(r) {
   s.min = r.t0; s.max = r.t1;
   if (!hmi.dragging) { s.value = r.t; }
   $("replay-time").textContent = `${r.t.toFixed(1)} s of ${r.t0.toFixed(0)}-${r.t1.toFixed(0)} s` +
-    (r.playing ? ` · playing ${r.speed}x` : " · paused");
+    (r.playing ? ` · playing ${r.speed}x` : " · paused") +
+    (r.simulated ? " · simulated run: times of day from its start" : "");
   $("replay-play").textContent = r.playing ? "Pause" : "Play";
   // playing, the speed control shows the cursor's speed (found: it said 10 while the label said "playing 1x");
   // paused, it keeps the speed the operator chose for Play (found: reset to the last speed at the next frame)

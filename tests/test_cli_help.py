@@ -77,6 +77,31 @@ def test_flags_are_shown_as_flags(capsys, monkeypatch, argv, cmd):
         assert not after or not after[0].startswith("<"), row
 
 
+def _paragraphs(text):
+    return [" ".join(p.split()) for p in re.split(r"\n\s*\n", text or "") if p.strip()]
+
+
+@pytest.mark.parametrize("argv, cmd", COMMANDS, ids=IDS)
+def test_help_is_reflowed_not_broken_at_the_source_s_line_ends(capsys, monkeypatch, argv, cmd):
+    """Found in the second trial of issue 29: typer's rich help keeps a docstring's line ends, so `report --help`
+    read "(the keys document and revision of the file's report" and "section), the date" on the next line, and the
+    command lists broke "the alarm angles, the" / "sequence times" mid-row. Wide enough, each paragraph of a
+    command's help is one line of its screen, and its first paragraph one row of the list it is in."""
+    monkeypatch.setenv("COLUMNS", "400")
+    monkeypatch.setenv("NO_COLOR", "1")
+    assert main([*argv, "--help"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    paragraphs = [p for p in _paragraphs(cmd.help) if len(p) < 300]
+    assert paragraphs
+    broken = [p for p in paragraphs if not any(p in " ".join(ln.split()) for ln in lines)]
+    assert not broken, broken
+    assert main(argv[:-1] + ["--help"]) == 0                       # the list it is in: loadarm's, or its group's
+    listing = [" ".join(ln.replace("│", " ").split()) for ln in capsys.readouterr().out.splitlines()]
+    first = _paragraphs(cmd.help)[0]
+    if len(first) < 300:                                           # narrower than the list's column at 400
+        assert any(ln.startswith(f"{argv[-1]} {first}") for ln in listing), (first, listing)
+
+
 def test_a_flag_given_a_value_is_refused_in_one_line(capsys):
     code = main(["plan", "--config", "examples/paper.toml", "--json", "true"])
     err = capsys.readouterr().err

@@ -63,18 +63,27 @@ def _literal(text: str | None) -> str | None:
     return None if text is None else _MARKUP_TAG.sub(lambda m: f"{m[1]}{m[1]}\\{m[2]}", text)
 
 
+def _reflowed(text: str | None) -> str | None:
+    """``text`` with each paragraph on one line: typer's rich help keeps a docstring's line ends, so a help screen
+    broke its sentences where the source did ("the file's report" / "section)"), not at the window's edge."""
+    if text is None:
+        return None
+    return "\n\n".join(" ".join(p.split()) for p in re.split(r"\n\s*\n", text.strip()))
+
+
 def literal_help(cmd, ctx) -> None:
     """Make a command's help screen say what its source says (issue 29, items 12-13), and its sub-commands':
 
     * help texts are literal: typer renders them as rich markup, which swallowed ``[guidance] and [sensor]`` in
       ``serve --help`` and ``[operability]`` in ``operability --help``; every text is escaped;
+    * each paragraph is one line, wrapped by the screen's width (typer kept the docstring's line ends);
     * a flag is shown as a flag: typer's rich help gave every bool option a ``<bool>`` type, inviting
       ``--json true`` (which fails); a flag's value column is left empty.
     """
     if getattr(cmd, "_loadarm_literal", False):
         return
     cmd._loadarm_literal = True
-    cmd.help, cmd.short_help, cmd.epilog = _literal(cmd.help), _literal(cmd.short_help), _literal(cmd.epilog)
+    cmd.help, cmd.short_help, cmd.epilog = (_reflowed(_literal(text)) for text in (cmd.help, cmd.short_help, cmd.epilog))
     for param in [*cmd.params, cmd.get_help_option(ctx)]:
         if param is None:
             continue

@@ -580,6 +580,20 @@ def test_trends_journal_and_the_replay_s_speed(browser, replay_server):
         last = page.evaluate("hmi.trend[hmi.trend.length - 1]")
         assert f"drift {last['drift']:.2f}, flange speed {last['speed']:.2f}" in caps[2], (caps[2], last)
         assert page.evaluate("document.querySelectorAll('#trend-drift path.trace').length") == 2
+        # no time to limit is said as the forecast says it, never "none" (found in the second trial: the caption
+        # read "now: time to limit none" before the connection and beyond the horizon: item 2's "none")
+        said = page.evaluate("""() => { const out = {};
+            const n = hmi.trend.length - 1;
+            hmi.trend[n] = Object.assign({}, hmi.trend[n], {ttl: null, drift: null});
+            for (const [state, text] of [['off', 'not connected'], ['beyond', '> 65 s'],
+                                         ['none', 'NO FORECAST: no healthy estimate']]) {
+              hmi.frame.forecast = Object.assign({}, hmi.frame.forecast, {state, text}); drawTrends();
+              out[state] = [...document.querySelectorAll('#page-trends figcaption')].map((e) => e.textContent); }
+            return out; }""")
+        for state, text in (("off", "not connected"), ("beyond", "> 65 s"),
+                            ("none", "NO FORECAST: no healthy estimate")):
+            assert said[state][1].endswith(f"now: time to limit {text}"), said[state]
+            assert "now: drift no fit," in said[state][2] and "none" not in " ".join(said[state]), said[state]
         assert _outside(page, PRIMARY) == []
         page.click("#pages button[data-page='journal']")
         wait_for(page, "document.querySelectorAll('#journal tbody tr').length > 0", what="the journal")

@@ -83,7 +83,8 @@ def literal_help(cmd, ctx) -> None:
     if getattr(cmd, "_loadarm_literal", False):
         return
     cmd._loadarm_literal = True
-    cmd.help, cmd.short_help, cmd.epilog = (_reflowed(_literal(text)) for text in (cmd.help, cmd.short_help, cmd.epilog))
+    cmd.help, cmd.short_help, cmd.epilog = (_reflowed(_literal(text))
+                                            for text in (cmd.help, cmd.short_help, cmd.epilog))
     for param in [*cmd.params, cmd.get_help_option(ctx)]:
         if param is None:
             continue

@@ -756,15 +756,16 @@ function chart(svg, series, lo, hi, limits = []) {
   });
 }
 
-// Each trend's scale and its latest values, in its caption (found in review: the charts had no value on them)
+// Each trend's scale and its latest values, in its caption (found in review: the charts had no value on them);
+// a value that is not there is said as the trend's own words (found: "time to limit none", read as safe)
 function legend(svg, lo, hi, unit, digits, now) {
   const cap = svg.parentElement.querySelector("figcaption");
   let span = cap.querySelector(".legend");
   if (!span) { span = document.createElement("span"); span.className = "legend"; cap.appendChild(span); }
   const last = hmi.trend.length ? hmi.trend[hmi.trend.length - 1] : null;
-  const values = last ? now.map(([name, get]) => {
+  const values = last ? now.map(([name, get, absent]) => {
     const v = get(last);
-    return `${name} ${v === null || v === undefined ? "none" : v.toFixed(digits)}`;
+    return `${name} ${v === null || v === undefined ? absent() : v.toFixed(digits)}`;
   }).join(", ") : "no value yet";
   span.textContent = `scale ${lo.toFixed(digits)} to ${hi.toFixed(digits)} ${unit}, grid in the middle · now: ${values}`;
 }
@@ -775,12 +776,15 @@ function drawTrends() {
   const angles = [["beta", (p) => deg(p.beta)], ["margin", (p) => deg(p.margin)]];
   chart($("trend-angles"), [[angles[0][1], ""], [angles[1][1], "second"]], 0, 180,
         [g.alarm_beta.first * DEG, g.limits.beta[1] * DEG]);
-  legend($("trend-angles"), 0, 180, "deg", 1, angles);
+  legend($("trend-angles"), 0, 180, "deg", 1, angles.map(([name, get]) => [name, get, () => "not measured"]));
   chart($("trend-ttl"), [[(p) => p.ttl, ""]], 0, g.horizon, [g.sequence_time]);
-  legend($("trend-ttl"), 0, g.horizon, "s", 0, [["time to limit", (p) => p.ttl]]);
+  // no time: beyond the horizon, no forecast, or not connected: as the time to limit's tile says it
+  const noTime = () => (hmi.frame && hmi.frame.forecast ? hmi.frame.forecast.text : "not connected");
+  legend($("trend-ttl"), 0, g.horizon, "s", 0, [["time to limit", (p) => p.ttl, noTime]]);
   const top = Math.max(0.3, ...pts.map((p) => Math.max(p.drift || 0, p.speed || 0)));
   chart($("trend-drift"), [[(p) => p.drift, ""], [(p) => p.speed, "second thin"]], 0, top, [g.design_drift.speed]);
-  legend($("trend-drift"), 0, top, "m/s", 2, [["drift", (p) => p.drift], ["flange speed", (p) => p.speed]]);
+  legend($("trend-drift"), 0, top, "m/s", 2, [["drift", (p) => p.drift, () => "no fit"],
+                                               ["flange speed", (p) => p.speed, () => "no estimate"]]);
   const t1 = pts.length ? pts[pts.length - 1].t : 0;
   $("trend-note").textContent = `run time ${Math.max(0, t1 - TREND_S).toFixed(0)}-${t1.toFixed(0)} s, a grid ` +
     `line a minute. Beta solid, the nearest face's margin dashed; the forecast's drift solid, the flange's ` +

@@ -176,7 +176,7 @@ class BankRun:
     min_swivel_margin_deg : float
         The smallest swivel margin while connected, deg.
     seconds : float
-        Its computing time, s (one process).
+        Its computing time, s (the process's CPU time: the machine's other load apart).
     """
 
     seed: int
@@ -426,10 +426,10 @@ class _Context:
 
     def run(self, seed: int) -> BankRun:
         """One seed."""
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         sc = self.build(seed)
         run = bank_run(self.bank, flange_motion(sc, self.ship), sc.ship.flange, self.tables, seed, self.duration)
-        return dataclasses.replace(run, seconds=time.perf_counter() - t0)
+        return dataclasses.replace(run, seconds=time.process_time() - t0)
 
 
 def _tables(bank: Bank) -> list:
@@ -473,7 +473,7 @@ BANK_CAMPAIGN_METRICS = (
     Metric("margin_median_s", "release margin, median", "s", ".2f", none="-"),
     Metric("min_clearance_m", "smallest clearance of neighbours, connected", "m", ".3f"),
     Metric("min_swivel_margin_deg", "smallest swivel margin, connected", "deg", ".1f"),
-    Metric("seconds_per_run", "computing time per run (one process)", "s", ".2f", none="-"),
+    Metric("seconds_per_run", "CPU time per run (a worker's set-up apart)", "s", ".2f", none="-"),
 )
 
 
@@ -488,8 +488,8 @@ class BankCampaignResult(Result):
     names : tuple of str
     runs : tuple of BankRun
     seconds_per_run : float
-        Mean computing time of a run in its process, s (the ship's motion, the arms, the sequence; a worker's
-        one-off set-up apart).
+        Mean CPU time of a run in its process, s (the ship's motion, the arms, the sequence; a worker's one-off
+        set-up apart).
     """
 
     METRICS = BANK_CAMPAIGN_METRICS

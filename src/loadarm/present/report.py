@@ -158,7 +158,7 @@ code{background:#f4f4f4;padding:0 .2em}
 @page{size:A4;margin:15mm 14mm 18mm;
  @bottom-left{content:"__DOCID__";font:8pt system-ui,sans-serif;color:#555}
  @bottom-right{content:"page " counter(page) " of " counter(pages);font:8pt system-ui,sans-serif;color:#555}}
-@media print{body{max-width:none;margin:0;padding:0;font-size:10pt} .titlepage{break-after:page} h2{font-size:1.3em}
+@media print{body{max-width:none;margin:0;padding:0;font-size:10pt} .titlepage{break-after:page} h2{font-size:1.15em}
  h2{break-before:page;break-after:avoid} h3{break-after:avoid} figure,tr,pre,.note{break-inside:avoid}
  figure img{max-height:150mm;object-fit:contain} a{color:inherit;text-decoration:none}
  table{font-size:8pt}}

@@ -30,7 +30,7 @@ import numpy as np
 from loadarm.arm.faces import FACES, breakout_distance, face_margins, first_face
 from loadarm.arm.sequence import esd_lead, lead_values, valve_worst_time
 from loadarm.guidance.drift import FIT_PERIOD, DriftEstimate, DriftFit
-from loadarm.vocab import Severity
+from loadarm.vocab import ROUTE_BREAKOUT, ROUTE_DESIGN, ROUTE_MEASURED, ROUTE_STEP, Severity
 
 __all__ = ["stage_leads", "LimitForecast", "ForecastRoutes", "EnvelopeMonitor", "first_crossing", "measured_route",
            "predicted_crossing", "prediction_times", "CORNERS"]
@@ -255,7 +255,7 @@ class ForecastRoutes:
         -------
         str
         """
-        return "design drift" if k < self.n_design else self.names[(k - self.n_design) // len(CORNERS)]
+        return ROUTE_DESIGN if k < self.n_design else self.names[(k - self.n_design) // len(CORNERS)]
 
 
 class EnvelopeMonitor:
@@ -407,7 +407,7 @@ class EnvelopeMonitor:
         faces = tuple(sorted(by_face.items(), key=lambda kv: kv[1]))
         if k < routes.n_design:
             t_m = self._first_crossing(routes.measured_points, horizon)[0] if routes.measured else math.inf
-            return LimitForecast(t, face, "design drift", faces, t_m, t)
+            return LimitForecast(t, face, ROUTE_DESIGN, faces, t_m, t)
         t_d = self._first_crossing(routes.design, horizon)[0] if design_too else math.nan
         return LimitForecast(t, face, routes.route(k), faces, t, t_d)
 
@@ -448,9 +448,9 @@ class EnvelopeMonitor:
         routes, names = [], []
         if est is not None:
             routes.append(self._measured(est, age))
-            names.append("measured drift")
+            names.append(ROUTE_MEASURED)
             step_age = 0.0 if now is None else max(now - self.step_t, 0.0)
-            for name, e in (("velocity step", self.step_est), ("break-out", self.breakout_est)):
+            for name, e in ((ROUTE_STEP, self.step_est), (ROUTE_BREAKOUT, self.breakout_est)):
                 if e is not None:
                     routes.append(self._measured(e, step_age))
                     names.append(name)

@@ -268,3 +268,30 @@ def test_operability_page_report_sample(tmp_path):
     cited("docs/operability.md", f"its 1416 hours are down {100 * d['downtime_fraction']:.1f} % "
                                  f"({d['not_connectable_h']} not connectable, {int((res.table['stage'] >= 2).sum())} "
                                  f"with ESD-1")
+
+
+def _row(v: dict) -> str:
+    """A campaign's row of docs/guidance.md section 13's table, from runs on (as the page writes it)."""
+    def pair(a, b, fmt):
+        return "- / -" if a is None else f"{a:{fmt}} / {b:{fmt}}"
+    return (f"| {v['runs']} | {v['connected_h']:.1f} | {v['overstretches']} | {v['opened_on_live_product']} | "
+            f"{v['missed_alarms']} | {v['false_alarms_measured']} / {v['false_alarms']} | {v['alarm1_later']} | "
+            f"{pair(v['lead_gained_min_s'], v['lead_gained_median_s'], '.1f')} | {v['releases']} | "
+            f"{pair(v['margin_min_s'], v['margin_median_s'], '.2f')} |")
+
+
+@pytest.mark.parametrize("stored, case", [
+    ("breakout_tracked_seeds100-199", "| `breakout_tracked.toml` (every line parts at 400 s, Hs 1.0 m) "),
+    ("hs15_tracked_hs1.5-2.0_seeds100-199", "| `hs15_tracked.toml`, Hs 1.5-2.0 m "),
+])
+def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
+    """The campaign rows of docs/guidance.md section 13 measured again after the change detector's rule are the
+    campaigns' own JSON, kept in docs/campaigns/ with their command, commit and date (a 100-seed campaign takes
+    about 20 minutes of both cores: stored, not rerun here)."""
+    import json
+
+    rec = json.loads((ROOT / "docs" / "campaigns" / f"{stored}.json").read_text(encoding="utf-8"))
+    v = rec["result"]
+    assert rec["command"].startswith(f"loadarm campaign --scenario examples/scenarios/{v['scenario'].split('/')[-1]}")
+    cited("docs/guidance.md", case + _row(v))
+    cited("docs/guidance.md", f"`{rec['commit']}`")

@@ -248,7 +248,7 @@ def _pose_gap(ca, cb, ra, rb, m, half_a, half_b, seed):
     si, sj = seed // n, seed % n
     low = _segment_distance(ca[m, si, 0], ca[m, si, 1], cb[m, sj, 0], cb[m, sj, 1]) - (ra[si] + rb[sj])
     k_low = seed
-    if low != low:                    # an undefined pose: the first undefined pair, as argmin
+    if math.isnan(low):               # an undefined pose: the first undefined pair, as argmin
         low, k_low = np.inf, 0
     for i in range(n):
         for j in range(n):
@@ -258,7 +258,7 @@ def _pose_gap(ca, cb, ra, rb, m, half_a, half_b, seed):
             if _bound(ca, cb, m, i, j, half_a, half_b) - (ra[i] + rb[j]) > low + 1e-9:
                 continue
             d = _segment_distance(ca[m, i, 0], ca[m, i, 1], cb[m, j, 0], cb[m, j, 1]) - (ra[i] + rb[j])
-            if d != d:
+            if math.isnan(d):
                 return d, k
             if d < low or (d == low and k < k_low):
                 low, k_low = d, k

@@ -732,12 +732,14 @@ def bank_order_figure(order) -> Figure:
     """
     r = order.clearance
     fig, (top, bottom) = subplots(2, 1, figsize=(8, 5.5), sharex=True, height_ratios=(1, 2))
+    fig.set_layout_engine("constrained")
     for k, name in enumerate(order.names):
         wave = order.wave_of(name)
         top.barh(k, order.end_s[k] - order.start_s[k], left=order.start_s[k], color=f"C{wave}", height=0.6)
         top.text(order.end_s[k], k, f"  wave {wave + 1}", va="center", fontsize=8)
     top.set_yticks(range(len(order.names)), order.names)
     top.invert_yaxis()
+    top.set_xlim(0.0, float(r.t[-1]) * 1.1)           # room for the last wave's label
     top.set_title(f"Approach order: {' -> '.join(' + '.join(w) for w in order.waves)}", fontsize=9)
     for (i, j), c in zip(r.pairs, r.pair_minimum, strict=True):
         bottom.plot(r.t, c, label=f"{r.names[i]} / {r.names[j]}")

@@ -525,6 +525,7 @@ class BankCampaignResult(Result):
 
     def _figure(self):
         fig, ax = subplots(figsize=(7, 3.5))
+        fig.set_layout_engine("constrained")
         margins = np.array([m for r in self.runs for m in r.margins])
         ax.hist(margins[np.isfinite(margins)], bins=30, color="0.4")
         ax.set_xlabel("release margin: coupler free to the flange's face [s]")

@@ -240,8 +240,9 @@ def test_a_break_out_s_call_is_not_held_once_the_track_leaves_the_intervals():
 def test_on_tracked_ships_false_esd1_are_at_least_halved_and_no_esd1_is_later():
     """A fresh sample of the campaigns of docs/guidance.md section 13 (seeds 5000-5011, kinematic plant): Hs 1.5 m
     on the tracked ship, its false ESD-1 at most half of the rule's without the prediction, and a break-out's
-    ESD-1 at most one block (1 s) later than that rule's (100 seeds: one 0.2 s later, docs/guidance.md section
-    13); no overstretch and no coupler opened on live product in either."""
+    ESD-1 never later than that rule's (100 seeds: none later since a change detector's call is not held once
+    the track leaves the intervals, docs/guidance.md section 13); no overstretch and no coupler opened on live
+    product in either."""
     from loadarm.studies.campaign import run_campaign
 
     sea = run_campaign(SCEN / "hs15_tracked.toml", 12, first_seed=5000, workers=2, plant="kinematic")._values()
@@ -250,4 +251,4 @@ def test_on_tracked_ships_false_esd1_are_at_least_halved_and_no_esd1_is_later():
     assert 2 * sea["false_alarms"] <= sea["false_alarms_measured"], sea
     bo = run_campaign(SCEN / "breakout_tracked.toml", 6, first_seed=5000, workers=2, plant="kinematic")._values()
     assert bo["overstretches"] == 0 and bo["opened_on_live_product"] == 0 and bo["missed_alarms"] == 0
-    assert bo["releases"] == 6 and (bo["lead_gained_min_s"] is None or bo["lead_gained_min_s"] >= -1.0), bo
+    assert bo["releases"] == 6 and (bo["lead_gained_min_s"] is None or bo["lead_gained_min_s"] >= 0.0), bo

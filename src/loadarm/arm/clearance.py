@@ -219,32 +219,24 @@ def _segment_distance(p0, p1, q0, q1):
 
 
 @njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def _half_length(c, m, i):
-    """Half the length of capsule ``i`` at pose ``m``."""
-    return 0.5 * math.sqrt((c[m, i, 1, 0] - c[m, i, 0, 0]) ** 2 + (c[m, i, 1, 1] - c[m, i, 0, 1]) ** 2
-                           + (c[m, i, 1, 2] - c[m, i, 0, 2]) ** 2)
-
-
-@njit(cache=True, nogil=True, inline="always", error_model="numpy")
-def _bound(ca, cb, m, i, j, half_a, half_b):
-    """A lower bound of the distance of capsules ``i`` and ``j`` (their segments inside spheres about their
-    midpoints)."""
+def _bound(ca, cb, m, i, j):
+    """A lower bound of the distance of capsules ``i`` and ``j``'s segments at pose ``m``: the distance of their
+    axis-aligned boxes (each segment lies in its own)."""
     d2 = 0.0
     for k in range(3):
-        e = 0.5 * (ca[m, i, 0, k] + ca[m, i, 1, k]) - 0.5 * (cb[m, j, 0, k] + cb[m, j, 1, k])
+        lo_a, hi_a = min(ca[m, i, 0, k], ca[m, i, 1, k]), max(ca[m, i, 0, k], ca[m, i, 1, k])
+        lo_b, hi_b = min(cb[m, j, 0, k], cb[m, j, 1, k]), max(cb[m, j, 0, k], cb[m, j, 1, k])
+        e = max(lo_a - hi_b, lo_b - hi_a, 0.0)
         d2 += e * e
-    return math.sqrt(d2) - half_a[i] - half_b[j]
+    return math.sqrt(d2)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _pose_gap(ca, cb, ra, rb, m, half_a, half_b, seed):
+def _pose_gap(ca, cb, ra, rb, m, seed):
     """The smallest gap of two arms' capsules at pose ``m`` and its pair (the first smallest, as NumPy's argmin:
     the seed pair is computed first, then every pair in order, a pair whose lower bound lies more than 1e-9 m
     above the smallest so far skipped: the result is that of the full loop)."""
     n = ra.shape[0]
-    for i in range(n):
-        half_a[i] = _half_length(ca, m, i)
-        half_b[i] = _half_length(cb, m, i)
     si, sj = seed // n, seed % n
     low = _segment_distance(ca[m, si, 0], ca[m, si, 1], cb[m, sj, 0], cb[m, sj, 1]) - (ra[si] + rb[sj])
     k_low = seed
@@ -255,7 +247,7 @@ def _pose_gap(ca, cb, ra, rb, m, half_a, half_b, seed):
             k = i * n + j
             if k == seed:
                 continue
-            if _bound(ca, cb, m, i, j, half_a, half_b) - (ra[i] + rb[j]) > low + 1e-9:
+            if _bound(ca, cb, m, i, j) - (ra[i] + rb[j]) > low + 1e-9:
                 continue
             d = _segment_distance(ca[m, i, 0], ca[m, i, 1], cb[m, j, 0], cb[m, j, 1]) - (ra[i] + rb[j])
             if math.isnan(d):
@@ -284,12 +276,11 @@ def capsule_gaps(ca, cb, ra, rb, gap, best, seed=21):
         Written: the closest parts.
     seed : int
         The pair computed first (default: triple swivel to triple swivel, the connected neighbours' nearest
-        parts), so that the lower bounds skip the pairs that cannot be nearer.
+        parts), so that the lower bounds (the distance of the segments' axis-aligned boxes) skip the pairs that
+        cannot be nearer.
     """
-    n = ra.shape[0]
-    half_a, half_b = np.empty(n), np.empty(n)
     for m in range(ca.shape[0]):
-        gap[m], best[m] = _pose_gap(ca, cb, ra, rb, m, half_a, half_b, seed)
+        gap[m], best[m] = _pose_gap(ca, cb, ra, rb, m, seed)
 
 
 def pair_clearance_compiled(first: ArmShape, second: ArmShape, q_first, q_second) -> tuple[np.ndarray, np.ndarray]:

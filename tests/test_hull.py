@@ -31,6 +31,7 @@ def test_the_hull_displaces_its_block_coefficient_and_converges(cb, length, beam
     assert err[1] < 0.01 and err[1] <= err[0] / 3 + 1e-6, err
 
 
+@pytest.mark.slow                 # 5 s: make test keeps to its 2-minute budget; CI runs it
 def test_the_mesh_is_closed_symmetric_and_outward():
     """Independent route for the whole hull's volume: the shape functions integrated on a fine grid
     (2 * integral of y(x, z) dx dz); symmetric about the centre plane; positive volume (normals outward)."""

@@ -264,6 +264,7 @@ def test_check_bank_gives_each_arm_s_flange_load_and_refuses_an_overloaded_manif
     assert "MANIFOLD LOAD: arm 'V1'" in err and "manifold_loads.bending_moment = 5 kN m" in err
 
 
+@pytest.mark.slow                 # 6 s: make test keeps to its 2-minute budget; CI runs it
 def test_a_report_naming_a_bank_has_its_section(tmp_path):
     """An installation naming a ``[report] bank`` (no berth: no ship's record): the report's section 8d with each
     arm's row (its flange, its nearest arm, its governing load and its share of the allowable, its release),

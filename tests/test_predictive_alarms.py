@@ -178,6 +178,7 @@ def test_the_rules_are_declared_once():
     assert set(ALARM_RULES) == {"position", "floor", "measured", "prediction", "operator", "fault"}
 
 
+@pytest.mark.slow                 # 7 s: make test keeps to its 2-minute budget; CI runs it
 def test_without_a_track_the_predictive_rule_changes_nothing():
     """With no history the predictor never claims within a 5-minute run: the drift-off runs exactly as with the
     prediction off (the same alarm times, modes and release), each alarm event naming its rule."""

@@ -216,3 +216,19 @@ def test_parts_are_named(bank):
     """The closest parts are named from the clearance's parts."""
     m = BankMonitor(bank).margins(np.asarray(bank.file.manifold.position), np.zeros(3))
     assert all(a in PARTS and b in PARTS for a, b in m.parts)
+
+
+def test_every_arm_within_the_clearance_of_a_neighbour_gets_its_own_time(bank):
+    """Found on the bank's screen: with 2.0 m required between neighbours that keep 1.8 m, only the first pair's
+    arms (L1, L2) were given 0 s and the others 50 s (the scan kept one face per hypothesis, the first past).
+    Now each face's time is its own: every pair's clash at 0 s, every arm's time 0 s and its stage the release."""
+    from dataclasses import replace
+
+    clearance = bank.file.clearance.model_copy(update={"min_clearance": 2.0})
+    strict = replace(bank, file=bank.file.model_copy(update={"clearance": clearance}))
+    mon = BankMonitor(strict)
+    c = np.asarray(bank.file.manifold.position)
+    f = mon.time_to_limit(c, np.zeros(3), 65.0)
+    assert f.time == 0.0 and f.face == "clash"
+    assert f.by_arm == (0.0,) * 4, f.by_arm
+    assert set(f.stages) == {Severity.RELEASE}

@@ -298,10 +298,12 @@ class BankMonitor:
         return BankMargins(m[:n].reshape(-1, _N_SWIVEL), m[n:] + self.required, parts)
 
     def _outside(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Past a face at each hypothesis (T, K, 6: the centre, then roll, pitch, yaw), and the first face past."""
+        """Past a face at each hypothesis (T, K, 6: the centre, then roll, pitch, yaw), and every face's own past
+        (T, K, F): several pairs can be too close at once, and each arm's time is its own faces' (found: with every
+        neighbour within the clearance only the first pair's arms were given 0 s, the others 50 s)."""
         m, _ = self._margins(pts[..., :3], pts[..., 3:])
         past = m < 0.0                                          # NaN (out of the arm's reach): the arm's faces'
-        return past.any(axis=-1), np.argmax(past, axis=-1)
+        return past.any(axis=-1), past
 
     # -------------------------------------------------------------------------------------------- the forecast
 

@@ -116,7 +116,9 @@ def first_crossing(points, horizon: float, outside, faces, *, step: float, resol
     horizon : float
         s.
     outside : callable
-        Points (T, K, ...) to ``(past, face)``, both (T, K): past a face, and which (an index of ``faces``).
+        Points (T, K, ...) to ``(past, face)``: past a face (T, K), and which: an index of ``faces`` (T, K), or
+        every face's own past (T, K, F) where several faces can be past at one point (the bank's: each face's
+        time is then its own, not only the first past's).
     faces : sequence of str
         The faces' names.
     step, resolution : float
@@ -138,15 +140,20 @@ def first_crossing(points, horizon: float, outside, faces, *, step: float, resol
     rows = np.flatnonzero(past.any(axis=1))
     if rows.size == 0:
         return math.inf, "", -1, {}
+    multi = face.ndim == past.ndim + 1
+
+    def which(f) -> int:                                          # the face of one point
+        return int(np.argmax(f)) if multi else int(f)
+
     by_face = {}
     for j, name in enumerate(faces):
-        crossed = np.flatnonzero((past & (face == j)).any(axis=1))
+        crossed = np.flatnonzero((face[..., j] if multi else past & (face == j)).any(axis=1))
         if crossed.size:
             r = int(crossed[0])
             by_face[name] = float(tau[r - 1]) if r > 0 else 0.0
     i = int(rows[0])
     k = int(np.flatnonzero(past[i])[0])
-    hit = (faces[int(face[i, k])], k)
+    hit = (faces[which(face[i, k])], k)
     if i == 0:
         by_face[hit[0]] = 0.0
         return 0.0, hit[0], hit[1], by_face
@@ -157,7 +164,7 @@ def first_crossing(points, horizon: float, outside, faces, *, step: float, resol
         if out.any():
             hi = mid
             k = int(np.flatnonzero(out[0])[0])
-            hit = (faces[int(f[0, k])], k)
+            hit = (faces[which(f[0, k])], k)
         else:
             lo = mid
     by_face = {f: max(t, lo) for f, t in by_face.items()}   # no face is crossed before the first one

@@ -1,8 +1,8 @@
 """``loadarm warmup``: compile every numba kernel into the cache once, in parallel, before anything needs it.
 
 loadarm's compiled kernels (the 1 kHz hydraulic circuit, the moored ship's integrators and set-down pairs, the
-operability monitor) are compiled on their first call and kept in numba's cache, stamped with every source file
-of the package (:mod:`loadarm._numba`). A cold first call costs about a second per kernel: a real-time run pays it
+bank's clearance and sequence, the operability monitor) are compiled on their first call and kept in numba's
+cache, stamped with every source file of the package (:mod:`loadarm._numba`). A cold first call costs about a second per kernel: a real-time run pays it
 before its clock starts (``warm_up``), a study pays it in every worker process, and a test run in every worker.
 
 This command pays it once: a few short workloads, one per family of kernels, each in a process of its own, run side
@@ -34,6 +34,7 @@ from loadarm.params.scenario import read_scenario
 from loadarm.ship.model import compile_ship
 from loadarm.ship.mooring import restoring_force
 from loadarm.sim.loop import run_scenario
+from loadarm.studies.bank_campaign import run_bank_campaign
 from loadarm.studies.kernel import floor_table, monitor_record, relative_record
 
 __all__ = ["FAMILIES", "app", "warm_family"]
@@ -69,9 +70,12 @@ def _hydraulics() -> None:
 
 def _moored_ship() -> None:
     """The moored ship: its equilibrium and stiffness, the set-down pairs, the low-frequency integrator and the
-    flange's record, the lines' parting: short moored runs in waves and of the break-out."""
+    flange's record, the lines' parting: short moored runs in waves and of the break-out; then one seed of the
+    bank's break-out (its compiled clearance and sequence)."""
     _run("hs15_moored.toml")
     _run("breakout.toml")
+    run_bank_campaign(_examples() / "banks" / "lng150k_bank.toml", _examples() / "scenarios" / "breakout.toml", 1,
+                      workers=1)
     ship = compile_ship(load_berth(_examples() / "berths" / "lng150k.toml"))
     restoring_force(ship.moorings, [0.1, 0.2, 0.001])
 

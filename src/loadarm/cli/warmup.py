@@ -2,8 +2,9 @@
 
 loadarm's compiled kernels (the 1 kHz hydraulic circuit, the moored ship's integrators and set-down pairs, the
 bank's clearance and sequence, the operability monitor) are compiled on their first call and kept in numba's
-cache, stamped with every source file of the package (:mod:`loadarm._numba`). A cold first call costs about a second per kernel: a real-time run pays it
-before its clock starts (``warm_up``), a study pays it in every worker process, and a test run in every worker.
+cache, stamped with every source file of the package (:mod:`loadarm._numba`). A cold first call costs about a
+second per kernel: a real-time run pays it before its clock starts (``warm_up``), a study pays it in every worker
+process, and a test run in every worker.
 
 This command pays it once: a few short workloads, one per family of kernels, each in a process of its own, run side
 by side on the machine's cores. It is what to run after installing or updating loadarm on a controller, and what

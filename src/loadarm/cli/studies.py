@@ -99,6 +99,10 @@ def campaign(
                                                                 "connected to the scenario's moored ship, the "
                                                                 "bank's sequence (the kernel's route, see "
                                                                 "docs/bank.md).")] = None,
+    runs: Annotated[Optional[Path], typer.Option(
+        "--runs", help="A JSON-lines file of the runs, appended as they end: run again with the same scenario, "
+                       "plant and --vary, only the seeds it lacks are run and the result covers the whole range "
+                       "(a long campaign in parts, merged exactly).")] = None,
     force: ForceOpt = False,
 ) -> None:
     """Run a scenario over many seeds and parameter draws on every core: overstretches, releases before the ERS
@@ -109,19 +113,21 @@ def campaign(
     Example: loadarm campaign --scenario examples/scenarios/driftoff.toml --seeds 200 --vary drift.speed=0.05:0.3
     """
 
-    check_outputs({"--png": png}, [scenario], force)
+    check_outputs({"--png": png, "--runs": runs}, [scenario], force, appended=("--runs",))
     check_workers("--workers", workers)
     if bank is not None:
-        _bank_campaign(bank, scenario, seeds, first_seed, workers, as_json, png, bool(vary) or plant is not None)
+        _bank_campaign(bank, scenario, seeds, first_seed, workers, as_json, png,
+                       bool(vary) or plant is not None or runs is not None)
         return
     varied = [parse_vary(v) for v in vary or ()]
     check_campaign(scenario, seeds, vary=varied, first_seed=first_seed,       # refused before the bar starts
-                   plant=None if plant is None else plant.value)
+                   plant=None if plant is None else plant.value, runs_file=runs)
     with progress_bar() as prog:
         task = prog.add_task(f"campaign {scenario.name}", total=seeds)
         res = run_campaign(scenario, seeds, vary=varied, first_seed=first_seed, workers=workers,
                            plant=None if plant is None else plant.value,
-                           progress=lambda done, total: prog.update(task, completed=done), scheduler=scheduler)
+                           progress=lambda done, total: prog.update(task, completed=done), scheduler=scheduler,
+                           runs_file=runs)
     if png is not None:
 
         save(res.plot(), png)
@@ -135,7 +141,7 @@ def _bank_campaign(bank: Path, scenario: Path, seeds: int, first_seed: int, work
                    png: Optional[Path], other: bool) -> None:
     """``loadarm campaign --bank``: the bank's drift-off over seeds."""
     if other:
-        raise UserError("loadarm campaign --bank takes no --vary or --plant: the bank's route has no plant")
+        raise UserError("loadarm campaign --bank takes no --vary, --plant or --runs: the bank's route has no plant")
     check_bank_campaign(bank, scenario, seeds, first_seed)               # refused before the bar starts
     with progress_bar() as prog:
         task = prog.add_task(f"bank campaign {bank.name}", total=seeds)

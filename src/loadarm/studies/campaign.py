@@ -25,7 +25,8 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable, Sequence
+from collections import Counter
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,6 +42,7 @@ from loadarm.results import Metric, Result
 from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import run_scenario
 from loadarm.studies.cluster import connect_scheduler, plan_workers
+from loadarm.studies.runs_file import RunsFile
 from loadarm.vocab import ALARM_RULES
 
 __all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign",
@@ -280,11 +282,15 @@ class CampaignResult(Result):
         The varied parameters.
     runs : tuple of CampaignRun
         In seed order.
+    codes : dict
+        With a runs file: how many runs each version of loadarm's code ran (its digest's first 16 hex digits:
+        :func:`loadarm.studies.runs_file.code_digest`); empty otherwise.
     """
 
     scenario: str
     varied: tuple
     runs: tuple = field(repr=False)
+    codes: dict = field(default_factory=dict)
 
     METRICS = CAMPAIGN_METRICS
 
@@ -323,6 +329,8 @@ class CampaignResult(Result):
                                      if (n := sum(r.false_alarm and r.alarm1_rule == rule for r in runs))},
             "worst": [{"seed": r.seed, "release_margin_s": r.release_margin_s, "face": r.limit_face, **r.draws}
                       for r in worst],
+            "seeds": [runs[0].seed, runs[-1].seed] if runs else [],
+            "codes": dict(self.codes),
         }
 
     def _figure(self):
@@ -342,7 +350,8 @@ class CampaignResult(Result):
 
 def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (), first_seed: int = 0,
                  plant: str | None = None, workers: int | None = None, batch: int | None = None,
-                 progress: Callable[[int, int], None] | None = None, scheduler: str | None = None) -> CampaignResult:
+                 progress: Callable[[int, int], None] | None = None, scheduler: str | None = None,
+                 runs_file: str | Path | None = None) -> CampaignResult:
     """Run a scenario over ``seeds`` seeds and parameter draws.
 
     Parameters
@@ -366,6 +375,10 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     scheduler : str, optional
         Address of a running Dask scheduler (``tcp://host:8786``): the batches run on its workers (which need
         loadarm and see the same files) instead of a local process pool; a batch whose worker dies is run again.
+    runs_file : str or Path, optional
+        A JSON-lines file of the campaign's runs (:mod:`loadarm.studies.runs_file`): each batch's runs are
+        appended as it ends; the seeds it already holds are not run again, and the result covers every seed of
+        the range, stored or new (a campaign run in parts, merged exactly).
 
     Returns
     -------
@@ -374,18 +387,30 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     Raises
     ------
     ConfigError
-        A bad scenario, installation or varied key (checked on the first draw before anything is spread out).
+        A bad scenario, installation or varied key (checked on the first draw before anything is spread out), or
+        a runs file of another campaign.
     """
     _check_seeds(seeds, first_seed)
     scenario = str(scenario)
     _validate(scenario, _job(first_seed, vary), plant)
-    workers = plan_workers(workers, seeds)
-    batch = max(1, math.ceil(seeds / (4 * workers))) if batch is None else max(1, batch)
-    chunks = _chunks(seeds, vary, first_seed, batch)          # built one at a time, as they are submitted
-    done: list[CampaignRun] = []
+    store = None if runs_file is None else RunsFile(runs_file, scenario, plant, [(v.key, v.lo, v.hi) for v in vary])
+    wanted = range(first_seed, first_seed + seeds)
+    stored = [] if store is None else store.runs(wanted)
+    done: list[CampaignRun] = [CampaignRun(**fields) for fields, _ in stored]
+    codes = Counter(code for _, code in stored)
+    held = {r.seed for r in done}
+    pending = seeds - len(held)
+    workers = plan_workers(workers, max(1, pending))
+    batch = max(1, math.ceil(pending / (4 * workers))) if batch is None else max(1, batch)
+    chunks = _chunks((s for s in wanted if s not in held), vary, batch)   # built as they are submitted
+    if progress is not None and held:
+        progress(len(done), seeds)
 
     def report(part):
         done.extend(part)
+        if store is not None:
+            store.append(part)
+            codes[store.code] += len(part)
         if progress is not None:
             progress(len(done), seeds)
 
@@ -404,7 +429,7 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
         with ProcessPoolExecutor(max_workers=workers) as pool:
             _bounded_map(pool, lambda chunk: pool.submit(_run_batch, scenario, plant, chunk), chunks, 2 * workers,
                          report)
-    return CampaignResult(scenario, tuple(vary), tuple(sorted(done, key=lambda r: r.seed)))
+    return CampaignResult(scenario, tuple(vary), tuple(sorted(done, key=lambda r: r.seed)), codes=dict(codes))
 
 
 #: The most runs one campaign takes (a campaign of a hundred thousand kinematic runs takes a day on 8 cores).
@@ -440,20 +465,26 @@ def _job(seed: int, vary: Sequence[Vary]) -> tuple[int, dict]:
     return seed, {v.key: float(rng.uniform(v.lo, v.hi)) for v in vary}
 
 
-def _chunks(seeds: int, vary: Sequence[Vary], first_seed: int, batch: int):
+def _chunks(seeds: Iterable[int], vary: Sequence[Vary], batch: int):
     """The campaign's batches of jobs, made as they are asked for (found: ``--seeds 1e13`` built its whole list
     in memory first and gave no answer in a minute)."""
-    for start in range(first_seed, first_seed + seeds, batch):
-        yield [_job(seed, vary) for seed in range(start, min(start + batch, first_seed + seeds))]
+    part: list = []
+    for seed in seeds:
+        part.append(_job(seed, vary))
+        if len(part) == batch:
+            yield part
+            part = []
+    if part:
+        yield part
 
 
 def check_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (), first_seed: int = 0,
-                   plant: str | None = None) -> None:
+                   plant: str | None = None, runs_file: str | Path | None = None) -> None:
     """Refuse a campaign's bad input without running it (what :func:`run_campaign` checks first).
 
     Parameters
     ----------
-    scenario, seeds, vary, first_seed, plant
+    scenario, seeds, vary, first_seed, plant, runs_file
         As for :func:`run_campaign`.
 
     Raises
@@ -462,6 +493,8 @@ def check_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (
     """
     _check_seeds(seeds, first_seed)
     _validate(str(scenario), _job(first_seed, vary), plant)
+    if runs_file is not None:
+        RunsFile(runs_file, str(scenario), plant, [(v.key, v.lo, v.hi) for v in vary])
 
 
 def _validate(scenario: str, job: tuple[int, dict], plant: str | None) -> None:

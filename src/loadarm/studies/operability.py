@@ -658,12 +658,12 @@ def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, pla
     import hashlib
     import json
 
+    from loadarm.studies.runs_file import code_digest
+
     h = hashlib.sha256()
     for f in (config, berth, metocean):
         h.update(Path(f).read_bytes())
-    package = Path(__file__).resolve().parents[1]
-    for f in sorted(package.rglob("*.py")):
-        h.update(str(f.relative_to(package)).encode() + b"\0" + f.read_bytes())
+    h.update(code_digest().encode())
     given = dict(settings.__dict__, criteria=None if settings.criteria is None else settings.criteria.model_dump())
     h.update(json.dumps({"hours": hours, "settings": given, "plan": plan, "version": __version__},
                         sort_keys=True).encode())

@@ -1,0 +1,166 @@
+"""A campaign's runs, one JSON line each, so that a campaign too long for one sitting is run in parts and merged
+exactly.
+
+``loadarm campaign --runs FILE.jsonl`` appends every run's verdict as its batch ends. Run again with the same
+scenario, plant and ``--vary``, it runs only the seeds the file does not hold yet and reports over every seed of
+its range: the medians and counts of the whole campaign, not a mean of the parts' medians. A campaign of a
+thousand tracked seeds (a third of a CPU-hour per hundred) is run a hundred seeds at a time, on several days
+or machines, into one file.
+
+The file's first line is its header: loadarm's mark, the scenario's path and the digest of its contents (and of
+the installation and berth files it names), the plant and the varied keys. A file with another header is
+refused in one line. Every later line is one run, with the digest of loadarm's own code that ran it (the
+result states how many runs each code ran: runs are reused across versions of the code, and the report says
+so). A line cut short by a killed process is dropped when the file is read and cut off before the next append.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import asdict
+from pathlib import Path
+
+from loadarm.errors import ConfigError
+from loadarm.files import SIGNATURE
+
+__all__ = ["RUNS_KIND", "code_digest", "RunsFile"]
+
+#: The header's ``kind``.
+RUNS_KIND = "campaign runs"
+
+
+def code_digest() -> str:
+    """The digest of loadarm's own code: every module's source, by its path in the package (SHA-256, hex).
+
+    Returns
+    -------
+    str
+    """
+    h = hashlib.sha256()
+    package = Path(__file__).resolve().parents[1]
+    for f in sorted(package.rglob("*.py")):
+        h.update(str(f.relative_to(package)).encode() + b"\0" + f.read_bytes())
+    return h.hexdigest()
+
+
+def _inputs_digest(scenario: str) -> str:
+    """The scenario file's contents and those of the files it names (installation, berth), resolved as the
+    scenario resolves them."""
+    import tomllib
+
+    path = Path(scenario)
+    h = hashlib.sha256(path.read_bytes())
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError):   # the scenario's own check names the fault
+        return h.hexdigest()
+    named = [data.get("scenario", {}).get("installation"), data.get("ship", {}).get("berth")]
+    for rel in named:
+        if isinstance(rel, str) and (path.parent / rel).is_file():
+            h.update(rel.encode() + b"\0" + (path.parent / rel).read_bytes())
+    return h.hexdigest()
+
+
+class RunsFile:
+    """One campaign's runs file (see the module's text).
+
+    Parameters
+    ----------
+    path : Path
+        The JSON-lines file (created with its header if it does not exist).
+    scenario : str
+        The scenario file, as given.
+    plant : str or None
+    vary : sequence of (key, lo, hi)
+        The varied keys and their ranges.
+
+    Raises
+    ------
+    ConfigError
+        The file exists and is not this campaign's runs file: not loadarm's, another scenario (or other contents
+        of it), plant or draws.
+    """
+
+    def __init__(self, path: str | Path, scenario: str, plant: str | None, vary: Sequence[tuple[str, float, float]]):
+        self.path = Path(path)
+        self.header = {"generator": SIGNATURE, "kind": RUNS_KIND, "scenario": Path(scenario).name,
+                       "inputs_sha256": _inputs_digest(scenario), "plant": plant,
+                       "vary": [[k, float(lo), float(hi)] for k, lo, hi in vary]}
+        self.code = code_digest()[:16]
+        self._lines: list[dict] = []
+        if self.path.exists():
+            self._read()
+
+    def _read(self) -> None:
+        raw = self.path.read_bytes()
+        lines = raw.split(b"\n")
+        whole, cut = lines[:-1], lines[-1]          # the last piece has no newline: empty, or cut by a kill
+        try:
+            head = json.loads(whole[0]) if whole else None
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            head = None
+        if not isinstance(head, dict) or head.get("generator") != SIGNATURE or head.get("kind") != RUNS_KIND:
+            raise ConfigError(f"--runs {self.path}: not a loadarm campaign runs file (its first line is not the "
+                              "header loadarm writes); give a new file name")
+        for key in ("scenario", "inputs_sha256", "plant", "vary"):
+            if head.get(key) != self.header[key]:
+                raise ConfigError(f"--runs {self.path}: its runs are of another campaign ({key} "
+                                  f"{_short(head.get(key))}, this one {_short(self.header[key])}); give a new file "
+                                  "name")
+        for n, line in enumerate(whole[1:], start=2):
+            try:
+                self._lines.append(json.loads(line))
+            except (json.JSONDecodeError, UnicodeDecodeError):
+                raise ConfigError(f"--runs {self.path}: line {n} is not a run (JSON); the file was changed by "
+                                  "hand: give a new file name") from None
+        if cut:                                     # a line cut short: dropped before the next append
+            with open(self.path, "r+b") as fh:
+                fh.truncate(len(raw) - len(cut))
+
+    def seeds(self) -> set[int]:
+        """The seeds the file holds.
+
+        Returns
+        -------
+        set of int
+        """
+        return {int(line["run"]["seed"]) for line in self._lines}
+
+    def runs(self, seeds: Iterable[int]) -> list[tuple[dict, str]]:
+        """The stored runs of the given seeds, each as (the run's fields, the code digest that ran it).
+
+        Parameters
+        ----------
+        seeds : iterable of int
+
+        Returns
+        -------
+        list of (dict, str)
+        """
+        wanted = set(seeds)
+        return [(line["run"], line["code"]) for line in self._lines if line["run"]["seed"] in wanted]
+
+    def append(self, runs: Iterable) -> None:
+        """Append runs (dataclasses with a ``seed``), the header first if the file is new; flushed to disk.
+
+        Parameters
+        ----------
+        runs : iterable of dataclass
+        """
+        new = [{"code": self.code, "run": asdict(r)} for r in runs]
+        self._lines.extend(new)
+        text = "".join(json.dumps(line, separators=(",", ":")) + "\n" for line in new)
+        if not self.path.exists():
+            text = json.dumps(self.header, separators=(",", ":")) + "\n" + text
+        with open(self.path, "a", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+
+
+def _short(value) -> str:
+    text = json.dumps(value)
+    return text if len(text) <= 24 else text[:21] + "..."

@@ -10,7 +10,6 @@ import typer
 
 from loadarm.cli.common import (
     BerthOpt,
-    ConfigOpt,
     ForceOpt,
     JsonOpt,
     Table,
@@ -62,8 +61,14 @@ def hydro(
 
 @app.command()
 def alarms(
-    config: ConfigOpt,
     berth: BerthOpt,
+    config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML file (see "
+                                                                          "examples/paper.toml).")] = None,
+    bank: Annotated[Optional[Path], typer.Option("--bank", help="A bank of arms (see "
+                                                                "examples/banks/lng150k_bank.toml) instead of one "
+                                                                "installation: every arm's alarms from one mooring "
+                                                                "analysis, the settings each installation file "
+                                                                "shares.")] = None,
     as_json: JsonOpt = False,
     png: Annotated[Optional[Path], typer.Option("--png", help="Figure: the alarm zones and the break-out "
                                                               "stages.")] = None,
@@ -79,20 +84,30 @@ def alarms(
     and the recommended beta, slew and design-drift settings as blocks to paste into the installation. Refuses
     (exit 2), naming the face and the shortfall, when the arm cannot absorb the design drift.
 
+    With --bank: one mooring analysis, each arm's flange on the ship (its offset and height), each arm's stages
+    on its own flange's drift, and the settings to paste into each installation file that suit every arm built
+    from it; refuses (exit 2) naming the arm.
+
     Example: loadarm alarms --config examples/paper.toml --berth examples/berths/lng150k.toml --png out/alarms.png
     """
 
-    check_outputs({"--png": png}, [config, berth], force)
+    check_outputs({"--png": png}, [config, berth, bank], force)
+    if (config is None) == (bank is None):
+        raise UserError("loadarm alarms takes one of --config FILE or --bank FILE")
     if not 1 <= seeds <= 100:
         raise UserError(f"--seeds must be in [1, 100], got {seeds}")
     if not 1e-8 <= exceedance <= 1e-2:                    # NaN fails too
         raise UserError(f"--exceedance must be in [1e-08, 0.01] per hour, got {exceedance:g}")
+    settings = DesignSettings(seeds=seeds, exceedance_per_hour=exceedance)
+    if bank is not None:
+        _bank_alarms(bank, berth, settings, as_json, png)
+        return
     model = read_model(config)
     b = load_berth(berth)
     ship = compile_ship(b, source=str(berth))
     with progress_bar() as prog:
         task = prog.add_task("mooring analysis", total=1.0)
-        res = design_alarms(model, ship, b.environment, settings=DesignSettings(seeds=seeds, exceedance_per_hour=exceedance),
+        res = design_alarms(model, ship, b.environment, settings=settings,
                             progress=lambda f: prog.update(task, completed=f))
     if png is not None:
 
@@ -117,3 +132,42 @@ def alarms(
             err.print(f"loadarm: note: {w}")
     if not res.ok:
         raise UserError(f"{berth}: refused: " + "; ".join(res.problems))
+
+
+def _bank_alarms(path: Path, berth: Path, settings: DesignSettings, as_json: bool, png: Optional[Path]) -> None:
+    """``loadarm alarms --bank``: every arm's alarm design from one mooring analysis."""
+    from rich import box
+
+    from loadarm.design.bank_alarms import design_bank_alarms
+    from loadarm.params.bank import load_bank
+
+    bank = load_bank(path)
+    b = load_berth(berth)
+    ship = compile_ship(b, source=str(berth))
+    with progress_bar() as prog:
+        task = prog.add_task("mooring analysis (every flange)", total=1.0)
+        res = design_bank_alarms(bank, ship, b.environment, settings=settings,
+                                 progress=lambda f: prog.update(task, completed=f))
+    if png is not None:
+
+        save(res.plot(), png)
+    if as_json:
+        print_json(res.to_dict())
+    else:
+        out.print(str(res.summary()))
+        t = Table("arm", "allow m", "ESD-1 beta", "ERS-2 beta", "ESD-1 slew", "ERS-2 slew", "shared margin m",
+                  "verdict", box=box.SIMPLE_HEAD, pad_edge=False)
+        for r in res.arm_rows():
+            t.add_row(r["arm"], f"{r['allowance_m']:.2f}",
+                      *("-" if r[k] is None else f"{r[k]:.1f}" for k in ("first_beta_deg", "release_beta_deg",
+                                                                        "first_slew_deg", "release_slew_deg")),
+                      "-" if r["shared_margin_m"] is None else f"{r['shared_margin_m']:+.2f}",
+                      "holds" if r["ok"] else "refused")
+        print_wide(t, 100)
+        for f in res.shared:
+            out.print(f"Paste into {f}:")
+            out.print(res.toml(f).rstrip("\n"))
+        for c in res.costs:
+            err.print(f"loadarm: note: {c}")
+    if not res.ok:
+        raise UserError(f"{path}: refused: " + "; ".join(res.problems))

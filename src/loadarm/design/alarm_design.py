@@ -59,7 +59,8 @@ from loadarm.errors import ConfigError
 from loadarm.results import Metric, Result
 from loadarm.ship.motion import flange_kinematics, simulate
 
-__all__ = ["FaceDesign", "AlarmDesign", "StageFit", "Verdict", "alarm_verdict", "STAGES", "design_alarms", "DesignSettings", "breakout_curve", "extreme_level",
+__all__ = ["FaceDesign", "AlarmDesign", "MooringAnalysis", "design_from_analysis", "flanging_corners",
+           "mooring_analysis", "recommended_settings", "StageFit", "Verdict", "alarm_verdict", "STAGES", "design_alarms", "DesignSettings", "breakout_curve", "extreme_level",
            "ExtremeLevel"]
 
 
@@ -623,14 +624,68 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
         No corner of the flanging area lies inside the attached envelope.
     """
 
+    fx, fz = model.approach.flange
+    corners, warnings = flanging_corners(model, ship, (fx, 0.0, fz))        # refused before the analysis
+    analysis = mooring_analysis((ship,), env, settings, progress)[0]
+    return design_from_analysis(model, analysis, settings, (fx, 0.0, fz), corners, warnings)
+
+
+@dataclass(frozen=True)
+class MooringAnalysis:
+    """The mooring analysis at one flange of the ship: what :func:`design_from_analysis` stacks.
+
+    Attributes
+    ----------
+    intact : dict
+        Per environment (``berth`` and each break-out face's name): a list of (flange from the calm equilibrium
+        (n, 3) m, flange velocity (n, 3) m/s), one per seed.
+    broken : dict
+        Per break-out face's name: a list of flange tracks (n, 3), one per seed (every line parted).
+    breakout_t : ndarray
+        The break-out runs' times, s.
+    mean_offset : tuple of float
+        The flange's static offset under the design environment's mean loads, from calm, m.
+    natural_periods : dict
+        The moored ship's natural periods.
+    """
+
+    intact: dict
+    broken: dict
+    breakout_t: np.ndarray
+    mean_offset: tuple
+    natural_periods: dict
+
+
+def design_from_analysis(model, analysis: MooringAnalysis, settings: DesignSettings, flange, corners,
+                         warnings, judged: tuple = ()) -> AlarmDesign:
+    """Stack the alarm stages of one arm on the mooring analysis at its flange (the second half of
+    :func:`design_alarms`; a bank's arms share one analysis, each at its own flange).
+
+    Parameters
+    ----------
+    model : ArmModel
+    analysis : MooringAnalysis
+    settings : DesignSettings
+    flange : tuple of float
+        The nominal flange in the arm's frame (x, y, z), m.
+    corners, warnings : list
+        :func:`flanging_corners` of the arm at that flange.
+    judged : tuple of (str, dict)
+        Other settings to judge beside the installation's and the recommended (a label and settings as
+        :attr:`AlarmDesign.recommended`, degrees): their stage fits carry the label.
+
+    Returns
+    -------
+    AlarmDesign
+    """
     seq = model.sequence
     lead1 = esd_lead(seq)
     t_rel = valve_worst_time(seq)
     t_free = t_rel + seq.erc_release_time + seq.margin
-    calm, _, _ = flange_kinematics(ship, ship.eq0[None], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))
-    box, x_conn_far, (fx, fz) = berth_box(model.datasheet), _x_conn_far(model.datasheet), model.approach.flange
-    corners, warnings = _corners(model, ship)
-    intact, broken, bt, mean_offset = _mooring_analysis(ship, env, settings, calm, progress)
+    box, x_conn_far = berth_box(model.datasheet), _x_conn_far(model.datasheet)
+    fx, _, fz = flange
+    intact, broken, bt, mean_offset = analysis.intact, analysis.broken, analysis.breakout_t, analysis.mean_offset
+    warnings = list(warnings)
     st = _Stack(model, corners, lead1, t_rel, t_free)
     rows, problems, curves, contexts = [], [], [], []
     tau_main = s_main = None
@@ -648,10 +703,12 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
             curves.append((tau, s))
         if kind is not None:
             contexts.append((rows[-1], kind, d, tau, s, allow))
-    rec = _recommended(rows)
+    rec = recommended_settings(rows)
+    sets = (("recommended", rec),) + tuple(judged)
     stages = tuple(fit for row, kind, d, tau, s, allow in contexts
-                   for label, thr in (("configured", _configured(model, kind)), ("recommended", tuple(
-                       math.radians(rec[f"{k}_{kind}_deg"]) for _, k in STAGES)))
+                   for label, thr in (("configured", _configured(model, kind)),) + tuple(
+                       (label, tuple(math.radians(given[f"{k}_{kind}_deg"]) for _, k in STAGES))
+                       for label, given in sets)
                    for fit in st.stage_fits(row, kind, d, tau, s, allow, label, thr))
     speed, accel = design_drift_fit(curves, lead1 + t_free)
     rec["design_drift_speed_ms"] = speed
@@ -659,7 +716,7 @@ def design_alarms(model, ship, env, *, settings: DesignSettings = DesignSettings
     sequence = {"esd_time_s": seq.esd_time, "ers_valve_time_s": seq.ers_valve_time,
                 "ers_valve_timeout_s": seq.ers_valve_timeout, "valves_worst_s": t_rel,
                 "erc_release_time_s": seq.erc_release_time, "margin_s": seq.margin, "esd_lead_s": lead1}
-    return AlarmDesign(tuple(rows), rec, sequence, ship.natural_periods(), mean_offset, tau_main, s_main,
+    return AlarmDesign(tuple(rows), rec, sequence, analysis.natural_periods, mean_offset, tau_main, s_main,
                        (box.x_near, x_conn_far, box.y_low, box.y_high), tuple(problems), tuple(warnings), (fx, fz),
                        model.arm, model.joint_limits, settings.exceedance_per_hour, stages)
 
@@ -669,15 +726,35 @@ def _x_conn_far(ds) -> float:
     return ds.A + ds.B + ds.D
 
 
-def _corners(model, ship) -> tuple[list, list]:
+def flanging_corners(model, ship, flange) -> tuple[list, list]:
     """The flanging area's corners (and the nominal flange) inside the attached envelope, and a warning for each
-    outside it; refuses when none is inside."""
+    outside it; refuses when none is inside. Along the berth the area is the berth's manifold tolerance either
+    side of the flange.
+
+    Parameters
+    ----------
+    model : ArmModel
+    ship : ShipModel
+        Its ``manifold_tolerance``.
+    flange : tuple of float
+        The nominal flange in the arm's frame (x, y, z), m.
+
+    Returns
+    -------
+    corners : list of ndarray
+    warnings : list of str
+
+    Raises
+    ------
+    ConfigError
+        No corner nor the nominal flange lies inside the attached envelope.
+    """
     box, x_conn_far = berth_box(model.datasheet), _x_conn_far(model.datasheet)
-    fx, fz = model.approach.flange
+    fx, fy, fz = flange
     tol = ship.manifold_tolerance
-    candidates = [np.array([x, y, z]) for x in (box.x_near, x_conn_far) for z in (box.y_low, box.y_high)
+    candidates = [np.array([x, fy + y, z]) for x in (box.x_near, x_conn_far) for z in (box.y_low, box.y_high)
                   for y in sorted({-tol, tol})]
-    candidates.append(np.array([fx, 0.0, fz]))
+    candidates.append(np.array([fx, fy, fz]))
     corners, warnings = [], []
     for c in candidates:
         mg = face_margins(model, c[0], c[1], c[2])
@@ -694,19 +771,38 @@ def _corners(model, ship) -> tuple[list, list]:
     return corners, warnings
 
 
-def _mooring_analysis(ship, env, settings: DesignSettings, calm, progress):
+def mooring_analysis(ships, env, settings: DesignSettings, progress=None) -> list[MooringAnalysis]:
     """The mooring analysis: intact (the berth's environment, and turned towards each horizontal face) and
-    break-out (every line parted, the environment turned towards the face), several seeds each."""
+    break-out (every line parted, the environment turned towards the face), several seeds each; one simulation
+    per run, its flange at each ship's manifold (the same ship with its manifold moved: a bank's flanges).
+
+    Parameters
+    ----------
+    ships : sequence of ShipModel
+        The first is simulated; the others are it with another ``manifold`` (their flanges follow its motion).
+    env : Environment
+    settings : DesignSettings
+    progress : callable, optional
+        Called with the fraction done.
+
+    Returns
+    -------
+    list of MooringAnalysis
+        One per ship.
+    """
     envs = {"berth": env}
     for name, vec, _, how in _DIRECTIONS:
         if how == "breakout":
             envs[name] = _towards(env, vec)
     jobs = [(key, e, broken) for key, e in envs.items() for broken in ((False, True) if key != "berth" else (False,))]
-    intact: dict[str, list] = {k: [] for k in envs}
-    broken: dict[str, list] = {k: [] for k in envs}
+    ship = ships[0]
+    zero3, zero6 = np.zeros((1, 3)), np.zeros((1, 6))
+    calm = [flange_kinematics(s, ship.eq0[None], zero3, zero6, zero6)[0] for s in ships]
+    intact: list[dict] = [{k: [] for k in envs} for _ in ships]
+    broken: list[dict] = [{k: [] for k in envs} for _ in ships]
     n = settings.seeds
     done, total = 0, len(jobs) * n
-    mean_offset = (0.0, 0.0, 0.0)
+    mean_offset = [(0.0, 0.0, 0.0)] * len(ships)
     bt = None
     for key, e, part in jobs:
         for i in range(n):
@@ -714,17 +810,31 @@ def _mooring_analysis(ship, env, settings: DesignSettings, calm, progress):
                 # the drift without the first-order wave motion (that is inside the allowance already)
                 b = simulate(ship, e, settings.part_time + settings.breakout_window, seed=2000 + i,
                              parted=ship.names, part_time=settings.part_time, waves=False)
-                broken[key].append(b.flange)
+                for j, s in enumerate(ships):
+                    broken[j][key].append(_at(j, s, b)[0])
                 bt = b.t
             else:
                 m = simulate(ship, e, settings.intact_duration, seed=1000 + i)
-                intact[key].append((m.flange - calm[0], m.flange_velocity))
-                if key == "berth" and i == 0:
-                    mean_offset = tuple(float(v) for v in m.flange_reference - calm[0])
+                for j, s in enumerate(ships):
+                    flange, velocity = _at(j, s, m)
+                    intact[j][key].append((flange - calm[j][0], velocity))
+                    if key == "berth" and i == 0:
+                        ref = flange_kinematics(s, m.mean_pose[None], zero3, zero6, zero6)[0][0]
+                        mean_offset[j] = tuple(float(v) for v in ref - calm[j][0])
             done += 1
             if progress:
                 progress(done / total)
-    return intact, broken, bt, mean_offset
+    periods = ship.natural_periods()
+    return [MooringAnalysis(intact[j], broken[j], bt, mean_offset[j], periods) for j in range(len(ships))]
+
+
+def _at(j: int, ship, motion):
+    """A run's flange track and velocity at the ``j``-th ship's manifold (the run's own for the first: the run's
+    ship)."""
+    if j == 0:
+        return motion.flange, motion.flange_velocity
+    p, v, _ = flange_kinematics(ship, motion.pose, motion.pose_velocity, motion.wave, motion.wave_velocity)
+    return p, v
 
 
 def _allowance(intact, name: str, how: str, d, settings: DesignSettings) -> ExtremeLevel:
@@ -754,8 +864,19 @@ def _configured(model, kind: str) -> tuple[float, float, float]:
     return src.first, src.second, src.release
 
 
-def _recommended(rows) -> dict:
-    """The recommended ``[alarms]`` and ``[slew]`` settings in degrees (None where no face guards them)."""
+def recommended_settings(rows) -> dict:
+    """The recommended ``[alarms]`` and ``[slew]`` settings in degrees (None where no face guards them): per
+    coordinate, the earliest stages of its faces' rows, ESD-1 never inside any row's drift allowance (rows of
+    several arms of one installation give the one setting that suits them all).
+
+    Parameters
+    ----------
+    rows : sequence of FaceDesign
+
+    Returns
+    -------
+    dict
+    """
     rec = {}
     for kind in ("beta", "slew"):
         rs = [r for r in rows if r.coordinate == kind]

@@ -9,7 +9,6 @@ import typer
 
 from loadarm.cli.common import (
     BerthOpt,
-    ConfigOpt,
     ForceOpt,
     JsonOpt,
     PlantKind,
@@ -23,6 +22,7 @@ from loadarm.cli.common import (
 from loadarm.figures import save
 from loadarm.results import format_rows
 from loadarm.studies.bank_campaign import check_bank_campaign, run_bank_campaign
+from loadarm.studies.bank_operability import run_bank_operability
 from loadarm.studies.campaign import check_campaign, parse_vary, run_campaign
 from loadarm.studies.cluster import check_workers
 from loadarm.studies.operability import OperabilitySettings, run_operability
@@ -34,7 +34,6 @@ app = typer.Typer()
 
 @app.command()
 def operability(
-    config: ConfigOpt,
     berth: BerthOpt,
     metocean: Annotated[Path, typer.Option("--metocean", "-m", help="Metocean record, CSV or NetCDF (see "
                                                                     "examples/metocean/).")],
@@ -54,22 +53,33 @@ def operability(
     png: Annotated[Optional[Path], typer.Option("--png", help="Figure: monthly downtime, Hs-Tp map, the worst "
                                                               "week.")] = None,
     force: ForceOpt = False,
+    config: Annotated[Optional[Path], typer.Option("--config", "-c", help="Installation TOML file (see "
+                                                                          "examples/paper.toml): one arm.")] = None,
+    bank: Annotated[Optional[Path], typer.Option("--bank", help="A bank of arms (examples/banks/) instead of "
+                                                                "--config: the ship once per state, every arm's "
+                                                                "own monitoring; down when any arm is (see "
+                                                                "docs/bank.md).")] = None,
 ) -> None:
-    """Operability of this arm at this berth over a metocean record, on Dask: per hourly sea state the moored
-    ship's motion and the connected-mode monitoring; downtime, events per stage, breakdowns by month, year, Hs,
-    Tp and wind. A stopped run resumes from the chunks already written.
+    """Operability of this arm (--config) or this bank of arms (--bank) at this berth over a metocean record, on
+    Dask: per hourly sea state the moored ship's motion and the connected-mode monitoring; downtime, events per
+    stage, breakdowns by month, year, Hs, Tp and wind; for a bank, the downtime by arm and the governing arm. A
+    stopped run resumes from the chunks already written.
 
     Example: loadarm operability --config examples/paper.toml --berth examples/berths/lng150k.toml --metocean examples/metocean/sample.csv --hours 48 --duration-per-state 600
     """
 
-    check_outputs({"--png": png, "--out": out_file}, [config, berth, metocean], force)
+    if (config is None) == (bank is None):
+        raise UserError("loadarm operability takes --config INSTALLATION (one arm) or --bank BANK (a bank of arms)"
+                        + (", not both" if bank is not None else ": give one"))
+    check_outputs({"--png": png, "--out": out_file}, [config, bank, berth, metocean], force)
     if not 1 <= chunks <= 10000:
         raise UserError(f"--chunks must be in [1, 10000], got {chunks}")
     check_workers("--workers", workers)
     settings = OperabilitySettings(duration_per_state=duration_per_state, chunks=chunks)
+    run = run_operability if bank is None else run_bank_operability
     with lazy_progress("operability (Dask)") as bar:
-        res = run_operability(config, berth, metocean, out_file, hours=hours, settings=settings, scheduler=scheduler,
-                              workers=workers, fresh=force, progress=bar)
+        res = run(config if bank is None else bank, berth, metocean, out_file, hours=hours, settings=settings,
+                  scheduler=scheduler, workers=workers, fresh=force, progress=bar)
     if png is not None:
 
         save(res.plot(), png)

@@ -53,7 +53,7 @@ from loadarm.ship.mooring import (
 from loadarm.ship.passing import add_passing_load
 
 __all__ = ["ShipMotion", "simulate", "flange_positions", "mean_load", "MIN_RECORD", "DT", "wave_components",
-           "fft_length", "rise_of", "line_stretch_coefficients", "moored_state", "StateLoads"]
+           "fft_length", "rise_of", "line_stretch_coefficients", "moored_state", "StateLoads", "ship_angles"]
 
 #: Shortest record synthesised, s (frequency step 2 pi / 1800 s: 0.0035 rad/s).
 MIN_RECORD = 1800.0
@@ -535,8 +535,25 @@ def flange_kinematics(ship: ShipModel, pose, pose_v, wave, wave_v):
     r_dot = pose_v[:, 2]
     vx = pose_v[:, 0] - r_dot * (s * lx + c * ly) + c * dv[:, 0] - s * dv[:, 1]
     vy = pose_v[:, 1] + r_dot * (c * lx - s * ly) + s * dv[:, 0] + c * dv[:, 1]
-    angles = np.stack([wave[:, 3], wave[:, 4], pose[:, 2] + wave[:, 5]], axis=1)
-    return p, np.stack([vx, vy, dv[:, 2]], axis=1), angles
+    return p, np.stack([vx, vy, dv[:, 2]], axis=1), ship_angles(pose, wave)
+
+
+def ship_angles(pose, wave) -> np.ndarray:
+    """The ship's roll, pitch and yaw at the manifold (yaw from the mean heading), rad, shape (n, 3): the
+    first-order roll and pitch, the low-frequency yaw plus the first-order yaw.
+
+    Parameters
+    ----------
+    pose : ndarray (n, 3)
+        The low-frequency pose (x, y, yaw).
+    wave : ndarray (n, 6)
+        The first-order motion of the centre of gravity.
+
+    Returns
+    -------
+    ndarray (n, 3)
+    """
+    return np.stack([wave[:, 3], wave[:, 4], pose[:, 2] + wave[:, 5]], axis=1)
 
 
 def mean_load(ship: ShipModel, env: Environment) -> np.ndarray:
@@ -889,9 +906,11 @@ class StateLoads:
     paid_out: float
 
 
-def moored_state(ship: ShipModel, env: Environment, duration: float, *, seed: int = 0, dt: float = DT):
+def moored_state(ship: ShipModel, env: Environment, duration: float, *, seed: int = 0, dt: float = DT,
+                 angles: bool = False):
     """:func:`flange_positions` and the state's loads and motions (:class:`StateLoads`), for the operability
-    judged by the terminal's criteria.
+    judged by the terminal's criteria; with ``angles``, the ship's roll, pitch and yaw at the manifold too (what
+    :func:`simulate` gives as ``flange_angles``: a bank's flanges turn with them).
 
     Parameters
     ----------
@@ -902,14 +921,18 @@ def moored_state(ship: ShipModel, env: Environment, duration: float, *, seed: in
     seed : int
     dt : float
         s.
+    angles : bool
+        Return the angles too.
 
     Returns
     -------
     flange : ndarray (n, 3)
     reference : ndarray (3,)
     loads : StateLoads
+    angles : ndarray (n, 3)
+        Only with ``angles``: rad.
     """
-    return _state(ship, env, duration, seed, dt, loads=True)
+    return _state(ship, env, duration, seed, dt, loads=True, angles=angles)
 
 
 def _ranges(ship: ShipModel, pose: np.ndarray, wave: np.ndarray) -> tuple[float, ...]:
@@ -929,8 +952,10 @@ def _ranges(ship: ShipModel, pose: np.ndarray, wave: np.ndarray) -> tuple[float,
     return (pp(surge), max(float(np.max(off)), 0.0), pp(wave[:, 2]), pp(wave[:, 3]), pp(wave[:, 4]), pp(yaw))
 
 
-def _state(ship: ShipModel, env: Environment, duration: float, seed: int, dt: float, *, loads: bool):
-    """The flange and, with ``loads``, the state's :class:`StateLoads` (one sea, one integration)."""
+def _state(ship: ShipModel, env: Environment, duration: float, seed: int, dt: float, *, loads: bool,
+           angles: bool = False):
+    """The flange and, with ``loads``, the state's :class:`StateLoads` (one sea, one integration); with
+    ``angles``, the ship's angles (:func:`ship_angles`) last."""
     n_out, n = _lengths(duration, dt)
     mo = ship.moorings
     rng = np.random.default_rng(seed)
@@ -959,5 +984,6 @@ def _state(ship: ShipModel, env: Environment, duration: float, seed: int, dt: fl
     fenders = fender_loads(mo, pose[::step])
     deflections = fender_deflections(mo, pose[::step])
     surge, off, heave, roll, pitch, yaw = _ranges(ship, pose, wave)
-    return flange, reference, StateLoads(tmax, np.max(fenders, axis=0), np.max(deflections, axis=0), surge, off, heave,
-                                         roll, pitch, yaw, int(np.sum(part_at >= 0)), float(np.max(paid)))
+    state = StateLoads(tmax, np.max(fenders, axis=0), np.max(deflections, axis=0), surge, off, heave, roll, pitch,
+                       yaw, int(np.sum(part_at >= 0)), float(np.max(paid)))
+    return (flange, reference, state, ship_angles(pose, wave)) if angles else (flange, reference, state)

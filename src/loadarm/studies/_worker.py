@@ -7,4 +7,4 @@ import pandas  # noqa: F401
 import pyarrow.parquet  # noqa: F401
 
 from loadarm.ship import model, motion  # noqa: F401
-from loadarm.studies import kernel, operability  # noqa: F401
+from loadarm.studies import bank_operability, kernel, operability  # noqa: F401

@@ -52,10 +52,12 @@ from loadarm.studies.cluster import check_scheduler, check_workers, connect_sche
 from loadarm.studies.kernel import floor_table, monitor_record, relative_record
 from loadarm.studies.metocean import compass_to_berth, read_metocean
 from loadarm.studies.plots import operability_figure
+from loadarm.studies.runs_file import code_digest
 from loadarm.vocab import Severity
 
 __all__ = ["record_rows", "monitor_table", "STATE_VARIABLES", "block_bootstrap", "BOOTSTRAP_BLOCK_H", "CI_LEVEL", "OperabilitySettings", "state_environment", "run_states", "run_operability", "OperabilityResult",
-           "plan_chunks", "write_parquet", "COLUMNS", "CRITERIA", "headline_rows", "persistence", "judge_state"]
+           "plan_chunks", "write_parquet", "COLUMNS", "CRITERIA", "headline_rows", "persistence", "judge_state",
+           "monitor_table_at", "run_chunked", "state_ship"]
 
 #: The environment of the local cluster's worker processes (start a cluster of your own's workers with the same):
 #: single-threaded numerical libraries (one worker process per core), glibc keeping freed memory (Dask's default
@@ -641,27 +643,44 @@ def monitor_table(model, rows: list[dict]):
     -------
     FloorTable
     """
-    tides = [r["tide_m"] for r in rows] or [0.0]
-    return floor_table(model, *_box(model, float(np.min(tides)), float(np.max(tides))))
-
-
-def _box(model, tide_lo: float, tide_hi: float):
     fx, fz = model.approach.flange
+    return monitor_table_at(model, (fx, 0.0, fz), rows)
+
+
+def monitor_table_at(model, flange, rows: list[dict]):
+    """:func:`monitor_table` about a flange of the arm's own frame (a bank's arm: its presentation flange,
+    :meth:`loadarm.params.bank.Bank.flange_position`).
+
+    Parameters
+    ----------
+    model : ArmModel
+    flange : sequence of float, (3,)
+        m, the arm's frame, at mean tide zero.
+    rows : list of dict
+
+    Returns
+    -------
+    FloorTable
+    """
+    tides = [r["tide_m"] for r in rows] or [0.0]
+    return floor_table(model, *_box(flange, float(np.min(tides)), float(np.max(tides))))
+
+
+def _box(flange, tide_lo: float, tide_hi: float):
+    fx, fy, fz = (float(v) for v in flange)
     margin = 2.5
-    return ((fx - margin, -margin, fz + tide_lo - margin), (fx + margin, margin, fz + tide_hi + margin))
+    return ((fx - margin, fy - margin, fz + tide_lo - margin), (fx + margin, fy + margin, fz + tide_hi + margin))
 
 
-def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, plan) -> str:
-    """What the chunks of a run depend on: the three input files' contents, the hours, the settings, the plan,
-    and loadarm's own code (every module's source: found, a chunk computed by an older kernel of the same version
-    number would have been resumed into a newer run)."""
+def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, plan, extra=()) -> str:
+    """What the chunks of a run depend on: the three input files' contents (and ``extra`` files': a bank's
+    installations), the hours, the settings, the plan, and loadarm's own code (every module's source: found, a
+    chunk computed by an older kernel of the same version number would have been resumed into a newer run)."""
     import hashlib
     import json
 
-    from loadarm.studies.runs_file import code_digest
-
     h = hashlib.sha256()
-    for f in (config, berth, metocean):
+    for f in (config, berth, metocean, *extra):
         h.update(Path(f).read_bytes())
     h.update(code_digest().encode())
     given = dict(settings.__dict__, criteria=None if settings.criteria is None else settings.criteria.model_dump())
@@ -829,10 +848,6 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     ConfigError
         A bad record or setting; chunks beside ``out`` from another run (without ``fresh``).
     """
-    import time
-
-    import pandas as pd
-
     check_workers("--workers", workers)
     rows, gaps = record_rows(metocean, hours)
 
@@ -843,10 +858,60 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
     if settings.criteria.passing_ship and bf.passing_ship is None:
         raise ConfigError(f"{config}: operability.passing_ship = true needs a [passing_ship] table in the berth file "
                           f"{berth}")
+
+    def compiled(ship):
+        return (model, ship, monitor_table(model, rows), bf.berth.x_bearing_deg, bf.environment)
+
+    digest = (config, berth, metocean, hours, settings)
+    table, wall, n_workers = run_chunked(rows, out, digest, compiled, _chunk_task, COLUMNS, settings=settings,
+                                         scheduler=scheduler, workers=workers, progress=progress, fresh=fresh,
+                                         ship=ship, berth_file=bf, berth=berth)
+    return OperabilityResult(table, gaps.to_dict(), wall, n_workers, settings.criteria)
+
+
+def run_chunked(rows: list[dict], out, digest: tuple, compiled: Callable, task: Callable, columns, *,
+                settings: OperabilitySettings, scheduler=None, workers=None, progress=None, fresh: bool = False,
+                ship=None, berth_file=None, berth=None, extra=()):
+    """The operability's chunks on Dask, resumed from those already written (one driver for an arm and a bank).
+
+    Parameters
+    ----------
+    rows : list of dict
+        The record's hours (:func:`record_rows`).
+    out : path
+        The gathered Parquet; its chunks in ``<out>.chunks/``.
+    digest : tuple
+        ``(config, berth, metocean, hours, settings)``: what :func:`_manifest` hashes (with ``extra``).
+    compiled : callable
+        ``compiled(ship) -> tuple``: the data every chunk shares, made while the cluster starts.
+    task : callable
+        ``task(compiled, rows, settings, path) -> DataFrame`` (a module-level function: it is pickled).
+    columns : sequence of str
+        The rows' columns (an empty record's table).
+    settings : OperabilitySettings
+        Resolved.
+    scheduler, workers, progress, fresh, ship
+        As :func:`run_operability`.
+    berth_file : BerthFile
+    berth : path
+    extra : sequence of path
+        More files the chunks depend on (a bank's installations).
+
+    Returns
+    -------
+    table : pandas.DataFrame
+    wall : float
+        s.
+    workers : int
+    """
+    import time
+
+    import pandas as pd
+
     out = Path(out)
     chunk_dir = out.with_name(out.name + ".chunks")
     plan = plan_chunks(len(rows), settings.chunks)
-    _check_manifest(chunk_dir, _manifest(config, berth, metocean, hours, settings, plan), fresh)
+    _check_manifest(chunk_dir, _manifest(*digest, plan, extra=extra), fresh)
     todo = [(k, a, b) for k, (a, b) in enumerate(plan) if not (chunk_dir / f"chunk-{k:05d}.parquet").is_file()]
     for k in sorted(set(range(len(plan))) - {k for k, _, _ in todo}):
         _read_chunk(chunk_dir / f"chunk-{k:05d}.parquet", metadata_only=True)   # a damaged one: before any work
@@ -882,23 +947,22 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
                     preload=["loadarm.studies._worker"])))
             stack.callback(lambda: _close_client(connecting))
             if ship is None:
-                ship = compile_ship(bf, source=str(berth))
-            table = monitor_table(model, rows)
-            compiled = (model, ship, table, bf.berth.x_bearing_deg, bf.environment)
+                ship = compile_ship(berth_file, source=str(berth))
+            shared = compiled(ship)
             client = connecting.result()
             n_workers = len(client.scheduler_info()["workers"])
 
             def submit(item, shared):
                 k, a, b = item
-                return client.submit(_chunk_task, shared, rows[a:b], settings,
+                return client.submit(task, shared, rows[a:b], settings,
                                      str((chunk_dir / f"chunk-{k:05d}.parquet").resolve()), retries=2, pure=False)
 
             # the shared data as a task's result, not scattered data: a task the scheduler can run again when the
             # workers holding it are lost (found: scattered data lost with its workers cancelled the chunks
             # waiting on it, or left them waiting for ever)
-            done = gather_resilient(client, todo, submit, lambda: client.submit(_shared, compiled, pure=False),
+            done = gather_resilient(client, todo, submit, lambda: client.submit(_shared, shared, pure=False),
                                     progress=progress)
     parts = [done[k] if k in done else _read_chunk(chunk_dir / f"chunk-{k:05d}.parquet") for k in range(len(plan))]
-    table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(COLUMNS))
+    table = pd.concat(parts, ignore_index=True) if parts else pd.DataFrame(columns=list(columns))
     write_parquet(table, out)
-    return OperabilityResult(table, gaps.to_dict(), time.perf_counter() - t0, n_workers, settings.criteria)
+    return table, time.perf_counter() - t0, n_workers

@@ -23,7 +23,9 @@ from loadarm.cli.common import (
     read_model,
 )
 from loadarm.design.alarm_design import DesignSettings, design_alarms
+from loadarm.design.bank_alarms import design_bank_alarms
 from loadarm.figures import save
+from loadarm.params.bank import load_bank
 from loadarm.params.berth import load_berth
 from loadarm.ship.model import compile_ship
 from loadarm.ship.summary import ship_summary
@@ -137,9 +139,6 @@ def alarms(
 def _bank_alarms(path: Path, berth: Path, settings: DesignSettings, as_json: bool, png: Optional[Path]) -> None:
     """``loadarm alarms --bank``: every arm's alarm design from one mooring analysis."""
     from rich import box
-
-    from loadarm.design.bank_alarms import design_bank_alarms
-    from loadarm.params.bank import load_bank
 
     bank = load_bank(path)
     b = load_berth(berth)

@@ -266,3 +266,28 @@ def test_cli_bank_prints_the_table_and_writes_the_parquet_then_resumes(capsys, t
     (tmp_path / "arm.toml").write_text((tmp_path / "arm.toml").read_text() + "\n# edited\n")
     line = _one_line(*_run(capsys, *args)[::2])
     assert "chunks are from another run" in line
+
+
+def _cited(text: str) -> None:
+    page = " ".join((ROOT / "docs" / "bank.md").read_text(encoding="utf-8").split())
+    assert text in page, f"docs/bank.md should say {text!r} (recomputed)"
+
+
+@pytest.mark.slow
+def test_bank_page_sample_numbers(tmp_path):
+    """docs/bank.md, "Operability of a bank": the shipped sample at 600 s a state (seeded: the counts are exact)."""
+    from loadarm.studies.bank_operability import run_bank_operability
+
+    res = run_bank_operability(BANK, BERTH, SAMPLE, tmp_path / "b.parquet",
+                               settings=OperabilitySettings(duration_per_state=600.0))
+    d, t = res.to_dict(), res.table
+    lo, hi = d["downtime_ci"]
+    _cited(f"bank is down {100 * d['downtime_fraction']:.1f} % of the hours (90 % interval {100 * lo:.1f}-"
+           f"{100 * hi:.1f} %), the arm criterion {100 * d['down_arm_fraction']:.1f} %")
+    alone = d["downtime_by_arm_h"]
+    _cited("been down " + ", ".join(f"{a} {alone[a]} h" for a in res.names) + f", and the bank {int(t['down'].sum())} h")
+    some = t[[f"down_arm_{a}" for a in res.names]].sum(axis=1)
+    _cited(f"only {int(some.between(1, len(res.names) - 1).sum())} hours had some arms down but not all")
+    gov = sorted(((h, a) for a, h in d["governing_h"].items() if h), reverse=True)
+    _cited(f"The governing arm is {d['governing_arm']} ({gov[0][0]} h, "
+           + ", ".join(f"{a} {h} h" for h, a in gov[1:]) + ")")

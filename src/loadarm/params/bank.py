@@ -176,6 +176,16 @@ class ManifoldLoads(Section):
                               source="connected-operation limit of the order of 40 kn (terminal rules; as the berth's "
                                      "[environment] wind_speed, example)",
                               description="wind on the connected arm for the design check (loadarm check --bank)")
+    alarm_deadband: float = param(0.05, unit="1", ge=0, le=0.5,
+                                  source="ISA-TR18.2.3's suggested starting deadbands for analog alarms (flow and "
+                                         "level 5 %); a load's signal is as noisy as a flow's",
+                                  description="the live manifold-load alarm clears only once every load is below "
+                                              "(1 - alarm_deadband) of its allowable")
+    alarm_delay: float = param(2.0, unit="s", ge=0, le=60,
+                               source="ISA-TR18.2.3's suggested starting on- and off-delays for analog alarms (flow "
+                                      "and pressure 2 s)",
+                               description="the live manifold-load alarm rises once a load has been past its "
+                                           "allowable this long, and clears once below the deadband this long")
     drag_coefficient: float = param(1.0, unit="1", gt=0, le=3,
                                     source="engineering choice: an insulated (rough) circular cylinder at "
                                            "supercritical Reynolds number is of the order of 1",

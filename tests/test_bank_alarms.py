@@ -113,3 +113,29 @@ def test_cli_refuses_the_example_bank_naming_its_outer_arms(capsys, tmp_path):
     for arm in ("L1", "L2", "V1", "L3"):
         assert f"\n {arm} " in io.out
     assert "Paste into" in io.out and png.stat().st_size > 10_000
+
+
+def test_the_ship_s_own_point_and_the_bank_s_turned_offset_agree_in_a_seaway(setup):
+    """Two routes to a flange on the moving ship: the moored ship's kinematics at the moved manifold (the alarm
+    design's) and the manifold's centre plus the flange's offset turned by roll, pitch and yaw (the bank monitor's,
+    the campaign's, the bank operability's). The ship's first-order motion is linear in its rotations (r x theta),
+    the bank's a full rotation: they differ by about theta^2 |offset|; and the bank turns the offset by the whole
+    yaw while the ship's point is taken from its mean pose, whose static yaw (0.007 deg here) moves a flange by
+    its offset times that angle (0.5 mm at 4.5 m): the bound is the sum of the two."""
+    from loadarm.guidance.bank import BankMonitor
+    from loadarm.ship.motion import simulate
+
+    bank, berth, ship = setup
+    m = simulate(ship, berth.environment, 120.0, seed=3)
+    ships = bank_ships(bank, ship)
+    monitor = BankMonitor(bank)
+    centre = np.asarray(bank.file.manifold.position) + (m.flange - m.flange_reference)
+    by_bank = monitor.flanges(centre, m.flange_angles) + monitor.risers       # bank frame
+    for i, s in enumerate(ships):
+        ref = flange_kinematics(s, m.mean_pose[None], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))[0][0]
+        p, _, _ = flange_kinematics(s, m.pose, m.pose_velocity, m.wave, m.wave_velocity)
+        by_ship = bank.flange_position(i) + (bank.file.arms[i].x, bank.file.arms[i].y, 0.0) + (p - ref)
+        theta = float(np.max(np.abs(m.flange_angles)))
+        lever = abs(bank.flanges[i].offset) + abs(bank.flanges[i].height)
+        bound = lever * (theta ** 2 + abs(float(m.mean_pose[2]))) + 1e-6
+        assert np.max(np.abs(by_ship - by_bank[:, i])) < bound, (i, theta)

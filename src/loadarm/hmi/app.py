@@ -24,8 +24,8 @@ from loadarm.opcua.security import LiveUsers, StateDir, is_user_name
 from loadarm.opcua.service import JOG_HOLD, Request, parse_jog
 from loadarm.vocab import COMMANDS, TAGGED_ACTIONS
 
-__all__ = ["COMMANDS", "FRAME_RATE", "LOGIN_BODY", "create_app", "HmiServer", "parse_hmi_address", "same_origin",
-           "valid_host"]
+__all__ = ["COMMANDS", "FRAME_RATE", "LOGIN_BODY", "LoginScreen", "ack", "create_app", "screen_app", "HmiServer",
+           "parse_hmi_address", "same_origin", "valid_host"]
 
 #: Frames per second pushed to each screen (at most: a frame goes only when the controller has a new cycle).
 FRAME_RATE = 20.0
@@ -52,7 +52,24 @@ def _static_dir() -> Path:
     return Path(str(resources.files("loadarm.hmi") / "static"))
 
 
-def _reply(seq, ok: bool, message: str, **extra) -> str:
+def ack(seq, ok: bool, message: str, **extra) -> str:
+    """A screen's acknowledgement of a message it sent on the WebSocket (JSON text, ``type`` "ack").
+
+    Parameters
+    ----------
+    seq : int or None
+        The message's sequence number (None when it had none, or was no JSON).
+    ok : bool
+        Whether it was taken.
+    message : str
+        What was done, or why not.
+    **extra
+        More fields (e.g. ``last_seq``).
+
+    Returns
+    -------
+    str
+    """
     return json.dumps({"type": "ack", "seq": seq, "ok": ok, "message": message, **extra})
 
 
@@ -129,29 +146,46 @@ async def _login_body(request) -> tuple[str, str]:
     return user, password
 
 
-class _Screen:
-    """What the application's routes share: the users, the sessions, the login limit, the alarm book and the frame
-    cache of one service. Each route is a method; :func:`create_app` only wires them."""
+class LoginScreen:
+    """What every screen's routes share (the single arm's, the bank's): the users, the sessions, the login limit
+    and the fixed drawing of one service. Each route is a method; :func:`screen_app` wires them. A screen adds
+    :meth:`session_json` and :meth:`ws`.
 
-    def __init__(self, service, state_dir, model, clock, wall, frame_rate: float, name: str, berth=None):
-        self.service, self.model, self.wall, self.frame_rate, self.name = service, model, wall, frame_rate, name
+    Parameters
+    ----------
+    service
+        Its :meth:`note` (a security event) and its snapshots.
+    state_dir : path
+        The OPC UA server's state directory: its ``users.toml``.
+    clock : callable
+        Monotonic seconds, for sessions and the login limit.
+    wall : callable
+        Wall-clock seconds, stamped on each frame.
+    frame_rate : float
+        Frames per second to each screen.
+    name : str
+        Shown in the title.
+    geo : dict
+        The fixed drawing (JSON-ready), served to a logged-in screen.
+    """
+
+    def __init__(self, service, state_dir, clock, wall, frame_rate: float, name: str, geo: dict):
+        self.service, self.wall, self.frame_rate, self.name, self.geo = service, wall, frame_rate, name, geo
         self.users = LiveUsers(StateDir(state_dir).users_file)       # the file as it is now (loadarm user)
         self.sessions = Sessions(clock=clock, users=self.users)          # a removed user's session ends at once
-        self.limiter, self.book = LoginLimiter(clock=clock), AlarmBook()
-        self.geo = geometry(model, berth)
-        self.cache: dict = {"seq": None, "alarms": []}
-        self.lock = threading.Lock()
-        self.replay = hasattr(service, "new_cursor")      # a logged run (loadarm.hmi.replay): no commands, a slider
-        self.anchor = getattr(service, "anchor", None)    # where the flange was first seen healthy (the ship's)
+        self.limiter = LoginLimiter(clock=clock)
 
     def current(self, request) -> tuple[str | None, object]:
         token = request.cookies.get(COOKIE)
         return token, self.sessions.get(token)
 
     def session_json(self, s) -> dict:
-        return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": self.name,
-                "replay": self.replay, "last_seq": s.last_cmd, "jog_speed": self.service.jog_speed,
-                "commands": [] if self.replay else sorted(c for c, r in COMMANDS.items() if s.role >= r)}
+        """The session as the page gets it (the screen's own: its role's commands, its flags)."""
+        raise NotImplementedError
+
+    async def ws(self, websocket) -> None:
+        """The screen's WebSocket: its frames out, the page's messages in."""
+        raise NotImplementedError
 
     def get_session(self, request):
         _, s = self.current(request)
@@ -206,6 +240,24 @@ class _Screen:
         if self.current(request)[1] is None:
             return _json_error("not logged in", 401)
         return self.geo
+
+
+class _Screen(LoginScreen):
+    """The single arm's screen: its login (:class:`LoginScreen`), the alarm book and the frame cache of one
+    service, its journal and its commands. :func:`create_app` wires it."""
+
+    def __init__(self, service, state_dir, model, clock, wall, frame_rate: float, name: str, berth=None):
+        super().__init__(service, state_dir, clock, wall, frame_rate, name, geometry(model, berth))
+        self.model, self.book = model, AlarmBook()
+        self.cache: dict = {"seq": None, "alarms": []}
+        self.lock = threading.Lock()
+        self.replay = hasattr(service, "new_cursor")      # a logged run (loadarm.hmi.replay): no commands, a slider
+        self.anchor = getattr(service, "anchor", None)    # where the flange was first seen healthy (the ship's)
+
+    def session_json(self, s) -> dict:
+        return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": self.name,
+                "replay": self.replay, "last_seq": s.last_cmd, "jog_speed": self.service.jog_speed,
+                "commands": [] if self.replay else sorted(c for c, r in COMMANDS.items() if s.role >= r)}
 
     def alarms_for(self, snap):
         with self.lock:
@@ -348,20 +400,20 @@ class _Screen:
             msg = json.loads(text)
             seq = msg.get("seq") if isinstance(msg, dict) else None
             if self.replay and isinstance(msg, dict) and msg.get("type") in ("seek", "play", "pause"):
-                return _reply(seq, *_replay_control(cursor, msg)), False
+                return ack(seq, *_replay_control(cursor, msg)), False
             if not isinstance(msg, dict) or msg.get("type") != "cmd":
                 raise ValueError
         except (ValueError, RecursionError):             # found: "[" * 2000 ended the screen's handler
-            return _reply(None, False, "not a command"), False
+            return ack(None, False, "not a command"), False
         if self.sessions.get(token) is None:
-            return _reply(seq, False, "session ended: log in again"), True
+            return ack(seq, False, "session ended: log in again"), True
         ok, message = self.command(s, msg)
         if ok and msg.get("action") == "jog":
             jogging["until"] = time.monotonic() + JOG_HOLD
         elif ok and msg.get("action") in ("stop", "estop"):
             jogging["until"] = -math.inf
         stale = not ok and "sequence number" in message   # the page adopts the session's last number
-        return _reply(seq, ok, message, **({"last_seq": s.last_cmd} if stale else {})), False
+        return ack(seq, ok, message, **({"last_seq": s.last_cmd} if stale else {})), False
 
     async def ws(self, websocket) -> None:
         from fastapi import WebSocketDisconnect
@@ -384,9 +436,9 @@ class _Screen:
                     break
                 text = got.get("text")
                 if text is None:
-                    reply, ended = _reply(None, False, "refused: a command is a JSON text message"), False
+                    reply, ended = ack(None, False, "refused: a command is a JSON text message"), False
                 elif len(text) > WS_MESSAGE:
-                    reply, ended = _reply(None, False, f"refused: a message may not exceed {WS_MESSAGE} "
+                    reply, ended = ack(None, False, f"refused: a message may not exceed {WS_MESSAGE} "
                                                        "characters"), False
                 else:
                     reply, ended = self.message(s, text, cursor, jogging, token)
@@ -426,14 +478,43 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     -------
     FastAPI
     """
+    screen = _Screen(service, state_dir, model, clock, wall, frame_rate, name, berth)
+    app = screen_app(screen, f"loadarm HMI ({name})", "index.html", ("/",),
+                     {"/api/geometry": screen.get_geometry, "/api/journal": screen.get_journal})
+    app.state.book = screen.book
+    return app
+
+
+def screen_app(screen: LoginScreen, title: str, page: str, paths: tuple[str, ...], gets: dict):
+    """A screen's FastAPI application: the security headers (the page's Content-Security-Policy: its own origin
+    only) on every response, its page, the session, login and logout, its JSON routes, its WebSocket (``/ws``)
+    and the package's assets (``/static``).
+
+    Parameters
+    ----------
+    screen : LoginScreen
+        The routes' methods.
+    title : str
+        The application's title.
+    page : str
+        The page's file in ``static/``.
+    paths : tuple of str
+        Where the page is served.
+    gets : dict
+        Path -> the screen's method answering a GET there (it takes the request).
+
+    Returns
+    -------
+    FastAPI
+        With ``state.sessions`` the screen's sessions.
+    """
     from fastapi import FastAPI, WebSocket
     from fastapi import Request as HttpRequest
     from fastapi.responses import FileResponse
     from fastapi.staticfiles import StaticFiles
 
-    screen = _Screen(service, state_dir, model, clock, wall, frame_rate, name, berth)
-    app = FastAPI(title=f"loadarm HMI ({name})", docs_url=None, redoc_url=None, openapi_url=None)
-    app.state.sessions, app.state.book = screen.sessions, screen.book
+    app = FastAPI(title=title, docs_url=None, redoc_url=None, openapi_url=None)
+    app.state.sessions = screen.sessions
 
     @app.middleware("http")
     async def headers(request, call_next):
@@ -444,9 +525,11 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
         response.headers["Cache-Control"] = "no-store"
         return response
 
-    @app.get("/")
     async def index():
-        return FileResponse(_static_dir() / "index.html", media_type="text/html")
+        return FileResponse(_static_dir() / page, media_type="text/html")
+
+    for path in paths:
+        app.add_api_route(path, index, methods=["GET"])
 
     @app.get("/api/session")
     async def get_session(request: HttpRequest):
@@ -460,13 +543,13 @@ def create_app(service, state_dir, model, *, clock: Callable[[], float] = time.m
     async def logout(request: HttpRequest):
         return screen.logout(request)
 
-    @app.get("/api/geometry")
-    async def get_geometry(request: HttpRequest):
-        return screen.get_geometry(request)
+    def answer(method):
+        async def get(request: HttpRequest):
+            return method(request)
+        return get
 
-    @app.get("/api/journal")
-    async def get_journal(request: HttpRequest):
-        return screen.get_journal(request)
+    for path, method in gets.items():
+        app.add_api_route(path, answer(method), methods=["GET"])
 
     @app.websocket("/ws")
     async def ws(websocket: WebSocket):

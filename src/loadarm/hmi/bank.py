@@ -15,17 +15,15 @@ answers any command with a refusal).
 import asyncio
 import json
 import math
-import threading
 import time
 from collections.abc import Callable
 
 import numpy as np
 
-from loadarm.hmi.app import _CSP, FRAME_RATE, KEEPALIVE, WS_MESSAGE, _reply, _Screen, _static_dir, same_origin
-from loadarm.hmi.sessions import COOKIE, LoginLimiter, Sessions
+from loadarm.hmi.app import FRAME_RATE, KEEPALIVE, WS_MESSAGE, LoginScreen, ack, same_origin, screen_app
+from loadarm.hmi.sessions import COOKIE
 from loadarm.hmi.state import ship_outline
 from loadarm.opcua.bank import BankSnapshot
-from loadarm.opcua.security import LiveUsers, StateDir
 from loadarm.params.berth import BerthSection
 from loadarm.vocab import BANK_FACE_WORDS, FACE_WORDS, FACES, SWIVEL_FACE_TABLE
 
@@ -125,16 +123,11 @@ def bank_frame(snap: BankSnapshot, *, sent_at: float) -> dict:
             "stage": max(int(snap.stage(i)) for i in range(len(st.names)))}
 
 
-class _BankScreen(_Screen):
+class _BankScreen(LoginScreen):
     """The bank's routes: the single arm's login, sessions and logout (inherited), its own geometry and frames."""
 
     def __init__(self, service, state_dir, clock, wall, frame_rate: float, name: str, berth=None):
-        self.service, self.model, self.wall, self.frame_rate, self.name = service, None, wall, frame_rate, name
-        self.users = LiveUsers(StateDir(state_dir).users_file)
-        self.sessions = Sessions(clock=clock, users=self.users)
-        self.limiter = LoginLimiter(clock=clock)
-        self.geo = bank_geometry(service.bank, berth)
-        self.cache, self.lock, self.replay, self.anchor = {}, threading.Lock(), False, None
+        super().__init__(service, state_dir, clock, wall, frame_rate, name, bank_geometry(service.bank, berth))
 
     def session_json(self, s) -> dict:
         return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": self.name, "bank": True,
@@ -178,7 +171,7 @@ class _BankScreen(_Screen):
                         seq = msg.get("seq") if isinstance(msg, dict) else None
                     except (ValueError, RecursionError):
                         seq = None
-                await websocket.send_text(_reply(seq, False, "refused: the bank's screen takes no command"))
+                await websocket.send_text(ack(seq, False, "refused: the bank's screen takes no command"))
         except WebSocketDisconnect:
             pass
         finally:
@@ -211,51 +204,6 @@ def create_bank_app(service, state_dir, *, clock: Callable[[], float] = time.mon
     -------
     FastAPI
     """
-    from fastapi import FastAPI, WebSocket
-    from fastapi import Request as HttpRequest
-    from fastapi.responses import FileResponse
-    from fastapi.staticfiles import StaticFiles
-
     screen = _BankScreen(service, state_dir, clock, wall, frame_rate, name or service.bank.file.bank.name, berth)
-    app = FastAPI(title=f"loadarm bank ({screen.name})", docs_url=None, redoc_url=None, openapi_url=None)
-    app.state.sessions = screen.sessions
-
-    @app.middleware("http")
-    async def headers(request, call_next):
-        response = await call_next(request)
-        response.headers["Content-Security-Policy"] = _CSP
-        response.headers["X-Content-Type-Options"] = "nosniff"
-        response.headers["Referrer-Policy"] = "no-referrer"
-        response.headers["Cache-Control"] = "no-store"
-        return response
-
-    @app.get("/")
-    async def index():
-        return FileResponse(_static_dir() / "bank.html", media_type="text/html")
-
-    @app.get("/bank")
-    async def bank_page():
-        return FileResponse(_static_dir() / "bank.html", media_type="text/html")
-
-    @app.get("/api/session")
-    async def get_session(request: HttpRequest):
-        return screen.get_session(request)
-
-    @app.post("/api/login")
-    async def login(request: HttpRequest):
-        return await screen.login(request)
-
-    @app.post("/api/logout")
-    async def logout(request: HttpRequest):
-        return screen.logout(request)
-
-    @app.get("/api/bank")
-    async def get_geometry(request: HttpRequest):
-        return screen.get_geometry(request)
-
-    @app.websocket("/ws")
-    async def ws(websocket: WebSocket):
-        await screen.ws(websocket)
-
-    app.mount("/static", StaticFiles(directory=_static_dir()), name="static")
-    return app
+    return screen_app(screen, f"loadarm bank ({screen.name})", "bank.html", ("/", "/bank"),
+                      {"/api/bank": screen.get_geometry})

@@ -6,74 +6,18 @@
 "use strict";
 
 const STALE_MS = 1000;          // no frame for this long: the view is greyed and says so
-const SVGNS = "http://www.w3.org/2000/svg";
 const W = 400, H = 300, PAD = 8, LABEL_ROOM = 18;   // the views' viewBox and the room kept for the arms' names
-const $ = (id) => document.getElementById(id);
 const bank = {session: null, geo: null, ws: null, frames: 0, frame: null, lastFrameAt: 0, views: null};
 window.hmi = bank;              // for the browser tests (the same name as the single arm's screen)
 
-async function api(path, options = {}) {
-  const r = await fetch(path, Object.assign({credentials: "same-origin"}, options));
-  let body = null;
-  try { body = await r.json(); } catch (e) { body = null; }
-  return {status: r.status, body};
-}
+const sessionPage = loginPage(bank, {start, message: (msg) => { if (msg.type === "state") { onFrame(msg); } },
+                                     lost: () => { $("link").textContent = "link to the server lost: reconnecting"; }});
 
-async function boot() {
-  const r = await api("/api/session");
-  if (r.status === 200 && r.body.user) { await start(r.body); } else { showLogin(""); }
-}
-
-function showLogin(message) {
-  $("screen").hidden = true;
-  $("login").hidden = false;
-  $("login-message").textContent = message;
-  $("login-user").focus();
-}
-
-$("login-form").addEventListener("submit", async (ev) => {
-  ev.preventDefault();
-  const r = await api("/api/login", {method: "POST", headers: {"Content-Type": "application/json"},
-    body: JSON.stringify({user: $("login-user").value, password: $("login-password").value})});
-  $("login-password").value = "";
-  if (r.status === 200) { await start(r.body); }
-  else { showLogin(r.body && r.body.detail ? r.body.detail : "login failed"); }
-});
-
-$("logout").addEventListener("click", async () => {
-  await api("/api/logout", {method: "POST", headers: {"X-CSRF-Token": bank.session.csrf}});
-  if (bank.ws) { bank.ws.onclose = null; bank.ws.close(); }
-  bank.session = null;
-  showLogin("logged out");
-});
-
-async function start(session) {
-  bank.session = session;
-  $("login").hidden = true;
-  $("screen").hidden = false;
-  $("who").textContent = `${session.user} (${session.role})`;
+async function start(session) {          // logged in: common.js has shown the screen
   $("title").textContent = `loadarm bank: ${session.name}`;
   document.title = `loadarm bank: ${session.name}`;
   bank.geo = (await api("/api/bank")).body;
-  connect();
-}
-
-function connect() {
-  const proto = location.protocol === "https:" ? "wss:" : "ws:";
-  const ws = new WebSocket(`${proto}//${location.host}/ws`);
-  bank.ws = ws;
-  ws.onmessage = (ev) => {
-    const msg = JSON.parse(ev.data);
-    if (msg.type === "state") { onFrame(msg); }
-  };
-  ws.onclose = () => {
-    $("link").textContent = "link to the server lost: reconnecting";
-    setTimeout(async () => {
-      if (!bank.session) { return; }
-      const r = await api("/api/session");
-      if (r.status === 200 && r.body.user) { connect(); } else { showLogin("session ended: log in again"); }
-    }, 1000);
-  };
+  sessionPage.connect();
 }
 
 setInterval(() => {
@@ -125,14 +69,6 @@ function scales(f) {
 }
 
 // ------------------------------------------------------------------ drawing
-
-function el(name, attrs, parent, text) {
-  const e = document.createElementNS(SVGNS, name);
-  for (const [k, v] of Object.entries(attrs)) { e.setAttribute(k, v); }
-  if (text !== undefined) { e.textContent = text; }
-  parent.appendChild(e);
-  return e;
-}
 
 function boxesMeet(a, b) {
   return a.x < b.x + b.width && b.x < a.x + a.width && a.y < b.y + b.height && b.y < a.y + a.height;
@@ -307,4 +243,4 @@ function drawTables(f) {
   }
 }
 
-boot();
+sessionPage.boot();

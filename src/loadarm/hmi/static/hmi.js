@@ -8,8 +8,6 @@ const JOG_EVERY_MS = 200;       // a held jog is renewed this often (the control
 const SHELVE_S = 300;           // the shelving an operator asks for (the server allows up to 600 s)
 const MODES = ["STORED", "APPROACH", "HOLD", "STANDOFF", "CONNECTED", "ALARM1", "ALARM2", "RELEASE",
                "RETURN", "DISCONNECT", "MANUAL", "ESTOP"];
-const SVGNS = "http://www.w3.org/2000/svg";
-const $ = (id) => document.getElementById(id);
 
 const hmi = {session: null, geo: null, ws: null, lastFrameAt: 0, lastSeq: null, lastSeqAt: 0, frames: 0, cmdSeq: 0,
              history: [], seenAlarms: [], seenModes: [], modeArrivals: [], modeCycle: -1,
@@ -18,48 +16,13 @@ const hmi = {session: null, geo: null, ws: null, lastFrameAt: 0, lastSeq: null, 
              audio: {on: false, ctx: null, silenced: new Set(), playing: null, beeps: 0, next: 0}};
 window.hmi = hmi;               // for the browser tests
 
-async function api(path, options = {}) {
-  const r = await fetch(path, Object.assign({credentials: "same-origin"}, options));
-  let body = null;
-  try { body = await r.json(); } catch (e) { body = null; }
-  return {status: r.status, body};
-}
+const sessionPage = loginPage(hmi, {start, message: onMessage, beforeLogout: () => stopJog(), lost: () => {
+  stopJog(false);
+  $("link").textContent = "link to the controller lost: reconnecting";
+}});
 
-async function boot() {
-  const r = await api("/api/session");
-  if (r.status === 200 && r.body.user) { await start(r.body); } else { showLogin(""); }
-}
-
-function showLogin(message) {
-  $("screen").hidden = true;
-  $("login").hidden = false;
-  $("login-message").textContent = message;
-  $("login-user").focus();
-}
-
-$("login-form").addEventListener("submit", async (ev) => {
-  ev.preventDefault();
-  const r = await api("/api/login", {method: "POST", headers: {"Content-Type": "application/json"},
-    body: JSON.stringify({user: $("login-user").value, password: $("login-password").value})});
-  $("login-password").value = "";
-  if (r.status === 200) { await start(r.body); }
-  else { showLogin(r.body && r.body.detail ? r.body.detail : "login failed"); }
-});
-
-$("logout").addEventListener("click", async () => {
-  stopJog();
-  await api("/api/logout", {method: "POST", headers: {"X-CSRF-Token": hmi.session.csrf}});
-  if (hmi.ws) { hmi.ws.onclose = null; hmi.ws.close(); }
-  hmi.session = null;
-  showLogin("logged out");
-});
-
-async function start(session) {
-  hmi.session = session;
+async function start(session) {          // logged in: common.js has shown the screen
   hmi.cmdSeq = Math.max(hmi.cmdSeq, session.last_seq || 0);   // a session's command numbers only increase
-  $("login").hidden = true;
-  $("screen").hidden = false;
-  $("who").textContent = `${session.user} (${session.role})`;
   $("title").textContent = `loadarm: ${session.name}`;
   document.title = `loadarm HMI: ${session.name}`;
   const g = await api("/api/geometry");
@@ -69,28 +32,13 @@ async function start(session) {
     const action = b.dataset.action || (b.dataset.jog ? "jog" : null);
     if (action) { b.disabled = !session.commands.includes(action); }
   }
-  connect();
+  sessionPage.connect();
 }
 
-function connect() {
-  const proto = location.protocol === "https:" ? "wss:" : "ws:";
-  const ws = new WebSocket(`${proto}//${location.host}/ws`);
-  hmi.ws = ws;
-  ws.onmessage = (ev) => {
-    const msg = JSON.parse(ev.data);
-    if (msg.type === "state") { onFrame(msg); }
-    else if (msg.type === "trend") { onTrend(msg); }
-    else if (msg.type === "ack") { onAck(msg); }
-  };
-  ws.onclose = () => {
-    stopJog(false);
-    $("link").textContent = "link to the controller lost: reconnecting";
-    setTimeout(async () => {
-      if (!hmi.session) { return; }
-      const r = await api("/api/session");
-      if (r.status === 200 && r.body.user) { connect(); } else { showLogin("session ended: log in again"); }
-    }, 1000);
-  };
+function onMessage(msg) {
+  if (msg.type === "state") { onFrame(msg); }
+  else if (msg.type === "trend") { onTrend(msg); }
+  else if (msg.type === "ack") { onAck(msg); }
 }
 
 function control(type, extra = {}) {          // a replay's cursor: seek, play, pause
@@ -322,14 +270,6 @@ function drawPrimary(f) {
 }
 
 // ------------------------------------------------------------------ drawing
-function el(name, attrs, parent, text) {
-  const e = document.createElementNS(SVGNS, name);
-  for (const [k, v] of Object.entries(attrs)) { e.setAttribute(k, v); }
-  if (text !== undefined) { e.textContent = text; }
-  if (parent) { parent.appendChild(e); }
-  return e;
-}
-
 function fit(svg, x0, x1, y0, y1) {          // world (m, y up) to the 400 x 300 view box
   const s = Math.min(380 / (x1 - x0), 280 / (y1 - y0));
   return (x, y) => [10 + (x - x0) * s, 290 - (y - y0) * s];
@@ -824,4 +764,4 @@ async function loadJournal() {
   hmi.journal = r.body;
 }
 
-boot();
+sessionPage.boot();

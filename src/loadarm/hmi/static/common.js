@@ -1,0 +1,83 @@
+// What loadarm's two screens share (the operator's, hmi.js, and the bank's, bank.js), loaded before the page's own
+// script: the API call, the login and logout, the session's WebSocket and its reconnect, and the SVG element
+// maker. Plain JS, nothing from outside.
+"use strict";
+
+const SVGNS = "http://www.w3.org/2000/svg";
+const $ = (id) => document.getElementById(id);
+
+async function api(path, options = {}) {
+  const r = await fetch(path, Object.assign({credentials: "same-origin"}, options));
+  let body = null;
+  try { body = await r.json(); } catch (e) { body = null; }
+  return {status: r.status, body};
+}
+
+function showLogin(message) {
+  $("screen").hidden = true;
+  $("login").hidden = false;
+  $("login-message").textContent = message;
+  $("login-user").focus();
+}
+
+// The page's login, logout and WebSocket. `state` is the page's own object (its `session` and `ws` are set here);
+// `page` says what the page does: start(session) once logged in (the screen shown, the user named), message(msg)
+// for each WebSocket message, lost() when the link drops (before the reconnect), and beforeLogout() if anything
+// must stop first. Returns boot() (the session, if any, else the login) and connect() (the WebSocket, reconnected
+// while the session lasts).
+function loginPage(state, page) {
+  async function enter(session) {
+    state.session = session;
+    $("login").hidden = true;
+    $("screen").hidden = false;
+    $("who").textContent = `${session.user} (${session.role})`;
+    await page.start(session);
+  }
+
+  async function boot() {
+    const r = await api("/api/session");
+    if (r.status === 200 && r.body.user) { await enter(r.body); } else { showLogin(""); }
+  }
+
+  $("login-form").addEventListener("submit", async (ev) => {
+    ev.preventDefault();
+    const r = await api("/api/login", {method: "POST", headers: {"Content-Type": "application/json"},
+      body: JSON.stringify({user: $("login-user").value, password: $("login-password").value})});
+    $("login-password").value = "";
+    if (r.status === 200) { await enter(r.body); }
+    else { showLogin(r.body && r.body.detail ? r.body.detail : "login failed"); }
+  });
+
+  $("logout").addEventListener("click", async () => {
+    if (page.beforeLogout) { page.beforeLogout(); }
+    await api("/api/logout", {method: "POST", headers: {"X-CSRF-Token": state.session.csrf}});
+    if (state.ws) { state.ws.onclose = null; state.ws.close(); }
+    state.session = null;
+    showLogin("logged out");
+  });
+
+  function connect() {
+    const proto = location.protocol === "https:" ? "wss:" : "ws:";
+    const ws = new WebSocket(`${proto}//${location.host}/ws`);
+    state.ws = ws;
+    ws.onmessage = (ev) => page.message(JSON.parse(ev.data));
+    ws.onclose = () => {
+      page.lost();
+      setTimeout(async () => {
+        if (!state.session) { return; }
+        const r = await api("/api/session");
+        if (r.status === 200 && r.body.user) { connect(); } else { showLogin("session ended: log in again"); }
+      }, 1000);
+    };
+  }
+
+  return {boot, connect};
+}
+
+function el(name, attrs, parent, text) {     // an SVG element, appended to `parent` if given
+  const e = document.createElementNS(SVGNS, name);
+  for (const [k, v] of Object.entries(attrs)) { e.setAttribute(k, v); }
+  if (text !== undefined) { e.textContent = text; }
+  if (parent) { parent.appendChild(e); }
+  return e;
+}

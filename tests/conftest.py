@@ -74,6 +74,21 @@ def _a_quiet_machine_for_realtime_tests(request):
     yield
 
 
+@pytest.fixture(scope="module")
+def browser():
+    """A headless Chromium (:func:`loadarm.testing.browser.launch`, through Playwright), one per module: the
+    screens' browser tests (tests/test_hmi_browser.py, tests/test_bank_screen_browser.py), which skip themselves
+    where there is no Chromium."""
+    from playwright.sync_api import sync_playwright
+
+    from loadarm.testing.browser import launch
+
+    with sync_playwright() as p:
+        b = launch(p)
+        yield b
+        b.close()
+
+
 @pytest.fixture(scope="session")
 def inst():
     return load_config(PAPER_TOML)

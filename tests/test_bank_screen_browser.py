@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from loadarm.opcua.security import Role, StateDir
-from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, launch, log_in, wait_for
+from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, log_in, wait_for
 
 ROOT = Path(__file__).resolve().parents[1]
 BANK = ROOT / "examples" / "banks" / "lng150k_bank.toml"
@@ -20,16 +20,6 @@ SCENARIO = ROOT / "examples" / "scenarios" / "hs15_moored.toml"
 SIZES = [(1920, 1080), (1366, 768)]
 
 pytestmark = [pytest.mark.skipif(find_chromium() is None, reason=CHROMIUM_HINT), pytest.mark.slow]
-
-
-@pytest.fixture(scope="module")
-def browser():
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = launch(p)
-        yield b
-        b.close()
 
 
 @pytest.fixture(scope="module")

@@ -13,21 +13,11 @@ import time
 import pytest
 
 from loadarm.opcua.security import Role, StateDir
-from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, launch, log_in, wait_for
+from loadarm.testing.browser import CHROMIUM_HINT, find_chromium, log_in, wait_for
 
 SCENARIO = "examples/scenarios/driftoff.toml"
 
 pytestmark = pytest.mark.skipif(find_chromium() is None, reason=CHROMIUM_HINT)
-
-
-@pytest.fixture(scope="module")
-def browser():
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = launch(p)
-        yield b
-        b.close()
 
 
 @pytest.fixture(scope="module")

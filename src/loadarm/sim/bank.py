@@ -15,7 +15,7 @@ connected bank's geometry on the ship's motion (what ``loadarm serve --bank`` se
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -24,7 +24,9 @@ from loadarm.arm.clearance import PARTS, capsules, segment_distance
 from loadarm.arm.faces import face_margins
 from loadarm.arm.slew import inverse3d
 from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
+from loadarm.design.manifold import berth_wind
 from loadarm.params.bank import Bank
+from loadarm.params.scenario import scenario_environment
 from loadarm.ship.flange import flange_motion
 from loadarm.vocab import Severity
 
@@ -225,12 +227,16 @@ class BankWorld:
         ``manifold.position`` moved by ``position(t) - reference``.
     duration : float
         How long the motion lasts, s.
+    wind : ndarray, shape (3,)
+        The mean wind's velocity, bank frame, m/s (the moored scenario's environment; none on the simple ship):
+        what the manifold-load alarm gives the pipes.
     """
 
     bank: Bank
     motion: object
     reference: np.ndarray
     duration: float
+    wind: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def ship(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         """The manifold's displacement from its design position and the ship's rotation at ``t``.
@@ -309,4 +315,7 @@ class BankWorld:
         BankWorld
         """
         motion = flange_motion(sc, ship)
-        return BankWorld(bank, motion, np.asarray(sc.ship.flange, dtype=float), float(sc.scenario.duration))
+        wind = np.zeros(3)
+        if sc.ship.model == "moored":                   # flange_motion needs its ship: compiled by then
+            wind = berth_wind(scenario_environment(sc, ship.environment, source=str(sc.ship.berth)))
+        return BankWorld(bank, motion, np.asarray(sc.ship.flange, dtype=float), float(sc.scenario.duration), wind)

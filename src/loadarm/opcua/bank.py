@@ -30,15 +30,7 @@ from dataclasses import dataclass
 from loadarm import __version__
 from loadarm.guidance.bank import BankForecast, BankMonitor
 from loadarm.guidance.monitor import stage_leads
-from loadarm.opcua.server import (
-    APP_URI,
-    DI_NS,
-    MACHINERY_NS,
-    NAMESPACE,
-    PUBLISH_RATE,
-    SecureServer,
-    _unit_id,
-)
+from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, _unit_id
 from loadarm.sim.bank import BankState, BankWorld
 from loadarm.vocab import FACE_LABELS, SWIVEL_FACE_TABLE, Severity
 
@@ -341,7 +333,7 @@ class BankService:
             self.step(k)
 
 
-class BankServer(SecureServer):
+class BankServer(SnapshotServer):
     """The OPC UA server of a :class:`BankService`, in its own thread (see the module's notes).
 
     Parameters
@@ -359,28 +351,17 @@ class BankServer(SecureServer):
     def __init__(self, service: BankService, state_dir, endpoint: str = "opc.tcp://127.0.0.1:4840", *,
                  insecure: bool = False, anonymous: bool = False):
         name = service.bank.file.bank.name
-        super().__init__(state_dir, endpoint, BANK_APP_URI, f"loadarm bank ({name})", insecure=insecure,
-                         period=1.0 / PUBLISH_RATE, anonymous=anonymous)
-        self.service, self.name = service, name
-        self._last = -1
+        super().__init__(service, name, state_dir, endpoint, BANK_APP_URI, f"loadarm bank ({name})",
+                         insecure=insecure, period=1.0 / PUBLISH_RATE, anonymous=anonymous)
 
     def _security_event(self, code: str, reason: str, data: dict) -> None:
-        """A refused login: kept by the service."""
+        """A refused login: kept by the service (which logs it too)."""
         self.service.note("security", reason, {"code": code, **data})
-
-    async def _tick(self, nodes: dict) -> None:
-        snap = self.service.snapshot()
-        if snap is not None and snap.seq != self._last:
-            self._last = snap.seq
-            await self._publish(nodes, snap)
 
     async def _build(self, server) -> dict:
         from asyncua import ua
 
-        ns = await server.register_namespace(NAMESPACE)
-        mns = await server.register_namespace(MACHINERY_NS)
-        dns = await server.register_namespace(DI_NS)
-        machines = await server.nodes.objects.add_folder(ua.NodeId("Machines", ns), ua.QualifiedName("Machines", mns))
+        ns, mns, dns, machines = await self._machines(server)
         bank = await machines.add_object(ua.NodeId("Bank", ns), ua.QualifiedName("LoadingArmBank", ns))
         await _identification(bank, "Bank", ns, dns, self.name, f"{BANK_APP_URI}:{self.name}")
         nodes: dict = {"bank": {}, "arms": []}

@@ -38,7 +38,7 @@ from loadarm.vocab import ANNUNCIATED, CONDITION_SEVERITY, CONDITION_TEXT, FACE_
 from loadarm.vocab import METHODS as _METHODS
 
 __all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "CURRENT_USER", "RoleRuleset", "SecureServer",
-           "OpcUaServer", "address_space", "address_space_markdown"]
+           "SnapshotServer", "OpcUaServer", "address_space", "address_space_markdown"]
 
 #: The application URI (in the certificate's subject alternative names).
 APP_URI = "urn:loadarm:guidance"
@@ -420,7 +420,51 @@ class SecureServer:
         raise NotImplementedError
 
 
-class OpcUaServer(SecureServer):
+class SnapshotServer(SecureServer):
+    """A :class:`SecureServer` over a service's snapshots (the guidance's, the bank's): each tick publishes the
+    latest snapshot when it is new (:meth:`_publish`, the subclass's); the address space starts from
+    :meth:`_machines`.
+
+    Parameters
+    ----------
+    service
+        Its :meth:`snapshot` (each with its ``seq``) and :meth:`note`.
+    name : str
+        The installation's name (the nameplate's model).
+    state_dir, endpoint, app_uri, title
+        As :class:`SecureServer`.
+    **options
+        :class:`SecureServer`'s keywords (``insecure``, ``period``, ``anonymous``).
+    """
+
+    def __init__(self, service, name: str, state_dir, endpoint: str, app_uri: str, title: str, **options):
+        super().__init__(state_dir, endpoint, app_uri, title, **options)
+        self.service, self.name = service, name
+        self._last = -1
+
+    async def _tick(self, nodes: dict) -> None:
+        snap = self.service.snapshot()
+        if snap is not None and snap.seq != self._last:
+            self._last = snap.seq
+            await self._publish(nodes, snap)
+
+    async def _publish(self, nodes: dict, snap) -> None:
+        raise NotImplementedError
+
+    @staticmethod
+    async def _machines(server) -> tuple:
+        """loadarm's, Machinery's and DI's namespaces registered, and the Machines folder (OPC 40001-1) the
+        machines go in: ``(ns, mns, dns, machines)``."""
+        from asyncua import ua
+
+        ns = await server.register_namespace(NAMESPACE)
+        mns = await server.register_namespace(MACHINERY_NS)
+        dns = await server.register_namespace(DI_NS)
+        machines = await server.nodes.objects.add_folder(ua.NodeId("Machines", ns), ua.QualifiedName("Machines", mns))
+        return ns, mns, dns, machines
+
+
+class OpcUaServer(SnapshotServer):
     """The OPC UA server of a :class:`loadarm.opcua.service.GuidanceService`, in its own thread.
 
     Parameters
@@ -439,29 +483,18 @@ class OpcUaServer(SecureServer):
 
     def __init__(self, service, state_dir, endpoint: str = "opc.tcp://127.0.0.1:4840", *, insecure: bool = False,
                  name: str = "loadarm", anonymous: bool = False):
-        super().__init__(state_dir, endpoint, APP_URI, f"loadarm guidance ({name})", insecure=insecure,
-                         anonymous=anonymous)
-        self.service, self.name = service, name
-        self._last = -1
+        super().__init__(service, name, state_dir, endpoint, APP_URI, f"loadarm guidance ({name})",
+                         insecure=insecure, anonymous=anonymous)
 
     def _security_event(self, code: str, reason: str, data: dict) -> None:
         """A refused login: in the event log, with the controller's events (and Python's logging)."""
         super()._security_event(code, reason, data)
         self.service.note("security", reason, {"code": code, **data})
 
-    async def _tick(self, nodes: dict) -> None:
-        snap = self.service.snapshot()
-        if snap is not None and snap.seq != self._last:
-            self._last = snap.seq
-            await self._publish(nodes, snap)
-
     async def _build(self, server) -> dict:
         from asyncua import ua
 
-        ns = await server.register_namespace(NAMESPACE)
-        mns = await server.register_namespace(MACHINERY_NS)
-        dns = await server.register_namespace(DI_NS)
-        machines = await server.nodes.objects.add_folder(ua.NodeId("Machines", ns), ua.QualifiedName("Machines", mns))
+        ns, _, dns, machines = await self._machines(server)
         arm = await machines.add_object(ua.NodeId("LoadingArm", ns), ua.QualifiedName("LoadingArm", ns))
         ident = await arm.add_object(ua.NodeId("Identification", ns), ua.QualifiedName("Identification", dns))
         for key, value in (("Manufacturer", "loadarm (open source)"), ("Model", self.name),

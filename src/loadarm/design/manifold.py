@@ -38,6 +38,7 @@ from loadarm.arm.manifold import (
 from loadarm.arm.slew import inverse3d
 from loadarm.arm.swivel import ship_rotation, swivel_angles
 from loadarm.design.plots import manifold_check_figure, manifold_record_figure
+from loadarm.design.swivels import CHAIN, chain_mjcf
 from loadarm.params.bank import Bank
 from loadarm.results import Metric, Result
 from loadarm.ship.loads import RHO_AIR
@@ -443,36 +444,13 @@ def manifold_mjcf(masses: MassModel, coupler_length: float, gravity: float = G) 
     -------
     str
     """
-    arm = masses.arm
-    a, b, c = (repr(float(v)) for v in (arm.a, arm.b, arm.c))
     tiny = '<inertial pos="0 0 0" mass="1e-9" diaginertia="1e-12 1e-12 1e-12"/>'
-    return f"""<mujoco model="manifold_loads">
-  <compiler angle="radian"/>
-  <option gravity="0 0 {-float(gravity)!r}"/>
-  <worldbody>
-    <body name="slew">{tiny}<joint name="phi" type="hinge" axis="0 0 1"/>
-      <body name="lever" pos="0 0 {a}">{tiny}<joint name="lever" type="hinge" axis="0 1 0"/>
-        {_lumps_mjcf(masses, "lever", 1.0)}</body>
-      <body name="inboard" pos="0 0 {a}">{tiny}<joint name="alpha" type="hinge" axis="0 1 0"/>
-        {_lumps_mjcf(masses, "inboard", 1.0)}
-        <body name="outboard" pos="0 0 {b}">{tiny}<joint name="beta" type="hinge" axis="0 -1 0"/>
-          {_lumps_mjcf(masses, "outboard", -1.0)}
-          <body name="swivel1" pos="0 0 -{c}">{tiny}<joint name="swivel1" type="hinge" axis="0 1 0"/>
-            <body name="swivel2">{tiny}<joint name="swivel2" type="hinge" axis="0 0 1"/>
-              <body name="flange">{tiny}<joint name="swivel3" type="hinge" axis="1 0 0"/>
-                <site name="face" pos="{float(coupler_length)!r} 0 0"/>
-              </body>
-            </body>
-          </body>
-        </body>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
-
-
-_CHAIN = ("phi", "alpha", "beta", "swivel1", "swivel2", "swivel3")
+    lever = (f'<body name="lever" pos="0 0 {float(masses.arm.a)!r}">{tiny}<joint name="lever" type="hinge" '
+             f'axis="0 1 0"/>{_lumps_mjcf(masses, "lever", 1.0)}</body>')
+    return chain_mjcf(masses.arm, "manifold_loads", tiny, gravity=gravity, end="flange",
+                      inside={"slew": lever, "inboard": _lumps_mjcf(masses, "inboard", 1.0),
+                              "outboard": _lumps_mjcf(masses, "outboard", -1.0),
+                              "flange": f'<site name="face" pos="{float(coupler_length)!r} 0 0"/>'})
 
 
 def _mj_wind(mujoco, model, data, wind: np.ndarray, k: float) -> np.ndarray:
@@ -524,7 +502,7 @@ def mujoco_flange_wrench(masses: MassModel, q, qd, qdd, s, *, wind=(0.0, 0.0, 0.
     wind = np.asarray(wind, dtype=float)
     model = mujoco.MjModel.from_xml_string(manifold_mjcf(masses, coupler_length, gravity))
     data = mujoco.MjData(model)
-    dof = [model.joint(j).dofadr[0] for j in _CHAIN]
+    dof = [model.joint(j).dofadr[0] for j in CHAIN]
     lever = model.joint("lever").dofadr[0]
     face = model.site("face").id
     force, moment, loads = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 5))

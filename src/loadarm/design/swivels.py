@@ -14,9 +14,51 @@ import numpy as np
 
 from loadarm.arm.geometry import Arm
 
-__all__ = ["swivel_mjcf", "mujoco_coupler_rotation", "mujoco_swivel_angles"]
+__all__ = ["CHAIN", "chain_mjcf", "swivel_mjcf", "mujoco_coupler_rotation", "mujoco_swivel_angles"]
 
 _SWIVELS = ("swivel1", "swivel2", "swivel3")
+#: The chain's six hinges in MuJoCo, from the slew to the coupler: the arm's joints, then the swivels.
+CHAIN = ("phi", "alpha", "beta", *_SWIVELS)
+
+
+def chain_mjcf(arm: Arm, model: str, inertial: str, *, gravity: float = 0.0, inside: dict[str, str] | None = None,
+               end: str = "coupler") -> str:
+    """MJCF text of the arm's chain: the slew, the inboard and outboard arms and the triple swivel's three hinges
+    (:data:`CHAIN`), nested bodies whose frames MuJoCo composes. The one statement of the frames' conventions, for
+    the swivels' route (:func:`swivel_mjcf`) and the manifold's loads
+    (:func:`loadarm.design.manifold.manifold_mjcf`).
+
+    Parameters
+    ----------
+    arm : Arm
+        Lengths, m.
+    model : str
+        The model's name.
+    inertial : str
+        Each body's ``<inertial>`` element.
+    gravity : float
+        Downwards, m/s^2.
+    inside : dict, optional
+        A body's name (``slew``, ``inboard``, ``outboard``, ``swivel1``, ``swivel2`` or ``end``) to more MJCF
+        placed in that body after its hinge: lumps, a site, a parallel body.
+    end : str
+        The name of the last body, the coupler's.
+
+    Returns
+    -------
+    str
+    """
+    a, b, c = (repr(float(v)) for v in (arm.a, arm.b, arm.c))
+    more = inside or {}
+    links = (("slew", "", "0 0 1"), ("inboard", f"0 0 {a}", "0 1 0"), ("outboard", f"0 0 {b}", "0 -1 0"),
+             ("swivel1", f"0 0 -{c}", "0 1 0"), ("swivel2", "", "0 0 1"), (end, "", "1 0 0"))
+    chain = ""
+    for (body, pos, axis), joint in zip(reversed(links), reversed(CHAIN), strict=True):
+        at = f' pos="{pos}"' if pos else ""
+        chain = (f'<body name="{body}"{at}>{inertial}<joint name="{joint}" type="hinge" axis="{axis}"/>'
+                 f'{more.get(body, "")}{chain}</body>')
+    return (f'<mujoco model="{model}"><compiler angle="radian"/><option gravity="0 0 {-float(gravity)!r}"/>'
+            f'<worldbody>{chain}</worldbody></mujoco>')
 
 
 def swivel_mjcf(arm: Arm) -> str:
@@ -31,33 +73,7 @@ def swivel_mjcf(arm: Arm) -> str:
     -------
     str
     """
-    a, b, c = (repr(float(v)) for v in (arm.a, arm.b, arm.c))
-    inertial = '<inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>'
-    return f"""<mujoco model="triple_swivel">
-  <compiler angle="radian"/>
-  <option gravity="0 0 0"/>
-  <worldbody>
-    <body name="slew" pos="0 0 0">{inertial}
-      <joint name="phi" type="hinge" axis="0 0 1"/>
-      <body name="inboard" pos="0 0 {a}">{inertial}
-        <joint name="alpha" type="hinge" axis="0 1 0"/>
-        <body name="outboard" pos="0 0 {b}">{inertial}
-          <joint name="beta" type="hinge" axis="0 -1 0"/>
-          <body name="swivel1" pos="0 0 -{c}">{inertial}
-            <joint name="swivel1" type="hinge" axis="0 1 0"/>
-            <body name="swivel2">{inertial}
-              <joint name="swivel2" type="hinge" axis="0 0 1"/>
-              <body name="coupler">{inertial}
-                <joint name="swivel3" type="hinge" axis="1 0 0"/>
-              </body>
-            </body>
-          </body>
-        </body>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
+    return chain_mjcf(arm, "triple_swivel", '<inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/>')
 
 
 def _model(arm: Arm):
@@ -87,7 +103,7 @@ def mujoco_coupler_rotation(arm: Arm, q, swivels) -> np.ndarray:
     ndarray, shape (n, 3, 3)
     """
     mujoco, model, data = _model(arm)
-    addr = _addr(mujoco, model, ("phi", "alpha", "beta", *_SWIVELS))
+    addr = _addr(mujoco, model, CHAIN)
     body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "coupler")
     qq = np.hstack([np.atleast_2d(q), np.atleast_2d(swivels)])
     out = np.empty((qq.shape[0], 3, 3))

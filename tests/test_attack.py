@@ -704,8 +704,9 @@ def test_workers_are_capped_at_the_jobs_and_batches_made_lazily():
 
     assert plan_workers(8, 2) == 2 and plan_workers(None, 1) == 1 and plan_workers(1, 100) == 1
     vary = [parse_vary("drift.speed=0.05:0.3")]
-    first = list(islice(_chunks(100_000, vary, 7, 3), 2))               # a huge campaign's first two batches
-    assert first == [[_job(s, vary) for s in range(7, 10)], [_job(s, vary) for s in range(10, 13)]]
+    seeds = (s for s in range(7, 7 + 100_000) if s != 11)               # lazy, as a runs file's gaps make them
+    first = list(islice(_chunks(seeds, vary, 3), 2))                    # a huge campaign's first two batches
+    assert first == [[_job(s, vary) for s in range(7, 10)], [_job(s, vary) for s in (10, 12, 13)]]
 
 
 def test_the_pool_never_holds_more_than_its_window_of_batches():

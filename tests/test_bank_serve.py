@@ -117,7 +117,7 @@ def test_the_bank_is_a_machine_with_one_component_per_arm(bank_served, world):
     assert {f"{ns}:{n}" for n, *_ in BANK_VARIABLES + BANK_STATES} <= own
     assert list(arms) == list(world.bank.names) == ["L1", "L2", "V1", "L3"]
     every = {n for n, *_ in ARM_VARIABLES + ARM_STATES}
-    assert len(every) == 6 + 6 + 3 + 6 + 2 + 5
+    assert len(every) == 6 + 6 + 3 + 6 + 2 + 5 + 4          # ... and the manifold load's four
     for name, (ident, children) in arms.items():
         assert ident == f"{name} (full.toml)" and children == every, (name, every - children)
 
@@ -281,16 +281,27 @@ def test_the_bank_s_screen_serves_its_drawing_and_frames_to_a_session_and_takes_
     assert c.get("/api/bank").status_code == 401
     assert c.get("/").headers["content-security-policy"].startswith("default-src 'self'")
     r = c.post("/api/login", json={"user": "eve", "password": "pw-eve"})
-    assert r.status_code == 200 and r.json()["bank"] is True and r.json()["commands"] == []
+    assert r.status_code == 200 and r.json()["bank"] is True and r.json()["commands"] == ["ack"]
+    csrf = r.json()["csrf"]
     geo = c.get("/api/bank").json()
     assert [a["name"] for a in geo["arms"]] == ["L1", "L2", "V1", "L3"] and geo["required"] == 0.5
     assert [f["name"] for f in geo["flanges"]] == ["F1", "F2", "F3", "F4"]
+    replies = []
     with c.websocket_connect("/ws", headers={"origin": "http://testserver"}) as ws:
         f = ws.receive_json()
-        ws.send_json({"type": "cmd", "action": "estop", "seq": 1})
-        while (reply := ws.receive_json())["type"] != "ack":
-            pass
-    assert reply == {"type": "ack", "seq": 1, "ok": False, "message": "refused: the bank's screen takes no command"}
+        for msg in ({"type": "cmd", "action": "estop", "seq": 1},                       # no CSRF token
+                    {"type": "cmd", "action": "estop", "seq": 1, "csrf": csrf},         # not the bank's command
+                    {"type": "cmd", "action": "ack", "seq": 1, "csrf": csrf},
+                    {"type": "cmd", "action": "ack", "seq": 1, "csrf": csrf}):          # a replayed number
+            ws.send_json(msg)
+            while (reply := ws.receive_json())["type"] != "ack":
+                pass
+            replies.append((reply["ok"], reply["message"]))
+    assert replies == [(False, "refused: no valid CSRF token"),
+                       (False, "refused: the bank's screen takes no command 'estop' (only ack)"),
+                       (True, "ack sent"), (False, replies[3][1])] and replies[3][1].startswith("refused: ")
+    assert service._ack.is_set()
+    service._ack.clear()
     assert f["seq"] == 120 and f["t"] == 12.0
     for i, arm in enumerate(f["arms"]):
         assert np.allclose(arm["capsules"], snap.state.capsules[i], atol=1e-4)
@@ -366,3 +377,54 @@ def test_the_docs_list_the_bank_s_node_tree():
     assert "Objects/Machines/LoadingArmBank" in plant and "`Bank.Components.ARM.Guidance.NAME`" in plant
     bank = (ROOT / "docs" / "bank.md").read_text()
     assert "(img/bank-screen.png)" in bank and (ROOT / "docs" / "img" / "bank-screen.png").is_file()
+
+
+def test_the_overloaded_bank_s_manifold_load_alarm_rises_is_published_and_acknowledged(world, tmp_path):
+    """The service runs each arm's live manifold-load alarm on the world's motion: V1 (over the overloaded
+    example's allowables from the start) alarms after the window and the delay, as one event; the OPC UA values
+    and the screen's frame carry it; the screen's ack (an operator's) acknowledges it, a viewer's is refused."""
+    import dataclasses
+
+    from fastapi.testclient import TestClient
+
+    from loadarm.design.manifold import LOAD_LABELS
+    from loadarm.guidance.manifold_alarm import WINDOW
+    from loadarm.hmi.bank import bank_frame, create_bank_app
+    from loadarm.opcua.bank import WORLD_RATE, BankService, arm_values, bank_values
+    from loadarm.params.bank import load_bank
+
+    heavy = dataclasses.replace(world, bank=load_bank(ROOT / "examples" / "banks" / "overloaded_manifold.toml"))
+    service = BankService(heavy)
+    delay = heavy.bank.file.manifold_loads.alarm_delay
+    rise = WINDOW - 1 + round(delay * WORLD_RATE)
+    v1 = heavy.bank.names.index("V1")
+    for k in range(rise):
+        snap = service.step(k)
+    assert not snap.loads.active[v1] and snap.loads.utilisation[v1] > 1.0
+    snap = service.step(rise)
+    assert snap.loads.active[v1] and snap.loads.governing[v1] in LOAD_LABELS
+    values = arm_values(snap, v1)
+    assert values["ManifoldLoadAlarm"] is True and values["ManifoldLoadState"] == "unacknowledged"
+    assert values["ManifoldLoad"] == pytest.approx(float(snap.loads.utilisation[v1])) and bank_values(snap)[
+        "ManifoldLoadAbnormal"] is True
+    events = [d for _, kind, _, d in service.notes if kind == "alarm" and d.get("arm") == "V1"]
+    assert len(events) == 1 and events[0]["code"] == "fault.manifold_load" and events[0]["t"] == pytest.approx(
+        rise / WORLD_RATE)
+    assert bank_frame(snap, sent_at=0.0)["arms"][v1]["load"]["state"] == "unacknowledged"
+    st = StateDir(tmp_path / "state")
+    st.users().add("vic", Role.VIEWER, "pw-vic")
+    st.users().add("otto", Role.OPERATOR, "pw-otto")
+    c = TestClient(create_bank_app(service, st.path, frame_rate=100.0))
+    for user, ok in (("vic", False), ("otto", True)):
+        r = c.post("/api/login", json={"user": user, "password": f"pw-{user}"})
+        assert r.json()["commands"] == (["ack"] if ok else [])
+        with c.websocket_connect("/ws", headers={"origin": "http://testserver"}) as ws:
+            ws.send_json({"type": "cmd", "action": "ack", "seq": 1, "csrf": r.json()["csrf"]})
+            while (reply := ws.receive_json())["type"] != "ack":
+                pass
+        assert reply["ok"] is ok, reply
+        c.post("/api/logout", headers={"X-CSRF-Token": r.json()["csrf"]})
+    refused = [r for _, _, r, d in service.notes if d.get("code") == "security.command_refused"]
+    assert any("ack needs the operator role, vic is viewer" in r for r in refused), refused
+    snap = service.step(rise + 1)
+    assert snap.loads.states[v1].value == "acknowledged" and snap.loads.active[v1]

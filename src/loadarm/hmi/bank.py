@@ -25,10 +25,13 @@ from loadarm.hmi.sessions import COOKIE
 from loadarm.hmi.state import ship_outline
 from loadarm.opcua.bank import BankSnapshot
 from loadarm.params.berth import BerthSection
-from loadarm.vocab import BANK_FACE_WORDS, FACE_WORDS, FACES, SWIVEL_FACE_TABLE
+from loadarm.vocab import BANK_FACE_WORDS, COMMANDS, FACE_WORDS, FACES, SWIVEL_FACE_TABLE
 
-__all__ = ["bank_geometry", "bank_frame", "create_bank_app"]
+__all__ = ["BANK_COMMANDS", "bank_geometry", "bank_frame", "create_bank_app"]
 
+
+#: The commands the bank's screen takes: the acknowledgement of its alarms (the bank's world has no controller).
+BANK_COMMANDS = ("ack",)
 
 def _r(v, nd: int = 4):
     """JSON has no NaN: None; else rounded (a frame is sent 20 times a second)."""
@@ -93,7 +96,17 @@ def _arm_frame(snap: BankSnapshot, i: int) -> dict:
                         "parts": mine},
             "face": {"name": FACES[f], "margin_deg": _r(math.degrees(margins[f]), 2)},
             "swivel": {"name": SWIVEL_FACE_TABLE[s].name, "margin_deg": _r(math.degrees(swm[s]), 2)},
-            "swivels_deg": [_r(math.degrees(v), 2) for v in state.swivels[i]]}
+            "swivels_deg": [_r(math.degrees(v), 2) for v in state.swivels[i]],
+            "load": _load_frame(snap, i)}
+
+
+def _load_frame(snap: BankSnapshot, i: int) -> dict:
+    """Arm ``i``'s manifold load: its largest share of the allowable, which load, the alarm and its ISA state."""
+    loads = snap.loads
+    if loads is None or not math.isfinite(float(loads.utilisation[i])):
+        return {"utilisation": None, "governing": "", "active": False, "state": "normal"}
+    return {"utilisation": _r(float(loads.utilisation[i]), 3), "governing": loads.governing[i],
+            "active": bool(loads.active[i]), "state": loads.states[i].value}
 
 
 def bank_frame(snap: BankSnapshot, *, sent_at: float) -> dict:
@@ -131,7 +144,28 @@ class _BankScreen(LoginScreen):
 
     def session_json(self, s) -> dict:
         return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": self.name, "bank": True,
-                "replay": False, "last_seq": s.last_cmd, "commands": []}
+                "replay": False, "last_seq": s.last_cmd,
+                "commands": [a for a in BANK_COMMANDS if s.role >= COMMANDS[a]]}
+
+    def command(self, s, msg: dict) -> tuple[bool, str]:
+        """One command from the bank's screen: only the acknowledgement of its alarms (CSRF, sequence number and
+        role checked as the arm's screen checks them); a refusal is logged as a security event."""
+        action = msg.get("action")
+        if not s.csrf_ok(msg.get("csrf")):
+            why = "refused: no valid CSRF token"
+        elif action not in BANK_COMMANDS:
+            why = f"refused: the bank's screen takes no command {str(action)[:32]!r} (only {', '.join(BANK_COMMANDS)})"
+        elif s.role < COMMANDS[action]:
+            why = f"refused: {action} needs the {COMMANDS[action].name.lower()} role, {s.user} is {s.role.name.lower()}"
+        else:
+            why = s.take_seq(msg.get("seq"))
+            why = None if why is None else f"refused: {why}"
+        if why:
+            self.note("security.command_refused", f"bank screen command of {s.user} refused: {why}", user=s.user,
+                      action=str(action)[:64])
+            return False, why
+        self.service.acknowledge()
+        return True, "ack sent"
 
     async def push(self, websocket, cursor, token: str | None) -> None:
         """Frames to one screen, at most ``frame_rate`` a second, a keep-alive at least every ``KEEPALIVE``."""
@@ -146,6 +180,14 @@ class _BankScreen(LoginScreen):
                 await websocket.send_text(json.dumps(bank_frame(snap, sent_at=self.wall())))
                 last_seq, last_sent = snap.seq, now
             await asyncio.sleep(1.0 / self.frame_rate)
+
+    def _reply(self, s, text: str) -> str:
+        """The acknowledgement of one message from the screen."""
+        msg = _parsed(text)
+        if msg is None:
+            return ack(None, False, "refused: not a command")
+        ok, message = self.command(s, msg)
+        return ack(msg.get("seq"), ok, message, last_seq=s.last_cmd)
 
     async def ws(self, websocket) -> None:
         from fastapi import WebSocketDisconnect
@@ -163,19 +205,22 @@ class _BankScreen(LoginScreen):
                 got = await websocket.receive()
                 if got.get("type") == "websocket.disconnect":
                     break
-                text = got.get("text") or ""
-                seq = None
-                if len(text) <= WS_MESSAGE:
-                    try:
-                        msg = json.loads(text)
-                        seq = msg.get("seq") if isinstance(msg, dict) else None
-                    except (ValueError, RecursionError):
-                        seq = None
-                await websocket.send_text(ack(seq, False, "refused: the bank's screen takes no command"))
+                await websocket.send_text(self._reply(s, got.get("text") or ""))
         except WebSocketDisconnect:
             pass
         finally:
             sender.cancel()
+
+
+def _parsed(text: str):
+    """A WebSocket message as a dict, or None (too long, not JSON, not an object)."""
+    if len(text) > WS_MESSAGE:
+        return None
+    try:
+        msg = json.loads(text)
+    except (ValueError, RecursionError):
+        return None
+    return msg if isinstance(msg, dict) else None
 
 
 def create_bank_app(service, state_dir, *, clock: Callable[[], float] = time.monotonic,

@@ -24,15 +24,19 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+
 from loadarm import __version__
 from loadarm.guidance.bank import BankForecast, BankMonitor
+from loadarm.guidance.manifold_alarm import ManifoldLoadAlarm, ManifoldLoadStatus
 from loadarm.guidance.monitor import stage_leads
 from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, _unit_id
 from loadarm.sim.bank import BankState, BankWorld
-from loadarm.vocab import FACE_LABELS, SWIVEL_FACE_TABLE, Severity
+from loadarm.vocab import EVENTS, FACE_LABELS, SWIVEL_FACE_TABLE, Severity
 
 __all__ = [
     "ARM_STATES",
@@ -56,6 +60,9 @@ WORLD_RATE = 10.0
 #: a loaded two-core machine, 2026-12-05).
 FORECAST_EVERY = 10
 
+#: The most events from outside and alarms the service keeps (the oldest go first; each is logged as it comes).
+NOTES_KEPT = 10_000
+
 _DEG, _M, _S = ("DD", "deg", "degree"), ("MTR", "m", "metre"), ("SEC", "s", "second")
 #: Each arm's Double variables: browse name, unit (UNECE code, symbol, description), range, what it is (the single
 #: arm's names where it has them).
@@ -73,13 +80,20 @@ ARM_VARIABLES = (
     for f in SWIVEL_FACE_TABLE) + (
     ("NearestClearance_m", _M, (-100.0, 200.0), "clearance to the nearest other arm (capsules, negative: overlap)"),
     ("TimeToLimit_s", _S, (0.0, 3600.0), "the bank monitor's time to this arm's nearest bank face (its swivels' "
-                                         "stops, its clash with a neighbour; -1: none within the horizon)"),)
+                                         "stops, its clash with a neighbour; -1: none within the horizon)"),
+    ("ManifoldLoad", ("C62", "1", "one"), (-1.0, 100.0), "the arm's largest load on its presentation flange over its "
+                                                        "allowable (-1: not yet computed)"),)
 #: Each arm's other variables: browse name, type, what it is.
 ARM_STATES = (("Mode", str, "the arm's mode (CONNECTED: every arm of this world is on its flange)"),
               ("AlarmStage", int, "the arm's stage: the more severe of its position alarm (the customer's angles) "
                                   "and the bank monitor's (its time to a bank face against the sequence's leads)"),
               ("AlarmStageText", str, "its words"),
               ("NearestArm", str, "the nearest other arm"),
+              ("ManifoldLoadAlarm", bool, "the arm's manifold-load alarm (fault.manifold_load): a load past its "
+                                          "allowable for the bank file's alarm_delay, until below its deadband"),
+              ("ManifoldLoadState", str, "that alarm's ISA-18.2 state (normal, unacknowledged, acknowledged, "
+                                         "returned to normal, unacknowledged)"),
+              ("ManifoldLoadGoverning", str, "the load of ManifoldLoad (axial force, ..., torsion moment)"),
               ("NearestParts", str, "the two parts that come closest (this arm's first)"))
 #: The bank's Double variables.
 BANK_VARIABLES = (
@@ -93,6 +107,7 @@ BANK_VARIABLES = (
 BANK_STATES = (("NearestPair", str, "the two arms closest to each other, A/B"),
                ("NearestParts", str, "their two parts that come closest"),
                ("ClashAbnormal", bool, "the nearest clearance is below the required one"),
+               ("ManifoldLoadAbnormal", bool, "an arm's manifold-load alarm is active"),
                ("AlarmStage", int, "the most severe arm's stage (ESD-1 and ERS-2 act on every arm)"),
                ("NearestFace", str, "the bank face the monitor forecasts first (a code of vocab.BANK_FACE_TABLE), "
                                     "empty: none"),
@@ -132,12 +147,15 @@ class BankSnapshot:
     state : BankState
     forecast : BankForecast or None
         The bank monitor's latest forecast (:class:`loadarm.guidance.bank.BankMonitor`; None before the first).
+    loads : ManifoldLoadStatus or None
+        Each arm's manifold load and its alarm (:class:`loadarm.guidance.manifold_alarm.ManifoldLoadAlarm`).
     """
 
     seq: int
     wall: float
     state: BankState
     forecast: BankForecast | None = None
+    loads: ManifoldLoadStatus | None = None
 
     def stage(self, i: int) -> Severity:
         """Arm ``i``'s stage: the more severe of its position alarm and the bank monitor's.
@@ -190,8 +208,17 @@ def arm_values(snap: BankSnapshot, i: int) -> dict:
            **{f"SwivelMargin_{f.name}_deg": _deg(state.swivel_margins[i, j]) for j, f in enumerate(SWIVEL_FACE_TABLE)},
            "NearestClearance_m": float(state.pair_clearance[k]), "TimeToLimit_s": _ttl(ttl),
            "Mode": "CONNECTED", "AlarmStage": int(stage), "AlarmStageText": stage.label,
-           "NearestArm": state.names[other], "NearestParts": " / ".join(mine)}
+           "NearestArm": state.names[other], "NearestParts": " / ".join(mine), **_load_values(snap.loads, i)}
     return out
+
+
+def _load_values(loads: ManifoldLoadStatus | None, i: int) -> dict:
+    """Arm ``i``'s manifold-load variables."""
+    if loads is None or not math.isfinite(float(loads.utilisation[i])):
+        return {"ManifoldLoad": -1.0, "ManifoldLoadAlarm": False, "ManifoldLoadState": "normal",
+                "ManifoldLoadGoverning": ""}
+    return {"ManifoldLoad": float(loads.utilisation[i]), "ManifoldLoadAlarm": bool(loads.active[i]),
+            "ManifoldLoadState": loads.states[i].value, "ManifoldLoadGoverning": loads.governing[i]}
 
 
 def bank_values(snap: BankSnapshot) -> dict:
@@ -211,6 +238,7 @@ def bank_values(snap: BankSnapshot) -> dict:
             "TimeToLimit_s": _ttl(fc.time if fc is not None else math.inf),
             "NearestPair": "/".join(c["arms"]), "NearestParts": " / ".join(c["parts"]),
             "ClashAbnormal": bool(c["abnormal"]),
+            "ManifoldLoadAbnormal": bool(snap.loads is not None and any(snap.loads.active)),
             "AlarmStage": int(max(snap.stage(i) for i in range(len(st.names)))),
             "NearestFace": fc.face if fc is not None else "",
             "NearestFaceArms": "/".join(fc.arms) if fc is not None else "", "Cycle": int(snap.seq)}
@@ -250,8 +278,11 @@ class BankService:
         self.horizon = max(max(stage_leads(m.sequence).values()) for m in world.bank.models)
         self._forecast: BankForecast | None = None
         self._observed = -math.inf
+        #: Each arm's live manifold-load alarm.
+        self.loads = ManifoldLoadAlarm(world.bank)
+        self._ack = threading.Event()
         #: Events from outside (refused logins), with the time they came: this world keeps no event log.
-        self.notes: list[tuple[float, str, str, dict]] = []
+        self.notes: deque[tuple[float, str, str, dict]] = deque(maxlen=NOTES_KEPT)
 
     @property
     def bank(self):
@@ -274,6 +305,17 @@ class BankService:
         self.notes.append((self.wall(), kind, reason, dict(data)))
         _log.warning("%s", reason)
 
+    def acknowledge(self) -> None:
+        """The operator acknowledged every alarm (the bank's screen): applied at the next state."""
+        self._ack.set()
+
+    def _load_events(self, status: ManifoldLoadStatus) -> None:
+        """Each manifold-load alarm that rose or cleared, as an event (this world keeps no event log)."""
+        for e in status.events:
+            word = "" if e["active"] else " cleared"
+            self.note("alarm", f"{EVENTS[e['code']].label}{word}: arm {e['arm']}, {e['load']} at "
+                               f"{e['utilisation']:.2f} of its allowable", dict(e))
+
     def step(self, k: int) -> BankSnapshot:
         """Compute and publish the ``k``-th state: the world's, and the bank monitor's forecast (fed every state,
         forecast every :data:`FORECAST_EVERY`).
@@ -290,12 +332,18 @@ class BankService:
         if state.t <= self._observed:          # a time gone back (a test stepping states): a new connection
             self.monitor.reset()
             self._forecast = None
+            self.loads = ManifoldLoadAlarm(self.world.bank)
         self._observed = state.t
         if self.monitor.observe(state.t, state.manifold, state.ship_angles):
             self.monitor.refit()
         if k % FORECAST_EVERY == 0 or self._forecast is None:
             self._forecast = self.monitor.time_to_limit(state.manifold, state.ship_angles, self.horizon, now=state.t)
-        snap = BankSnapshot(k, self.wall(), state, self._forecast)
+        acked = self.world.bank.names if self._ack.is_set() else ()
+        self._ack.clear()
+        displacement = state.manifold - np.asarray(self.world.bank.file.manifold.position, dtype=float)
+        loads = self.loads.step(state.t, displacement, state.ship_angles, wind=self.world.wind, acknowledge=acked)
+        self._load_events(loads)
+        snap = BankSnapshot(k, self.wall(), state, self._forecast, loads)
         self._snapshot = snap
         return snap
 

@@ -1,5 +1,5 @@
 // loadarm's bank screen (issue 31): plain JS and SVG, nothing from outside. Frames come over one WebSocket; the
-// page sends no command (the bank's world has no controller). Every arm is drawn from its capsules (the segments
+// page sends one command, the acknowledgement of the manifold-load alarms (the bank's world has no controller). Every arm is drawn from its capsules (the segments
 // and radii the clearance is computed on): a top view (y along the jetty across, x towards the ship up) and a side
 // view from the ship (y across, z up), on one scale each, fixed at the first frame. The nearest clash is grey
 // while it keeps the required clearance, emphasised below it (ISA-101).
@@ -7,13 +7,28 @@
 
 const STALE_MS = 1000;          // no frame for this long: the view is greyed and says so
 const W = 400, H = 300, PAD = 8, LABEL_ROOM = 18;   // the views' viewBox and the room kept for the arms' names
-const bank = {session: null, geo: null, ws: null, frames: 0, frame: null, lastFrameAt: 0, views: null};
+const bank = {session: null, geo: null, ws: null, frames: 0, frame: null, lastFrameAt: 0, views: null, cmdSeq: 0};
 window.hmi = bank;              // for the browser tests (the same name as the single arm's screen)
 
-const sessionPage = loginPage(bank, {start, message: (msg) => { if (msg.type === "state") { onFrame(msg); } },
+const sessionPage = loginPage(bank, {start, message: (msg) => {
+                                       if (msg.type === "state") { onFrame(msg); } else if (msg.type === "ack") { onAck(msg); } },
                                      lost: () => { $("link").textContent = "link to the server lost: reconnecting"; }});
 
+function acknowledge() {             // the operator acknowledges every alarm (the server checks the role again)
+  if (!bank.ws || bank.ws.readyState !== WebSocket.OPEN) { $("ack-result").textContent = "not connected"; return; }
+  bank.cmdSeq += 1;
+  bank.ws.send(JSON.stringify({type: "cmd", seq: bank.cmdSeq, action: "ack", csrf: bank.session.csrf}));
+}
+
+function onAck(msg) {
+  if (typeof msg.last_seq === "number") { bank.cmdSeq = Math.max(bank.cmdSeq, msg.last_seq); }
+  $("ack-result").textContent = msg.message;
+}
+
+$("ack-loads").addEventListener("click", acknowledge);
+
 async function start(session) {          // logged in: common.js has shown the screen
+  bank.cmdSeq = session.last_seq || 0;
   $("title").textContent = `loadarm bank: ${session.name}`;
   document.title = `loadarm bank: ${session.name}`;
   bank.geo = (await api("/api/bank")).body;
@@ -227,7 +242,19 @@ function row(body, cells, abnormal) {
   }
 }
 
+// The manifold load: its share of the allowable and which load (the label's first word), prefixed by the alarm's
+// ISA-18.2 state while it is not normal (UNACK, ACK, RTN: returned to normal, unacknowledged).
+const LOAD_STATE = {unacknowledged: "UNACK", acknowledged: "ACK"};
+function loadText(l) {
+  if (l.utilisation === null) return "-";
+  const share = `${(100 * l.utilisation).toFixed(0)} % ${l.governing.split(" ")[0]}`;
+  if (l.state === "normal") return share;
+  return `${LOAD_STATE[l.state] || "RTN"} ${share}`;
+}
+
 function drawTables(f) {
+  const unacked = f.arms.some((a) => a.load.state === "unacknowledged" || a.load.state.startsWith("returned"));
+  $("ack-loads").hidden = !(unacked && bank.session.commands.includes("ack"));
   const arms = document.querySelector("#arms tbody"), margins = document.querySelector("#margins tbody");
   arms.replaceChildren();
   margins.replaceChildren();
@@ -235,7 +262,8 @@ function drawTables(f) {
   for (const a of f.arms) {
     const close = a.nearest.clearance === null || a.nearest.clearance < f.required;
     row(arms, [a.name, a.stage > 0 ? a.stage_text : "none", a.nearest.arm,
-               a.nearest.clearance === null ? "-" : `${a.nearest.clearance.toFixed(2)} m`], close || a.stage > 0);
+               a.nearest.clearance === null ? "-" : `${a.nearest.clearance.toFixed(2)} m`, loadText(a.load)],
+        close || a.stage > 0 || a.load.active || a.load.state !== "normal");
     const face = a.face.margin_deg === null ? "out of reach" : `${a.face.margin_deg.toFixed(1)} deg`;
     const sw = a.swivel.margin_deg === null ? "-" : `${a.swivel.margin_deg.toFixed(1)} deg`;
     row(margins, [a.name, a.ttl === null ? "none" : `${a.ttl.toFixed(0)} s`, `${face}: ${g.face_words[a.face.name]}`, `${sw}: ${g.swivel_words[a.swivel.name]}`],

@@ -174,3 +174,30 @@ def test_the_bank_s_screen_follows_the_ship(browser, bank_screen):
         assert page.evaluate("hmi.frames") >= 10 and page.errors == []
     finally:
         ctx.close()
+
+
+def test_the_flange_load_alarm_shows_and_an_operator_acknowledges_it(browser, state):
+    """The overloaded example bank: V1's flange load over its allowable rises to an unacknowledged alarm after the
+    window and the delay (its row emphasised, the Acknowledge button shown to an operator); a click acknowledges it
+    on the server, the row then says ACK; the other arms' loads are shown as shares of their allowable."""
+    from loadarm.testing.bank_screen import bank_screen, bank_world
+
+    world = bank_world(ROOT / "examples" / "banks" / "overloaded_manifold.toml", SCENARIO)
+    with bank_screen(world, state.path, speedup=2.0) as (service, server):
+        ctx, page = _sized(browser, 1366, 768)
+        try:
+            log_in(page, server.url, "alice", "pw-alice")
+            wait_for(page, "hmi.frame && hmi.frame.arms[2].load.state === 'unacknowledged'", timeout=20.0,
+                     what="V1's manifold-load alarm")
+            row = "[...document.querySelectorAll('#arms tbody tr')][2]"
+            assert page.evaluate(f"{row}.classList.contains('abnormal')")
+            assert page.evaluate(f"{row}.lastChild.textContent").startswith("UNACK ")
+            assert page.evaluate("!$('ack-loads').hidden")
+            page.click("#ack-loads")
+            wait_for(page, "hmi.frame.arms[2].load.state === 'acknowledged'", timeout=10.0, what="the acknowledgement")
+            assert page.evaluate("$('ack-result').textContent") == "ack sent"
+            wait_for(page, f"{row}.lastChild.textContent.startsWith('ACK ')", timeout=5.0, what="the row's ACK")
+            assert service.snapshot().loads.states[2].value == "acknowledged"
+            assert page.evaluate(_OUTSIDE) == [] and page.errors == []
+        finally:
+            ctx.close()

@@ -83,9 +83,10 @@ def scratch(tmp_path_factory):
 
 
 #: Commands that take seconds (compiling the moored ship, a mooring analysis, a Dask cluster, a scenario on the
-#: hydraulic plant with its log and figure: 10 s): checked in the slow suite (CI runs it), to keep `make test` under
-#: two minutes. The scenarios themselves are checked in the fast suite by tests/test_guidance.py.
-SLOW_COMMANDS = {"alarms", "operability", "hydro", "run"}
+#: hydraulic plant with its log and figure: 10 s; the forecast's twelve sea states: 8 s): checked in the slow suite
+#: (CI runs it), to keep `make test` under two minutes. The scenarios themselves are checked in the fast suite by
+#: tests/test_guidance.py; the forecast's checks by tests/test_forecast.py (its runs in the slow suite too).
+SLOW_COMMANDS = {"alarms", "operability", "hydro", "run", "forecast"}
 
 
 @pytest.mark.parametrize("cmd", [pytest.param(c, marks=pytest.mark.slow) if c.argv[1] in SLOW_COMMANDS else c

@@ -29,6 +29,7 @@ def _stats(res):
     return d
 
 
+@pytest.mark.slow           # 3 s: make test's budget on 2 cores (CI runs it)
 def test_a_campaign_in_parts_is_the_campaign_at_once(tmp_path):
     sc = _short(tmp_path)
     vary = [parse_vary("ship.tide_rate=0:2e-4")]

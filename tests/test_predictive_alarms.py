@@ -238,6 +238,29 @@ def test_a_break_out_s_call_is_not_held_once_the_track_leaves_the_intervals():
 
 
 @pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 30, open: found by the 1000-seed break-out campaign (seeds 100-1099, "
+                                       "2026-12-05): the break-out test calls while the track is still inside the "
+                                       "prediction's intervals, and the trusted prediction holds the call until the "
+                                       "departure test sees it (seed 726: 12.3 s later; seed 412: 3.5 s)")
+@pytest.mark.parametrize("seed, held_s", [(726, 12.32), (412, 3.52)])
+def test_a_break_out_s_call_while_the_track_is_inside_the_intervals_is_not_held(seed, held_s):
+    """Found in the 1000-seed break-out campaign (breakout_tracked): the break-out test called for ESD-1 (seed
+    726 at 414.68 s) with the track's latest block still inside the prediction's intervals, so the trusted
+    prediction held the call; ESD-1 came at 427.0 s when the departure test saw the track leave them, 12.3 s later
+    than the rule without the prediction (release margin 3.6 s: no overstretch). Never later is what the issue
+    asks: this test holds the run to it, and fails until the rule holds it."""
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+
+    sc, model = load_scenario(SCEN / "breakout_tracked.toml")
+    sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"seed": seed})})
+    res = run_scenario(sc, model, plant="kinematic")
+    esd1 = res.first_data("stage.esd1")
+    assert res.first_code("stage.esd1") - esd1["measured_since"] < held_s        # as found: it is this late
+    assert res.first_code("stage.esd1") == esd1["measured_since"]                 # never later: fails today
+
+
+@pytest.mark.slow
 def test_on_tracked_ships_false_esd1_are_at_least_halved_and_no_esd1_is_later():
     """A fresh sample of the campaigns of docs/guidance.md section 13 (seeds 5000-5011, kinematic plant): Hs 1.5 m
     on the tracked ship, its false ESD-1 at most half of the rule's without the prediction, and a break-out's

@@ -7,8 +7,10 @@ arms (the pair, their parts, the distance), drawn grey while the clearance keeps
 highlighted only below it (ISA-101: colour and emphasis for the abnormal only).
 
 The login, sessions, users and security headers are the single arm's screen's (:mod:`loadarm.hmi.app`: the same
-users file, the same roles). The page is read-only: the bank's world has no controller to command (the WebSocket
-answers any command with a refusal).
+users file, the same roles). The bank's world has no controller to command: the page takes one command, the
+acknowledgement of its alarms (an operator's, :data:`BANK_COMMANDS`; CSRF token, sequence number and role checked
+as on the arm's screen), and refuses any other, logging the refusal. Each arm's row shows its flange load and its
+manifold-load alarm (:mod:`loadarm.guidance.manifold_alarm`).
 """
 
 
@@ -231,7 +233,7 @@ def create_bank_app(service, state_dir, *, clock: Callable[[], float] = time.mon
     Parameters
     ----------
     service : BankService
-        Its :meth:`snapshot`, :attr:`bank` and :meth:`note`.
+        Its :meth:`snapshot`, :attr:`bank`, :meth:`note` and :meth:`acknowledge`.
     state_dir : path
         The OPC UA server's state directory: its ``users.toml``.
     clock : callable

@@ -281,7 +281,7 @@ def _row(v: dict) -> str:
 
 
 @pytest.mark.parametrize("stored, case", [
-    ("breakout_tracked_seeds100-199", "| `breakout_tracked.toml` (every line parts at 400 s, Hs 1.0 m) "),
+    ("breakout_tracked_seeds100-1099", "| `breakout_tracked.toml` (every line parts at 400 s, Hs 1.0 m) "),
     ("hs15_tracked_hs1.5-2.0_seeds100-199", "| `hs15_tracked.toml`, Hs 1.5-2.0 m "),
 ])
 def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):

@@ -264,9 +264,10 @@ def test_a_break_out_s_call_while_the_track_is_inside_the_intervals_is_not_held(
 def test_on_tracked_ships_false_esd1_are_at_least_halved_and_no_esd1_is_later():
     """A fresh sample of the campaigns of docs/guidance.md section 13 (seeds 5000-5011, kinematic plant): Hs 1.5 m
     on the tracked ship, its false ESD-1 at most half of the rule's without the prediction, and a break-out's
-    ESD-1 never later than that rule's (100 seeds: none later since a change detector's call is not held once
-    the track leaves the intervals, docs/guidance.md section 13); no overstretch and no coupler opened on live
-    product in either."""
+    ESD-1 not later than that rule's on these seeds (100 seeds: none later since a change detector's call is not
+    held once the track leaves the intervals; 1000 seeds: 5 later, held while the track was still inside them,
+    docs/guidance.md section 13 and the strict xfail above); no overstretch and no coupler opened on live product
+    in either."""
     from loadarm.studies.campaign import run_campaign
 
     sea = run_campaign(SCEN / "hs15_tracked.toml", 12, first_seed=5000, workers=2, plant="kinematic")._values()

@@ -89,6 +89,11 @@ def test_a_runs_file_of_another_campaign_is_refused_in_one_line(tmp_path):
     _short(tmp_path, "short.toml")
     with pytest.raises(ConfigError, match="line 2 is not a run"):
         RunsFile(edited, str(sc), None, [])
+    head = runs.read_text().splitlines()[0]
+    for bad in ('{"code": "x"}', '{"code": "x", "run": {"seed": "1"}}', '[1, 2]', '{"run": {"seed": 1}}'):
+        edited.write_text(head + "\n" + bad + "\n")                       # JSON, but not a run
+        with pytest.raises(ConfigError, match="line 2 is not a run"):
+            RunsFile(edited, str(sc), None, [])
 
 
 def test_the_cli_refuses_a_foreign_runs_file_before_running(tmp_path, capsys):

@@ -112,10 +112,14 @@ class RunsFile:
                                   "name")
         for n, line in enumerate(whole[1:], start=2):
             try:
-                self._lines.append(json.loads(line))
-            except (json.JSONDecodeError, UnicodeDecodeError):
-                raise ConfigError(f"--runs {self.path}: line {n} is not a run (JSON); the file was changed by "
-                                  "hand: give a new file name") from None
+                got = json.loads(line)
+                ok = isinstance(got["run"]["seed"], int) and isinstance(got["code"], str)
+            except (json.JSONDecodeError, UnicodeDecodeError, KeyError, TypeError):
+                ok = False
+            if not ok:
+                raise ConfigError(f"--runs {self.path}: line {n} is not a run (JSON with its code and seed); the "
+                                  "file was changed by hand: give a new file name")
+            self._lines.append(got)
         if cut:                                     # a line cut short: dropped before the next append
             with open(self.path, "r+b") as fh:
                 fh.truncate(len(raw) - len(cut))

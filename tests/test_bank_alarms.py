@@ -115,6 +115,7 @@ def test_cli_refuses_the_example_bank_naming_its_outer_arms(capsys, tmp_path):
     assert "Paste into" in io.out and png.stat().st_size > 10_000
 
 
+@pytest.mark.slow           # 3-5 s: a 120 s simulation of the moored ship (make test's budget; CI runs it)
 def test_the_ship_s_own_point_and_the_bank_s_turned_offset_agree_in_a_seaway(setup):
     """Two routes to a flange on the moving ship: the moored ship's kinematics at the moved manifold (the alarm
     design's) and the manifold's centre plus the flange's offset turned by roll, pitch and yaw (the bank monitor's,

@@ -379,6 +379,7 @@ def test_the_docs_list_the_bank_s_node_tree():
     assert "(img/bank-screen.png)" in bank and (ROOT / "docs" / "img" / "bank-screen.png").is_file()
 
 
+@pytest.mark.slow           # make test's budget on 2 cores (CI runs it)
 def test_the_overloaded_bank_s_manifold_load_alarm_rises_is_published_and_acknowledged(world, tmp_path):
     """The service runs each arm's live manifold-load alarm on the world's motion: V1 (over the overloaded
     example's allowables from the start) alarms after the window and the delay, as one event; the OPC UA values

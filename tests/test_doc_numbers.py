@@ -295,3 +295,5 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
     assert rec["command"].startswith(f"loadarm campaign --scenario examples/scenarios/{v['scenario'].split('/')[-1]}")
     cited("docs/guidance.md", case + _row(v))
     cited("docs/guidance.md", f"`{rec['commit']}`")
+    for seed in v["later_seeds"]:                       # each later run the prose names
+        cited("docs/guidance.md", f"{seed} (")

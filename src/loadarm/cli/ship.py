@@ -105,15 +105,8 @@ def alarms(
         _bank_alarms(bank, berth, settings, as_json, png)
         return
     model = read_model(config)
-    b = load_berth(berth)
-    ship = compile_ship(b, source=str(berth))
-    with progress_bar() as prog:
-        task = prog.add_task("mooring analysis", total=1.0)
-        res = design_alarms(model, ship, b.environment, settings=settings,
-                            progress=lambda f: prog.update(task, completed=f))
-    if png is not None:
-
-        save(res.plot(), png)
+    res = _analysed(berth, png, "mooring analysis",
+                    lambda ship, env, progress: design_alarms(model, ship, env, settings=settings, progress=progress))
     if as_json:
         print_json(res.to_dict())
     else:
@@ -136,20 +129,28 @@ def alarms(
         raise UserError(f"{berth}: refused: " + "; ".join(res.problems))
 
 
+def _analysed(berth: Path, png: Optional[Path], label: str, design):
+    """The berth's ship compiled, ``design(ship, environment, progress)`` run under a progress bar, its figure
+    saved to ``png`` if asked: the one arm's alarm design and the bank's."""
+    b = load_berth(berth)
+    ship = compile_ship(b, source=str(berth))
+    with progress_bar() as prog:
+        task = prog.add_task(label, total=1.0)
+        res = design(ship, b.environment, lambda f: prog.update(task, completed=f))
+    if png is not None:
+
+        save(res.plot(), png)
+    return res
+
+
 def _bank_alarms(path: Path, berth: Path, settings: DesignSettings, as_json: bool, png: Optional[Path]) -> None:
     """``loadarm alarms --bank``: every arm's alarm design from one mooring analysis."""
     from rich import box
 
     bank = load_bank(path)
-    b = load_berth(berth)
-    ship = compile_ship(b, source=str(berth))
-    with progress_bar() as prog:
-        task = prog.add_task("mooring analysis (every flange)", total=1.0)
-        res = design_bank_alarms(bank, ship, b.environment, settings=settings,
-                                 progress=lambda f: prog.update(task, completed=f))
-    if png is not None:
-
-        save(res.plot(), png)
+    res = _analysed(berth, png, "mooring analysis (every flange)",
+                    lambda ship, env, progress: design_bank_alarms(bank, ship, env, settings=settings,
+                                                                   progress=progress))
     if as_json:
         print_json(res.to_dict())
     else:

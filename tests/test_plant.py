@@ -285,6 +285,10 @@ def test_the_variables_carry_engineering_units_and_ranges(served):
 
     eu, rng = asyncio.run(main())
     assert eu.DisplayName.Text == "deg" and (rng.Low, rng.High) == (0.0, 180.0)
+    # OPC 10000-8 5.6.3: the UNECE code's bytes, big-endian (degree of angle: DD); metre is the spec's example
+    assert eu.UnitId == int.from_bytes(b"DD", "big")
+    from loadarm.opcua.server import unece_unit_id
+    assert unece_unit_id("MTR") == 5067858 == int.from_bytes(b"MTR", "big")
 
 
 def test_the_cylinders_and_face_margins_are_those_of_the_published_pose(served):

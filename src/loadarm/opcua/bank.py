@@ -34,7 +34,7 @@ from loadarm import __version__
 from loadarm.guidance.bank import BankForecast, BankMonitor
 from loadarm.guidance.manifold_alarm import ManifoldLoadAlarm, ManifoldLoadStatus
 from loadarm.guidance.monitor import stage_leads
-from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, _unit_id
+from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, unece_unit_id
 from loadarm.sim.bank import BankState, BankWorld
 from loadarm.vocab import EVENTS, FACE_LABELS, SWIVEL_FACE_TABLE, Severity
 
@@ -453,7 +453,7 @@ async def _variables(parent, base: str, ns: int, doubles, others, out: dict) -> 
         await v.write_attribute(ua.AttributeIds.Description, ua.DataValue(ua.Variant(ua.LocalizedText(what))))
         await v.add_property(ua.NodeId(f"{base}.{bname}.EngineeringUnits", ns), ua.QualifiedName("EngineeringUnits", 0),
                              ua.EUInformation(NamespaceUri="http://www.opcfoundation.org/UA/units/un/cefact",
-                                              UnitId=_unit_id(code), DisplayName=ua.LocalizedText(symbol),
+                                              UnitId=unece_unit_id(code), DisplayName=ua.LocalizedText(symbol),
                                               Description=ua.LocalizedText(text)))
         await v.add_property(ua.NodeId(f"{base}.{bname}.EURange", ns), ua.QualifiedName("EURange", 0),
                              ua.Range(Low=lo, High=hi))

@@ -38,7 +38,7 @@ from loadarm.vocab import ANNUNCIATED, CONDITION_SEVERITY, CONDITION_TEXT, FACE_
 from loadarm.vocab import METHODS as _METHODS
 
 __all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "CURRENT_USER", "RoleRuleset", "SecureServer",
-           "SnapshotServer", "OpcUaServer", "address_space", "address_space_markdown"]
+           "SnapshotServer", "OpcUaServer", "address_space", "address_space_markdown", "unece_unit_id"]
 
 #: The application URI (in the certificate's subject alternative names).
 APP_URI = "urn:loadarm:guidance"
@@ -518,7 +518,7 @@ class OpcUaServer(SnapshotServer):
             await v.add_property(ua.NodeId(f"Guidance.{bname}.EngineeringUnits", ns),
                                  ua.QualifiedName("EngineeringUnits", 0),
                                  ua.EUInformation(NamespaceUri="http://www.opcfoundation.org/UA/units/un/cefact",
-                                                  UnitId=_unit_id(code), DisplayName=ua.LocalizedText(symbol),
+                                                  UnitId=unece_unit_id(code), DisplayName=ua.LocalizedText(symbol),
                                                   Description=ua.LocalizedText(text)))
             await v.add_property(ua.NodeId(f"Guidance.{bname}.EURange", ns), ua.QualifiedName("EURange", 0),
                                  ua.Range(Low=lo, High=hi))
@@ -777,8 +777,19 @@ async def _conditions(server, parent, ns: int, tags) -> dict:
     return out
 
 
-def _unit_id(code: str) -> int:
-    """OPC UA's UnitId of a UNECE common code (its characters packed, OPC 10000-8 5.6.3)."""
+def unece_unit_id(code: str) -> int:
+    """OPC UA's UnitId of a UNECE common code (its characters packed, OPC 10000-8 5.6.3).
+
+    Parameters
+    ----------
+    code : str
+        The UNECE Recommendation 20 common code, e.g. ``"MTR"`` (metre).
+
+    Returns
+    -------
+    int
+        The code's characters packed, first character highest (``"MTR"``: 5067858).
+    """
     out = 0
     for c in code:
         out = (out << 8) | ord(c)

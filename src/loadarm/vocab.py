@@ -401,6 +401,7 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("fault.events_lost", "alarm", "events lost"),
     EventCode("info.event_log_restored", "info", "event log restored"),
     EventCode("info.measured_esd1", "info", "measured drift calls for ESD-1"),
+    EventCode("info.moorings_lost", "info", "moorings lost: most lines slack, the prediction stands down"),
     EventCode("interlock.valves_confirmed", "interlock", "ERS valves confirmed closed"),
     EventCode("command.coupler_opening", "command", "ERS-2: coupler opening"),
     EventCode("command.release_complete", "command", "ERS-2 release complete"),

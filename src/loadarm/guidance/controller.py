@@ -56,6 +56,7 @@ from loadarm.guidance.modes import (
     PlantFeedback,
 )
 from loadarm.guidance.monitor import EnvelopeMonitor
+from loadarm.guidance.moorings import LOST_SHARE, MooringWatch
 from loadarm.guidance.predict import FlangePredictor
 from loadarm.guidance.rules import SafetyRules
 from loadarm.guidance.voting import AXES, reset_votes, vote
@@ -103,6 +104,7 @@ class GuidanceController(SafetyRules):
         per_sample = max(1, math.ceil(FIT_PERIOD * g.rate - 1e-9))
         self.monitor = EnvelopeMonitor(model, g.drift_window, period=per_sample / g.rate)
         self.predictor = None if g.prediction == "off" else FlangePredictor(g.prediction)
+        self.moorings = MooringWatch()
         self.v_max = model.approach.max_speed
         self.a_max = model.approach.max_accel
         sx, sz = model.approach.stored
@@ -256,8 +258,14 @@ class GuidanceController(SafetyRules):
 
     def _track(self, cyc: "Cycle") -> None:
         """Feed the predictor this cycle's flange position: the encoders' while attached, the flange tracker's
-        healthy estimate before (none: a gap, which starts its track again)."""
+        healthy estimate before (none: a gap, which starts its track again); and read the mooring load
+        monitoring (the moorings lost: the prediction stands down, an event says so)."""
         pr = self.predictor
+        if self.moorings.update(cyc.now, cyc.fb.line_loads):
+            if pr is not None:
+                pr.stand_down(cyc.now)
+            self._event("info", event_label("info.moorings_lost"), code="info.moorings_lost",
+                        slack_share=LOST_SHARE)
         if pr is None or cyc.now < pr.next_sample:
             return
         if self.attached():

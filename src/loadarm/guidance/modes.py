@@ -103,10 +103,14 @@ class PlantFeedback:
         itself reports one).
     angles : tuple of float or None
         The joint angles' second channel (slew, alpha, beta), rad, beside the encoders' (None: no redundancy).
+    line_loads : tuple of float or None
+        The berth's mooring load monitoring: each line's load as a share of its MBL, the latest reading (None: no
+        monitoring linked; :class:`loadarm.guidance.moorings.MooringWatch`).
     """
 
     ers_switches: tuple = ()
     angles: tuple | None = None
+    line_loads: tuple | None = None
 
     @property
     def ers_valves_closed(self) -> bool:

@@ -223,12 +223,16 @@ class SafetyRules:
         Without a trusted prediction: the time-to-limit forecast's (the measured routes and the design-drift
         floor; the one rule :func:`loadarm.arm.sequence.stage_of`: the pre-alarm warns of a drift it sees).
         With one: the floor's and the prediction's, the more severe (the prediction also warns); but a call for
-        ESD-1 by a change detector (:data:`loadarm.vocab.CHANGE_ROUTES`: a velocity step, a break-out) is not
-        held once the track's latest block has left the prediction's intervals (:meth:`_change_seen`: two
-        independent tests agree; the departure test alone waits for a second block). Found: a break-out's ESD-1
-        0.2 s later than without the prediction (seed 111), held until the departure test's second block; and
-        holding no change detector's call at all loses the hold of the waves' false calls (hs15_tracked seed 0:
-        the break-out test calls at 208 s with the track within its intervals).
+        ESD-1 by a change detector (:data:`loadarm.vocab.CHANGE_ROUTES`: a velocity step, a break-out) is held
+        only with two witnesses that the ship is still the one the prediction learned (:meth:`_change_seen`):
+        the track's latest block inside the prediction's intervals, and the berth's mooring load monitoring
+        reading with the moorings holding (:mod:`loadarm.guidance.moorings`; when it finds them lost the
+        prediction stands down altogether). Found: a break-out's ESD-1 0.2 s later than without the prediction
+        (seed 111), held until the departure test's second block; and, over 1000 break-outs, 5 held with the
+        track still inside the intervals (up to 12.3 s: at the break-out test's call a break-out's prediction
+        errors are no larger than the waves'), so the track alone cannot be the witness; holding no change
+        detector's call at all loses the hold of the waves' false calls (hs15_tracked seed 0: the break-out test
+        calls at 208 s with the track within its intervals).
         """
         s, f, ld = self.state, self.state.forecast, self.state.leads
         legs = (ld[Severity.RELEASE], ld[Severity.SECOND], ld[Severity.ESD1], ld.get(Severity.PRE_ALARM, -math.inf))
@@ -250,9 +254,12 @@ class SafetyRules:
         return best if best[0] > Severity.NORMAL else (Severity.NORMAL, math.inf, "", "", "")
 
     def _change_seen(self, f) -> bool:
-        """Whether the forecast's route is a change detector's and the track has left the prediction's
-        intervals on its latest block (two tests agree)."""
-        return f.route in CHANGE_ROUTES and self.predictor is not None and self.predictor.outside > 0
+        """Whether the forecast's route is a change detector's and a witness says the ship changed: the track
+        has left the prediction's intervals on its latest block (two tests agree), or the mooring load
+        monitoring does not say the moorings hold (not linked, or the moorings lost)."""
+        if f.route not in CHANGE_ROUTES:
+            return False
+        return not self.moorings.holding or (self.predictor is not None and self.predictor.outside > 0)
 
     @staticmethod
     def _measured_stage(today: Severity, f) -> tuple[Severity, float, str, str, str]:

@@ -55,6 +55,13 @@ class Ship(_S):
                            description="how long the flange's track before the run starts is known (the flange "
                                        "sensor's readings of the ship at its berth): the predictor is fitted and "
                                        "calibrated on it")
+    line_load_monitoring: bool = Field(
+        True, description="model = moored: the berth's mooring load monitoring (load cells on the quick-release "
+                          "hooks) reports each line's load to the guidance once a second; the predictive alarms "
+                          "hold a change detector's call only while it says the moorings hold "
+                          "(loadarm.guidance.moorings)",
+        json_schema_extra={"unit": "", "source": "OCIMF MEG4: mooring load monitoring at terminals; false = no "
+                                                 "link to it"})
 
     @model_validator(mode="after")
     def _finite(self) -> "Ship":

@@ -144,6 +144,27 @@ class MooredFlangeMotion:
         d00, d10, d01, d11 = 6 * s ** 2 - 6 * s, 3 * s ** 2 - 4 * s + 1, -6 * s ** 2 + 6 * s, 3 * s ** 2 - 2 * s
         return (d00 * p[k] + d01 * p[k + 1]) / dt + d10 * v[k] + d11 * v[k + 1] + self.slow_rate
 
+    def line_loads(self, t: float, period: float = 1.0) -> tuple:
+        """What a mooring load monitoring reading every ``period`` seconds last reported by time ``t``: each
+        line's tension as a share of its MBL (the record's sample at the last whole reading time).
+
+        Parameters
+        ----------
+        t : float
+            Run time, s.
+        period : float
+            The monitoring's reading period, s.
+
+        Returns
+        -------
+        tuple of float
+        """
+        m = self.motion
+        dt = float(m.t[1] - m.t[0])
+        t_read = math.floor((t + self.start) / period + 1e-9) * period
+        k = min(max(int(round(t_read / dt)), 0), m.t.size - 1)
+        return tuple(float(v) for v in m.tension[k] / m.mbl)
+
     def orientation(self, t) -> np.ndarray:
         """Roll, pitch and yaw of the flange face at times ``t`` (linear between samples), rad."""
         k, s, _ = self._at(t)

@@ -28,6 +28,7 @@ from loadarm.eventlog import EventLog, RateLimiter
 from loadarm.guidance.controller import GuidanceController
 from loadarm.guidance.estimator import FlangeEstimator
 from loadarm.guidance.modes import MODES, SEVERITY_OF_MODE, Command, OperatorInput, PlantFeedback
+from loadarm.guidance.moorings import READING_PERIOD as LINE_LOAD_PERIOD
 from loadarm.params.scenario import Scenario, check_run_size
 from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
@@ -155,9 +156,22 @@ class SimulatedPlant:
         self.valves = ErsValves(model.sequence.ers_valve_time, stuck=sc.faults.ers_valve_stuck,
                                 delay=sc.faults.ers_valve_delay, false_closed_at=sc.faults.ers_switch_false_closed_at)
         self.sensors = AngleSensors(model, sc.faults)
-        self.feedback = PlantFeedback(angles=self.sensors.second(self.arm.q))
+        # the berth's mooring load monitoring, read once a second (None: not linked, or no lines to read)
+        self._mlms = sc.ship.model == "moored" and sc.ship.line_load_monitoring
+        self._loads: tuple = (math.nan, None)
+        self.feedback = PlantFeedback(angles=self.sensors.second(self.arm.q), line_loads=self.line_loads(0.0))
         self._t = 0.0
         self._ir = 0
+
+    def line_loads(self, now: float) -> tuple | None:
+        """The mooring load monitoring's latest reading at ``now`` (each line's load, share of its MBL), or None
+        without one."""
+        if not self._mlms:
+            return None
+        second = math.floor(now + 1e-9)
+        if second != self._loads[0]:
+            self._loads = (second, self.motion.line_loads(now, LINE_LOAD_PERIOD))
+        return self._loads[1]
 
     @property
     def q(self) -> np.ndarray:
@@ -201,7 +215,8 @@ class SimulatedPlant:
         switches = self.valves.step(now, cmd.close_ers_valves)
         q = self.arm.step(now, dt, cmd, self.flange[k])
         self._t = now + dt
-        self.feedback = PlantFeedback(ers_switches=switches, angles=self.sensors.second(q))
+        self.feedback = PlantFeedback(ers_switches=switches, angles=self.sensors.second(q),
+                                      line_loads=self.line_loads(self._t))
         return q, self.flange[k]
 
     def first_limit(self, model: ArmModel, sig: dict) -> tuple[float | None, str]:

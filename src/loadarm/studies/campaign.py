@@ -401,7 +401,11 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     held = {r.seed for r in done}
     pending = seeds - len(held)
     workers = plan_workers(workers, max(1, pending))
-    batch = max(1, math.ceil(pending / (4 * workers))) if batch is None else max(1, batch)
+    if batch is None:                    # about four batches a worker; with a runs file, runs are kept as they end:
+        batch = math.ceil(pending / (4 * workers))       # at most RUNS_FILE_BATCH a batch (found: 250 runs of a
+        if store is not None:                            # worker, an hour, would be lost to a kill)
+            batch = min(batch, RUNS_FILE_BATCH)
+    batch = max(1, batch)
     chunks = _chunks((s for s in wanted if s not in held), vary, batch)   # built as they are submitted
     if progress is not None and held:
         progress(len(done), seeds)
@@ -434,6 +438,9 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
 
 #: The most runs one campaign takes (a campaign of a hundred thousand kinematic runs takes a day on 8 cores).
 MAX_SEEDS = 100_000
+#: The most runs in one batch of a campaign that keeps a runs file (each batch's runs are appended as it ends; a
+#: tracked run takes 10-20 s of a core, the moored ship compiled once a batch about 1 s).
+RUNS_FILE_BATCH = 8
 def _bounded_map(pool, submit, items, in_flight: int, report) -> None:
     """Submit ``items`` to a process pool with at most ``in_flight`` pending, reporting each result as it comes."""
     from concurrent.futures import FIRST_COMPLETED, wait

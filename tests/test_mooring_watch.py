@@ -30,13 +30,19 @@ def _lost_at_by_count(times, loads):
 
 @settings(max_examples=200, deadline=None)
 @given(lines=st.integers(1, 16), n=st.integers(1, 40), period=st.sampled_from([0.02, 0.2, 1.0]),
-       data=st.data())
-def test_the_moorings_are_lost_when_more_than_half_the_lines_are_slack_long_enough(lines, n, period, data):
+       repeat=st.integers(1, 12), as_tuple=st.booleans(), data=st.data())
+def test_the_moorings_are_lost_when_more_than_half_the_lines_are_slack_long_enough(lines, n, period, repeat,
+                                                                                   as_tuple, data):
+    """Over any readings, held and read again between updates (``repeat`` cycles a reading, as the guidance
+    cycle reads a 1 Hz monitoring; a tuple: the same object again, which the watch skips until a slack time is
+    up), the watch finds the moorings lost exactly when an independent count does."""
     low = st.floats(0.0, SLACK_SHARE, exclude_max=True)
     high = st.floats(SLACK_SHARE, 1.5)
-    rows = data.draw(st.lists(st.lists(st.one_of(low, high), min_size=lines, max_size=lines), min_size=n,
-                              max_size=n))
-    times = [k * period for k in range(n)]
+    drawn = data.draw(st.lists(st.lists(st.one_of(low, high), min_size=lines, max_size=lines), min_size=n,
+                               max_size=n))
+    drawn = [tuple(r) if as_tuple else r for r in drawn]
+    rows = [r for r in drawn for _ in range(repeat)]
+    times = [k * period / repeat for k in range(len(rows))]
     w = MooringWatch()
     found = [now for now, row in zip(times, rows) if w.update(now, row)]
     expected = _lost_at_by_count(times, rows)

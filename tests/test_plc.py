@@ -358,3 +358,52 @@ def test_a_lost_link_reconnects_and_resynchronises_without_a_jump(tmp_path, scen
             link.stop()
         sim.stop()
         server.stop()
+
+
+def test_a_mapping_may_leave_the_line_loads_out_and_the_tag_table_says_so(tmp_path):
+    """A PLC with no link to the berth's mooring load monitoring: its mapping leaves LineLoads out (the
+    predictive alarms then never hold a change detector's call); every other tag is still required."""
+    from loadarm.opcua.plc import OPTIONAL_TAGS, default_tag_map, load_tag_map, tags_markdown
+
+    m = default_tag_map().nodes
+    m.pop("LineLoads")
+    f = tmp_path / "map.toml"
+    f.write_text(_map_text(m))
+    assert load_tag_map(f).nodes == m
+    assert OPTIONAL_TAGS == ("LineLoads",) and "| `LineLoads` (optional) | PLC to controller | 1 |" in tags_markdown()
+
+
+@pytest.mark.slow
+def test_the_mooring_load_monitoring_crosses_the_plc_link(tmp_path):
+    """The simulated PLC of a moored scenario publishes the monitoring's reading (each line's load, share of its
+    MBL) and the controller's link hands it to the guidance as the plant's feedback, value for value; a PLC
+    whose mapping leaves it out gives none."""
+    import dataclasses
+
+    from loadarm.opcua.plc import PlcLink, PlcServer, default_tag_map
+
+    sc, model = load_scenario("examples/scenarios/hs15_moored.toml")
+    sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"duration": 20.0})})
+    ctrl, plc, endpoint = _plc_pair(tmp_path)
+    sim = PlcSimulator(sc, model, plant="kinematic")
+    sim.cycle(0, 0.0, 0.0)
+    loads = sim.inputs["LineLoads"]
+    assert len(loads) == 16 and all(0.0 < v < 0.6 for v in loads)          # taut lines, below their brakes
+    assert tuple(loads) == sim.plant.feedback.line_loads
+    server = PlcServer(sim, plc.path, endpoint)
+    server.start()
+    links = []
+    try:
+        unmapped = default_tag_map()
+        unmapped = dataclasses.replace(unmapped, nodes={k: v for k, v in unmapped.nodes.items() if k != "LineLoads"})
+        for tags in (None, unmapped):
+            kw = {} if tags is None else {"tags": tags}
+            link = PlcLink(endpoint, ctrl.path, "controller", "pw-ctrl", plc.cert, period=0.02, **kw)
+            links.append(link)
+            link.start()
+        assert links[0].feedback.line_loads == tuple(loads)
+        assert links[1].feedback.line_loads is None
+    finally:
+        for link in links:
+            link.stop()
+        server.stop()

@@ -57,6 +57,8 @@ class MooringWatch:
         self.low_since: np.ndarray | None = None
         self.lost_at: float | None = None
         self.reading = False
+        self._last: tuple | None = None                   # the last reading evaluated (a tuple: immutable)
+        self._due = math.inf                              # the soonest a low line's slack time is up, s
 
     @property
     def holding(self) -> bool:
@@ -85,6 +87,9 @@ class MooringWatch:
         """
         if loads is None:
             return False
+        if loads is self._last or (self._last is not None and loads == self._last):
+            if self.lost_at is not None or now < self._due:
+                return False                     # the same reading, no line's slack time up: nothing changes
         a = np.asarray(loads, dtype=float)
         if a.ndim != 1 or a.size == 0 or not np.all(np.isfinite(a)) or np.any(a < 0):
             raise ValueError(f"line loads {loads!r}: one finite share of MBL >= 0 per line expected")
@@ -95,6 +100,8 @@ class MooringWatch:
         self.reading = True
         low = a < SLACK_SHARE
         self.low_since = np.where(low, np.where(np.isnan(self.low_since), now, self.low_since), math.nan)
+        self._last = loads if isinstance(loads, tuple) else None
+        self._due = float(np.min(self.low_since[low])) + SLACK_TIME - 1e-9 if low.any() else math.inf
         if self.lost_at is not None:
             return False
         slack = low & (now - self.low_since >= SLACK_TIME - 1e-9)

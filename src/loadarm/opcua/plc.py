@@ -48,7 +48,7 @@ LINK_TIMEOUT = 0.5
 #: Readings kept in ``FlangeBuffer`` (the link reads them all, however many arrived between two reads, up to
 #: this many).
 BUFFER = 8
-#: The PLC server's shortest tick, s (it refreshes 24 tags: faster only starves the PLC's own cycle).
+#: The PLC server's shortest tick, s (it refreshes 25 tags: faster only starves the PLC's own cycle).
 MIN_TICK = 0.005
 #: A lost link is tried again this often, s.
 RECONNECT = 0.5
@@ -69,6 +69,9 @@ TAGS = (
     ("EStopActive", bool, "in", "", "the hard-wired emergency stop is active"),
     ("ServoFault", bool, "in", "", "a drive reported a fault"),
     ("WatchdogTripped", bool, "in", "", "the controller's heartbeat stopped: valves at zero"),
+    ("LineLoads", list, "in", "1", "the berth's mooring load monitoring, its latest reading: each line's load as a "
+                                   "share of its MBL (empty: none; optional in a mapping: unmapped, the predictive "
+                                   "alarms never hold a change detector's call)"),
     ("ControllerHeartbeat", int, "out", "", "the controller counts it every cycle"),
     ("Mode", str, "out", "", "the controller's mode"),
     ("RatePhi_rads", float, "out", "rad/s", "slew rate command"),
@@ -79,10 +82,14 @@ TAGS = (
     ("CloseERSValves", bool, "out", "", "close the ERS valves"),
     ("EStopRequest", bool, "out", "", "request the emergency stop"),
 )
+#: The tags a mapping may leave out (a PLC with no link to the berth's mooring load monitoring).
+OPTIONAL_TAGS = ("LineLoads",)
 _NS = "urn:loadarm:plc-sim:tags"
 
 
-def _default(kind):
+def _default(name: str, kind):
+    if name == "LineLoads":
+        return []
     return {int: 0, float: 0.0, bool: False, str: "STORED", list: [0.0] * (4 * BUFFER)}[kind]
 
 
@@ -121,8 +128,8 @@ class PlcSimulator:
         self.plant = SimulatedPlant(sc, model, stored, self.n, self.dt, plant or sc.scenario.plant, self._emit,
                                     ship=ship)
         self.clock, self.sleep = clock, sleep
-        self.outputs = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "out"}
-        self.inputs = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "in"}
+        self.outputs = {name: _default(name, kind) for name, kind, d, _, _ in TAGS if d == "out"}
+        self.inputs = {name: _default(name, kind) for name, kind, d, _, _ in TAGS if d == "in"}
         self._beat, self._beat_at = None, -math.inf
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -170,7 +177,8 @@ class PlcSimulator:
                           FlangeSeq=inputs["FlangeSeq"] + len(new), FlangeBuffer=buf)
         inputs.update(PlcHeartbeat=k + 1, PlcTime_s=now, Phi_rad=float(q[0]), Alpha_rad=float(q[1]),
                       Beta_rad=float(q[2]), ERSValvesClosed=bool(self.plant.feedback.ers_valves_closed),
-                      EStopActive=self.estop, ServoFault=bool(self.plant.servo_fault), WatchdogTripped=tripped)
+                      EStopActive=self.estop, ServoFault=bool(self.plant.servo_fault), WatchdogTripped=tripped,
+                      LineLoads=list(self.plant.feedback.line_loads or ()))
         self.inputs = inputs
 
     def run(self) -> None:
@@ -234,7 +242,7 @@ class PlcServer(SecureServer):
         nodes = {}
         for name, kind, direction, unit, what in TAGS:
             v = await plc.add_variable(ua.NodeId(f"PLC.{name}", ns), ua.QualifiedName(name, ns),
-                                       ua.Variant(_default(kind), _variant(kind)))
+                                       ua.Variant(_default(name, kind), _variant(kind)))
             await v.write_attribute(ua.AttributeIds.Description,
                                     ua.DataValue(ua.Variant(ua.LocalizedText(f"{what} [{unit}]" if unit else what))))
             if direction == "out":
@@ -284,7 +292,8 @@ def tags_markdown() -> str:
     str
     """
     rows = ["| tag | direction | unit | what |", "|---|---|---|---|"]
-    rows += [f"| `{name}` | {'PLC to controller' if d == 'in' else 'controller to PLC'} | {unit} | {what} |"
+    rows += [f"| `{name}`{' (optional)' if name in OPTIONAL_TAGS else ''} | "
+             f"{'PLC to controller' if d == 'in' else 'controller to PLC'} | {unit} | {what} |"
              for name, _, d, unit, what in TAGS]
     return "\n".join(rows) + "\n"
 
@@ -333,11 +342,11 @@ def load_tag_map(path) -> TagMap:
     unknown = sorted(set(tags) - set(names))
     if unknown:
         raise ConfigError(f"{src}: unknown tag 'tags.{unknown[0]}'; the tags are {', '.join(names)}")
-    missing = [n for n in names if n not in tags]
+    missing = [n for n in names if n not in tags and n not in OPTIONAL_TAGS]
     if missing:
         raise ConfigError(f"{src}: tags.{missing[0]} is not mapped (every tag must be: {', '.join(missing)})")
     nodes = {}
-    for name in names:
+    for name in (n for n in names if n in tags):
         v = tags[name]
         node, scale = (v, 1.0) if isinstance(v, str) else (v.get("node"), v.get("scale", 1.0)) \
             if isinstance(v, dict) and set(v) <= {"node", "scale"} else (None, None)
@@ -397,7 +406,7 @@ class PlcLink:
         self.tags = tags or default_tag_map()
         self._inputs: dict | None = None
         self._beat, self._beat_at = None, -math.inf
-        self._outputs: dict = {name: _default(kind) for name, kind, d, _, _ in TAGS if d == "out"}
+        self._outputs: dict = {name: _default(name, kind) for name, kind, d, _, _ in TAGS if d == "out"}
         self._heartbeat = 0
         self._seq = 0
         self._offset: float | None = None
@@ -447,7 +456,7 @@ class PlcLink:
         async with client:
             node = await self.tags.resolve(client)
             scale = {name: s for name, (_, s) in self.tags.nodes.items()}
-            ins = [name for name, _, d, _, _ in TAGS if d == "in"]
+            ins = [name for name, _, d, _, _ in TAGS if d == "in" and name in node]   # an optional one unmapped
             outs = [(name, kind) for name, kind, d, _, _ in TAGS if d == "out"]
             types = {n: await node[n].read_data_type_as_variant_type() for n, _ in outs}   # the PLC's own types
             while not self._stop.is_set():
@@ -484,7 +493,9 @@ class PlcLink:
         i = self._inputs
         # the PLC reads both closed limit switches and votes them itself (it owns the ERS interlock); one signal
         # here, and the angles are its encoders' (no second channel over the link)
-        return PlantFeedback(ers_switches=(bool(i and self.link_ok and i["ERSValvesClosed"]),))
+        loads = i.get("LineLoads") if i and self.link_ok else None
+        return PlantFeedback(ers_switches=(bool(i and self.link_ok and i["ERSValvesClosed"]),),
+                             line_loads=tuple(float(v) for v in loads) if loads else None)
 
     def arrived(self, now: float):
         """The tracker's new readings since the last call, from the PLC's buffer (their times moved onto the

@@ -875,7 +875,7 @@ def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model)
     lo[60:], hi[60:] = np.nan, np.nan
     fc = Forecast(h, mean, lo, hi, 60.0, 99.0, "online AR")
     cmd = Command(Mode.ALARM1, (0.0, 0.0, 0.0), True, True, False, horizon=65.0, route="design drift",
-                  prediction=fc, predicted=(42.0, 65.0), rule="prediction", trusted=True)
+                  prediction=fc, predicted=(42.0, 65.0), rule="prediction", trusted=True, moorings="holding")
     est = Estimate(t=1.0, position=(13.0, 1.0, 0.5), velocity=(0.0, 0.0, 0.0), sigma=0.01, age=0.0, healthy=True,
                    reason="")
     sample = state_sample(cmd, (0.0, 1.0, 1.5), est, 0.0, False, {})
@@ -884,11 +884,16 @@ def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model)
     assert p["ttl"] == [42.0, 65.0] and len(p["mean"]) == 12
     snap = snapshot(model, 1, 100.0, "ALARM1", json.loads(json.dumps(sample)))
     f = forecast_state(snap, model)
-    assert f["prediction"]["state"] == "trusted" and f["prediction"]["text"] == "prediction: face in 42-65 s"
+    assert f["prediction"]["state"] == "trusted"
+    assert f["prediction"]["text"] == "prediction: face in 42-65 s; moorings holding"       # its second witness
     assert f["rule_words"] == "prediction"
     assert len(f["prediction"]["track"]) == 12 and len(f["prediction"]["band"]) == 12
     x0, y0, x1, y1 = f["prediction"]["band"][0]
     assert x0 < mean[4, 0] < x1 and y0 < mean[4, 1] < y1
     assert prediction_state(None, True)["state"] == "none"
     assert prediction_state({**p, "trusted": False}, True)["text"].startswith("prediction (not used): ")
-    assert prediction_state({**p, "ttl": [None, None]}, True)["text"] == "prediction: no face within 60 s"
+    assert prediction_state({**p, "ttl": [None, None]}, True)["text"] == ("prediction: no face within 60 s; no "
+                                                                        "mooring load monitoring")
+    lost = prediction_state({**p, "trusted": False}, True, "lost")
+    assert lost["text"].endswith("; MOORINGS LOST: most lines slack") and lost["moorings_abnormal"] is True
+    assert prediction_state(p, False, "holding")["text"] == "prediction (not used): face in 42-65 s"

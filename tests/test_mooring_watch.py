@@ -68,10 +68,15 @@ def test_a_break_out_is_found_two_seconds_after_the_lines_part_and_a_wave_s_slac
 
 
 def test_no_reading_is_no_witness_and_a_gap_keeps_the_state():
+    from loadarm.vocab import MOORINGS_TEXT
+
     w = MooringWatch()
-    assert not w.holding and not w.update(0.0, None)       # not linked: no witness
+    assert not w.holding and not w.update(0.0, None) and w.state == "none"      # not linked: no witness
     w.update(1.0, [0.05, 0.05])
-    assert w.holding and not w.update(2.0, None) and w.holding
+    assert w.holding and not w.update(2.0, None) and w.holding and w.state == "holding"
+    w.update(3.0, [0.0, 0.0])
+    assert w.update(5.0, [0.0, 0.0]) and w.state == "lost" and not w.holding
+    assert set(MOORINGS_TEXT) == {"none", "holding", "lost"}
 
 
 @pytest.mark.parametrize("row, words", [([0.1, -0.01], "finite share"), ([0.1, math.nan], "finite share"),

@@ -655,11 +655,12 @@ def test_the_prediction_and_the_alarm_rule_are_served(served):
         c = await _client(served, "victor", "pw-victor")()
         async with c:
             ns, guidance, var = await _nodes(c)
-            names = ["PredictionHorizon_s", "PredictedTimeToLimit_s", "PredictedTimeToLimitMean_s", "AlarmRule"]
+            names = ["PredictionHorizon_s", "PredictedTimeToLimit_s", "PredictedTimeToLimitMean_s", "AlarmRule",
+                     "Moorings"]
             return dict(zip(names, await c.read_values([var(n) for n in names])))
 
     v = asyncio.run(main())
     assert v == {"PredictionHorizon_s": 0.0, "PredictedTimeToLimit_s": -1.0, "PredictedTimeToLimitMean_s": -1.0,
-                 "AlarmRule": ""}, v
+                 "AlarmRule": "", "Moorings": "none"}, v                  # the drift-off's ship has no lines
     assert _prediction_values({"claimed": 120.0, "ttl": [42.0, None]}) == {
         "PredictedTimeToLimit_s": 42.0, "PredictedTimeToLimitMean_s": -1.0, "PredictionHorizon_s": 120.0}

@@ -56,7 +56,7 @@ __all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "F
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
            "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES",
            "ROUTE_DESIGN", "ROUTE_MEASURED", "ROUTE_STEP", "ROUTE_BREAKOUT", "ROUTE_PREDICTION", "MEASURED_ROUTES",
-           "CHANGE_ROUTES"]
+           "CHANGE_ROUTES", "MOORINGS_TEXT"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -442,6 +442,11 @@ MEASURED_ROUTES: tuple[str, ...] = (ROUTE_MEASURED, ROUTE_STEP, ROUTE_BREAKOUT)
 #: The routes of a detected change of regime: their call for ESD-1 is not held by the prediction (learned on the
 #: regime before the change) once the track has left the prediction's intervals (``guidance.rules``).
 CHANGE_ROUTES: tuple[str, ...] = (ROUTE_STEP, ROUTE_BREAKOUT)
+
+#: The berth's mooring load monitoring as the guidance reads it (:mod:`loadarm.guidance.moorings`), by state:
+#: none linked, the moorings holding, or lost (most lines slack: the prediction stood down).
+MOORINGS_TEXT: dict[str, str] = {"none": "no mooring load monitoring", "holding": "moorings holding",
+                                 "lost": "MOORINGS LOST: most lines slack"}
 
 
 def event_label(code: str) -> str:

@@ -166,6 +166,9 @@ class Command:
     trusted : bool
         The prediction stands in for the measured routes (claimed past the ESD-1 lead, the track within its
         intervals, ESD-1 not raised).
+    moorings : str
+        The mooring load monitoring's state (:data:`loadarm.vocab.MOORINGS_TEXT`: ``none``, ``holding``,
+        ``lost``).
     """
 
     mode: Mode
@@ -186,6 +189,7 @@ class Command:
     predicted: tuple = ()
     rule: str = ""
     trusted: bool = False
+    moorings: str = "none"
 
 
 @dataclass(frozen=True, slots=True)

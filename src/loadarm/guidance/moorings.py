@@ -61,6 +61,11 @@ class MooringWatch:
         self._due = math.inf                              # the soonest a low line's slack time is up, s
 
     @property
+    def state(self) -> str:
+        """``"none"`` (no reading yet), ``"holding"`` or ``"lost"`` (:data:`loadarm.vocab.MOORINGS_TEXT`)."""
+        return "lost" if self.lost_at is not None else "holding" if self.reading else "none"
+
+    @property
     def holding(self) -> bool:
         """The monitoring reports and the moorings were not lost."""
         return self.reading and self.lost_at is None

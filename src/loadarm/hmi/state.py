@@ -16,8 +16,8 @@ from loadarm.arm.alarms import AlarmState
 from loadarm.guidance.monitor import stage_leads
 from loadarm.params.berth import RHO_SEA, BerthSection, ShipSection
 from loadarm.ship.hull import hull_mesh
-from loadarm.vocab import (ALARM_RULES, CONDITION_TEXT, EVENTS, FACE_WORDS, FACES, MEASURED_ROUTES, PRIORITIES,
-                           Severity, event_label, priority)
+from loadarm.vocab import (ALARM_RULES, CONDITION_TEXT, EVENTS, FACE_WORDS, FACES, MEASURED_ROUTES, MOORINGS_TEXT,
+                           PRIORITIES, Severity, event_label, priority)
 
 __all__ = ["PRIORITIES", "SHELVE_MAX", "JOURNAL_KINDS", "AlarmBook", "AlarmEntry", "clock_text", "drift_words",
            "forecast_state", "prediction_state", "geometry", "frame", "in_words", "journal_entry", "priority",
@@ -266,7 +266,7 @@ def forecast_state(snap, model) -> dict:
            "horizon": _num(snap.horizon), "drift": drift, "design_speed": model.design_drift.speed,
            "basis": _basis(snap.route, drift, model.design_drift.speed) if snap.connected else "",
            "rule": snap.rule, "rule_words": ALARM_RULES.get(snap.rule, ""),
-           "prediction": prediction_state(snap.prediction, snap.connected)}
+           "prediction": prediction_state(snap.prediction, snap.connected, snap.moorings)}
     if not snap.connected:
         return {**out, "state": "off", "text": "not connected"}
     if not (snap.plant_ok and snap.estimate_healthy and math.isfinite(snap.horizon)):
@@ -277,7 +277,7 @@ def forecast_state(snap, model) -> dict:
     return {**out, "state": "beyond", "text": f"> {snap.horizon:.0f} s"}
 
 
-def prediction_state(p: dict | None, connected: bool) -> dict:
+def prediction_state(p: dict | None, connected: bool, moorings: str = "none") -> dict:
     """What the screen says and draws of the flange prediction: ``state`` ``"trusted"`` (it stands in for the
     measured drift), ``"shown"`` (claimed, not trusted: the track left its intervals, or ESD-1 is raised),
     ``"none"`` (no prediction: the track is too short or not yet calibrated); ``text``; the time to limit with
@@ -290,14 +290,18 @@ def prediction_state(p: dict | None, connected: bool) -> dict:
     p : dict or None
         The snapshot's :attr:`~loadarm.sim.snapshot.Snapshot.prediction`.
     connected : bool
+    moorings : str
+        The mooring load monitoring's state (:data:`loadarm.vocab.MOORINGS_TEXT`): the text says it while
+        connected (``moorings`` in the result, ``abnormal`` when lost).
 
     Returns
     -------
     dict
     """
+    watch = {"moorings": MOORINGS_TEXT.get(moorings, moorings), "moorings_abnormal": moorings == "lost"}
     if p is None:
         return {"state": "none", "text": "no prediction (track too short or calibrating)", "track": [], "band": [],
-                "bound": None, "mean": None, "claimed": 0.0}
+                "bound": None, "mean": None, "claimed": 0.0, **watch}
     bound, mean = p["ttl"]
     claimed = float(p["claimed"])
     if bound is None:
@@ -308,7 +312,9 @@ def prediction_state(p: dict | None, connected: bool) -> dict:
         when = f"face in {bound:.0f}-{mean:.0f} s"
     trusted = bool(p.get("trusted")) and connected
     text = f"prediction{'' if trusted else ' (not used)'}: {when}"
-    return {"state": "trusted" if trusted else "shown", "text": text, "bound": bound, "mean": mean,
+    if connected:
+        text += f"; {watch['moorings']}"
+    return {**watch, "state": "trusted" if trusted else "shown", "text": text, "bound": bound, "mean": mean,
             "claimed": claimed, "track": [[m[0], m[1]] for m in p["mean"]],
             "band": [[lo[0], lo[1], hi[0], hi[1]] for lo, hi in zip(p["lo"], p["hi"])]}
 

@@ -78,7 +78,8 @@ def state_sample(cmd, q, estimate, distance: float, ers_valves_closed: bool, ala
             "time_to_faces": {f: float(t) for f, t in cmd.time_to_faces},
             "horizon": _finite_or_none(cmd.horizon), "route": str(cmd.route),
             "drift": [_finite_or_none(v) for v in cmd.drift] or None,
-            "prediction": prediction_sample(cmd.prediction, cmd.predicted, cmd.trusted), "rule": str(cmd.rule)}
+            "prediction": prediction_sample(cmd.prediction, cmd.predicted, cmd.trusted), "rule": str(cmd.rule),
+            "moorings": str(cmd.moorings)}
 
 
 #: Seconds between the predicted track's points kept in a sample (and drawn on the screen).
@@ -159,7 +160,8 @@ def snapshot(model, seq: int, t: float, mode: str, sample: dict, **live) -> "Sna
                     time_to_faces={f: float(v) for f, v in sample.get("time_to_faces", {}).items()},
                     horizon=_nan_if_none(sample.get("horizon")), route=str(sample.get("route", "")),
                     drift=tuple(_nan_if_none(v) for v in (sample.get("drift") or ())),
-                    prediction=sample.get("prediction"), rule=str(sample.get("rule", "")), **live)
+                    prediction=sample.get("prediction"), rule=str(sample.get("rule", "")),
+                    moorings=str(sample.get("moorings", "none")), **live)
 
 
 @dataclass(frozen=True)
@@ -220,6 +222,8 @@ class Snapshot:
         The flange prediction (:func:`prediction_sample`; None: no prediction, or a log without it).
     rule : str
         The rule behind the connected-mode level (:data:`loadarm.vocab.ALARM_RULES`; ``""``: none).
+    moorings : str
+        The mooring load monitoring's state (:data:`loadarm.vocab.MOORINGS_TEXT`).
     """
 
     seq: int
@@ -253,6 +257,7 @@ class Snapshot:
     drift: tuple = ()
     prediction: dict | None = None
     rule: str = ""
+    moorings: str = "none"
 
 
 def trend_point(snap: Snapshot) -> dict:

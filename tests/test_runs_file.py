@@ -113,21 +113,18 @@ def test_with_a_runs_file_each_batch_is_small_so_a_kill_loses_little(tmp_path, m
     """Found: 1000 seeds on one worker went in batches of 250 (about an hour of tracked runs), none written until
     its batch ended; with a runs file a batch holds at most RUNS_FILE_BATCH runs, and each is on file as it ends
     (the runs themselves are not the point here: the worker is stood in for)."""
-    import loadarm.studies.campaign as campaign
+    from loadarm.studies import campaign
 
-    real = campaign._run_batch
     sizes: list[int] = []
 
     def counted(scenario, plant, jobs):
         sizes.append(len(jobs))
         if len(sizes) == 1:
-            return real(scenario, plant, jobs[:1]) + [_copy(real(scenario, plant, jobs[:1])[0], s)
-                                                       for s, _ in jobs[1:]]
+            return [campaign.CampaignRun(seed=s, draws=d, overstretched=False, overstretched_before_isolation=False,
+                                         opened_on_live_product=False, false_alarm=False, missed_alarm=False,
+                                         alarm1_s=None, release_complete_s=None, limit_s=None,
+                                         release_margin_s=None, limit_face="") for s, d in jobs]
         raise KeyboardInterrupt                      # the kill, after the first batch
-
-    def _copy(run, seed):
-        from dataclasses import replace
-        return replace(run, seed=seed)
 
     monkeypatch.setattr(campaign, "_run_batch", counted)
     runs = tmp_path / "runs.jsonl"

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-__all__ = ["READING_PERIOD", "SLACK_SHARE", "SLACK_TIME", "LOST_SHARE", "MooringWatch"]
+__all__ = ["LOST_SHARE", "READING_PERIOD", "SLACK_SHARE", "SLACK_TIME", "MooringWatch"]
 
 #: How often the simulated monitoring reports, s (hook load monitoring systems update about once a second).
 READING_PERIOD = 1.0
@@ -92,9 +92,9 @@ class MooringWatch:
         """
         if loads is None:
             return False
-        if loads is self._last or (self._last is not None and loads == self._last):
-            if self.lost_at is not None or now < self._due:
-                return False                     # the same reading, no line's slack time up: nothing changes
+        seen = loads is self._last or (self._last is not None and loads == self._last)
+        if seen and (self.lost_at is not None or now < self._due):
+            return False                         # the same reading, no line's slack time up: nothing changes
         a = np.asarray(loads, dtype=float)
         if a.ndim != 1 or a.size == 0 or not np.all(np.isfinite(a)) or np.any(a < 0):
             raise ValueError(f"line loads {loads!r}: one finite share of MBL >= 0 per line expected")

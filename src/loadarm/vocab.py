@@ -402,6 +402,7 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("info.event_log_restored", "info", "event log restored"),
     EventCode("info.measured_esd1", "info", "measured drift calls for ESD-1"),
     EventCode("info.moorings_lost", "info", "moorings lost: most lines slack, the prediction stands down"),
+    EventCode("info.moorings_silent", "info", "mooring load monitoring silent: no change detector's call is held"),
     EventCode("interlock.valves_confirmed", "interlock", "ERS valves confirmed closed"),
     EventCode("command.coupler_opening", "command", "ERS-2: coupler opening"),
     EventCode("command.release_complete", "command", "ERS-2 release complete"),
@@ -444,8 +445,10 @@ MEASURED_ROUTES: tuple[str, ...] = (ROUTE_MEASURED, ROUTE_STEP, ROUTE_BREAKOUT)
 CHANGE_ROUTES: tuple[str, ...] = (ROUTE_STEP, ROUTE_BREAKOUT)
 
 #: The berth's mooring load monitoring as the guidance reads it (:mod:`loadarm.guidance.moorings`), by state:
-#: none linked, the moorings holding, or lost (most lines slack: the prediction stood down).
+#: none linked, the moorings holding, silent (read before, no fresh reading now: no witness), or lost (most lines
+#: slack: the prediction stood down).
 MOORINGS_TEXT: dict[str, str] = {"none": "no mooring load monitoring", "holding": "moorings holding",
+                                 "silent": "mooring load monitoring silent",
                                  "lost": "MOORINGS LOST: most lines slack"}
 
 

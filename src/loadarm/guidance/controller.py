@@ -259,13 +259,14 @@ class GuidanceController(SafetyRules):
     def _track(self, cyc: "Cycle") -> None:
         """Feed the predictor this cycle's flange position: the encoders' while attached, the flange tracker's
         healthy estimate before (none: a gap, which starts its track again); and read the mooring load
-        monitoring (the moorings lost: the prediction stands down, an event says so)."""
+        monitoring (the moorings lost: the prediction stands down; lost, or gone silent: an event says so)."""
         pr = self.predictor
-        if self.moorings.update(cyc.now, cyc.fb.line_loads):
-            if pr is not None:
-                pr.stand_down(cyc.now)
-            self._event("info", event_label("info.moorings_lost"), code="info.moorings_lost",
-                        slack_share=LOST_SHARE)
+        if self.moorings.update(cyc.now, cyc.fb.line_loads) and pr is not None:
+            pr.stand_down(cyc.now)
+        said, self.state.moorings = self.state.moorings, self.moorings.state(cyc.now)
+        if self.state.moorings != said and self.state.moorings in ("lost", "silent"):
+            code = f"info.moorings_{self.state.moorings}"
+            self._event("info", event_label(code), code=code, slack_share=LOST_SHARE, fault=self.moorings.fault)
         if pr is None or cyc.now < pr.next_sample:
             return
         if self.attached():
@@ -312,7 +313,7 @@ class GuidanceController(SafetyRules):
                        tuple(s.events), faces, horizon, f.route if f is not None else "",
                        self._forecast_drift(f), None if self.predictor is None else self.predictor.forecast,
                        self._predicted(now) if attached else (), s.rule if attached else "",
-                       attached and s.trusted is not None, self.moorings.state)
+                       attached and s.trusted is not None, s.moorings)
 
     def _predicted(self, now: float) -> tuple:
         """The prediction's times to the nearest face now, ``(bound, mean)`` s, or ``()``."""

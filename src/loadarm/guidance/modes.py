@@ -334,6 +334,7 @@ class GuidanceState:
     predicted_face: str = ""
     shadow_esd1_at: float | None = None
     rule: str = ""
+    moorings: str = "none"
     events: list = field(default_factory=list)
 
 

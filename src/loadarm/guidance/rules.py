@@ -174,7 +174,8 @@ class SafetyRules:
             if p is None:
                 p = tuple(float(v) for v in forward3d(self.arm, *q))
             # the prediction stands in for the measured routes before ESD-1 only (after it, every route acts)
-            s.trusted = None if (self.predictor is None or alarmed) else self.predictor.trusted(s.leads[Severity.ESD1])
+            s.trusted = None if (self.predictor is None or alarmed or self.moorings.lost_at is not None) \
+                else self.predictor.trusted(s.leads[Severity.ESD1])
             s.forecast = mon.time_to_limit(p, max(s.leads.values()), alarmed=alarmed, now=now,
                                            design_too=s.trusted is not None)
             s.next_forecast = now + mon.fit.period
@@ -212,7 +213,7 @@ class SafetyRules:
         if s.shadow_esd1_at is not None:
             return
         s.shadow_esd1_at = now
-        hold = s.trusted is not None and not self._change_seen(f)
+        hold = s.trusted is not None and not self._change_seen(f, now)
         held = " (held: the prediction is trusted and does not)" if hold else ""
         self._event("info", f"{event_label('info.measured_esd1')}: {f.route}: {f.face} face in {f.time:.1f} s"
                             f"{held}", code="info.measured_esd1", held=bool(held))
@@ -249,17 +250,17 @@ class SafetyRules:
             best = (pred, max(t_p, 0.0), ROUTE_PREDICTION, s.predicted_face, "prediction")
         else:
             best = (floor, f.design, ROUTE_DESIGN, f.face, "floor")
-        if today >= Severity.ESD1 and self._change_seen(f) and measured[0] > best[0]:
+        if today >= Severity.ESD1 and self._change_seen(f, now) and measured[0] > best[0]:
             return measured
         return best if best[0] > Severity.NORMAL else (Severity.NORMAL, math.inf, "", "", "")
 
-    def _change_seen(self, f) -> bool:
+    def _change_seen(self, f, now: float) -> bool:
         """Whether the forecast's route is a change detector's and a witness says the ship changed: the track
         has left the prediction's intervals on its latest block (two tests agree), or the mooring load
         monitoring does not say the moorings hold (not linked, or the moorings lost)."""
         if f.route not in CHANGE_ROUTES:
             return False
-        return not self.moorings.holding or (self.predictor is not None and self.predictor.outside > 0)
+        return not self.moorings.holding(now) or (self.predictor is not None and self.predictor.outside > 0)
 
     @staticmethod
     def _measured_stage(today: Severity, f) -> tuple[Severity, float, str, str, str]:

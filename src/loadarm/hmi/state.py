@@ -298,7 +298,8 @@ def prediction_state(p: dict | None, connected: bool, moorings: str = "none") ->
     -------
     dict
     """
-    watch = {"moorings": MOORINGS_TEXT.get(moorings, moorings), "moorings_abnormal": moorings == "lost"}
+    watch = {"moorings": MOORINGS_TEXT.get(moorings, moorings),
+             "moorings_abnormal": moorings in ("lost", "silent")}
     if p is None:
         return {"state": "none", "text": "no prediction (track too short or calibrating)", "track": [], "band": [],
                 "bound": None, "mean": None, "claimed": 0.0, **watch}

@@ -60,8 +60,9 @@ class Ship(_S):
                           "hooks) reports each line's load to the guidance once a second; the predictive alarms "
                           "hold a change detector's call only while it says the moorings hold "
                           "(loadarm.guidance.moorings)",
-        json_schema_extra={"unit": "", "source": "OCIMF MEG4: mooring load monitoring at terminals; false = no "
-                                                 "link to it"})
+        json_schema_extra={"unit": "", "source": "OCIMF MEG4 recommends mooring load monitoring at "
+                                                 "terminals (the judgement of its readings is loadarm's); false = "
+                                                 "no link to it"})
 
     @model_validator(mode="after")
     def _finite(self) -> "Ship":

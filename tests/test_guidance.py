@@ -104,6 +104,7 @@ def test_dropout_stops_the_arm_within_one_cycle(runs):
     assert r.summary()["mode_sequence"] == ["STORED", "APPROACH", "HOLD", "APPROACH", "STANDOFF", "CONNECTED"]
 
 
+@pytest.mark.slow           # 2-4 s: make test's budget on 2 cores (CI runs it)
 def test_kinematic_plant_holds_exactly():
     sc, inst = load_scenario(SCEN / "dropout.toml")
     r = run_scenario(sc, inst, plant="kinematic")
@@ -115,6 +116,7 @@ def test_kinematic_plant_holds_exactly():
         run_scenario(sc, inst, plant="magic")
 
 
+@pytest.mark.slow           # 2-4 s: make test's budget on 2 cores (CI runs it)
 def test_runs_are_deterministic():
     sc, inst = load_scenario(SCEN / "hs15.toml")
     d = sc.model_dump()
@@ -1127,6 +1129,7 @@ def test_a_coupler_that_does_not_clear_the_manifold_raises_an_alarm():
     assert not ok
 
 
+@pytest.mark.slow           # 2-4 s: make test's budget on 2 cores (CI runs it)
 def test_over_a_plant_that_does_not_know_the_true_flange_the_clearance_is_watched_on_the_estimate():
     """Over a PLC the plant returns no true flange (NaN): found, the clearance watch then took NaN for the
     distance and raised "not clear of the ship's manifold (nan m ...)" 30 s after every release. The drift-off

@@ -30,7 +30,7 @@ def _lost_at_by_count(times, loads):
     return None
 
 
-@settings(max_examples=examples(150), deadline=None)
+@settings(max_examples=examples(80), deadline=None)
 @given(lines=st.integers(1, 16), n=st.integers(1, 40), period=st.sampled_from([0.02, 0.2, 1.0]),
        repeat=st.integers(1, 12), as_tuple=st.booleans(), data=st.data())
 def test_the_moorings_are_lost_when_more_than_half_the_lines_are_slack_long_enough(lines, n, period, repeat,

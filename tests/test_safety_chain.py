@@ -97,6 +97,7 @@ def test_within_the_guarantee_a_valve_inside_its_timeout_never_overstretches(mod
 
 # ---- overstretch before isolation: the run's verdict, its exit status, the campaign's counter ---------------------
 
+@pytest.mark.slow           # 2-4 s: make test's budget on 2 cores (CI runs it)
 def test_an_overstretch_before_isolation_fails_the_run_and_its_exit_status(capsys):
     """Found (issue 25): at a 0.7 m/s step the arm overstretched before the valves confirmed, and the run went on
     to report 'release complete' as if nothing had happened."""

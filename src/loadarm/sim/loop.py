@@ -168,9 +168,9 @@ class SimulatedPlant:
         without one."""
         if not self._mlms:
             return None
-        second = math.floor(now + 1e-9)
-        if second != self._loads[0]:
-            self._loads = (second, self.motion.line_loads(now, LINE_LOAD_PERIOD))
+        reading = math.floor(now / LINE_LOAD_PERIOD + 1e-9)
+        if reading != self._loads[0]:
+            self._loads = (reading, self.motion.line_loads(now, LINE_LOAD_PERIOD))
         return self._loads[1]
 
     @property

@@ -259,10 +259,9 @@ class GuidanceController(SafetyRules):
     def _track(self, cyc: "Cycle") -> None:
         """Feed the predictor this cycle's flange position: the encoders' while attached, the flange tracker's
         healthy estimate before (none: a gap, which starts its track again); and read the mooring load
-        monitoring (the moorings lost: the prediction stands down; lost, or gone silent: an event says so)."""
+        monitoring (lost, or gone silent: an event says so; lost, the rules trust the prediction no more)."""
         pr = self.predictor
-        if self.moorings.update(cyc.now, cyc.fb.line_loads) and pr is not None:
-            pr.stand_down(cyc.now)
+        self.moorings.update(cyc.now, cyc.fb.line_loads)
         said, self.state.moorings = self.state.moorings, self.moorings.state(cyc.now)
         if self.state.moorings != said and self.state.moorings in ("lost", "silent"):
             code = f"info.moorings_{self.state.moorings}"

@@ -108,8 +108,7 @@ class MooringWatch:
         """
         if loads is None or len(loads) == 0:
             return False
-        seen = isinstance(loads, tuple) and loads is self._last or (
-            isinstance(loads, tuple) and self._last is not None and loads == self._last)
+        seen = isinstance(loads, tuple) and loads == self._last      # the last one again (a tuple, or None)
         if seen:
             self.read_at = now
             if self.lost_at is not None or now < self._due:

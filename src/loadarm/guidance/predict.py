@@ -592,18 +592,6 @@ class FlangePredictor:
         if self.outside >= GATE_PERSIST:
             self.departed_at = t_end
 
-    def stand_down(self, t: float) -> None:
-        """Stand the prediction down for the rest of the run, as a departure does: a witness outside the track
-        says the ship is not the one the model learned (the moorings lost, :mod:`loadarm.guidance.moorings`).
-
-        Parameters
-        ----------
-        t : float
-            s.
-        """
-        if self.departed_at is None:
-            self.departed_at = t
-
     def trusted(self, lead: float) -> Forecast | None:
         """The forecast, when it may replace the measured routes for a stage of ``lead`` seconds: claimed at
         least that far, and the track has not left the model.

@@ -88,9 +88,9 @@ _NS = "urn:loadarm:plc-sim:tags"
 
 
 def _default(name: str, kind):
-    if name == "LineLoads":
-        return []
-    return {int: 0, float: 0.0, bool: False, str: "STORED", list: [0.0] * (4 * BUFFER)}[kind]
+    if kind is list:                                     # the array tags: the buffer's fixed size, the lines' none
+        return {"FlangeBuffer": [0.0] * (4 * BUFFER), "LineLoads": []}[name]
+    return {int: 0, float: 0.0, bool: False, str: "STORED"}[kind]
 
 
 class PlcSimulator:

@@ -109,3 +109,39 @@ def test_a_zero_drifted_below_nought_reads_slack_and_another_number_of_lines_sta
     v.update(0.0, (0.0, 0.0))
     v.update(1.0, (0.0, 0.0, 0.05))                           # another ship's lines: timers start again
     assert not v.update(2.0, (0.0, 0.0, 0.06)) and v.update(3.0, (0.0, 0.0, 0.07))
+
+
+@pytest.mark.slow
+def test_the_judgement_s_basis_on_the_ship_records():
+    """docs/guidance.md section 13's basis, on samples of the stored campaigns' seeds (the ship's records alone, no
+    arm): at Hs 1.5-2.0 m (the runs file's first 20 seeds, their drawn Hs) the watch never finds the moorings lost
+    and at most 4 of the 16 lines are slack at once; in the break-out (seeds 100-104), read once a second, the
+    moorings are lost at the 402 s reading, 2 s after the lines part at 400 s."""
+    import json
+    from pathlib import Path
+
+    from loadarm.params.scenario import load_scenario
+    from loadarm.ship.flange import flange_motion
+    from loadarm.ship.model import moored_ship
+
+    root = Path(__file__).resolve().parents[1]
+    rows = [json.loads(line) for line in (root / "docs/campaigns/hs15_tracked_hs1.5-2.0_runs.jsonl").open()][1:21]
+    sc0, _ = load_scenario(root / "examples/scenarios/hs15_tracked.toml")
+    ship = moored_ship(sc0)
+    for r in rows:
+        run = r["run"]
+        sc = sc0.model_copy(update={"scenario": sc0.scenario.model_copy(update={"seed": run["seed"]}),
+                                     "environment": sc0.environment.model_copy(
+                                         update={"hs": run["draws"]["environment.hs"]})})
+        fm, w, most = flange_motion(sc, ship), MooringWatch(), 0
+        for t in np.arange(0.0, sc.scenario.duration, 0.2):
+            w.update(float(t), fm.line_loads(float(t)))
+            most = max(most, int(np.count_nonzero(w.low_since <= t - SLACK_TIME + 1e-9)))
+        assert w.lost_at is None and most <= 4, (run["seed"], most)
+    sc0, _ = load_scenario(root / "examples/scenarios/breakout_tracked.toml")
+    for seed in range(100, 105):
+        sc = sc0.model_copy(update={"scenario": sc0.scenario.model_copy(update={"seed": seed})})
+        fm, w = flange_motion(sc, ship), MooringWatch()
+        for t in np.arange(380.0, 420.0, 0.2):
+            w.update(float(t), fm.line_loads(float(t)))
+        assert w.lost_at is not None and abs(w.lost_at - 402.0) <= 0.2 + 1e-9, (seed, w.lost_at)

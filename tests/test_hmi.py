@@ -885,15 +885,20 @@ def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model)
     snap = snapshot(model, 1, 100.0, "ALARM1", json.loads(json.dumps(sample)))
     f = forecast_state(snap, model)
     assert f["prediction"]["state"] == "trusted"
-    assert f["prediction"]["text"] == "prediction: face in 42-65 s; moorings holding"       # its second witness
+    assert f["prediction"]["text"] == "prediction: face in 42-65 s"
+    assert f["prediction"]["moorings"] == "moorings holding" and not f["prediction"]["moorings_abnormal"]
     assert f["rule_words"] == "prediction"
     assert len(f["prediction"]["track"]) == 12 and len(f["prediction"]["band"]) == 12
     x0, y0, x1, y1 = f["prediction"]["band"][0]
     assert x0 < mean[4, 0] < x1 and y0 < mean[4, 1] < y1
     assert prediction_state(None, True)["state"] == "none"
     assert prediction_state({**p, "trusted": False}, True)["text"].startswith("prediction (not used): ")
-    assert prediction_state({**p, "ttl": [None, None]}, True)["text"] == ("prediction: no face within 60 s; no "
-                                                                        "mooring load monitoring")
+    no_face = prediction_state({**p, "ttl": [None, None]}, True)
+    assert no_face["text"] == "prediction: no face within 60 s" and no_face["moorings"] == "no mooring load monitoring"
     lost = prediction_state({**p, "trusted": False}, True, "lost")
-    assert lost["text"].endswith("; MOORINGS LOST: most lines slack") and lost["moorings_abnormal"] is True
-    assert prediction_state(p, False, "holding")["text"] == "prediction (not used): face in 42-65 s"
+    assert lost["moorings"] == "MOORINGS LOST: most lines slack" and lost["moorings_abnormal"] is True
+    silent = prediction_state(None, True, "silent")        # said even with no prediction: the witness's state
+    assert silent["moorings"] == "mooring load monitoring silent" and silent["moorings_abnormal"] is True
+    off = prediction_state(p, False, "lost")                # not connected: nothing to say of the moorings
+    assert off["text"] == "prediction (not used): face in 42-65 s" and off["moorings"] == ""
+    assert off["moorings_abnormal"] is False

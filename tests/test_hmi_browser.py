@@ -668,6 +668,41 @@ def test_the_ship_s_view_a_viewer_on_a_tablet(screen, browser, state, replay_ser
 
 
 @pytest.fixture(scope="module")
+def breakout_replay(state, tmp_path_factory):
+    """The break-out on a tracked ship (every line parts at 400 s) logged, and a replay screen on it."""
+    server, res = _replay_screen(state, tmp_path_factory.mktemp("replay30b") / "events.db",
+                                 "examples/scenarios/breakout_tracked.toml")
+    lost = res.first_code("info.moorings_lost")
+    yield {"url": server.url, "connect": res.first("mode", "-> CONNECTED"), "lost": lost}
+    server.stop()
+
+
+@pytest.mark.slow
+def test_the_moorings_lost_are_marked_abnormal_on_the_screen(browser, breakout_replay, tmp_path):
+    """Issue 30 (the second witness): connected, the time to limit's detail says "moorings holding" in the
+    normal style; once most lines are slack (the break-out) it says "MOORINGS LOST" marked abnormal (ISA-101:
+    the inverted style with a pointer, never an alarm colour). Found: the state was text only."""
+    ctx, page = _sized(browser, *SIZES[0])
+    try:
+        log_in(page, breakout_replay["url"], "alice", "pw-alice")
+        _seek(page, math.ceil(breakout_replay["connect"] + 20))
+        assert page.inner_text("#moorings") == "moorings holding"
+        assert page.evaluate("document.getElementById('moorings').className") == "flag"
+        assert breakout_replay["lost"] is not None
+        _seek(page, math.ceil(breakout_replay["lost"] + 1))
+        assert page.inner_text("#moorings").endswith("MOORINGS LOST: most lines slack")
+        assert page.evaluate("document.getElementById('moorings').className") == "flag abnormal"
+        colour = page.evaluate("getComputedStyle(document.getElementById('moorings')).backgroundColor")
+        assert colour == "rgb(48, 48, 48)", colour             # --arm, the abnormal tile's: no alarm colour
+        assert "MOORINGS LOST" in page.evaluate("document.getElementById('ttl-detail').title")
+        page.screenshot(path=str(tmp_path / "moorings-lost.png"))
+        assert page.evaluate(_OVERLAPS) == []
+        assert page.errors == []
+    finally:
+        ctx.close()
+
+
+@pytest.fixture(scope="module")
 def tracked_replay(state, tmp_path_factory):
     """The drift-off on a tracked ship (35 minutes of track before the run: the prediction trusted from the
     connection) logged, and a replay screen on it."""

@@ -291,15 +291,16 @@ def prediction_state(p: dict | None, connected: bool, moorings: str = "none") ->
         The snapshot's :attr:`~loadarm.sim.snapshot.Snapshot.prediction`.
     connected : bool
     moorings : str
-        The mooring load monitoring's state (:data:`loadarm.vocab.MOORINGS_TEXT`): the text says it while
-        connected (``moorings`` in the result, ``abnormal`` when lost).
+        The mooring load monitoring's state (:data:`loadarm.vocab.MOORINGS_TEXT`): while connected, the
+        result's ``moorings`` says it in words ("" otherwise) and ``moorings_abnormal`` is true when the
+        moorings are lost or their monitoring silent (the screen marks it as abnormal, after ``text``).
 
     Returns
     -------
     dict
     """
-    watch = {"moorings": MOORINGS_TEXT.get(moorings, moorings),
-             "moorings_abnormal": moorings in ("lost", "silent")}
+    watch = {"moorings": MOORINGS_TEXT.get(moorings, moorings) if connected else "",
+             "moorings_abnormal": connected and moorings in ("lost", "silent")}
     if p is None:
         return {"state": "none", "text": "no prediction (track too short or calibrating)", "track": [], "band": [],
                 "bound": None, "mean": None, "claimed": 0.0, **watch}
@@ -313,8 +314,6 @@ def prediction_state(p: dict | None, connected: bool, moorings: str = "none") ->
         when = f"face in {bound:.0f}-{mean:.0f} s"
     trusted = bool(p.get("trusted")) and connected
     text = f"prediction{'' if trusted else ' (not used)'}: {when}"
-    if connected:
-        text += f"; {watch['moorings']}"
     return {**watch, "state": "trusted" if trusted else "shown", "text": text, "bound": bound, "mean": mean,
             "claimed": claimed, "track": [[m[0], m[1]] for m in p["mean"]],
             "band": [[lo[0], lo[1], hi[0], hi[1]] for lo, hi in zip(p["lo"], p["hi"])]}

@@ -259,8 +259,18 @@ function drawPrimary(f) {
   // never cut (it wraps): the nearest face and the drift the forecast used (speed, direction); the prediction
   const face = fc.state === "time" ? `nearest: ${fc.face_words} · ` : "";
   const rule = fc.rule_words ? ` · raised by the ${fc.rule_words}` : "";
-  $("ttl-detail").textContent = fc.state === "off" ? "" : `${face}${fc.basis}\n${fc.prediction.text}${rule}`;
-  $("ttl-detail").title = $("ttl-detail").textContent;
+  // the mooring load monitoring (the prediction's second witness) after the prediction, marked when abnormal
+  const pr = fc.prediction, detail = $("ttl-detail");
+  if (fc.state === "off") {
+    detail.replaceChildren();
+  } else {
+    const moorings = document.createElement("span");
+    moorings.id = "moorings";
+    moorings.textContent = pr.moorings;
+    moorings.className = pr.moorings_abnormal ? "flag abnormal" : "flag";
+    detail.replaceChildren(`${face}${fc.basis}\n${pr.text}`, ...(pr.moorings ? ["; ", moorings] : []), rule);
+  }
+  detail.title = detail.textContent;
   tile("esd", f.esd ? "ACTIVE" : "not active", f.esd ? "abnormal" : "dim");
   tile("ers", f.ers_valves_closed ? "CLOSED" : "open", f.ers_valves_closed && f.esd ? "" : (f.ers_valves_closed ? "abnormal" : ""));
   tile("coupler", f.coupler_open ? "OPEN" : (f.connected ? "on the flange" : "closed"), f.coupler_open ? "abnormal" : "");

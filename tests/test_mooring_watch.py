@@ -145,3 +145,25 @@ def test_the_judgement_s_basis_on_the_ship_records():
         for t in np.arange(380.0, 420.0, 0.2):
             w.update(float(t), fm.line_loads(float(t)))
         assert w.lost_at is not None and abs(w.lost_at - 402.0) <= 0.2 + 1e-9, (seed, w.lost_at)
+
+
+def test_the_simulated_plant_s_reading_is_the_record_s_at_every_cycle():
+    """Found in review: the simulated plant cached the reading on its own rounding of the run time while the
+    ship's record rounded the record's time (the run's plus ``[ship] history``): with a history that is not a
+    whole number of reading periods the plant served a reading up to a period late. Now one rounding
+    (``MooredFlangeMotion.reading``): at every 0.2 s cycle the cached reading is the record's."""
+    from types import SimpleNamespace
+
+    from loadarm.ship.flange import MooredFlangeMotion
+    from loadarm.sim.loop import LINE_LOAD_PERIOD, SimulatedPlant
+
+    t = np.arange(0.0, 40.0, 0.1)
+    record = SimpleNamespace(t=t, tension=np.column_stack([t, 2 * t]), mbl=np.array([100.0, 100.0]))
+    for start in (0.0, 2.5, 7.3):
+        fm = MooredFlangeMotion(record, np.zeros(3), np.zeros(3), start)
+        plant = SimpleNamespace(_mlms=True, _loads=(math.nan, None), motion=fm)
+        for now in np.arange(0.0, 30.0, 0.2):
+            got = SimulatedPlant.line_loads(plant, float(now))
+            assert got == fm.line_loads(float(now), LINE_LOAD_PERIOD), (start, now)
+            read_at = math.floor(now + start + 1e-9)                   # the last whole second of the record
+            assert got[0] == pytest.approx(read_at / 100.0, abs=1e-12), (start, now)

@@ -144,6 +144,12 @@ class MooredFlangeMotion:
         d00, d10, d01, d11 = 6 * s ** 2 - 6 * s, 3 * s ** 2 - 4 * s + 1, -6 * s ** 2 + 6 * s, 3 * s ** 2 - 2 * s
         return (d00 * p[k] + d01 * p[k + 1]) / dt + d10 * v[k] + d11 * v[k + 1] + self.slow_rate
 
+    def reading(self, t: float, period: float = 1.0) -> int:
+        """The number of the last mooring load reading made by run time ``t``, the monitoring reading every
+        ``period`` seconds of the record's time (which starts ``start`` s before the run): the one place the
+        reading times are rounded (:meth:`line_loads` reads it, the simulated plant caches on it)."""
+        return math.floor((t + self.start) / period + 1e-9)
+
     def line_loads(self, t: float, period: float = 1.0) -> tuple:
         """What a mooring load monitoring reading every ``period`` seconds last reported by time ``t``: each
         line's tension as a share of its MBL (the record's sample at the last whole reading time).
@@ -161,8 +167,7 @@ class MooredFlangeMotion:
         """
         m = self.motion
         dt = float(m.t[1] - m.t[0])
-        t_read = math.floor((t + self.start) / period + 1e-9) * period
-        k = min(max(int(round(t_read / dt)), 0), m.t.size - 1)
+        k = min(max(int(round(self.reading(t, period) * period / dt)), 0), m.t.size - 1)
         return tuple(float(v) for v in m.tension[k] / m.mbl)
 
     def orientation(self, t) -> np.ndarray:

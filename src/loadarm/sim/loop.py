@@ -168,7 +168,7 @@ class SimulatedPlant:
         without one."""
         if not self._mlms:
             return None
-        reading = math.floor(now / LINE_LOAD_PERIOD + 1e-9)
+        reading = self.motion.reading(now, LINE_LOAD_PERIOD)
         if reading != self._loads[0]:
             self._loads = (reading, self.motion.line_loads(now, LINE_LOAD_PERIOD))
         return self._loads[1]

@@ -129,10 +129,11 @@ class MooringWatch:
         low = a < SLACK_SHARE
         self.low_since = np.where(low, np.where(np.isnan(self.low_since), now, self.low_since), math.nan)
         self._last = loads if isinstance(loads, tuple) else None
-        self._due = float(np.min(self.low_since[low])) + SLACK_TIME - 1e-9 if low.any() else math.inf
+        slack = low & (now - self.low_since >= SLACK_TIME - 1e-9)
+        pending = low & ~slack                  # low, not yet for long enough: the next change a repeat can bring
+        self._due = float(np.min(self.low_since[pending])) + SLACK_TIME - 1e-9 if pending.any() else math.inf
         if self.lost_at is not None:
             return False
-        slack = low & (now - self.low_since >= SLACK_TIME - 1e-9)
         if np.count_nonzero(slack) > LOST_SHARE * a.size:
             self.lost_at = now
             return True

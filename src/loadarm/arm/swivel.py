@@ -15,9 +15,10 @@ the ship, ``y`` along the berth, ``z`` up.
 * The **coupler frame**: its ``x`` axis is the flange's normal, out of the coupler towards the ship, its ``z``
   axis up when the ship is at rest; at rest, with the outboard arm plumb and no slew, it is the arm's frame.
 * The **triple swivel**, from the tip to the coupler: swivel 1 about the hinge axis (it lets the coupler hang
-  plumb whatever the outboard arm's angle, and takes the ship's pitch about that axis), swivel 2 about the
-  coupler's vertical drop (the ship's yaw and the slew), swivel 3 about the flange's normal (the ship's roll about
-  it). So the coupler's orientation is ``Rz(phi) Ry(gamma) Ry(s1) Rz(s2) Rx(s3)``: an intrinsic y-z-x
+  plumb whatever the outboard arm's angle, and takes the ship's rotation about that axis: the roll of a ship
+  lying along the berth), swivel 2 about the coupler's vertical drop (the ship's yaw and the slew), swivel 3 about
+  the flange's normal (the pitch of a ship alongside; found: this said pitch and roll the other way round, true
+  only of a ship lying across the berth; ``tests/test_bank.py`` holds the alongside case). So the coupler's orientation is ``Rz(phi) Ry(gamma) Ry(s1) Rz(s2) Rx(s3)``: an intrinsic y-z-x
   (Tait-Bryan) chain whose one singularity, ``s2 = +-90 deg`` (the flange's normal along the hinge axis), lies
   far outside any swivel's travel.
 

@@ -3,6 +3,7 @@ each coupler behind its own valves), the kernel's route held to the single arm's
 and the campaign's refusals in one line."""
 
 import copy
+import math
 from pathlib import Path
 
 import numpy as np
@@ -144,15 +145,137 @@ def test_the_kernel_s_route_is_held_to_the_closed_loop_on_the_same_seeds():
 @pytest.mark.slow
 def test_the_bank_s_break_out_releases_every_arm_before_its_face():
     """Two seeds of the example bank on the break-out: the bank stops, every arm's coupler opens after its valves
-    and is free at least 2 s before its flange reaches a face; the neighbours keep their clearance and the swivels their
-    travel; the campaign's table counts them so."""
+    and is free at least 2 s before its flange reaches a face, and retracts clear in the power unit's time; the
+    neighbours keep their clearance (connected, retracting, retracted) and the swivels their travel; the
+    campaign's table counts them so."""
     ctx = _Context(str(BANK), str(BREAKOUT))
     runs = [ctx.run(s) for s in (0, 1)]
     for r in runs:
         assert r.esd1_s == r.esd1_s and not any(r.overstretched) and not any(r.opened_early) and not r.clash
         assert all(o >= c for o, c in zip(r.opened_s, r.confirmed_s, strict=True))
         assert all(m >= 2.0 for m in r.margins) and r.min_clearance > 0.5 and r.min_swivel_margin_deg > 0
+        # each arm retracted clear in the power unit's time (every arm at once, pumps lost: 1.15 s), within the run
+        assert all(abs(d - f - ctx.retract[a]) < 1e-9 and d < 320.0
+                   for a, (d, f) in enumerate(zip(r.retracted_s, r.free_s, strict=True)))
+        assert 1.0 < ctx.retract.min() <= ctx.retract.max() < 1.3
     res = run_bank_campaign(BANK, BREAKOUT, 1, first_seed=0, workers=1)
     d = res.to_dict()
     assert d["overstretches"] == d["opened_early"] == d["clashes"] == 0 and d["stopped"] == 1
     assert res.runs[0].free_s == runs[0].free_s
+
+
+def test_a_bank_whose_power_unit_cannot_release_every_arm_is_refused_before_any_run(capsys):
+    """Found in review: only `check --bank` asked the power unit; the campaign ran the undersized bank with the
+    sequence's nominal times, as if its accumulators could release every arm. Now refused in one line."""
+    from loadarm.errors import ReleaseError
+
+    with pytest.raises(ReleaseError, match="accumulators deliver 0.29 L"):
+        check_bank_campaign(ROOT / "banks" / "undersized_hpu.toml", BREAKOUT, 2)
+    assert main(["campaign", "--bank", str(ROOT / "banks" / "undersized_hpu.toml"), "--scenario", str(BREAKOUT),
+                 "--seeds", "2"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "short by" in err
+
+
+@pytest.fixture(scope="module")
+def bank():
+    from loadarm.params.bank import load_bank
+
+    return load_bank(BANK)
+
+
+def _design(bank):
+    """Each arm's flange at the manifold's design position, its own frame (arms, 3), m."""
+    return np.array([bank.flange_position(i) for i in range(len(bank.names))])
+
+
+@settings(max_examples=examples(50), deadline=None)
+@given(free=st.lists(st.one_of(st.just(float("nan")), st.floats(0.0, 30.0)), min_size=4, max_size=4),
+       retract=st.lists(st.floats(0.2, 5.0), min_size=4, max_size=4), seed=st.integers(0, 2**32 - 1))
+def test_a_released_coupler_retracts_its_clearance_towards_its_stored_position_then_holds(bank, free, retract,
+                                                                                          seed):
+    """Any release times: each coupler rides its flange until free; from the first sample at or after it, it
+    moves straight towards its stored position at a steady speed, MANIFOLD_CLEARANCE in its retraction time, and
+    stays there; an arm never freed stays on its flange."""
+    from loadarm.design.check import MANIFOLD_CLEARANCE
+    from loadarm.studies.bank_campaign import couplers
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 40.0, BANK_PERIOD)
+    flanges = _design(bank)[None, :, :] + rng.normal(0.0, 0.3, (t.size, 4, 3)).cumsum(axis=0) * 0.05
+    out = couplers(bank, flanges, t, free, retract)
+    for a, model in enumerate(bank.models):
+        if free[a] != free[a]:
+            assert np.array_equal(out[:, a], flanges[:, a])
+            continue
+        i0 = int(np.searchsorted(t, free[a] - 1e-9))
+        assert np.array_equal(out[:i0, a], flanges[:i0, a])
+        if i0 >= t.size:
+            continue
+        sx, sz = model.approach.stored
+        towards = np.array([sx, 0.0, sz]) - flanges[i0, a]
+        moved = out[i0:, a] - flanges[i0, a]
+        dist = np.linalg.norm(moved, axis=1)
+        expect = MANIFOLD_CLEARANCE * np.clip((t[i0:] - free[a]) / retract[a], 0.0, 1.0)
+        assert np.allclose(dist, expect, atol=1e-12)
+        along = moved @ (towards / np.linalg.norm(towards))
+        assert np.allclose(along, dist, atol=1e-12)                     # straight towards the stored position
+
+
+def test_the_clearance_while_retracting_is_the_vectorised_route_s(bank):
+    """The clearance the campaign counts after a release (the arms' poses from their retracting couplers,
+    the compiled capsule distance of `BankMonitor.clearances`) against the vectorised numpy route
+    (`arm.clearance.pair_clearance`), pose by pose, to 1e-9 m (the same segment distance in two codes)."""
+    from loadarm.arm.clearance import pair_clearance
+    from loadarm.arm.slew import inverse3d
+    from loadarm.guidance.bank import BankMonitor, neighbours
+    from loadarm.studies.bank_campaign import couplers
+
+    t = np.arange(0.0, 10.0, BANK_PERIOD)
+    flanges = np.repeat(_design(bank)[None], t.size, axis=0)
+    held = couplers(bank, flanges, t, [2.0, 2.0, 3.0, math.nan], [1.1, 1.1, 1.1, 1.1])
+    poses = []
+    for a, m in enumerate(bank.models):
+        q = inverse3d(m.arm, held[:, a, 0], held[:, a, 1], held[:, a, 2], check=False)
+        poses.append(np.stack([q.phi, q.alpha, q.beta], axis=-1))
+    gaps, _ = BankMonitor(bank).clearances(poses)
+    for k, (a, b) in enumerate(neighbours(bank)):
+        ref, _ = pair_clearance(bank.shapes[a], bank.shapes[b], poses[a], poses[b])
+        assert np.allclose(gaps[:, k], ref, atol=1e-9, rtol=0)
+    assert np.all(np.isfinite(gaps)) and gaps.min() > bank.file.clearance.min_clearance
+
+
+def test_a_bank_campaign_in_parts_is_the_campaign_at_once_and_its_runs_file_is_the_bank_s(tmp_path, monkeypatch):
+    """With --runs the bank's campaign keeps its runs (batches of at most RUNS_FILE_BATCH), runs only the seeds the
+    file lacks, and reports over the whole range; a single arm's runs file, or another bank's, is refused in one
+    line (the runs themselves are stood in for: the real ones are the slow tests')."""
+    import json
+
+    from loadarm.studies import bank_campaign as bc
+    from loadarm.studies.runs_file import RUNS_FILE_BATCH
+
+    ran: list[list[int]] = []
+
+    def fake(bank_file, scenario, seeds):
+        ran.append(list(seeds))
+        return [bc.BankRun(s, 100.0 + s, 120.0 + s, "L1", (1.0,) * 4, (2.0,) * 4, (3.0 + s,) * 4, (500.0,) * 4,
+                           (False,) * 4, (False,) * 4, (False,) * 4, False, 1.8, 30.0, (4.0 + s,) * 4, 1.0)
+                for s in seeds]
+
+    monkeypatch.setattr(bc, "_run_batch", fake)
+    runs = tmp_path / "bank_runs.jsonl"
+    first = bc.run_bank_campaign(BANK, BREAKOUT, 10, workers=1, runs_file=runs)
+    assert [len(b) for b in ran] == [5, 5] and len(first.runs) == 10
+    ran.clear()
+    whole = bc.run_bank_campaign(BANK, BREAKOUT, 20, workers=1, runs_file=runs, batch=50)
+    assert ran == [list(range(10, 10 + RUNS_FILE_BATCH)), list(range(10 + RUNS_FILE_BATCH, 20))]
+    assert [r.seed for r in whole.runs] == list(range(20)) and sum(whole.codes.values()) == 20
+    assert whole.runs[3] == fake(None, None, [3])[0]                             # read back as it was
+    head = json.loads(runs.read_text().splitlines()[0])
+    assert head["bank"] == "lng150k_bank.toml" and head["scenario"] == "breakout.toml"
+    with pytest.raises(ConfigError, match="another campaign"):
+        check_bank_campaign(ROOT / "banks" / "overloaded_manifold.toml", BREAKOUT, 2, runs_file=runs)
+    from loadarm.studies.runs_file import RunsFile
+
+    with pytest.raises(ConfigError, match="another campaign"):
+        RunsFile(runs, str(BREAKOUT), None, [])                                  # the single arm's campaign

@@ -103,9 +103,13 @@ def test_the_cli_refuses_a_foreign_runs_file_before_running(tmp_path, capsys):
     assert main(["campaign", "-s", str(sc), "-n", "1", "--runs", str(foreign)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "not a loadarm campaign runs file" in err[0]
-    assert main(["campaign", "-s", str(sc), "-n", "1", "--runs", str(foreign), "--bank",
-                 str(ROOT / "examples" / "banks" / "lng150k_bank.toml")]) == 2
-    assert "takes no --vary, --plant or --runs" in capsys.readouterr().err
+    bank = str(ROOT / "examples" / "banks" / "lng150k_bank.toml")
+    breakout = str(ROOT / "examples" / "scenarios" / "breakout.toml")
+    assert main(["campaign", "-s", breakout, "-n", "1", "--runs", str(foreign), "--bank", bank]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "not a loadarm campaign runs file" in err[0]
+    assert main(["campaign", "-s", breakout, "-n", "1", "--plant", "kinematic", "--bank", bank]) == 2
+    assert "takes no --vary, --plant or --scheduler" in capsys.readouterr().err
     assert foreign.read_text() == "hello\n"
 
 

@@ -126,8 +126,8 @@ def campaign(
     check_outputs({"--png": png, "--runs": runs}, [scenario], force, appended=("--runs",))
     check_workers("--workers", workers)
     if bank is not None:
-        _bank_campaign(bank, scenario, seeds, first_seed, workers, as_json, png,
-                       bool(vary) or plant is not None or runs is not None)
+        _bank_campaign(bank, scenario, seeds, first_seed, workers, as_json, png, runs,
+                       bool(vary) or plant is not None or scheduler is not None)
         return
     varied = [parse_vary(v) for v in vary or ()]
     check_campaign(scenario, seeds, vary=varied, first_seed=first_seed,       # refused before the bar starts
@@ -148,14 +148,15 @@ def campaign(
 
 
 def _bank_campaign(bank: Path, scenario: Path, seeds: int, first_seed: int, workers: Optional[int], as_json: bool,
-                   png: Optional[Path], other: bool) -> None:
+                   png: Optional[Path], runs: Optional[Path], other: bool) -> None:
     """``loadarm campaign --bank``: the bank's drift-off over seeds."""
     if other:
-        raise UserError("loadarm campaign --bank takes no --vary, --plant or --runs: the bank's route has no plant")
-    check_bank_campaign(bank, scenario, seeds, first_seed)               # refused before the bar starts
+        raise UserError("loadarm campaign --bank takes no --vary, --plant or --scheduler: the bank's route has no "
+                        "plant and runs on local processes")
+    check_bank_campaign(bank, scenario, seeds, first_seed, runs)         # refused before the bar starts
     with progress_bar() as prog:
         task = prog.add_task(f"bank campaign {bank.name}", total=seeds)
-        res = run_bank_campaign(bank, scenario, seeds, first_seed=first_seed, workers=workers,
+        res = run_bank_campaign(bank, scenario, seeds, first_seed=first_seed, workers=workers, runs_file=runs,
                                 progress=lambda done, total: prog.update(task, completed=done))
     if png is not None:
         save(res.plot(), png)

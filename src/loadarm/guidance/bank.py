@@ -261,11 +261,30 @@ class BankMonitor:
         angles = np.asarray(angles, dtype=float)
         rot = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], self.heading)
         poses = self.arm_poses(centre, angles, rot)
-        lead = poses[0].shape[:-1]
         cols = []
         for q in poses:
             sw = swivel_angles(q[..., 0], q[..., 1], q[..., 2], heading=self.heading, rotation=rot)
             cols.append(swivel_margins(sw, self.limits))
+        gaps, best = self.clearances(poses)
+        return np.concatenate(cols + [gaps - self.required], axis=-1), best
+
+    def clearances(self, poses) -> tuple[np.ndarray, np.ndarray]:
+        """The clearance of each pair of neighbours at the arms' poses, whatever holds the arms (their flanges,
+        or their drives after a release): the compiled capsule distance.
+
+        Parameters
+        ----------
+        poses : list of ndarray, shape (..., 3)
+            Slew, inboard, elbow angles per arm, rad (as :meth:`arm_poses`).
+
+        Returns
+        -------
+        gaps : ndarray, shape (..., pairs)
+            Surface-to-surface distance, m (negative: overlapping).
+        best : ndarray of int, shape (..., pairs)
+            The closest two parts of each pair (``PARTS`` index times ``len(PARTS)`` plus the other's).
+        """
+        lead = poses[0].shape[:-1]
         caps = [capsules(s, q[..., 0], q[..., 1], q[..., 2]).reshape(-1, len(PARTS), 2, 3)
                 for s, q in zip(self.bank.shapes, poses, strict=True)]
         radii = [np.asarray(s.radii, dtype=float) for s in self.bank.shapes]
@@ -273,9 +292,11 @@ class BankMonitor:
         for a, b in self.pairs:
             gap, k = np.empty(caps[a].shape[0]), np.empty(caps[a].shape[0], dtype=np.int64)
             capsule_gaps(caps[a], caps[b], radii[a], radii[b], gap, k)
-            gaps.append(gap.reshape(lead + (1,)) - self.required)
+            gaps.append(gap.reshape(lead))
             best.append(k.reshape(lead))
-        return np.concatenate(cols + gaps, axis=-1), np.stack(best, axis=-1) if best else np.zeros(lead + (0,))
+        if not gaps:
+            return np.zeros(lead + (0,)), np.zeros(lead + (0,), dtype=np.int64)
+        return np.stack(gaps, axis=-1), np.stack(best, axis=-1)
 
     def margins(self, centre, angles) -> BankMargins:
         """The bank's faces now.

@@ -21,13 +21,20 @@ the operability kernel's route (:mod:`loadarm.studies.kernel`), for a bank:
 * the sequence, compiled from :func:`loadarm.arm.sequence.lead_values` and :func:`~loadarm.arm.sequence.stage_of`:
   ESD-1 for every arm at the first sample any arm's stage reaches it, each arm's ERS valves confirmed
   ``ers_valve_time`` after their command (intact valves), ERS-2 for every arm at the first sample any arm's stage
-  reaches RELEASE, each coupler opening as soon as its own valves confirm, free ``erc_release_time`` later.
+  reaches RELEASE, each coupler opening as soon as its own valves confirm, free ``erc_release_time`` later;
+* the retraction (PERC): from its coupler free, each arm's coupler leaves its flange straight towards its stored
+  position, :data:`~loadarm.design.check.MANIFOLD_CLEARANCE` in the time the shared power unit's accumulators
+  take to drive it there with every arm releasing at once (:func:`retraction_times`, from
+  :func:`loadarm.hydraulics.bank_release.require_release`: a bank whose power unit cannot release every arm is
+  refused before any run), then held; the clash of neighbours is counted over the whole run, connected,
+  retracting or retracted (:func:`couplers`).
 
 Not simulated: the flange sensor and its estimator (the monitor sees the true flange, at 1 Hz rather than the
-controller's 5 Hz), the predictor of issue 30, the pre-alarm, the drives and the hydraulics (the release takes its
-nominal times), valve faults, and the arms' retraction after the release (the clash is counted while both arms
-are connected). The coupler opening before its valves confirm is the scan's interlock: its count checks the
-bank's sequence, not a plant. A slow test holds this route to the single arm's closed loop on the same seeds.
+controller's 5 Hz), the predictor of issue 30, the pre-alarm, the drives before the release, valve faults, and
+the hydraulics' timing of the valves and couplers (they take the sequence's times, the longest the sequence
+allows, where the power unit's simulation is quicker). The coupler opening before its valves confirm is the
+scan's interlock: its count checks the bank's sequence, not a plant. A slow test holds this route to the single
+arm's closed loop on the same seeds.
 """
 
 from __future__ import annotations
@@ -37,6 +44,7 @@ import dataclasses
 import math
 import os
 import time
+from collections import Counter
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
@@ -49,7 +57,9 @@ from loadarm.arm.alarms import beta_severity, slew_severity
 from loadarm.arm.faces import face_margins
 from loadarm.arm.sequence import esd_lead, lead_values, stage_of, valve_worst_time
 from loadarm.arm.slew import inverse3d
+from loadarm.design.check import MANIFOLD_CLEARANCE
 from loadarm.errors import ConfigError
+from loadarm.hydraulics.bank_release import require_release
 from loadarm.figures import subplots
 from loadarm.guidance.bank import BankMonitor, neighbours
 from loadarm.guidance.monitor import EnvelopeMonitor, stage_leads
@@ -61,9 +71,10 @@ from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
 from loadarm.vocab import Severity
 from loadarm.studies.kernel import breakout_time, floor_table, ray_distances
+from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile
 
 __all__ = ["BankRun", "BankCampaignResult", "bank_run", "run_bank_campaign", "check_bank_campaign",
-           "bank_sequence", "arm_record", "single_arm_run", "BANK_PERIOD"]
+           "bank_sequence", "arm_record", "single_arm_run", "retraction_times", "couplers", "BANK_PERIOD"]
 
 #: The monitor's sampling period, s (its 5 Hz forecast).
 BANK_PERIOD = 0.2
@@ -158,8 +169,9 @@ class BankRun:
         The bank's ESD-1 and ERS-2 (NaN: never).
     esd1_by : str
         The arm whose stage raised ESD-1 (``""``: none).
-    confirmed_s, opened_s, free_s : tuple of float
-        Per arm: its ERS valves confirmed, its coupler opening, free (NaN: never).
+    confirmed_s, opened_s, free_s, retracted_s : tuple of float
+        Per arm: its ERS valves confirmed, its coupler opening, free, and retracted clear of the manifold (NaN:
+        never).
     face_s : tuple of float
         Per arm: when its flange first passes a face (its own or a swivel's stop), connected or not (NaN: not
         within the record).
@@ -170,9 +182,9 @@ class BankRun:
     opened_early : tuple of bool
         Per arm: its coupler began to open before its valves confirmed.
     clash : bool
-        Two neighbours closer than the bank's clearance while both connected.
+        Two neighbours closer than the bank's clearance during the run (connected, retracting or retracted).
     min_clearance : float
-        The smallest clearance of neighbours while connected, m.
+        The smallest clearance of neighbours during the run, m.
     min_swivel_margin_deg : float
         The smallest swivel margin while connected, deg.
     seconds : float
@@ -193,6 +205,7 @@ class BankRun:
     clash: bool
     min_clearance: float
     min_swivel_margin_deg: float
+    retracted_s: tuple = ()
     seconds: float = math.nan
 
     @property
@@ -291,7 +304,65 @@ def _bank_face_times(monitor: BankMonitor, centre: np.ndarray, angles: np.ndarra
     return out
 
 
-def bank_run(bank: Bank, motion, reference, tables: list, seed: int, duration: float) -> BankRun:
+def retraction_times(bank: Bank) -> np.ndarray:
+    """Each arm's retraction clear of the manifold (PERC), from its coupler free, s: the shared power unit's
+    release of every arm at once, pumps lost (:func:`loadarm.hydraulics.bank_release.require_release`).
+
+    Parameters
+    ----------
+    bank : Bank
+
+    Returns
+    -------
+    ndarray, shape (arms,)
+
+    Raises
+    ------
+    ReleaseError
+        The power unit cannot release every arm (one line naming the shortfall).
+    """
+    release = require_release(bank)
+    return np.asarray(release.end[:, 2] - release.start[:, 2], dtype=float)
+
+
+def couplers(bank: Bank, flanges: np.ndarray, t: np.ndarray, free, retract) -> np.ndarray:
+    """Each arm's coupler over a record: on its flange until it is free, then retracted
+    :data:`~loadarm.design.check.MANIFOLD_CLEARANCE` straight towards its stored position at a steady speed in
+    its retraction time, then held there (the ship goes on moving).
+
+    Parameters
+    ----------
+    bank : Bank
+    flanges : ndarray, shape (n, arms, 3)
+        Each arm's flange, its own frame, m.
+    t : ndarray, shape (n,)
+        s.
+    free : sequence of float
+        Per arm, when its coupler is free, s (NaN: never).
+    retract : sequence of float
+        Per arm, its retraction time, s (:func:`retraction_times`).
+
+    Returns
+    -------
+    ndarray, shape (n, arms, 3)
+        m. The retraction starts from the flange at the first sample at or after the coupler is free.
+    """
+    out = np.array(flanges, dtype=float, copy=True)
+    for a, model in enumerate(bank.models):
+        if not free[a] == free[a] or free[a] > t[-1]:
+            continue
+        i0 = int(np.searchsorted(t, free[a] - 1e-9))
+        sx, sz = model.approach.stored
+        p0 = out[i0, a].copy()
+        d = np.array([sx, 0.0, sz]) - p0
+        d /= max(float(np.linalg.norm(d)), 1e-9)
+        share = np.clip((t[i0:] - free[a]) / max(float(retract[a]), 1e-9), 0.0, 1.0)
+        out[i0:, a] = p0 + (MANIFOLD_CLEARANCE * share)[:, None] * d
+    return out
+
+
+def bank_run(bank: Bank, motion, reference, tables: list, seed: int, duration: float,
+             retract=None) -> BankRun:
     """One run: the bank on its ship's record, its sequence and what it came to.
 
     Parameters
@@ -308,11 +379,15 @@ def bank_run(bank: Bank, motion, reference, tables: list, seed: int, duration: f
     seed : int
     duration : float
         The scenario's length, s: the sequence runs over it; the faces are looked for until ``LOOKAHEAD`` after.
+    retract : sequence of float, optional
+        Each arm's retraction time, s (default: :func:`retraction_times`, which refuses a bank whose power unit
+        cannot release every arm).
 
     Returns
     -------
     BankRun
     """
+    retract = retraction_times(bank) if retract is None else np.asarray(retract, dtype=float)
     t = np.arange(0.0, duration + LOOKAHEAD, BANK_PERIOD)
     n_run = int(round(duration / BANK_PERIOD))
     centre = np.asarray(bank.file.manifold.position, dtype=float) + motion.position(t) - np.asarray(reference)
@@ -335,8 +410,8 @@ def bank_run(bank: Bank, motion, reference, tables: list, seed: int, duration: f
     _, i_esd, i_req, first = bank_sequence(level, np.ascontiguousarray(ttl), seq, *idx)
     past = np.stack([p[3] for p in per])                                     # (arms, n) whole record
     past[:, :n_run] |= (swivel < 0.0).any(axis=-1).T
-    return _judge(bank, seed, t, n_run, idx, (i_esd, i_req, first), past, margins[:, n_sw:] + monitor.required,
-                  swivel)
+    return _judge(bank, seed, t, n_run, idx, (i_esd, i_req, first), past, swivel,
+                  (monitor, flanges[:n_run], retract))
 
 
 def single_arm_run(model, table, motion, duration: float) -> dict:
@@ -380,7 +455,7 @@ def _when(t, i) -> float:
     return float(t[i]) if i >= 0 else math.nan
 
 
-def _judge(bank, seed, t, n_run, idx, bank_idx, past, clearance, swivel) -> BankRun:
+def _judge(bank, seed, t, n_run, idx, bank_idx, past, swivel, retraction) -> BankRun:
     i_cmd, i_conf, i_open = idx
     i_esd, i_req, first = bank_idx
     names = bank.names
@@ -394,13 +469,19 @@ def _judge(bank, seed, t, n_run, idx, bank_idx, past, clearance, swivel) -> Bank
     over = [bool(f == f and (fr != fr or f <= fr + 1e-9)) for f, fr in zip(face, free, strict=True)]
     before = [bool(f == f and (c != c or f <= c + 1e-9)) for f, c in zip(face, conf, strict=True)]
     early = [bool(o == o and (c != c or o < c - 1e-9)) for o, c in zip(opened, conf, strict=True)]
-    both = np.stack([connected[a] & connected[b] for a, b in neighbours(bank)], axis=-1)
-    gaps = np.where(both, clearance, np.inf)
+    monitor, flanges, retract = retraction
+    held = couplers(bank, flanges, t[:n_run], free, retract)          # on the flanges, retracting, retracted
+    poses = []
+    for a, m in enumerate(bank.models):
+        q = inverse3d(m.arm, held[:, a, 0], held[:, a, 1], held[:, a, 2], check=False)
+        poses.append(np.stack([q.phi, q.alpha, q.beta], axis=-1))
+    gaps = monitor.clearances(poses)[0] if neighbours(bank) else np.full((n_run, 1), np.inf)
+    retracted = [float(f + r) if f == f else math.nan for f, r in zip(free, retract, strict=True)]
     sw = np.where(connected.T[:, :, None], swivel, np.inf)
     return BankRun(seed, _when(t, i_esd), _when(t, i_req), names[first] if first >= 0 else "", tuple(conf),
                    tuple(opened), tuple(free), tuple(face), tuple(over), tuple(before), tuple(early),
-                   bool((gaps < bank.file.clearance.min_clearance).any()), float(gaps.min()),
-                   float(np.degrees(np.nanmin(sw))))
+                   bool((gaps < bank.file.clearance.min_clearance).any()), float(np.min(gaps)),
+                   float(np.degrees(np.nanmin(sw))), tuple(retracted))
 
 
 class _Context:
@@ -408,6 +489,7 @@ class _Context:
 
     def __init__(self, bank_file: str, scenario: str):
         self.bank = load_bank(bank_file)
+        self.retract = retraction_times(self.bank)
         self.scenario = scenario
         self.raw = read_toml(Path(scenario), "scenario")
         sc = self.build(0)
@@ -428,7 +510,8 @@ class _Context:
         """One seed."""
         t0 = time.process_time()
         sc = self.build(seed)
-        run = bank_run(self.bank, flange_motion(sc, self.ship), sc.ship.flange, self.tables, seed, self.duration)
+        run = bank_run(self.bank, flange_motion(sc, self.ship), sc.ship.flange, self.tables, seed, self.duration,
+                       self.retract)
         return dataclasses.replace(run, seconds=time.process_time() - t0)
 
 
@@ -471,7 +554,7 @@ BANK_CAMPAIGN_METRICS = (
     Metric("margin_min_s", "release margin, min", "s", ".2f", none="-"),
     Metric("margin_p5_s", "release margin, 5th percentile", "s", ".2f", none="-"),
     Metric("margin_median_s", "release margin, median", "s", ".2f", none="-"),
-    Metric("min_clearance_m", "smallest clearance of neighbours, connected", "m", ".3f"),
+    Metric("min_clearance_m", "smallest clearance of neighbours (connected, retracting, retracted)", "m", ".3f"),
     Metric("min_swivel_margin_deg", "smallest swivel margin, connected", "deg", ".1f"),
     Metric("seconds_per_run", "CPU time per run (a worker's set-up apart)", "s", ".2f", none="-"),
 )
@@ -490,6 +573,9 @@ class BankCampaignResult(Result):
     seconds_per_run : float
         Mean CPU time of a run in its process, s (the ship's motion, the arms, the sequence; a worker's one-off
         set-up apart).
+    codes : dict
+        With a runs file: how many of the runs each version of loadarm's code ran (its digest's first 16 hex
+        digits, :func:`loadarm.studies.runs_file.code_digest`); empty otherwise.
     """
 
     METRICS = BANK_CAMPAIGN_METRICS
@@ -499,6 +585,7 @@ class BankCampaignResult(Result):
     names: tuple[str, ...]
     runs: tuple
     seconds_per_run: float = math.nan
+    codes: dict = dataclasses.field(default_factory=dict)
 
     def _values(self) -> dict:
         margins = np.array([m for r in self.runs for m in r.margins])
@@ -519,6 +606,7 @@ class BankCampaignResult(Result):
                 "min_clearance_m": min(r.min_clearance for r in self.runs),
                 "min_swivel_margin_deg": min(r.min_swivel_margin_deg for r in self.runs),
                 "seconds_per_run": None if self.seconds_per_run != self.seconds_per_run else self.seconds_per_run,
+                "codes": dict(self.codes),
                 "seeds": [r.seed for r in self.runs],
                 "margins_s": sorted(round(float(m), 3) for m in margins),
                 "esd1_s": [r.esd1_s for r in self.runs]}
@@ -534,17 +622,23 @@ class BankCampaignResult(Result):
         return fig
 
 
-def check_bank_campaign(bank_file: str | Path, scenario: str | Path, seeds: int, first_seed: int = 0) -> None:
+def check_bank_campaign(bank_file: str | Path, scenario: str | Path, seeds: int, first_seed: int = 0,
+                        runs_file: str | Path | None = None) -> None:
     """Refuse, in one line, a bank campaign that cannot run (before any worker starts).
 
     Parameters
     ----------
     bank_file, scenario : str or Path
     seeds, first_seed : int
+    runs_file : str or Path, optional
+        Refused if it is not this campaign's runs file.
 
     Raises
     ------
     ConfigError
+        Bad seeds, a scenario without a moored ship, a bad bank file.
+    ReleaseError
+        The bank's power unit cannot release every arm (:func:`retraction_times`).
     """
     if not 1 <= seeds <= 1_000_000 or first_seed < 0:
         raise ConfigError(f"--seeds must be in [1, 1000000] and --first-seed >= 0, got {seeds} and {first_seed}")
@@ -553,12 +647,31 @@ def check_bank_campaign(bank_file: str | Path, scenario: str | Path, seeds: int,
     if sc.ship.model != "moored":
         raise ConfigError(f"{scenario}: a bank's campaign needs a moored ship ([ship] model = \"moored\"): the "
                           f"flanges follow the manifold turned with the ship", source=str(scenario))
-    load_bank(bank_file)
+    bank = load_bank(bank_file)
+    retraction_times(bank)                          # a power unit that cannot release every arm: refused
+    if runs_file is not None:
+        _runs_file(runs_file, bank_file, scenario, bank)
+
+
+def _runs_file(runs_file, bank_file, scenario, bank: Bank) -> RunsFile:
+    """The bank campaign's runs file: its header names the bank, its digest the bank's installations too."""
+    return RunsFile(runs_file, str(scenario), None, [], bank=bank_file, also=sorted({str(p) for p in bank.paths}))
+
+
+def _stored(store: RunsFile | None, wanted) -> tuple[list[BankRun], Counter]:
+    """The runs a runs file already holds of the wanted seeds, and how many each code ran."""
+    if store is None:
+        return [], Counter()
+    stored = store.runs(wanted)
+    runs = [BankRun(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
+            for fields, _ in stored]
+    return runs, Counter(code for _, code in stored)
 
 
 def run_bank_campaign(bank_file: str | Path, scenario: str | Path, seeds: int, *, first_seed: int = 0,
                       workers: int | None = None, batch: int = 5,
-                      progress: Callable[[int, int], None] | None = None) -> BankCampaignResult:
+                      progress: Callable[[int, int], None] | None = None,
+                      runs_file: str | Path | None = None) -> BankCampaignResult:
     """The bank's drift-off over seeds ``first_seed .. first_seed + seeds - 1``, on a process pool.
 
     Parameters
@@ -574,6 +687,11 @@ def run_bank_campaign(bank_file: str | Path, scenario: str | Path, seeds: int, *
         Seeds per task.
     progress : callable, optional
         ``progress(done, total)``.
+    runs_file : str or Path, optional
+        A JSON-lines file of the runs (:mod:`loadarm.studies.runs_file`, its header naming the bank and the digest
+        of the bank, its installations and the scenario): each batch's runs (at most
+        :data:`~loadarm.studies.runs_file.RUNS_FILE_BATCH`) appended as it ends, the seeds it holds not run again,
+        the result over every seed of the range.
 
     Returns
     -------
@@ -581,22 +699,34 @@ def run_bank_campaign(bank_file: str | Path, scenario: str | Path, seeds: int, *
     """
     check_bank_campaign(bank_file, scenario, seeds, first_seed)
     bank_file, scenario = str(bank_file), str(scenario)
-    chunks = [list(range(s, min(s + batch, first_seed + seeds))) for s in range(first_seed, first_seed + seeds, batch)]
+    bank = load_bank(bank_file)
+    store = None if runs_file is None else _runs_file(runs_file, bank_file, scenario, bank)
+    wanted = range(first_seed, first_seed + seeds)
+    runs, codes = _stored(store, wanted)
+    held = {r.seed for r in runs}
+    if store is not None:
+        batch = min(batch, RUNS_FILE_BATCH)
+    todo = [s for s in wanted if s not in held]
+    chunks = [todo[k:k + batch] for k in range(0, len(todo), batch)]
     workers = workers or os.cpu_count() or 1
-    runs, done = [], 0
-    if workers == 1:
+    if progress and held:
+        progress(len(runs), seeds)
+
+    def report(part):
+        runs.extend(part)
+        if store is not None:
+            store.append(part)
+            codes[store.code] += len(part)
+        if progress:
+            progress(len(runs), seeds)
+
+    if workers == 1 or len(chunks) <= 1:
         for c in chunks:
-            runs += _run_batch(bank_file, scenario, c)
-            done += len(c)
-            if progress:
-                progress(done, seeds)
+            report(_run_batch(bank_file, scenario, c))
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
             for part in pool.map(_run_batch, [bank_file] * len(chunks), [scenario] * len(chunks), chunks):
-                runs += part
-                done += len(part)
-                if progress:
-                    progress(done, seeds)
-    per_run = float(np.mean([r.seconds for r in runs]))
-    names = load_bank(bank_file).names
-    return BankCampaignResult(bank_file, scenario, names, tuple(sorted(runs, key=lambda r: r.seed)), per_run)
+                report(part)
+    per_run = float(np.mean([r.seconds for r in runs])) if runs else math.nan
+    return BankCampaignResult(bank_file, scenario, bank.names, tuple(sorted(runs, key=lambda r: r.seed)), per_run,
+                              codes=dict(codes))

@@ -42,7 +42,7 @@ from loadarm.results import Metric, Result
 from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import run_scenario
 from loadarm.studies.cluster import connect_scheduler, plan_workers
-from loadarm.studies.runs_file import RunsFile
+from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile
 from loadarm.vocab import ALARM_RULES
 
 __all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign",
@@ -438,9 +438,6 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
 
 #: The most runs one campaign takes (a campaign of a hundred thousand kinematic runs takes a day on 8 cores).
 MAX_SEEDS = 100_000
-#: The most runs in one batch of a campaign that keeps a runs file (each batch's runs are appended as it ends; a
-#: tracked run takes 10-20 s of a core, the moored ship compiled once a batch about 1 s).
-RUNS_FILE_BATCH = 8
 def _bounded_map(pool, submit, items, in_flight: int, report) -> None:
     """Submit ``items`` to a process pool with at most ``in_flight`` pending, reporting each result as it comes."""
     from concurrent.futures import FIRST_COMPLETED, wait

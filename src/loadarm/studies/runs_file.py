@@ -26,10 +26,14 @@ from pathlib import Path
 from loadarm.errors import ConfigError
 from loadarm.files import SIGNATURE
 
-__all__ = ["RUNS_KIND", "code_digest", "RunsFile"]
+__all__ = ["RUNS_KIND", "RUNS_FILE_BATCH", "code_digest", "RunsFile"]
 
 #: The header's ``kind``.
 RUNS_KIND = "campaign runs"
+#: The most runs in one batch of a campaign that keeps a runs file (each batch's runs are appended as it ends; a
+#: tracked run takes 10-20 s of a core, the moored ship compiled once a batch about 1 s; found: 250-run batches,
+#: an hour of a worker each, none on file until done).
+RUNS_FILE_BATCH = 8
 
 
 def code_digest() -> str:
@@ -46,9 +50,9 @@ def code_digest() -> str:
     return h.hexdigest()
 
 
-def _inputs_digest(scenario: str) -> str:
+def _inputs_digest(scenario: str, also: Sequence[str | Path] = ()) -> str:
     """The scenario file's contents and those of the files it names (installation, berth), resolved as the
-    scenario resolves them."""
+    scenario resolves them, and of the files ``also`` names (a bank and its installations)."""
     import tomllib
 
     path = Path(scenario)
@@ -61,6 +65,8 @@ def _inputs_digest(scenario: str) -> str:
     for rel in named:
         if isinstance(rel, str) and (path.parent / rel).is_file():
             h.update(rel.encode() + b"\0" + (path.parent / rel).read_bytes())
+    for other in also:
+        h.update(Path(other).name.encode() + b"\0" + Path(other).read_bytes())
     return h.hexdigest()
 
 
@@ -76,6 +82,11 @@ class RunsFile:
     plant : str or None
     vary : sequence of (key, lo, hi)
         The varied keys and their ranges.
+    bank : str or Path, optional
+        A bank's campaign (``loadarm campaign --bank``): the bank file; its contents and those of ``also`` join
+        the inputs' digest, and its name the header.
+    also : sequence of str or Path
+        Further input files (the bank's installations).
 
     Raises
     ------
@@ -84,11 +95,14 @@ class RunsFile:
         of it), plant or draws.
     """
 
-    def __init__(self, path: str | Path, scenario: str, plant: str | None, vary: Sequence[tuple[str, float, float]]):
+    def __init__(self, path: str | Path, scenario: str, plant: str | None, vary: Sequence[tuple[str, float, float]],
+                 bank: str | Path | None = None, also: Sequence[str | Path] = ()):
         self.path = Path(path)
         self.header = {"generator": SIGNATURE, "kind": RUNS_KIND, "scenario": Path(scenario).name,
-                       "inputs_sha256": _inputs_digest(scenario), "plant": plant,
-                       "vary": [[k, float(lo), float(hi)] for k, lo, hi in vary]}
+                       "inputs_sha256": _inputs_digest(scenario, ([bank] if bank else []) + list(also)),
+                       "plant": plant, "vary": [[k, float(lo), float(hi)] for k, lo, hi in vary]}
+        if bank is not None:                        # a single arm's header has no such key (files before it)
+            self.header["bank"] = Path(bank).name
         self.code = code_digest()[:16]
         self._lines: list[dict] = []
         if self.path.exists():
@@ -105,11 +119,11 @@ class RunsFile:
         if not isinstance(head, dict) or head.get("generator") != SIGNATURE or head.get("kind") != RUNS_KIND:
             raise ConfigError(f"--runs {self.path}: not a loadarm campaign runs file (its first line is not the "
                               "header loadarm writes); give a new file name")
-        for key in ("scenario", "inputs_sha256", "plant", "vary"):
-            if head.get(key) != self.header[key]:
+        for key in ("scenario", "bank", "inputs_sha256", "plant", "vary"):
+            if head.get(key) != self.header.get(key):
                 raise ConfigError(f"--runs {self.path}: its runs are of another campaign ({key} "
-                                  f"{_short(head.get(key))}, this one {_short(self.header[key])}); give a new file "
-                                  "name")
+                                  f"{_short(head.get(key))}, this one {_short(self.header.get(key))}); give a new "
+                                  "file name")
         for n, line in enumerate(whole[1:], start=2):
             try:
                 got = json.loads(line)

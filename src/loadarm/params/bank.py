@@ -80,6 +80,11 @@ class Flange(Section):
                           description="along the manifold from its centre, +y")
     height: float = param(0.0, unit="m", ge=-5, le=5, source="flanges at one height (usual)",
                           description="above the manifold's centre line")
+    density: float | None = param(None, unit="kg/m^3", gt=0, le=2000,
+                                  source="the cargo's (LNG about 430-470 kg/m^3 by its composition; crude oil "
+                                         "800-950); none: the arm's installation's [masses] product_density",
+                                  description="the product's density in the arm's pipes on this flange (a liquid "
+                                              "flange's arm runs full)")
 
 
 class Manifold(Section):
@@ -296,6 +301,8 @@ class Bank:
     source : str
         The bank file.
     installations : tuple of Installation
+        Each arm's, as its file gives it but for ``[masses] product_density``: its flange's ``density`` where
+        the bank gives one.
     paths : tuple of Path
         Each arm's installation file, resolved.
     models : tuple of ArmModel
@@ -433,9 +440,12 @@ def load_bank(path: str | Path) -> Bank:
         except ConfigError as exc:
             raise ConfigError(f"{source}: arms.{i}.installation = {arm.installation!r} ({arm.name}): {exc}",
                               source=source, expected="bank") from None
-    models = tuple(compile_model(inst, source=str(p)) for inst, p in zip(insts, paths, strict=True))
     by_arm = {f.arm: f for f in file.manifold.flanges}
     flanges = tuple(by_arm[a.name] for a in file.arms)
+    insts = [inst if f.density is None else            # the flange's product, where the bank names its density
+             inst.model_copy(update={"masses": inst.masses.model_copy(update={"product_density": f.density})})
+             for inst, f in zip(insts, flanges, strict=True)]
+    models = tuple(compile_model(inst, source=str(p)) for inst, p in zip(insts, paths, strict=True))
     shapes = tuple(_shape(a, inst, m, file.clearance) for a, inst, m in zip(file.arms, insts, models, strict=True))
     connected, stowed = _poses(file, source, models, insts, flanges)
     bank = Bank(file, source, tuple(insts), paths, models, shapes, flanges, connected, stowed)

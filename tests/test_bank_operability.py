@@ -116,8 +116,10 @@ def _table(stages: dict, ship_down: list[bool]) -> pd.DataFrame:
         row["down_arm"] = any(a["down_arm"] for a in arms)
         row["down"] = row["down_lines"] or row["down_arm"]
         row["arm_governing"] = _governing(names, arms)
+        row.update(manifold_utilisation=math.nan, manifold_governing="", manifold_at_s=math.nan, down_manifold=False)
         row.update({f"{c}_{a}": arm[c] for a, arm in zip(names, arms) for c in ("stage", "esd1_s", "flange_motion_m",
                                                                                "connectable", "down_arm")})
+        row.update({f"manifold_utilisation_{a}": math.nan for a in names})
         rows.append(row)
     return pd.DataFrame(rows, columns=list(bank_columns(names)))
 
@@ -141,7 +143,81 @@ def test_downtime_by_arm_and_the_governing_arm_from_the_rows():
         "governing_arm"] == "none"
 
 
+def test_manifold_loads_in_the_rows_take_the_bank_down_and_are_reported():
+    """The manifold's criterion from the rows: B's flange loaded past its allowable at hour 2 (1.3) takes that hour
+    down and counts for B alone; the result names the largest load, which and when, each arm's largest; the
+    headline gains the criterion's row (after the arm's) and the largest load's. Not judged: None, no rows."""
+    df = _table({"A": [0, 0, 0, 0], "B": [0, 0, 0, 0]}, [False] * 4)
+    assert BankOperabilityResult(df, names=("A", "B")).to_dict()["manifold_loads"] is None
+    labels = [label for label, _ in BankOperabilityResult(df, names=("A", "B")).headline()]
+    assert not any("manifold" in label for label in labels)
+    util = {"A": [0.2, 0.3, 0.4, 0.2], "B": [0.5, 0.9, 1.3, 0.6]}
+    for a, u in util.items():
+        df[f"manifold_utilisation_{a}"] = u
+    df["manifold_utilisation"] = np.maximum(util["A"], util["B"])
+    df["manifold_governing"] = "B axial force"
+    df["manifold_at_s"] = [1.0, 2.0, 431.1, 4.0]
+    df["down_manifold"] = df["manifold_utilisation"] > 1.0
+    df["down"] = df["down"] | df["down_manifold"]
+    res = BankOperabilityResult(df, names=("A", "B"))
+    d = res.to_dict()
+    m = d["manifold_loads"]
+    assert m["hours_over"] == 1 and m["downtime_fraction"] == 0.25 and m["max_utilisation"] == 1.3
+    assert m["governing"] == "B axial force" and m["at"] == "2025-01-01T02:00:00 + 431.1 s"
+    assert m["max_utilisation_by_arm"] == {"A": 0.4, "B": 1.3} and m["hours_out_of_reach"] == 0
+    assert d["downtime_by_arm_h"] == {"A": 0, "B": 1} and d["downtime_fraction"] == 0.25
+    assert d["down_manifold_fraction"] == 0.25 and d["governing_by_month"] == {"2025-01": "manifold"}
+    rows = dict(res.headline())
+    assert rows["  manifold loads above their allowable (any arm)"] == "25.0 %"
+    assert rows["largest manifold load / allowable"] == "1.30 (B axial force, 2025-01-01T02:00:00 + 431.1 s)"
+    assert rows["largest manifold load / allowable, by arm"] == "A 0.40, B 1.30"
+    labels = [label for label, _ in res.headline()]
+    assert labels.index("  manifold loads above their allowable (any arm)") == \
+        labels.index("  the arm (connect, ESD-1)") + 1
+
+
+def test_manifold_loads_need_a_bank_in_one_line(capsys, tmp_path):
+    line = _one_line(*_run(capsys, "operability", "--config", ROOT / "examples" / "full.toml", "--berth", BERTH,
+                           "--metocean", SAMPLE, "--hours", "3", "--manifold-loads", "--out",
+                           tmp_path / "o.parquet")[::2])
+    assert "--manifold-loads needs --bank" in line and not (tmp_path / "o.parquet").exists()
+
+
+def test_a_run_judging_the_manifold_is_not_resumed_from_one_that_did_not(tmp_path):
+    from loadarm.studies.operability import _manifest
+
+    files = [tmp_path / n for n in ("bank.toml", "berth.toml", "met.csv")]
+    for p in files:
+        p.write_text(p.name)
+    st = OperabilitySettings()
+    assert _manifest(*files, None, st, [(0, 1)]) != _manifest(*files, None, st, [(0, 1)], variant="manifold loads")
+
+
 # ----------------------------------------------------------------------------------------------------- slow
+
+
+@pytest.mark.slow
+def test_the_manifold_criterion_is_the_manifold_study_s_on_the_same_hours(berth_ship):
+    """The criterion's loads (each state's record as the monitoring reads it) against the separate study
+    (`studies.manifold.manifold_states`: the ship simulated again by `ship.motion.simulate`, its
+    `ShipMotion` through `motion_manifold_loads`) on the same hours, the sample's storm among them (2025-02-13
+    18:00, the record's largest load): each arm's largest utilisation to 1e-9 (the same seed, the same ship)."""
+    from loadarm.studies.manifold import manifold_states
+    from loadarm.studies.operability import record_rows, state_ship
+
+    bf, ship = berth_ship
+    bank = load_bank(BANK)
+    rows = record_rows(SAMPLE, None)[0][1049:1052]
+    st = _settings(bank)
+    df = pd.DataFrame(bank_states(bank, ship, bank_tables(bank, rows), rows, st, bf.berth.x_bearing_deg,
+                                  bf.environment, manifold_loads=True))
+    study = manifold_states(bank, state_ship(ship, st.criteria), bf.environment, rows,
+                            x_bearing_deg=bf.berth.x_bearing_deg, duration=600.0, seed=st.seed)
+    ours = df[[f"manifold_utilisation_{n}" for n in bank.names]].to_numpy()
+    assert np.allclose(ours, study.utilisation.max(axis=2), rtol=0, atol=1e-9)
+    assert df["manifold_utilisation"].tolist() == ours.max(axis=1).tolist()
+    assert ours.max() > 0.5 and df["manifold_governing"].iloc[1] == "L1 axial force"
+    assert not df["down_manifold"].any() and df["manifold_at_s"].iloc[1] == pytest.approx(431.1, abs=0.05)
 
 
 def _alone(bank, i: int, *, centred: bool = False):

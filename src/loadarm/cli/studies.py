@@ -59,6 +59,10 @@ def operability(
                                                                 "--config: the ship once per state, every arm's "
                                                                 "own monitoring; down when any arm is (see "
                                                                 "docs/bank.md).")] = None,
+    manifold_loads: Annotated[bool, typer.Option("--manifold-loads", help="With --bank: judge each state's loads "
+                                                                          "on the ship's manifold too (down when "
+                                                                          "any arm's is past its allowable; about "
+                                                                          "five times the cost).")] = False,
 ) -> None:
     """Operability of this arm (--config) or this bank of arms (--bank) at this berth over a metocean record, on
     Dask: per hourly sea state the moored ship's motion and the connected-mode monitoring; downtime, events per
@@ -75,11 +79,18 @@ def operability(
     if not 1 <= chunks <= 10000:
         raise UserError(f"--chunks must be in [1, 10000], got {chunks}")
     check_workers("--workers", workers)
+    if manifold_loads and bank is None:
+        raise UserError("loadarm operability --manifold-loads needs --bank: the loads on the ship's manifold are a "
+                        "bank's (its file gives the flanges and their allowable loads)")
     settings = OperabilitySettings(duration_per_state=duration_per_state, chunks=chunks)
-    run = run_operability if bank is None else run_bank_operability
     with lazy_progress("operability (Dask)") as bar:
-        res = run(config if bank is None else bank, berth, metocean, out_file, hours=hours, settings=settings,
-                  scheduler=scheduler, workers=workers, fresh=force, progress=bar)
+        if bank is None:
+            res = run_operability(config, berth, metocean, out_file, hours=hours, settings=settings,
+                                  scheduler=scheduler, workers=workers, fresh=force, progress=bar)
+        else:
+            res = run_bank_operability(bank, berth, metocean, out_file, hours=hours, settings=settings,
+                                       scheduler=scheduler, workers=workers, fresh=force, progress=bar,
+                                       manifold_loads=manifold_loads)
     if png is not None:
 
         save(res.plot(), png)

@@ -20,6 +20,16 @@ the arm criterion is up) and, per arm ``N``, ``stage_N``, ``esd1_s_N``, ``flange
 
 The terminal's criteria and the state's length come from the installations' ``[operability]``, which must be
 the same for every arm (a bank has one ship, one berth, one terminal).
+
+**The manifold's loads** (``manifold_loads=True``, ``loadarm operability --bank ... --manifold-loads``): each
+state's record of the ship (the same flange, reference and angles the monitoring reads, the tide's lift and the
+hour's mean wind) also goes through the bank's loads on its flanges
+(:func:`loadarm.design.manifold.record_manifold_loads`, the one route of ``check --bank``, the live alarm and
+:mod:`loadarm.studies.manifold`): ``manifold_utilisation`` (the largest load over its allowable of any arm in the
+state; NaN: not computed, or a flange out of an arm's reach), ``manifold_governing`` (the arm and the load),
+``manifold_at_s`` (when), each arm's ``manifold_utilisation_N``, and the criterion ``down_manifold``: any arm's
+load past its allowable in the state (a terminal does not stay connected with its ship's manifold overloaded).
+It costs about five times the monitoring (74 ms of CPU a 600 s state for four arms), so it is asked for.
 """
 
 from __future__ import annotations
@@ -31,7 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
-from loadarm.errors import ConfigError
+from loadarm.arm.manifold import LOAD_NAMES
+from loadarm.design.manifold import LOAD_LABELS, allowable, berth_wind, record_manifold_loads
+from loadarm.errors import ConfigError, UnreachableError
 from loadarm.guidance.bank import BankMonitor
 from loadarm.params.bank import Bank, load_bank
 from loadarm.params.berth import load_berth
@@ -58,11 +70,13 @@ __all__ = ["ARM_COLUMNS", "BankOperabilityResult", "bank_columns", "bank_headlin
            "bank_tables", "run_bank_operability"]
 
 #: Per-arm columns, ``<column>_<arm name>`` each.
-ARM_COLUMNS = ("stage", "esd1_s", "flange_motion_m", "connectable", "down_arm")
+ARM_COLUMNS = ("stage", "esd1_s", "flange_motion_m", "connectable", "down_arm", "manifold_utilisation")
+#: The bank's columns after the single arm's: the governing arm, the manifold's loads and their criterion.
+BANK_COLUMNS = ("arm_governing", "manifold_utilisation", "manifold_governing", "manifold_at_s", "down_manifold")
 
 
 def bank_columns(names) -> tuple[str, ...]:
-    """A bank's rows' columns: the single arm's, ``arm_governing``, then each arm's own.
+    """A bank's rows' columns: the single arm's, :data:`BANK_COLUMNS`, then each arm's own.
 
     Parameters
     ----------
@@ -72,7 +86,7 @@ def bank_columns(names) -> tuple[str, ...]:
     -------
     tuple of str
     """
-    return (*COLUMNS, "arm_governing", *(f"{c}_{n}" for n in names for c in ARM_COLUMNS))
+    return (*COLUMNS, *BANK_COLUMNS, *(f"{c}_{n}" for n in names for c in ARM_COLUMNS))
 
 
 def bank_tables(bank: Bank, rows: list[dict]) -> list:
@@ -125,8 +139,31 @@ def _combined(arms: list[dict], rec: list) -> dict:
             "connectable": all(a["connectable"] for a in arms), "outside": any(r.outside for r in rec)}
 
 
+def _manifold(bank: Bank, limits: np.ndarray, rel: np.ndarray, centre: np.ndarray, angles: np.ndarray,
+              env) -> dict:
+    """One state's loads on the manifold: the columns of :data:`BANK_COLUMNS` but the governing arm, and each
+    arm's utilisation (``manifold_utilisation_<n>``)."""
+    names = bank.names
+    t = np.arange(rel.shape[1]) * DT
+    try:
+        rec = record_manifold_loads(bank, t, rel.T - centre, angles, wind=berth_wind(env))
+    except UnreachableError:                 # a flange out of an arm's reach: no loads (the monitoring's case)
+        return {"manifold_utilisation": math.nan, "manifold_governing": "", "manifold_at_s": math.nan,
+                "down_manifold": False, **{f"manifold_utilisation_{n}": math.nan for n in names}}
+    u = rec.worst / limits
+    i, j = np.unravel_index(int(np.argmax(u)), u.shape)
+    return {"manifold_utilisation": float(u[i, j]), "manifold_governing": f"{names[i]} {LOAD_LABELS[j]}",
+            "manifold_at_s": float(rec.worst_time[i, j]), "down_manifold": bool(u[i, j] > 1.0),
+            **{f"manifold_utilisation_{n}": float(u[a].max()) for a, n in enumerate(names)}}
+
+
+def _no_manifold(names) -> dict:
+    return {"manifold_utilisation": math.nan, "manifold_governing": "", "manifold_at_s": math.nan,
+            "down_manifold": False, **{f"manifold_utilisation_{n}": math.nan for n in names}}
+
+
 def bank_states(bank: Bank, ship, tables: list, rows: list[dict], settings: OperabilitySettings,
-                x_bearing_deg: float, base_env) -> list[dict]:
+                x_bearing_deg: float, base_env, manifold_loads: bool = False) -> list[dict]:
     """Simulate the ship once per state and monitor every arm of the bank on it (one Dask task).
 
     Parameters
@@ -141,6 +178,8 @@ def bank_states(bank: Bank, ship, tables: list, rows: list[dict], settings: Oper
         Resolved.
     x_bearing_deg : float
     base_env : Environment
+    manifold_loads : bool
+        Judge the manifold's loads too (the module's text).
 
     Returns
     -------
@@ -154,6 +193,7 @@ def bank_states(bank: Bank, ship, tables: list, rows: list[dict], settings: Oper
     monitor = BankMonitor(bank)
     names = bank.names
     centre = np.asarray(bank.file.manifold.position, dtype=float)
+    limits = allowable(bank)[None, :]
     zero = np.zeros(3)
     rel = scratch = np.empty((3, 0))
     out = []
@@ -165,6 +205,7 @@ def bank_states(bank: Bank, ship, tables: list, rows: list[dict], settings: Oper
             rel, scratch = np.empty((3, flange.shape[0])), np.empty((3, flange.shape[0]))
         relative_record(flange, reference, centre + np.array([0.0, 0.0, float(row["tide_m"])]), rel)
         flanges = monitor.flanges(rel.T, angles)                  # (n, arms, 3): each arm's flange, its own frame
+        loads_on = _manifold(bank, limits, rel, centre, angles, env) if manifold_loads else _no_manifold(names)
         arms, rec = [], []
         for i, model in enumerate(bank.models):
             p = flanges[:, i]
@@ -172,13 +213,15 @@ def bank_states(bank: Bank, ship, tables: list, rows: list[dict], settings: Oper
             r = monitor_record(model, tables[i], p, DT)
             ok = motion <= settings.connect_motion_limit
             arms.append({"stage": r.stage, "esd1_s": r.esd1_s, "flange_motion_m": motion, "connectable": ok,
-                         "down_arm": bool((not ok) or r.stage >= Severity.ESD1)})
+                         "down_arm": bool((not ok) or r.stage >= Severity.ESD1),
+                         "manifold_utilisation": loads_on.pop(f"manifold_utilisation_{names[i]}")})
             rec.append(r)
         c = _combined(arms, rec)
         verdict = judge_state(crit, ship.moorings, loads, env, c["connectable"], c["stage"])
+        verdict["down"] = bool(verdict["down"] or loads_on["down_manifold"])
         out.append({"time": row["time"], "hs_m": row["hs_m"], "tp_s": row["tp_s"],
                     "wind_speed_ms": row["wind_speed_ms"], "current_speed_ms": row["current_speed_ms"],
-                    "tide_m": row["tide_m"], **c, **verdict, "arm_governing": _governing(names, arms),
+                    "tide_m": row["tide_m"], **c, **verdict, "arm_governing": _governing(names, arms), **loads_on,
                     **{f"{k}_{n}": a[k] for n, a in zip(names, arms, strict=True) for k in ARM_COLUMNS}})
     return out
 
@@ -186,12 +229,12 @@ def bank_states(bank: Bank, ship, tables: list, rows: list[dict], settings: Oper
 def _bank_chunk_task(compiled: tuple, rows: list[dict], settings: OperabilitySettings, path: str):
     """A Dask task: the chunk's states of the bank, written to ``path`` and returned.
 
-    ``compiled`` is ``(bank, ship, tables, x_bearing_deg, base_env)``.
+    ``compiled`` is ``(bank, ship, tables, x_bearing_deg, base_env, manifold_loads)``.
     """
     import pandas as pd
 
-    bank, ship, tables, x_bearing_deg, base_env = compiled
-    res = pd.DataFrame(bank_states(bank, ship, tables, rows, settings, x_bearing_deg, base_env),
+    bank, ship, tables, x_bearing_deg, base_env, manifold_loads = compiled
+    res = pd.DataFrame(bank_states(bank, ship, tables, rows, settings, x_bearing_deg, base_env, manifold_loads),
                        columns=list(bank_columns(bank.names)))
     write_parquet(res, path)
     return res
@@ -215,7 +258,7 @@ def run_bank_operability(bank: str | Path, berth: str | Path, metocean: str | Pa
                          hours: int | None = None, settings: OperabilitySettings = OperabilitySettings(),
                          scheduler: str | None = None, workers: int | None = None,
                          progress: Callable[[int, int], None] | None = None, fresh: bool = False,
-                         ship=None) -> BankOperabilityResult:
+                         ship=None, manifold_loads: bool = False) -> BankOperabilityResult:
     """The operability of a bank over a record on Dask (chunks in ``<out>.chunks/``, resumed as for one arm).
 
     Parameters
@@ -226,6 +269,8 @@ def run_bank_operability(bank: str | Path, berth: str | Path, metocean: str | Pa
         Parquet of the per-state rows (:func:`bank_columns`).
     hours, settings, scheduler, workers, progress, fresh, ship
         As :func:`loadarm.studies.operability.run_operability`.
+    manifold_loads : bool
+        Judge the manifold's loads too: the criterion ``down_manifold`` (the module's text).
 
     Returns
     -------
@@ -246,13 +291,14 @@ def run_bank_operability(bank: str | Path, berth: str | Path, metocean: str | Pa
                           f"file {berth}")
 
     def compiled(ship):
-        return (b, ship, bank_tables(b, rows), bf.berth.x_bearing_deg, bf.environment)
+        return (b, ship, bank_tables(b, rows), bf.berth.x_bearing_deg, bf.environment, manifold_loads)
 
     installations = tuple(dict.fromkeys(str(p) for p in b.paths))
     table, wall, n_workers = run_chunked(rows, out, (bank, berth, metocean, hours, settings), compiled,
                                          _bank_chunk_task, bank_columns(b.names), settings=settings,
                                          scheduler=scheduler, workers=workers, progress=progress, fresh=fresh,
-                                         ship=ship, berth_file=bf, berth=berth, extra=installations)
+                                         ship=ship, berth_file=bf, berth=berth, extra=installations,
+                                         variant="manifold loads" if manifold_loads else "")
     return BankOperabilityResult(table, gaps.to_dict(), wall, n_workers, settings.criteria, names=b.names)
 
 
@@ -260,6 +306,8 @@ def run_bank_operability(bank: str | Path, berth: str | Path, metocean: str | Pa
 class BankOperabilityResult(OperabilityResult):
     """The operability of a bank: the single arm's result of the bank's rows, with each arm's downtime and the
     governing arm."""
+
+    JUDGED = (*CRITERIA, "manifold")
 
     names: tuple = field(default=())
 
@@ -271,28 +319,53 @@ class BankOperabilityResult(OperabilityResult):
         -------
         dict
             ``downtime_by_arm_h``, ``downtime_by_arm_fraction``, ``governing_h`` (per arm), ``governing_arm``
-            (the arm that governed most hours; ``"none"``).
+            (the arm that governed most hours; ``"none"``). An arm alone is down when its own load on its flange is
+            past its allowable too (with the manifold's loads judged).
         """
         df = self.table
         n = len(df)
         ship = np.zeros(n, dtype=bool)
         for name in CRITERIA[:-1]:
             ship |= df[f"down_{name}"].to_numpy(dtype=bool)
-        alone = {a: int((ship | df[f"down_arm_{a}"].to_numpy(dtype=bool)).sum()) for a in self.names}
+        alone = {a: int((ship | df[f"down_arm_{a}"].to_numpy(dtype=bool)
+                         | (df[f"manifold_utilisation_{a}"].to_numpy(dtype=float) > 1.0)).sum()) for a in self.names}
         gov = {a: int((df["arm_governing"] == a).sum()) for a in self.names}
         top = max(self.names, key=lambda a: (gov[a], alone[a])) if self.names else None
         return {"downtime_by_arm_h": alone,
                 "downtime_by_arm_fraction": {a: h / n if n else math.nan for a, h in alone.items()},
                 "governing_h": gov, "governing_arm": top if top is not None and gov[top] > 0 else "none"}
 
+    def manifold(self) -> dict | None:
+        """The manifold's loads over the record (None: not judged): the hours down by them, the largest load over
+        its allowable, which and when, each arm's largest, and the hours with a flange out of an arm's reach.
+
+        Returns
+        -------
+        dict or None
+        """
+        df = self.table
+        u = df["manifold_utilisation"].to_numpy(dtype=float)
+        if not np.isfinite(u).any():
+            return None
+        k = int(np.nanargmax(u))
+        over = int(df["down_manifold"].to_numpy(dtype=bool).sum())
+        when = str(np.datetime64(df["time"].iloc[k], "s"))
+        return {"hours_over": over, "downtime_fraction": over / len(df), "max_utilisation": float(u[k]),
+                "governing": str(df["manifold_governing"].iloc[k]),
+                "at": f"{when} + {float(df['manifold_at_s'].iloc[k]):.1f} s",
+                "hours_out_of_reach": int(np.isnan(u).sum()),
+                "max_utilisation_by_arm": {a: float(np.nanmax(df[f"manifold_utilisation_{a}"].to_numpy(dtype=float)))
+                                           for a in self.names}}
+
     def to_dict(self) -> dict:
-        """:meth:`OperabilityResult.to_dict` and the arms' (:meth:`by_arm`).
+        """:meth:`OperabilityResult.to_dict`, the arms' (:meth:`by_arm`) and the manifold's loads
+        (:meth:`manifold`; ``None``: not judged).
 
         Returns
         -------
         dict
         """
-        return {**super().to_dict(), "arms": list(self.names), **self.by_arm()}
+        return {**super().to_dict(), "arms": list(self.names), **self.by_arm(), "manifold_loads": self.manifold()}
 
     def headline(self) -> list[tuple[str, str]]:
         """:func:`bank_headline_rows` of :meth:`to_dict`.
@@ -323,5 +396,12 @@ def bank_headline_rows(d: dict) -> list[tuple[str, str]]:
              ", ".join(f"{a} {alone[a]} h ({100 * frac[a]:.1f} %)" for a in d["arms"])),
             ("governing arm (hours it took the arm criterion down)",
              f"{d['governing_arm']}: " + ", ".join(f"{a} {gov[a]} h" for a in d["arms"]))]
+    m = d.get("manifold_loads")
+    if m is not None:
+        bank = [("  manifold loads above their allowable (any arm)", f"{100 * m['downtime_fraction']:.1f} %"),
+                *bank, ("largest manifold load / allowable", f"{m['max_utilisation']:.2f} ({m['governing']}, "
+                                                             f"{m['at']})"),
+                ("largest manifold load / allowable, by arm",
+                 ", ".join(f"{a} {v:.2f}" for a, v in m["max_utilisation_by_arm"].items()))]
     at = next((k + 1 for k, (label, _) in enumerate(rows) if label.strip().startswith("the arm (")), len(rows))
     return rows[:at] + bank + rows[at:]

@@ -459,6 +459,9 @@ class OperabilityResult(Result):
     workers: int = 0
     criteria: Operability = field(default_factory=Operability)
 
+    #: The criteria its rows judge (a ``down_<name>`` column each): the terminal's; a bank's adds its own.
+    JUDGED = CRITERIA
+
     METRICS = (
         Metric("states", "sea states", "", "d"),
         Metric("downtime_fraction", "downtime", "%", ".1f", scale=100.0),
@@ -498,7 +501,7 @@ class OperabilityResult(Result):
         connected = df["connectable"].to_numpy(dtype=bool) & ~others
         p = persistence(df["down"].to_numpy(dtype=bool), df["time"].to_numpy(), c.loading_hours,
                         c.reconnect_hours)
-        per = {f"down_{k}_fraction": float(df[f"down_{k}"].mean()) if n else math.nan for k in CRITERIA}
+        per = {f"down_{k}_fraction": float(df[f"down_{k}"].mean()) if n else math.nan for k in self.JUDGED}
         esd1 = ((df["stage"] >= Severity.ESD1) & connected).to_numpy(dtype=float)
         enough = n >= MIN_BLOCKS * BOOTSTRAP_BLOCK_H
         ci = {"downtime_ci": list(block_bootstrap(df["down"].to_numpy(dtype=float))) if enough else None,
@@ -535,7 +538,7 @@ class OperabilityResult(Result):
         tp_bins = [0, 6, 8, 10, 12, 30]
         grid = df.groupby([pd.cut(df["hs_m"], hs_bins), pd.cut(df["tp_s"], tp_bins)], observed=True)["down"]
         wind = df.groupby(pd.cut(df["wind_speed_ms"], [0, 5, 10, 15, 20, 25, 60]), observed=True)["down"]
-        per_month = {str(k): {c: float(g[f"down_{c}"].mean()) for c in CRITERIA}
+        per_month = {str(k): {c: float(g[f"down_{c}"].mean()) for c in self.JUDGED}
                      for k, g in df.groupby(t.to_period("M"))}
         return {**self._values(), "gaps": dict(self.gaps), "workers": self.workers,
                 "criteria": self.criteria.model_dump(),
@@ -672,10 +675,12 @@ def _box(flange, tide_lo: float, tide_hi: float):
     return ((fx - margin, fy - margin, fz + tide_lo - margin), (fx + margin, fy + margin, fz + tide_hi + margin))
 
 
-def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, plan, extra=()) -> str:
+def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, plan, extra=(),
+              variant: str = "") -> str:
     """What the chunks of a run depend on: the three input files' contents (and ``extra`` files': a bank's
-    installations), the hours, the settings, the plan, and loadarm's own code (every module's source: found, a
-    chunk computed by an older kernel of the same version number would have been resumed into a newer run)."""
+    installations), the hours, the settings, the plan, what else the run judges (``variant``: a bank's manifold
+    loads), and loadarm's own code (every module's source: found, a chunk computed by an older kernel of the same
+    version number would have been resumed into a newer run)."""
     import hashlib
     import json
 
@@ -684,8 +689,8 @@ def _manifest(config, berth, metocean, hours, settings: OperabilitySettings, pla
         h.update(Path(f).read_bytes())
     h.update(code_digest().encode())
     given = dict(settings.__dict__, criteria=None if settings.criteria is None else settings.criteria.model_dump())
-    h.update(json.dumps({"hours": hours, "settings": given, "plan": plan, "version": __version__},
-                        sort_keys=True).encode())
+    h.update(json.dumps({"hours": hours, "settings": given, "plan": plan, "version": __version__,
+                         **({"variant": variant} if variant else {})}, sort_keys=True).encode())
     return h.hexdigest()
 
 
@@ -871,7 +876,7 @@ def run_operability(config: str | Path, berth: str | Path, metocean: str | Path,
 
 def run_chunked(rows: list[dict], out, digest: tuple, compiled: Callable, task: Callable, columns, *,
                 settings: OperabilitySettings, scheduler=None, workers=None, progress=None, fresh: bool = False,
-                ship=None, berth_file=None, berth=None, extra=()):
+                ship=None, berth_file=None, berth=None, extra=(), variant: str = ""):
     """The operability's chunks on Dask, resumed from those already written (one driver for an arm and a bank).
 
     Parameters
@@ -896,6 +901,8 @@ def run_chunked(rows: list[dict], out, digest: tuple, compiled: Callable, task: 
     berth : path
     extra : sequence of path
         More files the chunks depend on (a bank's installations).
+    variant : str
+        What else the chunks judge (a bank's manifold loads): part of the manifest.
 
     Returns
     -------
@@ -911,7 +918,7 @@ def run_chunked(rows: list[dict], out, digest: tuple, compiled: Callable, task: 
     out = Path(out)
     chunk_dir = out.with_name(out.name + ".chunks")
     plan = plan_chunks(len(rows), settings.chunks)
-    _check_manifest(chunk_dir, _manifest(*digest, plan, extra=extra), fresh)
+    _check_manifest(chunk_dir, _manifest(*digest, plan, extra=extra, variant=variant), fresh)
     todo = [(k, a, b) for k, (a, b) in enumerate(plan) if not (chunk_dir / f"chunk-{k:05d}.parquet").is_file()]
     for k in sorted(set(range(len(plan))) - {k for k, _, _ in todo}):
         _read_chunk(chunk_dir / f"chunk-{k:05d}.parquet", metadata_only=True)   # a damaged one: before any work

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -10,7 +9,6 @@ import numpy as np
 import typer
 
 from loadarm.arm.manifold import LOAD_NAMES
-from loadarm.arm.swivel import swivel_angles, swivel_margins
 from loadarm.cli.common import (
     ForceOpt,
     JsonOpt,
@@ -21,7 +19,7 @@ from loadarm.cli.common import (
     print_json,
     read_model,
 )
-from loadarm.design.bank import order_bank_approaches
+from loadarm.design.bank import design_swivel_margins, order_bank_approaches
 from loadarm.design.check import design_check
 from loadarm.design.manifold import LOAD_LABELS, check_manifold_loads
 from loadarm.figures import save
@@ -89,9 +87,7 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     bank = load_bank(path)
     order = order_bank_approaches(bank)           # the approaches in the order that keeps the clearance
     clearance = order.clearance
-    q = bank.connected
-    heading = math.radians(bank.file.manifold.heading_deg)
-    margins = swivel_margins(swivel_angles(q[:, 0], q[:, 1], q[:, 2], heading=heading), bank.file.swivels.limits())
+    margins = design_swivel_margins(bank)
     if not clearance.clear:
         raise UserError(f"{path}: the arms' approaches come {clearance.where()}, below clearance.min_clearance = "
                         f"{clearance.required:g} m")

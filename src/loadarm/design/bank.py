@@ -21,13 +21,33 @@ from dataclasses import dataclass
 import numpy as np
 
 from loadarm.arm.clearance import ClearanceResult, path_clearance
+from loadarm.arm.swivel import swivel_angles, swivel_margins
 from loadarm.design.plots import bank_order_figure
 from loadarm.design.trajectory import plan_approach_3d
 from loadarm.errors import PathError
 from loadarm.params.bank import Bank
 from loadarm.results import Metric, Result
 
-__all__ = ["bank_approaches", "check_bank_approaches", "BankOrder", "order_bank_approaches"]
+__all__ = ["bank_approaches", "check_bank_approaches", "BankOrder", "order_bank_approaches",
+           "design_swivel_margins"]
+
+
+def design_swivel_margins(bank: Bank) -> np.ndarray:
+    """Each arm's swivels' margins to their stops connected at the manifold's design position, the ship at rest
+    (what ``loadarm check --bank`` and the report's bank section show).
+
+    Parameters
+    ----------
+    bank : Bank
+
+    Returns
+    -------
+    ndarray, shape (arms, 6)
+        rad, in the order of :data:`loadarm.vocab.SWIVEL_FACE_TABLE`.
+    """
+    q = bank.connected
+    heading = np.radians(bank.file.manifold.heading_deg)
+    return swivel_margins(swivel_angles(q[:, 0], q[:, 1], q[:, 2], heading=heading), bank.file.swivels.limits())
 
 
 def bank_approaches(bank: Bank, *, order: tuple[str, ...] | None = None, timing: str = "smooth",

@@ -25,7 +25,7 @@ from pathlib import Path
 from loadarm import __version__
 from loadarm.arm.envelope import berth_box, zone_radii
 from loadarm.design.alarm_design import alarm_verdict, design_alarms
-from loadarm.design.bank import check_bank_approaches
+from loadarm.design.bank import design_swivel_margins, order_bank_approaches
 from loadarm.design.balancing import balance_counterweights
 from loadarm.design.check import design_check
 from loadarm.design.loads import CYLINDER_LOAD_METRICS, actuator_loads
@@ -408,9 +408,11 @@ class ReportData:
 
     @cached_property
     def bank(self) -> dict | None:
-        """The bank's checks (None without a ``[report] bank``): ``file``, the read ``bank``, its approaches'
-        ``clearance``, its ``release``, its ``loads`` on the manifold and, with a berth, their ``record`` through
-        :data:`BANK_RECORD_S` of the moored ship in the berth's design environment (seed 1)."""
+        """The bank's checks (None without a ``[report] bank``): ``file``, the read ``bank``, the ``order`` of its
+        approaches (:func:`~loadarm.design.bank.order_bank_approaches`, as ``check --bank``) and that schedule's
+        ``clearance``, the ``swivels``' margins at the design case, its ``release``, its ``loads`` on the manifold
+        and, with a berth, their ``record`` through :data:`BANK_RECORD_S` of the moored ship in the berth's design
+        environment (seed 1)."""
 
         if self.bank_file is None:
             return None
@@ -421,8 +423,10 @@ class ReportData:
             env = self.berth.environment
             record = motion_manifold_loads(bank, simulate(self.ship, env, BANK_RECORD_S, seed=1),
                                            wind=berth_wind(env))
-        return {"file": self.bank_file, "bank": bank, "clearance": check_bank_approaches(bank),
-                "release": simulate_release(bank), "loads": check_manifold_loads(bank), "record": record}
+        order = order_bank_approaches(bank)        # the order check --bank plans: its schedule's clearance
+        return {"file": self.bank_file, "bank": bank, "order": order, "clearance": order.clearance,
+                "swivels": design_swivel_margins(bank), "release": simulate_release(bank),
+                "loads": check_manifold_loads(bank), "record": record}
 
     @cached_property
     def operability(self):
@@ -677,8 +681,9 @@ def _bank_summary(b: dict | None) -> dict | None:
     """summary.json's ``bank``: the bank file and each check's numbers (None without a ``[report] bank``)."""
     if b is None:
         return None
-    return {"file": b["file"].name, "clearance": b["clearance"].to_dict(), "release": b["release"].to_dict(),
-            "manifold_loads": b["loads"].to_dict(),
+    return {"file": b["file"].name, "approach_order": b["order"].to_dict(), "clearance": b["clearance"].to_dict(),
+            "swivel_margin_deg": {n: math.degrees(float(b["swivels"][i].min())) for i, n in enumerate(b["bank"].names)},
+            "release": b["release"].to_dict(), "manifold_loads": b["loads"].to_dict(),
             "manifold_record": None if b["record"] is None else b["record"].to_dict()}
 
 
@@ -694,6 +699,7 @@ def _bank_rows(b: dict | None) -> list[dict]:
         near = min(float(g) for (p, q), g in zip(clearance.pairs, pairs, strict=True) if i in (p, q))
         j = int(loads.utilisation[i].argmax())
         rows.append({"arm": name, "flange": f"{bank.flanges[i].name} ({bank.flanges[i].product})", "near": near,
+                     "wave": b["order"].wave_of(name) + 1, "swivel": math.degrees(float(b["swivels"][i].min())),
                      "load": LOAD_LABELS[j], "use": float(loads.utilisation[i, j]),
                      "rec": "-" if record is None else f"{float((record.worst[i] / record.allowable).max()):.2f}",
                      "clear": float(release.end[i, 2])})
@@ -887,12 +893,14 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         "operability_stages": _table(
             [{"stage": k, "n": v} for k, v in summary["operability"]["states_by_stage"].items()]
             if oper is not None else [], [("stage", "most severe stage reached"), ("n", "hourly states")]),
-        "bank_summary": _table([{"k": label, "v": text} for r in (("clearance", "loads", "release") if bank else ())
+        "bank_summary": _table([{"k": label, "v": text} for r in (("order", "clearance", "loads", "release") if bank
+                                                                  else ())
                                 for label, text in bank[r].summary().rows()], [("k", "quantity"), ("v", "value")]),
-        "bank": _table(_bank_rows(bank), [("arm", "arm"), ("flange", "flange"), ("near", "nearest arm on approach [m]"),
-                                          ("load", "governing load"), ("use", "load / allowable, design check"),
+        "bank": _table(_bank_rows(bank), [("arm", "arm"), ("flange", "flange"), ("wave", "approach wave"),
+                                          ("near", "nearest arm on approach [m]"),
+                                          ("swivel", "swivel margin, design case [deg]"), ("load", "governing load"), ("use", "load / allowable, design check"),
                                           ("rec", "load / allowable, ship's record"), ("clear", "release: clear at [s]")],
-                       {"near": ".2f", "use": ".2f", "clear": ".2f"}),
+                       {"near": ".2f", "swivel": ".1f", "use": ".2f", "clear": ".2f"}),
         "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes")]
                             + [(m.key, m.header) for m in scen_cols]),
         "parameters": _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),

@@ -41,7 +41,6 @@ from pathlib import Path
 
 import numpy as np
 
-from loadarm.arm.manifold import LOAD_NAMES
 from loadarm.design.manifold import LOAD_LABELS, allowable, berth_wind, record_manifold_loads
 from loadarm.errors import ConfigError, UnreachableError
 from loadarm.guidance.bank import BankMonitor

@@ -2,6 +2,7 @@
 bit, the clash and swivel faces' time to limit from the arm's forecast, never later than the sampled truth, the
 stage monotone in the margin."""
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -130,8 +131,35 @@ def test_the_example_bank_s_faces_at_rest(bank):
     m = mon.margins(c, np.zeros(3))
     assert np.allclose(np.degrees(m.swivel.min(axis=1)), 30.0)
     assert np.allclose(m.clearance, 1.8) and set(m.parts) == {("triple swivel", "triple swivel")}
-    f = mon.time_to_limit(c, np.zeros(3), 65.0)
+    f = BankMonitor(bank, own_faces=False).time_to_limit(c, np.zeros(3), 65.0)
     assert f.time == math.inf and f.stage == Severity.NORMAL and len(f.stages) == 4
+
+
+def test_an_arm_s_time_to_limit_is_its_own_faces_too_from_the_same_forecast(bank):
+    """Found: the served bank forecast the swivels and the clash only, each arm's own envelope left to its
+    set-angle alarms. Now one scan of every face: at the design case the design drift reaches no bank face within
+    65 s, but each arm's stretched-arm face (beta_max) in the time the single arm's own monitor gives on that
+    arm's flange (`EnvelopeMonitor`, the independent route: the same design drift from the arm's own flange): the
+    first to the scan's 1/16 s, the others early by up to its 2 s step; the stage is still normal (ESD-1's lead
+    is 35 s)."""
+    from loadarm.guidance.monitor import EnvelopeMonitor
+    from loadarm.guidance.bank import _design_model
+
+    mon = BankMonitor(bank)
+    c = np.asarray(bank.file.manifold.position)
+    f = mon.time_to_limit(c, np.zeros(3), 65.0)
+    assert f.face == "beta_max" and f.stage == Severity.NORMAL
+    flanges = mon.flanges(c, np.zeros(3))
+    for i, model in enumerate(bank.models):
+        design = dataclasses.replace(model, design_drift=_design_model(bank).design_drift)
+        alone = EnvelopeMonitor(design, 60.0).time_to_limit(flanges[i], 65.0)
+        # early by up to a scan step (2 s: an arm's time is its first step past a face, the first face's refined),
+        # never late by more than the bisection's 1/16 s
+        assert alone.time - 2.0 - 1e-9 <= f.by_arm[i] <= alone.time + 1.0 / 16 + 1e-9, (i, f.by_arm[i], alone.time)
+    assert abs(f.time - min(EnvelopeMonitor(dataclasses.replace(m, design_drift=_design_model(bank).design_drift),
+                                            60.0).time_to_limit(flanges[i], 65.0).time
+                            for i, m in enumerate(bank.models))) <= 1.0 / 16 + 1e-9
+    assert len(mon.faces) == len(BankMonitor(bank, own_faces=False).faces) + 6 * len(bank.names)
 
 
 def _history(mon, c0, v, yaw_rate, t_end, yaw0=0.0):

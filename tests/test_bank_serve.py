@@ -167,7 +167,7 @@ def test_each_arm_s_values_are_the_direct_computation_at_the_state_s_time(bank_s
     Doubles); the bank's nearest pair is the least of the arms'."""
     from asyncua import ua
 
-    from loadarm.vocab import FACES, SWIVEL_FACE_TABLE
+    from loadarm.vocab import FACES, SWIVEL_FACE_TABLE, Severity
 
     service = bank_served["service"]
     snap = service.step(437)
@@ -213,10 +213,13 @@ def test_each_arm_s_values_are_the_direct_computation_at_the_state_s_time(bank_s
     assert bank["NearestParts"] == "triple swivel / triple swivel" and 1.7 < bank["NearestClearance_m"] < 1.9
     assert bank["RequiredClearance_m"] == 0.5 and bank["ClashAbnormal"] is False and bank["AlarmStage"] == 0
     # the bank monitor's forecast as the snapshot carries it (guidance.bank.BankMonitor, fed by the service): this
-    # sea brings no bank face within the horizon
+    # sea brings no swivel stop nor clash within the horizon, but the design drift each arm's stretched-arm face
+    # (its own faces are in the same scan) in about 42 s: beyond ESD-1's 35 s lead, every arm normal
     fc = snap.forecast
-    assert fc is not None and (bank["TimeToLimit_s"], bank["NearestFace"]) == (-1.0, "") and fc.face == ""
-    assert [got[n]["TimeToLimit_s"] for n in world.bank.names] == [-1.0] * 4 and fc.by_arm == (math.inf,) * 4
+    assert fc is not None and (bank["TimeToLimit_s"], bank["NearestFace"]) == (pytest.approx(fc.time), "beta_max")
+    assert 38.0 < fc.time < 46.0 and fc.stage == Severity.NORMAL
+    assert [got[n]["TimeToLimit_s"] for n in world.bank.names] == pytest.approx(list(fc.by_arm))
+    assert all(fc.time <= t <= fc.time + 2.0 for t in fc.by_arm)
 
 
 @pytest.mark.parametrize("user, password", [(None, None), ("eve", "pw-eve")])

@@ -19,7 +19,13 @@ hypothesis is paired with every rotation hypothesis, and the scan is the monitor
 
 The faces (:data:`loadarm.vocab.BANK_FACE_TABLE`): each arm's six swivel stops, and the clash of each pair of
 neighbouring arms (along the jetty) closer than the bank's ``clearance.min_clearance``. Their clearance is the
-compiled route (:func:`loadarm.arm.clearance.capsule_gaps`, held bit for bit to the vectorised one).
+compiled route (:func:`loadarm.arm.clearance.capsule_gaps`, held bit for bit to the vectorised one). With
+``own_faces`` (the default) each arm's own envelope (:data:`loadarm.vocab.FACE_TABLE`,
+:func:`loadarm.arm.faces.face_margins` on its flange) is scanned in the same pass, from the same hypotheses: an
+arm's time to limit is the nearest of its own faces, its swivels' and its clashes', one forecast (found: the
+served bank forecast the swivels and the clash only, each arm's own faces left to its set-angle alarms). The bank
+campaign turns it off: its arms' own faces come from the operability kernel's route (:mod:`loadarm.studies.
+bank_campaign`).
 
 The stage: :func:`loadarm.guidance.monitor.stage_leads` and :func:`loadarm.arm.sequence.stage_of` per arm (the
 emergency sequence written once); ESD-1 and ERS-2 act on every arm of the bank, so the bank's stage is the most
@@ -41,7 +47,8 @@ from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
 from loadarm.guidance.drift import FIT_PERIOD, DriftEstimate, DriftFit
 from loadarm.guidance.monitor import EnvelopeMonitor, first_crossing, measured_route, stage_leads
 from loadarm.params.bank import Bank
-from loadarm.vocab import CLASH_FACE, SWIVEL_FACE_TABLE, Severity
+from loadarm.arm.faces import face_margins
+from loadarm.vocab import CLASH_FACE, FACE_TABLE, SWIVEL_FACE_TABLE, Severity
 
 __all__ = ["BankMargins", "BankForecast", "BankMonitor", "neighbours"]
 
@@ -145,10 +152,12 @@ class BankMonitor:
         The scan's step and the bisection's resolution, s.
     period : float
         Sampling period of the fits, s.
+    own_faces : bool
+        Scan each arm's own envelope faces too (the module's text).
     """
 
     def __init__(self, bank: Bank, window: float = 60.0, k_sigma: float = 2.0, step: float = 2.0,
-                 resolution: float = 0.0625, period: float = FIT_PERIOD):
+                 resolution: float = 0.0625, period: float = FIT_PERIOD, own_faces: bool = True):
         self.bank = bank
         self.position = EnvelopeMonitor(_design_model(bank), window, k_sigma, step, resolution, period)
         self.rotation = DriftFit(window, period)
@@ -162,10 +171,14 @@ class BankMonitor:
         self.required = float(bank.file.clearance.min_clearance)
         self.pairs = neighbours(bank)
         names = bank.names
+        self.own_faces = own_faces
+        own = FACE_TABLE if own_faces else ()
         self.faces = tuple(f"{names[i]}:{f.name}" for i in range(len(names)) for f in SWIVEL_FACE_TABLE) + tuple(
-            f"{names[a]}/{names[b]}:{CLASH_FACE.name}" for a, b in self.pairs)
+            f"{names[a]}/{names[b]}:{CLASH_FACE.name}" for a, b in self.pairs) + tuple(
+            f"{names[i]}:{f.name}" for i in range(len(names)) for f in own)
         # the arms each face concerns, for each arm's time
-        self._face_arms = [(i,) for i in range(len(names)) for _ in SWIVEL_FACE_TABLE] + list(self.pairs)
+        self._face_arms = ([(i,) for i in range(len(names)) for _ in SWIVEL_FACE_TABLE] + list(self.pairs)
+                           + [(i,) for i in range(len(names)) for _ in own])
 
     def reset(self) -> None:
         """A new connection: forget the history."""
@@ -256,17 +269,23 @@ class BankMonitor:
         return poses
 
     def _margins(self, centre, angles) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Every face's margin (swivels rad, then clash m less the required), shape (..., faces), and the closest
-        parts of each pair (..., pairs)."""
+        """Every face's margin in the order of :attr:`faces` (swivels rad, the clash m less the required, then with
+        ``own_faces`` each arm's own faces rad), shape (..., faces), and the closest parts of each pair
+        (..., pairs)."""
         angles = np.asarray(angles, dtype=float)
         rot = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], self.heading)
-        poses = self.arm_poses(centre, angles, rot)
-        cols = []
-        for q in poses:
-            sw = swivel_angles(q[..., 0], q[..., 1], q[..., 2], heading=self.heading, rotation=rot)
+        flanges = self.flanges(centre, angles, rot)
+        poses, cols, own = [], [], []
+        for i, model in enumerate(self.bank.models):
+            f = flanges[..., i, :]
+            q = inverse3d(model.arm, f[..., 0], f[..., 1], f[..., 2], check=False)
+            poses.append(np.stack([q.phi, q.alpha, q.beta], axis=-1))
+            sw = swivel_angles(q.phi, q.alpha, q.beta, heading=self.heading, rotation=rot)
             cols.append(swivel_margins(sw, self.limits))
+            if self.own_faces:
+                own.append(face_margins(model, f[..., 0], f[..., 1], f[..., 2], q=q))
         gaps, best = self.clearances(poses)
-        return np.concatenate(cols + [gaps - self.required], axis=-1), best
+        return np.concatenate(cols + [gaps - self.required] + own, axis=-1), best
 
     def clearances(self, poses) -> tuple[np.ndarray, np.ndarray]:
         """The clearance of each pair of neighbours at the arms' poses, whatever holds the arms (their flanges,
@@ -316,7 +335,7 @@ class BankMonitor:
         n = len(self.bank.names) * _N_SWIVEL
         n_parts = len(PARTS)
         parts = tuple((PARTS[int(k) // n_parts], PARTS[int(k) % n_parts]) for k in np.atleast_1d(best))
-        return BankMargins(m[:n].reshape(-1, _N_SWIVEL), m[n:] + self.required, parts)
+        return BankMargins(m[:n].reshape(-1, _N_SWIVEL), m[n:n + len(self.pairs)] + self.required, parts)
 
     def _outside(self, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Past a face at each hypothesis (T, K, 6: the centre, then roll, pitch, yaw), and every face's own past

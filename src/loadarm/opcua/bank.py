@@ -79,14 +79,16 @@ ARM_VARIABLES = (
     (f"SwivelMargin_{f.name}_deg", _DEG, (-360.0, 360.0), f"margin to the swivel's stop: {f.label}")
     for f in SWIVEL_FACE_TABLE) + (
     ("NearestClearance_m", _M, (-100.0, 200.0), "clearance to the nearest other arm (capsules, negative: overlap)"),
-    ("TimeToLimit_s", _S, (0.0, 3600.0), "the bank monitor's time to this arm's nearest bank face (its swivels' "
-                                         "stops, its clash with a neighbour; -1: none within the horizon)"),
+    ("TimeToLimit_s", _S, (0.0, 3600.0), "the bank monitor's time to this arm's nearest face (its own envelope's, "
+                                         "its swivels' stops, its clash with a neighbour; -1: none within the "
+                                         "horizon)"),
     ("ManifoldLoad", ("C62", "1", "one"), (-1.0, 100.0), "the arm's largest load on its presentation flange over its "
                                                         "allowable (-1: not yet computed)"),)
 #: Each arm's other variables: browse name, type, what it is.
 ARM_STATES = (("Mode", str, "the arm's mode (CONNECTED: every arm of this world is on its flange)"),
               ("AlarmStage", int, "the arm's stage: the more severe of its position alarm (the customer's angles) "
-                                  "and the bank monitor's (its time to a bank face against the sequence's leads)"),
+                                  "and the bank monitor's (its time to its nearest face against the sequence's "
+                                  "leads)"),
               ("AlarmStageText", str, "its words"),
               ("NearestArm", str, "the nearest other arm"),
               ("ManifoldLoadAlarm", bool, "the arm's manifold-load alarm (fault.manifold_load): a load past its "

@@ -392,7 +392,7 @@ def bank_run(bank: Bank, motion, reference, tables: list, seed: int, duration: f
     n_run = int(round(duration / BANK_PERIOD))
     centre = np.asarray(bank.file.manifold.position, dtype=float) + motion.position(t) - np.asarray(reference)
     angles = np.asarray(motion.orientation(t), dtype=float)
-    monitor = BankMonitor(bank)
+    monitor = BankMonitor(bank, own_faces=False)       # each arm's own faces: the kernel's route, below
     flanges = monitor.flanges(centre, angles)                                  # (n, arms, 3), each arm's frame
     per = [arm_record(bank.models[i], tables[i], np.ascontiguousarray(flanges[:, i])) for i in range(len(bank.names))]
     margins, _ = monitor._margins(centre[:n_run], angles[:n_run])

@@ -145,9 +145,13 @@ def test_an_arm_s_time_to_limit_is_its_own_faces_too_from_the_same_forecast(bank
     from loadarm.guidance.monitor import EnvelopeMonitor
     from loadarm.guidance.bank import _design_model
 
-    mon = BankMonitor(bank)
+    still = dataclasses.replace(bank, file=bank.file.model_copy(update={"swivels": bank.file.swivels.model_copy(
+        update={"design_yaw_rate_deg": 0.0})}))          # the single arm's monitor knows no rotation
+    mon = BankMonitor(still)
     c = np.asarray(bank.file.manifold.position)
     f = mon.time_to_limit(c, np.zeros(3), 65.0)
+    turning = BankMonitor(bank).time_to_limit(c, np.zeros(3), 65.0)      # the yaw's design floor: never later
+    assert all(a <= b + 1e-9 for a, b in zip(turning.by_arm, f.by_arm, strict=True)) and turning.time < f.time
     assert f.face == "beta_max" and f.stage == Severity.NORMAL
     flanges = mon.flanges(c, np.zeros(3))
     for i, model in enumerate(bank.models):
@@ -219,15 +223,24 @@ def test_the_bank_s_time_to_limit_is_never_later_than_the_sampled_truth(narrow, 
         assert f.time <= truth + 1e-9, (f, truth)
 
 
+def _still(bank):
+    """The bank without the swivels' design floor (its design yaw rate 0): the measured rotation alone."""
+    return dataclasses.replace(bank, file=bank.file.model_copy(update={"swivels": bank.file.swivels.model_copy(
+        update={"design_yaw_rate_deg": 0.0})}))
+
+
 def test_the_swivel_stage_is_monotone_in_its_margin(narrow):
     """The ship turning at 0.1 deg/s towards swivel 2's -25 deg stop (clockwise), its yaw now ever nearer it: the
     smaller the margin, the shorter the time to a face and never a less severe stage; near the stop the face is
-    swivel 2's and the stage at least ESD-1."""
+    swivel 2's and the stage at least ESD-1. (From 0 deg: at +5 deg the design floor's hypotheses, the rotation
+    held or turning either way, reach another face first, in 22 s, which the measured rotation turning away
+    from it never does; the floor's own test is below.)"""
     w = math.radians(-0.1)
     c0 = np.asarray(narrow.file.manifold.position, dtype=float)
     stages, times, margins = [], [], []
-    for yaw_now_deg in (5.0, 0.0, -5.0, -10.0, -15.0, -20.0):
-        mon = BankMonitor(narrow)
+    still = _still(narrow)
+    for yaw_now_deg in (0.0, -5.0, -10.0, -15.0, -20.0):
+        mon = BankMonitor(still, own_faces=False)       # the swivels' and clash faces: the arms' own reach theirs
         yaw_now = math.radians(yaw_now_deg)
         _history(mon, c0, np.zeros(3), w, 60.0, yaw0=yaw_now - w * 60.0)
         f = mon.time_to_limit(c0, np.array([0.0, 0.0, yaw_now]), 65.0, now=60.0)
@@ -238,6 +251,26 @@ def test_the_swivel_stage_is_monotone_in_its_margin(narrow):
     assert all(a <= b for a, b in zip(stages, stages[1:], strict=False))
     assert all(a >= b for a, b in zip(times, times[1:], strict=False))
     assert stages[0] < stages[-1] and stages[-1] >= Severity.ESD1 and f.face == "swivel2_min"
+
+
+@settings(max_examples=examples(20), deadline=None)
+@given(yaw_deg=st.floats(-20.0, 20.0), rate=st.floats(0.05, 1.0))
+def test_the_swivels_design_floor_is_never_later_and_reaches_a_stop_the_held_rotation_does_not(narrow, yaw_deg,
+                                                                                            rate):
+    """No history (the design floors alone): with the design yaw turning either way at any rate, every arm's time
+    is never later than with the rotation held; and at a rate that turns the ship the whole way to a swivel 2 stop
+    within the horizon, a swivel face is reached where the held rotation reaches none. Found: the rotation had no
+    floor, so until the fit's 60 s window filled the swivels' time to limit assumed a ship that does not turn."""
+    c0 = np.asarray(narrow.file.manifold.position, dtype=float)
+    angles = np.array([0.0, 0.0, math.radians(yaw_deg)])
+    fast = dataclasses.replace(narrow, file=narrow.file.model_copy(update={"swivels": narrow.file.swivels.model_copy(
+        update={"design_yaw_rate_deg": rate})}))
+    held = BankMonitor(_still(narrow), own_faces=False).time_to_limit(c0, angles, 65.0)
+    turning = BankMonitor(fast, own_faces=False).time_to_limit(c0, angles, 65.0)
+    assert all(a <= b + 1e-9 for a, b in zip(turning.by_arm, held.by_arm, strict=True))
+    margin = np.nanmin(BankMonitor(narrow).margins(c0, angles).swivel[:, 2:4])       # swivel 2's, rad
+    if rate * 60.0 > math.degrees(margin) + 6.0 and held.face == "":
+        assert turning.face.startswith("swivel2") and turning.time < 65.0, (turning, held)
 
 
 def test_parts_are_named(bank):

@@ -12,8 +12,9 @@ drift fit of the manifold centre, the velocity-step and break-out tests, the des
 horizontal direction and the vertical, as :meth:`EnvelopeMonitor.routes` gives them; the ship's rotation is
 forecast by the same least-squares fit (:class:`loadarm.guidance.drift.DriftFit` on roll, pitch and yaw, and
 :func:`loadarm.guidance.monitor.measured_route`: extrapolated, widened by the wave excursion and ``k`` standard
-deviations, the eight corners of its box). The berth declares no design rotation, so the rotation has no design
-floor: until its window fills it is held at the angles now (a limit, stated in docs/bank.md). Every position
+deviations, the eight corners of its box), with a design floor beside it as the position has the design drift:
+the ship's yaw turning either way at the bank file's ``swivels.design_yaw_rate_deg`` from the angles now (roll and
+pitch held: the hull restores them); until the fit's window fills, the floor alone. Every position
 hypothesis is paired with every rotation hypothesis, and the scan is the monitor's own
 (:func:`loadarm.guidance.monitor.first_crossing`: 2 s steps, bisection to 1/16 s, early never late).
 
@@ -168,6 +169,7 @@ class BankMonitor:
         self.offsets = np.array([[0.0, f.offset, f.height] for f in bank.flanges])
         self.risers = np.array([[a.x, a.y, 0.0] for a in bank.file.arms])
         self.limits = bank.file.swivels.limits()
+        self.yaw_rate = math.radians(bank.file.swivels.design_yaw_rate_deg)
         self.required = float(bank.file.clearance.min_clearance)
         self.pairs = neighbours(bank)
         names = bank.names
@@ -348,12 +350,18 @@ class BankMonitor:
     # -------------------------------------------------------------------------------------------- the forecast
 
     def _rotation_route(self, angles_now, now: float | None):
-        """``tau`` to the rotation's hypotheses (T, R, 3): the fit's box corners, or the angles now held."""
+        """``tau`` to the rotation's hypotheses (T, R, 3): the design floor (the angles now, the yaw turning either
+        way at the design rate), and beside it the fit's box corners once there is a fit."""
+        held = np.asarray(angles_now, dtype=float)
+        turn = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]) * self.yaw_rate
+
+        def design(tau):
+            return held[None, None, :] + tau[:, None, None] * turn[None, :, :]
+
         if self.rot_est is None:
-            held = np.asarray(angles_now, dtype=float)
-            return lambda tau: np.broadcast_to(held, (tau.shape[0], 1, 3))
-        age = 0.0 if now is None else max(now - self.rot_t, 0.0)
-        return measured_route(self.rot_est, age, self.k)
+            return design
+        measured = measured_route(self.rot_est, 0.0 if now is None else max(now - self.rot_t, 0.0), self.k)
+        return lambda tau: np.concatenate([measured(tau), design(tau)], axis=1)
 
     @staticmethod
     def _paired(position, rotation):

@@ -231,6 +231,14 @@ class Swivels(Section):
     swivel3_deg: tuple[float, float] = param((-30.0, 30.0), unit="deg",
                                              source="example: a moored ship's pitch is a few degrees",
                                              description="swivel 3 (about the flange's normal) travel")
+    design_yaw_rate_deg: float = param(0.1, unit="deg/s", ge=0.0, le=5.0,
+                                       source="the shipped berth's break-out (breakout.toml, seeds 0-11): the "
+                                              "ship's yaw at the manifold, smoothed over 10 s, turned at up to "
+                                              "0.06 deg/s; rounded up. Roll and pitch are restored by the "
+                                              "hull: no design rate",
+                                       description="the swivels' design floor: the ship's yaw turning either way at "
+                                                   "this rate from the angles now, until and beside the fit of the "
+                                                   "measured rotation")
 
     @model_validator(mode="after")
     def _ordered(self) -> "Swivels":

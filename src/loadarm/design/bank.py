@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from loadarm.arm.actuators import cylinder_lengths
 from loadarm.arm.clearance import ClearanceResult, path_clearance
 from loadarm.arm.swivel import swivel_angles, swivel_margins
 from loadarm.design.plots import bank_order_figure
@@ -29,7 +30,11 @@ from loadarm.params.bank import Bank
 from loadarm.results import Metric, Result
 
 __all__ = ["bank_approaches", "check_bank_approaches", "BankOrder", "order_bank_approaches",
-           "design_swivel_margins"]
+           "design_swivel_margins", "approach_flows", "POWER_UNIT"]
+
+
+#: What an arm waits for when the duty pumps' flow, not a neighbour, holds it back.
+POWER_UNIT = "the power unit's flow"
 
 
 def design_swivel_margins(bank: Bank) -> np.ndarray:
@@ -132,7 +137,8 @@ class BankOrder(Result):
     waves : tuple of tuple of str
         The arms moving together, wave by wave (the first moves first).
     waits_for : tuple of (str, tuple of str)
-        Each arm of a later wave and the arms it would clash with, had it moved in an earlier wave.
+        Each arm of a later wave and the arms it would clash with, had it moved in an earlier wave, or
+        :data:`POWER_UNIT` when the earlier waves' oil left too little of the duty pumps' flow for it.
     alone, connected, together : ndarray (n, n) of float
         The smallest clearance of arm ``i``'s approach against arm ``j`` stowed, against it connected, and both
         approaching at once, m (diagonal NaN).
@@ -140,12 +146,17 @@ class BankOrder(Result):
         The whole schedule's.
     start_s, end_s : tuple of float
         When each arm's approach starts and ends in the schedule, s.
+    peak_flow : float
+        The schedule's largest draw of oil on the power unit, m^3/s (:func:`approach_flows` summed).
+    duty_flow : float
+        What the duty pumps deliver, m^3/s (``PowerUnit.duty_flow``): a wave takes no more arms than it allows.
     """
 
     METRICS = (
         Metric("moves_first", "moves first", ""),
         Metric("order", "approach order (waves)", ""),
         Metric("waits", "waits for", "", none="none"),
+        Metric("flow", "power unit, largest draw / duty pumps", ""),
     )
 
     names: tuple[str, ...]
@@ -157,6 +168,8 @@ class BankOrder(Result):
     clearance: ClearanceResult
     start_s: tuple[float, ...]
     end_s: tuple[float, ...]
+    peak_flow: float = 0.0
+    duty_flow: float = float("inf")
 
     def wave_of(self, name: str) -> int:
         """The wave an arm moves in (0: first).
@@ -174,7 +187,9 @@ class BankOrder(Result):
     def _values(self) -> dict:
         waits = "; ".join(f"{a} waits for {', '.join(b)}" for a, b in self.waits_for) or None
         return {"moves_first": ", ".join(self.waves[0]), "order": " -> ".join(" + ".join(w) for w in self.waves),
-                "waits": waits, "min_clearance_m": self.clearance.min_clearance, "clear": self.clearance.clear,
+                "waits": waits, "flow": f"{self.peak_flow * 6e4:.1f} / {self.duty_flow * 6e4:.1f} L/min",
+                "peak_flow_m3s": self.peak_flow, "duty_flow_m3s": self.duty_flow,
+                "min_clearance_m": self.clearance.min_clearance, "clear": self.clearance.clear,
                 "waves": [list(w) for w in self.waves], "waits_for": {a: list(b) for a, b in self.waits_for}}
 
     def _figure(self):
@@ -216,8 +231,39 @@ def _sequence(n: int, ok) -> list[int] | None:
     return extend([])
 
 
-def _fits(k: int, w: int, wave: dict[int, int], ok) -> bool:
-    """Arm ``k`` may move in wave ``w`` against every arm already placed."""
+def approach_flows(bank: Bank, t: np.ndarray, qs: list[np.ndarray]) -> np.ndarray:
+    """The oil each arm's approach draws from the power unit over its plan, m^3/s: its two cylinders' filling
+    chambers (the piston side extending, the annulus retracting; :func:`loadarm.design.check.cylinder_oil`'s rule,
+    per unit time).
+
+    Parameters
+    ----------
+    bank : Bank
+    t : ndarray, shape (n,)
+        s.
+    qs : list of ndarray, shape (n, 3)
+        Each arm's joints over ``t``, rad (every arm starting at 0: :func:`bank_approaches` all at once).
+
+    Returns
+    -------
+    ndarray, shape (arms, n)
+    """
+    out = np.zeros((len(qs), t.size))
+    for i, (model, q) in enumerate(zip(bank.models, qs, strict=True)):
+        r = np.array(cylinder_lengths(model.mount, q[:, 1], q[:, 2]), dtype=float)
+        v = np.gradient(r, t, axis=1)
+        piston, annulus = model.cylinder_area
+        out[i] = np.where(v > 0, piston * v, -annulus * v).sum(axis=0)
+    return out
+
+
+def _fits(k: int, w: int, wave: dict[int, int], ok, flows=None, duty: float = np.inf) -> bool:
+    """Arm ``k`` may move in wave ``w`` against every arm already placed, and the wave's arms' oil together stays
+    within the duty pumps' flow (the arms of a wave start together)."""
+    if flows is not None:
+        together_flow = flows[k] + sum((flows[m] for m, wm in wave.items() if wm == w), np.zeros_like(flows[k]))
+        if together_flow.max() > duty * (1.0 + 1e-9):
+            return False
     alone, connected, together = ok
     for m, wm in wave.items():
         if wm < w and not (alone[m, k] and connected[k, m]):
@@ -229,11 +275,11 @@ def _fits(k: int, w: int, wave: dict[int, int], ok) -> bool:
     return True
 
 
-def _waves(names, ok) -> tuple[list[list[int]], dict[int, list[int]]]:
+def _waves(names, ok, flows=None, duty: float = np.inf) -> tuple[list[list[int]], dict[int, list[int]]]:
     """The approaches in waves: a one-at-a-time order first (:func:`_sequence`), then each arm, in that order,
     in the earliest wave that keeps every pair's clearance with the arms already placed (the clearance is a
-    property of pairs: pairwise clear is clear); an arm of a later wave waits for the arms of earlier waves its
-    approach would clash with, stowed or moving with it."""
+    property of pairs: pairwise clear is clear) and the wave's oil within the duty pumps' flow; an arm of a later
+    wave waits for the arms of earlier waves its approach would clash with, stowed or moving with it."""
     alone, _, together = ok
     order = _sequence(len(names), ok)
     if order is None:
@@ -241,9 +287,14 @@ def _waves(names, ok) -> tuple[list[list[int]], dict[int, list[int]]]:
                         f"approach comes too close to another arm both stowed and connected")
     wave: dict[int, int] = {}
     for k in order:
-        wave[k] = next(w for w in range(max(wave.values(), default=-1) + 2) if _fits(k, w, wave, ok))
+        wave[k] = next(w for w in range(max(wave.values(), default=-1) + 2) if _fits(k, w, wave, ok, flows, duty))
     waves = [[i for i in order if wave[i] == w] for w in range(max(wave.values()) + 1)]
     waits = {k: [m for m in order if wave[m] < wave[k] and not (alone[k, m] and together[k, m])] for k in order}
+    if flows is not None:            # an arm the clearance would let move earlier waits for the power unit's oil
+        for k in order:
+            others = {m: wm for m, wm in wave.items() if m != k}
+            if any(_fits(k, w, others, ok) for w in range(wave[k])):
+                waits[k] = waits[k] + [-1]
     return waves, waits
 
 
@@ -271,15 +322,27 @@ def order_bank_approaches(bank: Bank, *, timing: str = "smooth", samples: int = 
     names = bank.names
     t, qs = bank_approaches(bank, timing=timing, samples=samples)
     need = bank.file.clearance.min_clearance
+    pu = bank.file.power_unit
+    flows = approach_flows(bank, t, qs)
+    peak = flows.max(axis=1)
+    if peak.max() > pu.duty_flow * (1.0 + 1e-9):
+        i = int(np.argmax(peak))
+        raise PathError(f"{bank.source}: power_unit: the duty pumps deliver {pu.duty_flow * 6e4:.1f} L/min "
+                        f"({pu.pumps - pu.standby_pumps} of pumps = {pu.pumps}, standby_pumps = {pu.standby_pumps}, "
+                        f"pump_flow = {pu.pump_flow * 6e4:.1f} L/min each); arm '{names[i]}''s approach alone draws "
+                        f"{peak[i] * 6e4:.1f} L/min at its peak: short by {(peak[i] - pu.duty_flow) * 6e4:.1f} L/min")
     alone, connected, together = _pair_clearances(bank, t, qs)
-    waves, waits = _waves(names, (alone >= need, connected >= need, together >= need))
+    waves, waits = _waves(names, (alone >= need, connected >= need, together >= need), flows, pu.duty_flow)
     named = tuple(tuple(names[i] for i in w) for w in waves)
     t2, qs2 = bank_approaches(bank, timing=timing, samples=samples, waves=named)
     schedule = path_clearance(bank.shapes, qs2, t2, required=need)
     if not schedule.clear:       # pairwise clear implies clear: a failure here is a bug, not an input
         raise AssertionError(f"the ordered approaches come too close: {schedule.where()}")
-    waits_for = tuple((names[i], tuple(names[j] for j in js)) for i, js in sorted(waits.items()) if js)
+    waits_for = tuple((names[i], tuple(names[j] if j >= 0 else POWER_UNIT for j in js))
+                      for i, js in sorted(waits.items()) if js)
     moving = [np.flatnonzero(np.any(np.diff(q, axis=0) != 0, axis=1)) for q in qs2]
     start = tuple(float(t2[m[0]]) if m.size else 0.0 for m in moving)
     end = tuple(float(t2[m[-1] + 1]) if m.size else 0.0 for m in moving)
-    return BankOrder(names, named, waits_for, alone, connected, together, schedule, start, end)
+    drawn = approach_flows(bank, t2, qs2).sum(axis=0)             # the schedule's draw on the power unit
+    return BankOrder(names, named, waits_for, alone, connected, together, schedule, start, end,
+                     float(drawn.max()), float(pu.duty_flow))

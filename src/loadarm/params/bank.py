@@ -107,6 +107,9 @@ class PowerUnit(Section):
 
     pumps: int = param(2, unit="1", ge=1, le=8, source="duty and standby (usual for a bank's HPU)",
                        description="number of pumps")
+    standby_pumps: int = param(1, unit="1", ge=0, le=7, source="duty and standby: one of the two kept in reserve "
+                                                               "(usual for a bank's HPU)",
+                               description="pumps kept in reserve: the approaches run on the others' flow")
     pump_flow: float = param(6.67e-4, unit="m^3/s", gt=0, le=0.1,
                              source="40 L/min each, a 15 kW pump (as the installation's [pump], engineering estimate)",
                              description="flow of one pump at full displacement")
@@ -144,8 +147,16 @@ class PowerUnit(Section):
                                    description="the coupler's release stroke at max_pressure (sizes its orifice in "
                                                "the release)")
 
+    @property
+    def duty_flow(self) -> float:
+        """The flow the duty pumps deliver (all but the standby), m^3/s."""
+        return (self.pumps - self.standby_pumps) * self.pump_flow
+
     @model_validator(mode="after")
     def _pressures(self) -> "PowerUnit":
+        if self.standby_pumps >= self.pumps:
+            raise ValueError(f"power_unit.standby_pumps = {self.standby_pumps} must be below pumps = {self.pumps}: "
+                             "valid range [0, pumps - 1]")
         if not (self.precharge_pressure < self.min_pressure < self.max_pressure):
             raise ValueError(
                 f"power_unit pressures must satisfy precharge_pressure ({self.precharge_pressure:g}) < min_pressure "

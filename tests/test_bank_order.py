@@ -175,3 +175,31 @@ def test_a_bank_no_order_can_serve_is_refused_in_one_line():
     with pytest.raises(PathError, match="no order of the approaches of A, B keeps the bank's clearance") as exc:
         _waves(("A", "B"), (no, no, no))
     assert "\n" not in str(exc.value)
+
+
+def test_the_swivels_over_the_flanging_area_and_the_ship_s_motions():
+    """`swivel_envelope`: at rest and undisplaced it is the design case's margins (`design_swivel_margins`, from the
+    poses the bank file was read with); the ship's motions and the flanging area take at most a few degrees off
+    the example's 30 deg (27.6 deg least, L1 and L3); the least is never more than any case's."""
+    from loadarm.design.bank import design_swivel_margins, swivel_envelope
+
+    bank = load_bank(EXAMPLE)
+    env = swivel_envelope(bank)
+    assert env.cases[0] == ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)) and len(env.cases) == 5 * 9
+    assert np.allclose(env.margins[0], design_swivel_margins(bank), atol=1e-9)
+    least, k, i, j = env.least()
+    assert np.degrees(least) == pytest.approx(27.63, abs=0.01) and bank.names[i] in ("L1", "L3")
+    assert least <= np.nanmin(env.margins) + 1e-15 and env.to_dict()["by_arm_deg"]["V1"] > np.degrees(least)
+
+
+def test_a_swivel_the_ship_s_pitch_takes_past_its_stop_is_refused_in_one_line(capsys, tmp_path):
+    """Swivel 3 given +-2 deg (the flange's normal): at rest 2 deg from its stops, but the terminal stays connected
+    up to PIANC's 2 deg of pitch, and at the flanging area's corners the arm's own geometry adds: refused naming
+    the arm, the swivel in the operator's words, where, by how much, and the key."""
+    narrow = tmp_path / "narrow.toml"
+    narrow.write_text(EXAMPLE.read_text().replace('"../full.toml"', f'"{FULL}"').replace(
+        "swivel3_deg = [-30.0, 30.0]", "swivel3_deg = [-2.0, 2.0]"))
+    assert main(["check", "--bank", str(narrow)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "coupler swivel 3 at its limit" in err and "past its stop by" in err
+    assert "swivels.swivel3_deg = [-2.0, 2.0] deg" in err and "[operability] roll, pitch and yaw limits" in err

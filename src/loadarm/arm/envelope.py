@@ -29,6 +29,7 @@ __all__ = [
     "zone_radii",
     "BerthBox",
     "berth_box",
+    "flanging_x_far",
 ]
 
 
@@ -112,6 +113,21 @@ class BerthBox:
             ("farthest reach, highest flange", self.x_far, self.y_high),
             ("farthest reach, lowest flange (first-alarm corner)", self.x_far, self.y_low),
         ]
+
+
+def flanging_x_far(ds) -> float:
+    """The flanging area's far edge, where the arm must still connect: the datasheet's ``A + B + D``, m (the box's
+    ``x_far`` adds the drift allowance ``E`` beyond it).
+
+    Parameters
+    ----------
+    ds : datasheet
+
+    Returns
+    -------
+    float
+    """
+    return ds.A + ds.B + ds.D
 
 
 def berth_box(ds) -> BerthBox:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -19,7 +20,7 @@ from loadarm.cli.common import (
     print_json,
     read_model,
 )
-from loadarm.design.bank import design_swivel_margins, order_bank_approaches
+from loadarm.design.bank import design_swivel_margins, order_bank_approaches, swivel_envelope
 from loadarm.design.check import design_check
 from loadarm.design.manifold import LOAD_LABELS, check_manifold_loads
 from loadarm.figures import save
@@ -82,7 +83,8 @@ def check(
 
 
 def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> None:
-    """``loadarm check --bank``: clearance along the approaches, swivel margins at the design case, the release."""
+    """``loadarm check --bank``: clearance along the approaches and their order, the swivels' margins at the design
+    case and over the flanging area and the ship's motions, the manifold loads, the release."""
     check_outputs({"--png": png}, [path], force)
     bank = load_bank(path)
     order = order_bank_approaches(bank)           # the approaches in the order that keeps the clearance
@@ -91,6 +93,13 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     if not clearance.clear:
         raise UserError(f"{path}: the arms' approaches come {clearance.where()}, below clearance.min_clearance = "
                         f"{clearance.required:g} m")
+    swivels = swivel_envelope(bank)
+    least, k, i, j = swivels.least()
+    if least < 0.0:
+        key = f"swivel{j // 2 + 1}_deg"
+        raise UserError(f"{path}: {swivels.words(k, i, j)}: past its stop by {math.degrees(-least):.1f} deg; "
+                        f"swivels.{key} = {list(getattr(bank.file.swivels, key))} deg (the flanging area's corners "
+                        "and the terminal's [operability] roll, pitch and yaw limits)")
     loads = check_manifold_loads(bank)
     if not loads.ok:
         raise UserError(_overload(path, loads.exceeded))
@@ -106,19 +115,22 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
                     "release": release.to_dict(),
                     "manifold_loads": loads.to_dict(),
                     "swivel_margin_deg": {n: float(np.degrees(margins[i].min())) for i, n in enumerate(names)},
+                    "swivel_envelope": swivels.to_dict(),
                     "nearest_arm_m": dict(zip(names, nearest, strict=True))})
         return
     out.print(f"{path}: {bank.file.bank.name}: {len(names)} arms, pass")
     out.print(str(clearance.summary()))
     out.print(str(order.summary()))
+    out.print(str(swivels.summary()))
     out.print(str(loads.summary()))
     out.print(str(release.summary()))
     use = loads.utilisation.max(axis=1)
-    t = Table("arm", "nearest arm on approach m", "swivel margin deg", "flange load / allowable",
+    t = Table("arm", "nearest arm on approach m", "swivel margin deg rest/ship moving", "flange load / allowable",
               *(f"{s} took s (limit)" for s in STEPS[:2]), "clear at s")
+    moving = np.degrees(swivels.by_arm())
     for i, n in enumerate(names):
         st = [s for s in release.steps if s.arm == i]
-        t.add_row(n, f"{nearest[i]:.2f}", f"{np.degrees(margins[i].min()):.1f}", f"{use[i]:.2f}",
+        t.add_row(n, f"{nearest[i]:.2f}", f"{np.degrees(margins[i].min()):.1f}/{moving[i]:.1f}", f"{use[i]:.2f}",
                   *(f"{release.end[i, j] - release.start[i, j]:.2f} ({st[j].limit:g})" for j in range(2)),
                   f"{release.end[i, 2]:.2f}")
     out.print(t)

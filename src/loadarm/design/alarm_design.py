@@ -42,7 +42,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.stats import gumbel_r
 
-from loadarm.arm.envelope import berth_box
+from loadarm.arm.envelope import berth_box, flanging_x_far
 from loadarm.arm.faces import (
     FACE_LABELS,
     FACES,
@@ -682,7 +682,7 @@ def design_from_analysis(model, analysis: MooringAnalysis, settings: DesignSetti
     lead1 = esd_lead(seq)
     t_rel = valve_worst_time(seq)
     t_free = t_rel + seq.erc_release_time + seq.margin
-    box, x_conn_far = berth_box(model.datasheet), _x_conn_far(model.datasheet)
+    box, x_conn_far = berth_box(model.datasheet), flanging_x_far(model.datasheet)
     fx, _, fz = flange
     intact, broken, bt, mean_offset = analysis.intact, analysis.broken, analysis.breakout_t, analysis.mean_offset
     warnings = list(warnings)
@@ -721,11 +721,6 @@ def design_from_analysis(model, analysis: MooringAnalysis, settings: DesignSetti
                        model.arm, model.joint_limits, settings.exceedance_per_hour, stages)
 
 
-def _x_conn_far(ds) -> float:
-    """The flanging area's far edge: the datasheet's A + B + D."""
-    return ds.A + ds.B + ds.D
-
-
 def flanging_corners(model, ship, flange) -> tuple[list, list]:
     """The flanging area's corners (and the nominal flange) inside the attached envelope, and a warning for each
     outside it; refuses when none is inside. Along the berth the area is the berth's manifold tolerance either
@@ -749,7 +744,7 @@ def flanging_corners(model, ship, flange) -> tuple[list, list]:
     ConfigError
         No corner nor the nominal flange lies inside the attached envelope.
     """
-    box, x_conn_far = berth_box(model.datasheet), _x_conn_far(model.datasheet)
+    box, x_conn_far = berth_box(model.datasheet), flanging_x_far(model.datasheet)
     fx, fy, fz = flange
     tol = ship.manifold_tolerance
     candidates = [np.array([x, fy + y, z]) for x in (box.x_near, x_conn_far) for z in (box.y_low, box.y_high)

@@ -16,21 +16,25 @@ that cannot waits for the arms it would clash with. The schedule is checked as a
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from loadarm.arm.actuators import cylinder_lengths
+from loadarm.arm.envelope import berth_box, flanging_x_far
 from loadarm.arm.clearance import ClearanceResult, path_clearance
-from loadarm.arm.swivel import swivel_angles, swivel_margins
+from loadarm.arm.slew import inverse3d
+from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
 from loadarm.design.plots import bank_order_figure
 from loadarm.design.trajectory import plan_approach_3d
 from loadarm.errors import PathError
 from loadarm.params.bank import Bank
 from loadarm.results import Metric, Result
+from loadarm.vocab import SWIVEL_FACE_TABLE
 
 __all__ = ["bank_approaches", "check_bank_approaches", "BankOrder", "order_bank_approaches",
-           "design_swivel_margins", "approach_flows", "POWER_UNIT"]
+           "design_swivel_margins", "approach_flows", "POWER_UNIT", "SwivelEnvelope", "swivel_envelope"]
 
 
 #: What an arm waits for when the duty pumps' flow, not a neighbour, holds it back.
@@ -53,6 +57,96 @@ def design_swivel_margins(bank: Bank) -> np.ndarray:
     q = bank.connected
     heading = np.radians(bank.file.manifold.heading_deg)
     return swivel_margins(swivel_angles(q[:, 0], q[:, 1], q[:, 2], heading=heading), bank.file.swivels.limits())
+
+
+@dataclass(frozen=True)
+class SwivelEnvelope(Result):
+    """The swivels' margins over the manifold's flanging area and the ship's rotation while connected.
+
+    Attributes
+    ----------
+    names : tuple of str
+    cases : tuple of (tuple of float, tuple of float)
+        Each case: the manifold's displacement from its design position (m: the flanging area's corners, the
+        datasheet's near and far connecting edges ``A + B + C`` and ``A + B + D`` at its lowest and highest
+        flange, and no displacement) and the ship's roll, pitch and yaw (deg: every sign of the terminal's
+        ``[operability]`` limits, and none).
+    margins : ndarray, shape (cases, arms, 6)
+        rad (NaN: that arm cannot reach its flange there; its own faces' matter, :mod:`loadarm.design.check`).
+    """
+
+    METRICS = (
+        Metric("least_deg", "swivel margin, least over the flanging area and the ship's motions", "deg", ".1f"),
+        Metric("where", "which, where", ""),
+    )
+
+    names: tuple[str, ...]
+    cases: tuple
+    margins: np.ndarray
+
+    def least(self) -> tuple[float, int, int, int]:
+        """The least margin (rad) and its case, arm and face (index into :data:`loadarm.vocab.SWIVEL_FACE_TABLE`).
+
+        Returns
+        -------
+        tuple
+        """
+        m = np.where(np.isnan(self.margins), np.inf, self.margins)
+        k, i, j = np.unravel_index(int(np.argmin(m)), m.shape)
+        return float(m[k, i, j]), int(k), int(i), int(j)
+
+    def by_arm(self) -> np.ndarray:
+        """Each arm's least margin over the cases, rad."""
+        return np.nanmin(self.margins, axis=(0, 2))
+
+    def words(self, k: int, i: int, j: int) -> str:
+        """Case ``k``, arm ``i``, face ``j`` in words."""
+        (d, rpy) = self.cases[k]
+        return (f"arm '{self.names[i]}' {SWIVEL_FACE_TABLE[j].words}, manifold moved by ({d[0]:+.2f}, {d[1]:+.2f}, "
+                f"{d[2]:+.2f}) m, ship at roll {rpy[0]:+g}, pitch {rpy[1]:+g}, yaw {rpy[2]:+g} deg")
+
+    def _values(self) -> dict:
+        least, k, i, j = self.least()
+        return {"least_deg": math.degrees(least), "where": self.words(k, i, j),
+                "by_arm_deg": {n: math.degrees(float(v)) for n, v in zip(self.names, self.by_arm(), strict=True)}}
+
+
+def swivel_envelope(bank: Bank) -> SwivelEnvelope:
+    """The swivels' margins where the ship may be presented and how it may move while connected: the manifold at
+    each corner of the flanging area (the first arm's datasheet, about its design flange: one manifold, one box),
+    the ship at every sign of the terminal's roll, pitch and yaw limits (the first installation's
+    ``[operability]``, PIANC's for gas tankers: beyond them the terminal disconnects) and at rest.
+
+    Parameters
+    ----------
+    bank : Bank
+
+    Returns
+    -------
+    SwivelEnvelope
+    """
+    model = bank.models[0]
+    box = berth_box(model.datasheet)
+    fx, fz = model.approach.flange
+    moves = [(0.0, 0.0, 0.0)] + [(x - fx, 0.0, z - fz) for x in (box.x_near, flanging_x_far(model.datasheet))
+                                 for z in (box.y_low, box.y_high)]
+    op = bank.installations[0].operability
+    rots = [(0.0, 0.0, 0.0)] + [(r, p, y) for r in (-op.roll_limit_deg, op.roll_limit_deg)
+                                for p in (-op.pitch_limit_deg, op.pitch_limit_deg)
+                                for y in (-op.yaw_limit_deg, op.yaw_limit_deg)]
+    cases = tuple((d, r) for d in moves for r in rots)
+    centre = np.asarray(bank.file.manifold.position, dtype=float)
+    centres = np.array([centre + np.asarray(d) for d, _ in cases])
+    angles = np.radians(np.array([r for _, r in cases], dtype=float))
+    heading = math.radians(bank.file.manifold.heading_deg)
+    rot = ship_rotation(angles[:, 0], angles[:, 1], angles[:, 2], heading)
+    flanges = bank.flanges_at(centres, angles, rot)                               # (cases, arms, 3)
+    out = np.empty((len(cases), len(bank.names), len(SWIVEL_FACE_TABLE)))
+    for i, m in enumerate(bank.models):
+        q = inverse3d(m.arm, flanges[:, i, 0], flanges[:, i, 1], flanges[:, i, 2], check=False)
+        out[:, i] = swivel_margins(swivel_angles(q.phi, q.alpha, q.beta, heading=heading, rotation=rot),
+                                   bank.file.swivels.limits())
+    return SwivelEnvelope(bank.names, cases, out)
 
 
 def bank_approaches(bank: Bank, *, order: tuple[str, ...] | None = None, timing: str = "smooth",

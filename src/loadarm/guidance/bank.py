@@ -166,8 +166,6 @@ class BankMonitor:
         self.rot_t = math.nan
         self.k = k_sigma
         self.heading = math.radians(bank.file.manifold.heading_deg)
-        self.offsets = np.array([[0.0, f.offset, f.height] for f in bank.flanges])
-        self.risers = np.array([[a.x, a.y, 0.0] for a in bank.file.arms])
         self.limits = bank.file.swivels.limits()
         self.yaw_rate = math.radians(bank.file.swivels.design_yaw_rate_deg)
         self.required = float(bank.file.clearance.min_clearance)
@@ -241,10 +239,7 @@ class BankMonitor:
         ndarray, shape (..., n_arms, 3)
             m.
         """
-        centre, angles = np.asarray(centre, dtype=float), np.asarray(angles, dtype=float)
-        rot = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], self.heading) if rotation is None \
-            else rotation
-        return centre[..., None, :] + np.einsum("...ij,aj->...ai", rot, self.offsets) - self.risers
+        return self.bank.flanges_at(centre, angles, rotation)
 
     def arm_poses(self, centre, angles, rotation=None) -> list:
         """Each arm's joints at manifold poses: the inverse kinematics of its flange (NaN out of reach).

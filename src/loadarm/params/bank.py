@@ -28,6 +28,7 @@ from pydantic import BaseModel, Field, ValidationError, model_validator
 from loadarm.arm.clearance import PARTS, ArmShape, pair_clearance
 from loadarm.arm.model import ArmModel
 from loadarm.arm.slew import inverse3d
+from loadarm.arm.swivel import ship_rotation
 from loadarm.errors import ConfigError, UnreachableError
 from loadarm.files import read_toml
 from loadarm.params.compiler import compile_model
@@ -348,6 +349,33 @@ class Bank:
     def names(self) -> tuple[str, ...]:
         """The arms' names."""
         return tuple(a.name for a in self.file.arms)
+
+    def flanges_at(self, centre, angles, rotation=None) -> np.ndarray:
+        """Each arm's flange in its own frame at manifold poses: the centre, plus the flange's offset and height
+        turned with the ship (:func:`loadarm.arm.swivel.ship_rotation`, the ship's heading), less the arm's
+        riser. The one place of this formula (the bank's monitor, world, campaign and checks call it).
+
+        Parameters
+        ----------
+        centre : array_like, shape (..., 3)
+            The manifold's centre, bank frame, m.
+        angles : array_like, shape (..., 3)
+            Roll, pitch, yaw, rad.
+        rotation : ndarray, shape (..., 3, 3), optional
+            Their rotation, if already computed.
+
+        Returns
+        -------
+        ndarray, shape (..., n_arms, 3)
+            m.
+        """
+        centre, angles = np.asarray(centre, dtype=float), np.asarray(angles, dtype=float)
+        if rotation is None:
+            rotation = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2],
+                                     math.radians(self.file.manifold.heading_deg))
+        offsets = np.array([[0.0, f.offset, f.height] for f in self.flanges])
+        risers = np.array([[a.x, a.y, 0.0] for a in self.file.arms])
+        return centre[..., None, :] + np.einsum("...ij,aj->...ai", rotation, offsets) - risers
 
     def flange_position(self, i: int) -> np.ndarray:
         """Arm ``i``'s flange at the manifold's design position, in the arm's own frame, m.

@@ -201,3 +201,37 @@ def test_the_flange_load_alarm_shows_and_an_operator_acknowledges_it(browser, st
             assert page.evaluate(_OUTSIDE) == [] and page.errors == []
         finally:
             ctx.close()
+
+
+def test_the_bank_s_alarm_list_shows_each_arm_s_stage_and_an_operator_acknowledges_it(browser, state):
+    """Found: the bank's screen had no alarm list (each arm's stage only in its table). With 2.0 m required between
+    arms that keep 1.8 m, every arm's clash is past: each arm's ERS-2 alarm (the most severe of its stage alarms;
+    the lower stages of the same escalation suppressed) is listed, critical (its colour with its shape and name),
+    unacknowledged; a click acknowledges every alarm on the server and the list then says so."""
+    from loadarm.testing.bank_screen import bank_screen, bank_world
+
+    world = bank_world(BANK, SCENARIO, min_clearance=2.0)
+    with bank_screen(world, state.path, speedup=2.0) as (service, server):
+        ctx, page = _sized(browser, 1366, 768)
+        try:
+            log_in(page, server.url, "alice", "pw-alice")
+            wait_for(page, "hmi.frame && hmi.frame.alarms.length === 4", timeout=20.0, what="four arms' alarms")
+            rows = page.evaluate("[...document.querySelectorAll('#alarms tbody tr')].map((tr) => [tr.className, "
+                                 "tr.querySelector('.prio').textContent, tr.querySelector('.msg').textContent, "
+                                 "tr.querySelector('.state .text').textContent])")
+            assert [r[2] for r in rows] == [f"{n}: ERS-2: release of the coupler" for n in ("L1", "L2", "V1", "L3")]
+            assert all(r[0] == "alarm p1 unacknowledged" and r[1] == "critical" and r[3] == "unacknowledged"
+                       for r in rows), rows
+            colour = page.evaluate("getComputedStyle(document.querySelector('#alarms tr.p1 .prio span'))"
+                                   ".backgroundColor")
+            assert colour == "rgb(212, 0, 0)"                           # --p1: an alarm's colour, for an alarm
+            assert page.evaluate("!$('ack-loads').hidden")
+            page.click("#ack-loads")
+            wait_for(page, "hmi.frame.alarms.every((a) => a.state === 'acknowledged')", timeout=10.0,
+                     what="the acknowledgement")
+            assert all(a.state.value == "acknowledged" for a in service.snapshot().alarms)
+            assert page.evaluate("$('ack-loads').hidden")
+            assert any("ERS-2: release of the coupler: arm L1" in n[2] for n in service.notes)
+            assert page.evaluate(_OUTSIDE) == [] and page.errors == []
+        finally:
+            ctx.close()

@@ -52,7 +52,7 @@ class Severity(enum.IntEnum):
 
 __all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "FACES", "FACE_LABELS", "FACE_WORDS",
            "SWIVEL_FACE_TABLE", "CLASH_FACE", "BANK_FACE_TABLE", "BANK_FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
-           "CONDITION_SEVERITY", "CONDITION_TEXT", "RESET_BLOCKING", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
+           "CONDITION_SEVERITY", "CONDITION_TEXT", "BANK_CONDITIONS", "condition_text", "RESET_BLOCKING", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
            "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES",
            "ROUTE_DESIGN", "ROUTE_MEASURED", "ROUTE_STEP", "ROUTE_BREAKOUT", "ROUTE_PREDICTION", "MEASURED_ROUTES",
@@ -216,13 +216,31 @@ CONDITIONS: tuple[Condition, ...] = (
     Condition("EVENT_LOG_FAULT", None, 500, "event log unavailable: events kept in memory until it returns",
               blocks_reset=False),
 )
-_BY_TAG = {c.tag: c for c in CONDITIONS}
+#: The bank's own annunciated alarm (its screen's list; a bank's stage alarms are :data:`CONDITIONS`' per arm).
+BANK_CONDITIONS: tuple[Condition, ...] = (
+    Condition("MANIFOLD_LOAD", None, 500, "a load on the ship's manifold past its allowable", blocks_reset=False),
+)
+_BY_TAG = {c.tag: c for c in CONDITIONS + BANK_CONDITIONS}
 #: The annunciated alarms' tags.
 ANNUNCIATED: tuple[str, ...] = tuple(c.tag for c in CONDITIONS)
 #: OPC UA severity (1-1000) of each annunciated alarm.
 CONDITION_SEVERITY: dict[str, int] = {c.tag: c.severity for c in CONDITIONS}
 #: What each annunciated alarm means.
 CONDITION_TEXT: dict[str, str] = {c.tag: c.text for c in CONDITIONS}
+def condition_text(tag: str) -> str:
+    """What an annunciated alarm means (:data:`CONDITIONS` or :data:`BANK_CONDITIONS`).
+
+    Parameters
+    ----------
+    tag : str
+
+    Returns
+    -------
+    str
+    """
+    return _BY_TAG[tag].text
+
+
 #: The alarms an ESD-1 reset waits for.
 RESET_BLOCKING: tuple[str, ...] = tuple(c.tag for c in CONDITIONS if c.blocks_reset)
 
@@ -233,7 +251,7 @@ def priority(tag: str) -> tuple[int, str]:
     Parameters
     ----------
     tag : str
-        One of :data:`ANNUNCIATED`.
+        One of :data:`ANNUNCIATED` or :data:`BANK_CONDITIONS`' tags.
 
     Returns
     -------

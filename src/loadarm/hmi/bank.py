@@ -27,7 +27,7 @@ from loadarm.hmi.sessions import COOKIE
 from loadarm.hmi.state import ship_outline
 from loadarm.opcua.bank import BankSnapshot
 from loadarm.params.berth import BerthSection
-from loadarm.vocab import BANK_FACE_WORDS, COMMANDS, FACE_WORDS, FACES, SWIVEL_FACE_TABLE
+from loadarm.vocab import BANK_FACE_WORDS, COMMANDS, FACE_WORDS, FACES, SWIVEL_FACE_TABLE, condition_text, priority
 
 __all__ = ["BANK_COMMANDS", "bank_geometry", "bank_frame", "create_bank_app"]
 
@@ -79,7 +79,7 @@ def bank_geometry(bank, berth=None) -> dict:
 
 
 def _arm_frame(snap: BankSnapshot, i: int) -> dict:
-    """One arm in a frame: its capsules, flange, joints, stage, nearest neighbour, time to a bank face and least
+    """One arm in a frame: its capsules, flange, joints, stage, nearest neighbour, time to its nearest face (its own, a swivel's, a clash) and least
     margins."""
     state = snap.state
     k = state.nearest_of(i)
@@ -111,6 +111,13 @@ def _load_frame(snap: BankSnapshot, i: int) -> dict:
             "active": bool(loads.active[i]), "state": loads.states[i].value}
 
 
+def _alarm(a) -> dict:
+    """One line of the alarm list, as the arm's screen draws its own (:class:`loadarm.hmi.state.AlarmEntry`)."""
+    rank, name = priority(a.tag)
+    return {"tag": a.code, "message": f"{a.arm}: {condition_text(a.tag)}", "priority": rank, "priority_name": name,
+            "state": a.state.value, "raised_at": _r(a.raised_at, 1)}
+
+
 def bank_frame(snap: BankSnapshot, *, sent_at: float) -> dict:
     """A frame of the bank's screen (JSON-ready): every arm, the nearest clash, the ship's motion.
 
@@ -134,6 +141,7 @@ def bank_frame(snap: BankSnapshot, *, sent_at: float) -> dict:
                          "arms": list(fc.arms) if fc is not None else []},
             "clash": {"arms": clash["arms"], "parts": clash["parts"], "clearance": _r(clash["clearance"], 3),
                       "abnormal": clash["abnormal"], "points": [[_r(v) for v in p] for p in clash["points"]]},
+            "alarms": [_alarm(a) for a in snap.alarms],
             "required": st.required, "manifold": [_r(v) for v in st.manifold],
             "ship_deg": [_r(math.degrees(v), 3) for v in st.ship_angles],
             "stage": max(int(snap.stage(i)) for i in range(len(st.names)))}

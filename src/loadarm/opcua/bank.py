@@ -26,17 +26,19 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 
 from loadarm import __version__
+from loadarm.arm.alarms import AlarmState, next_alarm_state
 from loadarm.guidance.bank import BankForecast, BankMonitor
 from loadarm.guidance.manifold_alarm import ManifoldLoadAlarm, ManifoldLoadStatus
 from loadarm.guidance.monitor import stage_leads
 from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, unece_unit_id
 from loadarm.sim.bank import BankState, BankWorld
-from loadarm.vocab import EVENTS, FACE_LABELS, SWIVEL_FACE_TABLE, Severity
+from loadarm.vocab import CONDITIONS, EVENTS, FACE_LABELS, SWIVEL_FACE_TABLE, Severity, priority
 
 __all__ = [
     "ARM_STATES",
@@ -136,6 +138,37 @@ def bank_address_space_markdown() -> str:
     return "\n".join(rows) + "\n"
 
 
+#: Each arm's stage alarms: one per stage condition (the single arm's, :data:`loadarm.vocab.CONDITIONS`).
+STAGE_CONDITIONS = tuple(c for c in CONDITIONS if c.stage is not None)
+_STAGE_RANK = {c.tag: int(c.stage) for c in STAGE_CONDITIONS}
+
+
+@dataclass(frozen=True)
+class BankAlarm:
+    """One line of the bank's alarm list: an arm's stage alarm or its manifold-load alarm, in its ISA-18.2 state.
+
+    Attributes
+    ----------
+    arm : str
+    tag : str
+        :data:`STAGE_CONDITIONS`' or :data:`loadarm.vocab.BANK_CONDITIONS`' (``MANIFOLD_LOAD``).
+    state : AlarmState
+        Not normal.
+    raised_at : float
+        World time it became active, s.
+    """
+
+    arm: str
+    tag: str
+    state: AlarmState
+    raised_at: float
+
+    @property
+    def code(self) -> str:
+        """``<arm>:<tag>``, the line's key."""
+        return f"{self.arm}:{self.tag}"
+
+
 @dataclass(frozen=True)
 class BankSnapshot:
     """One published state of the bank.
@@ -151,6 +184,8 @@ class BankSnapshot:
         The bank monitor's latest forecast (:class:`loadarm.guidance.bank.BankMonitor`; None before the first).
     loads : ManifoldLoadStatus or None
         Each arm's manifold load and its alarm (:class:`loadarm.guidance.manifold_alarm.ManifoldLoadAlarm`).
+    alarms : tuple of BankAlarm
+        The alarms not normal, the most urgent first, then the oldest.
     """
 
     seq: int
@@ -158,6 +193,7 @@ class BankSnapshot:
     state: BankState
     forecast: BankForecast | None = None
     loads: ManifoldLoadStatus | None = None
+    alarms: tuple = ()
 
     def stage(self, i: int) -> Severity:
         """Arm ``i``'s stage: the more severe of its position alarm and the bank monitor's.
@@ -285,6 +321,10 @@ class BankService:
         self._ack = threading.Event()
         #: Events from outside (refused logins), with the time they came: this world keeps no event log.
         self.notes: deque[tuple[float, str, str, dict]] = deque(maxlen=NOTES_KEPT)
+        #: Each (arm, stage condition) not normal: its ISA-18.2 state and when it rose.
+        self._stage_alarms: dict[tuple[int, str], tuple[AlarmState, float]] = {}
+        #: When each arm's manifold-load alarm last rose, s.
+        self._load_raised = [math.nan] * len(world.bank.names)
 
     @property
     def bank(self):
@@ -311,9 +351,46 @@ class BankService:
         """The operator acknowledged every alarm (the bank's screen): applied at the next state."""
         self._ack.set()
 
+    def _annunciate(self, snap: BankSnapshot, acknowledge: bool) -> tuple:
+        """The stage alarms' ISA-18.2 states at this state (each arm's stage against each stage condition), each
+        rise and clear a note, and the alarm list: each arm's most severe stage alarm not normal and its
+        manifold-load alarm, the most urgent first, then the oldest."""
+        t = snap.state.t
+        for i, name in enumerate(self.bank.names):
+            stage = snap.stage(i)
+            for c in STAGE_CONDITIONS:
+                old, since = self._stage_alarms.get((i, c.tag), (AlarmState.NORMAL, math.nan))
+                active = stage >= c.stage
+                new = next_alarm_state(old, active, acknowledge)
+                if old == AlarmState.NORMAL and new != AlarmState.NORMAL:
+                    since = t
+                if active != (old in (AlarmState.UNACKED, AlarmState.ACKED)):
+                    self.note("alarm", f"{c.text}{'' if active else ' cleared'}: arm {name}",
+                              {"arm": name, "tag": c.tag, "active": active, "t": t})
+                if new == AlarmState.NORMAL:
+                    self._stage_alarms.pop((i, c.tag), None)
+                else:
+                    self._stage_alarms[(i, c.tag)] = (new, since)
+        # one line an arm: its most severe stage alarm not normal (the lower stages of the same escalation are
+        # suppressed by design, ISA-18.2's state-based suppression: four arms would otherwise list sixteen)
+        top: dict[int, tuple] = {}
+        for (i, tag), (st, since) in self._stage_alarms.items():
+            rank = _STAGE_RANK[tag]
+            if i not in top or rank > top[i][0]:
+                top[i] = (rank, tag, st, since)
+        out = [BankAlarm(self.bank.names[i], tag, st, since) for i, (_, tag, st, since) in sorted(top.items())]
+        if snap.loads is not None:
+            out += [BankAlarm(name, "MANIFOLD_LOAD", st, self._load_raised[i])
+                    for i, (name, st) in enumerate(zip(self.bank.names, snap.loads.states, strict=True))
+                    if st != AlarmState.NORMAL]
+        order = {n: i for i, n in enumerate(self.bank.names)}
+        return tuple(sorted(out, key=lambda a: (priority(a.tag)[0], a.raised_at, order[a.arm])))
+
     def _load_events(self, status: ManifoldLoadStatus) -> None:
         """Each manifold-load alarm that rose or cleared, as an event (this world keeps no event log)."""
         for e in status.events:
+            if e["active"]:
+                self._load_raised[self.bank.names.index(e["arm"])] = float(e["t"])
             word = "" if e["active"] else " cleared"
             self.note("alarm", f"{EVENTS[e['code']].label}{word}: arm {e['arm']}, {e['load']} at "
                                f"{e['utilisation']:.2f} of its allowable", dict(e))
@@ -335,6 +412,7 @@ class BankService:
             self.monitor.reset()
             self._forecast = None
             self.loads = ManifoldLoadAlarm(self.world.bank)
+            self._stage_alarms.clear()
         self._observed = state.t
         if self.monitor.observe(state.t, state.manifold, state.ship_angles):
             self.monitor.refit()
@@ -346,6 +424,7 @@ class BankService:
         loads = self.loads.step(state.t, displacement, state.ship_angles, wind=self.world.wind, acknowledge=acked)
         self._load_events(loads)
         snap = BankSnapshot(k, self.wall(), state, self._forecast, loads)
+        snap = dataclasses.replace(snap, alarms=self._annunciate(snap, bool(acked)))
         self._snapshot = snap
         return snap
 

@@ -49,6 +49,7 @@ function onFrame(f) {
   if (!bank.views) { bank.views = scales(f); }
   drawTiles(f);
   drawTables(f);
+  drawAlarms(f);
   drawTop(f);
   drawSide(f);
 }
@@ -252,8 +253,30 @@ function loadText(l) {
   return `${LOAD_STATE[l.state] || "RTN"} ${share}`;
 }
 
+// ISA-18.2's list, as the arm's screen: each arm's stage alarms and manifold-load alarm not normal, the most urgent
+// first, then the oldest; the priority's colour with its shape and name, an unacknowledged one's indicator blinking
+function drawAlarms(f) {
+  const key = JSON.stringify(f.alarms.map((a) => [a.tag, a.state]));
+  if (key === bank.alarmKey) { return; }
+  bank.alarmKey = key;
+  const tbody = document.querySelector("#alarms tbody");
+  tbody.replaceChildren();
+  for (const a of f.alarms) {
+    const tr = document.createElement("tr");
+    tr.className = `alarm p${a.priority} ${a.state.startsWith("returned") ? "rtn unacknowledged" : a.state}`;
+    tr.dataset.tag = a.tag;
+    tr.innerHTML = "<td class=prio><span></span></td><td class=time></td><td class=msg></td>" +
+                   "<td class=state><span class=ind></span><span class=text></span></td>";
+    tr.querySelector(".prio span").textContent = a.priority_name;
+    tr.querySelector(".time").textContent = a.raised_at === null ? "-" : `${a.raised_at.toFixed(1)} s`;
+    tr.querySelector(".msg").textContent = a.message;
+    tr.querySelector(".state .text").textContent = a.state;
+    tbody.appendChild(tr);
+  }
+}
+
 function drawTables(f) {
-  const unacked = f.arms.some((a) => a.load.state === "unacknowledged" || a.load.state.startsWith("returned"));
+  const unacked = f.alarms.some((a) => a.state === "unacknowledged" || a.state.startsWith("returned"));
   $("ack-loads").hidden = !(unacked && bank.session.commands.includes("ack"));
   const arms = document.querySelector("#arms tbody"), margins = document.querySelector("#margins tbody");
   arms.replaceChildren();

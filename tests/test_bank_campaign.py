@@ -279,3 +279,27 @@ def test_a_bank_campaign_in_parts_is_the_campaign_at_once_and_its_runs_file_is_t
 
     with pytest.raises(ConfigError, match="another campaign"):
         RunsFile(runs, str(BREAKOUT), None, [])                                  # the single arm's campaign
+
+
+def test_the_bank_page_s_campaign_row_is_the_stored_campaign():
+    """docs/bank.md's campaign row is the stored campaign's own JSON (docs/campaigns/bank_breakout.json, with its
+    command, commit and date; its runs file beside it): 1000 seeds take about 20 minutes of both cores, stored,
+    not rerun here. ESD-1 before the lines part is counted against the scenario's own parting time."""
+    import json
+
+    repo = Path(__file__).resolve().parents[1]
+    rec = json.loads((repo / "docs" / "campaigns" / "bank_breakout.json").read_text(encoding="utf-8"))
+    v = rec["result"]
+    assert rec["command"].startswith("loadarm campaign --bank examples/banks/lng150k_bank.toml --scenario "
+                                     "examples/scenarios/breakout.toml --seeds 1000")
+    assert v["runs"] == 1000 and v["seeds"] == list(range(1000))
+    parts = load_scenario(BREAKOUT)[0].mooring_failure.time
+    before = sum(1 for t in v["esd1_s"] if t == t and t < parts)
+    m = v["margins_s"]
+    row = (f"| `lng150k_bank.toml`, `breakout.toml` | {v['runs']} | {v['arms']} | {v['overstretches']} | "
+           f"{v['overstretches_before_isolation']} | {v['opened_early']} | {v['clashes']} | {v['stopped']} | "
+           f"{before} | {v['releases']} | {m[0]:.2f} / {v['margin_p5_s']:.2f} / {v['margin_median_s']:.2f} / "
+           f"{m[-1]:.2f} | {v['min_clearance_m']:.3f} m | {v['min_swivel_margin_deg']:.1f} deg |")
+    page = (repo / "docs" / "bank.md").read_text(encoding="utf-8")
+    assert row in page, row
+    assert f"`{rec['commit']}`" in page

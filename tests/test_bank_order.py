@@ -121,13 +121,28 @@ def test_an_arm_whose_approach_clashes_with_a_stowed_neighbour_waits_for_it(stag
 
 
 @pytest.mark.slow
-def test_check_bank_shows_the_order(staggered, capsys):
-    """``loadarm check --bank`` prints who moves first and who waits, and gives them in its JSON."""
-    assert main(["check", "--bank", str(staggered)]) == 0
+def test_check_bank_shows_the_order(capsys):
+    """``loadarm check --bank`` prints who moves first and who waits, and gives them in its JSON, with the orders
+    to the flanging area's corners."""
+    assert main(["check", "--bank", str(EXAMPLE)]) == 0
     out = capsys.readouterr().out
-    assert "L2 waits for V1" in out and "L1 + V1 + L3 -> L2" in out
-    assert main(["check", "--bank", str(staggered), "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["approach_order"]["waits_for"] == {"L2": ["V1"]}
+    assert "V1 waits for the power unit's flow" in out and "L1 + L2 -> V1 + L3" in out
+    assert "approaches to the flanging area's corners: least clearance 1.800 m" in out
+    assert main(["check", "--bank", str(EXAMPLE), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["approach_order"]["waits_for"] == {"V1": ["the power unit's flow"], "L3": ["the power unit's flow"]}
+    assert len(d["approaches_over_flanging_area"]) == 5
+
+
+def test_check_bank_refuses_a_bank_one_arm_cannot_approach_at_a_corner(staggered, capsys):
+    """The staggered variant (V1's riser 5 m nearer the ship) orders its approaches at the design flanges, but at
+    the flanging area's near, low corner V1's flange would lie almost over its own riser: no straight approach
+    reaches it. Refused in one line naming the corner (found: the approaches were checked at the design flanges
+    only)."""
+    assert order_bank_approaches(load_bank(staggered)).clearance.clear
+    assert main(["check", "--bank", str(staggered)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "flanging area's corner (-8.80, +0.00, -5.70) m" in err and "riser" in err
 
 
 def _valid(waves, ok) -> bool:
@@ -203,3 +218,27 @@ def test_a_swivel_the_ship_s_pitch_takes_past_its_stop_is_refused_in_one_line(ca
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "coupler swivel 3 at its limit" in err and "past its stop by" in err
     assert "swivels.swivel3_deg = [-2.0, 2.0] deg" in err and "[operability] roll, pitch and yaw limits" in err
+
+
+def test_the_approaches_to_the_flanging_area_s_corners_are_ordered_and_clear(monkeypatch):
+    """Found: the approaches were checked to the design flanges only. Now to the design position and each corner
+    of the flanging area: the design case is `order_bank_approaches`' own; at every corner each plan ends on its
+    flange moved with the manifold (forward kinematics), the schedule keeps the clearance and every wave stays
+    within the duty pumps' flow; a corner no plan can reach is refused in one line naming it."""
+    from loadarm.arm.slew import forward3d
+    from loadarm.design import bank as db
+
+    bank = load_bank(EXAMPLE)
+    over = db.order_over_flanging_area(bank)
+    assert [d for d, _ in over] == db.flanging_moves(bank) and len(over) == 5
+    assert over[0][1].waves == order_bank_approaches(bank).waves
+    for d, order in over[1:]:
+        assert order.clearance.clear and order.peak_flow <= order.duty_flow * (1 + 1e-9)
+        t, qs = db.bank_approaches(bank, waves=order.waves, displacement=d)
+        for i, (model, q) in enumerate(zip(bank.models, qs, strict=True)):
+            end = np.array(forward3d(model.arm, *q[-1]))
+            assert np.allclose(end, bank.flange_position(i) + np.asarray(d), atol=1e-6), (d, i, end)
+    monkeypatch.setattr(db, "flanging_moves", lambda b: [(0.0, 0.0, 0.0), (30.0, 0.0, 0.0)])
+    with pytest.raises(PathError, match=r"flanging area's corner \(\+30.00, \+0.00, \+0.00\) m") as exc:
+        db.order_over_flanging_area(bank)
+    assert "\n" not in str(exc.value)

@@ -20,7 +20,7 @@ from loadarm.cli.common import (
     print_json,
     read_model,
 )
-from loadarm.design.bank import design_swivel_margins, order_bank_approaches, swivel_envelope
+from loadarm.design.bank import design_swivel_margins, order_over_flanging_area, swivel_envelope
 from loadarm.design.check import design_check
 from loadarm.design.manifold import LOAD_LABELS, check_manifold_loads
 from loadarm.figures import save
@@ -87,7 +87,8 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     case and over the flanging area and the ship's motions, the manifold loads, the release."""
     check_outputs({"--png": png}, [path], force)
     bank = load_bank(path)
-    order = order_bank_approaches(bank)           # the approaches in the order that keeps the clearance
+    over = order_over_flanging_area(bank)         # the approaches' order to the design flanges and each corner
+    order = over[0][1]
     clearance = order.clearance
     margins = design_swivel_margins(bank)
     if not clearance.clear:
@@ -116,11 +117,18 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
                     "manifold_loads": loads.to_dict(),
                     "swivel_margin_deg": {n: float(np.degrees(margins[i].min())) for i, n in enumerate(names)},
                     "swivel_envelope": swivels.to_dict(),
+                    "approaches_over_flanging_area": [{"displacement_m": list(d), "waves": [list(w) for w in o.waves],
+                                                       "min_clearance_m": o.clearance.min_clearance}
+                                                      for d, o in over],
                     "nearest_arm_m": dict(zip(names, nearest, strict=True))})
         return
     out.print(f"{path}: {bank.file.bank.name}: {len(names)} arms, pass")
     out.print(str(clearance.summary()))
     out.print(str(order.summary()))
+    d, worst = min(over[1:], key=lambda c: c[1].clearance.min_clearance)
+    out.print(f"approaches to the flanging area's corners: least clearance {worst.clearance.min_clearance:.3f} m "
+              f"(manifold moved by {d[0]:+.2f}, {d[1]:+.2f}, {d[2]:+.2f} m); orders: "
+              + "; ".join(" -> ".join(" + ".join(w) for w in o.waves) for _, o in over[1:]))
     out.print(str(swivels.summary()))
     out.print(str(loads.summary()))
     out.print(str(release.summary()))

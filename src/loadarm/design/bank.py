@@ -28,13 +28,14 @@ from loadarm.arm.slew import inverse3d
 from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
 from loadarm.design.plots import bank_order_figure
 from loadarm.design.trajectory import plan_approach_3d
-from loadarm.errors import PathError
+from loadarm.errors import PathError, UnreachableError
 from loadarm.params.bank import Bank
 from loadarm.results import Metric, Result
 from loadarm.vocab import SWIVEL_FACE_TABLE
 
 __all__ = ["bank_approaches", "check_bank_approaches", "BankOrder", "order_bank_approaches",
-           "design_swivel_margins", "approach_flows", "POWER_UNIT", "SwivelEnvelope", "swivel_envelope"]
+           "design_swivel_margins", "approach_flows", "POWER_UNIT", "SwivelEnvelope", "swivel_envelope",
+           "flanging_moves", "order_over_flanging_area"]
 
 
 #: What an arm waits for when the duty pumps' flow, not a neighbour, holds it back.
@@ -111,6 +112,53 @@ class SwivelEnvelope(Result):
                 "by_arm_deg": {n: math.degrees(float(v)) for n, v in zip(self.names, self.by_arm(), strict=True)}}
 
 
+def flanging_moves(bank: Bank) -> list[tuple[float, float, float]]:
+    """The manifold's displacements from its design position to the flanging area's corners (the first arm's
+    datasheet about its design flange: the near and far connecting edges ``A + B + C`` and ``A + B + D`` at the
+    lowest and highest flange), the design position first, m.
+
+    Parameters
+    ----------
+    bank : Bank
+
+    Returns
+    -------
+    list of (float, float, float)
+    """
+    model = bank.models[0]
+    box = berth_box(model.datasheet)
+    fx, fz = model.approach.flange
+    return [(0.0, 0.0, 0.0)] + [(x - fx, 0.0, z - fz) for x in (box.x_near, flanging_x_far(model.datasheet))
+                                for z in (box.y_low, box.y_high)]
+
+
+def order_over_flanging_area(bank: Bank) -> list[tuple[tuple[float, float, float], BankOrder]]:
+    """:func:`order_bank_approaches` with the manifold at the design position and at each corner of the flanging
+    area (:func:`flanging_moves`): the approaches planned to wherever the ship presents its flanges.
+
+    Parameters
+    ----------
+    bank : Bank
+
+    Returns
+    -------
+    list of (displacement, BankOrder)
+
+    Raises
+    ------
+    PathError
+        One line naming the corner where no order keeps the clearance (or an arm cannot reach its flange).
+    """
+    out = []
+    for d in flanging_moves(bank):
+        try:
+            out.append((d, order_bank_approaches(bank, displacement=None if d == (0.0, 0.0, 0.0) else d)))
+        except (PathError, UnreachableError) as exc:
+            raise PathError(f"with the manifold at the flanging area's corner ({d[0]:+.2f}, {d[1]:+.2f}, "
+                            f"{d[2]:+.2f}) m from its design position: {exc}") from None
+    return out
+
+
 def swivel_envelope(bank: Bank) -> SwivelEnvelope:
     """The swivels' margins where the ship may be presented and how it may move while connected: the manifold at
     each corner of the flanging area (the first arm's datasheet, about its design flange: one manifold, one box),
@@ -125,11 +173,7 @@ def swivel_envelope(bank: Bank) -> SwivelEnvelope:
     -------
     SwivelEnvelope
     """
-    model = bank.models[0]
-    box = berth_box(model.datasheet)
-    fx, fz = model.approach.flange
-    moves = [(0.0, 0.0, 0.0)] + [(x - fx, 0.0, z - fz) for x in (box.x_near, flanging_x_far(model.datasheet))
-                                 for z in (box.y_low, box.y_high)]
+    moves = flanging_moves(bank)
     op = bank.installations[0].operability
     rots = [(0.0, 0.0, 0.0)] + [(r, p, y) for r in (-op.roll_limit_deg, op.roll_limit_deg)
                                 for p in (-op.pitch_limit_deg, op.pitch_limit_deg)
@@ -150,13 +194,15 @@ def swivel_envelope(bank: Bank) -> SwivelEnvelope:
 
 
 def bank_approaches(bank: Bank, *, order: tuple[str, ...] | None = None, timing: str = "smooth",
-                    samples: int = 201, waves: tuple[tuple[str, ...], ...] | None = None) \
-        -> tuple[np.ndarray, list[np.ndarray]]:
+                    samples: int = 201, waves: tuple[tuple[str, ...], ...] | None = None,
+                    displacement=None) -> tuple[np.ndarray, list[np.ndarray]]:
     """Every arm's approach on one time base.
 
     Parameters
     ----------
     bank : Bank
+    displacement : array_like, shape (3,), optional
+        The manifold presented this far from its design position, m (a corner of the flanging area).
     order : tuple of str, optional
         The arms, in the order they move one after another (default: all at once).
     waves : tuple of tuple of str, optional
@@ -179,8 +225,9 @@ def bank_approaches(bank: Bank, *, order: tuple[str, ...] | None = None, timing:
     if waves is not None and sorted(n for w in waves for n in w) != sorted(names):
         raise ValueError(f"order {[list(w) for w in waves]} must name every arm of the bank once: {list(names)}")
     plans = []
+    shift = np.zeros(3) if displacement is None else np.asarray(displacement, dtype=float)
     for i, model in enumerate(bank.models):
-        p = bank.flange_position(i)
+        p = bank.flange_position(i) + shift
         plans.append(plan_approach_3d(model, target=(float(p[0]), float(p[1]), float(p[2])), timing=timing,
                                       samples=samples))
     starts = np.zeros(len(plans))
@@ -290,7 +337,7 @@ class BankOrder(Result):
         return bank_order_figure(self)
 
 
-def _pair_clearances(bank: Bank, t: np.ndarray, qs: list[np.ndarray]) -> tuple[np.ndarray, ...]:
+def _pair_clearances(bank: Bank, t: np.ndarray, qs: list[np.ndarray], connected_poses) -> tuple[np.ndarray, ...]:
     """Each ordered pair's smallest clearance: arm i approaching against arm j stowed, connected, approaching."""
     n = len(qs)
     alone, connected, together = (np.full((n, n), np.nan) for _ in range(3))
@@ -301,7 +348,7 @@ def _pair_clearances(bank: Bank, t: np.ndarray, qs: list[np.ndarray]) -> tuple[n
                 continue
             pair = (bank.shapes[i], bank.shapes[j])
             alone[i, j] = path_clearance(pair, [qs[i], hold * bank.stowed[j]], t).min_clearance
-            connected[i, j] = path_clearance(pair, [qs[i], hold * bank.connected[j]], t).min_clearance
+            connected[i, j] = path_clearance(pair, [qs[i], hold * connected_poses[j]], t).min_clearance
             together[i, j] = path_clearance(pair, [qs[i], qs[j]], t).min_clearance
     return alone, connected, together
 
@@ -392,12 +439,15 @@ def _waves(names, ok, flows=None, duty: float = np.inf) -> tuple[list[list[int]]
     return waves, waits
 
 
-def order_bank_approaches(bank: Bank, *, timing: str = "smooth", samples: int = 201) -> BankOrder:
+def order_bank_approaches(bank: Bank, *, timing: str = "smooth", samples: int = 201,
+                          displacement=None) -> BankOrder:
     """Which arm moves first and which must wait: the approaches in waves that keep every pair's clearance.
 
     Parameters
     ----------
     bank : Bank
+    displacement : array_like, shape (3,), optional
+        The manifold presented this far from its design position, m (:func:`flanging_moves`).
     timing : str
         The timing law of each arm's plan.
     samples : int
@@ -414,7 +464,7 @@ def order_bank_approaches(bank: Bank, *, timing: str = "smooth", samples: int = 
         connected, or two arms block each other).
     """
     names = bank.names
-    t, qs = bank_approaches(bank, timing=timing, samples=samples)
+    t, qs = bank_approaches(bank, timing=timing, samples=samples, displacement=displacement)
     need = bank.file.clearance.min_clearance
     pu = bank.file.power_unit
     flows = approach_flows(bank, t, qs)
@@ -425,10 +475,11 @@ def order_bank_approaches(bank: Bank, *, timing: str = "smooth", samples: int = 
                         f"({pu.pumps - pu.standby_pumps} of pumps = {pu.pumps}, standby_pumps = {pu.standby_pumps}, "
                         f"pump_flow = {pu.pump_flow * 6e4:.1f} L/min each); arm '{names[i]}''s approach alone draws "
                         f"{peak[i] * 6e4:.1f} L/min at its peak: short by {(peak[i] - pu.duty_flow) * 6e4:.1f} L/min")
-    alone, connected, together = _pair_clearances(bank, t, qs)
+    on = bank.connected if displacement is None else [q[-1] for q in qs]      # each plan ends on its flange
+    alone, connected, together = _pair_clearances(bank, t, qs, on)
     waves, waits = _waves(names, (alone >= need, connected >= need, together >= need), flows, pu.duty_flow)
     named = tuple(tuple(names[i] for i in w) for w in waves)
-    t2, qs2 = bank_approaches(bank, timing=timing, samples=samples, waves=named)
+    t2, qs2 = bank_approaches(bank, timing=timing, samples=samples, waves=named, displacement=displacement)
     schedule = path_clearance(bank.shapes, qs2, t2, required=need)
     if not schedule.clear:       # pairwise clear implies clear: a failure here is a bug, not an input
         raise AssertionError(f"the ordered approaches come too close: {schedule.where()}")

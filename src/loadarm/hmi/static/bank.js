@@ -262,16 +262,7 @@ function drawAlarms(f) {
   const tbody = document.querySelector("#alarms tbody");
   tbody.replaceChildren();
   for (const a of f.alarms) {
-    const tr = document.createElement("tr");
-    tr.className = `alarm p${a.priority} ${a.state.startsWith("returned") ? "rtn unacknowledged" : a.state}`;
-    tr.dataset.tag = a.tag;
-    tr.innerHTML = "<td class=prio><span></span></td><td class=time></td><td class=msg></td>" +
-                   "<td class=state><span class=ind></span><span class=text></span></td>";
-    tr.querySelector(".prio span").textContent = a.priority_name;
-    tr.querySelector(".time").textContent = a.raised_at === null ? "-" : `${a.raised_at.toFixed(1)} s`;
-    tr.querySelector(".msg").textContent = a.message;
-    tr.querySelector(".state .text").textContent = a.state;
-    tbody.appendChild(tr);
+    tbody.appendChild(alarmRow(a, a.raised_at === null ? "-" : `${a.raised_at.toFixed(1)} s`));
   }
 }
 

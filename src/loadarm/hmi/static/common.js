@@ -1,6 +1,6 @@
 // What loadarm's two screens share (the operator's, hmi.js, and the bank's, bank.js), loaded before the page's own
-// script: the API call, the login and logout, the session's WebSocket and its reconnect, and the SVG element
-// maker. Plain JS, nothing from outside.
+// script: the API call, the login and logout, the session's WebSocket and its reconnect, the SVG element maker
+// and a line of the ISA-18.2 alarm list. Plain JS, nothing from outside.
 "use strict";
 
 const SVGNS = "http://www.w3.org/2000/svg";
@@ -80,4 +80,19 @@ function el(name, attrs, parent, text) {     // an SVG element, appended to `par
   if (text !== undefined) { e.textContent = text; }
   if (parent) { parent.appendChild(e); }
   return e;
+}
+
+// One line of an alarm list (ISA-18.2, both screens): its priority (colour, shape and name, the CSS's), the time it
+// rose, its words and its state (an unacknowledged one's indicator blinking); `time` is the text of its time.
+function alarmRow(a, time) {
+  const tr = document.createElement("tr");
+  tr.className = `alarm p${a.priority} ${a.state.startsWith("returned") ? "rtn unacknowledged" : a.state}`;
+  tr.dataset.tag = a.tag;
+  tr.innerHTML = "<td class=prio><span></span></td><td class=time></td><td class=msg></td>" +
+                 "<td class=state><span class=ind></span><span class=text></span></td>";
+  tr.querySelector(".prio span").textContent = a.priority_name;
+  tr.querySelector(".time").textContent = time;
+  tr.querySelector(".msg").textContent = a.message;
+  tr.querySelector(".state .text").textContent = a.state;
+  return tr;
 }

@@ -585,18 +585,12 @@ function drawAlarms(f) {
   const tbody = document.querySelector("#alarms tbody");
   tbody.textContent = "";
   for (const a of f.alarms) {
-    const tr = document.createElement("tr");
-    tr.className = `alarm p${a.priority} ${a.state.startsWith("returned") ? "rtn unacknowledged" : a.state}`;
-    tr.dataset.tag = a.tag;
-    tr.innerHTML = "<td class=prio><span></span></td><td class=time></td><td class=msg></td>" +
-                   "<td class=state><span class=ind></span><span class=text></span></td><td class=act></td>";
-    tr.querySelector(".prio span").textContent = a.priority_name;
     // the time of day it was raised (the date too when not today); the run time when the clock is not known
-    tr.querySelector(".time").textContent = a.clock || `${a.raised_at.toFixed(1)} s`;
+    const tr = alarmRow(a, a.clock || `${a.raised_at.toFixed(1)} s`);
     tr.querySelector(".time").title = `run time ${a.raised_at.toFixed(1)} s`;
-    tr.querySelector(".msg").textContent = a.message;
-    tr.querySelector(".state .text").textContent = a.state;
-    const act = tr.querySelector(".act");
+    const act = document.createElement("td");
+    act.className = "act";
+    tr.appendChild(act);
     if (a.state !== "acknowledged") {
       const b = document.createElement("button");
       b.textContent = "Acknowledge"; b.className = "ackbtn"; b.disabled = !canAck;

@@ -377,3 +377,22 @@ def test_the_bank_page_shows_the_bank_file_s_parameters():
 
     doc = (Path(__file__).resolve().parents[1] / "docs" / "bank.md").read_text()
     assert bank_parameter_markdown() in doc, "regenerate with: python -m loadarm.present.docsgen --tables"
+
+
+def test_a_single_pump_has_no_standby_and_a_vapour_flange_takes_no_density():
+    """Found by review: `standby_pumps` defaulting to one refused a single-pump bank that had loaded before; now
+    the default is one only with two pumps or more. A density on the vapour return (which runs empty) is refused
+    in one line rather than ignored."""
+    from loadarm.params.bank import PowerUnit, parse_bank
+
+    assert PowerUnit(pumps=1).standby == 0 and PowerUnit(pumps=1).duty_flow == PowerUnit().pump_flow
+    assert PowerUnit(pumps=3).standby == 1 and PowerUnit(pumps=3, standby_pumps=0).standby == 0
+    with pytest.raises(ValueError, match="standby_pumps = 2 must be below pumps = 2"):
+        PowerUnit(pumps=2, standby_pumps=2)
+    import tomllib
+
+    data = tomllib.loads(EXAMPLE.read_text())
+    data["manifold"]["flanges"][2]["density"] = 2.0
+    with pytest.raises(ConfigError) as exc:
+        parse_bank(data, source="bank.toml")
+    assert "\n" not in str(exc.value) and "F3: density = 2 kg/m^3 on a vapour flange" in str(exc.value)

@@ -293,3 +293,20 @@ def test_every_arm_within_the_clearance_of_a_neighbour_gets_its_own_time(bank):
     assert f.time == 0.0 and f.face == "clash"
     assert f.by_arm == (0.0,) * 4, f.by_arm
     assert set(f.stages) == {Severity.RELEASE}
+
+
+def test_the_rotation_s_design_floor_never_reaches_the_measured_routes(narrow):
+    """Found by review: the design yaw floor was paired with the measured drift in the measured routes' scan, so a
+    still ship's design yaw could raise the pre-alarm (which warns of a drift the monitor sees, never of the
+    floor). A still ship with 60 s of history, its yaw held near swivel 2's stop: the floor may make the time
+    short, but the measured routes' time is the floor-free one (the design yaw rate 0 gives the same)."""
+    c0 = np.asarray(narrow.file.manifold.position, dtype=float)
+    for yaw_deg in (-9.0, -18.0):
+        y = math.radians(yaw_deg)
+        got = []
+        for b in (narrow, _still(narrow)):
+            mon = BankMonitor(b, own_faces=False)
+            _history(mon, c0, np.zeros(3), 0.0, 60.0, yaw0=y)
+            got.append(mon.time_to_limit(c0, np.array([0.0, 0.0, y]), 65.0, now=60.0))
+        assert got[0].measured_by_arm == got[1].measured_by_arm, yaw_deg
+        assert all(a <= b + 1e-9 for a, b in zip(got[0].by_arm, got[1].by_arm, strict=True))

@@ -432,3 +432,32 @@ def test_the_overloaded_bank_s_manifold_load_alarm_rises_is_published_and_acknow
     assert any("ack needs the operator role, vic is viewer" in r for r in refused), refused
     snap = service.step(rise + 1)
     assert snap.loads.states[v1].value == "acknowledged" and snap.loads.active[v1]
+
+
+def test_the_alarm_list_shows_an_arm_s_most_severe_active_alarm_and_dates_a_return():
+    """Found by review: an arm's line was its most severe stage alarm in any state, so a returned ESD-1 hid an
+    active pre-alarm; and an alarm risen again from returned-to-normal kept its first time. Now the most severe
+    active one is listed first, and a rise dates the alarm anew."""
+    from types import SimpleNamespace
+
+    from loadarm.arm.alarms import AlarmState
+    from loadarm.opcua.bank import BankService
+    from loadarm.vocab import Severity
+
+    svc = SimpleNamespace(bank=SimpleNamespace(names=("A",)), _stage_alarms={}, _load_raised=[math.nan], notes=[])
+    svc.note = lambda kind, reason, data: svc.notes.append(reason)
+
+    def at(t, stage, ack=False):
+        snap = SimpleNamespace(state=SimpleNamespace(t=t), loads=None, stage=lambda i: Severity(stage))
+        return BankService._annunciate(svc, snap, ack)
+
+    (a,) = at(1.0, Severity.ESD1)
+    assert (a.tag, a.state, a.raised_at) == ("ESD1", AlarmState.UNACKED, 1.0)
+    (a,) = at(2.0, Severity.PRE_ALARM)                 # ESD-1 returned, unacknowledged; the pre-alarm still active
+    assert (a.tag, a.state, a.raised_at) == ("PRE_ALARM", AlarmState.UNACKED, 1.0)
+    assert svc._stage_alarms[(0, "ESD1")][0] == AlarmState.RTN_UNACKED
+    (a,) = at(3.0, Severity.ESD1)                      # risen again: dated anew
+    assert (a.tag, a.state, a.raised_at) == ("ESD1", AlarmState.UNACKED, 3.0)
+    assert at(4.0, Severity.NORMAL, ack=True) == ()    # acknowledged once cleared: gone
+    cleared = [n.split(":")[0] for n in svc.notes if "cleared" in n]
+    assert cleared == ["ESD-1", "pre-alarm", "ESD-1"]     # ESD-1 at 2 s; at 4 s both, in the conditions' order

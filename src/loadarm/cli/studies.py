@@ -134,7 +134,7 @@ def campaign(
     Example: loadarm campaign --scenario examples/scenarios/driftoff.toml --seeds 200 --vary drift.speed=0.05:0.3
     """
 
-    check_outputs({"--png": png, "--runs": runs}, [scenario], force, appended=("--runs",))
+    check_outputs({"--png": png, "--runs": runs}, [scenario, bank], force, appended=("--runs",))
     check_workers("--workers", workers)
     if bank is not None:
         _bank_campaign(bank, scenario, seeds, first_seed, workers, as_json, png, runs,

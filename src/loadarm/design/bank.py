@@ -28,7 +28,7 @@ from loadarm.arm.slew import inverse3d
 from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
 from loadarm.design.plots import bank_order_figure
 from loadarm.design.trajectory import plan_approach_3d
-from loadarm.errors import PathError, UnreachableError
+from loadarm.errors import LoadarmError, PathError
 from loadarm.params.bank import Bank
 from loadarm.results import Metric, Result
 from loadarm.vocab import SWIVEL_FACE_TABLE
@@ -79,6 +79,7 @@ class SwivelEnvelope(Result):
     METRICS = (
         Metric("least_deg", "swivel margin, least over the flanging area and the ship's motions", "deg", ".1f"),
         Metric("where", "which, where", ""),
+        Metric("out_of_reach", "cases an arm cannot reach (its own faces' matter)", "", "d"),
     )
 
     names: tuple[str, ...]
@@ -97,8 +98,9 @@ class SwivelEnvelope(Result):
         return float(m[k, i, j]), int(k), int(i), int(j)
 
     def by_arm(self) -> np.ndarray:
-        """Each arm's least margin over the cases, rad."""
-        return np.nanmin(self.margins, axis=(0, 2))
+        """Each arm's least margin over the cases it can reach, rad (NaN: none)."""
+        m = np.where(np.isnan(self.margins), np.inf, self.margins).min(axis=(0, 2))
+        return np.where(np.isinf(m), np.nan, m)
 
     def words(self, k: int, i: int, j: int) -> str:
         """Case ``k``, arm ``i``, face ``j`` in words."""
@@ -108,14 +110,19 @@ class SwivelEnvelope(Result):
 
     def _values(self) -> dict:
         least, k, i, j = self.least()
+        by_arm = self.by_arm()
         return {"least_deg": math.degrees(least), "where": self.words(k, i, j),
-                "by_arm_deg": {n: math.degrees(float(v)) for n, v in zip(self.names, self.by_arm(), strict=True)}}
+                "out_of_reach": int(np.isnan(self.margins).any(axis=2).sum()),
+                "by_arm_deg": {n: math.degrees(float(v)) if v == v else None
+                               for n, v in zip(self.names, by_arm, strict=True)}}
 
 
 def flanging_moves(bank: Bank) -> list[tuple[float, float, float]]:
     """The manifold's displacements from its design position to the flanging area's corners (the first arm's
-    datasheet about its design flange: the near and far connecting edges ``A + B + C`` and ``A + B + D`` at the
-    lowest and highest flange), the design position first, m.
+    datasheet about its own design flange: the near and far connecting edges ``A + B + C`` and ``A + B + D`` at the
+    lowest and highest flange; along the berth, ``[manifold] tolerance`` either way), the design position first,
+    m. (Found by review: the corners were taken about the installation's ``[approach] flange``, not the bank's
+    flange, and had no width along the berth.)
 
     Parameters
     ----------
@@ -127,9 +134,11 @@ def flanging_moves(bank: Bank) -> list[tuple[float, float, float]]:
     """
     model = bank.models[0]
     box = berth_box(model.datasheet)
-    fx, fz = model.approach.flange
-    return [(0.0, 0.0, 0.0)] + [(x - fx, 0.0, z - fz) for x in (box.x_near, flanging_x_far(model.datasheet))
-                                for z in (box.y_low, box.y_high)]
+    fx, _, fz = bank.flange_position(0)
+    tol = bank.file.manifold.tolerance
+    return [(0.0, 0.0, 0.0)] + [(float(x - fx), y, float(z - fz))
+                                for x in (box.x_near, flanging_x_far(model.datasheet))
+                                for z in (box.y_low, box.y_high) for y in sorted({-tol, tol})]
 
 
 def order_over_flanging_area(bank: Bank) -> list[tuple[tuple[float, float, float], BankOrder]]:
@@ -149,11 +158,12 @@ def order_over_flanging_area(bank: Bank) -> list[tuple[tuple[float, float, float
     PathError
         One line naming the corner where no order keeps the clearance (or an arm cannot reach its flange).
     """
-    out = []
-    for d in flanging_moves(bank):
+    moves = flanging_moves(bank)
+    out = [(moves[0], order_bank_approaches(bank))]           # the design position: its own errors as they are
+    for d in moves[1:]:
         try:
-            out.append((d, order_bank_approaches(bank, displacement=None if d == (0.0, 0.0, 0.0) else d)))
-        except (PathError, UnreachableError) as exc:
+            out.append((d, order_bank_approaches(bank, displacement=d)))
+        except LoadarmError as exc:
             raise PathError(f"with the manifold at the flanging area's corner ({d[0]:+.2f}, {d[1]:+.2f}, "
                             f"{d[2]:+.2f}) m from its design position: {exc}") from None
     return out
@@ -472,8 +482,8 @@ def order_bank_approaches(bank: Bank, *, timing: str = "smooth", samples: int = 
     if peak.max() > pu.duty_flow * (1.0 + 1e-9):
         i = int(np.argmax(peak))
         raise PathError(f"{bank.source}: power_unit: the duty pumps deliver {pu.duty_flow * 6e4:.1f} L/min "
-                        f"({pu.pumps - pu.standby_pumps} of pumps = {pu.pumps}, standby_pumps = {pu.standby_pumps}, "
-                        f"pump_flow = {pu.pump_flow * 6e4:.1f} L/min each); arm '{names[i]}''s approach alone draws "
+                        f"({pu.pumps - pu.standby} of pumps = {pu.pumps}, standby_pumps = {pu.standby}, "
+                        f"pump_flow = {pu.pump_flow * 6e4:.1f} L/min each); arm {names[i]}'s approach alone draws "
                         f"{peak[i] * 6e4:.1f} L/min at its peak: short by {(peak[i] - pu.duty_flow) * 6e4:.1f} L/min")
     on = bank.connected if displacement is None else [q[-1] for q in qs]      # each plan ends on its flange
     alone, connected, together = _pair_clearances(bank, t, qs, on)

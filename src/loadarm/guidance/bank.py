@@ -344,18 +344,25 @@ class BankMonitor:
 
     # -------------------------------------------------------------------------------------------- the forecast
 
-    def _rotation_route(self, angles_now, now: float | None):
+    def _rotation_route(self, angles_now, now: float | None, *, measured_only: bool = False):
         """``tau`` to the rotation's hypotheses (T, R, 3): the design floor (the angles now, the yaw turning either
-        way at the design rate), and beside it the fit's box corners once there is a fit."""
+        way at the design rate), and beside it the fit's box corners once there is a fit. ``measured_only``: the
+        fit's corners alone, or the angles now held without a fit (the measured routes' scan, the pre-alarm's:
+        found by review, the design floor had leaked into it)."""
         held = np.asarray(angles_now, dtype=float)
         turn = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]) * self.yaw_rate
 
         def design(tau):
             return held[None, None, :] + tau[:, None, None] * turn[None, :, :]
 
+        def still(tau):
+            return np.broadcast_to(held, (tau.shape[0], 1, 3))
+
         if self.rot_est is None:
-            return design
+            return still if measured_only else design
         measured = measured_route(self.rot_est, 0.0 if now is None else max(now - self.rot_t, 0.0), self.k)
+        if measured_only:
+            return measured
         return lambda tau: np.concatenate([measured(tau), design(tau)], axis=1)
 
     @staticmethod
@@ -413,7 +420,8 @@ class BankMonitor:
         by_arm = self._by_arm(by_face)
         measured = [math.inf] * len(by_arm)
         if face and routes.measured:
-            measured = self._by_arm(self._scan(self._paired(routes.measured_points, rotation), horizon)[3])
+            measured_rotation = self._rotation_route(angles_now, now, measured_only=True)
+            measured = self._by_arm(self._scan(self._paired(routes.measured_points, measured_rotation), horizon)[3])
         stages = self._stages(by_arm, measured, valves_left, release_left)
         if not face:
             return BankForecast(math.inf, "", (), "", tuple(by_arm), tuple(measured), stages)

@@ -113,9 +113,10 @@ BANK_STATES = (("NearestPair", str, "the two arms closest to each other, A/B"),
                ("ClashAbnormal", bool, "the nearest clearance is below the required one"),
                ("ManifoldLoadAbnormal", bool, "an arm's manifold-load alarm is active"),
                ("AlarmStage", int, "the most severe arm's stage (ESD-1 and ERS-2 act on every arm)"),
-               ("NearestFace", str, "the bank face the monitor forecasts first (a code of vocab.BANK_FACE_TABLE), "
-                                    "empty: none"),
-               ("NearestFaceArms", str, "the arm (a swivel's stop) or the two arms (the clash) of that face"),
+               ("NearestFace", str, "the face the monitor forecasts first (a code of vocab.FACE_TABLE, an arm's own "
+                                    "face, or of vocab.BANK_FACE_TABLE), empty: none"),
+               ("NearestFaceArms", str, "the arm (its own face, a swivel's stop) or the two arms (the clash) of that "
+                                        "face"),
                ("Cycle", int, "counts the world's states"))
 _KINDS = {bool: "Boolean", int: "Int64", str: "String"}
 
@@ -362,8 +363,8 @@ class BankService:
                 old, since = self._stage_alarms.get((i, c.tag), (AlarmState.NORMAL, math.nan))
                 active = stage >= c.stage
                 new = next_alarm_state(old, active, acknowledge)
-                if old == AlarmState.NORMAL and new != AlarmState.NORMAL:
-                    since = t
+                if new == AlarmState.UNACKED and old not in (AlarmState.UNACKED, AlarmState.ACKED):
+                    since = t                      # risen, or risen again from returned-to-normal (found by review)
                 if active != (old in (AlarmState.UNACKED, AlarmState.ACKED)):
                     self.note("alarm", f"{c.text}{'' if active else ' cleared'}: arm {name}",
                               {"arm": name, "tag": c.tag, "active": active, "t": t})
@@ -373,9 +374,10 @@ class BankService:
                     self._stage_alarms[(i, c.tag)] = (new, since)
         # one line an arm: its most severe stage alarm not normal (the lower stages of the same escalation are
         # suppressed by design, ISA-18.2's state-based suppression: four arms would otherwise list sixteen)
+        # (the most severe active one first: found by review, a returned ESD-1 hid an active pre-alarm)
         top: dict[int, tuple] = {}
         for (i, tag), (st, since) in self._stage_alarms.items():
-            rank = _STAGE_RANK[tag]
+            rank = (st in (AlarmState.UNACKED, AlarmState.ACKED), _STAGE_RANK[tag])
             if i not in top or rank > top[i][0]:
                 top[i] = (rank, tag, st, since)
         out = [BankAlarm(self.bank.names[i], tag, st, since) for i, (_, tag, st, since) in sorted(top.items())]

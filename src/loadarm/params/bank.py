@@ -81,6 +81,13 @@ class Flange(Section):
                           description="along the manifold from its centre, +y")
     height: float = param(0.0, unit="m", ge=-5, le=5, source="flanges at one height (usual)",
                           description="above the manifold's centre line")
+    @model_validator(mode="after")
+    def _vapour_runs_empty(self) -> "Flange":
+        if self.product == "vapour" and self.density is not None:
+            raise ValueError(f"manifold.flanges: {self.name}: density = {self.density:g} kg/m^3 on a vapour flange: "
+                             "the vapour return runs empty (give density on liquid flanges only)")
+        return self
+
     density: float | None = param(None, unit="kg/m^3", gt=0, le=2000,
                                   source="the cargo's (LNG about 430-470 kg/m^3 by its composition; crude oil "
                                          "800-950); none: the arm's installation's [masses] product_density",
@@ -98,6 +105,11 @@ class Manifold(Section):
     heading_deg: float = param(90.0, unit="deg", ge=-180, le=180,
                                source="ship alongside, bow along +y, port side to the jetty (example)",
                                description="the ship's bow direction, from +x towards +y")
+    tolerance: float = param(1.5, unit="m", ge=0, le=20,
+                             source="as the berth file's [ship] manifold_tolerance: the mooring master places the "
+                                    "manifold within about 1-2 m of its mark (terminal procedure; example)",
+                             description="how far along the berth from its design position the manifold may lie "
+                                         "when the arms connect (the flanging area's width)")
     flanges: tuple[Flange, ...] = Field(..., min_length=1, max_length=8,
                                         description="the presentation flanges ([[manifold.flanges]])")
 
@@ -108,9 +120,11 @@ class PowerUnit(Section):
 
     pumps: int = param(2, unit="1", ge=1, le=8, source="duty and standby (usual for a bank's HPU)",
                        description="number of pumps")
-    standby_pumps: int = param(1, unit="1", ge=0, le=7, source="duty and standby: one of the two kept in reserve "
-                                                               "(usual for a bank's HPU)",
-                               description="pumps kept in reserve: the approaches run on the others' flow")
+    standby_pumps: int | None = param(None, unit="1", ge=0, le=7,
+                                      source="duty and standby: one kept in reserve when there are two or more "
+                                             "(usual for a bank's HPU); none of a single pump",
+                                      description="pumps kept in reserve: the approaches run on the others' flow "
+                                                  "(default: one, if there is more than one pump)")
     pump_flow: float = param(6.67e-4, unit="m^3/s", gt=0, le=0.1,
                              source="40 L/min each, a 15 kW pump (as the installation's [pump], engineering estimate)",
                              description="flow of one pump at full displacement")
@@ -149,13 +163,19 @@ class PowerUnit(Section):
                                                "the release)")
 
     @property
+    def standby(self) -> int:
+        """The pumps kept in reserve: ``standby_pumps``, or one if there is more than one pump (found by review: a
+        default of one refused a single-pump bank that had loaded before)."""
+        return self.standby_pumps if self.standby_pumps is not None else min(1, self.pumps - 1)
+
+    @property
     def duty_flow(self) -> float:
         """The flow the duty pumps deliver (all but the standby), m^3/s."""
-        return (self.pumps - self.standby_pumps) * self.pump_flow
+        return (self.pumps - self.standby) * self.pump_flow
 
     @model_validator(mode="after")
     def _pressures(self) -> "PowerUnit":
-        if self.standby_pumps >= self.pumps:
+        if self.standby_pumps is not None and self.standby_pumps >= self.pumps:
             raise ValueError(f"power_unit.standby_pumps = {self.standby_pumps} must be below pumps = {self.pumps}: "
                              "valid range [0, pumps - 1]")
         if not (self.precharge_pressure < self.min_pressure < self.max_pressure):

@@ -478,9 +478,12 @@ def _judge(bank, seed, t, n_run, idx, bank_idx, past, swivel, retraction) -> Ban
     gaps = monitor.clearances(poses)[0] if neighbours(bank) else np.full((n_run, 1), np.inf)
     retracted = [float(f + r) if f == f else math.nan for f, r in zip(free, retract, strict=True)]
     sw = np.where(connected.T[:, :, None], swivel, np.inf)
+    # an arm carried past its reach has no pose (NaN): that is its overstretch, counted above; the clearance is the
+    # least of the poses there are (found by review: np.min gave NaN and the campaign's least became order-dependent)
+    least = math.nan if np.isnan(gaps).all() else float(np.nanmin(gaps))
     return BankRun(seed, _when(t, i_esd), _when(t, i_req), names[first] if first >= 0 else "", tuple(conf),
                    tuple(opened), tuple(free), tuple(face), tuple(over), tuple(before), tuple(early),
-                   bool((gaps < bank.file.clearance.min_clearance).any()), float(np.min(gaps)),
+                   bool((gaps < bank.file.clearance.min_clearance).any()), least,
                    float(np.degrees(np.nanmin(sw))), tuple(retracted))
 
 
@@ -603,7 +606,7 @@ class BankCampaignResult(Result):
                 "stopped": sum(r.esd1_s == r.esd1_s for r in self.runs),
                 "esd1_by": ", ".join(f"{n} {k}" for n, k in by.items() if k) or "none",
                 "releases": int(margins.size), "margin_min_s": q(0), "margin_p5_s": q(5), "margin_median_s": q(50),
-                "min_clearance_m": min(r.min_clearance for r in self.runs),
+                "min_clearance_m": float(np.nanmin([r.min_clearance for r in self.runs])),
                 "min_swivel_margin_deg": min(r.min_swivel_margin_deg for r in self.runs),
                 "seconds_per_run": None if self.seconds_per_run != self.seconds_per_run else self.seconds_per_run,
                 "codes": dict(self.codes),

@@ -25,7 +25,7 @@ from pathlib import Path
 from loadarm import __version__
 from loadarm.arm.envelope import berth_box, zone_radii
 from loadarm.design.alarm_design import alarm_verdict, design_alarms
-from loadarm.design.bank import design_swivel_margins, order_bank_approaches
+from loadarm.design.bank import design_swivel_margins, order_over_flanging_area, swivel_envelope
 from loadarm.design.balancing import balance_counterweights
 from loadarm.design.check import design_check
 from loadarm.design.loads import CYLINDER_LOAD_METRICS, actuator_loads
@@ -408,11 +408,14 @@ class ReportData:
 
     @cached_property
     def bank(self) -> dict | None:
-        """The bank's checks (None without a ``[report] bank``): ``file``, the read ``bank``, the ``order`` of its
-        approaches (:func:`~loadarm.design.bank.order_bank_approaches`, as ``check --bank``) and that schedule's
-        ``clearance``, the ``swivels``' margins at the design case, its ``release``, its ``loads`` on the manifold
-        and, with a berth, their ``record`` through :data:`BANK_RECORD_S` of the moored ship in the berth's design
-        environment (seed 1)."""
+        """The bank's checks, as ``check --bank`` makes them (None without a ``[report] bank``): ``file``, the read
+        ``bank``, the ``order`` of its approaches and that schedule's ``clearance`` (at the design flanges), the
+        ``corners`` of the flanging area (their least clearance, where, their orders:
+        :func:`~loadarm.design.bank.order_over_flanging_area`), the ``swivels``' margins at the design case and
+        their ``envelope`` over the flanging area and the ship's motions, its ``release``, its ``loads`` on the
+        manifold and, with a berth, their ``record`` through :data:`BANK_RECORD_S` of the moored ship in the
+        berth's design environment (seed 1). (Found by review: the report had drifted from the check, the design
+        flanges only.)"""
 
         if self.bank_file is None:
             return None
@@ -423,10 +426,13 @@ class ReportData:
             env = self.berth.environment
             record = motion_manifold_loads(bank, simulate(self.ship, env, BANK_RECORD_S, seed=1),
                                            wind=berth_wind(env))
-        order = order_bank_approaches(bank)        # the order check --bank plans: its schedule's clearance
-        return {"file": self.bank_file, "bank": bank, "order": order, "clearance": order.clearance,
-                "swivels": design_swivel_margins(bank), "release": simulate_release(bank),
-                "loads": check_manifold_loads(bank), "record": record}
+        over = order_over_flanging_area(bank)      # as check --bank: the design flanges and each corner
+        corner, worst = min(over[1:], key=lambda c: c[1].clearance.min_clearance)
+        return {"file": self.bank_file, "bank": bank, "order": over[0][1], "clearance": over[0][1].clearance,
+                "corners": {"least_clearance_m": worst.clearance.min_clearance, "displacement_m": list(corner),
+                            "orders": [[list(w) for w in o.waves] for _, o in over[1:]]},
+                "swivels": design_swivel_margins(bank), "envelope": swivel_envelope(bank),
+                "release": simulate_release(bank), "loads": check_manifold_loads(bank), "record": record}
 
     @cached_property
     def operability(self):
@@ -682,6 +688,7 @@ def _bank_summary(b: dict | None) -> dict | None:
     if b is None:
         return None
     return {"file": b["file"].name, "approach_order": b["order"].to_dict(), "clearance": b["clearance"].to_dict(),
+            "flanging_area_corners": b["corners"], "swivel_envelope": b["envelope"].to_dict(),
             "swivel_margin_deg": {n: math.degrees(float(b["swivels"][i].min())) for i, n in enumerate(b["bank"].names)},
             "release": b["release"].to_dict(), "manifold_loads": b["loads"].to_dict(),
             "manifold_record": None if b["record"] is None else b["record"].to_dict()}
@@ -700,6 +707,7 @@ def _bank_rows(b: dict | None) -> list[dict]:
         j = int(loads.utilisation[i].argmax())
         rows.append({"arm": name, "flange": f"{bank.flanges[i].name} ({bank.flanges[i].product})", "near": near,
                      "wave": b["order"].wave_of(name) + 1, "swivel": math.degrees(float(b["swivels"][i].min())),
+                     "moving": math.degrees(float(b["envelope"].by_arm()[i])),
                      "load": LOAD_LABELS[j], "use": float(loads.utilisation[i, j]),
                      "rec": "-" if record is None else f"{float((record.worst[i] / record.allowable).max()):.2f}",
                      "clear": float(release.end[i, 2])})
@@ -893,14 +901,16 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
         "operability_stages": _table(
             [{"stage": k, "n": v} for k, v in summary["operability"]["states_by_stage"].items()]
             if oper is not None else [], [("stage", "most severe stage reached"), ("n", "hourly states")]),
-        "bank_summary": _table([{"k": label, "v": text} for r in (("order", "clearance", "loads", "release") if bank
-                                                                  else ())
+        "bank_summary": _table([{"k": label, "v": text} for r in (("order", "clearance", "envelope", "loads",
+                                                                   "release") if bank else ())
                                 for label, text in bank[r].summary().rows()], [("k", "quantity"), ("v", "value")]),
         "bank": _table(_bank_rows(bank), [("arm", "arm"), ("flange", "flange"), ("wave", "approach wave"),
                                           ("near", "nearest arm on approach [m]"),
-                                          ("swivel", "swivel margin, design case [deg]"), ("load", "governing load"), ("use", "load / allowable, design check"),
+                                          ("swivel", "swivel margin, design case [deg]"),
+                                          ("moving", "swivel margin, flanging area and ship's motions [deg]"),
+                                          ("load", "governing load"), ("use", "load / allowable, design check"),
                                           ("rec", "load / allowable, ship's record"), ("clear", "release: clear at [s]")],
-                       {"near": ".2f", "swivel": ".1f", "use": ".2f", "clear": ".2f"}),
+                       {"near": ".2f", "swivel": ".1f", "moving": ".1f", "use": ".2f", "clear": ".2f"}),
         "scenarios": _table(scen_rows, [("name", "scenario"), ("seq", "modes")]
                             + [(m.key, m.header) for m in scen_cols]),
         "parameters": _table(params, [("key", "key"), ("value", "value"), ("unit", "unit"), ("default", "default"),

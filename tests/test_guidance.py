@@ -41,6 +41,7 @@ def runs():
     return _Runs()
 
 
+@pytest.mark.slow  # 6 s of the hydraulic closed loop: make test keeps to its 2 minutes (CI runs it)
 def test_calm_connects_without_alarm(runs):
     s = runs["calm"][2].summary()
     assert s["mode_sequence"] == ["STORED", "APPROACH", "STANDOFF", "CONNECTED"]
@@ -60,6 +61,7 @@ def test_hs15_tracks_the_moving_flange_without_false_alarm(runs):
     assert so.sum() > 100 and np.percentile(err, 95) < 0.3
 
 
+@pytest.mark.slow  # 5 s of the hydraulic closed loop: make test keeps to its 2 minutes (CI runs it)
 def test_driftoff_alarms_in_order_and_releases_before_the_limit(model, runs):
     sc, inst, r = runs["driftoff"]
     s = r.summary()
@@ -84,6 +86,7 @@ def test_driftoff_alarms_in_order_and_releases_before_the_limit(model, runs):
     assert s["connected_s"] == pytest.approx(s["release_complete_s"] - connected_at, abs=1.5 / sc.guidance.rate)
 
 
+@pytest.mark.slow  # 4 s of the hydraulic closed loop: make test keeps to its 2 minutes (CI runs it)
 def test_dropout_stops_the_arm_within_one_cycle(runs):
     sc, _, r = runs["dropout"]
     sig = r.signals
@@ -1096,6 +1099,7 @@ def test_stuck_ers_valves_keep_the_coupler_closed_and_say_so():
     assert v["overstretched_s"] is not None and t_fault < v["overstretched_s"] - 10.0
 
 
+@pytest.mark.slow  # 5 s of the hydraulic closed loop: make test keeps to its 2 minutes (CI runs it)
 def test_after_an_emergency_release_the_drives_start_from_the_real_state(model, runs):
     from loadarm.hydraulics.servo import HydraulicArm
 

@@ -87,9 +87,11 @@ def scratch(tmp_path_factory):
 #: (CI runs it), to keep `make test` under two minutes. The scenarios themselves are checked in the fast suite by
 #: tests/test_guidance.py; the forecast's checks by tests/test_forecast.py (its runs in the slow suite too).
 SLOW_COMMANDS = {"alarms", "operability", "hydro", "run", "forecast"}
+#: A bank's commands too (``--bank``: four arms' checks, 1.5-2.5 s each; tests/test_bank_*.py check them fast).
 
 
-@pytest.mark.parametrize("cmd", [pytest.param(c, marks=pytest.mark.slow) if c.argv[1] in SLOW_COMMANDS else c
+@pytest.mark.parametrize("cmd", [pytest.param(c, marks=pytest.mark.slow)
+                                 if c.argv[1] in SLOW_COMMANDS or "--bank" in c.argv else c
                                  for c in ALL], ids=[c.id for c in ALL])
 def test_console_block_matches_a_real_run(cmd, scratch):
     env = dict(os.environ, COLUMNS="80", NO_COLOR="1", TERM="dumb")

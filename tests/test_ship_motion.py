@@ -375,6 +375,7 @@ def test_fenders_too_stiff_to_integrate_are_refused_naming_the_file(berth):
 
 
 @settings(max_examples=examples(100), deadline=None)
+@pytest.mark.slow   # it calls the kernel's right-hand side from Python: a compile of its own (15-20 s cold), CI
 @given(speed=st.floats(0.0, 3.0), direction=st.floats(-math.pi, math.pi), vx=st.floats(-0.5, 0.5),
        vy=st.floats(-0.5, 0.5), psi=st.floats(-0.02, 0.02))
 def test_the_kernels_current_is_the_vectorised_formula(ship, speed, direction, vx, vy, psi):

@@ -1173,6 +1173,7 @@ def test_over_a_plant_that_does_not_know_the_true_flange_the_clearance_is_watche
     assert len(seen) == 1 and "flange position unknown" in seen[0][3] and "nan" not in seen[0][3]
 
 
+@pytest.mark.slow  # make test's 2-minute budget (2-4 s here); CI runs it
 def test_a_scripted_manual_ers_releases_the_calm_ship_after_the_valves_close():
     """The operator's manual ERS from the scenario file: armed at 150 s, confirmed 2 s later; ESD-1 at once, the
     coupler opens only after the ERS valves' limit switches, then the arm returns."""

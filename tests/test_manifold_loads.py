@@ -246,6 +246,7 @@ def _run(capsys, *args):
     return code, cap.out, cap.err
 
 
+@pytest.mark.slow  # make test's 2-minute budget (2-4 s here); CI runs it
 def test_check_bank_gives_each_arm_s_flange_load_and_refuses_an_overloaded_manifold_in_one_line(capsys):
     """``loadarm check --bank``: the example's verdict per arm (its largest load over its allowable) in the table
     and the JSON; a manifold a quarter as strong refused (exit 2) in one line naming the alarm's label, the arm,

@@ -151,6 +151,7 @@ def test_only_secure_endpoints_are_offered(served):
                    for p in ("Basic256Sha256", "Aes128_Sha256_RsaOaep", "Aes256_Sha256_RsaPss")}
 
 
+@pytest.mark.slow  # make test's 2-minute budget (2-4 s here); CI runs it
 def test_an_operator_s_jog_moves_the_arm_and_is_logged_with_the_user(served):
     from asyncua import ua
 

@@ -142,6 +142,7 @@ def test_3d_plan_refusals(model):
         plan_approach_3d(model, start=(3.82, 10.4), target=(14.0, 1.0))
 
 
+@pytest.mark.slow  # make test's 2-minute budget (2-4 s here); CI runs it
 def test_results_are_data_with_summary_to_dict_and_plot(model):
     """Every result type offers summary() (a dict that knows its metrics), to_dict() (plain JSON) and plot()."""
     import json

@@ -147,8 +147,7 @@ def _manifold(bank: Bank, limits: np.ndarray, rel: np.ndarray, centre: np.ndarra
     try:
         rec = record_manifold_loads(bank, t, rel.T - centre, angles, wind=berth_wind(env))
     except UnreachableError:                 # a flange out of an arm's reach: no loads (the monitoring's case)
-        return {"manifold_utilisation": math.nan, "manifold_governing": "", "manifold_at_s": math.nan,
-                "down_manifold": False, **{f"manifold_utilisation_{n}": math.nan for n in names}}
+        return _no_manifold(names)
     u = rec.worst / limits
     i, j = np.unravel_index(int(np.argmax(u)), u.shape)
     return {"manifold_utilisation": float(u[i, j]), "manifold_governing": f"{names[i]} {LOAD_LABELS[j]}",
@@ -157,6 +156,7 @@ def _manifold(bank: Bank, limits: np.ndarray, rel: np.ndarray, centre: np.ndarra
 
 
 def _no_manifold(names) -> dict:
+    """The manifold's columns where no loads are judged (not asked for, or a flange out of an arm's reach)."""
     return {"manifold_utilisation": math.nan, "manifold_governing": "", "manifold_at_s": math.nan,
             "down_manifold": False, **{f"manifold_utilisation_{n}": math.nan for n in names}}
 

@@ -207,7 +207,7 @@ def test_the_swivels_over_the_flanging_area_and_the_ship_s_motions():
     least, k, i, j = env.least()
     assert np.degrees(least) == pytest.approx(27.0, abs=0.05) and bank.names[i] in ("L1", "L3")
     assert least <= np.nanmin(env.margins) + 1e-15 and env.to_dict()["by_arm_deg"]["V1"] > np.degrees(least)
-    assert env.to_dict()["out_of_reach"] == 0
+    assert env.to_dict()["out_of_reach"] == 0 and len(env.plot().axes[0].lines) == len(bank.names) + 1
 
 
 def test_a_swivel_the_ship_s_pitch_takes_past_its_stop_is_refused_in_one_line(capsys, tmp_path):

@@ -26,7 +26,7 @@ from loadarm.arm.envelope import berth_box, flanging_x_far
 from loadarm.arm.clearance import ClearanceResult, path_clearance
 from loadarm.arm.slew import inverse3d
 from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
-from loadarm.design.plots import bank_order_figure
+from loadarm.design.plots import bank_order_figure, swivel_envelope_figure
 from loadarm.design.trajectory import plan_approach_3d
 from loadarm.errors import LoadarmError, PathError
 from loadarm.params.bank import Bank
@@ -107,6 +107,9 @@ class SwivelEnvelope(Result):
         (d, rpy) = self.cases[k]
         return (f"arm '{self.names[i]}' {SWIVEL_FACE_TABLE[j].words}, manifold moved by ({d[0]:+.2f}, {d[1]:+.2f}, "
                 f"{d[2]:+.2f}) m, ship at roll {rpy[0]:+g}, pitch {rpy[1]:+g}, yaw {rpy[2]:+g} deg")
+
+    def _figure(self):
+        return swivel_envelope_figure(self)
 
     def _values(self) -> dict:
         least, k, i, j = self.least()

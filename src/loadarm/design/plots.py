@@ -24,7 +24,7 @@ if TYPE_CHECKING:  # the model is only ever received, never built, here
 __all__ = ["envelope_figure", "alpha_beta_figure", "angles_time_figure", "cylinders_figure", "voltages_figure",
            "timing_figure", "verification_figure", "residual_torque_figure", "loads_figure",
            "timing_comparison_figure", "sizing_figure", "plan3d_figure", "check_figure", "alarm_design_figure",
-           "surge_figure", "manifold_check_figure", "manifold_record_figure"]
+           "surge_figure", "manifold_check_figure", "manifold_record_figure", "swivel_envelope_figure"]
 
 
 _SEVERITY_COLOURS = {Severity.NORMAL: "#cfe8cf", Severity.ESD1: "#ffe08a", Severity.SECOND: "#ffb366",
@@ -749,4 +749,30 @@ def bank_order_figure(order) -> Figure:
     bottom.set_ylabel("clearance [m]")
     bottom.legend(fontsize=8, loc="center right")
     bottom.grid(alpha=0.3)
+    return fig
+
+
+def swivel_envelope_figure(env) -> Figure:
+    """The swivels over the flanging area and the ship's motions: each arm's least swivel margin in each case (the
+    manifold's corner, the ship's roll, pitch and yaw), the stop at zero dashed.
+
+    Parameters
+    ----------
+    env : loadarm.design.bank.SwivelEnvelope
+
+    Returns
+    -------
+    Figure
+    """
+    fig, ax = subplots(figsize=(8, 3.5))
+    fig.set_layout_engine("constrained")
+    least = np.degrees(np.nanmin(env.margins, axis=2))                 # (cases, arms)
+    for i, name in enumerate(env.names):
+        ax.plot(np.arange(least.shape[0]), least[:, i], ".", ms=5, label=name)
+    ax.axhline(0.0, color="k", ls="--", lw=1, label="stop")
+    ax.set_xlabel("case (the manifold at a corner of the flanging area, the ship at its roll, pitch and yaw limits)")
+    ax.set_ylabel("least swivel margin [deg]")
+    ax.set_ylim(bottom=min(0.0, float(np.nanmin(least))) - 2.0)
+    ax.legend(fontsize=8, ncols=len(env.names) + 1, loc="lower right")
+    ax.grid(alpha=0.3)
     return fig

@@ -131,7 +131,8 @@ def test_the_ship_s_own_point_and_the_bank_s_turned_offset_agree_in_a_seaway(set
     ships = bank_ships(bank, ship)
     monitor = BankMonitor(bank)
     centre = np.asarray(bank.file.manifold.position) + (m.flange - m.flange_reference)
-    by_bank = monitor.flanges(centre, m.flange_angles) + monitor.risers       # bank frame
+    risers = np.array([[a.x, a.y, 0.0] for a in bank.file.arms])
+    by_bank = monitor.flanges(centre, m.flange_angles) + risers       # bank frame
     for i, s in enumerate(ships):
         ref = flange_kinematics(s, m.mean_pose[None], np.zeros((1, 3)), np.zeros((1, 6)), np.zeros((1, 6)))[0][0]
         p, _, _ = flange_kinematics(s, m.pose, m.pose_velocity, m.wave, m.wave_velocity)

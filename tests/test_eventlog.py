@@ -179,6 +179,7 @@ def test_a_full_disk_is_one_line_at_the_end_of_the_run_and_keeps_what_was_commit
     assert len(events) >= 3 and events[0].kind == "sample"       # the WAL holds them (a page or more a commit)
 
 
+@pytest.mark.slow           # 3.4 s (make test's budget; CI runs it)
 @pytest.mark.skipif(not hasattr(signal, "SIGXFSZ"), reason="needs RLIMIT_FSIZE (POSIX)")
 def test_a_full_disk_leaves_the_old_output_and_no_temporary(tmp_path):
     """An output that cannot be written completely (the disk fills while the PNG is written) leaves the

@@ -1,8 +1,8 @@
 """The operator's screen in a real browser (issue 15): Debian's Chromium driven by Playwright against
 ``loadarm serve``'s HMI on an ephemeral loopback port, over the real guidance service (the drift-off scenario,
 kinematic plant). Skipped with the reason when no Chromium is installed (`apt-get install chromium`); CI
-installs it (.ci/run). `make test` runs the page load and the E-stop; the rest, seconds each, are in the slow
-suite (`make test SLOW=1`, CI) to keep it within two minutes on two cores."""
+installs it (.ci/run). All are in the slow suite (`make test SLOW=1`, CI): Chromium's start alone costs 13 s of
+`make test`'s two minutes on two cores."""
 
 from __future__ import annotations
 
@@ -72,6 +72,7 @@ def page(browser):
     ctx.close()
 
 
+@pytest.mark.slow           # 13 s: Chromium's start (make test's budget; CI runs it)
 def test_the_page_loads_with_no_console_error_and_no_request_outside_and_updates_at_10_hz(screen, page):
     s = screen()
     log_in(page, s.url, "alice", "pw-alice")
@@ -139,6 +140,7 @@ def test_the_jog_pad_moves_the_coupler_and_the_dead_man_stops_it(screen, page):
     assert {o["user"] for o in ops} == {"alice"} and [o["action"] for o in ops].count("jog") == 2   # held: once
 
 
+@pytest.mark.slow           # 3 s (make test's budget; CI runs it)
 def test_e_stop_stops_the_arm_within_one_update(screen, page):
     """The coupler jogging, one click on E-STOP: the first or second frame after the click (one may have been
     on its way) shows ESTOP, and the coupler stands still from then on."""

@@ -132,6 +132,7 @@ def _forecast(centre, half, claimed=120.0, t=100.0):
 @settings(max_examples=examples(30), deadline=None)
 @given(speed=st.floats(0.02, 0.3), half=st.floats(0.0, 0.5), age=st.floats(0.0, 0.99),
        direction=st.floats(-0.6, 0.6))
+@pytest.mark.slow           # 3 s (make test's budget; CI runs it)
 def test_the_predicted_crossing_is_never_later_than_the_box_s_first_crossing(speed, half, age, direction):
     """A predicted track moving off the berth at ``speed``: the crossing found is the start of the first block
     whose box (interval plus the motion within a block) has a corner past a face, checked by an independent scan

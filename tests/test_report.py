@@ -45,6 +45,7 @@ def test_report_names_its_input_date_and_version(own_report):
     assert summary["generated"] == "2026-11-23 12:00 UTC" and summary["input"].startswith("mine.toml")
 
 
+@pytest.mark.slow           # the report's 6 s fixture again on another worker (make test's budget; CI runs it)
 def test_own_installation_is_not_called_the_paper(own_report):
     files, html, summary = own_report
     assert "(paper: 12 m and 8.2 m)" not in html and "the paper's example does this too" not in html
@@ -53,12 +54,14 @@ def test_own_installation_is_not_called_the_paper(own_report):
     assert "timeline_quick.png" in {p.name for p in files.figures.values()}
 
 
+@pytest.mark.slow           # the report's 6 s fixture again on another worker (make test's budget; CI runs it)
 def test_no_wall_clock_numbers_in_the_report(own_report):
     _, html, summary = own_report
     assert "cycle p99" not in html and "[us]" not in html
     assert all(not k.startswith("cycle_us") for s in summary["scenarios"].values() for k in s)
 
 
+@pytest.mark.slow           # the report's 6 s fixture again on another worker (make test's budget; CI runs it)
 def test_parameters_in_engineering_units_left_aligned_text(own_report):
     _, html, _ = own_report
     row = re.search(r"<tr><td>cylinders\.max_pressure</td><td[^>]*>([^<]*)</td><td>([^<]*)</td>", html)
@@ -69,6 +72,7 @@ def test_parameters_in_engineering_units_left_aligned_text(own_report):
     assert not re.search(r"\bissue \d", html)               # no tracker references in user-facing text
 
 
+@pytest.mark.slow           # the report's 6 s fixture again on another worker (make test's budget; CI runs it)
 def test_a_document_an_engineer_can_sign(own_report, tmp_path):
     """The title page: the document number and revision, the date, the input's SHA-256, an approval block
     (prepared, checked, approved: blank name, signature and date) and a table of contents whose every entry links
@@ -96,6 +100,7 @@ def test_a_document_an_engineer_can_sign(own_report, tmp_path):
     assert document_identity(load_config(cfg), cfg)["revision"] == "B"
 
 
+@pytest.mark.slow           # the report's 6 s fixture again on another worker (make test's budget; CI runs it)
 def test_every_range_in_the_unit_of_its_value_and_the_file_s_unit_beside(own_report):
     """Found: ``valve.laminar_pressure 1 bar ... (0, 1e+07] Pa``: a value in bar beside its range in Pa, and a user
     who copied the value into the file was refused. Each range is now in the value's unit (pint converts the
@@ -121,6 +126,7 @@ def test_every_range_in_the_unit_of_its_value_and_the_file_s_unit_beside(own_rep
     assert converted == 18                                         # every Pa, N and m^3/s parameter
 
 
+@pytest.mark.slow           # the report's 6 s fixture again on another worker (make test's budget; CI runs it)
 def test_summary_json_rounds_as_documented_and_the_sized_corner_sounds(own_report):
     """docs/cli-and-report.md: JSON rounds floats to 12 significant digits (found: summary.json had
     123.00000000000003 and -4.699999999999999; --json rounded, the report did not); one function rounds both.
@@ -136,6 +142,7 @@ def test_summary_json_rounds_as_documented_and_the_sized_corner_sounds(own_repor
     assert corner["beta_deg"] == 123.0 and corner["y_m"] == -4.7 and corner["zone"] == int(Severity.ESD1)
 
 
+@pytest.mark.slow           # the report's 6 s fixture again on another worker (make test's budget; CI runs it)
 def test_arrive_is_said_to_be_the_first_time_within_the_tolerance(own_report):
     """Found: "arrive 67.85 s" beside "final 44.57 mm" read as a contradiction: arrive is the first time within the
     5 mm tolerance, final the distance when the run ends; the report says so under the table."""
@@ -155,6 +162,7 @@ def test_paper_case_keeps_its_comparison(tmp_path):
     assert "(paper: 12 m and 8.2 m)" in html and "No scenarios" in html
 
 
+@pytest.mark.slow           # the report's 6 s fixture again on another worker (make test's budget; CI runs it)
 def test_report_html_is_a_template_that_escapes_user_text(own_report, tmp_path):
     """The HTML layer is an autoescaped Jinja2 template: a file name or title cannot inject markup."""
     from loadarm.present.report import _template

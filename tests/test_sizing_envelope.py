@@ -84,6 +84,7 @@ def _reach_by_grid(beta, bounds_b, bounds_c, n=801):
 @settings(max_examples=examples(300))
 @given(st.floats(0.5, 30.0), st.floats(0.0, 40.0), st.floats(0.0, 20.0), st.floats(1.0, 179.0),
        st.floats(0.5, 30.0), st.floats(0.0, 30.0), st.floats(0.5, 30.0), st.floats(0.0, 30.0))
+@pytest.mark.slow           # 2.5 s (make test's budget; CI runs it)
 def test_sizing_is_the_global_minimum(a, X, Y, beta_deg, blo, bw, clo, cw):
     """Over the whole domain: the answer is feasible, no sample of the ellipse inside the box is shorter,
     and a refusal happens only when a grid of the box confirms that no arm has the radius.

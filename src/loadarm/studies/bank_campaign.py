@@ -71,7 +71,7 @@ from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
 from loadarm.vocab import Severity
 from loadarm.studies.kernel import breakout_time, floor_table, ray_distances
-from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile
+from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile, Tally
 
 __all__ = ["BankRun", "BankCampaignResult", "bank_run", "run_bank_campaign", "check_bank_campaign",
            "bank_sequence", "arm_record", "single_arm_run", "retraction_times", "couplers", "BANK_PERIOD"]
@@ -712,16 +712,7 @@ def run_bank_campaign(bank_file: str | Path, scenario: str | Path, seeds: int, *
     todo = [s for s in wanted if s not in held]
     chunks = [todo[k:k + batch] for k in range(0, len(todo), batch)]
     workers = workers or os.cpu_count() or 1
-    if progress and held:
-        progress(len(runs), seeds)
-
-    def report(part):
-        runs.extend(part)
-        if store is not None:
-            store.append(part)
-            codes[store.code] += len(part)
-        if progress:
-            progress(len(runs), seeds)
+    report = Tally(runs, store, codes, seeds, progress)
 
     if workers == 1 or len(chunks) <= 1:
         for c in chunks:

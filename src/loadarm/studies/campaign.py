@@ -42,7 +42,7 @@ from loadarm.results import Metric, Result
 from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import run_scenario
 from loadarm.studies.cluster import connect_scheduler, plan_workers
-from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile
+from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile, Tally
 from loadarm.vocab import ALARM_RULES
 
 __all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign",
@@ -407,16 +407,7 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
             batch = min(batch, RUNS_FILE_BATCH)
     batch = max(1, batch)
     chunks = _chunks((s for s in wanted if s not in held), vary, batch)   # built as they are submitted
-    if progress is not None and held:
-        progress(len(done), seeds)
-
-    def report(part):
-        done.extend(part)
-        if store is not None:
-            store.append(part)
-            codes[store.code] += len(part)
-        if progress is not None:
-            progress(len(done), seeds)
+    report = Tally(done, store, codes, seeds, progress)
 
     if scheduler is not None:
         from distributed import as_completed as dask_completed

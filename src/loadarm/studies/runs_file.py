@@ -19,14 +19,15 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from collections.abc import Iterable, Sequence
+from collections import Counter
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict
 from pathlib import Path
 
 from loadarm.errors import ConfigError
 from loadarm.files import SIGNATURE
 
-__all__ = ["RUNS_KIND", "RUNS_FILE_BATCH", "code_digest", "RunsFile"]
+__all__ = ["RUNS_KIND", "RUNS_FILE_BATCH", "code_digest", "RunsFile", "Tally"]
 
 #: The header's ``kind``.
 RUNS_KIND = "campaign runs"
@@ -182,3 +183,42 @@ class RunsFile:
 def _short(value) -> str:
     text = json.dumps(value)
     return text if len(text) <= 24 else text[:21] + "..."
+
+
+class Tally:
+    """A campaign's runs as its batches end: the runs so far (those a runs file held first), each new batch
+    appended to the file, how many runs each code ran, and the progress. The one place of this bookkeeping (the
+    arm's campaign and the bank's).
+
+    Parameters
+    ----------
+    runs : list
+        The runs held already (extended in place).
+    store : RunsFile or None
+    codes : Counter
+        Runs per code digest, of those held (counted on in place).
+    total : int
+        Runs the campaign wants, for the progress.
+    progress : callable, optional
+        ``progress(done, total)``: called once now if runs are held, then after every batch.
+    """
+
+    def __init__(self, runs: list, store: RunsFile | None, codes: Counter, total: int,
+                 progress: Callable[[int, int], None] | None = None):
+        self.runs, self.store, self.codes, self.total, self.progress = runs, store, codes, total, progress
+        if progress is not None and runs:
+            progress(len(runs), total)
+
+    def __call__(self, part: Sequence) -> None:
+        """One batch's runs have ended.
+
+        Parameters
+        ----------
+        part : sequence of dataclass
+        """
+        self.runs.extend(part)
+        if self.store is not None:
+            self.store.append(part)
+            self.codes[self.store.code] += len(part)
+        if self.progress is not None:
+            self.progress(len(self.runs), self.total)

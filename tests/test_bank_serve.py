@@ -119,7 +119,7 @@ def test_the_bank_is_a_machine_with_one_component_per_arm(bank_served, world):
     every = {n for n, *_ in ARM_VARIABLES + ARM_STATES}
     assert len(every) == 6 + 6 + 3 + 6 + 2 + 5 + 4          # ... and the manifold load's four
     for name, (ident, children) in arms.items():
-        assert ident == f"{name} (full.toml)" and children == every, (name, every - children)
+        assert ident == f"{name} (full.toml)" and children == every | {"Alarms"}, (name, every - children)
 
 
 def _direct(world, t):
@@ -225,7 +225,8 @@ def test_each_arm_s_values_are_the_direct_computation_at_the_state_s_time(bank_s
 @pytest.mark.parametrize("user, password", [(None, None), ("eve", "pw-eve")])
 def test_the_bank_is_read_only_to_every_role(bank_served, user, password):
     """No method, no write: the variables' access level is read only, and a write is refused, an anonymous
-    session's and an engineer's alike (this world has no controller to take a request)."""
+    session's and an engineer's alike (this world has no controller to take a request; the one call an operator
+    makes is Acknowledge on an alarm's condition, below)."""
     from asyncua import ua
 
     async def body(c, ns):
@@ -370,6 +371,98 @@ def test_loadarm_serve_bank_serves_the_bank_until_ctrl_c(tmp_path):
     assert closing.startswith("stopped at t = ") and "late states" in closing and code == 130, closing
 
 
+class _Events:
+    """An asyncua subscription handler keeping the events it gets."""
+
+    def __init__(self):
+        self.events = []
+
+    def event_notification(self, event):
+        self.events.append(event)
+
+    async def wait_for(self, pred, timeout=5.0):
+        import time
+
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < timeout:
+            hits = [e for e in self.events if pred(e)]
+            if hits:
+                return hits[-1]
+            await asyncio.sleep(0.05)
+        raise AssertionError(f"no such event among {len(self.events)}")
+
+
+def test_each_arm_s_alarms_are_part_9_conditions_that_an_operator_acknowledges_one_by_one(world, tmp_path):
+    """Each arm's stage alarms and its manifold-load alarm are AlarmConditionType conditions under its
+    ``Guidance/Alarms``, their events from the arm's Guidance object: with 2.0 m required between arms that keep
+    1.8 m every arm's clash is past and every stage alarm rises, unacknowledged, retained, at its severity, its
+    message naming the arm. Acknowledge on one condition (an operator's) acknowledges that alarm alone at the next
+    state, noted with the user; a viewer's is refused, and an alarm already acknowledged is refused."""
+    import dataclasses
+
+    from asyncua import ua
+
+    from loadarm.arm.alarms import AlarmState
+    from loadarm.opcua.bank import ARM_ALARM_TAGS, BankServer, BankService
+    from loadarm.testing.loadtest import free_port
+    from loadarm.vocab import condition_severity
+
+    bank = world.bank
+    clearance = bank.file.clearance.model_copy(update={"min_clearance": 2.0})
+    clash = dataclasses.replace(world, bank=dataclasses.replace(
+        bank, file=bank.file.model_copy(update={"clearance": clearance})))
+    st = StateDir(tmp_path / "state")
+    st.users().add("alice", Role.OPERATOR, "pw-alice")
+    st.users().add("victor", Role.VIEWER, "pw-victor")
+    cert, key = client_certificate(tmp_path, "client", "urn:test:client")
+    st.trust(cert)
+    service = BankService(clash)
+    endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
+    server = BankServer(service, st.path, endpoint)
+    served = {"endpoint": endpoint, "state": st, "cert": cert, "key": key}
+    ack = ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge)
+
+    async def viewer(c, ns):
+        node = c.get_node(ua.NodeId("Bank.Components.L1.Guidance.Alarms.RELEASE", ns))
+        with pytest.raises(ua.uaerrors.BadUserAccessDenied):
+            await node.call_method(ack, b"", ua.LocalizedText("viewer"))
+        return True
+
+    async def operator(c, ns):
+        folder = c.get_node(ua.NodeId("Bank.Components.L1.Guidance.Alarms", ns))
+        names = [(await n.read_browse_name()).Name for n in await folder.get_children()]
+        guidance = c.get_node(ua.NodeId("Bank.Components.L1.Guidance", ns))
+        h = _Events()
+        sub = await c.create_subscription(50, h)
+        await sub.subscribe_events(guidance, ua.NodeId(ua.ObjectIds.AlarmConditionType))
+        service.step(0)
+        ev = await h.wait_for(lambda e: e.ConditionName == "RELEASE")
+        assert getattr(ev, "ActiveState/Id") is True and getattr(ev, "AckedState/Id") is False and ev.Retain
+        assert ev.Severity == condition_severity("RELEASE") and ev.Message.Text.startswith("L1: ERS-2")
+        cond = c.get_node(ua.NodeId("Bank.Components.L1.Guidance.Alarms.RELEASE", ns))
+        await cond.call_method(ack, ev.EventId, ua.LocalizedText("seen"))
+        snap = service.step(1)
+        ev2 = await h.wait_for(lambda e: e.ConditionName == "RELEASE" and getattr(e, "AckedState/Id"))
+        assert getattr(ev2, "ActiveState/Id") is True and ev2.Retain
+        with pytest.raises(ua.uaerrors.BadConditionBranchAlreadyAcked):
+            await cond.call_method(ack, ev2.EventId, ua.LocalizedText("again"))
+        await sub.delete()
+        return names, snap
+
+    server.start()
+    try:
+        names, snap = _run(served, operator, "alice", "pw-alice")
+        assert _run(served, viewer, "victor", "pw-victor")
+    finally:
+        server.stop()
+    assert names == list(ARM_ALARM_TAGS)
+    assert snap.conditions[(0, "RELEASE")] == AlarmState.ACKED
+    assert snap.conditions[(0, "ESD1")] == AlarmState.UNACKED                  # one by one: only the one asked
+    assert all(snap.conditions[(i, "RELEASE")] == AlarmState.UNACKED for i in range(1, len(bank.names)))
+    assert snap.conditions[(0, "MANIFOLD_LOAD")] == AlarmState.NORMAL
+    assert any("ERS-2: release of the coupler acknowledged: arm L1, by alice" in n[2] for n in service.notes)
+
+
 def test_the_docs_list_the_bank_s_node_tree():
     """docs/plant-integration.md carries the bank's tables as the server declares them (``make docs`` writes
     them), and docs/bank.md shows the screen (its screenshot by ``make docs``)."""
@@ -449,7 +542,8 @@ def test_the_alarm_list_shows_an_arm_s_most_severe_active_alarm_and_dates_a_retu
 
     def at(t, stage, ack=False):
         snap = SimpleNamespace(state=SimpleNamespace(t=t), loads=None, stage=lambda i: Severity(stage))
-        return BankService._annunciate(svc, snap, ack)
+        BankService._stage_states(svc, snap, ack, frozenset())
+        return BankService._alarm_list(svc, [AlarmState.NORMAL])
 
     (a,) = at(1.0, Severity.ESD1)
     assert (a.tag, a.state, a.raised_at) == ("ESD1", AlarmState.UNACKED, 1.0)

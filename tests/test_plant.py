@@ -395,7 +395,7 @@ def test_the_docs_list_the_whole_address_space():
     assert f"for {JOG_HOLD:g} s" in doc and f"every {1 / PUBLISH_RATE:g} s" in doc
     assert f"Confirm = true within {ERS_CONFIRM_WINDOW:g} s" in doc
     from loadarm.opcua.plc import LINK_TIMEOUT, RECONNECT, TAGS, WATCHDOG
-    from loadarm.opcua.server import CONDITION_SEVERITY, CONDITION_TEXT
+    from loadarm.vocab import CONDITION_SEVERITY, CONDITION_TEXT
 
     for tag, sev in CONDITION_SEVERITY.items():
         assert f"| `{tag}` | {sev} | {CONDITION_TEXT[tag]} |" in doc, tag
@@ -484,7 +484,8 @@ def test_alarms_are_part_9_conditions_that_an_operator_acknowledges(fake_served)
     retained conditions."""
     from asyncua import ua
 
-    from loadarm.opcua.server import CONDITION_SEVERITY, NAMESPACE
+    from loadarm.opcua.server import NAMESPACE
+    from loadarm.vocab import CONDITION_SEVERITY
 
     fake, sv = fake_served["fake"], fake_served
     fake.requests.clear()

@@ -52,7 +52,7 @@ class Severity(enum.IntEnum):
 
 __all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "FACES", "FACE_LABELS", "FACE_WORDS",
            "SWIVEL_FACE_TABLE", "CLASH_FACE", "BANK_FACE_TABLE", "BANK_FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
-           "CONDITION_SEVERITY", "CONDITION_TEXT", "BANK_CONDITIONS", "condition_text", "RESET_BLOCKING", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
+           "CONDITION_SEVERITY", "CONDITION_TEXT", "BANK_CONDITIONS", "condition_text", "condition_severity", "RESET_BLOCKING", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
            "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES",
            "ROUTE_DESIGN", "ROUTE_MEASURED", "ROUTE_STEP", "ROUTE_BREAKOUT", "ROUTE_PREDICTION", "MEASURED_ROUTES",
@@ -239,6 +239,20 @@ def condition_text(tag: str) -> str:
     str
     """
     return _BY_TAG[tag].text
+
+
+def condition_severity(tag: str) -> int:
+    """An annunciated alarm's OPC UA severity, 1-1000 (:data:`CONDITIONS` or :data:`BANK_CONDITIONS`).
+
+    Parameters
+    ----------
+    tag : str
+
+    Returns
+    -------
+    int
+    """
+    return _BY_TAG[tag].severity
 
 
 #: The alarms an ESD-1 reset waits for.

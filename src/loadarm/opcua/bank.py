@@ -36,13 +36,15 @@ from loadarm.arm.alarms import AlarmState, next_alarm_state
 from loadarm.guidance.bank import BankForecast, BankMonitor
 from loadarm.guidance.manifold_alarm import ManifoldLoadAlarm, ManifoldLoadStatus
 from loadarm.guidance.monitor import stage_leads
-from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, unece_unit_id
+from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, acknowledge_method, conditions, unece_unit_id
 from loadarm.sim.bank import BankState, BankWorld
-from loadarm.vocab import CONDITIONS, EVENTS, FACE_LABELS, SWIVEL_FACE_TABLE, Severity, priority
+from loadarm.vocab import (BANK_CONDITIONS, CONDITIONS, EVENTS, FACE_LABELS, SWIVEL_FACE_TABLE, Severity,
+                           condition_severity, condition_text, priority)
 
 __all__ = [
     "ARM_STATES",
     "ARM_VARIABLES",
+    "ARM_ALARM_TAGS",
     "BANK_APP_URI",
     "BANK_STATES",
     "BANK_VARIABLES",
@@ -136,12 +138,17 @@ def bank_address_space_markdown() -> str:
     rows += [f"| `{n}` | {_KINDS[k]} |  | {w} |" for n, k, w in BANK_STATES]
     rows += [f"| `Components/ARM/Guidance/{n}` | Double | {u[1]} | {w} |" for n, u, _, w in ARM_VARIABLES]
     rows += [f"| `Components/ARM/Guidance/{n}` | {_KINDS[k]} |  | {w} |" for n, k, w in ARM_STATES]
+    rows += [f"| `Components/ARM/Guidance/Alarms/{t}` | AlarmConditionType |  | severity {condition_severity(t)}: "
+             f"{condition_text(t)} |" for t in ARM_ALARM_TAGS]
     return "\n".join(rows) + "\n"
 
 
 #: Each arm's stage alarms: one per stage condition (the single arm's, :data:`loadarm.vocab.CONDITIONS`).
 STAGE_CONDITIONS = tuple(c for c in CONDITIONS if c.stage is not None)
 _STAGE_RANK = {c.tag: int(c.stage) for c in STAGE_CONDITIONS}
+#: Each arm's annunciated alarms, served as OPC UA Part 9 conditions under its ``Guidance/Alarms``: its stage
+#: conditions, then the bank's own (:data:`loadarm.vocab.BANK_CONDITIONS`: its manifold load).
+ARM_ALARM_TAGS = tuple(c.tag for c in STAGE_CONDITIONS) + tuple(c.tag for c in BANK_CONDITIONS)
 
 
 @dataclass(frozen=True)
@@ -187,6 +194,9 @@ class BankSnapshot:
         Each arm's manifold load and its alarm (:class:`loadarm.guidance.manifold_alarm.ManifoldLoadAlarm`).
     alarms : tuple of BankAlarm
         The alarms not normal, the most urgent first, then the oldest.
+    conditions : dict of (int, str) to AlarmState
+        Every arm's every alarm of :data:`ARM_ALARM_TAGS` (arm index, tag) in its ISA-18.2 state, none suppressed
+        (the OPC UA conditions; the list above suppresses an arm's lower stages).
     """
 
     seq: int
@@ -195,6 +205,7 @@ class BankSnapshot:
     forecast: BankForecast | None = None
     loads: ManifoldLoadStatus | None = None
     alarms: tuple = ()
+    conditions: dict = dataclasses.field(default_factory=dict)
 
     def stage(self, i: int) -> Severity:
         """Arm ``i``'s stage: the more severe of its position alarm and the bank monitor's.
@@ -320,6 +331,8 @@ class BankService:
         #: Each arm's live manifold-load alarm.
         self.loads = ManifoldLoadAlarm(world.bank)
         self._ack = threading.Event()
+        #: Acknowledgements of one alarm each (an OPC UA client's Acknowledge): (user, (arm index, tag)).
+        self._asked: deque[tuple[str, tuple[int, str]]] = deque()
         #: Events from outside (refused logins), with the time they came: this world keeps no event log.
         self.notes: deque[tuple[float, str, str, dict]] = deque(maxlen=NOTES_KEPT)
         #: Each (arm, stage condition) not normal: its ISA-18.2 state and when it rose.
@@ -352,17 +365,38 @@ class BankService:
         """The operator acknowledged every alarm (the bank's screen): applied at the next state."""
         self._ack.set()
 
-    def _annunciate(self, snap: BankSnapshot, acknowledge: bool) -> tuple:
-        """The stage alarms' ISA-18.2 states at this state (each arm's stage against each stage condition), each
-        rise and clear a note, and the alarm list: each arm's most severe stage alarm not normal and its
-        manifold-load alarm, the most urgent first, then the oldest."""
+    def request_ack(self, user: str, key: tuple[int, str]) -> None:
+        """An operator acknowledged one alarm (an OPC UA condition's Acknowledge): applied at the next state.
+        Never blocks (called from the server's event loop).
+
+        Parameters
+        ----------
+        user : str
+        key : (int, str)
+            The arm's index and the alarm's tag (:data:`ARM_ALARM_TAGS`).
+        """
+        self._asked.append((user, key))
+
+    def _take_asked(self) -> frozenset:
+        """The single acknowledgements asked since the last state, each a note naming the user."""
+        keys = set()
+        while self._asked:
+            user, (i, tag) = self._asked.popleft()
+            keys.add((i, tag))
+            self.note("alarm", f"{condition_text(tag)} acknowledged: arm {self.bank.names[i]}, by {user}",
+                      {"arm": self.bank.names[i], "tag": tag, "user": user, "acknowledged": True})
+        return frozenset(keys)
+
+    def _stage_states(self, snap: BankSnapshot, acknowledge: bool, asked: frozenset) -> None:
+        """The stage alarms' ISA-18.2 states at this state (each arm's stage against each stage condition,
+        acknowledged all at once or one by one), each rise and clear a note."""
         t = snap.state.t
         for i, name in enumerate(self.bank.names):
             stage = snap.stage(i)
             for c in STAGE_CONDITIONS:
                 old, since = self._stage_alarms.get((i, c.tag), (AlarmState.NORMAL, math.nan))
                 active = stage >= c.stage
-                new = next_alarm_state(old, active, acknowledge)
+                new = next_alarm_state(old, active, acknowledge or (i, c.tag) in asked)
                 if new == AlarmState.UNACKED and old not in (AlarmState.UNACKED, AlarmState.ACKED):
                     since = t                      # risen, or risen again from returned-to-normal (found by review)
                 if active != (old in (AlarmState.UNACKED, AlarmState.ACKED)):
@@ -372,6 +406,23 @@ class BankService:
                     self._stage_alarms.pop((i, c.tag), None)
                 else:
                     self._stage_alarms[(i, c.tag)] = (new, since)
+
+    def _annunciate(self, snap: BankSnapshot, acknowledge: bool, asked: frozenset = frozenset()) -> BankSnapshot:
+        """The snapshot with its alarms: the stage alarms' states (:meth:`_stage_states`), every alarm's state
+        (the conditions) and the alarm list (:meth:`_alarm_list`)."""
+        self._stage_states(snap, acknowledge, asked)
+        names = self.bank.names
+        loads = [AlarmState(s) for s in snap.loads.states] if snap.loads is not None else \
+            [AlarmState.NORMAL] * len(names)
+        conds = {(i, tag): self._stage_alarms.get((i, tag), (AlarmState.NORMAL, math.nan))[0]
+                 for i in range(len(names)) for tag in _STAGE_RANK}
+        conds.update({(i, "MANIFOLD_LOAD"): st for i, st in enumerate(loads)})
+        return dataclasses.replace(snap, alarms=self._alarm_list(loads), conditions=conds)
+
+    def _alarm_list(self, loads) -> tuple:
+        """The alarm list: each arm's most severe stage alarm not normal and its manifold-load alarm (``loads``,
+        each arm's state), the most urgent first, then the oldest."""
+        names = self.bank.names
         # one line an arm: its most severe stage alarm not normal (the lower stages of the same escalation are
         # suppressed by design, ISA-18.2's state-based suppression: four arms would otherwise list sixteen)
         # (the most severe active one first: found by review, a returned ESD-1 hid an active pre-alarm)
@@ -380,12 +431,10 @@ class BankService:
             rank = (st in (AlarmState.UNACKED, AlarmState.ACKED), _STAGE_RANK[tag])
             if i not in top or rank > top[i][0]:
                 top[i] = (rank, tag, st, since)
-        out = [BankAlarm(self.bank.names[i], tag, st, since) for i, (_, tag, st, since) in sorted(top.items())]
-        if snap.loads is not None:
-            out += [BankAlarm(name, "MANIFOLD_LOAD", st, self._load_raised[i])
-                    for i, (name, st) in enumerate(zip(self.bank.names, snap.loads.states, strict=True))
-                    if st != AlarmState.NORMAL]
-        order = {n: i for i, n in enumerate(self.bank.names)}
+        out = [BankAlarm(names[i], tag, st, since) for i, (_, tag, st, since) in sorted(top.items())]
+        out += [BankAlarm(names[i], "MANIFOLD_LOAD", st, self._load_raised[i])
+                for i, st in enumerate(loads) if st != AlarmState.NORMAL]
+        order = {n: i for i, n in enumerate(names)}
         return tuple(sorted(out, key=lambda a: (priority(a.tag)[0], a.raised_at, order[a.arm])))
 
     def _load_events(self, status: ManifoldLoadStatus) -> None:
@@ -420,13 +469,15 @@ class BankService:
             self.monitor.refit()
         if k % FORECAST_EVERY == 0 or self._forecast is None:
             self._forecast = self.monitor.time_to_limit(state.manifold, state.ship_angles, self.horizon, now=state.t)
-        acked = self.world.bank.names if self._ack.is_set() else ()
+        every = self._ack.is_set()
         self._ack.clear()
+        asked = self._take_asked()
+        names = self.world.bank.names
+        acked = names if every else tuple(names[i] for i, tag in sorted(asked) if tag == "MANIFOLD_LOAD")
         displacement = state.manifold - np.asarray(self.world.bank.file.manifold.position, dtype=float)
         loads = self.loads.step(state.t, displacement, state.ship_angles, wind=self.world.wind, acknowledge=acked)
         self._load_events(loads)
-        snap = BankSnapshot(k, self.wall(), state, self._forecast, loads)
-        snap = dataclasses.replace(snap, alarms=self._annunciate(snap, bool(acked)))
+        snap = self._annunciate(BankSnapshot(k, self.wall(), state, self._forecast, loads), every, asked)
         self._snapshot = snap
         return snap
 
@@ -495,7 +546,7 @@ class BankServer(SnapshotServer):
         ns, mns, dns, machines = await self._machines(server)
         bank = await machines.add_object(ua.NodeId("Bank", ns), ua.QualifiedName("LoadingArmBank", ns))
         await _identification(bank, "Bank", ns, dns, self.name, f"{BANK_APP_URI}:{self.name}")
-        nodes: dict = {"bank": {}, "arms": []}
+        nodes: dict = {"bank": {}, "arms": [], "conditions": {}}
         await _variables(bank, "Bank", ns, BANK_VARIABLES, BANK_STATES, nodes["bank"])
         comps = await bank.add_object(ua.NodeId("Bank.Components", ns), ua.QualifiedName("Components", mns))
         bk = self.service.bank
@@ -508,12 +559,21 @@ class BankServer(SnapshotServer):
             mine: dict = {}
             await _variables(guidance, f"{base}.Guidance", ns, ARM_VARIABLES, ARM_STATES, mine)
             nodes["arms"].append(mine)
+            conds = await conditions(server, guidance, ns, ARM_ALARM_TAGS, prefix=f"{arm.name}: ")
+            nodes["conditions"].update({(len(nodes["arms"]) - 1, tag): c for tag, c in conds.items()})
+        server.iserver.isession.add_method_callback(
+            ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge),
+            acknowledge_method(nodes["conditions"], self.service.request_ack))
         return nodes
 
     async def _publish(self, nodes: dict, snap: BankSnapshot) -> None:
         await _write(nodes["bank"], bank_values(snap))
         for i, mine in enumerate(nodes["arms"]):
             await _write(mine, arm_values(snap, i))
+        for key, state in snap.conditions.items():
+            cond = nodes["conditions"].get(key)
+            if cond is not None and cond.state != state.value:
+                await cond.report(state.value)
 
 
 async def _identification(parent, base: str, ns: int, dns: int, model: str, uri: str) -> None:

@@ -27,6 +27,7 @@ import contextvars
 import logging
 import math
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from loadarm import __version__
@@ -34,11 +35,13 @@ from loadarm.arm.alarms import AlarmState
 from loadarm.guidance.modes import ERS_CONFIRM_WINDOW, Mode
 from loadarm.opcua.security import LoginLimiter, Role, StateDir, User, is_user_name, thumbprint
 from loadarm.opcua.service import JOG_HOLD, Request, parse_jog
-from loadarm.vocab import ANNUNCIATED, CONDITION_SEVERITY, CONDITION_TEXT, FACE_LABELS, Severity, action_role
+from loadarm.vocab import (ANNUNCIATED, CONDITION_SEVERITY, FACE_LABELS, Severity, action_role, condition_severity,
+                           condition_text)
 from loadarm.vocab import METHODS as _METHODS
 
 __all__ = ["APP_URI", "NAMESPACE", "PUBLISH_RATE", "CURRENT_USER", "RoleRuleset", "SecureServer",
-           "SnapshotServer", "OpcUaServer", "address_space", "address_space_markdown", "unece_unit_id"]
+           "SnapshotServer", "OpcUaServer", "address_space", "address_space_markdown", "unece_unit_id",
+           "conditions", "acknowledge_method"]
 
 #: The application URI (in the certificate's subject alternative names).
 APP_URI = "urn:loadarm:guidance"
@@ -531,7 +534,7 @@ class OpcUaServer(SnapshotServer):
         for tag in self._alarm_tags():
             nodes[f"Alarm.{tag}"] = await guidance.add_variable(ua.NodeId(f"Guidance.Alarm.{tag}", ns),
                                                                 ua.QualifiedName(f"Alarm_{tag}", ns), "normal")
-        nodes["conditions"] = await _conditions(server, guidance, ns, self._alarm_tags())
+        nodes["conditions"] = await conditions(server, guidance, ns, self._alarm_tags())
         server.iserver.isession.add_method_callback(
             ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge), self._acknowledge(nodes["conditions"]))
         for bname, action, args, what in METHODS:
@@ -545,28 +548,10 @@ class OpcUaServer(SnapshotServer):
         return ANNUNCIATED
 
     def _acknowledge(self, conditions: dict):
-        """The Acknowledge method of the conditions (AcknowledgeableConditionType's, bound for all of them):
-        an operator's request to acknowledge that one alarm (the controller's ISA-18.2 state machine does it;
-        the condition follows at the next snapshot)."""
-        from asyncua import ua
-
-        by_node = {c.node.nodeid: tag for tag, c in conditions.items()}
+        """The Acknowledge method of the conditions: an operator's request to acknowledge that one alarm (the
+        controller's ISA-18.2 state machine does it; the condition follows at the next snapshot)."""
         service = self.service
-
-        async def acknowledge(parent, *values):
-            user = CURRENT_USER.get()
-            who = getattr(user, "loadarm", None)
-            if who is None or who.role < action_role("ack"):
-                return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
-            tag = by_node.get(parent)
-            if tag is None:
-                return ua.StatusCode(ua.StatusCodes.BadNodeIdInvalid)
-            if conditions[tag].state in ("normal", "acknowledged"):
-                return ua.StatusCode(ua.StatusCodes.BadConditionBranchAlreadyAcked)
-            service.request(Request("ack", who.name, tag=tag))
-            return []
-
-        return acknowledge
+        return acknowledge_method(conditions, lambda user, tag: service.request(Request("ack", user, tag=tag)))
 
     def _callback(self, action: str, args: tuple):
         from asyncua import ua
@@ -737,8 +722,8 @@ class _Condition:
     controller's ISA-18.2 state (:class:`loadarm.arm.alarms.AlarmState`) reported as ActiveState and AckedState
     (asyncua has no condition state machine of its own: the controller's is the one)."""
 
-    def __init__(self, tag: str, node, evgen):
-        self.tag, self.node, self.evgen = tag, node, evgen
+    def __init__(self, tag: str, node, evgen, prefix: str = ""):
+        self.tag, self.node, self.evgen, self.prefix = tag, node, evgen, prefix
         self.state = "normal"
 
     async def report(self, state: str) -> None:
@@ -750,8 +735,8 @@ class _Condition:
         ev = self.evgen.event
         ev.NodeId = self.node.nodeid
         ev.ConditionName = self.tag
-        ev.Severity = CONDITION_SEVERITY.get(self.tag, 500)
-        ev.Message = ua.LocalizedText(f"{CONDITION_TEXT.get(self.tag, self.tag)} ({st.value})")
+        ev.Severity = condition_severity(self.tag)
+        ev.Message = ua.LocalizedText(f"{self.prefix}{condition_text(self.tag)} ({st.value})")
         ev.Retain = st != AlarmState.NORMAL
         setattr(ev, "EnabledState/Id", True)
         ev.EnabledState = ua.LocalizedText("Enabled")
@@ -763,9 +748,9 @@ class _Condition:
         await self.evgen.trigger()
 
 
-async def _conditions(server, parent, ns: int, tags) -> dict:
+async def conditions(server, parent, ns: int, tags, prefix: str = "") -> dict:
     """A condition object (AlarmConditionType) and its event generator per annunciated alarm, under
-    ``parent/Alarms``; the parent emits their events."""
+    ``parent/Alarms``; the parent emits their events (``prefix`` starts each event's message: a bank's arm)."""
     from asyncua import ua
 
     folder = await parent.add_folder(ua.NodeId(f"{parent.nodeid.Identifier}.Alarms", ns), ua.QualifiedName("Alarms", ns))
@@ -775,8 +760,45 @@ async def _conditions(server, parent, ns: int, tags) -> dict:
                                        ua.QualifiedName(tag, ns), objecttype=ua.NodeId(ua.ObjectIds.AlarmConditionType))
         evgen = await server.get_event_generator(ua.ObjectIds.AlarmConditionType, parent)
         evgen.event.SourceNode = parent.nodeid
-        out[tag] = _Condition(tag, node, evgen)
+        out[tag] = _Condition(tag, node, evgen, prefix)
     return out
+
+
+def acknowledge_method(conditions: dict, ask: Callable[[str, object], None]):
+    """The callback of AcknowledgeableConditionType's Acknowledge, bound for every condition of a server: an
+    operator's request to acknowledge one alarm, refused to a lesser role (the one role table, :mod:`loadarm.vocab`),
+    for a node that is not one of ``conditions`` and for an alarm not waiting for its acknowledgement. The state
+    machine that owns the alarm acknowledges it; its condition follows at the next published state.
+
+    Parameters
+    ----------
+    conditions : dict
+        Each condition's key (what ``ask`` is given) to its :class:`_Condition`.
+    ask : callable
+        ``ask(user, key)``: the request, from the server's thread (it must not block).
+
+    Returns
+    -------
+    coroutine function
+    """
+    from asyncua import ua
+
+    by_node = {c.node.nodeid: key for key, c in conditions.items()}
+
+    async def acknowledge(parent, *values):
+        user = CURRENT_USER.get()
+        who = getattr(user, "loadarm", None)
+        if who is None or who.role < action_role("ack"):
+            return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
+        key = by_node.get(parent)
+        if key is None:
+            return ua.StatusCode(ua.StatusCodes.BadNodeIdInvalid)
+        if conditions[key].state in ("normal", "acknowledged"):
+            return ua.StatusCode(ua.StatusCodes.BadConditionBranchAlreadyAcked)
+        ask(who.name, key)
+        return []
+
+    return acknowledge
 
 
 def unece_unit_id(code: str) -> int:

@@ -207,7 +207,8 @@ def test_the_bank_s_alarm_list_shows_each_arm_s_stage_and_an_operator_acknowledg
     """Found: the bank's screen had no alarm list (each arm's stage only in its table). With 2.0 m required between
     arms that keep 1.8 m, every arm's clash is past: each arm's ERS-2 alarm (the most severe of its stage alarms;
     the lower stages of the same escalation suppressed) is listed, critical (its colour with its shape and name),
-    unacknowledged; a click acknowledges every alarm on the server and the list then says so."""
+    unacknowledged; a click acknowledges every alarm on the server and the list then says so. The journal page
+    lists the alarms risen (with their priority) and the acknowledgement with its user."""
     from loadarm.testing.bank_screen import bank_screen, bank_world
 
     world = bank_world(BANK, SCENARIO, min_clearance=2.0)
@@ -232,6 +233,18 @@ def test_the_bank_s_alarm_list_shows_each_arm_s_stage_and_an_operator_acknowledg
             assert all(a.state.value == "acknowledged" for a in service.snapshot().alarms)
             assert page.evaluate("$('ack-loads').hidden")
             assert any("ERS-2: release of the coupler: arm L1" in n[2] for n in service.notes)
+            page.click("#pages button[data-page=journal]")                 # the journal: the service's notes
+            wait_for(page, "hmi.journal && hmi.journal.entries.length >= 4", timeout=10.0, what="the journal")
+            assert page.evaluate("$('page-bank').hidden && !$('page-journal').hidden")
+            texts = page.evaluate("[...document.querySelectorAll('#journal tbody tr')].map((tr) => "
+                                  "[tr.className, tr.querySelector('.msg').textContent])")
+            assert ["entry alarm p1", "L1: ERS-2: release of the coupler"] in texts, texts
+            page.select_option("#journal-kind", "operator")
+            wait_for(page, "hmi.journal.entries.length >= 1 && hmi.journal.entries.every((e) => e.kind !== 'alarm')",
+                     timeout=10.0, what="the operator's actions")
+            assert page.evaluate("hmi.journal.entries[0].text") == "every alarm acknowledged by alice"
+            page.click("#pages button[data-page=bank]")
+            assert page.evaluate("!$('page-bank').hidden && $('page-journal').hidden")
             assert page.evaluate(_OUTSIDE) == [] and page.errors == []
         finally:
             ctx.close()

@@ -272,8 +272,9 @@ def test_the_service_runs_the_world_on_its_clock_and_stops_at_its_end(world):
 
 
 def test_the_bank_s_screen_serves_its_drawing_and_frames_to_a_session_and_takes_no_command(bank_served, world):
-    """The screen's routes (the single arm's login): the geometry and the frames to a logged-in session only; each
-    arm's capsules in a frame are the world's, the nearest clash is the least pair's; a command is refused."""
+    """The screen's routes (the single arm's login): the geometry, the frames and the journal to a logged-in session
+    only; each arm's capsules in a frame are the world's, the nearest clash is the least pair's; a command other
+    than the acknowledgement is refused; the journal holds the acknowledgement with its user and the refusals."""
     from fastapi.testclient import TestClient
 
     from loadarm.hmi.bank import create_bank_app
@@ -282,7 +283,7 @@ def test_the_bank_s_screen_serves_its_drawing_and_frames_to_a_session_and_takes_
     snap = service.step(120)
     st = bank_served["state"]
     c = TestClient(create_bank_app(service, st.path, frame_rate=100.0))
-    assert c.get("/api/bank").status_code == 401
+    assert c.get("/api/bank").status_code == 401 and c.get("/api/journal").status_code == 401
     assert c.get("/").headers["content-security-policy"].startswith("default-src 'self'")
     r = c.post("/api/login", json={"user": "eve", "password": "pw-eve"})
     assert r.status_code == 200 and r.json()["bank"] is True and r.json()["commands"] == ["ack"]
@@ -306,6 +307,11 @@ def test_the_bank_s_screen_serves_its_drawing_and_frames_to_a_session_and_takes_
                        (True, "ack sent"), (False, replies[3][1])] and replies[3][1].startswith("refused: ")
     assert service._ack.is_set()
     service._ack.clear()
+    j = c.get("/api/journal", params={"kind": "operator"}).json()           # the journal: the service's notes
+    assert [e["text"] for e in j["entries"] if e["kind"] == "operator"] == ["every alarm acknowledged by eve"]
+    assert c.get("/api/journal", params={"kind": "bogus"}).status_code == 400
+    refused = c.get("/api/journal", params={"kind": "operator", "q": "estop"}).json()["entries"]
+    assert refused and all("estop" in e["text"] and e["kind"] == "security" for e in refused)
     assert f["seq"] == 120 and f["t"] == 12.0
     for i, arm in enumerate(f["arms"]):
         assert np.allclose(arm["capsules"], snap.state.capsules[i], atol=1e-4)
@@ -461,6 +467,31 @@ def test_each_arm_s_alarms_are_part_9_conditions_that_an_operator_acknowledges_o
     assert all(snap.conditions[(i, "RELEASE")] == AlarmState.UNACKED for i in range(1, len(bank.names)))
     assert snap.conditions[(0, "MANIFOLD_LOAD")] == AlarmState.NORMAL
     assert any("ERS-2: release of the coupler acknowledged: arm L1, by alice" in n[2] for n in service.notes)
+
+
+def test_the_bank_s_journal_reads_its_notes_codes_not_their_messages():
+    """Each kind of the service's notes as a journal line: its text from the arm, the alarm's tag (or the load
+    alarm's event code) and the user, whatever the message says; an alarm's line has its priority; a note without
+    codes (a refusal) keeps its message."""
+    from loadarm.hmi.bank import bank_journal_entry
+    from loadarm.vocab import priority
+
+    def line(kind, data, reason="(ignored)"):
+        return bank_journal_entry(1.7e9, kind, reason, data, 1.7e9)
+
+    rise = line("alarm", {"arm": "L2", "tag": "ESD1", "active": True, "t": 12.5})
+    assert rise["text"] == "L2: ESD-1: pumps stopped, ERS valves closing" and rise["t"] == 12.5
+    assert (rise["priority"], rise["priority_name"]) == priority("ESD1") and rise["tag"] == "ESD1"
+    assert line("alarm", {"arm": "L2", "tag": "ESD1", "active": False})["text"].endswith(": cleared")
+    load = line("alarm", {"arm": "V1", "code": "fault.manifold_load", "active": True, "load": "vertical force",
+                          "utilisation": 1.234, "t": 3.0})
+    assert load["text"] == ("V1: a load on the ship's manifold past its allowable (vertical force at 1.23 of its "
+                            "allowable)") and load["tag"] == "MANIFOLD_LOAD"
+    one = line("operator", {"arm": "L1", "tag": "RELEASE", "user": "alice", "action": "ack"})
+    assert one["text"] == "L1: ERS-2: release of the coupler: acknowledged by alice" and one["priority"] is None
+    assert line("operator", {"user": "bob", "action": "ack"})["text"] == "every alarm acknowledged by bob"
+    sec = line("security", {"code": "security.login_refused"}, "login of mallory refused")
+    assert sec["text"] == "login of mallory refused" and sec["t"] is None and sec["tag"] is None
 
 
 def test_the_docs_list_the_bank_s_node_tree():

@@ -146,6 +146,11 @@ async def _login_body(request) -> tuple[str, str]:
     return user, password
 
 
+def _run_time(t) -> str:
+    """A journal entry's run time as its search text (none: an event from outside the run)."""
+    return "" if t is None else f"{t:.1f}"
+
+
 class LoginScreen:
     """What every screen's routes share (the single arm's, the bank's): the users, the sessions, the login limit
     and the fixed drawing of one service. Each route is a method; :func:`screen_app` wires them. A screen adds
@@ -174,6 +179,26 @@ class LoginScreen:
         self.users = LiveUsers(StateDir(state_dir).users_file)       # the file as it is now (loadarm user)
         self.sessions = Sessions(clock=clock, users=self.users)          # a removed user's session ends at once
         self.limiter = LoginLimiter(clock=clock)
+
+    def get_journal(self, request):
+        """The alarm journal, newest first: ``kind`` one of :data:`loadarm.hmi.state.JOURNAL_KINDS`, ``q`` words
+        to find (each, in any case), at most ``limit`` entries; ``total`` those that matched."""
+        if self.current(request)[1] is None:
+            return _json_error("not logged in", 401)
+        p = request.query_params
+        kinds = JOURNAL_KINDS.get(p.get("kind", "all"))
+        if kinds is None:
+            return _json_error(f"kind is one of {', '.join(JOURNAL_KINDS)}", 400)
+        words = p.get("q", "")[:200].lower().split()
+        limit = int(p.get("limit", "500")) if p.get("limit", "500").isdigit() else 500
+        got = [e for e in self.journal() if e["kind"] in kinds
+               and all(w in f"{e['clock']} {_run_time(e['t'])} {e['kind']} {e['tag'] or ''} {e['text']}".lower()
+                       for w in words)]
+        return {"entries": got[::-1][:limit], "total": len(got), "kinds": list(JOURNAL_KINDS)}
+
+    def journal(self) -> list[dict]:
+        """Every journal entry (:func:`loadarm.hmi.state.journal_entry`'s fields), oldest first: the screen's."""
+        return []
 
     def current(self, request) -> tuple[str | None, object]:
         token = request.cookies.get(COOKIE)
@@ -277,22 +302,6 @@ class _Screen(LoginScreen):
             return self.service.trend(snap.t)
         log = getattr(self.service, "trend", None)
         return [] if log is None else log.window_at(snap.t)
-
-    def get_journal(self, request):
-        """The alarm journal, newest first: ``kind`` one of :data:`loadarm.hmi.state.JOURNAL_KINDS`, ``q`` words
-        to find (each, in any case), at most ``limit`` entries; ``total`` those that matched."""
-        if self.current(request)[1] is None:
-            return _json_error("not logged in", 401)
-        p = request.query_params
-        kinds = JOURNAL_KINDS.get(p.get("kind", "all"))
-        if kinds is None:
-            return _json_error(f"kind is one of {', '.join(JOURNAL_KINDS)}", 400)
-        words = p.get("q", "")[:200].lower().split()
-        limit = int(p.get("limit", "500")) if p.get("limit", "500").isdigit() else 500
-        got = [e for e in self.journal() if e["kind"] in kinds
-               and all(w in f"{e['clock']} {e['t']:.1f} {e['kind']} {e['tag'] or ''} {e['text']}".lower()
-                       for w in words)]
-        return {"entries": got[::-1][:limit], "total": len(got), "kinds": list(JOURNAL_KINDS)}
 
     def journal(self) -> list[dict]:
         """Every journal entry (:func:`loadarm.hmi.state.journal_entry`), oldest first: the replay's log, or the

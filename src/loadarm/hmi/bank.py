@@ -24,12 +24,12 @@ import numpy as np
 
 from loadarm.hmi.app import FRAME_RATE, KEEPALIVE, WS_MESSAGE, LoginScreen, ack, same_origin, screen_app
 from loadarm.hmi.sessions import COOKIE
-from loadarm.hmi.state import ship_outline
+from loadarm.hmi.state import clock_text, ship_outline
 from loadarm.opcua.bank import BankSnapshot
 from loadarm.params.berth import BerthSection
 from loadarm.vocab import BANK_FACE_WORDS, COMMANDS, FACE_WORDS, FACES, SWIVEL_FACE_TABLE, condition_text, priority
 
-__all__ = ["BANK_COMMANDS", "bank_geometry", "bank_frame", "create_bank_app"]
+__all__ = ["BANK_COMMANDS", "bank_geometry", "bank_frame", "bank_journal_entry", "create_bank_app"]
 
 
 #: The commands the bank's screen takes: the acknowledgement of its alarms (the bank's world has no controller).
@@ -147,6 +147,42 @@ def bank_frame(snap: BankSnapshot, *, sent_at: float) -> dict:
             "stage": max(int(snap.stage(i)) for i in range(len(st.names)))}
 
 
+def bank_journal_entry(wall: float, kind: str, reason: str, data: dict, now: float) -> dict:
+    """One line of the bank's journal from one of its service's notes (an alarm's rise or clear, an operator's
+    acknowledgement, a security event), in the fields of :func:`loadarm.hmi.state.journal_entry`: its text from
+    its codes (the arm, the alarm's tag or the load alarm's event code, the user), a note without codes its
+    message.
+
+    Parameters
+    ----------
+    wall : float
+        Wall-clock time of the note, s since the epoch.
+    kind, reason : str
+    data : dict
+    now : float
+        The server's wall clock (the date is shown when the day differs).
+
+    Returns
+    -------
+    dict
+    """
+    tag = data.get("tag") or ("MANIFOLD_LOAD" if data.get("code") == "fault.manifold_load" else None)
+    arm = data.get("arm")
+    if kind == "operator" and data.get("action") == "ack":
+        text = (f"{arm}: {condition_text(tag)}: acknowledged by {data.get('user', '?')}" if tag
+                else f"every alarm acknowledged by {data.get('user', '?')}")
+    elif kind == "alarm" and tag and arm:
+        text = f"{arm}: {condition_text(tag)}" + ("" if data.get("active") else ": cleared")
+        if "utilisation" in data:
+            text += f" ({data.get('load', '?')} at {float(data['utilisation']):.2f} of its allowable)"
+    else:
+        text = reason
+    prio = priority(tag) if tag and kind == "alarm" else (None, None)
+    t = data.get("t")
+    return {"t": float(t) if isinstance(t, (int, float)) else None, "wall": wall, "clock": clock_text(wall, now),
+            "mode": "", "kind": kind, "tag": tag, "priority": prio[0], "priority_name": prio[1], "text": text}
+
+
 class _BankScreen(LoginScreen):
     """The bank's routes: the single arm's login, sessions and logout (inherited), its own geometry and frames."""
 
@@ -157,6 +193,11 @@ class _BankScreen(LoginScreen):
         return {"user": s.user, "role": s.role.name.lower(), "csrf": s.csrf, "name": self.name, "bank": True,
                 "replay": False, "last_seq": s.last_cmd,
                 "commands": [a for a in BANK_COMMANDS if s.role >= COMMANDS[a]]}
+
+    def journal(self) -> list[dict]:
+        """The bank's journal, oldest first: its service's notes (:func:`bank_journal_entry`)."""
+        now = self.wall()
+        return [bank_journal_entry(wall, kind, reason, data, now) for wall, kind, reason, data in list(self.service.notes)]
 
     def command(self, s, msg: dict) -> tuple[bool, str]:
         """One command from the bank's screen: only the acknowledgement of its alarms (CSRF, sequence number and
@@ -175,7 +216,7 @@ class _BankScreen(LoginScreen):
             self.note("security.command_refused", f"bank screen command of {s.user} refused: {why}", user=s.user,
                       action=str(action)[:64])
             return False, why
-        self.service.acknowledge()
+        self.service.acknowledge(s.user)
         return True, "ack sent"
 
     async def push(self, websocket, cursor, token: str | None) -> None:
@@ -262,4 +303,4 @@ def create_bank_app(service, state_dir, *, clock: Callable[[], float] = time.mon
     """
     screen = _BankScreen(service, state_dir, clock, wall, frame_rate, name or service.bank.file.bank.name, berth)
     return screen_app(screen, f"loadarm bank ({screen.name})", "bank.html", ("/", "/bank"),
-                      {"/api/bank": screen.get_geometry})
+                      {"/api/bank": screen.get_geometry, "/api/journal": screen.get_journal})

@@ -361,8 +361,16 @@ class BankService:
         self.notes.append((self.wall(), kind, reason, dict(data)))
         _log.warning("%s", reason)
 
-    def acknowledge(self) -> None:
-        """The operator acknowledged every alarm (the bank's screen): applied at the next state."""
+    def acknowledge(self, user: str | None = None) -> None:
+        """The operator acknowledged every alarm (the bank's screen): applied at the next state, noted with the
+        user.
+
+        Parameters
+        ----------
+        user : str, optional
+        """
+        if user is not None:
+            self.note("operator", f"every alarm acknowledged by {user}", {"user": user, "action": "ack"})
         self._ack.set()
 
     def request_ack(self, user: str, key: tuple[int, str]) -> None:
@@ -383,8 +391,8 @@ class BankService:
         while self._asked:
             user, (i, tag) = self._asked.popleft()
             keys.add((i, tag))
-            self.note("alarm", f"{condition_text(tag)} acknowledged: arm {self.bank.names[i]}, by {user}",
-                      {"arm": self.bank.names[i], "tag": tag, "user": user, "acknowledged": True})
+            self.note("operator", f"{condition_text(tag)} acknowledged: arm {self.bank.names[i]}, by {user}",
+                      {"arm": self.bank.names[i], "tag": tag, "user": user, "action": "ack"})
         return frozenset(keys)
 
     def _stage_states(self, snap: BankSnapshot, acknowledge: bool, asked: frozenset) -> None:

@@ -1,5 +1,6 @@
 // loadarm's bank screen (issue 31): plain JS and SVG, nothing from outside. Frames come over one WebSocket; the
-// page sends one command, the acknowledgement of the manifold-load alarms (the bank's world has no controller). Every arm is drawn from its capsules (the segments
+// page sends one command, the acknowledgement of the alarms (the bank's world has no controller); its journal page
+// lists the service's notes. Every arm is drawn from its capsules (the segments
 // and radii the clearance is computed on): a top view (y along the jetty across, x towards the ship up) and a side
 // view from the ship (y across, z up), on one scale each, fixed at the first frame. The nearest clash is grey
 // while it keeps the required clearance, emphasised below it (ISA-101).
@@ -26,6 +27,14 @@ function onAck(msg) {
 }
 
 $("ack-loads").addEventListener("click", acknowledge);
+
+// the pages: the bank, and the journal of the service's notes (alarms risen and cleared, acknowledgements, refusals)
+bank.page = "bank";
+const loadJournal = journalPage(bank, () => bank.page === "journal");
+pageButtons(["bank", "journal"], (name) => {
+  bank.page = name;
+  if (name === "journal") { loadJournal(); }
+});
 
 async function start(session) {          // logged in: common.js has shown the screen
   bank.cmdSeq = session.last_seq || 0;

@@ -1,6 +1,6 @@
 // What loadarm's two screens share (the operator's, hmi.js, and the bank's, bank.js), loaded before the page's own
 // script: the API call, the login and logout, the session's WebSocket and its reconnect, the SVG element maker
-// and a line of the ISA-18.2 alarm list. Plain JS, nothing from outside.
+// a line of the ISA-18.2 alarm list and the journal's page. Plain JS, nothing from outside.
 "use strict";
 
 const SVGNS = "http://www.w3.org/2000/svg";
@@ -95,4 +95,49 @@ function alarmRow(a, time) {
   tr.querySelector(".msg").textContent = a.message;
   tr.querySelector(".state .text").textContent = a.state;
   return tr;
+}
+
+// The journal's page (both screens): the server's /api/journal, newest first, filtered by kind and by words;
+// reloaded as the filter changes and every 2 s while `shown()`. The rows keep the alarm list's priority classes.
+function journalPage(state, shown) {
+  let timer = null;
+  async function load() {
+    const q = new URLSearchParams({kind: $("journal-kind").value, q: $("journal-search").value});
+    const r = await api(`/api/journal?${q}`);
+    if (r.status !== 200) { return; }
+    const tbody = document.querySelector("#journal tbody");
+    tbody.textContent = "";
+    for (const e of r.body.entries) {
+      const tr = document.createElement("tr");
+      tr.className = "entry" + (e.priority ? ` alarm p${e.priority}` : "");
+      tr.dataset.kind = e.kind;
+      tr.innerHTML = "<td class=time></td><td class=run></td><td class=kind></td><td class=prio><span></span></td><td class=msg></td>";
+      tr.querySelector(".time").textContent = e.clock;
+      tr.querySelector(".run").textContent = e.t === null ? "" : `${e.t.toFixed(1)} s`;
+      tr.querySelector(".kind").textContent = e.kind.replace("_", " ");
+      if (e.priority_name) { tr.querySelector(".prio span").textContent = e.priority_name; }
+      tr.querySelector(".msg").textContent = e.text;
+      tbody.appendChild(tr);
+    }
+    $("journal-count").textContent = `${r.body.entries.length} of ${r.body.total} shown, newest first`;
+    state.journal = r.body;
+  }
+  $("journal-kind").addEventListener("change", () => load());
+  $("journal-search").addEventListener("input", () => {
+    clearTimeout(timer);
+    timer = setTimeout(load, 200);
+  });
+  setInterval(() => { if (shown() && !$("screen").hidden) { load(); } }, 2000);
+  return load;
+}
+
+// The pages of a screen: the header's #pages buttons show one `page-NAME` at a time; `onShow(name)` after.
+function pageButtons(names, onShow) {
+  function show(name) {
+    for (const b of document.querySelectorAll("#pages button")) { b.classList.toggle("current", b.dataset.page === name); }
+    for (const p of names) { $(`page-${p}`).hidden = p !== name; }
+    onShow(name);
+  }
+  for (const b of document.querySelectorAll("#pages button")) { b.addEventListener("click", () => show(b.dataset.page)); }
+  return show;
 }

@@ -232,18 +232,12 @@ function buildModes() {
 }
 
 // ------------------------------------------------------------------ pages
-for (const b of document.querySelectorAll("#pages button")) {
-  b.addEventListener("click", () => showPage(b.dataset.page));
-}
-
-function showPage(name) {
+pageButtons(["overview", "trends", "journal"], (name) => {
   hmi.page = name;
-  for (const b of document.querySelectorAll("#pages button")) { b.classList.toggle("current", b.dataset.page === name); }
-  for (const p of ["overview", "trends", "journal"]) { $(`page-${p}`).hidden = p !== name; }
   if (name === "overview" && hmi.frame) { drawOverview(hmi.frame); }
   if (name === "trends") { drawTrends(); }
   if (name === "journal") { loadJournal(); }
-}
+});
 
 // ------------------------------------------------------------------ the primary state
 function tile(id, text, cls) {
@@ -738,34 +732,6 @@ function drawTrends() {
 }
 
 // ------------------------------------------------------------------ the alarm journal (the event log)
-let journalTimer = null;
-$("journal-kind").addEventListener("change", () => loadJournal());
-$("journal-search").addEventListener("input", () => {
-  clearTimeout(journalTimer);
-  journalTimer = setTimeout(loadJournal, 200);
-});
-setInterval(() => { if (hmi.page === "journal" && !$("screen").hidden) { loadJournal(); } }, 2000);
-
-async function loadJournal() {
-  const q = new URLSearchParams({kind: $("journal-kind").value, q: $("journal-search").value});
-  const r = await api(`/api/journal?${q}`);
-  if (r.status !== 200) { return; }
-  const tbody = document.querySelector("#journal tbody");
-  tbody.textContent = "";
-  for (const e of r.body.entries) {
-    const tr = document.createElement("tr");
-    tr.className = "entry" + (e.priority ? ` alarm p${e.priority}` : "");
-    tr.dataset.kind = e.kind;
-    tr.innerHTML = "<td class=time></td><td class=run></td><td class=kind></td><td class=prio><span></span></td><td class=msg></td>";
-    tr.querySelector(".time").textContent = e.clock;
-    tr.querySelector(".run").textContent = `${e.t.toFixed(1)} s`;
-    tr.querySelector(".kind").textContent = e.kind.replace("_", " ");
-    if (e.priority_name) { tr.querySelector(".prio span").textContent = e.priority_name; }
-    tr.querySelector(".msg").textContent = e.text;
-    tbody.appendChild(tr);
-  }
-  $("journal-count").textContent = `${r.body.entries.length} of ${r.body.total} shown, newest first`;
-  hmi.journal = r.body;
-}
+const loadJournal = journalPage(hmi, () => hmi.page === "journal");
 
 sessionPage.boot();

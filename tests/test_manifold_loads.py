@@ -302,6 +302,43 @@ def test_a_report_naming_a_bank_has_its_section(tmp_path):
     assert b["swivel_envelope"]["least_deg"] == pytest.approx(27.0, abs=0.05) and "motions [deg]" in html
 
 
+@pytest.mark.slow                 # 8 s: make test keeps to its 2-minute budget; CI runs it
+def test_a_report_on_a_bank_the_check_refuses_says_so_and_shows_what_it_can(tmp_path, capsys):
+    """Found: the report stopped on a bank whose pumps cannot drive its approaches (no order), and never said that
+    a bank check --bank refuses was refused. The undersized power unit with pumps of 0.1 L/min: the report's bank
+    section opens with every refusal, in the check's order (the approaches, the release), draws the clearance of
+    every arm approaching at once, and summary.json says ``ok`` false with the same lines; check --bank refuses
+    it in one line, the first of them (the one place of the rules: ``studies.bank_check``)."""
+    import json
+    import re
+    import shutil
+
+    from loadarm.params.config import load_config
+    from loadarm.present.report import build_report
+
+    root = Path(__file__).resolve().parents[1] / "src" / "loadarm" / "examples"
+    (tmp_path / "banks").mkdir()
+    shutil.copy(root / "full.toml", tmp_path / "full.toml")
+    weak = (EXAMPLE.parent / "undersized_hpu.toml").read_text().replace("pump_flow = 6.67e-4", "pump_flow = 1.67e-6")
+    assert "pump_flow = 1.67e-6" in weak
+    (tmp_path / "banks" / "weak.toml").write_text(weak)
+    text = re.sub(r"\[report\].*", '[report]\nbank = "banks/weak.toml"\n', (root / "paper.toml").read_text(), flags=re.S)
+    (tmp_path / "mine.toml").write_text(text)
+    files = build_report(load_config(tmp_path / "mine.toml"), tmp_path / "out", source=tmp_path / "mine.toml")
+    html = files.html.read_text()
+    b = json.loads(files.summary.read_text())["bank"]
+    assert b["ok"] is False and len(b["refusals"]) == 2 and b["approach_order"] is None
+    assert "power_unit: the duty pumps deliver 0.1 L/min" in b["refusals"][0]
+    assert "power_unit: the accumulators deliver" in b["refusals"][1]
+    i = html.index("<strong>Refused.</strong>")
+    assert html.index("the duty pumps deliver", i) < html.index("the accumulators deliver", i)
+    assert "no order could be made" in html and b["clearance"] is not None
+    assert "bank_clearance.png" in {p.name for p in files.figures.values()}
+    code, _, err = _run(capsys, "check", "--bank", str(tmp_path / "banks" / "weak.toml"))
+    assert code == 2 and err.strip() == f"error: {b['refusals'][0]}" or err.strip().endswith(b["refusals"][0])
+    assert len(err.strip().splitlines()) == 1
+
+
 def test_a_record_past_the_allowable_gives_each_exceedance_its_code_and_first_time(bank):
     """A manifold a tenth as strong through a heaving ship: each exceedance carries the alarm's event code and the
     first sample past the allowable, where the load is past it and no earlier sample is."""

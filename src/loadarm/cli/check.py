@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Annotated, Optional
 
 import numpy as np
 import typer
 
-from loadarm.arm.manifold import LOAD_NAMES
 from loadarm.cli.common import (
     ForceOpt,
     JsonOpt,
@@ -20,13 +18,11 @@ from loadarm.cli.common import (
     print_json,
     read_model,
 )
-from loadarm.design.bank import design_swivel_margins, order_over_flanging_area, swivel_envelope
 from loadarm.design.check import design_check
-from loadarm.design.manifold import LOAD_LABELS, check_manifold_loads
 from loadarm.figures import save
-from loadarm.hydraulics.bank_release import STEPS, require_release
+from loadarm.hydraulics.bank_release import STEPS
 from loadarm.params.bank import load_bank
-from loadarm.vocab import event_label
+from loadarm.studies.bank_check import check_bank
 
 __all__ = ["app"]
 
@@ -87,24 +83,12 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     case and over the flanging area and the ship's motions, the manifold loads, the release."""
     check_outputs({"--png": png}, [path], force)
     bank = load_bank(path)
-    over = order_over_flanging_area(bank)         # the approaches' order to the design flanges and each corner
-    order = over[0][1]
+    checks = check_bank(bank)       # the one place of the checks and their refusals (the report shows them too)
+    if checks.refusals:
+        raise UserError(checks.refusals[0])
+    over, order, margins, swivels, loads, release = (checks.over, checks.order, checks.swivel_margins,
+                                                     checks.swivels, checks.loads, checks.release)
     clearance = order.clearance
-    margins = design_swivel_margins(bank)
-    if not clearance.clear:
-        raise UserError(f"{path}: the arms' approaches come {clearance.where()}, below clearance.min_clearance = "
-                        f"{clearance.required:g} m")
-    swivels = swivel_envelope(bank)
-    least, k, i, j = swivels.least()
-    if least < 0.0:
-        key = f"swivel{j // 2 + 1}_deg"
-        raise UserError(f"{path}: {swivels.words(k, i, j)}: past its stop by {math.degrees(-least):.1f} deg; "
-                        f"swivels.{key} = {list(getattr(bank.file.swivels, key))} deg (the flanging area's corners "
-                        "and the terminal's [operability] roll, pitch and yaw limits)")
-    loads = check_manifold_loads(bank)
-    if not loads.ok:
-        raise UserError(_overload(path, loads.exceeded))
-    release = require_release(bank)
     if png is not None:
         save(release.plot(), png)
     names = bank.names
@@ -143,11 +127,3 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
                   f"{release.end[i, 2]:.2f}")
     out.print(t)
 
-
-def _overload(path: Path, exceeded: list[dict]) -> str:
-    """One line naming the worst load past its allowable (the alarm's label, the arm, the load and the key)."""
-    e = max(exceeded, key=lambda e: e["value"] / e["allowable"])
-    unit = "kN" if e["load"].endswith("force") else "kN m"
-    return (f"{path}: {event_label(e['code'])}: arm {e['arm']!r} loads its flange with {e['value'] / 1e3:.2f} {unit} "
-            f"of {LOAD_LABELS[LOAD_NAMES.index(e['load'])]}; manifold_loads.{e['load']} = "
-            f"{e['allowable'] / 1e3:g} {unit} ({len(exceeded)} loads of the bank over their allowable)")

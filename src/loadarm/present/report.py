@@ -25,11 +25,10 @@ from pathlib import Path
 from loadarm import __version__
 from loadarm.arm.envelope import berth_box, zone_radii
 from loadarm.design.alarm_design import alarm_verdict, design_alarms
-from loadarm.design.bank import design_swivel_margins, order_over_flanging_area, swivel_envelope
 from loadarm.design.balancing import balance_counterweights
 from loadarm.design.check import design_check
 from loadarm.design.loads import CYLINDER_LOAD_METRICS, actuator_loads
-from loadarm.design.manifold import LOAD_LABELS, berth_wind, check_manifold_loads, motion_manifold_loads
+from loadarm.design.manifold import LOAD_LABELS, berth_wind, motion_manifold_loads
 from loadarm.design.multibody import VERIFY_SAMPLES, verify_kinematics
 from loadarm.design.plots import (
     alpha_beta_figure,
@@ -48,10 +47,11 @@ from loadarm.design.timing import TIMING_LAWS
 from loadarm.design.trajectory import Plan, plan_approach
 from loadarm.figures import save
 from loadarm.files import PDF_TITLE_MARK, SIGNATURE, atomic_write, guard_outputs
-from loadarm.hydraulics.bank_release import simulate_release
 from loadarm.hydraulics.plots import simulation_figure
 from loadarm.hydraulics.simulate import SIMULATION_METRICS, arrival_note, simulate_approach
+from loadarm.design.bank import check_bank_approaches
 from loadarm.params.bank import load_bank
+from loadarm.studies.bank_check import check_bank
 from loadarm.params.berth import load_berth
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import Installation, paper_installation, parameter_table
@@ -148,6 +148,7 @@ th{background:#f3f3f3} td.num{text-align:right;font-variant-numeric:tabular-nums
 .meta{color:#555;font-size:.9em}
 figure{margin:1em 0} figure img{max-width:100%;border:1px solid #eee} figcaption{font-size:.85em;color:#555}
 .note{background:#fff8e1;border-left:4px solid #f0c000;padding:.5em 1em;font-size:.9em}
+.refused{border-left:4px solid #b00020;padding:.1em 1em;margin:1em 0}
 code{background:#f4f4f4;padding:0 .2em}
 .titlepage table{width:100%} .titlepage th{width:9em} .approval td{height:2.6em;width:28%}
 .toc ol{list-style:none;padding-left:0;columns:2} .toc li{margin:.15em 0} .toc a{color:#222;text-decoration:none}
@@ -159,7 +160,7 @@ code{background:#f4f4f4;padding:0 .2em}
  @bottom-left{content:"__DOCID__";font:8pt system-ui,sans-serif;color:#555}
  @bottom-right{content:"page " counter(page) " of " counter(pages);font:8pt system-ui,sans-serif;color:#555}}
 @media print{body{max-width:none;margin:0;padding:0;font-size:10pt} .titlepage{break-after:page} h2{font-size:1.15em}
- h2{break-before:page;break-after:avoid} h3{break-after:avoid} figure,tr,pre,.note{break-inside:avoid}
+ h2{break-before:page;break-after:avoid} h3{break-after:avoid} figure,tr,pre,.note,.refused{break-inside:avoid}
  figure img{max-height:150mm;object-fit:contain} a{color:inherit;text-decoration:none}
  table{font-size:8pt}}
 """
@@ -426,13 +427,14 @@ class ReportData:
             env = self.berth.environment
             record = motion_manifold_loads(bank, simulate(self.ship, env, BANK_RECORD_S, seed=1),
                                            wind=berth_wind(env))
-        over = order_over_flanging_area(bank)      # as check --bank: the design flanges and each corner
-        corner, worst = min(over[1:], key=lambda c: c[1].clearance.min_clearance)
-        return {"file": self.bank_file, "bank": bank, "order": over[0][1], "clearance": over[0][1].clearance,
-                "corners": {"least_clearance_m": worst.clearance.min_clearance, "displacement_m": list(corner),
-                            "orders": [[list(w) for w in o.waves] for _, o in over[1:]]},
-                "swivels": design_swivel_margins(bank), "envelope": swivel_envelope(bank),
-                "release": simulate_release(bank), "loads": check_manifold_loads(bank), "record": record}
+        checks = check_bank(bank)                  # as check --bank: every check and its refusals, in one place
+        order = checks.order
+        # without an order (refused), the clearance of every arm approaching at once: where they meet
+        clearance = order.clearance if order is not None else check_bank_approaches(bank)
+        return {"file": self.bank_file, "bank": bank, "checks": checks, "refusals": list(checks.refusals),
+                "order": order, "clearance": clearance, "corners": checks.corners(),
+                "swivels": checks.swivel_margins, "envelope": checks.swivels, "release": checks.release,
+                "loads": checks.loads, "record": record}
 
     @cached_property
     def operability(self):
@@ -687,10 +689,8 @@ def _bank_summary(b: dict | None) -> dict | None:
     """summary.json's ``bank``: the bank file and each check's numbers (None without a ``[report] bank``)."""
     if b is None:
         return None
-    return {"file": b["file"].name, "approach_order": b["order"].to_dict(), "clearance": b["clearance"].to_dict(),
-            "flanging_area_corners": b["corners"], "swivel_envelope": b["envelope"].to_dict(),
-            "swivel_margin_deg": {n: math.degrees(float(b["swivels"][i].min())) for i, n in enumerate(b["bank"].names)},
-            "release": b["release"].to_dict(), "manifold_loads": b["loads"].to_dict(),
+    return {"file": b["file"].name, **b["checks"].to_dict(),
+            "clearance": b["clearance"].to_dict(),          # without an order: every arm approaching at once
             "manifold_record": None if b["record"] is None else b["record"].to_dict()}
 
 
@@ -700,13 +700,14 @@ def _bank_rows(b: dict | None) -> list[dict]:
     if b is None:
         return []
     bank, clearance, loads, release, record = b["bank"], b["clearance"], b["loads"], b["release"], b["record"]
-    pairs = clearance.pair_minimum.min(axis=1)
+    pairs = None if clearance is None else clearance.pair_minimum.min(axis=1)
     rows = []
     for i, name in enumerate(bank.names):
-        near = min(float(g) for (p, q), g in zip(clearance.pairs, pairs, strict=True) if i in (p, q))
+        near = math.nan if pairs is None else \
+            min(float(g) for (p, q), g in zip(clearance.pairs, pairs, strict=True) if i in (p, q))
         j = int(loads.utilisation[i].argmax())
         rows.append({"arm": name, "flange": f"{bank.flanges[i].name} ({bank.flanges[i].product})", "near": near,
-                     "wave": b["order"].wave_of(name) + 1, "swivel": math.degrees(float(b["swivels"][i].min())),
+                     "wave": "-" if b["order"] is None else b["order"].wave_of(name) + 1, "swivel": math.degrees(float(b["swivels"][i].min())),
                      "moving": math.degrees(float(b["envelope"].by_arm()[i])),
                      "load": LOAD_LABELS[j], "use": float(loads.utilisation[i, j]),
                      "rec": "-" if record is None else f"{float((record.worst[i] / record.allowable).max()):.2f}",
@@ -903,6 +904,7 @@ def build_report(inst: Installation, out_dir: str | Path, *, title: str = "loada
             if oper is not None else [], [("stage", "most severe stage reached"), ("n", "hourly states")]),
         "bank_summary": _table([{"k": label, "v": text} for r in (("order", "clearance", "envelope", "loads",
                                                                    "release") if bank else ())
+                                if bank[r] is not None
                                 for label, text in bank[r].summary().rows()], [("k", "quantity"), ("v", "value")]),
         "bank": _table(_bank_rows(bank), [("arm", "arm"), ("flange", "flange"), ("wave", "approach wave"),
                                           ("near", "nearest arm on approach [m]"),

@@ -144,6 +144,13 @@ def test_check_bank_refuses_a_bank_one_arm_cannot_approach_at_a_corner(staggered
     assert main(["check", "--bank", str(staggered)]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "flanging area's corner (-8.80, -1.50, -5.70) m" in err and "riser" in err
+    # the report's route (studies.bank_check): the same line, and the design position's order kept (found by review:
+    # a corner's refusal dropped it, and the report said no order could be made)
+    from loadarm.studies.bank_check import check_bank
+
+    checks = check_bank(load_bank(staggered))
+    assert err.endswith(checks.refusals[0]) and checks.refusals[0].startswith("with the manifold at the flanging")
+    assert checks.order is not None and checks.order.clearance.clear and checks.corners() is None
 
 
 def _valid(waves, ok) -> bool:

@@ -420,6 +420,7 @@ class _FakeService:
         from loadarm.vocab import ANNUNCIATED
 
         self.requests = []
+        self.notes = []
         self.alarms = {tag: "normal" for tag in ANNUNCIATED}
         self.seq = 0
         self.mode = "CONNECTED"
@@ -442,6 +443,9 @@ class _FakeService:
 
     def request(self, req):
         self.requests.append(req)
+
+    def note(self, kind, reason, data):
+        self.notes.append((kind, reason, data))
 
 
 class _Events:
@@ -509,6 +513,7 @@ def test_alarms_are_part_9_conditions_that_an_operator_acknowledges(fake_served)
                 await v.get_node(cond.nodeid).call_method(ack, ev.EventId, ua.LocalizedText("viewer"))
             await cond.call_method(ack, ev.EventId, ua.LocalizedText("seen"))
             assert [(r.action, r.user, r.tag) for r in fake.requests] == [("ack", "alice", "ESD1")]
+            assert any(k == "security" and "by victor refused" in r for k, r, _ in fake.notes), fake.notes
             fake.set("ESD1", "acknowledged")
             ev2 = await h.wait_for(lambda e: e.ConditionName == "ESD1" and getattr(e, "AckedState/Id"))
             assert getattr(ev2, "ActiveState/Id") is True and ev2.Retain

@@ -144,13 +144,16 @@ def flanging_moves(bank: Bank) -> list[tuple[float, float, float]]:
                                 for z in (box.y_low, box.y_high) for y in sorted({-tol, tol})]
 
 
-def order_over_flanging_area(bank: Bank) -> list[tuple[tuple[float, float, float], BankOrder]]:
+def order_over_flanging_area(bank: Bank, design: BankOrder | None = None) \
+        -> list[tuple[tuple[float, float, float], BankOrder]]:
     """:func:`order_bank_approaches` with the manifold at the design position and at each corner of the flanging
     area (:func:`flanging_moves`): the approaches planned to wherever the ship presents its flanges.
 
     Parameters
     ----------
     bank : Bank
+    design : BankOrder, optional
+        The design position's order, if already made.
 
     Returns
     -------
@@ -162,7 +165,7 @@ def order_over_flanging_area(bank: Bank) -> list[tuple[tuple[float, float, float
         One line naming the corner where no order keeps the clearance (or an arm cannot reach its flange).
     """
     moves = flanging_moves(bank)
-    out = [(moves[0], order_bank_approaches(bank))]           # the design position: its own errors as they are
+    out = [(moves[0], design or order_bank_approaches(bank))]     # the design position: its own errors as they are
     for d in moves[1:]:
         try:
             out.append((d, order_bank_approaches(bank, displacement=d)))

@@ -13,9 +13,11 @@ arm's variables under the single arm's names (:data:`loadarm.opcua.server.VARIAB
 bank's per arm (swivel angles and margins, the nearest neighbour). As for the single arm, the companion nodesets'
 types are not loaded: their browse names, in their namespaces.
 
-Every variable is read-only: this world has no controller to take a request (no method is offered; a write is
-refused with ``BadUserAccessDenied``, an engineer's too). On a
-jetty, each arm's own ``loadarm serve`` takes its requests and the PLC owns the E-stop and the ERS.
+Every variable is read-only: this world has no controller to take a request (the bank offers no method; a write
+is refused with ``BadUserAccessDenied``, an engineer's too). On a jetty, each arm's own ``loadarm serve`` takes its
+requests and the PLC owns the E-stop and the ERS. Each arm's alarms (its stage conditions and its manifold load)
+are Part 9 conditions under its ``Guidance/Alarms``: an operator's Acknowledge of one is the one call taken
+(:func:`loadarm.opcua.server.acknowledge_method`), applied by the service at its next state.
 """
 
 from __future__ import annotations
@@ -330,9 +332,11 @@ class BankService:
         self._observed = -math.inf
         #: Each arm's live manifold-load alarm.
         self.loads = ManifoldLoadAlarm(world.bank)
-        self._ack = threading.Event()
-        #: Acknowledgements of one alarm each (an OPC UA client's Acknowledge): (user, (arm index, tag)).
-        self._asked: deque[tuple[str, tuple[int, str]]] = deque()
+        #: Acknowledgements asked and not yet applied, under :attr:`_lock`: of every alarm (the screen's), by whom,
+        #: and of one alarm each (an OPC UA client's Acknowledge), (arm index, tag) to whom: bounded by the alarms.
+        self._lock = threading.Lock()
+        self._ack_all: list[str] = []
+        self._asked: dict[tuple[int, str], str] = {}
         #: Events from outside (refused logins), with the time they came: this world keeps no event log.
         self.notes: deque[tuple[float, str, str, dict]] = deque(maxlen=NOTES_KEPT)
         #: Each (arm, stage condition) not normal: its ISA-18.2 state and when it rose.
@@ -361,39 +365,51 @@ class BankService:
         self.notes.append((self.wall(), kind, reason, dict(data)))
         _log.warning("%s", reason)
 
-    def acknowledge(self, user: str | None = None) -> None:
-        """The operator acknowledged every alarm (the bank's screen): applied at the next state, noted with the
-        user.
+    def acknowledge(self, user: str = "operator") -> None:
+        """The operator acknowledged every alarm (the bank's screen): applied at the next state and noted then,
+        with the user.
 
         Parameters
         ----------
-        user : str, optional
+        user : str
         """
-        if user is not None:
-            self.note("operator", f"every alarm acknowledged by {user}", {"user": user, "action": "ack"})
-        self._ack.set()
+        with self._lock:
+            self._ack_all.append(user)
 
-    def request_ack(self, user: str, key: tuple[int, str]) -> None:
-        """An operator acknowledged one alarm (an OPC UA condition's Acknowledge): applied at the next state.
-        Never blocks (called from the server's event loop).
+    def request_ack(self, user: str, key: tuple[int, str]) -> bool:
+        """An operator acknowledged one alarm (an OPC UA condition's Acknowledge): applied at the next state and
+        noted then. Never blocks for long (called from the server's event loop).
 
         Parameters
         ----------
         user : str
         key : (int, str)
             The arm's index and the alarm's tag (:data:`ARM_ALARM_TAGS`).
-        """
-        self._asked.append((user, key))
 
-    def _take_asked(self) -> frozenset:
-        """The single acknowledgements asked since the last state, each a note naming the user."""
-        keys = set()
-        while self._asked:
-            user, (i, tag) = self._asked.popleft()
-            keys.add((i, tag))
+        Returns
+        -------
+        bool
+            False when that alarm's acknowledgement is already waiting for the next state (found by review:
+            every repeat was queued, each a note).
+        """
+        with self._lock:
+            if key in self._asked:
+                return False
+            self._asked[key] = user
+            return True
+
+    def _take_acks(self) -> tuple[bool, frozenset]:
+        """The acknowledgements asked since the last state, taken at once (none lost between a test and a clear),
+        each noted with its user as it is applied: whether every alarm is, and which single alarms."""
+        with self._lock:
+            every, self._ack_all = self._ack_all, []
+            asked, self._asked = self._asked, {}
+        for user in every:
+            self.note("operator", f"every alarm acknowledged by {user}", {"user": user, "action": "ack"})
+        for (i, tag), user in sorted(asked.items()):
             self.note("operator", f"{condition_text(tag)} acknowledged: arm {self.bank.names[i]}, by {user}",
                       {"arm": self.bank.names[i], "tag": tag, "user": user, "action": "ack"})
-        return frozenset(keys)
+        return bool(every), frozenset(asked)
 
     def _stage_states(self, snap: BankSnapshot, acknowledge: bool, asked: frozenset) -> None:
         """The stage alarms' ISA-18.2 states at this state (each arm's stage against each stage condition,
@@ -477,9 +493,7 @@ class BankService:
             self.monitor.refit()
         if k % FORECAST_EVERY == 0 or self._forecast is None:
             self._forecast = self.monitor.time_to_limit(state.manifold, state.ship_angles, self.horizon, now=state.t)
-        every = self._ack.is_set()
-        self._ack.clear()
-        asked = self._take_asked()
+        every, asked = self._take_acks()
         names = self.world.bank.names
         acked = names if every else tuple(names[i] for i, tag in sorted(asked) if tag == "MANIFOLD_LOAD")
         displacement = state.manifold - np.asarray(self.world.bank.file.manifold.position, dtype=float)
@@ -567,11 +581,11 @@ class BankServer(SnapshotServer):
             mine: dict = {}
             await _variables(guidance, f"{base}.Guidance", ns, ARM_VARIABLES, ARM_STATES, mine)
             nodes["arms"].append(mine)
-            conds = await conditions(server, guidance, ns, ARM_ALARM_TAGS, prefix=f"{arm.name}: ")
+            conds = await conditions(server, guidance, ns, ARM_ALARM_TAGS, prefix=f"{arm.name}: ", source=arm.name)
             nodes["conditions"].update({(len(nodes["arms"]) - 1, tag): c for tag, c in conds.items()})
         server.iserver.isession.add_method_callback(
             ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge),
-            acknowledge_method(nodes["conditions"], self.service.request_ack))
+            acknowledge_method(nodes["conditions"], self.service.request_ack, self.service.note))
         return nodes
 
     async def _publish(self, nodes: dict, snap: BankSnapshot) -> None:

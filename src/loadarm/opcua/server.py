@@ -551,7 +551,8 @@ class OpcUaServer(SnapshotServer):
         """The Acknowledge method of the conditions: an operator's request to acknowledge that one alarm (the
         controller's ISA-18.2 state machine does it; the condition follows at the next snapshot)."""
         service = self.service
-        return acknowledge_method(conditions, lambda user, tag: service.request(Request("ack", user, tag=tag)))
+        return acknowledge_method(conditions, lambda user, tag: service.request(Request("ack", user, tag=tag)),
+                                  service.note)
 
     def _callback(self, action: str, args: tuple):
         from asyncua import ua
@@ -726,6 +727,11 @@ class _Condition:
         self.tag, self.node, self.evgen, self.prefix = tag, node, evgen, prefix
         self.state = "normal"
 
+    @property
+    def event_id(self) -> bytes | None:
+        """The EventId of its latest event (None before the first)."""
+        return _value(getattr(self.evgen.event, "EventId", None))
+
     async def report(self, state: str) -> None:
         from asyncua import ua
 
@@ -748,9 +754,10 @@ class _Condition:
         await self.evgen.trigger()
 
 
-async def conditions(server, parent, ns: int, tags, prefix: str = "") -> dict:
+async def conditions(server, parent, ns: int, tags, prefix: str = "", source: str | None = None) -> dict:
     """A condition object (AlarmConditionType) and its event generator per annunciated alarm, under
-    ``parent/Alarms``; the parent emits their events (``prefix`` starts each event's message: a bank's arm)."""
+    ``parent/Alarms``; the parent emits their events (``prefix`` starts each event's message and ``source`` is
+    their SourceName: a bank's arm)."""
     from asyncua import ua
 
     folder = await parent.add_folder(ua.NodeId(f"{parent.nodeid.Identifier}.Alarms", ns), ua.QualifiedName("Alarms", ns))
@@ -760,14 +767,19 @@ async def conditions(server, parent, ns: int, tags, prefix: str = "") -> dict:
                                        ua.QualifiedName(tag, ns), objecttype=ua.NodeId(ua.ObjectIds.AlarmConditionType))
         evgen = await server.get_event_generator(ua.ObjectIds.AlarmConditionType, parent)
         evgen.event.SourceNode = parent.nodeid
+        if source is not None:
+            evgen.event.SourceName = source
         out[tag] = _Condition(tag, node, evgen, prefix)
     return out
 
 
-def acknowledge_method(conditions: dict, ask: Callable[[str, object], None]):
+def acknowledge_method(conditions: dict, ask: Callable[[str, object], bool | None],
+                       note: Callable[[str, str, dict], None] | None = None):
     """The callback of AcknowledgeableConditionType's Acknowledge, bound for every condition of a server: an
-    operator's request to acknowledge one alarm, refused to a lesser role (the one role table, :mod:`loadarm.vocab`),
-    for a node that is not one of ``conditions`` and for an alarm not waiting for its acknowledgement. The state
+    operator's request to acknowledge one alarm, refused to a lesser role (the one role table, :mod:`loadarm.vocab`;
+    noted as a security event), for a node that is not one of ``conditions``, for an alarm not waiting for its
+    acknowledgement or whose acknowledgement is already asked, and for an EventId that is not the condition's
+    latest event (Part 9: an operator acknowledges the occurrence they saw, not one that rose since). The state
     machine that owns the alarm acknowledges it; its condition follows at the next published state.
 
     Parameters
@@ -775,7 +787,10 @@ def acknowledge_method(conditions: dict, ask: Callable[[str, object], None]):
     conditions : dict
         Each condition's key (what ``ask`` is given) to its :class:`_Condition`.
     ask : callable
-        ``ask(user, key)``: the request, from the server's thread (it must not block).
+        ``ask(user, key)``: the request, from the server's thread (it must not block); False if that
+        acknowledgement is already waiting.
+    note : callable, optional
+        The service's ``note(kind, reason, data)``, for refusals.
 
     Returns
     -------
@@ -788,17 +803,30 @@ def acknowledge_method(conditions: dict, ask: Callable[[str, object], None]):
     async def acknowledge(parent, *values):
         user = CURRENT_USER.get()
         who = getattr(user, "loadarm", None)
-        if who is None or who.role < action_role("ack"):
-            return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
         key = by_node.get(parent)
+        if who is None or who.role < action_role("ack"):
+            if note is not None:
+                name = "an anonymous session" if who is None else who.name
+                note("security", f"OPC UA acknowledge of {key} by {name} refused: needs the operator role",
+                     {"code": "security.command_refused", "user": getattr(who, "name", ""), "action": "ack"})
+            return ua.StatusCode(ua.StatusCodes.BadUserAccessDenied)
         if key is None:
             return ua.StatusCode(ua.StatusCodes.BadNodeIdInvalid)
-        if conditions[key].state in ("normal", "acknowledged"):
+        cond = conditions[key]
+        if cond.state in ("normal", "acknowledged"):
             return ua.StatusCode(ua.StatusCodes.BadConditionBranchAlreadyAcked)
-        ask(who.name, key)
+        if not values or _value(values[0]) != cond.event_id:
+            return ua.StatusCode(ua.StatusCodes.BadEventIdUnknown)
+        if ask(who.name, key) is False:
+            return ua.StatusCode(ua.StatusCodes.BadConditionBranchAlreadyAcked)
         return []
 
     return acknowledge
+
+
+def _value(v):
+    """A method argument's value (a Variant's, or as given)."""
+    return getattr(v, "Value", v)
 
 
 def unece_unit_id(code: str) -> int:

@@ -691,6 +691,7 @@ def _bank_summary(b: dict | None) -> dict | None:
         return None
     return {"file": b["file"].name, **b["checks"].to_dict(),
             "clearance": b["clearance"].to_dict(),          # without an order: every arm approaching at once
+            "clearance_all_at_once": b["order"] is None,
             "manifold_record": None if b["record"] is None else b["record"].to_dict()}
 
 

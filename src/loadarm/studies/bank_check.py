@@ -20,8 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from loadarm.arm.manifold import LOAD_NAMES
-from loadarm.design.bank import (BankOrder, SwivelEnvelope, design_swivel_margins, order_over_flanging_area,
-                                 swivel_envelope)
+from loadarm.design.bank import (BankOrder, SwivelEnvelope, design_swivel_margins, flanging_moves,
+                                 order_bank_approaches, order_over_flanging_area, swivel_envelope)
 from loadarm.design.manifold import LOAD_LABELS, ManifoldLoadCheck, check_manifold_loads
 from loadarm.errors import LoadarmError
 from loadarm.hydraulics.bank_release import BankRelease, simulate_release
@@ -40,8 +40,8 @@ class BankChecks:
     ----------
     bank : Bank
     over : tuple of (displacement, BankOrder)
-        The approaches' order at the design position (first) and at each corner of the flanging area; empty when
-        no order could be made (the refusal says why).
+        The approaches' order at the design position (first) and at each corner of the flanging area: the design
+        position's alone when a corner's could not be made, empty when not even it could (the refusal says why).
     swivel_margins : ndarray, shape (n_arms, 6)
         Each arm's swivels' margins to their stops at the design case, rad.
     swivels : SwivelEnvelope
@@ -72,13 +72,13 @@ class BankChecks:
 
     def corners(self) -> dict | None:
         """The flanging area's corners: the least clearance of their ordered approaches, where, and each corner's
-        order (None when no order could be made).
+        order (None when a corner's order could not be made).
 
         Returns
         -------
         dict or None
         """
-        if not self.over:
+        if len(self.over) < 2:
             return None
         corner, worst = min(self.over[1:], key=lambda c: c[1].clearance.min_clearance)
         return {"least_clearance_m": worst.clearance.min_clearance, "displacement_m": list(corner),
@@ -124,13 +124,17 @@ def overload_line(bank: Bank, exceeded: list[dict]) -> str:
 
 
 def _approaches(bank: Bank) -> tuple[tuple, list[str]]:
-    """The ordered approaches over the flanging area, or none and why."""
+    """The ordered approaches at the design position and over the flanging area, as far as they could be made,
+    and why not (each error's own line, as the command has always printed it)."""
     try:
-        over = tuple(order_over_flanging_area(bank))
+        design = order_bank_approaches(bank)
     except LoadarmError as exc:
-        text = str(exc)
-        return (), [text if text.startswith(bank.source) else f"{bank.source}: {text}"]
-    clearance = over[0][1].clearance
+        return (), [str(exc)]
+    try:
+        over = tuple(order_over_flanging_area(bank, design))
+    except LoadarmError as exc:            # a corner of the flanging area: the design position's order stands
+        return ((flanging_moves(bank)[0], design),), [str(exc)]
+    clearance = design.clearance
     if not clearance.clear:
         return over, [f"{bank.source}: the arms' approaches come {clearance.where()}, below "
                       f"clearance.min_clearance = {clearance.required:g} m"]

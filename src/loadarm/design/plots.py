@@ -770,7 +770,8 @@ def swivel_envelope_figure(env) -> Figure:
     for i, name in enumerate(env.names):
         ax.plot(np.arange(least.shape[0]), least[:, i], ".", ms=5, label=name)
     ax.axhline(0.0, color="k", ls="--", lw=1, label="stop")
-    ax.set_xlabel("case (the manifold at a corner of the flanging area, the ship at its roll, pitch and yaw limits)")
+    ax.set_xlabel("case (the corners of the flanging area and of the ship's roll, pitch and yaw limits, then "
+                  "points inside and the searched leasts)")
     ax.set_ylabel("least swivel margin [deg]")
     ax.set_ylim(bottom=min(0.0, float(np.nanmin(least))) - 2.0)
     ax.legend(fontsize=8, ncols=len(env.names) + 1, loc="lower right")

@@ -49,7 +49,8 @@ class BankChecks:
     loads : ManifoldLoadCheck
     release : BankRelease
     refusals : tuple of str
-        One line each, in the check's order (approaches, swivels, manifold loads, release); empty: the bank passes.
+        One line each, in the check's order (approaches, swivels, the connected arms' clearance, manifold loads,
+        release); empty: the bank passes.
     """
 
     bank: Bank
@@ -159,6 +160,10 @@ def check_bank(bank: Bank) -> BankChecks:
         key = f"swivel{j // 2 + 1}_deg"
         refusals.append(f"{bank.source}: {swivels.words(k, i, j)}: past its stop by {math.degrees(-least):.1f} deg; "
                         f"swivels.{key} = {list(getattr(bank.file.swivels, key))} deg (the flanging area's corners "
+                        "and the terminal's [operability] roll, pitch and yaw limits)")
+    if swivels.clearance is not None and not swivels.clearance.clear:
+        refusals.append(f"{bank.source}: the arms connected come {swivels.clash_words()}, below "
+                        f"clearance.min_clearance = {swivels.clearance.required:g} m (the flanging area's corners "
                         "and the terminal's [operability] roll, pitch and yaw limits)")
     loads = check_manifold_loads(bank)
     if not loads.ok:

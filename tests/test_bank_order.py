@@ -124,15 +124,15 @@ def test_an_arm_whose_approach_clashes_with_a_stowed_neighbour_waits_for_it(stag
 @pytest.mark.slow
 def test_check_bank_shows_the_order(capsys):
     """``loadarm check --bank`` prints who moves first and who waits, and gives them in its JSON, with the orders
-    to the flanging area's corners."""
+    along the flanging area's edges."""
     assert main(["check", "--bank", str(EXAMPLE)]) == 0
     out = capsys.readouterr().out
     assert "V1 waits for the power unit's flow" in out and "L1 + L2 -> V1 + L3" in out
-    assert "approaches to the flanging area's corners: least clearance 1.473 m" in out
+    assert "approaches along the flanging area's edges (36 points): least clearance 1.385 m" in out
     assert main(["check", "--bank", str(EXAMPLE), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["approach_order"]["waits_for"] == {"V1": ["the power unit's flow"], "L3": ["the power unit's flow"]}
-    assert len(d["approaches_over_flanging_area"]) == 9
+    assert len(d["approaches_over_flanging_area"]) == 37
 
 
 def test_check_bank_refuses_a_bank_one_arm_cannot_approach_at_a_corner(staggered, capsys):
@@ -273,10 +273,15 @@ def test_the_approaches_to_the_flanging_area_s_corners_are_ordered_and_clear(mon
 
     bank = load_bank(EXAMPLE)
     over = db.order_over_flanging_area(bank)
-    assert [d for d, _ in over] == db.flanging_moves(bank) and len(over) == 9
+    assert [d for d, _ in over] == db.flanging_points(bank) and len(over) == 1 + 4 * db.FLANGING_LEVELS
+    assert set(db.flanging_moves(bank)) <= {d for d, _ in over}            # the corners among them
     f0 = bank.flange_position(0)                       # about the bank's own flange (found by review), 1.5 m wide
-    assert {(round(f0[0] + d[0], 6), d[1], round(f0[2] + d[2], 6)) for d, _ in over[1:]} == {
-        (x, y, z) for x in (5.2, 8.8) for y in (-1.5, 1.5) for z in (-4.7, 11.2)}
+    assert {(round(f0[0] + d[0], 6), d[1]) for d, _ in over[1:]} == {(x, y) for x in (5.2, 8.8) for y in (-1.5, 1.5)}
+    assert {round(f0[2] + d[2], 6) for d, _ in over[1:]} == {round(z, 6) for z in np.linspace(-4.7, 11.2, 9)}
+    # found: an approach comes closest with the flange at mid-height, not at a corner
+    least = min(o.clearance.min_clearance for _, o in over[1:])
+    at_corners = min(o.clearance.min_clearance for d, o in over[1:] if d in set(db.flanging_moves(bank)))
+    assert least == pytest.approx(1.385, abs=5e-4) and at_corners == pytest.approx(1.473, abs=5e-4)
     assert over[0][1].waves == order_bank_approaches(bank).waves
     for d, order in over[1:]:
         assert order.clearance.clear and order.peak_flow <= order.duty_flow * (1 + 1e-9)
@@ -284,6 +289,7 @@ def test_the_approaches_to_the_flanging_area_s_corners_are_ordered_and_clear(mon
         for i, (model, q) in enumerate(zip(bank.models, qs, strict=True)):
             end = np.array(forward3d(model.arm, *q[-1]))
             assert np.allclose(end, bank.flange_position(i) + np.asarray(d), atol=1e-6), (d, i, end)
+    monkeypatch.setattr(db, "flanging_points", lambda b: [(0.0, 0.0, 0.0), (30.0, 0.0, 0.0)])
     monkeypatch.setattr(db, "flanging_moves", lambda b: [(0.0, 0.0, 0.0), (30.0, 0.0, 0.0)])
     with pytest.raises(PathError, match=r"flanging area's corner \(\+30.00, \+0.00, \+0.00\) m") as exc:
         db.order_over_flanging_area(bank)

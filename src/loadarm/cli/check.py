@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 from typing import Annotated, Optional
 
@@ -110,9 +111,10 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     out.print(str(clearance.summary()))
     out.print(str(order.summary()))
     d, worst = min(over[1:], key=lambda c: c[1].clearance.min_clearance)
-    out.print(f"approaches to the flanging area's corners: least clearance {worst.clearance.min_clearance:.3f} m "
-              f"(manifold moved by {d[0]:+.2f}, {d[1]:+.2f}, {d[2]:+.2f} m); orders: "
-              + "; ".join(" -> ".join(" + ".join(w) for w in o.waves) for _, o in over[1:]))
+    orders = Counter(" -> ".join(" + ".join(w) for w in o.waves) for _, o in over[1:])
+    out.print(f"approaches along the flanging area's edges ({len(over) - 1} points): least clearance "
+              f"{worst.clearance.min_clearance:.3f} m (manifold moved by {d[0]:+.2f}, {d[1]:+.2f}, {d[2]:+.2f} m); "
+              "orders: " + "; ".join(f"{w} ({n} points)" for w, n in orders.most_common()))
     out.print(str(swivels.summary()))
     out.print(str(loads.summary()))
     out.print(str(release.summary()))

@@ -36,7 +36,7 @@ from loadarm.vocab import SWIVEL_FACE_TABLE
 
 __all__ = ["bank_approaches", "check_bank_approaches", "BankOrder", "order_bank_approaches",
            "design_swivel_margins", "approach_flows", "POWER_UNIT", "SwivelEnvelope", "swivel_envelope",
-           "flanging_moves", "order_over_flanging_area"]
+           "flanging_moves", "flanging_points", "order_over_flanging_area"]
 
 
 #: What an arm waits for when the duty pumps' flow, not a neighbour, holds it back.
@@ -166,10 +166,36 @@ def flanging_moves(bank: Bank) -> list[tuple[float, float, float]]:
                                 for z in (box.y_low, box.y_high) for y in sorted({-tol, tol})]
 
 
+#: Heights of the flanging area's vertical edges the approaches are ordered to (the corners among them). Found: an
+#: approach comes closest to a neighbour with the flange at mid-height, not at a corner (the example's 1.385 m with
+#: the manifold 0.26 m above its design height, against 1.473 m at the corners).
+FLANGING_LEVELS = 9
+
+
+def flanging_points(bank: Bank, levels: int = FLANGING_LEVELS) -> list[tuple[float, float, float]]:
+    """The design position, then the flanging area's vertical edges (:func:`flanging_moves`' corners, and
+    ``levels`` heights from the lowest to the highest flange on each edge), as displacements, m.
+
+    Parameters
+    ----------
+    bank : Bank
+    levels : int
+        At least 2 (the corners only).
+
+    Returns
+    -------
+    list of (float, float, float)
+    """
+    corners = np.array(flanging_moves(bank)[1:])
+    xs, ys = sorted(set(corners[:, 0])), sorted(set(corners[:, 1]))
+    zs = np.linspace(corners[:, 2].min(), corners[:, 2].max(), levels)
+    return [(0.0, 0.0, 0.0)] + [(float(x), float(y), float(z)) for x in xs for z in zs for y in ys]
+
+
 def order_over_flanging_area(bank: Bank, design: BankOrder | None = None) \
         -> list[tuple[tuple[float, float, float], BankOrder]]:
-    """:func:`order_bank_approaches` with the manifold at the design position and at each corner of the flanging
-    area (:func:`flanging_moves`): the approaches planned to wherever the ship presents its flanges.
+    """:func:`order_bank_approaches` with the manifold at the design position and along the flanging area's
+    vertical edges (:func:`flanging_points`): the approaches planned to wherever the ship presents its flanges.
 
     Parameters
     ----------
@@ -184,15 +210,17 @@ def order_over_flanging_area(bank: Bank, design: BankOrder | None = None) \
     Raises
     ------
     PathError
-        One line naming the corner where no order keeps the clearance (or an arm cannot reach its flange).
+        One line naming the point where no order keeps the clearance (or an arm cannot reach its flange).
     """
-    moves = flanging_moves(bank)
+    moves = flanging_points(bank)
+    corners = set(flanging_moves(bank)[1:])
     out = [(moves[0], design or order_bank_approaches(bank))]     # the design position: its own errors as they are
     for d in moves[1:]:
         try:
             out.append((d, order_bank_approaches(bank, displacement=d)))
         except LoadarmError as exc:
-            raise PathError(f"with the manifold at the flanging area's corner ({d[0]:+.2f}, {d[1]:+.2f}, "
+            where = "corner" if d in corners else "edge"
+            raise PathError(f"with the manifold at the flanging area's {where} ({d[0]:+.2f}, {d[1]:+.2f}, "
                             f"{d[2]:+.2f}) m from its design position: {exc}") from None
     return out
 

@@ -250,6 +250,7 @@ def test_no_point_of_the_flanging_area_and_the_ship_s_motions_is_worse_than_the_
     assert _least_gap(bank, x)[0] >= env.clearance.min_clearance - 1e-3
 
 
+@pytest.mark.slow           # 3 s: check --bank's envelope and edges (make test's budget; CI runs it)
 def test_a_swivel_the_ship_s_pitch_takes_past_its_stop_is_refused_in_one_line(capsys, tmp_path):
     """Swivel 3 given +-2 deg (the flange's normal): at rest 2 deg from its stops, but the terminal stays connected
     up to PIANC's 2 deg of pitch, and at the flanging area's corners the arm's own geometry adds: refused naming

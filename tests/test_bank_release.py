@@ -156,6 +156,7 @@ def test_check_bank_refuses_in_one_line(capsys, name, fragment):
     assert fragment in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.slow           # 3 s: check --bank's envelope and edges (make test's budget; CI runs it)
 def test_check_bank_json(capsys):
     import json
 

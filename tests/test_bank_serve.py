@@ -398,6 +398,7 @@ class _Events:
         raise AssertionError(f"no such event among {len(self.events)}")
 
 
+@pytest.mark.slow           # 6 s: a server and two sessions (make test's budget; CI runs it)
 def test_each_arm_s_alarms_are_part_9_conditions_that_an_operator_acknowledges_one_by_one(world, tmp_path):
     """Each arm's stage alarms and its manifold-load alarm are AlarmConditionType conditions under its
     ``Guidance/Alarms``, their events from the arm's Guidance object: with 2.0 m required between arms that keep

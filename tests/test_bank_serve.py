@@ -403,7 +403,8 @@ def test_each_arm_s_alarms_are_part_9_conditions_that_an_operator_acknowledges_o
     """Each arm's stage alarms and its manifold-load alarm are AlarmConditionType conditions under its
     ``Guidance/Alarms``, their events from the arm's Guidance object: with 2.0 m required between arms that keep
     1.8 m every arm's clash is past and every stage alarm rises, unacknowledged, retained, at its severity, its
-    message naming the arm. Acknowledge on one condition (an operator's) acknowledges that alarm alone at the next
+    message and SourceName naming the arm; the stages below the active ERS-2 are suppressed by design
+    (SuppressedState, as the screen's list leaves them out). Acknowledge on one condition (an operator's) acknowledges that alarm alone at the next
     state, noted with the user; a viewer's is refused, and an alarm already acknowledged is refused."""
     import dataclasses
 
@@ -446,7 +447,9 @@ def test_each_arm_s_alarms_are_part_9_conditions_that_an_operator_acknowledges_o
         ev = await h.wait_for(lambda e: e.ConditionName == "RELEASE")
         assert getattr(ev, "ActiveState/Id") is True and getattr(ev, "AckedState/Id") is False and ev.Retain
         assert ev.Severity == condition_severity("RELEASE") and ev.Message.Text.startswith("L1: ERS-2")
-        assert ev.SourceName == "L1"
+        assert ev.SourceName == "L1" and getattr(ev, "SuppressedState/Id") is False
+        esd = await h.wait_for(lambda e: e.ConditionName == "ESD1")         # below the active ERS-2: suppressed
+        assert getattr(esd, "ActiveState/Id") is True and getattr(esd, "SuppressedState/Id") is True
         cond = c.get_node(ua.NodeId("Bank.Components.L1.Guidance.Alarms.RELEASE", ns))
         with pytest.raises(ua.uaerrors.BadEventIdUnknown):                 # not the occurrence the operator saw
             await cond.call_method(ack, b"an old event", ua.LocalizedText("stale"))

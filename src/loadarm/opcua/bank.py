@@ -197,8 +197,11 @@ class BankSnapshot:
     alarms : tuple of BankAlarm
         The alarms not normal, the most urgent first, then the oldest.
     conditions : dict of (int, str) to AlarmState
-        Every arm's every alarm of :data:`ARM_ALARM_TAGS` (arm index, tag) in its ISA-18.2 state, none suppressed
-        (the OPC UA conditions; the list above suppresses an arm's lower stages).
+        Every arm's every alarm of :data:`ARM_ALARM_TAGS` (arm index, tag) in its ISA-18.2 state (the OPC UA
+        conditions).
+    suppressed : frozenset of (int, str)
+        The stage alarms suppressed by design: an arm's stages below its most severe active one (ISA-18.2's
+        state-based suppression: the list above leaves them out, the conditions say SuppressedState).
     """
 
     seq: int
@@ -208,6 +211,7 @@ class BankSnapshot:
     loads: ManifoldLoadStatus | None = None
     alarms: tuple = ()
     conditions: dict = dataclasses.field(default_factory=dict)
+    suppressed: frozenset = frozenset()
 
     def stage(self, i: int) -> Severity:
         """Arm ``i``'s stage: the more severe of its position alarm and the bank monitor's.
@@ -441,7 +445,9 @@ class BankService:
         conds = {(i, tag): self._stage_alarms.get((i, tag), (AlarmState.NORMAL, math.nan))[0]
                  for i in range(len(names)) for tag in _STAGE_RANK}
         conds.update({(i, "MANIFOLD_LOAD"): st for i, st in enumerate(loads)})
-        return dataclasses.replace(snap, alarms=self._alarm_list(loads), conditions=conds)
+        suppressed = frozenset((i, c.tag) for i in range(len(names)) for c in STAGE_CONDITIONS
+                               if c.stage < snap.stage(i))
+        return dataclasses.replace(snap, alarms=self._alarm_list(loads), conditions=conds, suppressed=suppressed)
 
     def _alarm_list(self, loads) -> tuple:
         """The alarm list: each arm's most severe stage alarm not normal and its manifold-load alarm (``loads``,
@@ -594,8 +600,9 @@ class BankServer(SnapshotServer):
             await _write(mine, arm_values(snap, i))
         for key, state in snap.conditions.items():
             cond = nodes["conditions"].get(key)
-            if cond is not None and cond.state != state.value:
-                await cond.report(state.value)
+            sup = key in snap.suppressed
+            if cond is not None and (cond.state != state.value or cond.suppressed != sup):
+                await cond.report(state.value, sup)
 
 
 async def _identification(parent, base: str, ns: int, dns: int, model: str, uri: str) -> None:

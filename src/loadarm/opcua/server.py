@@ -725,14 +725,17 @@ class _Condition:
 
     def __init__(self, tag: str, node, evgen, prefix: str = ""):
         self.tag, self.node, self.evgen, self.prefix = tag, node, evgen, prefix
-        self.state = "normal"
+        self.state, self.suppressed = "normal", False
 
     @property
     def event_id(self) -> bytes | None:
         """The EventId of its latest event (None before the first)."""
         return _value(getattr(self.evgen.event, "EventId", None))
 
-    async def report(self, state: str) -> None:
+    async def report(self, state: str, suppressed: bool = False) -> None:
+        """One event of the alarm's state: its ISA-18.2 ``state`` and whether it is suppressed by design (a bank
+        arm's lower stage while a higher one is active: ISA-18.2's state-based suppression, Part 9's
+        SuppressedState; still acknowledgeable)."""
         from asyncua import ua
 
         st = AlarmState(state)
@@ -750,7 +753,10 @@ class _Condition:
         ev.ActiveState = ua.LocalizedText("Active" if active else "Inactive")
         setattr(ev, "AckedState/Id", acked)
         ev.AckedState = ua.LocalizedText("Acknowledged" if acked else "Unacknowledged")
-        self.state = state
+        setattr(ev, "SuppressedState/Id", suppressed)
+        ev.SuppressedState = ua.LocalizedText("Suppressed" if suppressed else "Unsuppressed")
+        ev.SuppressedOrShelved = suppressed
+        self.state, self.suppressed = state, suppressed
         await self.evgen.trigger()
 
 

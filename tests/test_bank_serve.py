@@ -476,7 +476,7 @@ def test_each_arm_s_alarms_are_part_9_conditions_that_an_operator_acknowledges_o
     assert all(snap.conditions[(i, "RELEASE")] == AlarmState.UNACKED for i in range(1, len(bank.names)))
     assert snap.conditions[(0, "MANIFOLD_LOAD")] == AlarmState.NORMAL
     acks = [n[2] for n in service.notes if n[1] == "operator"]
-    assert acks == ["ERS-2: release of the coupler acknowledged: arm L1, by alice"]
+    assert acks == ["ERS-2: release of the coupler acknowledged: arm L1, by alice: 'seen'"]
     refused = [n[2] for n in service.notes if n[1] == "security"]
     assert any("acknowledge of (0, 'RELEASE') by victor refused: needs the operator role" in r for r in refused)
 
@@ -536,8 +536,8 @@ def test_the_bank_s_journal_reads_its_notes_codes_not_their_messages():
                           "utilisation": 1.234, "t": 3.0})
     assert load["text"] == ("V1: a load on the ship's manifold past its allowable (vertical force at 1.23 of its "
                             "allowable)") and load["tag"] == "MANIFOLD_LOAD"
-    one = line("operator", {"arm": "L1", "tag": "RELEASE", "user": "alice", "action": "ack"})
-    assert one["text"] == "L1: ERS-2: release of the coupler: acknowledged by alice" and one["priority"] is None
+    one = line("operator", {"arm": "L1", "tag": "RELEASE", "user": "alice", "action": "ack", "comment": "seen"})
+    assert one["text"] == "L1: ERS-2: release of the coupler: acknowledged by alice (seen)" and one["priority"] is None
     assert line("operator", {"user": "bob", "action": "ack"})["text"] == "every alarm acknowledged by bob"
     sec = line("security", {"code": "security.login_refused"}, "login of mallory refused")
     assert sec["text"] == "login of mallory refused" and sec["t"] is None and sec["tag"] is None

@@ -171,6 +171,8 @@ def bank_journal_entry(wall: float, kind: str, reason: str, data: dict, now: flo
     if kind == "operator" and data.get("action") == "ack":
         text = (f"{arm}: {condition_text(tag)}: acknowledged by {data.get('user', '?')}" if tag
                 else f"every alarm acknowledged by {data.get('user', '?')}")
+        if data.get("comment"):
+            text += f" ({data['comment']})"
     elif kind == "alarm" and tag and arm:
         text = f"{arm}: {condition_text(tag)}" + ("" if data.get("active") else ": cleared")
         if "utilisation" in data:

@@ -337,10 +337,11 @@ class BankService:
         #: Each arm's live manifold-load alarm.
         self.loads = ManifoldLoadAlarm(world.bank)
         #: Acknowledgements asked and not yet applied, under :attr:`_lock`: of every alarm (the screen's), by whom,
-        #: and of one alarm each (an OPC UA client's Acknowledge), (arm index, tag) to whom: bounded by the alarms.
+        #: and of one alarm each (an OPC UA client's Acknowledge), (arm index, tag) to whom and the comment: bounded
+        #: by the alarms.
         self._lock = threading.Lock()
         self._ack_all: list[str] = []
-        self._asked: dict[tuple[int, str], str] = {}
+        self._asked: dict[tuple[int, str], tuple[str, str]] = {}
         #: Events from outside (refused logins), with the time they came: this world keeps no event log.
         self.notes: deque[tuple[float, str, str, dict]] = deque(maxlen=NOTES_KEPT)
         #: Each (arm, stage condition) not normal: its ISA-18.2 state and when it rose.
@@ -380,15 +381,17 @@ class BankService:
         with self._lock:
             self._ack_all.append(user)
 
-    def request_ack(self, user: str, key: tuple[int, str]) -> bool:
+    def request_ack(self, user: str, key: tuple[int, str], comment: str = "") -> bool:
         """An operator acknowledged one alarm (an OPC UA condition's Acknowledge): applied at the next state and
-        noted then. Never blocks for long (called from the server's event loop).
+        noted then, with the operator's comment. Never blocks for long (called from the server's event loop).
 
         Parameters
         ----------
         user : str
         key : (int, str)
             The arm's index and the alarm's tag (:data:`ARM_ALARM_TAGS`).
+        comment : str
+            The Acknowledge's comment (at most 200 characters kept).
 
         Returns
         -------
@@ -399,7 +402,7 @@ class BankService:
         with self._lock:
             if key in self._asked:
                 return False
-            self._asked[key] = user
+            self._asked[key] = (user, str(comment)[:200])
             return True
 
     def _take_acks(self) -> tuple[bool, frozenset]:
@@ -410,9 +413,10 @@ class BankService:
             asked, self._asked = self._asked, {}
         for user in every:
             self.note("operator", f"every alarm acknowledged by {user}", {"user": user, "action": "ack"})
-        for (i, tag), user in sorted(asked.items()):
-            self.note("operator", f"{condition_text(tag)} acknowledged: arm {self.bank.names[i]}, by {user}",
-                      {"arm": self.bank.names[i], "tag": tag, "user": user, "action": "ack"})
+        for (i, tag), (user, comment) in sorted(asked.items()):
+            said = f": {comment!r}" if comment else ""
+            self.note("operator", f"{condition_text(tag)} acknowledged: arm {self.bank.names[i]}, by {user}{said}",
+                      {"arm": self.bank.names[i], "tag": tag, "user": user, "action": "ack", "comment": comment})
         return bool(every), frozenset(asked)
 
     def _stage_states(self, snap: BankSnapshot, acknowledge: bool, asked: frozenset) -> None:

@@ -551,7 +551,7 @@ class OpcUaServer(SnapshotServer):
         """The Acknowledge method of the conditions: an operator's request to acknowledge that one alarm (the
         controller's ISA-18.2 state machine does it; the condition follows at the next snapshot)."""
         service = self.service
-        return acknowledge_method(conditions, lambda user, tag: service.request(Request("ack", user, tag=tag)),
+        return acknowledge_method(conditions, lambda user, tag, _: service.request(Request("ack", user, tag=tag)),
                                   service.note)
 
     def _callback(self, action: str, args: tuple):
@@ -793,8 +793,8 @@ def acknowledge_method(conditions: dict, ask: Callable[[str, object], bool | Non
     conditions : dict
         Each condition's key (what ``ask`` is given) to its :class:`_Condition`.
     ask : callable
-        ``ask(user, key)``: the request, from the server's thread (it must not block); False if that
-        acknowledgement is already waiting.
+        ``ask(user, key, comment)``: the request, from the server's thread (it must not block); False if that
+        acknowledgement is already waiting. ``comment`` is the Acknowledge's comment's text ("" if none).
     note : callable, optional
         The service's ``note(kind, reason, data)``, for refusals.
 
@@ -823,7 +823,8 @@ def acknowledge_method(conditions: dict, ask: Callable[[str, object], bool | Non
             return ua.StatusCode(ua.StatusCodes.BadConditionBranchAlreadyAcked)
         if not values or _value(values[0]) != cond.event_id:
             return ua.StatusCode(ua.StatusCodes.BadEventIdUnknown)
-        if ask(who.name, key) is False:
+        comment = _value(values[1]) if len(values) > 1 else None
+        if ask(who.name, key, getattr(comment, "Text", None) or "") is False:
             return ua.StatusCode(ua.StatusCodes.BadConditionBranchAlreadyAcked)
         return []
 

@@ -762,8 +762,27 @@ class _Condition:
 
 async def conditions(server, parent, ns: int, tags, prefix: str = "", source: str | None = None) -> dict:
     """A condition object (AlarmConditionType) and its event generator per annunciated alarm, under
-    ``parent/Alarms``; the parent emits their events (``prefix`` starts each event's message and ``source`` is
-    their SourceName: a bank's arm)."""
+    ``parent/Alarms``; the parent emits their events.
+
+    Parameters
+    ----------
+    server : asyncua.Server
+    parent : asyncua.Node
+        The object the conditions belong to (their events' SourceNode).
+    ns : int
+        loadarm's namespace index.
+    tags : sequence of str
+        The alarms' tags (:mod:`loadarm.vocab`'s conditions).
+    prefix : str
+        Starts each event's message (a bank's arm: ``"L1: "``).
+    source : str, optional
+        The events' SourceName (a bank's arm; default the parent's browse name).
+
+    Returns
+    -------
+    dict
+        Each tag's :class:`_Condition`.
+    """
     from asyncua import ua
 
     folder = await parent.add_folder(ua.NodeId(f"{parent.nodeid.Identifier}.Alarms", ns), ua.QualifiedName("Alarms", ns))

@@ -14,6 +14,8 @@ import pytest
 
 from loadarm.opcua.security import Role, StateDir, client_certificate
 
+from .test_plant import _Events
+
 ROOT = Path(__file__).resolve().parents[1]
 BANK = ROOT / "examples" / "banks" / "lng150k_bank.toml"
 SCENARIO = ROOT / "examples" / "scenarios" / "hs15_moored.toml"
@@ -377,28 +379,6 @@ def test_loadarm_serve_bank_serves_the_bank_until_ctrl_c(tmp_path):
     assert closing.startswith("stopped at t = ") and "late states" in closing and code == 130, closing
 
 
-class _Events:
-    """An asyncua subscription handler keeping the events it gets."""
-
-    def __init__(self):
-        self.events = []
-
-    def event_notification(self, event):
-        self.events.append(event)
-
-    async def wait_for(self, pred, timeout=5.0):
-        import time
-
-        t0 = time.monotonic()
-        while time.monotonic() - t0 < timeout:
-            hits = [e for e in self.events if pred(e)]
-            if hits:
-                return hits[-1]
-            await asyncio.sleep(0.05)
-        raise AssertionError(f"no such event among {len(self.events)}")
-
-
-@pytest.mark.slow           # 6 s: a server and two sessions (make test's budget; CI runs it)
 def test_each_arm_s_alarms_are_part_9_conditions_that_an_operator_acknowledges_one_by_one(world, tmp_path):
     """Each arm's stage alarms and its manifold-load alarm are AlarmConditionType conditions under its
     ``Guidance/Alarms``, their events from the arm's Guidance object: with 2.0 m required between arms that keep

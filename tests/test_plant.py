@@ -626,6 +626,55 @@ def test_a_continuous_loop_keeps_the_last_window_of_its_signals(monkeypatch):
 
 # --------------------------------------------------------------------------- load
 
+def test_a_stall_of_the_machine_shows_as_one_run_of_late_cycles():
+    """The service keeps its late cycles with how late each was: a stall of 110 ms within cycle 10 (clock and
+    sleep injected) makes cycles 11-14 late by 90, 70, 50 and 30 ms, caught up back to back; cycle 15 is due
+    10 ms after the stall's end and is not late (a cycle is late from one period behind)."""
+    from loadarm.opcua.service import GuidanceService
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import ClosedLoop
+
+    sc, model = load_scenario(SCENARIO)
+    now = [0.0]
+    service = GuidanceService(ClosedLoop(sc, model, plant="kinematic"), clock=lambda: now[0],
+                              sleep=lambda s: now.__setitem__(0, now[0] + s))
+    cycle = service.loop.cycle
+
+    def stalling(k, live=None):
+        if k == 10:
+            now[0] += 0.110
+        if k == 25:
+            service.stop()
+        return cycle(k, live)
+
+    service.loop.cycle = stalling
+    service.run()
+    assert service.late == 4 and [k for k, _ in service.late_tail] == [11, 12, 13, 14]
+    np.testing.assert_allclose([lag for _, lag in service.late_tail], [0.09, 0.07, 0.05, 0.03], atol=1e-9)
+
+
+def test_freeze_heap_collects_the_garbage_then_freezes_the_rest():
+    """A real-time process freezes its heap once built: the garbage is collected first (a reference cycle made
+    before is gone, not frozen forever), and the rest is in the permanent generation."""
+    import gc
+    import weakref
+
+    from loadarm.opcua.service import freeze_heap
+
+    class Node:
+        pass
+
+    a = Node()
+    a.me = a
+    gone = weakref.ref(a)
+    del a
+    try:
+        n = freeze_heap()
+        assert gone() is None and n > 1000 and 0 < gc.get_freeze_count() <= n    # a frozen object freed leaves
+    finally:
+        gc.unfreeze()
+
+
 @pytest.mark.slow
 @pytest.mark.realtime
 def test_twenty_clients_at_10_hz_do_not_make_the_guidance_cycle_late(tmp_path):
@@ -636,7 +685,12 @@ def test_twenty_clients_at_10_hz_do_not_make_the_guidance_cycle_late(tmp_path):
     process, one cycle in 650 started late, and on the next run 60 in 778; alone (make bench) none did. So it is
     marked realtime: the Makefile runs it after the rest, on its own. Found again, alone in CI: 13 cycles in 732
     late in one run, none in the two runs right after it; this shared VM stalls now and then. So a second
-    measurement is taken when the first misses: a slow server misses both."""
+    measurement is taken when the first misses: a slow server misses both. Found again in CI: both missed (17 in
+    802, 19 in 726). Reproduced here with a busy loop on the other core (3 runs in 4 missed): each time one run of
+    12-19 consecutive cycles, the first 240-350 ms late, right after a full pass of the garbage collector over the
+    whole heap (250-390 ms) in the OPC UA server's thread. Mended by :func:`loadarm.opcua.service.freeze_heap`
+    (``serve`` and ``plc-sim`` call it before their loops): with it, 7 runs in 8 had no late cycle under the same
+    load. The message gives each measurement's late cycles (cycle, ms late) so that a miss says stall or drift."""
     from loadarm.testing.loadtest import measure_load
 
     tries = []
@@ -646,10 +700,11 @@ def test_twenty_clients_at_10_hz_do_not_make_the_guidance_cycle_late(tmp_path):
               r["notifications"] >= r["clients"] * 10 * r["seconds"] * 0.9,
               np.percentile(r["cycle_us_during"], 99) < 20_000)
         tries.append((r["late"], len(r["cycle_us_during"]), r["notifications"],
-                      float(np.percentile(r["cycle_us_during"], 99))))
+                      float(np.percentile(r["cycle_us_during"], 99)),
+                      [(k, round(lag * 1e3)) for k, lag in r["late_at"][:20]]))
         if all(ok):
             break
-    assert all(ok), f"(late cycles, cycles, notifications, p99 us) of each measurement: {tries}"
+    assert all(ok), f"(late cycles, cycles, notifications, p99 us, late at) of each measurement: {tries}"
 
 
 def test_the_prediction_and_the_alarm_rule_are_served(served):

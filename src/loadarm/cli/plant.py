@@ -23,7 +23,7 @@ from loadarm.opcua.bank import BankServer, BankService
 from loadarm.opcua.plc import PlcLink, PlcServer, PlcSimulator, load_tag_map
 from loadarm.opcua.security import StateDir, load_certificate, thumbprint
 from loadarm.opcua.server import OpcUaServer
-from loadarm.opcua.service import REALTIME_SWITCH_INTERVAL, GuidanceService
+from loadarm.opcua.service import REALTIME_SWITCH_INTERVAL, GuidanceService, freeze_heap
 from loadarm.params.bank import load_bank
 from loadarm.params.declare import in_range, range_text
 from loadarm.params.scenario import Scenario, ScenarioHead, check_scenario
@@ -204,6 +204,7 @@ def serve(
                 screen = _start_screen(service, state_dir, model, sc.scenario.name, hmi_address, server)
             _announce(server, endpoint, insecure, state_dir)
             out.print(f"events to {db} (run {run_id}); Ctrl-C stops")
+            freeze_heap()                       # the collector's full passes: only what comes after
             service.run()
         finally:
             _say_stopped(service, said)         # at once: the servers' ends below take their own time
@@ -258,6 +259,7 @@ def _serve_bank(bank_file: Path, scenario: Optional[Path], endpoint: str, state_
         out.print(f"bank {service.bank.file.bank.name}: {names} connected to the ship of {scenario.name} "
                   f"({spec.scenario.scenario.duration:g} s at {speedup:g}x); Ctrl-C stops", soft_wrap=True)
         sys.stdout.flush()
+        freeze_heap()
         service.run()
     finally:                # the closing line at once, Ctrl-C or the scenario's end; then the servers' ends
         snap = service.snapshot()
@@ -414,6 +416,7 @@ def plc_sim(
         out.print(f"simulated PLC on {endpoint}; certificate {server.state.cert}; "
                   f"{len(server.state.users())} user(s); Ctrl-C stops", soft_wrap=True)
         sys.stdout.flush()
+        freeze_heap()
         sim.run()
     finally:
         server.stop(timeout=STOP_WAIT)

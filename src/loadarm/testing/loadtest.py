@@ -6,13 +6,14 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import gc
 import json
 import sys
 import time
 
 from loadarm.opcua.security import Role, StateDir, client_certificate
 from loadarm.opcua.server import NAMESPACE, STATES, VARIABLES, OpcUaServer
-from loadarm.opcua.service import REALTIME_SWITCH_INTERVAL, GuidanceService
+from loadarm.opcua.service import REALTIME_SWITCH_INTERVAL, GuidanceService, freeze_heap
 from loadarm.params.scenario import load_scenario
 from loadarm.sim.loop import ClosedLoop
 
@@ -190,9 +191,15 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
     endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
     server = OpcUaServer(service, st.path, endpoint)
     server.start()
+    freeze_heap()                                            # as loadarm serve does
     service.start()
     out: dict = {}
     try:
+        ready = time.monotonic() + 60.0                # the first cycle (numba's cache loaded) before the quiet
+        while service.snapshot() is None and service.error is None and time.monotonic() < ready:
+            time.sleep(0.05)
+        if service.snapshot() is None:
+            raise RuntimeError(f"the guidance service made no cycle in 60 s: {service.error!r}")
         time.sleep(quiet)
         k0, cpu0 = service.snapshot().seq, time.process_time()
         proc = subprocess.run([sys.executable, "-m", "loadarm.testing.loadtest", endpoint, "viewer", "pw-viewer",
@@ -200,7 +207,7 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
                                "--seconds", str(seconds), "--interval-ms", str(interval_ms)],
                               capture_output=True, text=True, timeout=seconds + 120)
         k1, cpu1 = service.snapshot().seq, time.process_time()
-        late = service.late
+        late, late_tail = service.late, list(service.late_tail)
         if calls:
             out.update(asyncio.run(call_round_trips(endpoint, "operator", "pw-operator", str(cert), str(key),
                                                     str(st.cert), "urn:loadarm:loadtest", calls=calls)))
@@ -208,11 +215,13 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
         service.stop()
         server.stop()
         sys.setswitchinterval(previous)
+        gc.unfreeze()
     if proc.returncode != 0:
         raise RuntimeError(f"the load clients failed: {proc.stderr.strip()[-500:]}")
     out.update(json.loads(proc.stdout.strip().splitlines()[-1]))
     cyc = service.loop.cycle_us
-    out.update(server_cpu_s=cpu1 - cpu0, cycle_us_before=cyc[:k0], cycle_us_during=cyc[k0:k1], late=late)
+    out.update(server_cpu_s=cpu1 - cpu0, cycle_us_before=cyc[:k0], cycle_us_during=cyc[k0:k1], late=late,
+               late_at=[(k - k0, lag) for k, lag in late_tail if k0 <= k < k1])
     return out
 
 

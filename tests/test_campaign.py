@@ -50,6 +50,48 @@ def test_judge_counts_each_failure_on_its_own():
     assert live.overstretched and live.overstretched_before_isolation and live.missed_alarm
 
 
+def test_a_face_past_the_run_s_end_by_more_than_esd1_s_lead_leaves_the_comparison_undecided():
+    """Issue 30 (Hs 2.0-2.5 m seed 533): the rule without the prediction called ESD-1 at 413.8 s, the rule with it
+    did not within the 600 s run, and the face was 725.2 s on the flange's trajectory after it. No rule had to call
+    before the end (the face more than ESD-1's 35 s lead past it): undecided, not 311 s later. A face within the
+    lead of the end, or a run whose end is not known, is still counted later (as if ESD-1 came at the face)."""
+    from loadarm.studies.campaign import CampaignResult
+
+    base = dict(coupler_opening_s=None, valves_confirmed_s=None, limit_s=725.2, release_complete_s=None,
+                alarm1_s=None, overstretched_s=None, release_margin_s=None, limit_face="beta_max", duration_s=600.0,
+                connected_s=450.0, failures=[], alarm1_measured_s=413.8, alarm1_measured_first_s=413.8)
+    past = _judge(533, {}, base, (600.0, 35.0))
+    assert past.alarm1_undecided and past.lead_gained_s is None
+    near = _judge(534, {}, {**base, "limit_s": 634.0}, (600.0, 35.0))       # due by the end: the rule is late
+    assert not near.alarm1_undecided and near.lead_gained_s == pytest.approx(413.8 - 634.0)
+    unknown = _judge(535, {}, base)
+    assert not unknown.alarm1_undecided and unknown.lead_gained_s == pytest.approx(413.8 - 725.2)
+    called = _judge(536, {}, {**base, "alarm1_s": 500.0}, (600.0, 35.0))     # both called: compared
+    assert not called.alarm1_undecided and called.lead_gained_s == pytest.approx(413.8 - 500.0)
+    v = CampaignResult("s.toml", (), (past, near, unknown, called))._values()
+    assert v["alarm1_undecided"] == 1 and v["undecided_seeds"] == [533]
+    assert v["alarm1_later"] == 3 and v["later_seeds"] == [534, 535, 536]
+
+
+def test_stored_runs_without_their_end_get_it_from_the_scenario():
+    """Runs kept before the runs file held their end and ESD-1's lead get them from the scenario (its duration and
+    the installation's sequence), the same as a run made now."""
+    from loadarm.guidance.monitor import stage_leads
+    from loadarm.studies.campaign import _with_bounds
+    from loadarm.vocab import Severity
+
+    scen = str(ROOT / "examples" / "scenarios" / "hs15_tracked.toml")
+    sc, model = load_scenario(scen)
+    old = _judge(7, {"environment.hs": 2.2}, dict(coupler_opening_s=None, valves_confirmed_s=None, limit_s=None,
+                                                  release_complete_s=None, alarm1_s=None, overstretched_s=None,
+                                                  release_margin_s=None, limit_face="", duration_s=600.0,
+                                                  connected_s=0.0, failures=[]))
+    assert old.end_s is None
+    (new,) = _with_bounds(scen, [old])
+    assert new.end_s == sc.scenario.duration and new.esd1_lead_s == stage_leads(model.sequence)[Severity.ESD1] > 0
+    assert dataclasses.replace(new, end_s=None, esd1_lead_s=None) == old
+
+
 def _result(events, overstretched_at=None, limit_at=None, t_end=120.0):
     """A run's result with just the events and times its verdict reads."""
     from loadarm.sim.result import RunResult

@@ -262,6 +262,42 @@ def test_a_break_out_s_call_while_the_track_is_inside_the_intervals_is_not_held(
     assert calls and calls[0][4]["held"] is False
 
 
+@pytest.mark.slow  # 35-70 s: a tracked run of 850 s (make test's budget; CI runs it)
+def test_seed_533_run_past_its_end_on_the_same_sea_releases_before_the_face(monkeypatch):
+    """Issue 30, Hs 2.0-2.5 m seed 533 (Hs 2.20 m): in the 600 s run the rule without the prediction called
+    ESD-1 six times (413.8-567.1 s: each "face in 18-35 s"), all held, and the face came at 725.2 s on the
+    flange's trajectory after the run, so the campaign could not tell whether ESD-1 would come in time. The
+    moored ship is simulated for the run plus ``MOORED_LOOKAHEAD``: lengthening the run by 250 s and shortening
+    that by as much keeps the same sea (the face within the look-ahead's 0.1 s step of the stored run's). On it
+    every call before 600 s is held; the break-out test's call at 705.7 s stands at the track's next block
+    (706.0 s, the track outside the intervals); the coupler is free at 719.0 s, 6 s before the face; no failure."""
+    import json
+
+    from loadarm.ship import flange
+    from loadarm.sim import limits
+    from loadarm.sim.loop import run_scenario
+    from loadarm.ship.model import moored_ship
+    from loadarm.studies.campaign import _Draw
+
+    rows = (ROOT / "docs" / "campaigns" / "hs15_tracked_hs2.0-2.5_runs.jsonl").read_text().splitlines()[1:]
+    stored = next(r["run"] for r in map(json.loads, rows) if r["run"]["seed"] == 533)
+    sc, model = _Draw(str(SCEN / "hs15_tracked.toml")).build(533, stored["draws"])
+    more = 250.0
+    monkeypatch.setattr(flange, "MOORED_LOOKAHEAD", flange.MOORED_LOOKAHEAD - more)
+    monkeypatch.setattr(limits, "LIMIT_LOOKAHEAD", flange.MOORED_LOOKAHEAD - more - 10.0)
+    end = sc.scenario.duration
+    sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"duration": end + more})})
+    res = run_scenario(sc, model, plant="kinematic", ship=moored_ship(sc))
+    assert res.limit_at == pytest.approx(stored["limit_s"], abs=0.1)          # the same sea
+    assert stored["alarm1_s"] is None and stored["alarm1_measured_s"] < end < stored["limit_s"] - 35.0
+    calls = [e for e in res.events if e[4].get("code") == "info.measured_esd1"]
+    assert len([c for c in calls if c[0] < end]) >= 5 and all(c[4]["held"] for c in calls if c[0] < end)
+    t1, esd1 = res.first_code("stage.esd1"), res.first_data("stage.esd1")
+    assert end < esd1["measured_since"] <= t1 <= esd1["measured_since"] + 0.5     # the next block, at most
+    done = res.first_code("command.release_complete")
+    assert res.failures() == () and done < res.limit_at - 5.0
+
+
 @pytest.mark.slow
 def test_without_the_mooring_load_monitoring_no_change_detector_s_call_is_held():
     """No second witness (``[ship] line_load_monitoring = false``): the break-out test's call on the tracked

@@ -28,13 +28,14 @@ import math
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from loadarm.errors import ConfigError
 from loadarm.figures import subplots
+from loadarm.guidance.monitor import stage_leads
 from loadarm.params.compiler import compile_model
 from loadarm.params.config import paper_installation, parse_config, read_toml
 from loadarm.params.scenario import Scenario, check_scenario, parse_scenario, parse_scenario_file, resolve_berth
@@ -43,10 +44,18 @@ from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import run_scenario
 from loadarm.studies.cluster import connect_scheduler, plan_workers
 from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile, Tally
-from loadarm.vocab import ALARM_RULES
+from loadarm.vocab import ALARM_RULES, Severity
 
-__all__ = ["check_campaign", "Vary", "parse_vary", "CampaignRun", "CampaignResult", "CAMPAIGN_METRICS", "run_campaign",
-           "MAX_SEEDS"]
+__all__ = [
+    "CAMPAIGN_METRICS",
+    "MAX_SEEDS",
+    "CampaignResult",
+    "CampaignRun",
+    "Vary",
+    "check_campaign",
+    "parse_vary",
+    "run_campaign",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -137,6 +146,11 @@ class CampaignRun:
         The rule that raised ESD-1 (:data:`loadarm.vocab.ALARM_RULES`; ``""``: none).
     alarm1_measured_first_s : float or None
         The first time that rule called for ESD-1 at all (a false alarm of that rule, in a run without a face).
+    end_s : float or None
+        The run's end, s (the scenario's duration; None: not known).
+    esd1_lead_s : float or None
+        The time ESD-1 needs before a face, s (the installation's whole sequence and margin, the ERS valves at
+        their timeout: :func:`loadarm.guidance.monitor.stage_leads`), which no rule may call later than.
     """
 
     seed: int
@@ -155,6 +169,8 @@ class CampaignRun:
     alarm1_measured_s: float | None = None
     alarm1_rule: str = ""
     alarm1_measured_first_s: float | None = None
+    end_s: float | None = None
+    esd1_lead_s: float | None = None
 
     @property
     def false_alarm_measured(self) -> bool:
@@ -162,17 +178,32 @@ class CampaignRun:
         return self.alarm1_measured_first_s is not None and self.limit_s is None
 
     @property
+    def alarm1_undecided(self) -> bool:
+        """The comparison with the rule without the prediction cannot be made in this run: that rule called for
+        ESD-1, the rule did not within the run, and the face (on the flange's trajectory after the run) is more
+        than ESD-1's lead past the run's end, so that no rule had to call before the end: whether ESD-1 would
+        have come in time the run does not say (right-censored). Found (issue 30): Hs 2.0-2.5 m seed 533 counted
+        311 s "later" against a face 120 s past the end; run 250 s longer on the same sea, ESD-1 came 19 s before
+        it and the coupler was free 6 s before it (``tests/test_predictive_alarms.py``)."""
+        if self.limit_s is None or self.alarm1_measured_s is None or self.alarm1_s is not None:
+            return False
+        if self.end_s is None or self.esd1_lead_s is None:
+            return False                         # not known: counted against the rule (as if at the face)
+        return self.limit_s > self.end_s + self.esd1_lead_s
+
+    @property
     def lead_gained_s(self) -> float | None:
         """How much sooner ESD-1 came than the rule without the prediction would have raised it, s (negative:
         later; with no ESD-1 at all, as if it came when the face was reached), for a run whose flange reaches a
-        face; None otherwise."""
-        if self.limit_s is None or self.alarm1_measured_s is None:
+        face; None otherwise, and None where the run cannot tell (:attr:`alarm1_undecided`)."""
+        if self.limit_s is None or self.alarm1_measured_s is None or self.alarm1_undecided:
             return None
         return self.alarm1_measured_s - (self.alarm1_s if self.alarm1_s is not None else self.limit_s)
 
 
-def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
-    """The verdict from a run's summary values (its failures are the run's own, :meth:`RunResult.failures`)."""
+def _judge(seed: int, draws: dict, v: dict, bounds: tuple[float, float] | None = None) -> CampaignRun:
+    """The verdict from a run's summary values (its failures are the run's own, :meth:`RunResult.failures`) and
+    its ``bounds``, ``(end_s, esd1_lead_s)`` (:func:`_bounds`)."""
     fails = set(v["failures"])
     limit, done, alarm1 = v["limit_s"], v["release_complete_s"], v["alarm1_s"]
     return CampaignRun(
@@ -184,7 +215,13 @@ def _judge(seed: int, draws: dict, v: dict) -> CampaignRun:
         missed_alarm="missed_alarm" in fails,
         alarm1_s=alarm1, release_complete_s=done, limit_s=limit, release_margin_s=v["release_margin_s"],
         limit_face=v["limit_face"], connected_s=v["connected_s"], alarm1_measured_s=v.get("alarm1_measured_s"),
-        alarm1_rule=v.get("alarm1_rule", ""), alarm1_measured_first_s=v.get("alarm1_measured_first_s"))
+        alarm1_rule=v.get("alarm1_rule", ""), alarm1_measured_first_s=v.get("alarm1_measured_first_s"),
+        end_s=None if bounds is None else bounds[0], esd1_lead_s=None if bounds is None else bounds[1])
+
+
+def _bounds(sc, model) -> tuple[float, float]:
+    """A run's end and the time its ESD-1 needs before a face, s (no valve commanded yet: the whole sequence)."""
+    return float(sc.scenario.duration), float(stage_leads(model.sequence)[Severity.ESD1])
 
 
 class _Draw:
@@ -242,7 +279,7 @@ def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -
         if sc.ship.model == "moored":
             ship = ships.get(sc.ship.berth) or ships.setdefault(sc.ship.berth, moored_ship(sc))
         res = run_scenario(sc, model, plant=plant, ship=ship)
-        results.append(_judge(seed, draws, res._values()))
+        results.append(_judge(seed, draws, res._values(), _bounds(sc, model)))
     return results
 
 
@@ -258,6 +295,7 @@ CAMPAIGN_METRICS = (
     Metric("false_alarms", "false alarms (ESD-1 without reaching a face)", "", "d"),
     Metric("false_alarms_measured", "false alarms by the rule without the prediction", "", "d"),
     Metric("alarm1_later", "ESD-1 later than the rule without the prediction", "", "d"),
+    Metric("alarm1_undecided", "ESD-1 undecided (the face past the run's end by more than ESD-1's lead)", "", "d"),
     Metric("lead_gained_min_s", "ESD-1 lead gained on that rule, min", "s", ".1f", none="-"),
     Metric("lead_gained_median_s", "ESD-1 lead gained on that rule, median", "s", ".1f", none="-"),
     Metric("missed_alarms", "missed alarms (face reached before the release completed)", "", "d"),
@@ -316,6 +354,7 @@ class CampaignResult(Result):
             "false_alarms": sum(r.false_alarm for r in runs),
             "false_alarms_measured": sum(r.false_alarm_measured for r in runs),
             "alarm1_later": int(np.sum(gained < 0)),
+            "alarm1_undecided": sum(r.alarm1_undecided for r in runs),
             "lead_gained_min_s": q(gained, 0), "lead_gained_median_s": q(gained, 50),
             "missed_alarms": sum(r.missed_alarm for r in runs),
             "releases": sum(r.release_complete_s is not None for r in runs),
@@ -325,6 +364,7 @@ class CampaignResult(Result):
             "failed_seeds": [r.seed for r in runs if r.overstretched or r.opened_on_live_product or r.missed_alarm],
             "false_alarm_seeds": [r.seed for r in runs if r.false_alarm],
             "later_seeds": [r.seed for r in runs if r.lead_gained_s is not None and r.lead_gained_s < 0],
+            "undecided_seeds": [r.seed for r in runs if r.alarm1_undecided],
             "false_alarms_by_rule": {rule: n for rule in ALARM_RULES
                                      if (n := sum(r.false_alarm and r.alarm1_rule == rule for r in runs))},
             "worst": [{"seed": r.seed, "release_margin_s": r.release_margin_s, "face": r.limit_face, **r.draws}
@@ -396,7 +436,7 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     store = None if runs_file is None else RunsFile(runs_file, scenario, plant, [(v.key, v.lo, v.hi) for v in vary])
     wanted = range(first_seed, first_seed + seeds)
     stored = [] if store is None else store.runs(wanted)
-    done: list[CampaignRun] = [CampaignRun(**fields) for fields, _ in stored]
+    done: list[CampaignRun] = _with_bounds(scenario, [CampaignRun(**fields) for fields, _ in stored])
     codes = Counter(code for _, code in stored)
     held = {r.seed for r in done}
     pending = seeds - len(held)
@@ -425,6 +465,23 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
             _bounded_map(pool, lambda chunk: pool.submit(_run_batch, scenario, plant, chunk), chunks, 2 * workers,
                          report)
     return CampaignResult(scenario, tuple(vary), tuple(sorted(done, key=lambda r: r.seed)), codes=dict(codes))
+
+
+def _with_bounds(scenario: str, runs: list[CampaignRun]) -> list[CampaignRun]:
+    """Runs stored before the runs kept their end and ESD-1's lead, given them from their scenario and draws
+    (built once per distinct draw of the keys that change them: the duration and the installation)."""
+    if all(r.end_s is not None for r in runs):
+        return runs
+    draw, memo, out = _Draw(scenario), {}, []
+    for r in runs:
+        if r.end_s is None:
+            key = tuple(sorted((k, v) for k, v in r.draws.items()
+                               if k == "scenario.duration" or k.startswith("installation.")))
+            if key not in memo:
+                memo[key] = _bounds(*draw.build(r.seed, r.draws))
+            r = replace(r, end_s=memo[key][0], esd1_lead_s=memo[key][1])
+        out.append(r)
+    return out
 
 
 #: The most runs one campaign takes (a campaign of a hundred thousand kinematic runs takes a day on 8 cores).

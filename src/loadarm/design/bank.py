@@ -25,8 +25,7 @@ from scipy.stats import qmc
 from loadarm.arm.actuators import cylinder_lengths
 from loadarm.arm.envelope import berth_box, flanging_x_far
 from loadarm.arm.clearance import ClearanceResult, path_clearance
-from loadarm.arm.slew import inverse3d
-from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
+from loadarm.arm.swivel import swivel_angles, swivel_margins
 from loadarm.design.plots import bank_order_figure, swivel_envelope_figure
 from loadarm.design.trajectory import plan_approach_3d
 from loadarm.errors import LoadarmError, PathError
@@ -237,19 +236,10 @@ def _envelope_cases(bank: Bank, cases) -> tuple[np.ndarray, list[np.ndarray]]:
     """Every arm's swivel margins (cases, arms, 6) and poses (per arm, (cases, 3)) at (displacement, rpy deg)
     cases."""
     centre = np.asarray(bank.file.manifold.position, dtype=float)
-    centres = np.array([centre + np.asarray(d) for d, _ in cases])
-    angles = np.radians(np.array([r for _, r in cases], dtype=float))
-    heading = math.radians(bank.file.manifold.heading_deg)
-    rot = ship_rotation(angles[:, 0], angles[:, 1], angles[:, 2], heading)
-    flanges = bank.flanges_at(centres, angles, rot)                               # (cases, arms, 3)
-    out = np.empty((len(cases), len(bank.names), len(SWIVEL_FACE_TABLE)))
-    poses = []
-    for i, m in enumerate(bank.models):
-        q = inverse3d(m.arm, flanges[:, i, 0], flanges[:, i, 1], flanges[:, i, 2], check=False)
-        out[:, i] = swivel_margins(swivel_angles(q.phi, q.alpha, q.beta, heading=heading, rotation=rot),
-                                   bank.file.swivels.limits())
-        poses.append(np.column_stack([q.phi, q.alpha, q.beta]))
-    return out, poses
+    centres = np.array([centre + np.asarray(d) for d, _ in cases]).reshape(-1, 3)
+    angles = np.radians(np.array([r for _, r in cases], dtype=float)).reshape(-1, 3)
+    _, poses, swivels = bank.on_flanges(centres, angles)
+    return swivels, poses
 
 
 def _as_cases(x: np.ndarray) -> list:

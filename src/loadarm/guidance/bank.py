@@ -43,8 +43,7 @@ import numpy as np
 
 from loadarm.arm.clearance import PARTS, capsule_gaps, capsules
 from loadarm.arm.sequence import stage_of
-from loadarm.arm.slew import inverse3d
-from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
+from loadarm.arm.swivel import ship_rotation
 from loadarm.guidance.drift import FIT_PERIOD, DriftEstimate, DriftFit
 from loadarm.guidance.monitor import EnvelopeMonitor, first_crossing, measured_route, stage_leads
 from loadarm.params.bank import Bank
@@ -241,48 +240,21 @@ class BankMonitor:
         """
         return self.bank.flanges_at(centre, angles, rotation)
 
-    def arm_poses(self, centre, angles, rotation=None) -> list:
-        """Each arm's joints at manifold poses: the inverse kinematics of its flange (NaN out of reach).
-
-        Parameters
-        ----------
-        centre : ndarray, shape (..., 3)
-            m.
-        angles : ndarray, shape (..., 3)
-            Roll, pitch, yaw, rad.
-        rotation : ndarray, shape (..., 3, 3), optional
-            Their :func:`loadarm.arm.swivel.ship_rotation`, if already computed.
-
-        Returns
-        -------
-        list of ndarray, shape (..., 3)
-            Slew, inboard, elbow angles per arm, rad.
-        """
-        flanges = self.flanges(centre, angles, rotation)
-        poses = []
-        for i, model in enumerate(self.bank.models):
-            q = inverse3d(model.arm, flanges[..., i, 0], flanges[..., i, 1], flanges[..., i, 2], check=False)
-            poses.append(np.stack([q.phi, q.alpha, q.beta], axis=-1))
-        return poses
-
     def _margins(self, centre, angles) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Every face's margin in the order of :attr:`faces` (swivels rad, the clash m less the required, then with
         ``own_faces`` each arm's own faces rad), shape (..., faces), and the closest parts of each pair
         (..., pairs)."""
         angles = np.asarray(angles, dtype=float)
         rot = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], self.heading)
-        flanges = self.flanges(centre, angles, rot)
-        poses, cols, own = [], [], []
-        for i, model in enumerate(self.bank.models):
-            f = flanges[..., i, :]
-            q = inverse3d(model.arm, f[..., 0], f[..., 1], f[..., 2], check=False)
-            poses.append(np.stack([q.phi, q.alpha, q.beta], axis=-1))
-            sw = swivel_angles(q.phi, q.alpha, q.beta, heading=self.heading, rotation=rot)
-            cols.append(swivel_margins(sw, self.limits))
-            if self.own_faces:
-                own.append(face_margins(model, f[..., 0], f[..., 1], f[..., 2], q=q))
+        iks, poses, swivels = self.bank.on_flanges(centre, angles, rot)
+        own = []
+        if self.own_faces:
+            flanges = self.flanges(centre, angles, rot)
+            own = [face_margins(model, flanges[..., i, 0], flanges[..., i, 1], flanges[..., i, 2], q=q)
+                   for i, (model, q) in enumerate(zip(self.bank.models, iks, strict=True))]
         gaps, best = self.clearances(poses)
-        return np.concatenate(cols + [gaps - self.required] + own, axis=-1), best
+        cols = swivels.reshape(*swivels.shape[:-2], -1)              # arm by arm, each arm's six
+        return np.concatenate([cols, gaps - self.required] + own, axis=-1), best
 
     def clearances(self, poses) -> tuple[np.ndarray, np.ndarray]:
         """The clearance of each pair of neighbours at the arms' poses, whatever holds the arms (their flanges,
@@ -291,7 +263,7 @@ class BankMonitor:
         Parameters
         ----------
         poses : list of ndarray, shape (..., 3)
-            Slew, inboard, elbow angles per arm, rad (as :meth:`arm_poses`).
+            Slew, inboard, elbow angles per arm, rad (as :meth:`loadarm.params.bank.Bank.on_flanges`).
 
         Returns
         -------

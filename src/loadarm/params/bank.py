@@ -28,7 +28,7 @@ from pydantic import BaseModel, Field, ValidationError, model_validator
 from loadarm.arm.clearance import PARTS, ArmShape, pair_clearance
 from loadarm.arm.model import ArmModel
 from loadarm.arm.slew import inverse3d
-from loadarm.arm.swivel import ship_rotation
+from loadarm.arm.swivel import ship_rotation, swivel_angles, swivel_margins
 from loadarm.errors import ConfigError, UnreachableError
 from loadarm.files import read_toml
 from loadarm.params.compiler import compile_model
@@ -396,6 +396,46 @@ class Bank:
         offsets = np.array([[0.0, f.offset, f.height] for f in self.flanges])
         risers = np.array([[a.x, a.y, 0.0] for a in self.file.arms])
         return centre[..., None, :] + np.einsum("...ij,aj->...ai", rotation, offsets) - risers
+
+    def on_flanges(self, centre, angles, rotation=None) -> tuple[list, list, np.ndarray]:
+        """Every arm on its flange at manifold poses: its joints (inverse kinematics, NaN out of reach) and its
+        swivels' margins to their stops. The one place of this computation (the bank's monitor and its swivel
+        envelope call it).
+
+        Parameters
+        ----------
+        centre : array_like, shape (..., 3)
+            The manifold's centre, bank frame, m.
+        angles : array_like, shape (..., 3)
+            Roll, pitch, yaw, rad.
+        rotation : ndarray, shape (..., 3, 3), optional
+            Their rotation, if already computed.
+
+        Returns
+        -------
+        iks : list
+            Each arm's :func:`loadarm.arm.slew.inverse3d` result.
+        poses : list of ndarray, shape (..., 3)
+            Each arm's slew, inboard and elbow angles, rad.
+        swivels : ndarray, shape (..., n_arms, 6)
+            Each arm's swivel margins, rad, in the order of :data:`loadarm.vocab.SWIVEL_FACE_TABLE` (NaN out of
+            reach).
+        """
+        angles = np.asarray(angles, dtype=float)
+        heading = math.radians(self.file.manifold.heading_deg)
+        if rotation is None:
+            rotation = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], heading)
+        flanges = self.flanges_at(centre, angles, rotation)
+        limits = self.file.swivels.limits()
+        iks, poses, swivels = [], [], []
+        for i, model in enumerate(self.models):
+            f = flanges[..., i, :]
+            q = inverse3d(model.arm, f[..., 0], f[..., 1], f[..., 2], check=False)
+            iks.append(q)
+            poses.append(np.stack([q.phi, q.alpha, q.beta], axis=-1))
+            swivels.append(swivel_margins(swivel_angles(q.phi, q.alpha, q.beta, heading=heading, rotation=rotation),
+                                          limits))
+        return iks, poses, np.stack(swivels, axis=-2)
 
     def flange_position(self, i: int) -> np.ndarray:
         """Arm ``i``'s flange at the manifold's design position, in the arm's own frame, m.

@@ -304,3 +304,26 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
         cited("docs/guidance.md", f"{seed} (")
     if "regenerated" in rec:                            # the result taken again from its runs file: when, why
         cited("docs/guidance.md", f"`{rec['regenerated']['commit']}`")
+
+
+@pytest.mark.slow  # 3 s: two envelopes and the approaches to the corners (make test's budget; CI runs it)
+def test_bank_page_s_corner_only_numbers_are_the_code_s(monkeypatch):
+    """docs/bank.md says what the searches found against the corners alone: the connected clearance 1.604 m inside
+    the box against the corners' (the envelope with no point inside), and an approach's 1.385 m at mid-height
+    against the corners' (the flanging area's edges at two heights, its corners)."""
+    from loadarm.design import bank as db
+    from loadarm.params.bank import load_bank
+
+    bank = load_bank(ROOT / "examples" / "banks" / "lng150k_bank.toml")
+    corners = db.swivel_envelope(bank, samples=0)
+    inside = db.swivel_envelope(bank)
+    assert inside.clearance.min_clearance < corners.clearance.min_clearance
+    cited("docs/bank.md", f"{inside.clearance.min_clearance:.3f} m at mid-height, against "
+                          f"{corners.clearance.min_clearance:.3f} m at the corners")
+    every = db.flanging_points
+    monkeypatch.setattr(db, "flanging_points", lambda b, levels=2: every(b, 2))
+    over = db.order_over_flanging_area(bank)
+    assert len(over) == 1 + 8
+    least = min(o.clearance.min_clearance for _, o in over[1:])
+    cited("docs/bank.md", f"against {least:.3f} m at the corners")
+

@@ -226,7 +226,7 @@ def order_over_flanging_area(bank: Bank, design: BankOrder | None = None) \
 
 #: Points of the flanging area and the ship's motions sampled inside, besides the corners (a scrambled Sobol
 #: sequence, seeded: the same every run). Found: the connected arms' clearance is least inside the flanging area,
-#: not at a corner (the example's 1.64 m at mid-height against 1.75 m at the corners).
+#: not at a corner (the example's 1.604 m at mid-height against 1.748 m at the corners: docs/bank.md, test-held).
 ENVELOPE_SAMPLES = 1024
 #: The sampled cases each least (the swivels', the clearance) is refined from, by a bounded local search.
 ENVELOPE_REFINED = 4

@@ -50,27 +50,31 @@ def test_judge_counts_each_failure_on_its_own():
     assert live.overstretched and live.overstretched_before_isolation and live.missed_alarm
 
 
-def test_a_face_past_the_run_s_end_by_more_than_esd1_s_lead_leaves_the_comparison_undecided():
+def test_esd1_short_of_its_lead_and_undecided_where_the_face_is_past_the_run():
     """Issue 30 (Hs 2.0-2.5 m seed 533): the rule without the prediction called ESD-1 at 413.8 s, the rule with it
-    did not within the 600 s run, and the face was 725.2 s on the flange's trajectory after it. No rule had to call
-    before the end (the face more than ESD-1's 35 s lead past it): undecided, not 311 s later. A face within the
-    lead of the end, or a run whose end is not known, is still counted later (as if ESD-1 came at the face)."""
+    did not within the 600 s run, and the face was at 725.2 s on the flange's trajectory after it. That run is
+    later (certainly: by at least the end less that call), and whether its ESD-1 came in time, at least ESD-1's
+    35 s lead before the face, the run cannot say (no ESD-1 was due by its end): undecided. A face within the lead
+    of the end with no ESD-1 is short; an ESD-1 less than the lead before the face is short; a run whose bounds
+    are not known is neither short nor undecided."""
     from loadarm.studies.campaign import CampaignResult
 
     base = dict(coupler_opening_s=None, valves_confirmed_s=None, limit_s=725.2, release_complete_s=None,
                 alarm1_s=None, overstretched_s=None, release_margin_s=None, limit_face="beta_max", duration_s=600.0,
                 connected_s=450.0, failures=[], alarm1_measured_s=413.8, alarm1_measured_first_s=413.8)
     past = _judge(533, {}, base, (600.0, 35.0))
-    assert past.alarm1_undecided and past.lead_gained_s is None
-    near = _judge(534, {}, {**base, "limit_s": 634.0}, (600.0, 35.0))       # due by the end: the rule is late
-    assert not near.alarm1_undecided and near.lead_gained_s == pytest.approx(413.8 - 634.0)
+    assert past.alarm1_undecided and past.short_of_lead(None) is None and past.short_of_lead(413.8) is False
+    assert past.lead_gained_s == pytest.approx(413.8 - 725.2)                  # later, as if at the face
+    near = _judge(534, {}, {**base, "limit_s": 634.0}, (600.0, 35.0))       # due by the end: none is short
+    assert not near.alarm1_undecided and near.short_of_lead(None) is True
     unknown = _judge(535, {}, base)
-    assert not unknown.alarm1_undecided and unknown.lead_gained_s == pytest.approx(413.8 - 725.2)
-    called = _judge(536, {}, {**base, "alarm1_s": 500.0}, (600.0, 35.0))     # both called: compared
-    assert not called.alarm1_undecided and called.lead_gained_s == pytest.approx(413.8 - 500.0)
-    v = CampaignResult("s.toml", (), (past, near, unknown, called))._values()
+    assert not unknown.alarm1_undecided and unknown.short_of_lead(None) is None
+    late = _judge(536, {}, {**base, "alarm1_s": 706.0}, (600.0, 35.0))        # 19.2 s before the face: short
+    assert late.short_of_lead(late.alarm1_s) is True and late.short_of_lead(690.2) is False
+    v = CampaignResult("s.toml", (), (past, near, unknown, late))._values()
     assert v["alarm1_undecided"] == 1 and v["undecided_seeds"] == [533]
-    assert v["alarm1_later"] == 3 and v["later_seeds"] == [534, 535, 536]
+    assert v["alarm1_short"] == 2 and v["short_seeds"] == [534, 536] and v["alarm1_short_measured"] == 0
+    assert v["alarm1_later"] == 4 and v["later_seeds"] == [533, 534, 535, 536]
 
 
 def test_stored_runs_without_their_end_get_it_from_the_scenario():

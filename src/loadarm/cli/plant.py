@@ -416,6 +416,7 @@ def plc_sim(
         out.print(f"simulated PLC on {endpoint}; certificate {server.state.cert}; "
                   f"{len(server.state.users())} user(s); Ctrl-C stops", soft_wrap=True)
         sys.stdout.flush()
+        sim.plant.warm_up()                     # compiled, then frozen (its run's own warm-up is then at once)
         freeze_heap()
         sim.run()
     finally:

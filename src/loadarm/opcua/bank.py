@@ -39,6 +39,7 @@ from loadarm.guidance.bank import BankForecast, BankMonitor
 from loadarm.guidance.manifold_alarm import ManifoldLoadAlarm, ManifoldLoadStatus
 from loadarm.guidance.monitor import stage_leads
 from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, acknowledge_method, conditions, unece_unit_id
+from loadarm.opcua.service import LATE_TAIL
 from loadarm.sim.bank import BankState, BankWorld
 from loadarm.vocab import (BANK_CONDITIONS, CONDITIONS, EVENTS, FACE_LABELS, SWIVEL_FACE_TABLE, Severity,
                            condition_severity, condition_text, priority)
@@ -328,6 +329,8 @@ class BankService:
         self.finished = threading.Event()
         self.error: BaseException | None = None
         self.late = 0
+        #: The last late states, ``(state, s behind its time)`` (as :attr:`GuidanceService.late_tail`).
+        self.late_tail: deque = deque(maxlen=LATE_TAIL)
         #: The bank's connected monitoring (the swivels' stops, the clash of neighbours; the single arm's forecast).
         self.monitor = BankMonitor(world.bank)
         #: Its horizon: the longest stage lead of the bank's arms, s.
@@ -544,6 +547,7 @@ class BankService:
                 self.sleep(delay)
             elif delay < -1.0 / WORLD_RATE / self.speedup:
                 self.late += 1
+                self.late_tail.append((k, -delay))
             self.step(k)
 
 

@@ -171,7 +171,8 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
     -------
     dict
         The clients' counts, ``server_cpu_s`` (this process's CPU time during the load: the control loop and the
-        server), ``cycle_us_before`` and ``cycle_us_during`` (ndarrays), ``late`` (cycles started late), and
+        server), ``cycle_us_before`` and ``cycle_us_during`` (ndarrays), ``late`` (cycles during the load started
+        late) and ``late_at`` (each: cycle from the load's start, s late), and
         ``call_ms`` / ``read_ms`` when ``calls``.
     """
     import json
@@ -191,10 +192,11 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
     endpoint = f"opc.tcp://127.0.0.1:{free_port()}"
     server = OpcUaServer(service, st.path, endpoint)
     server.start()
-    freeze_heap()                                            # as loadarm serve does
-    service.start()
     out: dict = {}
     try:
+        service.loop.warm_up()                               # as loadarm serve does: compiled, then frozen
+        freeze_heap()
+        service.start()
         ready = time.monotonic() + 60.0                # the first cycle (numba's cache loaded) before the quiet
         while service.snapshot() is None and service.error is None and time.monotonic() < ready:
             time.sleep(0.05)
@@ -207,7 +209,7 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
                                "--seconds", str(seconds), "--interval-ms", str(interval_ms)],
                               capture_output=True, text=True, timeout=seconds + 120)
         k1, cpu1 = service.snapshot().seq, time.process_time()
-        late, late_tail = service.late, list(service.late_tail)
+        late_tail = [(k, lag) for k, lag in service.late_tail if k0 <= k < k1]
         if calls:
             out.update(asyncio.run(call_round_trips(endpoint, "operator", "pw-operator", str(cert), str(key),
                                                     str(st.cert), "urn:loadarm:loadtest", calls=calls)))
@@ -220,8 +222,8 @@ def measure_load(workdir, scenario, *, seconds: float = 10.0, clients: int = 20,
         raise RuntimeError(f"the load clients failed: {proc.stderr.strip()[-500:]}")
     out.update(json.loads(proc.stdout.strip().splitlines()[-1]))
     cyc = service.loop.cycle_us
-    out.update(server_cpu_s=cpu1 - cpu0, cycle_us_before=cyc[:k0], cycle_us_during=cyc[k0:k1], late=late,
-               late_at=[(k - k0, lag) for k, lag in late_tail if k0 <= k < k1])
+    out.update(server_cpu_s=cpu1 - cpu0, cycle_us_before=cyc[:k0], cycle_us_during=cyc[k0:k1], late=len(late_tail),
+               late_at=[(k - k0, lag) for k, lag in late_tail])
     return out
 
 

@@ -26,7 +26,8 @@ from loadarm.guidance.modes import CONNECTED_MODES, OperatorInput
 from loadarm.sim.snapshot import MODE_TAIL, Snapshot, TrendLog, snapshot, state_sample
 from loadarm.vocab import ACTIONS, ANNUNCIATED, TAGGED_ACTIONS, event_label
 
-__all__ = ["ACTIONS", "JOG_HOLD", "REALTIME_SWITCH_INTERVAL", "Request", "freeze_heap", "Note", "GuidanceService", "parse_jog"]
+__all__ = ["ACTIONS", "JOG_HOLD", "REALTIME_SWITCH_INTERVAL", "Request", "freeze_heap", "Note", "GuidanceService",
+           "parse_jog"]
 
 #: How long one jog request moves the arm unless renewed, s.
 JOG_HOLD = 0.5

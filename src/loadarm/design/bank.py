@@ -238,7 +238,7 @@ def _envelope_cases(bank: Bank, cases) -> tuple[np.ndarray, list[np.ndarray]]:
     centre = np.asarray(bank.file.manifold.position, dtype=float)
     centres = np.array([centre + np.asarray(d) for d, _ in cases]).reshape(-1, 3)
     angles = np.radians(np.array([r for _, r in cases], dtype=float)).reshape(-1, 3)
-    _, poses, swivels = bank.on_flanges(centres, angles)
+    _, _, poses, swivels = bank.on_flanges(centres, angles)
     return swivels, poses
 
 

@@ -246,10 +246,9 @@ class BankMonitor:
         (..., pairs)."""
         angles = np.asarray(angles, dtype=float)
         rot = ship_rotation(angles[..., 0], angles[..., 1], angles[..., 2], self.heading)
-        iks, poses, swivels = self.bank.on_flanges(centre, angles, rot)
+        flanges, iks, poses, swivels = self.bank.on_flanges(centre, angles, rot)
         own = []
         if self.own_faces:
-            flanges = self.flanges(centre, angles, rot)
             own = [face_margins(model, flanges[..., i, 0], flanges[..., i, 1], flanges[..., i, 2], q=q)
                    for i, (model, q) in enumerate(zip(self.bank.models, iks, strict=True))]
         gaps, best = self.clearances(poses)

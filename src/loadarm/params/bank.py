@@ -397,7 +397,7 @@ class Bank:
         risers = np.array([[a.x, a.y, 0.0] for a in self.file.arms])
         return centre[..., None, :] + np.einsum("...ij,aj->...ai", rotation, offsets) - risers
 
-    def on_flanges(self, centre, angles, rotation=None) -> tuple[list, list, np.ndarray]:
+    def on_flanges(self, centre, angles, rotation=None) -> tuple[np.ndarray, list, list, np.ndarray]:
         """Every arm on its flange at manifold poses: its joints (inverse kinematics, NaN out of reach) and its
         swivels' margins to their stops. The one place of this computation (the bank's monitor and its swivel
         envelope call it).
@@ -413,6 +413,8 @@ class Bank:
 
         Returns
         -------
+        flanges : ndarray, shape (..., n_arms, 3)
+            Each arm's flange in its own frame (:meth:`flanges_at`), m.
         iks : list
             Each arm's :func:`loadarm.arm.slew.inverse3d` result.
         poses : list of ndarray, shape (..., 3)
@@ -435,7 +437,7 @@ class Bank:
             poses.append(np.stack([q.phi, q.alpha, q.beta], axis=-1))
             swivels.append(swivel_margins(swivel_angles(q.phi, q.alpha, q.beta, heading=heading, rotation=rotation),
                                           limits))
-        return iks, poses, np.stack(swivels, axis=-2)
+        return flanges, iks, poses, np.stack(swivels, axis=-2)
 
     def flange_position(self, i: int) -> np.ndarray:
         """Arm ``i``'s flange at the manifold's design position, in the arm's own frame, m.

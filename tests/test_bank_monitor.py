@@ -4,6 +4,7 @@ stage monotone in the margin."""
 
 import dataclasses
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -24,16 +25,19 @@ EXAMPLE = BANKS / "lng150k_bank.toml"
 FULL = (BANKS.parent / "full.toml").resolve()
 
 
-def _variant(tmp: Path, *, spacing: float = 3.0, swivel_radius: float = 0.6, min_clearance: float = 0.5,
+def _variant(tmp: Path, *, spacing: float = 3.5, swivel_radius: float = 0.6, min_clearance: float = 0.5,
              swivel2=(-75.0, 75.0)) -> Path:
     """The example bank with its flanges ``spacing`` apart, its swivels' sphere and travel and the clearance
     changed."""
     text = EXAMPLE.read_text().replace('"../full.toml"', f'"{FULL}"')
-    for old, k in (("-4.5", -1.5), ("-1.5", -0.5), ("1.5 ", 0.5), ("4.5 ", 1.5)):
-        text = text.replace(f"offset = {old}", f"offset = {k * spacing:.4f} ", 1)
-    text = text.replace("min_clearance = 0.5", f"min_clearance = {min_clearance}")
-    text = text.replace("swivel_radius = 0.6", f"swivel_radius = {swivel_radius}")
-    text = text.replace("swivel2_deg = [-75.0, 75.0]", f"swivel2_deg = [{swivel2[0]}, {swivel2[1]}]")
+    offsets = iter((-1.5, -0.5, 0.5, 1.5))
+    text, n = re.subn(r"(?m)^offset = \S+", lambda _: f"offset = {next(offsets) * spacing:.4f}", text)
+    assert n == 4, "the example bank's four flange offsets"     # found: a changed example left the variant as it was
+    for old, new in (("min_clearance = 0.5", f"min_clearance = {min_clearance}"),
+                     ("swivel_radius = 0.6", f"swivel_radius = {swivel_radius}"),
+                     ("swivel2_deg = [-75.0, 75.0]", f"swivel2_deg = [{swivel2[0]}, {swivel2[1]}]")):
+        assert old in text, old
+        text = text.replace(old, new)
     path = tmp / "bank.toml"
     path.write_text(text)
     return path
@@ -124,13 +128,13 @@ def test_the_compiled_clearance_costs_a_small_part_of_the_cycle(bank):
 
 def test_the_example_bank_s_faces_at_rest(bank):
     """Connected at the design case: every swivel 30 deg from its nearest stop (swivel 3, +-30 deg, at 0), the
-    neighbours' triple swivels 1.8 m apart (3.0 m less two 0.6 m radii); the design drift alone reaches no bank
-    face within the longest lead: every arm normal."""
+    neighbours parallel, their inboard counterweights 2.1 m apart (the risers' and flanges' 3.5 m less two 0.7 m
+    radii); the design drift alone reaches no bank face within the longest lead: every arm normal."""
     mon = BankMonitor(bank)
     c = np.asarray(bank.file.manifold.position)
     m = mon.margins(c, np.zeros(3))
     assert np.allclose(np.degrees(m.swivel.min(axis=1)), 30.0)
-    assert np.allclose(m.clearance, 1.8) and set(m.parts) == {("triple swivel", "triple swivel")}
+    assert np.allclose(m.clearance, 2.1) and set(m.parts) == {("inboard counterweight", "inboard counterweight")}
     f = BankMonitor(bank, own_faces=False).time_to_limit(c, np.zeros(3), 65.0)
     assert f.time == math.inf and f.stage == Severity.NORMAL and len(f.stages) == 4
 
@@ -280,12 +284,13 @@ def test_parts_are_named(bank):
 
 
 def test_every_arm_within_the_clearance_of_a_neighbour_gets_its_own_time(bank):
-    """Found on the bank's screen: with 2.0 m required between neighbours that keep 1.8 m, only the first pair's
+    """Found on the bank's screen: with 2.0 m required between neighbours that kept 1.8 m, only the first pair's
     arms (L1, L2) were given 0 s and the others 50 s (the scan kept one face per hypothesis, the first past).
-    Now each face's time is its own: every pair's clash at 0 s, every arm's time 0 s and its stage the release."""
+    Now each face's time is its own: every pair's clash at 0 s, every arm's time 0 s and its stage the release
+    (2.3 m required of the example's 2.1 m)."""
     from dataclasses import replace
 
-    clearance = bank.file.clearance.model_copy(update={"min_clearance": 2.0})
+    clearance = bank.file.clearance.model_copy(update={"min_clearance": 2.3})
     strict = replace(bank, file=bank.file.model_copy(update={"clearance": clearance}))
     mon = BankMonitor(strict)
     c = np.asarray(bank.file.manifold.position)

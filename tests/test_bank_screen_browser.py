@@ -31,11 +31,11 @@ def state(tmp_path_factory):
 
 @pytest.fixture(scope="module", params=["normal", "abnormal"])
 def bank_screen(request, state):
-    """The bank's service and screen: as the file says ("normal"), or with 2.0 m required between arms that keep
-    1.8 m ("abnormal": the nearest clash below the required clearance)."""
+    """The bank's service and screen: as the file says ("normal"), or with 2.3 m required between arms that keep
+    2.1 m ("abnormal": the nearest clash below the required clearance)."""
     from loadarm.testing.bank_screen import bank_screen, bank_world
 
-    world = bank_world(BANK, SCENARIO, min_clearance=None if request.param == "normal" else 2.0)
+    world = bank_world(BANK, SCENARIO, min_clearance=None if request.param == "normal" else 2.3)
     with bank_screen(world, state.path, speedup=2.0) as (service, server):
         yield {"world": world, "service": service, "url": server.url, "abnormal": request.param == "abnormal"}
 
@@ -138,12 +138,12 @@ def test_the_bank_s_screen_draws_every_arm_and_the_nearest_clash(browser, bank_s
         pair = tuple(frame["clash"]["arms"])
         assert gaps[pair] == pytest.approx(min(gaps.values()), abs=1e-9)
         assert shown["clash"].startswith(f"{pair[0]} / {pair[1]}: {gaps[pair]:.2f} m"), shown["clash"]
-        assert shown["detail"] == ("below the required 2.00 m: " if abnormal else "") + (
-            f"triple swivel of {pair[0]} to triple swivel of {pair[1]}")
+        assert shown["detail"] == ("below the required 2.30 m: " if abnormal else "") + (
+            f"inboard counterweight of {pair[0]} to inboard counterweight of {pair[1]}")
         for view in ("top", "side"):
             assert shown["lines"][view] == [["/".join(pair), abnormal]], (view, shown["lines"])
         assert shown["tileAbnormal"] is abnormal and shown["abnormalRows"] == (4 if abnormal else 0)
-        assert shown["required"] == ("2.00 m" if abnormal else "0.50 m")
+        assert shown["required"] == ("2.30 m" if abnormal else "0.50 m")
         assert page.evaluate(_OVERLAPS) == []
         assert page.evaluate(_OUTSIDE) == [] and page.evaluate(_CUT) == []
         assert page.evaluate("document.scrollingElement.scrollHeight <= innerHeight"
@@ -204,14 +204,14 @@ def test_the_flange_load_alarm_shows_and_an_operator_acknowledges_it(browser, st
 
 
 def test_the_bank_s_alarm_list_shows_each_arm_s_stage_and_an_operator_acknowledges_it(browser, state):
-    """Found: the bank's screen had no alarm list (each arm's stage only in its table). With 2.0 m required between
-    arms that keep 1.8 m, every arm's clash is past: each arm's ERS-2 alarm (the most severe of its stage alarms;
+    """Found: the bank's screen had no alarm list (each arm's stage only in its table). With 2.3 m required between
+    arms that keep 2.1 m, every arm's clash is past: each arm's ERS-2 alarm (the most severe of its stage alarms;
     the lower stages of the same escalation suppressed) is listed, critical (its colour with its shape and name),
     unacknowledged; a click acknowledges every alarm on the server and the list then says so. The journal page
     lists the alarms risen (with their priority) and the acknowledgement with its user."""
     from loadarm.testing.bank_screen import bank_screen, bank_world
 
-    world = bank_world(BANK, SCENARIO, min_clearance=2.0)
+    world = bank_world(BANK, SCENARIO, min_clearance=2.3)
     with bank_screen(world, state.path, speedup=2.0) as (service, server):
         ctx, page = _sized(browser, 1366, 768)
         try:

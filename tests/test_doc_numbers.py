@@ -309,9 +309,9 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
 
 @pytest.mark.slow  # 3 s: two envelopes and the approaches to the corners (make test's budget; CI runs it)
 def test_bank_page_s_corner_only_numbers_are_the_code_s(monkeypatch):
-    """docs/bank.md says what the searches found against the corners alone: the connected clearance 1.604 m inside
-    the box against the corners' (the envelope with no point inside), and an approach's 1.385 m at mid-height
-    against the corners' (the flanging area's edges at two heights, its corners)."""
+    """docs/bank.md says what the searches found against the corners alone: the connected clearance 1.942 m inside
+    the box against the corners' (the envelope with no point inside), and an approach's 1.688 m between the
+    corners' heights against the corners' (the flanging area's edges at two heights, its corners)."""
     from loadarm.design import bank as db
     from loadarm.params.bank import load_bank
 
@@ -328,3 +328,24 @@ def test_bank_page_s_corner_only_numbers_are_the_code_s(monkeypatch):
     least = min(o.clearance.min_clearance for _, o in over[1:])
     cited("docs/bank.md", f"against {least:.3f} m at the corners")
 
+
+
+@pytest.mark.slow  # 3-5 s: 300 s of the moored ship (make test's budget; CI runs it)
+def test_bank_page_s_manifold_record_numbers_are_the_figure_s():
+    """docs/bank.md's worst load over its manifold-load figure's record (`docsgen.BANK_RECORD`): the arm, the load,
+    its value, its share of the allowable and when, from the route that draws the figure (found: the page's numbers
+    were held by nothing, and the example bank's flanges moved)."""
+    import numpy as np
+
+    from loadarm.design.manifold import LOAD_LABELS
+    from loadarm.present import docsgen as g
+
+    berth_file, duration, seed = g.BANK_RECORD
+    berth = g.load_berth(g.packaged_example(berth_file))
+    motion = g.simulate(g.compile_ship(berth), berth.environment, duration, seed=seed)
+    rec = g.motion_manifold_loads(g.load_bank(g.packaged_example(g.BANK_EXAMPLE)), motion,
+                                  wind=g.berth_wind(berth.environment))
+    u = rec.worst / rec.allowable
+    i, j = np.unravel_index(int(np.argmax(u)), u.shape)
+    cited("docs/bank.md", f"the worst is {rec.names[i]}'s {LOAD_LABELS[j]}, {rec.worst[i, j] / 1e3:.2f} kN "
+                          f"({u[i, j]:.2f} of the allowable), at {rec.worst_time[i, j]:.0f} s")

@@ -166,8 +166,9 @@ def flanging_moves(bank: Bank) -> list[tuple[float, float, float]]:
 
 
 #: Heights of the flanging area's vertical edges the approaches are ordered to (the corners among them). Found: an
-#: approach comes closest to a neighbour with the flange at mid-height, not at a corner (the example's 1.385 m with
-#: the manifold 0.26 m above its design height, against 1.473 m at the corners).
+#: approach comes closest to a neighbour with the flange between the corners' heights (the example's 1.688 m with
+#: the manifold 4.24 m above its design height, against 1.721 m at the corners; 1.385 m against 1.473 m with its
+#: flanges 3.0 m apart: docs/bank.md, test-held).
 FLANGING_LEVELS = 9
 
 
@@ -226,7 +227,8 @@ def order_over_flanging_area(bank: Bank, design: BankOrder | None = None) \
 
 #: Points of the flanging area and the ship's motions sampled inside, besides the corners (a scrambled Sobol
 #: sequence, seeded: the same every run). Found: the connected arms' clearance is least inside the flanging area,
-#: not at a corner (the example's 1.604 m at mid-height against 1.748 m at the corners: docs/bank.md, test-held).
+#: not at a corner (the example's 1.942 m at mid-height against 1.956 m at the corners; 1.604 m against 1.748 m
+#: with its flanges 3.0 m apart: docs/bank.md, test-held).
 ENVELOPE_SAMPLES = 1024
 #: The sampled cases each least (the swivels', the clearance) is refined from, by a bounded local search.
 ENVELOPE_REFINED = 4

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import asyncio
 import math
+import time
 from pathlib import Path
 
 import numpy as np
@@ -19,6 +20,7 @@ from .test_plant import _Events
 ROOT = Path(__file__).resolve().parents[1]
 BANK = ROOT / "examples" / "banks" / "lng150k_bank.toml"
 SCENARIO = ROOT / "examples" / "scenarios" / "hs15_moored.toml"
+BANK_NAME = "LNG jetty 1, berth A"
 
 
 @pytest.fixture(scope="module")
@@ -325,7 +327,8 @@ def test_the_bank_s_screen_serves_its_drawing_and_frames_to_a_session_and_takes_
 @pytest.mark.slow
 def test_loadarm_serve_bank_serves_the_bank_until_ctrl_c(tmp_path):
     """``loadarm serve --bank`` in its own process: an (insecure, anonymous: a lab's) client browses one component
-    per arm and reads the bank's nearest clash while the world runs; Ctrl-C ends it with its closing line."""
+    per arm and reads the bank's nearest clash while the world runs; Ctrl-C ends it with its closing line; its event
+    log (``--db``, in the working folder by default) holds the start and the stop."""
     import os
     import signal
     import subprocess
@@ -340,7 +343,7 @@ def test_loadarm_serve_bank_serves_the_bank_until_ctrl_c(tmp_path):
     proc = subprocess.Popen([sys.executable, "-u", "-m", "loadarm.cli", "serve", "--bank", str(BANK), "--scenario",
                              str(SCENARIO), "--state-dir", str(tmp_path / "st"), "--endpoint", endpoint, "--insecure",
                              "--anonymous", "--speedup", "4"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, start_new_session=True)
+                            text=True, start_new_session=True, cwd=tmp_path)
 
     async def read():
         c = Client(endpoint, timeout=10)
@@ -377,6 +380,12 @@ def test_loadarm_serve_bank_serves_the_bank_until_ctrl_c(tmp_path):
         proc.wait(10)
     assert names == ["L1", "L2", "V1", "L3"] and t1 - t0 > 2.0 and 1.9 < gap < 2.2    # 4x: 4 s in a wall second
     assert closing.startswith("stopped at t = ") and "late states" in closing and code == 130, closing
+    from loadarm.eventlog import EventLog
+
+    assert f"events to loadarm-events.db (run serve-bank:{BANK_NAME}@" in lines[-1]
+    events = EventLog.open_existing(tmp_path / "loadarm-events.db").query()
+    assert events[0].kind == "info" and events[0].reason.startswith(f"bank {BANK_NAME}: L1, L2, V1, L3 connected")
+    assert events[-1].reason == closing.strip() and events[-1].t > 2.0
 
 
 def test_each_arm_s_alarms_are_part_9_conditions_that_an_operator_acknowledges_one_by_one(world, tmp_path):
@@ -615,3 +624,74 @@ def test_the_alarm_list_shows_an_arm_s_most_severe_active_alarm_and_dates_a_retu
     assert at(4.0, Severity.NORMAL, ack=True) == ()    # acknowledged once cleared: gone
     cleared = [n.split(":")[0] for n in svc.notes if "cleared" in n]
     assert cleared == ["ESD-1", "pre-alarm", "ESD-1"]     # ESD-1 at 2 s; at 4 s both, in the conditions' order
+
+
+def test_the_bank_s_events_go_to_its_event_log_at_the_bank_s_time_with_their_codes(world, tmp_path):
+    """Found: the bank kept its events (the alarms' rises and clears, acknowledgements, refused logins) only in
+    memory, for its screen's journal. With an event log (``serve --bank --db``) every note is also logged, at the
+    bank's time, its state the bank's most severe stage, its data with the stage event's code: the log and the
+    journal hold the same events in the same order."""
+    import dataclasses
+
+    from loadarm.eventlog import EventLog, LogWriter
+    from loadarm.opcua.bank import BankService
+    from loadarm.vocab import EVENTS, STAGE_EVENT
+
+    bank = world.bank
+    clearance = bank.file.clearance.model_copy(update={"min_clearance": 2.3})
+    clash = dataclasses.replace(world, bank=dataclasses.replace(
+        bank, file=bank.file.model_copy(update={"clearance": clearance})))
+    log = LogWriter(EventLog(tmp_path / "bank.db", run="bank-test"))
+    service = BankService(clash, log=log)
+    for k in range(5):
+        service.step(k)
+    service.acknowledge("alice")
+    service.step(5)
+    service.note("security", "bank screen login refused: wrong user name or password",
+                 {"code": "security.login_refused", "user": "mallory"})
+    assert log.close(timeout=10.0) == 0
+    events = EventLog.open_existing(tmp_path / "bank.db").query()
+    assert [(e.kind, e.reason) for e in events] == [(k, r) for _, k, r, _ in service.notes]
+    alarms = [e for e in events if e.kind == "alarm"]
+    assert len(alarms) == 4 * 4                          # every arm's four stage alarms rose with the clash past
+    assert {e.data["code"] for e in alarms} == set(STAGE_EVENT.values()) and all(e.t == 0.0 for e in alarms)
+    assert all(e.data["code"] in EVENTS for e in events if "code" in e.data)
+    ack = next(e for e in events if e.kind == "operator")
+    assert ack.t == pytest.approx(0.5) and ack.state == "release" and ack.data["user"] == "alice"
+    assert events[-1].data["code"] == "security.login_refused" and events[-1].t == pytest.approx(0.5)
+
+
+def test_a_bank_whose_event_log_fails_goes_on_and_says_so(world, tmp_path):
+    """A log that cannot be written (here: every write fails) never stops the bank: its states go on, the journal
+    says the log is unavailable once, with the events kept in memory; when it returns they are written in order."""
+    from loadarm.errors import EventLogError
+    from loadarm.eventlog import EventLog, LogWriter
+    from loadarm.opcua.bank import BankService
+
+    class Failing(EventLog):
+        broken = True
+
+        def append_many(self, rows):
+            if self.broken:                      # as EventLog says a full disk (sqlite's error, wrapped)
+                raise EventLogError("database or disk is full")
+            super().append_many(rows)
+
+    clock = [0.0]
+    db = Failing(tmp_path / "bank.db", run="bank-test")
+    log = LogWriter(db, stall=0.5, clock=lambda: clock[0], retry=(0.01, 0.02))
+    service = BankService(world, log=log)
+    service.note("security", "a refused login", {"code": "security.login_refused"})
+    for k in range(30):
+        clock[0] = 0.1 * k
+        assert service.step(k).seq == k
+    down = [r for _, _, r, _ in service.notes if "EVENT LOG" in r]
+    assert down == ["EVENT LOG UNAVAILABLE: database or disk is full; 1 events kept in memory, the bank goes on"]
+    db.broken = False
+    deadline = time.monotonic() + 10.0
+    while log.status().pending and time.monotonic() < deadline:
+        time.sleep(0.02)
+    service.step(30)
+    assert [r for _, _, r, _ in service.notes][-1] == "event log restored: 2 events written in order, 0 lost"
+    assert log.close(timeout=10.0) == 0
+    reasons = [e.reason for e in EventLog.open_existing(tmp_path / "bank.db").query()]
+    assert reasons == [r for _, _, r, _ in service.notes]         # every event, in order

@@ -174,7 +174,8 @@ def serve(
 
     if bank is not None:
         other = [("--plc", plc), ("--replay", replay), ("--config", config), ("--scripted", scripted)]
-        return _serve_bank(bank, scenario, endpoint, state_dir, insecure, anonymous, speedup, hmi, other=other)
+        return _serve_bank(bank, scenario, endpoint, state_dir, insecure, anonymous, speedup, hmi, other=other,
+                           db=db, force=force)
     hmi_address = _serve_arguments(endpoint, hmi, replay, plc, plc_cert, plc_password_file, scenario, scripted)
     _stop_on_signals()
     _one_line_logging()
@@ -226,9 +227,9 @@ def serve(
 
 
 def _serve_bank(bank_file: Path, scenario: Optional[Path], endpoint: str, state_dir: Path, insecure: bool,
-                anonymous: bool, speedup: float, hmi: Optional[str], other) -> None:
+                anonymous: bool, speedup: float, hmi: Optional[str], other, db: Path, force: bool) -> None:
     """``serve --bank``: the bank's kinematic world on the scenario's ship in real time, its OPC UA server and,
-    with ``--hmi``, its screen, until the scenario's end or Ctrl-C."""
+    with ``--hmi``, its screen, until the scenario's end or Ctrl-C; its events in the event log ``db``."""
     given = [name for name, value in other if value]
     if given:
         raise UserError(f"--bank serves the bank's kinematic world: {', '.join(given)} cannot go with it")
@@ -242,7 +243,23 @@ def _serve_bank(bank_file: Path, scenario: Optional[Path], endpoint: str, state_
     _stop_on_signals()
     _one_line_logging()
     spec = _realtime_scenario(scenario, None, speedup, "serve --bank")
-    service = BankService(BankWorld.from_scenario(load_bank(bank_file), spec.scenario, spec.ship), speedup=speedup)
+    bank = load_bank(bank_file)
+    check_outputs({"--db": db}, [scenario, bank_file, *bank.paths], force, appended=("--db",))
+    run_id = f"serve-bank:{bank.file.bank.name}@{datetime.now(timezone.utc).strftime('%Y%m%dT%H%M%S.%fZ')}"
+    log = LogWriter(EventLog(db, run=run_id))     # off the bank's thread: a locked log or a full disk is a note
+    try:
+        _serve_bank_logged(bank, scenario, spec, endpoint, state_dir, insecure, anonymous, speedup, hmi_address, log)
+    finally:
+        unwritten = log.close(timeout=LOG_WAIT)
+        if unwritten:
+            out.print(f"event log {db}: {unwritten} events could not be written in {LOG_WAIT:g} s "
+                      f"({log.status().error or 'the log stalled'})")
+
+
+def _serve_bank_logged(bank, scenario: Path, spec, endpoint: str, state_dir: Path, insecure: bool, anonymous: bool,
+                       speedup: float, hmi_address, log) -> None:
+    """``serve --bank`` once its event log is open."""
+    service = BankService(BankWorld.from_scenario(bank, spec.scenario, spec.ship), speedup=speedup, log=log)
     server = BankServer(service, state_dir, endpoint, insecure=insecure, anonymous=anonymous)
     _start_server(server)
     screen = None
@@ -256,14 +273,18 @@ def _serve_bank(bank_file: Path, scenario: Optional[Path], endpoint: str, state_
             out.print(f"bank's screen on {screen.url} (users from {server.state.users_file})")
         _announce(server, endpoint, insecure, state_dir)
         names = ", ".join(service.bank.names)
-        out.print(f"bank {service.bank.file.bank.name}: {names} connected to the ship of {scenario.name} "
-                  f"({spec.scenario.scenario.duration:g} s at {speedup:g}x); Ctrl-C stops", soft_wrap=True)
+        started = (f"bank {service.bank.file.bank.name}: {names} connected to the ship of {scenario.name} "
+                   f"({spec.scenario.scenario.duration:g} s at {speedup:g}x)")
+        log.append(0.0, service.stage_name(), "info", started, arms=list(service.bank.names), scenario=scenario.name)
+        out.print(f"{started}; events to {log.path} (run {log.run}); Ctrl-C stops", soft_wrap=True)
         sys.stdout.flush()
         freeze_heap()
         service.run()
     finally:                # the closing line at once, Ctrl-C or the scenario's end; then the servers' ends
         snap = service.snapshot()
-        out.print(f"stopped at t = {snap.state.t if snap else 0.0:.1f} s; {service.late} late states")
+        stopped = f"stopped at t = {snap.state.t if snap else 0.0:.1f} s; {service.late} late states"
+        log.append(snap.state.t if snap else 0.0, service.stage_name(), "info", stopped, late=service.late)
+        out.print(stopped)
         sys.stdout.flush()
         if screen is not None:
             screen.stop(timeout=STOP_WAIT)

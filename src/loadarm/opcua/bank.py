@@ -41,8 +41,8 @@ from loadarm.guidance.monitor import stage_leads
 from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, acknowledge_method, conditions, unece_unit_id
 from loadarm.opcua.service import LATE_TAIL
 from loadarm.sim.bank import BankState, BankWorld
-from loadarm.vocab import (BANK_CONDITIONS, CONDITIONS, EVENTS, FACE_LABELS, SWIVEL_FACE_TABLE, Severity,
-                           condition_severity, condition_text, priority)
+from loadarm.vocab import (BANK_CONDITIONS, CONDITIONS, EVENTS, FACE_LABELS, STAGE_EVENT, SWIVEL_FACE_TABLE,
+                           Severity, condition_severity, condition_text, event_label, priority)
 
 __all__ = [
     "ARM_STATES",
@@ -315,14 +315,22 @@ class BankService:
         Run seconds per wall second.
     wall : callable
         Wall-clock seconds since the epoch.
+    log : loadarm.eventlog.LogWriter or None
+        The bank's event log (``serve --bank --db``): every note, at the bank's time, with the bank's most severe
+        stage as its state. Off the world's thread: a locked log or a full disk never stops the bank (its events
+        wait in memory; the journal says so when it fails and when it returns).
     """
 
     def __init__(self, world: BankWorld, *, clock: Callable[[], float] = time.monotonic,
                  sleep: Callable[[float], None] = time.sleep, speedup: float = 1.0,
-                 wall: Callable[[], float] = time.time):
+                 wall: Callable[[], float] = time.time, log=None):
         if not speedup > 0:
             raise ValueError(f"speedup must be > 0, got {speedup!r}")
         self.world, self.clock, self.sleep, self.speedup, self.wall = world, clock, sleep, speedup, wall
+        self.log = log
+        self._log_ok = True
+        #: The bank's time of the state being computed (or the last), s: the time its events are logged at.
+        self._t = 0.0
         self._snapshot: BankSnapshot | None = None
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -345,7 +353,8 @@ class BankService:
         self._lock = threading.Lock()
         self._ack_all: list[str] = []
         self._asked: dict[tuple[int, str], tuple[str, str]] = {}
-        #: Events from outside (refused logins), with the time they came: this world keeps no event log.
+        #: Every event (the alarms' rises and clears, acknowledgements, refused logins and commands), with the wall
+        #: time it came: the screen's journal; in the event log too when there is one.
         self.notes: deque[tuple[float, str, str, dict]] = deque(maxlen=NOTES_KEPT)
         #: Each (arm, stage condition) not normal: its ISA-18.2 state and when it rose.
         self._stage_alarms: dict[tuple[int, str], tuple[AlarmState, float]] = {}
@@ -362,16 +371,49 @@ class BankService:
         return self._snapshot
 
     def note(self, kind: str, reason: str, data: dict) -> None:
-        """An event from outside the world's thread (a refused login): kept and logged.
+        """An event (any thread): kept for the journal and, with an event log, queued to it at the bank's time
+        (the last state's) with the bank's most severe stage as its state.
 
         Parameters
         ----------
         kind : str
+            An event log kind (:data:`loadarm.eventlog.KINDS`).
         reason : str
         data : dict
+            Its ``code`` (:data:`loadarm.vocab.EVENTS`) among them.
         """
         self.notes.append((self.wall(), kind, reason, dict(data)))
         _log.warning("%s", reason)
+        if self.log is not None:
+            fields = dict(data)
+            self.log.append(float(fields.pop("t", self._t)), self.stage_name(), kind, reason, **fields)
+
+    def stage_name(self) -> str:
+        """The bank's most severe arm stage as last published (``normal`` before the first state): the event
+        log's state column.
+
+        Returns
+        -------
+        str
+        """
+        snap = self._snapshot
+        stage = max(snap.stage(i) for i in range(len(self.bank.names))) if snap is not None else Severity.NORMAL
+        return Severity(stage).name.lower()
+
+    def _watch_log(self) -> None:
+        """The event log became unavailable or came back: a note each way (the bank goes on; its events wait in
+        memory, in order)."""
+        status = self.log.status()
+        if status.ok == self._log_ok:
+            return
+        self._log_ok = status.ok
+        if status.ok:
+            self.note("info", f"{event_label('info.event_log_restored')}: {status.written} events written in "
+                              f"order, {status.lost} lost", {"code": "info.event_log_restored", "lost": status.lost})
+        else:
+            why = status.error or "writes stalled"
+            self.note("alarm", f"{event_label('fault.event_log')}: {why}; {status.pending} events kept in memory, "
+                               "the bank goes on", {"code": "fault.event_log", "error": why})
 
     def acknowledge(self, user: str = "operator") -> None:
         """The operator acknowledged every alarm (the bank's screen): applied at the next state and noted then,
@@ -436,7 +478,7 @@ class BankService:
                     since = t                      # risen, or risen again from returned-to-normal (found by review)
                 if active != (old in (AlarmState.UNACKED, AlarmState.ACKED)):
                     self.note("alarm", f"{c.text}{'' if active else ' cleared'}: arm {name}",
-                              {"arm": name, "tag": c.tag, "active": active, "t": t})
+                              {"arm": name, "tag": c.tag, "active": active, "t": t, "code": STAGE_EVENT[c.stage]})
                 if new == AlarmState.NORMAL:
                     self._stage_alarms.pop((i, c.tag), None)
                 else:
@@ -496,6 +538,9 @@ class BankService:
         BankSnapshot
         """
         state = self.world.state(k / WORLD_RATE)
+        self._t = state.t
+        if self.log is not None:
+            self._watch_log()
         if state.t <= self._observed:          # a time gone back (a test stepping states): a new connection
             self.monitor.reset()
             self._forecast = None

@@ -168,6 +168,12 @@ def test_an_arm_s_time_to_limit_is_its_own_faces_too_from_the_same_forecast(bank
                                             60.0).time_to_limit(flanges[i], 65.0).time
                             for i, m in enumerate(bank.models))) <= 1.0 / 16 + 1e-9
     assert len(mon.faces) == len(BankMonitor(bank, own_faces=False).faces) + 6 * len(bank.names)
+    # docs/bank.md says these times (found by review: it said "about 42 s" of both)
+    page = " ".join((Path(__file__).resolve().parents[1] / "docs" / "bank.md").read_text(encoding="utf-8").split())
+    by = dict(zip(bank.names, turning.by_arm, strict=True))
+    assert f"face in {f.time:.1f} s without the rotation's design floor" in page
+    assert f"in {by['L1']:.1f} s (L1, L3) and {by['L2']:.1f} s (L2, V1) with it" in page
+    assert by["L1"] == by["L3"] and by["L2"] == by["V1"]
 
 
 def _history(mon, c0, v, yaw_rate, t_end, yaw0=0.0):

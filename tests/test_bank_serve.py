@@ -647,18 +647,30 @@ def test_the_bank_s_events_go_to_its_event_log_at_the_bank_s_time_with_their_cod
         service.step(k)
     service.acknowledge("alice")
     service.step(5)
-    service.note("security", "bank screen login refused: wrong user name or password",
-                 {"code": "security.login_refused", "user": "mallory"})
+    for _ in range(1000):                 # an attacker's thousand wrong passwords: one line (rate-limited, as the
+        service.note("security", "bank screen login refused: wrong user name or password",    # single arm's)
+                     {"code": "security.login_refused", "user": "mallory"})
+    # a note whose data has the log's own field names is logged, not raised on the bank's thread (found by review)
+    service.note("info", "odd data", {"code": "info.event_log_restored", "state": "x", "kind": "y", "reason": "z",
+                                      "t": "not a time"})
+    assert service.step(6).seq == 6
     assert log.close(timeout=10.0) == 0
     events = EventLog.open_existing(tmp_path / "bank.db").query()
     assert [(e.kind, e.reason) for e in events] == [(k, r) for _, k, r, _ in service.notes]
     alarms = [e for e in events if e.kind == "alarm"]
     assert len(alarms) == 4 * 4                          # every arm's four stage alarms rose with the clash past
     assert {e.data["code"] for e in alarms} == set(STAGE_EVENT.values()) and all(e.t == 0.0 for e in alarms)
+    assert all(e.state == "release" for e in alarms)     # the stage of the state they rose in (found by review:
+    #                                                      the one before, "normal" at the first)
     assert all(e.data["code"] in EVENTS for e in events if "code" in e.data)
     ack = next(e for e in events if e.kind == "operator")
     assert ack.t == pytest.approx(0.5) and ack.state == "release" and ack.data["user"] == "alice"
-    assert events[-1].data["code"] == "security.login_refused" and events[-1].t == pytest.approx(0.5)
+    refused = [e for e in events if e.kind == "security"]
+    assert len(refused) == 1 and refused[0].data["code"] == "security.login_refused" and refused[0].t == 0.5
+    odd = events[-1]
+    assert odd.reason == "odd data" and odd.t == 0.5 and odd.state == "release"
+    assert {k: odd.data[k] for k in ("data_state", "data_kind", "data_reason", "data_t")} == {
+        "data_state": "x", "data_kind": "y", "data_reason": "z", "data_t": "not a time"}
 
 
 def test_a_bank_whose_event_log_fails_goes_on_and_says_so(world, tmp_path):
@@ -681,6 +693,9 @@ def test_a_bank_whose_event_log_fails_goes_on_and_says_so(world, tmp_path):
     log = LogWriter(db, stall=0.5, clock=lambda: clock[0], retry=(0.01, 0.02))
     service = BankService(world, log=log)
     service.note("security", "a refused login", {"code": "security.login_refused"})
+    deadline = time.monotonic() + 10.0
+    while not log.status().error and time.monotonic() < deadline:      # the write has failed (not merely stalled)
+        time.sleep(0.01)
     for k in range(30):
         clock[0] = 0.1 * k
         assert service.step(k).seq == k

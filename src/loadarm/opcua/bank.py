@@ -35,6 +35,7 @@ import numpy as np
 
 from loadarm import __version__
 from loadarm.arm.alarms import AlarmState, next_alarm_state
+from loadarm.eventlog import RateLimiter
 from loadarm.guidance.bank import BankForecast, BankMonitor
 from loadarm.guidance.manifold_alarm import ManifoldLoadAlarm, ManifoldLoadStatus
 from loadarm.guidance.monitor import stage_leads
@@ -126,6 +127,8 @@ BANK_STATES = (("NearestPair", str, "the two arms closest to each other, A/B"),
 _KINDS = {bool: "Boolean", int: "Int64", str: "String"}
 
 _log = logging.getLogger(__name__)
+#: The event log's own fields: a note's data key of the same name is logged as ``data_<key>``.
+_LOG_FIELDS = ("self", "t", "state", "kind", "reason")
 
 
 def bank_address_space_markdown() -> str:
@@ -329,8 +332,13 @@ class BankService:
         self.world, self.clock, self.sleep, self.speedup, self.wall = world, clock, sleep, speedup, wall
         self.log = log
         self._log_ok = True
-        #: The bank's time of the state being computed (or the last), s: the time its events are logged at.
-        self._t = 0.0
+        #: The bank's time of the state being computed (or the last), s: the time its events are logged at, and
+        #: its most severe arm stage then.
+        self._t, self._stage = 0.0, Severity.NORMAL
+        #: Alike events of the rate-limited kinds (refused logins and commands) let through once per window, as
+        #: the single arm's (:class:`loadarm.eventlog.RateLimiter`): a thousand wrong passwords are one line.
+        self._limiter = RateLimiter()
+        self._note_lock = threading.Lock()
         self._snapshot: BankSnapshot | None = None
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -382,23 +390,40 @@ class BankService:
         data : dict
             Its ``code`` (:data:`loadarm.vocab.EVENTS`) among them.
         """
-        self.notes.append((self.wall(), kind, reason, dict(data)))
+        with self._note_lock:                  # the journal's order is the log's, whichever thread notes
+            write, suppressed = self._limiter.admit(self._t, kind, reason)
+            if not write:
+                return
+            if suppressed:
+                reason = f"{reason} (and {suppressed} alike in the last {self._limiter.window:g} s)"
+            self.notes.append((self.wall(), kind, reason, dict(data)))
+            if self.log is not None:
+                self._log_note(kind, reason, data)
         _log.warning("%s", reason)
-        if self.log is not None:
-            fields = dict(data)
-            self.log.append(float(fields.pop("t", self._t)), self.stage_name(), kind, reason, **fields)
+
+    def _log_note(self, kind: str, reason: str, data: dict) -> None:
+        """One note to the event log: at its own time (its data's ``t``) or the bank's; a data key that is one of
+        the log's own fields renamed ``data_<key>``; never raising (a bug's event is reported, the bank goes on)."""
+        fields = dict(data)
+        t = fields.get("t")
+        timed = isinstance(t, (int, float)) and not isinstance(t, bool) and math.isfinite(t)
+        if timed:
+            fields.pop("t")
+        fields = {(f"data_{k}" if k in _LOG_FIELDS else k): v for k, v in fields.items()}
+        try:
+            self.log.append(float(t) if timed else self._t, self.stage_name(), kind, reason, **fields)
+        except Exception as exc:               # noqa: BLE001 - the bank never stops for its log
+            _log.error("event not logged (%s): %s", exc, reason)
 
     def stage_name(self) -> str:
-        """The bank's most severe arm stage as last published (``normal`` before the first state): the event
-        log's state column.
+        """The bank's most severe arm stage at the state being annunciated, or the last (``normal`` before the
+        first state): the event log's state column.
 
         Returns
         -------
         str
         """
-        snap = self._snapshot
-        stage = max(snap.stage(i) for i in range(len(self.bank.names))) if snap is not None else Severity.NORMAL
-        return Severity(stage).name.lower()
+        return Severity(self._stage).name.lower()
 
     def _watch_log(self) -> None:
         """The event log became unavailable or came back: a note each way (the bank goes on; its events wait in
@@ -517,7 +542,7 @@ class BankService:
         return tuple(sorted(out, key=lambda a: (priority(a.tag)[0], a.raised_at, order[a.arm])))
 
     def _load_events(self, status: ManifoldLoadStatus) -> None:
-        """Each manifold-load alarm that rose or cleared, as an event (this world keeps no event log)."""
+        """Each manifold-load alarm that rose or cleared, as an event."""
         for e in status.events:
             if e["active"]:
                 self._load_raised[self.bank.names.index(e["arm"])] = float(e["t"])
@@ -556,8 +581,10 @@ class BankService:
         acked = names if every else tuple(names[i] for i, tag in sorted(asked) if tag == "MANIFOLD_LOAD")
         displacement = state.manifold - np.asarray(self.world.bank.file.manifold.position, dtype=float)
         loads = self.loads.step(state.t, displacement, state.ship_angles, wind=self.world.wind, acknowledge=acked)
+        snap = BankSnapshot(k, self.wall(), state, self._forecast, loads)
+        self._stage = max(snap.stage(i) for i in range(len(names)))     # this state's events are logged in it
         self._load_events(loads)
-        snap = self._annunciate(BankSnapshot(k, self.wall(), state, self._forecast, loads), every, asked)
+        snap = self._annunciate(snap, every, asked)
         self._snapshot = snap
         return snap
 

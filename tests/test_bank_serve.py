@@ -710,3 +710,26 @@ def test_a_bank_whose_event_log_fails_goes_on_and_says_so(world, tmp_path):
     assert log.close(timeout=10.0) == 0
     reasons = [e.reason for e in EventLog.open_existing(tmp_path / "bank.db").query()]
     assert reasons == [r for _, _, r, _ in service.notes]         # every event, in order
+
+
+@pytest.mark.slow           # 3 s: the scenario's ship compiled before the refusal (make test's budget; CI runs it)
+def test_serve_bank_refuses_a_db_that_is_not_its_log_and_changes_no_byte(tmp_path, capsys):
+    """``--db`` naming a file that is not a loadarm event log, or one of the bank's own inputs: one line, exit 2,
+    the file unchanged, nothing started (no state folder made)."""
+    import hashlib
+    import shutil
+
+    from loadarm.cli import main
+
+    foreign = tmp_path / "notes.db"
+    foreign.write_bytes(b"not a database\n")
+    bank = tmp_path / "bank.toml"
+    shutil.copyfile(BANK, bank)
+    bank.write_text(bank.read_text().replace('"../full.toml"', f'"{(ROOT / "examples" / "full.toml").resolve()}"'))
+    for db in (foreign, bank):
+        before = hashlib.sha256(db.read_bytes()).hexdigest()
+        code = main(["serve", "--bank", str(bank), "--scenario", str(SCENARIO), "--state-dir", str(tmp_path / "st"),
+                     "--db", str(db)])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and "\n" not in err and str(db) in err, err
+        assert hashlib.sha256(db.read_bytes()).hexdigest() == before and not (tmp_path / "st").exists()

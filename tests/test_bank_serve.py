@@ -88,9 +88,9 @@ async def _published(c, ns, seq, timeout=5.0):
 
 
 def test_the_bank_is_a_machine_with_one_component_per_arm(bank_served, world):
-    """Objects/Machines/LoadingArmBank: its Identification, its own variables, and Components (OPC 40001-1's
-    browse name, in the Machinery namespace) holding one object per arm, each with its Identification (DI's) and a
-    Guidance object with every declared variable."""
+    """Objects/Machines/LoadingArmBank: its Identification, its own variables and alarm (the event log's), and
+    Components (OPC 40001-1's browse name, in the Machinery namespace) holding one object per arm, each with its
+    Identification (DI's) and a Guidance object with every declared variable."""
     from loadarm.opcua.bank import (
         ARM_STATES,
         ARM_VARIABLES,
@@ -106,6 +106,8 @@ def test_the_bank_is_a_machine_with_one_component_per_arm(bank_served, world):
         own = {(await n.read_browse_name()).to_string() for n in await bank.get_children()}
         model = await (await bank.get_child([f"{dns}:Identification", f"{dns}:Model"])).read_value()
         comps = await bank.get_child([f"{mns}:Components"])
+        alarms = {(await n.read_browse_name()).Name
+                  for n in await (await bank.get_child([f"{ns}:Alarms"])).get_children()}
         arms = {}
         for arm in await comps.get_children():
             name = (await arm.read_browse_name()).Name
@@ -113,9 +115,10 @@ def test_the_bank_is_a_machine_with_one_component_per_arm(bank_served, world):
             guidance = await arm.get_child([f"{ns}:Guidance"])
             arms[name] = ((await ident.read_value()),
                           {(await n.read_browse_name()).Name for n in await guidance.get_children()})
-        return ns, mns, dns, own, model, arms
+        return ns, mns, dns, own, model, arms, alarms
 
-    ns, mns, dns, own, model, arms = _run(bank_served, body)
+    ns, mns, dns, own, model, arms, alarms = _run(bank_served, body)
+    assert alarms == {"EVENT_LOG_FAULT"}                 # the bank's own alarm, as the single arm's
     assert model == "LNG jetty 1, berth A"
     assert {f"{dns}:Identification", f"{mns}:Components"} <= own
     assert {f"{ns}:{n}" for n, *_ in BANK_VARIABLES + BANK_STATES} <= own
@@ -479,7 +482,7 @@ def test_acknowledging_one_arm_s_manifold_load_alarm_leaves_every_other_alarm_as
 
     from loadarm.arm.alarms import AlarmState
     from loadarm.guidance.manifold_alarm import WINDOW
-    from loadarm.opcua.bank import WORLD_RATE, BankService
+    from loadarm.opcua.bank import BANK_INDEX, WORLD_RATE, BankService
     from loadarm.params.bank import load_bank
 
     heavy = load_bank(ROOT / "examples" / "banks" / "overloaded_manifold.toml")
@@ -498,7 +501,9 @@ def test_acknowledging_one_arm_s_manifold_load_alarm_leaves_every_other_alarm_as
     snap = service.step(k + 1)
     changed = {key for key in before if snap.conditions[key] != before[key]}
     assert changed == {(v1, "MANIFOLD_LOAD")} and snap.conditions[(v1, "MANIFOLD_LOAD")] == AlarmState.ACKED
-    assert all(st == AlarmState.UNACKED for (i, tag), st in snap.conditions.items() if tag != "MANIFOLD_LOAD")
+    assert all(st == AlarmState.UNACKED for (i, tag), st in snap.conditions.items()
+               if tag != "MANIFOLD_LOAD" and i != BANK_INDEX)
+    assert snap.conditions[(BANK_INDEX, "EVENT_LOG_FAULT")] == AlarmState.NORMAL       # no log here: never raised
     service.acknowledge("bob")
     snap = service.step(k + 2)
     assert all(st in (AlarmState.ACKED, AlarmState.NORMAL) for st in snap.conditions.values())
@@ -606,7 +611,8 @@ def test_the_alarm_list_shows_an_arm_s_most_severe_active_alarm_and_dates_a_retu
     from loadarm.opcua.bank import BankService
     from loadarm.vocab import Severity
 
-    svc = SimpleNamespace(bank=SimpleNamespace(names=("A",)), _stage_alarms={}, _load_raised=[math.nan], notes=[])
+    svc = SimpleNamespace(bank=SimpleNamespace(names=("A",)), _stage_alarms={}, _load_raised=[math.nan], notes=[],
+                          _log_alarm=(AlarmState.NORMAL, math.nan))
     svc.note = lambda kind, reason, data: svc.notes.append(reason)
 
     def at(t, stage, ack=False):
@@ -676,9 +682,10 @@ def test_the_bank_s_events_go_to_its_event_log_at_the_bank_s_time_with_their_cod
 def test_a_bank_whose_event_log_fails_goes_on_and_says_so(world, tmp_path):
     """A log that cannot be written (here: every write fails) never stops the bank: its states go on, the journal
     says the log is unavailable once, with the events kept in memory; when it returns they are written in order."""
+    from loadarm.arm.alarms import AlarmState
     from loadarm.errors import EventLogError
     from loadarm.eventlog import EventLog, LogWriter
-    from loadarm.opcua.bank import BankService
+    from loadarm.opcua.bank import BANK_INDEX, BANK_NAME, BankService
 
     class Failing(EventLog):
         broken = True
@@ -701,12 +708,24 @@ def test_a_bank_whose_event_log_fails_goes_on_and_says_so(world, tmp_path):
         assert service.step(k).seq == k
     down = [r for _, _, r, _ in service.notes if "EVENT LOG" in r]
     assert down == ["EVENT LOG UNAVAILABLE: database or disk is full; 1 events kept in memory, the bank goes on"]
+    # annunciated as the single arm's: the bank's own EVENT_LOG_FAULT, in the alarm list and its condition
+    snap = service.snapshot()
+    line = [a for a in snap.alarms if a.tag == "EVENT_LOG_FAULT"]
+    assert [(a.arm, a.state) for a in line] == [(BANK_NAME, AlarmState.UNACKED)]
+    assert snap.conditions[(BANK_INDEX, "EVENT_LOG_FAULT")] == AlarmState.UNACKED
     db.broken = False
     deadline = time.monotonic() + 10.0
     while log.status().pending and time.monotonic() < deadline:
         time.sleep(0.02)
     service.step(30)
     assert [r for _, _, r, _ in service.notes][-1] == "event log restored: 2 events written in order, 0 lost"
+    assert service.snapshot().conditions[(BANK_INDEX, "EVENT_LOG_FAULT")] == AlarmState.RTN_UNACKED
+    assert service.request_ack("alice", (BANK_INDEX, "EVENT_LOG_FAULT"), "seen")    # an OPC UA client's ack
+    snap = service.step(31)
+    assert snap.conditions[(BANK_INDEX, "EVENT_LOG_FAULT")] == AlarmState.NORMAL
+    assert not [a for a in snap.alarms if a.tag == "EVENT_LOG_FAULT"]
+    assert [r for _, _, r, _ in service.notes][-1] == (
+        "event log unavailable: events kept in memory until it returns acknowledged: the bank, by alice: 'seen'")
     assert log.close(timeout=10.0) == 0
     reasons = [e.reason for e in EventLog.open_existing(tmp_path / "bank.db").query()]
     assert reasons == [r for _, _, r, _ in service.notes]         # every event, in order

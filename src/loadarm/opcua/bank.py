@@ -49,6 +49,9 @@ __all__ = [
     "ARM_STATES",
     "ARM_VARIABLES",
     "ARM_ALARM_TAGS",
+    "BANK_ALARM_TAGS",
+    "BANK_INDEX",
+    "BANK_NAME",
     "BANK_APP_URI",
     "BANK_STATES",
     "BANK_VARIABLES",
@@ -155,11 +158,16 @@ _STAGE_RANK = {c.tag: int(c.stage) for c in STAGE_CONDITIONS}
 #: Each arm's annunciated alarms, served as OPC UA Part 9 conditions under its ``Guidance/Alarms``: its stage
 #: conditions, then the bank's own (:data:`loadarm.vocab.BANK_CONDITIONS`: its manifold load).
 ARM_ALARM_TAGS = tuple(c.tag for c in STAGE_CONDITIONS) + tuple(c.tag for c in BANK_CONDITIONS)
+#: The bank's own alarms (not an arm's), under ``Bank/Alarms``: its event log unavailable (as the single arm's).
+BANK_ALARM_TAGS = ("EVENT_LOG_FAULT",)
+#: The arm index of the bank's own alarms in the conditions' keys, and the name its alarm lines carry.
+BANK_INDEX, BANK_NAME = -1, "bank"
 
 
 @dataclass(frozen=True)
 class BankAlarm:
-    """One line of the bank's alarm list: an arm's stage alarm or its manifold-load alarm, in its ISA-18.2 state.
+    """One line of the bank's alarm list: an arm's stage alarm or its manifold-load alarm, or the bank's own
+    (:data:`BANK_ALARM_TAGS`, its arm :data:`BANK_NAME`), in its ISA-18.2 state.
 
     Attributes
     ----------
@@ -201,8 +209,8 @@ class BankSnapshot:
     alarms : tuple of BankAlarm
         The alarms not normal, the most urgent first, then the oldest.
     conditions : dict of (int, str) to AlarmState
-        Every arm's every alarm of :data:`ARM_ALARM_TAGS` (arm index, tag) in its ISA-18.2 state (the OPC UA
-        conditions).
+        Every arm's every alarm of :data:`ARM_ALARM_TAGS` (arm index, tag) and the bank's own
+        (:data:`BANK_INDEX`, tag of :data:`BANK_ALARM_TAGS`) in its ISA-18.2 state (the OPC UA conditions).
     suppressed : frozenset of (int, str)
         The stage alarms suppressed by design: an arm's stages below its most severe active one (ISA-18.2's
         state-based suppression: the list above leaves them out, the conditions say SuppressedState).
@@ -335,6 +343,8 @@ class BankService:
         #: The bank's time of the state being computed (or the last), s: the time its events are logged at, and
         #: its most severe arm stage then.
         self._t, self._stage = 0.0, Severity.NORMAL
+        #: The bank's event-log alarm: its ISA-18.2 state and when it rose.
+        self._log_alarm: tuple[AlarmState, float] = (AlarmState.NORMAL, math.nan)
         #: Alike events of the rate-limited kinds (refused logins and commands) let through once per window, as
         #: the single arm's (:class:`loadarm.eventlog.RateLimiter`): a thousand wrong passwords are one line.
         self._limiter = RateLimiter()
@@ -438,7 +448,8 @@ class BankService:
         else:
             why = status.error or "writes stalled"
             self.note("alarm", f"{event_label('fault.event_log')}: {why}; {status.pending} events kept in memory, "
-                               "the bank goes on", {"code": "fault.event_log", "error": why})
+                               "the bank goes on", {"code": "fault.event_log", "error": why, "arm": BANK_NAME,
+                                                    "tag": "EVENT_LOG_FAULT", "active": True})
 
     def acknowledge(self, user: str = "operator") -> None:
         """The operator acknowledged every alarm (the bank's screen): applied at the next state and noted then,
@@ -459,7 +470,8 @@ class BankService:
         ----------
         user : str
         key : (int, str)
-            The arm's index and the alarm's tag (:data:`ARM_ALARM_TAGS`).
+            The arm's index and the alarm's tag (:data:`ARM_ALARM_TAGS`), or :data:`BANK_INDEX` and a tag of
+            :data:`BANK_ALARM_TAGS`.
         comment : str
             The Acknowledge's comment (at most 200 characters kept).
 
@@ -485,8 +497,10 @@ class BankService:
             self.note("operator", f"every alarm acknowledged by {user}", {"user": user, "action": "ack"})
         for (i, tag), (user, comment) in sorted(asked.items()):
             said = f": {comment!r}" if comment else ""
-            self.note("operator", f"{condition_text(tag)} acknowledged: arm {self.bank.names[i]}, by {user}{said}",
-                      {"arm": self.bank.names[i], "tag": tag, "user": user, "action": "ack", "comment": comment})
+            arm = BANK_NAME if i == BANK_INDEX else self.bank.names[i]
+            whose = "the bank" if i == BANK_INDEX else f"arm {arm}"
+            self.note("operator", f"{condition_text(tag)} acknowledged: {whose}, by {user}{said}",
+                      {"arm": arm, "tag": tag, "user": user, "action": "ack", "comment": comment})
         return bool(every), frozenset(asked)
 
     def _stage_states(self, snap: BankSnapshot, acknowledge: bool, asked: frozenset) -> None:
@@ -519,9 +533,19 @@ class BankService:
         conds = {(i, tag): self._stage_alarms.get((i, tag), (AlarmState.NORMAL, math.nan))[0]
                  for i in range(len(names)) for tag in _STAGE_RANK}
         conds.update({(i, "MANIFOLD_LOAD"): st for i, st in enumerate(loads)})
+        conds[(BANK_INDEX, "EVENT_LOG_FAULT")] = self._log_state(snap.state.t, acknowledge, asked)
         suppressed = frozenset((i, c.tag) for i in range(len(names)) for c in STAGE_CONDITIONS
                                if c.stage < snap.stage(i))
         return dataclasses.replace(snap, alarms=self._alarm_list(loads), conditions=conds, suppressed=suppressed)
+
+    def _log_state(self, t: float, acknowledge: bool, asked: frozenset) -> AlarmState:
+        """The bank's event-log alarm's ISA-18.2 state at time ``t`` (active while the log is unavailable)."""
+        old, since = self._log_alarm
+        new = next_alarm_state(old, not self._log_ok, acknowledge or (BANK_INDEX, "EVENT_LOG_FAULT") in asked)
+        if new == AlarmState.UNACKED and old not in (AlarmState.UNACKED, AlarmState.ACKED):
+            since = t
+        self._log_alarm = (new, since)
+        return new
 
     def _alarm_list(self, loads) -> tuple:
         """The alarm list: each arm's most severe stage alarm not normal and its manifold-load alarm (``loads``,
@@ -538,7 +562,9 @@ class BankService:
         out = [BankAlarm(names[i], tag, st, since) for i, (_, tag, st, since) in sorted(top.items())]
         out += [BankAlarm(names[i], "MANIFOLD_LOAD", st, self._load_raised[i])
                 for i, st in enumerate(loads) if st != AlarmState.NORMAL]
-        order = {n: i for i, n in enumerate(names)}
+        if self._log_alarm[0] != AlarmState.NORMAL:
+            out.append(BankAlarm(BANK_NAME, "EVENT_LOG_FAULT", *self._log_alarm))
+        order = {n: i for i, n in enumerate(names)} | {BANK_NAME: BANK_INDEX}
         return tuple(sorted(out, key=lambda a: (priority(a.tag)[0], a.raised_at, order[a.arm])))
 
     def _load_events(self, status: ManifoldLoadStatus) -> None:
@@ -669,6 +695,8 @@ class BankServer(SnapshotServer):
             nodes["arms"].append(mine)
             conds = await conditions(server, guidance, ns, ARM_ALARM_TAGS, prefix=f"{arm.name}: ", source=arm.name)
             nodes["conditions"].update({(len(nodes["arms"]) - 1, tag): c for tag, c in conds.items()})
+        own = await conditions(server, bank, ns, BANK_ALARM_TAGS, prefix=f"{BANK_NAME}: ", source=BANK_NAME)
+        nodes["conditions"].update({(BANK_INDEX, tag): c for tag, c in own.items()})
         server.iserver.isession.add_method_callback(
             ua.NodeId(ua.ObjectIds.AcknowledgeableConditionType_Acknowledge),
             acknowledge_method(nodes["conditions"], self.service.request_ack, self.service.note))

@@ -15,6 +15,7 @@ from loadarm.cli.common import (
     Table,
     UserError,
     check_outputs,
+    err,
     out,
     print_json,
     read_model,
@@ -96,8 +97,13 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     pairs = clearance.pair_minimum.min(axis=1)
     nearest = [min(float(g) for (a, b), g in zip(clearance.pairs, pairs, strict=True) if i in (a, b))
                for i in range(len(names))]
+    quoted = bank.file.manifold_loads.as_quoted()
+    note = (f"{', '.join(quoted)} are the defaults, as commonly quoted from OCIMF's loading-arm specification and not "
+            "checked against it: confirm them for the flange size before relying on the manifold-load verdict"
+            if quoted else None)
     if as_json:
         print_json({"bank": str(path), "clearance": clearance.to_dict(), "approach_order": order.to_dict(),
+                    "notes": [note] if note else [],
                     "release": release.to_dict(),
                     "manifold_loads": loads.to_dict(),
                     "swivel_margin_deg": {n: float(np.degrees(margins[i].min())) for i, n in enumerate(names)},
@@ -128,4 +134,6 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
                   *(f"{release.end[i, j] - release.start[i, j]:.2f} ({st[j].limit:g})" for j in range(2)),
                   f"{release.end[i, 2]:.2f}")
     out.print(t)
+    if note:
+        err.print(f"loadarm: note: {note}")
 

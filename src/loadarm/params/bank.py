@@ -229,6 +229,19 @@ class ManifoldLoads(Section):
                                     description="drag coefficient of the arm's pipes, on clearance.pipe_radius x 2 "
                                                 "across the flow normal to the pipe")
 
+    def as_quoted(self) -> tuple[str, ...]:
+        """The allowable loads left at their defaults, the figures as commonly quoted from OCIMF's specification and
+        not checked against it here (:data:`OCIMF_MLA`): each a verdict that rests on an unconfirmed figure.
+
+        Returns
+        -------
+        tuple of str
+            Their keys, ``manifold_loads.<key>``.
+        """
+        keys = ("axial_force", "lateral_force", "vertical_force", "bending_moment", "torsion_moment")
+        return tuple(f"manifold_loads.{k}" for k in keys
+                     if getattr(self, k) == type(self).model_fields[k].default)
+
 
 class Clearance(Section):
     """The arms as capsules (:mod:`loadarm.arm.clearance`) and the clearance they must keep."""

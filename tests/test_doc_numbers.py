@@ -284,6 +284,7 @@ def _row(v: dict) -> str:
     ("breakout_tracked_seeds100-1099", "| `breakout_tracked.toml`, before the second witness (`5268393`) "),
     ("breakout_tracked_moorings", "| `breakout_tracked.toml` (every line parts at 400 s, Hs 1.0 m), with the second "
                                   "witness "),
+    ("hs15_tracked_hs1.0-1.5", "| `hs15_tracked.toml`, Hs 1.0-1.5 m "),
     ("hs15_tracked_hs1.5-2.0", "| `hs15_tracked.toml`, Hs 1.5-2.0 m "),
     ("hs15_tracked_hs2.0-2.5", "| `hs15_tracked.toml`, Hs 2.0-2.5 m "),
     ("partial_breakout_tracked", "| `partial_breakout_tracked.toml` (8 of 16 lines part at 400 s, Hs 1.0 m) "),

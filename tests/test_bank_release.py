@@ -150,6 +150,21 @@ def test_check_bank_passes_the_example(capsys, tmp_path):
         "not checked against it: confirm them for the flange size" in note[0]
 
 
+@pytest.mark.slow           # 5 s: check --bank on a variant (make test's budget; CI runs it)
+def test_a_manifold_load_refusal_on_the_quoted_figures_says_they_are_unconfirmed(capsys, tmp_path):
+    """Found by review: the note was printed only on a pass, so a bank refused on OCIMF's figures as commonly
+    quoted never said they were unconfirmed. A full 2000 kg/m^3 product in a 60 m/s wind on the default
+    allowables: refused, the note on the same one line."""
+    text = (BANKS / "lng150k_bank.toml").read_text().replace('"../full.toml"', f'"{BANKS.parent / "full.toml"}"')
+    text = text.replace("density = 450.0", "density = 2000.0").replace("[manifold_loads]",
+                                                                      "[manifold_loads]\nwind_speed = 60.0")
+    heavy = tmp_path / "heavy.toml"
+    heavy.write_text(text)
+    code, _, err = run(capsys, "check", "--bank", str(heavy))
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "MANIFOLD LOAD: arm " in err and "; note: manifold_loads.axial_force, " in err
+
+
 def test_only_the_allowable_loads_left_at_their_defaults_are_as_quoted(tmp_path):
     """`ManifoldLoads.as_quoted`: the keys still at OCIMF's figures as commonly quoted; a terminal's own figure is
     not one of them."""

@@ -24,7 +24,7 @@ from loadarm.design.check import design_check
 from loadarm.figures import save
 from loadarm.hydraulics.bank_release import STEPS
 from loadarm.params.bank import load_bank
-from loadarm.studies.bank_check import check_bank
+from loadarm.studies.bank_check import check_bank, overload_line
 
 __all__ = ["app"]
 
@@ -86,8 +86,14 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     check_outputs({"--png": png}, [path], force)
     bank = load_bank(path)
     checks = check_bank(bank)       # the one place of the checks and their refusals (the report shows them too)
-    if checks.refusals:
-        raise UserError(checks.refusals[0])
+    quoted = bank.file.manifold_loads.as_quoted()
+    note = (f"{', '.join(quoted)} are the defaults, as commonly quoted from OCIMF's loading-arm specification and not "
+            "checked against it: confirm them for the flange size before relying on the manifold-load verdict"
+            if quoted else None)
+    if checks.refusals:              # a manifold-load refusal on unconfirmed figures says so, on its one line
+        said = checks.refusals[0]
+        on_loads = not checks.loads.ok and said == overload_line(bank, checks.loads.exceeded)
+        raise UserError(said + (f"; note: {note}" if note and on_loads else ""))
     over, order, margins, swivels, loads, release = (checks.over, checks.order, checks.swivel_margins,
                                                      checks.swivels, checks.loads, checks.release)
     clearance = order.clearance
@@ -97,10 +103,6 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     pairs = clearance.pair_minimum.min(axis=1)
     nearest = [min(float(g) for (a, b), g in zip(clearance.pairs, pairs, strict=True) if i in (a, b))
                for i in range(len(names))]
-    quoted = bank.file.manifold_loads.as_quoted()
-    note = (f"{', '.join(quoted)} are the defaults, as commonly quoted from OCIMF's loading-arm specification and not "
-            "checked against it: confirm them for the flange size before relying on the manifold-load verdict"
-            if quoted else None)
     if as_json:
         print_json({"bank": str(path), "clearance": clearance.to_dict(), "approach_order": order.to_dict(),
                     "notes": [note] if note else [],

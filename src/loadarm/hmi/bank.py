@@ -177,6 +177,8 @@ def bank_journal_entry(wall: float, kind: str, reason: str, data: dict, now: flo
         text = f"{arm}: {condition_text(tag)}" + ("" if data.get("active") else ": cleared")
         if "utilisation" in data:
             text += f" ({data.get('load', '?')} at {float(data['utilisation']):.2f} of its allowable)"
+        if data.get("error"):                  # the event log's fault: why (found by review: it was lost)
+            text += f" ({data['error']})"
     else:
         text = reason
     prio = priority(tag) if tag and kind == "alarm" else (None, None)

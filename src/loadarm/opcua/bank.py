@@ -442,7 +442,9 @@ class BankService:
         if status.ok == self._log_ok:
             return
         self._log_ok = status.ok
-        if status.ok:
+        if status.ok:                          # the alarm's clear (never rate-limited), then what was written
+            self.note("alarm", f"{event_label('fault.event_log')} cleared: the bank", {
+                "code": "fault.event_log", "arm": BANK_NAME, "tag": "EVENT_LOG_FAULT", "active": False})
             self.note("info", f"{event_label('info.event_log_restored')}: {status.written} events written in "
                               f"order, {status.lost} lost", {"code": "info.event_log_restored", "lost": status.lost})
         else:
@@ -590,8 +592,6 @@ class BankService:
         """
         state = self.world.state(k / WORLD_RATE)
         self._t = state.t
-        if self.log is not None:
-            self._watch_log()
         if state.t <= self._observed:          # a time gone back (a test stepping states): a new connection
             self.monitor.reset()
             self._forecast = None
@@ -609,6 +609,8 @@ class BankService:
         loads = self.loads.step(state.t, displacement, state.ship_angles, wind=self.world.wind, acknowledge=acked)
         snap = BankSnapshot(k, self.wall(), state, self._forecast, loads)
         self._stage = max(snap.stage(i) for i in range(len(names)))     # this state's events are logged in it
+        if self.log is not None:
+            self._watch_log()
         self._load_events(loads)
         snap = self._annunciate(snap, every, asked)
         self._snapshot = snap

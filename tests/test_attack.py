@@ -254,7 +254,7 @@ def test_fuzzed_screen_messages_are_answered_and_only_valid_commands_reach_the_c
     with c.websocket_connect("/ws", headers=ORIGIN) as ws:
         ws.send_text(json.dumps(msg))
         a = _ack(ws)
-        assert set(a) <= {"type", "seq", "ok", "message", "last_seq"} and isinstance(a["message"], str)
+        assert set(a) <= {"type", "seq", "ok", "message", "last_seq", "cycle"} and isinstance(a["message"], str)
     for r in service.requests[n0:]:
         assert isinstance(r, Request) and all(isinstance(v, float) and math.isfinite(v) for v in r.jog)
         assert math.hypot(*r.jog) <= service.jog_speed

@@ -182,13 +182,30 @@ def test_frames_carry_a_sequence_number_and_json_safe_values(app_env):
     assert f["pressures"] == [None] * 5 and f["alarms"] == []
 
 
+def test_a_command_s_acknowledgement_names_the_cycle_it_was_queued_after_and_a_refusal_none(app_env):
+    """The bound the E-stop's browser test holds (the cycle after the next takes a command) needs the cycle the
+    controller had published when the command was queued; a refused command was queued after none."""
+    c, service = app_env["client"], app_env["service"]
+    csrf = _login(c)["csrf"]
+    with c.websocket_connect("/ws", headers=ORIGIN) as ws:
+        ws.send_text(json.dumps({"type": "cmd", "seq": 1, "action": "stop", "csrf": csrf}))
+        first = _ack(ws)["cycle"]
+        service.step(t=0.02)
+        service.step(t=0.04)
+        ws.send_text(json.dumps({"type": "cmd", "seq": 2, "action": "estop", "csrf": csrf}))
+        assert _ack(ws)["cycle"] == first + 2 == service.snapshot().seq
+        ws.send_text(json.dumps({"type": "cmd", "seq": 3, "action": "estop", "csrf": "forged"}))
+        assert "cycle" not in _ack(ws)
+
+
 def test_an_operator_s_commands_are_acknowledged_by_sequence_and_reach_the_controller_with_the_user(app_env):
     c, service = app_env["client"], app_env["service"]
     csrf = _login(c)["csrf"]
     with c.websocket_connect("/ws", headers=ORIGIN) as ws:
         ws.send_text(json.dumps({"type": "cmd", "seq": 7, "action": "jog", "jog": [0, 0, 0.1], "csrf": csrf}))
         a = _ack(ws)
-        assert a == {"type": "ack", "seq": 7, "ok": True, "message": "jog sent"}
+        # a command taken names the controller's last published cycle when it was queued
+        assert a == {"type": "ack", "seq": 7, "ok": True, "message": "jog sent", "cycle": service.snapshot().seq}
         ws.send_text(json.dumps({"type": "cmd", "seq": 8, "action": "estop", "csrf": "forged"}))
         a = _ack(ws)
         assert a["seq"] == 8 and not a["ok"] and "CSRF" in a["message"]

@@ -142,23 +142,32 @@ def test_the_jog_pad_moves_the_coupler_and_the_dead_man_stops_it(screen, page):
 
 @pytest.mark.slow           # 3 s (make test's budget; CI runs it)
 def test_e_stop_stops_the_arm_within_one_update(screen, page):
-    """The coupler jogging, one click on E-STOP: the first or second frame after the click (one may have been
-    on its way) shows ESTOP, and the coupler stands still from then on."""
+    """The coupler jogging, one click on E-STOP: every frame of the cycle after the next from the one published
+    when the E-stop was queued (the acknowledgement names it; the cycle under way then may finish without it)
+    shows ESTOP, and the coupler stands still from then on.
+
+    Held on the controller's cycles, not on frames after the click: on a loaded machine more than one frame
+    can arrive between the click and the server's reading of it (found in CI: two MANUAL frames, the coupler
+    already still on the second, the suite taking 35 min).
+    """
     s = screen()
     log_in(page, s.url, "alice", "pw-alice")
     page.keyboard.down("PageUp")
     time.sleep(1.0)
-    page.evaluate("document.getElementById('estop').addEventListener('click', "
-                  "() => { hmi.clickAt = performance.now(); }, {capture: true})")
     page.click("#estop")
     wait_for(page, "hmi.frame.mode === 'ESTOP'", timeout=3.0, what="ESTOP on the screen")
+    wait_for(page, "hmi.acks.some(a => a.action === 'estop')", timeout=3.0, what="the E-stop's acknowledgement")
     page.keyboard.up("PageUp")
     time.sleep(0.5)
-    hist = page.evaluate("hmi.history.filter(h => h.at >= hmi.clickAt).map(h => [h.mode, h.coupler[2]])")
-    first = next(i for i, h in enumerate(hist) if h[0] == "ESTOP")
-    assert first <= 1, hist[:5]
-    after = [z for m, z in hist[first + 1:]]
-    assert after and max(after) - min(after) < 1e-3
+    queued = page.evaluate("hmi.acks.filter(a => a.action === 'estop')[0]")
+    assert queued["ok"] and isinstance(queued["cycle"], int), queued
+    hist = page.evaluate("hmi.history.map(h => [h.seq, h.mode, h.coupler[2]])")
+    moving = [(q, m, z) for q, m, z in hist if q <= queued["cycle"]]
+    assert moving and moving[-1][1] == "MANUAL", moving[-3:]     # jogging when it was queued
+    stopped = [(q, m, z) for q, m, z in hist if q >= queued["cycle"] + 2]
+    assert len(stopped) >= 5 and {m for _, m, _ in stopped} == {"ESTOP"}, stopped[:5]
+    zs = [z for _, _, z in stopped]
+    assert max(zs) - min(zs) < 1e-3, zs[:5]
     assert page.evaluate("hmi.frame.mode") == "ESTOP"          # the key's release (a stop) does not clear it
     _logged(s, "alice", "estop")
 

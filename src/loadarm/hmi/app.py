@@ -64,7 +64,9 @@ def ack(seq, ok: bool, message: str, **extra) -> str:
     message : str
         What was done, or why not.
     **extra
-        More fields (e.g. ``last_seq``).
+        More fields: ``last_seq`` (a stale sequence number's refusal), ``cycle`` (a command taken: the
+        controller's last published cycle when it was queued; the cycle after the next takes it at the latest,
+        the one under way then may finish without it).
 
     Returns
     -------
@@ -416,13 +418,17 @@ class _Screen(LoginScreen):
             return ack(None, False, "not a command"), False
         if self.sessions.get(token) is None:
             return ack(seq, False, "session ended: log in again"), True
+        snap = None if self.replay else self.service.snapshot()      # before the queue: the bound is safe
         ok, message = self.command(s, msg)
         if ok and msg.get("action") == "jog":
             jogging["until"] = time.monotonic() + JOG_HOLD
         elif ok and msg.get("action") in ("stop", "estop"):
             jogging["until"] = -math.inf
         stale = not ok and "sequence number" in message   # the page adopts the session's last number
-        return ack(seq, ok, message, **({"last_seq": s.last_cmd} if stale else {})), False
+        extra = {"last_seq": s.last_cmd} if stale else {}
+        if ok and snap is not None:
+            extra["cycle"] = snap.seq
+        return ack(seq, ok, message, **extra), False
 
     async def ws(self, websocket) -> None:
         from fastapi import WebSocketDisconnect

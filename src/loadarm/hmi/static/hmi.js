@@ -11,7 +11,7 @@ const MODES = ["STORED", "APPROACH", "HOLD", "STANDOFF", "CONNECTED", "ALARM1", 
 
 const hmi = {session: null, geo: null, ws: null, lastFrameAt: 0, lastSeq: null, lastSeqAt: 0, frames: 0, cmdSeq: 0,
              history: [], seenAlarms: [], seenModes: [], modeArrivals: [], modeCycle: -1,
-             pending: new Map(), jog: null, jogTimer: null, frame: null, rate: 0, trend: [], page: "overview",
+             pending: new Map(), acks: [], jog: null, jogTimer: null, frame: null, rate: 0, trend: [], page: "overview",
              rateCount: 0, rateSince: performance.now(),
              audio: {on: false, ctx: null, silenced: new Set(), playing: null, beeps: 0, next: 0}};
 window.hmi = hmi;               // for the browser tests
@@ -94,6 +94,10 @@ function onAck(msg) {
   if (typeof msg.last_seq === "number") { hmi.cmdSeq = Math.max(hmi.cmdSeq, msg.last_seq); }
   const p = hmi.pending.get(msg.seq);
   hmi.pending.delete(msg.seq);
+  // what each command's acknowledgement said, with the controller's cycle when it was queued (the E-stop's
+  // bound is held on it: the cycle after the next takes a command at the latest)
+  hmi.acks.push({seq: msg.seq, action: p ? p.action : null, ok: msg.ok, cycle: msg.cycle ?? null});
+  if (hmi.acks.length > 100) { hmi.acks.shift(); }
   // renewals, and a replay's cursor moves (its bar shows them): not news
   if (p && ["jog", "seek", "play", "pause"].includes(p.action) && msg.ok) { return; }
   showAck(msg.seq, msg.ok, msg.message);

@@ -196,3 +196,17 @@ def test_a_full_disk_leaves_the_old_output_and_no_temporary(tmp_path):
     lines = r.stderr.strip().splitlines()
     assert r.returncode == 2 and len(lines) == 1 and lines[0].startswith("loadarm: error: "), r.stderr
     assert png.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["envelope.png"]
+
+
+def test_a_log_status_s_change_note_is_the_one_wording_of_the_fault_and_its_restoration():
+    """Both services (the arm's, the bank's) and every command closing a log word a log's trouble here."""
+    from loadarm.eventlog import LogStatus
+
+    kind, reason, data = LogStatus(False, 12, 0, "database is locked", 40).change_note("the bank")
+    assert kind == "alarm" and data == {"code": "fault.event_log", "error": "database is locked"}
+    assert reason.endswith(": database is locked; 12 events kept in memory, the bank goes on")
+    assert LogStatus(False, 3, 0, "", 40).change_note("the controller")[2]["error"] == "writes stalled"
+    kind, reason, data = LogStatus(True, 0, 2, "", 52).change_note("the controller")
+    assert kind == "info" and data == {"code": "info.event_log_restored", "lost": 2}
+    assert reason.endswith(": 52 events written in order, 2 lost")
+    assert LogStatus(False, 5, 0, "", 0).unwritten(5, 10.0) == "5 events could not be written in 10 s (the log stalled)"

@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from loadarm.errors import EventLogError
+from loadarm.vocab import event_label
 
 __all__ = ["Event", "EventLog", "EventLogError", "LogWriter", "LogStatus", "check_samples", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS", "APPLICATION_ID",
            "SCHEMA_VERSION"]
@@ -433,6 +434,43 @@ class LogStatus:
     lost: int
     error: str
     written: int
+
+    def change_note(self, goes_on: str) -> tuple[str, str, dict]:
+        """The event that annunciates this status to the log it is of, the one wording of every service: the
+        log unavailable (an ``alarm``, ``fault.event_log``) or back (``info``, ``info.event_log_restored``).
+
+        Parameters
+        ----------
+        goes_on : str
+            What goes on without its log ("the controller", "the bank").
+
+        Returns
+        -------
+        (str, str, dict)
+            The event's kind, reason and data.
+        """
+        if self.ok:
+            return ("info", f"{event_label('info.event_log_restored')}: {self.written} events written in order, "
+                            f"{self.lost} lost", {"code": "info.event_log_restored", "lost": self.lost})
+        why = self.error or "writes stalled"
+        return ("alarm", f"{event_label('fault.event_log')}: {why}; {self.pending} events kept in memory, "
+                         f"{goes_on} goes on", {"code": "fault.event_log", "error": why})
+
+    def unwritten(self, n: int, wait: float) -> str:
+        """Why ``n`` events were left unwritten when the log was closed with ``wait`` seconds to finish (the
+        one wording of every command that closes a log).
+
+        Parameters
+        ----------
+        n : int
+        wait : float
+            s.
+
+        Returns
+        -------
+        str
+        """
+        return f"{n} events could not be written in {wait:g} s ({self.error or 'the log stalled'})"
 
 
 class LogWriter:

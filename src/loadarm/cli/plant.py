@@ -219,8 +219,7 @@ def serve(
         if link is not None:
             link.stop()
     if unwritten:
-        out.print(f"event log {db}: {unwritten} events could not be written in {LOG_WAIT:g} s "
-                  f"({log.status().error or 'the log stalled'})")
+        out.print(f"event log {db}: {log.status().unwritten(unwritten, LOG_WAIT)}")
     _say_stopped(service, said)
     if interrupted:
         raise KeyboardInterrupt
@@ -252,8 +251,7 @@ def _serve_bank(bank_file: Path, scenario: Optional[Path], endpoint: str, state_
     finally:
         unwritten = log.close(timeout=LOG_WAIT)
         if unwritten:
-            out.print(f"event log {db}: {unwritten} events could not be written in {LOG_WAIT:g} s "
-                      f"({log.status().error or 'the log stalled'})")
+            out.print(f"event log {db}: {log.status().unwritten(unwritten, LOG_WAIT)}")
 
 
 def _serve_bank_logged(bank, scenario: Path, spec, endpoint: str, state_dir: Path, insecure: bool, anonymous: bool,

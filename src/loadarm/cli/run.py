@@ -78,8 +78,8 @@ def run(
         if log is not None:
             unwritten = log.close(timeout=log_wait)
     if unwritten:
-        raise UserError(f"--db {db}: {unwritten} events could not be written in {log_wait:g} s "
-                        f"({log.status().error or 'the log stalled'}); the run's result is not logged whole")
+        raise UserError(f"--db {db}: {log.status().unwritten(unwritten, log_wait)}; the run's result is not "
+                        "logged whole")
     if png is not None:
         save(res.plot(), png)
     s = res.summary()

@@ -442,16 +442,13 @@ class BankService:
         if status.ok == self._log_ok:
             return
         self._log_ok = status.ok
+        kind, reason, data = status.change_note("the bank")
         if status.ok:                          # the alarm's clear (never rate-limited), then what was written
             self.note("alarm", f"{event_label('fault.event_log')} cleared: the bank", {
                 "code": "fault.event_log", "arm": BANK_NAME, "tag": "EVENT_LOG_FAULT", "active": False})
-            self.note("info", f"{event_label('info.event_log_restored')}: {status.written} events written in "
-                              f"order, {status.lost} lost", {"code": "info.event_log_restored", "lost": status.lost})
+            self.note(kind, reason, data)
         else:
-            why = status.error or "writes stalled"
-            self.note("alarm", f"{event_label('fault.event_log')}: {why}; {status.pending} events kept in memory, "
-                               "the bank goes on", {"code": "fault.event_log", "error": why, "arm": BANK_NAME,
-                                                    "tag": "EVENT_LOG_FAULT", "active": True})
+            self.note(kind, reason, {**data, "arm": BANK_NAME, "tag": "EVENT_LOG_FAULT", "active": True})
 
     def acknowledge(self, user: str = "operator") -> None:
         """The operator acknowledged every alarm (the bank's screen): applied at the next state and noted then,

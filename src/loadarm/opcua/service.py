@@ -293,15 +293,7 @@ class GuidanceService:
             return
         self._log_ok = status.ok
         self.loop.ctrl.state.log_fault = not status.ok
-        mode = self.loop.ctrl.state.mode.value
-        if status.ok:
-            self.loop.emit(now, mode, "info", f"{event_label('info.event_log_restored')}: {status.written} events "
-                           f"written in order, {status.lost} lost", {"code": "info.event_log_restored",
-                                                                      "lost": status.lost})
-        else:
-            why = status.error or "writes stalled"
-            self.loop.emit(now, mode, "alarm", f"{event_label('fault.event_log')}: {why}; {status.pending} events "
-                           "kept in memory, the controller goes on", {"code": "fault.event_log", "error": why})
+        self.loop.emit(now, self.loop.ctrl.state.mode.value, *status.change_note("the controller"))
 
     def _link_changed(self, now: float, ok: bool, live: OperatorInput) -> OperatorInput:
         """The PLC link died (an alarm; ESD-1 if the coupler is on the flange, else the motion stopped: manual

@@ -89,6 +89,10 @@ def test_one_analysis_for_all_flanges_is_each_flange_s_own_analysis(setup):
     assert shared["first_beta_deg"] <= max(d.recommended["first_beta_deg"] for d in res.designs)
     # every flange in front of its riser: every arm absorbs the design drift over its flanging area
     assert [r["ok"] for r in res.arm_rows()] == [True] * 4 and res.problems == () and res.ok
+    # the verdict says what a negative margin means: the angles alone are short there, the floor holds
+    for r in res.arm_rows():
+        assert r["verdict"] == ("holds" if r["shared_margin_m"] >= 0 else "holds by the floor"), r
+    assert res.to_dict()["arm_rows"] == res.arm_rows()
     assert "[alarms]\nfirst_deg = " in res.toml(res.files[0])
     assert res.summary()["arms"] == 4 and res.to_dict()["toml"]
 

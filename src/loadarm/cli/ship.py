@@ -155,15 +155,19 @@ def _bank_alarms(path: Path, berth: Path, settings: DesignSettings, as_json: boo
         print_json(res.to_dict())
     else:
         out.print(str(res.summary()))
-        t = Table("arm", "allow m", "ESD-1 beta", "ERS-2 beta", "ESD-1 slew", "ERS-2 slew", "shared margin m",
+        t = Table("arm", "allow m", "ESD-1 beta", "ERS-2 beta", "ESD-1 slew", "ERS-2 slew", "margin m",
                   "verdict", box=box.SIMPLE_HEAD, pad_edge=False)
         for r in res.arm_rows():
             t.add_row(r["arm"], f"{r['allowance_m']:.2f}",
                       *("-" if r[k] is None else f"{r[k]:.1f}" for k in ("first_beta_deg", "release_beta_deg",
                                                                         "first_slew_deg", "release_slew_deg")),
                       "-" if r["shared_margin_m"] is None else f"{r['shared_margin_m']:+.2f}",
-                      "holds" if r["ok"] else "refused")
-        print_wide(t, 100)
+                      r["verdict"])
+        print_wide(t, 110)
+        if any(r["verdict"] == "holds by the floor" for r in res.arm_rows()):
+            out.print("margin: the least of the shared settings on the arm. holds by the floor: a shared angle alone is late for the break-out, or fires inside the "
+                      "intact drift allowance, by the negative margin; the design-drift floor of the connected-mode "
+                      "monitor raises ESD-1 by the time to the face whatever the angles")
         for f in res.shared:
             out.print(f"Paste into {f}:")
             out.print(res.toml(f).rstrip("\n"))

@@ -177,7 +177,7 @@ class BankAlarmDesign(Result):
         return {**self._values(), "problems": list(self.problems), "costs": list(self.costs),
                 "arms_design": {n: {"installation": f, **d.to_dict()}
                                 for n, f, d in zip(self.names, self.files, self.designs)},
-                "shared": {f: dict(r) for f, r in self.shared.items()},
+                "arm_rows": self.arm_rows(), "shared": {f: dict(r) for f, r in self.shared.items()},
                 "toml": {f: self.toml(f) for f in self.shared}}
 
     def toml(self, path: str) -> str:
@@ -196,7 +196,12 @@ class BankAlarmDesign(Result):
         return replace(first, recommended=self.shared[path]).toml()
 
     def arm_rows(self) -> list[dict]:
-        """Per arm: its own recommended stages, its drift allowance, and the least margin of the shared settings.
+        """Per arm: its own recommended stages, its drift allowance, the least margin of the shared settings and
+        the verdict: ``refused`` (it cannot absorb the design drift at a corner of its flanging area), ``holds``
+        (the shared angles alone hold on every face), or ``holds by the floor`` (a shared angle alone is late for
+        the break-out, or fires inside the intact drift allowance, by the negative margin: the design-drift floor
+        of the connected-mode monitor raises ESD-1 by the time to the face whatever the angles; the single arm's
+        ``conditional``).
 
         Returns
         -------
@@ -210,6 +215,9 @@ class BankAlarmDesign(Result):
                                                                "first_slew_deg", "release_slew_deg")},
                          "shared_margin_m": min((s.margin_m for s in fits), default=None),
                          "ok": d.ok})
+            least = rows[-1]["shared_margin_m"]
+            rows[-1]["verdict"] = "refused" if not d.ok else (
+                "holds" if least is None or least >= 0 else "holds by the floor")
         return rows
 
     def _figure(self):

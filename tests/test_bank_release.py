@@ -179,6 +179,10 @@ def test_only_the_allowable_loads_left_at_their_defaults_are_as_quoted(tmp_path)
     mine.write_text(text.replace("axial_force = 20.0e3", "axial_force = 25.0e3"))
     assert "manifold_loads.axial_force" not in load_bank(mine).file.manifold_loads.as_quoted()
     assert len(load_bank(mine).file.manifold_loads.as_quoted()) == 4
+    # the same figures, confirmed by a named document: none is as quoted (a figure may equal the default)
+    mine.write_text(text.replace("[manifold_loads]", '[manifold_loads]\nconfirmed_by = "ship manifold drawing rev C"'))
+    assert load_bank(mine).file.manifold_loads.as_quoted() == ()
+    assert load_bank(mine).file.manifold_loads.axial_force == 20.0e3
 
 
 @pytest.mark.parametrize(("name", "fragment"), [

@@ -300,6 +300,10 @@ def test_a_report_naming_a_bank_has_its_section(tmp_path):
     assert "L1 + L2, then V1 + L3;" in html and "swivel margin, design case [deg]" in html and "approach wave" in html
     assert b["flanging_area_corners"]["least_clearance_m"] == pytest.approx(1.688, abs=5e-4)
     assert b["swivel_envelope"]["least_deg"] == pytest.approx(27.32, abs=0.005) and "motions [deg]" in html
+    # the example's allowables are OCIMF's as quoted: the report says they are unconfirmed, and which
+    assert b["allowables_confirmed_by"] == "" and len(b["allowables_unconfirmed"]) == 5
+    assert "<strong>unconfirmed</strong>: axial force, lateral force, vertical force, bending moment, torsion moment" \
+        in html
 
 
 @pytest.mark.slow                 # 8 s: make test keeps to its 2-minute budget; CI runs it

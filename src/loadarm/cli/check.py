@@ -88,7 +88,8 @@ def _check_bank(path: Path, as_json: bool, png: Optional[Path], force: bool) -> 
     checks = check_bank(bank)       # the one place of the checks and their refusals (the report shows them too)
     quoted = bank.file.manifold_loads.as_quoted()
     note = (f"{', '.join(quoted)} are the defaults, as commonly quoted from OCIMF's loading-arm specification and not "
-            "checked against it: confirm them for the flange size before relying on the manifold-load verdict"
+            "checked against it: confirm them for the flange size before relying on the manifold-load verdict "
+            "(and name the document in manifold_loads.confirmed_by)"
             if quoted else None)
     if checks.refusals:              # a manifold-load refusal on unconfirmed figures says so, on its one line
         said = checks.refusals[0]

@@ -229,9 +229,16 @@ class ManifoldLoads(Section):
                                     description="drag coefficient of the arm's pipes, on clearance.pipe_radius x 2 "
                                                 "across the flow normal to the pipe")
 
+    confirmed_by: str = Field("", max_length=200,
+                              description="the document that confirms the five allowable loads for this manifold "
+                                          "(the ship's or terminal's, with its revision); empty: unconfirmed",
+                              json_schema_extra={"unit": "", "source": "the terminal's"})
+
     def as_quoted(self) -> tuple[str, ...]:
         """The allowable loads left at their defaults, the figures as commonly quoted from OCIMF's specification and
-        not checked against it here (:data:`OCIMF_MLA`): each a verdict that rests on an unconfirmed figure.
+        not checked against it here (:data:`OCIMF_MLA`): each a verdict that rests on an unconfirmed figure. None
+        once :attr:`confirmed_by` names the document that confirms them (a terminal's own figure may equal the
+        default).
 
         Returns
         -------
@@ -239,6 +246,8 @@ class ManifoldLoads(Section):
             Their keys, ``manifold_loads.<key>``.
         """
         keys = ("axial_force", "lateral_force", "vertical_force", "bending_moment", "torsion_moment")
+        if self.confirmed_by.strip():
+            return ()
         return tuple(f"manifold_loads.{k}" for k in keys
                      if getattr(self, k) == type(self).model_fields[k].default)
 

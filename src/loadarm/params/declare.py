@@ -254,6 +254,14 @@ def format_validation_error(err: ValidationError, source: str, root: type[BaseMo
 
 
 def choices_text(f: Any) -> str:
-    """``one of a, b`` for a Literal field, else ``""``."""
+    """``one of a, b`` for a Literal field, ``text of 1-40 characters`` for a text field, else ``""``."""
     args = typing.get_args(f.annotation) if typing.get_origin(f.annotation) is Literal else ()
-    return "one of " + ", ".join(str(a) for a in args) if args else ""
+    if args:
+        return "one of " + ", ".join(str(a) for a in args)
+    if f.annotation is str:
+        lo = next((m.min_length for m in f.metadata if getattr(m, "min_length", None) is not None), 0)
+        hi = next((m.max_length for m in f.metadata if getattr(m, "max_length", None) is not None), None)
+        pattern = next((m.pattern for m in f.metadata if getattr(m, "pattern", None) is not None), None)
+        return ("text" if hi is None else f"text of {lo}-{hi} characters") + (
+            f" matching `{pattern}`" if pattern else "")
+    return ""

@@ -692,6 +692,10 @@ def _bank_summary(b: dict | None) -> dict | None:
     return {"file": b["file"].name, **b["checks"].to_dict(),
             "clearance": b["clearance"].to_dict(),          # without an order: every arm approaching at once
             "clearance_all_at_once": b["order"] is None,
+            # the allowable loads' standing: the document that confirms them, or the keys left at OCIMF's
+            # figures as commonly quoted (the verdict on them is unconfirmed)
+            "allowables_confirmed_by": b["bank"].file.manifold_loads.confirmed_by,
+            "allowables_unconfirmed": list(b["bank"].file.manifold_loads.as_quoted()),
             "manifold_record": None if b["record"] is None else b["record"].to_dict()}
 
 

@@ -878,7 +878,8 @@ def test_the_trend_log_keeps_ten_minutes_at_the_log_s_sample_times(model):
 
 def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model):
     """Issue 30 item 5: the controller's prediction travels through the log's sample (every 5 s of its claim)
-    to the screen: the time to limit with its interval ("face in 42-65 s"), whether it is used (trusted) or
+    to the screen: the time to limit with its interval ("face in 42 s at the earliest, 65 s on the mean track":
+    the mean track's crossing is no upper bound, so not written as a range), whether it is used (trusted) or
     only shown, the predicted track and band for the top view, and the rule that raised the level in words."""
     from loadarm.guidance.estimator import Estimate
     from loadarm.guidance.modes import Command, Mode
@@ -902,7 +903,7 @@ def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model)
     snap = snapshot(model, 1, 100.0, "ALARM1", json.loads(json.dumps(sample)))
     f = forecast_state(snap, model)
     assert f["prediction"]["state"] == "trusted"
-    assert f["prediction"]["text"] == "prediction: face in 42-65 s"
+    assert f["prediction"]["text"] == "prediction: face in 42 s at the earliest, 65 s on the mean track"
     assert f["prediction"]["moorings"] == "moorings holding" and not f["prediction"]["moorings_abnormal"]
     assert f["rule_words"] == "prediction"
     assert len(f["prediction"]["track"]) == 12 and len(f["prediction"]["band"]) == 12
@@ -917,5 +918,5 @@ def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model)
     silent = prediction_state(None, True, "silent")        # said even with no prediction: the witness's state
     assert silent["moorings"] == "mooring load monitoring silent" and silent["moorings_abnormal"] is True
     off = prediction_state(p, False, "lost")                # not connected: nothing to say of the moorings
-    assert off["text"] == "prediction (not used): face in 42-65 s" and off["moorings"] == ""
+    assert off["text"] == "prediction (not used): face in 42 s at the earliest, 65 s on the mean track" and off["moorings"] == ""
     assert off["moorings_abnormal"] is False

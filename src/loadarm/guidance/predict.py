@@ -70,9 +70,10 @@ SAMPLE_PERIOD = 0.2
 #: The horizons the departure test compares each new block mean with, s.
 GATE_HORIZONS = (5, 10, 20)
 #: How far outside its calibrated interval (as a multiple of the half-width) a block mean must fall, on x or y,
-#: to count against the model: 2 half-widths are about 4 standard deviations of a normal error (a chance of
-#: about 6e-5 per horizon and block); on 14 hours of five hold-out sea states the largest ratio was 3.0 (the
-#: errors are heavier-tailed than normal), its 99.99 % quantile 2.4-2.6.
+#: to count against the model. A half-width is the calibrated 95 % interval's (about 1.96 standard deviations
+#: of a normal error), so 3 of them are about 5.9 (a chance of about 4e-9 per horizon, block and axis were the
+#: errors normal); the errors are heavier-tailed: on 14 hours of five hold-out sea states the largest ratio was
+#: 3.0, its 99.99 % quantile 2.4-2.6, and the factor sits at the largest seen.
 GATE_FACTOR = 3.0
 #: Consecutive blocks that must count before the track is taken to have left the model (a drift or break-out
 #: the autoregression has not seen): the predictive rule then stands down for the rest of the connection.

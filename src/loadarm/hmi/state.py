@@ -311,7 +311,7 @@ def prediction_state(p: dict | None, connected: bool, moorings: str = "none") ->
     elif mean is None:
         when = f"face in {bound:.0f} s at the earliest (mean track: none within {claimed:.0f} s)"
     else:
-        when = f"face in {bound:.0f}-{mean:.0f} s"
+        when = f"face in {bound:.0f} s at the earliest, {mean:.0f} s on the mean track"   # not an interval
     trusted = bool(p.get("trusted")) and connected
     text = f"prediction{'' if trusted else ' (not used)'}: {when}"
     return {**watch, "state": "trusted" if trusted else "shown", "text": text, "bound": bound, "mean": mean,

@@ -262,6 +262,25 @@ def test_a_break_out_s_call_while_the_track_is_inside_the_intervals_is_not_held(
     assert calls and calls[0][4]["held"] is False
 
 
+@pytest.mark.slow  # 25-60 s: a tracked run of 560 s (make test's budget; CI runs it)
+@pytest.mark.xfail(strict=True, reason="open (issue 30): half the lines parting is not seen by the mooring watch, "
+                                       "and the departure test is too slow on a ship leaving on half its lines")
+def test_a_squall_s_partial_break_out_is_no_later_than_the_measured_rule():
+    """Found by the partial break-out in a squall (100 seeds, 2026-12-06): 8 of 16 lines part at 400 s, not more
+    than half, so the watch says the moorings hold, and the track stays inside the prediction's intervals; the
+    break-out test's call for ESD-1 at 421.6 s (seed 100) is held, and ESD-1 comes by the floor at 440.0 s, 18.4 s
+    later (85 s before the face). Strict: when a rule makes it no later, this passes and the mark must go."""
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import run_scenario
+
+    sc, model = load_scenario(SCEN / "partial_breakout_squall_tracked.toml")
+    sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"seed": 100})})
+    res = run_scenario(sc, model, plant="kinematic")
+    esd1 = res.first_data("stage.esd1")
+    assert esd1 is not None and esd1.get("measured_since") is not None
+    assert res.first_code("stage.esd1") == pytest.approx(esd1["measured_since"], abs=0.05)
+
+
 @pytest.mark.slow  # 35-70 s: a tracked run of 850 s (make test's budget; CI runs it)
 def test_seed_533_run_past_its_end_on_the_same_sea_releases_before_the_face(monkeypatch):
     """Issue 30, Hs 2.0-2.5 m seed 533 (Hs 2.20 m): in the 600 s run the rule without the prediction called

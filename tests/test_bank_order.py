@@ -140,6 +140,7 @@ def test_check_bank_shows_the_order(capsys):
     assert len(d["approaches_over_flanging_area"]) == 37
 
 
+@pytest.mark.slow  # 2-5 s (make test's two minutes; CI runs it)
 def test_check_bank_refuses_a_bank_one_arm_cannot_approach_at_a_corner(staggered, capsys):
     """The staggered variant (V1's riser 5 m nearer the ship) orders its approaches at the design flanges, but at
     the flanging area's near, low corner V1's flange would lie almost over its own riser: no straight approach
@@ -270,6 +271,7 @@ def test_a_swivel_the_ship_s_pitch_takes_past_its_stop_is_refused_in_one_line(ca
     assert "swivels.swivel3_deg = [-2.0, 2.0] deg" in err and "[operability] roll, pitch and yaw limits" in err
 
 
+@pytest.mark.slow  # 2-5 s (make test's two minutes; CI runs it)
 def test_the_approaches_to_the_flanging_area_s_corners_are_ordered_and_clear(monkeypatch):
     """Found: the approaches were checked to the design flanges only. Now to the design position and each corner
     of the flanging area: the design case is `order_bank_approaches`' own; at every corner each plan ends on its

@@ -138,6 +138,7 @@ def run(capsys, *args):
     return code, cap.out, cap.err
 
 
+@pytest.mark.slow  # 4 s; docs/bank.md's console block runs it in make test (CI runs this)
 def test_check_bank_passes_the_example(capsys, tmp_path):
     code, out, err = run(capsys, "check", "--bank", str(BANKS / "lng150k_bank.toml"), "--png",
                          str(tmp_path / "release.png"))

@@ -391,6 +391,7 @@ def test_loadarm_serve_bank_serves_the_bank_until_ctrl_c(tmp_path):
     assert events[-1].reason == closing.strip() and events[-1].t > 2.0
 
 
+@pytest.mark.slow  # 7 s: its own server (make test's two minutes; CI runs it)
 def test_each_arm_s_alarms_are_part_9_conditions_that_an_operator_acknowledges_one_by_one(world, tmp_path):
     """Each arm's stage alarms and its manifold-load alarm are AlarmConditionType conditions under its
     ``Guidance/Alarms``, their events from the arm's Guidance object: with 2.3 m required between arms that keep

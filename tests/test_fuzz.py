@@ -156,6 +156,7 @@ def test_broken_installation_text(capsys, fuzz_dir, text, command):
 
 @settings(max_examples=examples(20), **SETTINGS)
 @given(data=mutated(SCENARIO), plant=st.sampled_from(["kinematic", "hydraulic"]))
+@pytest.mark.slow  # 2.5-5.6 s (make test's two minutes; CI runs it)
 def test_mutated_scenarios(capsys, fuzz_dir, data, plant):
     f = fuzz_dir / "scen.toml"
     f.write_text(_toml(_short(data)), encoding="utf-8")

@@ -119,6 +119,7 @@ def test_the_worked_example_of_wang_finite_depth_formula():
 @hsettings(max_examples=examples(40))
 @given(sep=st.floats(0.2, 3.0), frac=st.floats(0.05, 2.0), l2=st.floats(0.3, 1.5), depth=st.sampled_from(
     [math.inf, 20.0, 40.0]), side=st.sampled_from([1.0, -1.0]))
+@pytest.mark.slow  # 2-3 s a case (make test's two minutes; CI runs it)
 def test_sway_is_even_surge_and_yaw_odd_in_the_stagger_and_all_go_with_the_speed_squared(sep, frac, l2, depth,
                                                                                            side):
     moored, passing = LNG, (l2 * 278.0, 500.0)
@@ -193,6 +194,7 @@ def test_the_model_refuses_shallow_water_for_the_moored_ship():
 
 @pytest.mark.parametrize("side", ["port", "starboard"])
 @pytest.mark.parametrize("heading", ["same", "opposite"])
+@pytest.mark.slow  # 2-3 s a case (make test's two minutes; CI runs it)
 def test_the_load_is_in_the_ship_frame_and_pulls_towards_the_sea_side(side, heading):
     """The ship frame at the reference heading (port side to: bow along berth +y, psi0 = +90 deg; starboard:
     -90 deg), as ``_lf_load``'s, which the integration turns into the berth frame: abreast, the passing ship

@@ -33,6 +33,7 @@ def own_report(tmp_path_factory):
     return files, files.html.read_text(), json.loads(files.summary.read_text())
 
 
+@pytest.mark.slow  # 8-13 s: a whole report built once for these (make test's two minutes; CI runs it)
 def test_report_names_its_input_date_and_version(own_report):
     import hashlib
 

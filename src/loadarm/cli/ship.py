@@ -165,9 +165,10 @@ def _bank_alarms(path: Path, berth: Path, settings: DesignSettings, as_json: boo
                       r["verdict"])
         print_wide(t, 110)
         if any(r["verdict"] == "holds by the floor" for r in res.arm_rows()):
-            out.print("margin: the least of the shared settings on the arm. holds by the floor: a shared angle alone is late for the break-out, or fires inside the "
-                      "intact drift allowance, by the negative margin; the design-drift floor of the connected-mode "
-                      "monitor raises ESD-1 by the time to the face whatever the angles")
+            out.print("margin: the least of the shared settings on the arm. holds by the floor: a shared angle "
+                      "alone is late for the break-out, or fires inside the intact drift allowance, by the negative "
+                      "margin; the design-drift floor of the connected-mode monitor raises ESD-1 by the time to the "
+                      "face whatever the angles")
         for f in res.shared:
             out.print(f"Paste into {f}:")
             out.print(res.toml(f).rstrip("\n"))

@@ -6,6 +6,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 
@@ -210,3 +211,28 @@ def test_a_log_status_s_change_note_is_the_one_wording_of_the_fault_and_its_rest
     assert kind == "info" and data == {"code": "info.event_log_restored", "lost": 2}
     assert reason.endswith(": 52 events written in order, 2 lost")
     assert LogStatus(False, 5, 0, "", 0).unwritten(5, 10.0) == "5 events could not be written in 10 s (the log stalled)"
+
+
+def test_a_journal_its_writer_removes_while_the_log_is_inspected_is_looked_for_again(tmp_path, monkeypatch):
+    """Found in a fresh clone's suite (test_concurrent_writers_lose_nothing): the other writer checkpointed and
+    removed its ``-wal`` between the inspection's listing and its copy, and the open was refused ("cannot inspect
+    it and its journal on a copy"). Now a vanished journal is looked for again; the log opens."""
+    import shutil
+
+    from loadarm import eventlog
+
+    db = tmp_path / "x.db"
+    EventLog(db).close()
+    wal = tmp_path / "x.db-wal"
+    wal.write_bytes(b"\0" * 32)                     # a journal listed as hot...
+    real, calls = shutil.copyfile, []
+
+    def copy(src, dst, *a, **k):
+        calls.append(Path(src).name)
+        if Path(src) == wal and calls.count("x.db-wal") == 1:
+            wal.unlink()                            # ...checkpointed and removed by its writer before the copy
+        return real(src, dst, *a, **k)
+
+    monkeypatch.setattr(shutil, "copyfile", copy)
+    assert eventlog._inspect(db) == eventlog.SCHEMA_VERSION
+    assert calls == ["x.db", "x.db-wal"]            # looked for again: no journal, opened as it is

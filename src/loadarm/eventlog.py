@@ -101,6 +101,42 @@ def _identify(db: sqlite3.Connection, name: str) -> int:
     raise EventLogError(f"{name}: not a loadarm event log (it holds {what})")
 
 
+#: How many times a log's journal is looked for again when it vanishes while it is copied for inspection (another
+#: process writing it: found in a fresh clone's suite, the other writer's ``-wal`` checkpointed and removed
+#: between its listing and its copy).
+INSPECT_ATTEMPTS = 5
+
+
+def _copy_with_journal(path: Path, target: Path) -> bool:
+    """Copy ``path`` and its hot ``-wal`` or ``-journal`` beside ``target`` when it has one (True); False when it
+    has none (nothing copied: the file is opened as it is, immutable). Another process may be writing the log: a
+    journal that vanishes while it is copied (checkpointed and removed by its writer) is looked for again, at most
+    :data:`INSPECT_ATTEMPTS` times."""
+    import shutil
+    import time
+
+    sidecars = [Path(f"{path}{suffix}") for suffix in ("-wal", "-journal")]
+    for _ in range(INSPECT_ATTEMPTS):
+        hot = [s for s in sidecars if s.is_file() and s.stat().st_size > 0]
+        if not hot:
+            return False
+        try:
+            shutil.copyfile(path, target)
+            for s in hot:
+                shutil.copyfile(s, Path(f"{target}{s.name[len(path.name):]}"))
+            return True
+        except FileNotFoundError as exc:
+            if Path(exc.filename or "") not in hot:
+                raise EventLogError(f"{path}: cannot inspect it and its journal on a copy ({exc.strerror}: "
+                                    f"{exc.filename}); nothing was changed") from None
+            time.sleep(0.05)                      # its writer checkpointed and removed it: look again
+        except OSError as exc:
+            raise EventLogError(f"{path}: cannot inspect it and its journal on a copy ({exc.strerror or exc}: "
+                                f"{exc.filename or target.parent}); nothing was changed") from None
+    raise EventLogError(f"{path}: its journal kept vanishing while it was inspected ({INSPECT_ATTEMPTS} times: "
+                        "another process is writing it); nothing was changed: try again")
+
+
 def _inspect(path: Path) -> int:
     """What the file at ``path`` is, read without changing a byte: its schema version (:func:`_identify`) after an
     integrity check. A file without journal files is opened ``immutable`` (no lock, no journal, nothing written
@@ -113,22 +149,12 @@ def _inspect(path: Path) -> int:
     EventLogError
         Not a loadarm log, damaged, or of a newer schema.
     """
-    import shutil
     import tempfile
 
-    sidecars = [Path(f"{path}{suffix}") for suffix in ("-wal", "-journal")]
-    hot = [s for s in sidecars if s.is_file() and s.stat().st_size > 0]
     with tempfile.TemporaryDirectory(prefix="loadarm-inspect-") as tmp:
+        hot = _copy_with_journal(path, Path(tmp) / "log.db")
         if hot:
-            target = Path(tmp) / "log.db"
-            try:
-                shutil.copyfile(path, target)
-                for s in hot:
-                    shutil.copyfile(s, Path(f"{target}{s.name[len(path.name):]}"))
-            except OSError as exc:
-                raise EventLogError(f"{path}: cannot inspect it and its journal on a copy ({exc.strerror or exc}: "
-                                    f"{tempfile.gettempdir()}); nothing was changed") from None
-            uri = f"file:{urllib.parse.quote(str(target))}"
+            uri = f"file:{urllib.parse.quote(str(Path(tmp) / 'log.db'))}"
         else:
             uri = f"file:{urllib.parse.quote(os.path.abspath(path))}?mode=ro&immutable=1"
         try:

@@ -914,7 +914,7 @@ def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model)
     no_face = prediction_state({**p, "ttl": [None, None]}, True)
     assert no_face["text"] == "prediction: no face within 60 s" and no_face["moorings"] == "no mooring load monitoring"
     lost = prediction_state({**p, "trusted": False}, True, "lost")
-    assert lost["moorings"] == "MOORINGS LOST: most lines slack" and lost["moorings_abnormal"] is True
+    assert lost["moorings"] == "MOORINGS LOST: lines slack" and lost["moorings_abnormal"] is True
     silent = prediction_state(None, True, "silent")        # said even with no prediction: the witness's state
     assert silent["moorings"] == "mooring load monitoring silent" and silent["moorings_abnormal"] is True
     off = prediction_state(p, False, "lost")                # not connected: nothing to say of the moorings

@@ -433,7 +433,8 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("fault.events_lost", "alarm", "events lost"),
     EventCode("info.event_log_restored", "info", "event log restored"),
     EventCode("info.measured_esd1", "info", "measured drift calls for ESD-1"),
-    EventCode("info.moorings_lost", "info", "moorings lost: most lines slack, the prediction stands down"),
+    EventCode("info.moorings_lost", "info",
+              "moorings lost: more than a third of the lines slack, the prediction stands down"),
     EventCode("info.moorings_silent", "info", "mooring load monitoring silent: no change detector's call is held"),
     EventCode("interlock.valves_confirmed", "interlock", "ERS valves confirmed closed"),
     EventCode("command.coupler_opening", "command", "ERS-2: coupler opening"),
@@ -481,7 +482,7 @@ CHANGE_ROUTES: tuple[str, ...] = (ROUTE_STEP, ROUTE_BREAKOUT)
 #: slack: the prediction stood down).
 MOORINGS_TEXT: dict[str, str] = {"none": "no mooring load monitoring", "holding": "moorings holding",
                                  "silent": "mooring load monitoring silent",
-                                 "lost": "MOORINGS LOST: most lines slack"}
+                                 "lost": "MOORINGS LOST: lines slack"}
 
 
 def event_label(code: str) -> str:

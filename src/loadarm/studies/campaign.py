@@ -263,19 +263,26 @@ class _Draw:
             else:
                 _check_key(key, Scenario().model_dump(), self.scenario)
 
-    def build(self, seed: int | None, draws: dict):
-        """The scenario and the compiled installation of one run (validated and cross-checked)."""
+    def scenario_of(self, seed: int | None, draws: dict):
+        """The scenario of one run (its seed and the draws of scenario keys; its berth resolved), not checked
+        against the installation: what the ship's records depend on."""
 
-        sc_data, inst_data = copy.deepcopy(self.raw), copy.deepcopy(self.inst_raw)
+        sc_data = copy.deepcopy(self.raw)
         for key, value in draws.items():
-            if key.startswith("installation."):
-                _set(inst_data, key.removeprefix("installation."), value, self.inst_source)
-            else:
+            if not key.startswith("installation."):
                 _set(sc_data, key, value, self.scenario)
         if seed is not None:
             _set(sc_data, "scenario.seed", seed, self.scenario)
+        return resolve_berth(parse_scenario(sc_data, source=self.scenario), self.scenario)
 
-        sc = resolve_berth(parse_scenario(sc_data, source=self.scenario), self.scenario)
+    def build(self, seed: int | None, draws: dict):
+        """The scenario and the compiled installation of one run (validated and cross-checked)."""
+
+        inst_data = copy.deepcopy(self.inst_raw)
+        for key, value in draws.items():
+            if key.startswith("installation."):
+                _set(inst_data, key.removeprefix("installation."), value, self.inst_source)
+        sc = self.scenario_of(seed, draws)
         model = compile_model(parse_config(inst_data, source=self.inst_source), source=self.inst_source)
         check_scenario(sc, model, source=self.scenario)
         return sc, model

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.special import ndtr
 
+from loadarm.guidance.moorings import LOST_SHARE
 from loadarm.studies.metocean import WEATHER
 
 if TYPE_CHECKING:  # the model is only ever received, never built, here
@@ -349,4 +350,22 @@ def manifold_study_figure(times, names, utilisation: np.ndarray) -> Figure:
     ax.set_title("Loads on the ship's flanges over the metocean record: each arm's worst per sea state", fontsize=9)
     fig.autofmt_xdate()
     fig.tight_layout()
+    return fig
+
+
+def watch_basis_figure(result) -> Figure:
+    """The most lines slack at once per run (how many runs), against the watch's share
+    (:class:`loadarm.studies.watch_basis.WatchBasis`)."""
+    from matplotlib.figure import Figure
+
+    most = np.array([r.most_slack for r in result.runs], dtype=int)
+    n = max(result.lines, int(most.max(initial=0)))
+    counts = np.bincount(most, minlength=n + 1)
+    fig = Figure(figsize=(7.0, 3.6))
+    ax = fig.add_subplot()
+    ax.bar(np.arange(n + 1), counts, color="0.45")
+    ax.axvline(LOST_SHARE * result.lines, color="tab:red", lw=1.2,
+               label=f"lost: more than {LOST_SHARE:.3g} of {result.lines} lines")
+    ax.set(xlabel="most lines slack at once in the run", ylabel="runs", title=f"{result.scenario}: {len(most)} runs")
+    ax.legend(loc="upper right", fontsize=8)
     return fig

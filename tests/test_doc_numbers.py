@@ -287,7 +287,7 @@ def _row(v: dict) -> str:
     ("hs15_tracked_hs1.0-1.5", "| `hs15_tracked.toml`, Hs 1.0-1.5 m "),
     ("hs15_tracked_hs1.5-2.0", "| `hs15_tracked.toml`, Hs 1.5-2.0 m "),
     ("hs15_tracked_hs2.0-2.5", "| `hs15_tracked.toml`, Hs 2.0-2.5 m "),
-    ("partial_breakout_tracked", "| `partial_breakout_tracked.toml` (8 of 16 lines part at 400 s, Hs 1.0 m) "),
+    ("partial_breakout_tracked_third", "| `partial_breakout_tracked.toml` (8 of 16 lines part at 400 s, Hs 1.0 m) "),
     ("partial_breakout_squall_tracked_third", "| `partial_breakout_squall_tracked.toml` (the same 8 lines part at 400 "
                                               "s in a 25 m/s squall), the watch at a third "),
     ("partial_breakout_squall_tracked", "| `partial_breakout_squall_tracked.toml`, the watch at a half (`3f424aa`) "),
@@ -315,7 +315,8 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
 
 
 @pytest.mark.parametrize("stored", ["hs15_tracked_hs1.0-1.5", "hs15_tracked_hs1.5-2.0", "hs15_tracked_hs2.0-2.5",
-                                    "breakout_tracked_moorings", "partial_breakout_squall_tracked_third"])
+                                    "breakout_tracked_moorings", "partial_breakout_tracked_third",
+                                    "partial_breakout_squall_tracked_third"])
 def test_each_stored_result_is_its_runs_file_s_and_its_false_releases_are_the_page_s(stored, tmp_path, monkeypatch,
                                                                                       capsys):
     """Each stored section 13 result is what its runs file gives through the campaign's own route today (its

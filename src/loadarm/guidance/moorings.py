@@ -1,7 +1,7 @@
 """The berth's mooring load monitoring, as the guidance reads it: the second witness the predictive alarms need.
 
 A terminal's quick-release hooks carry load cells (OCIMF MEG4 recommends mooring load monitoring; the judgement
-below, its 1 %, 2 s and half the lines, is this project's, measured on the shipped berth); the monitoring reports
+below, its 1 %, 2 s and a third of the lines, is this project's, measured on the shipped berth); the monitoring reports
 each line's load, here as a share of the line's minimum breaking load (MBL, the ship's line's: entered per ship),
 about once a second. The flange predictor (:mod:`loadarm.guidance.predict`) learned the ship on its moorings;
 when the lines part, the ship is no longer the one it learned, and its track stays inside the prediction's
@@ -9,17 +9,18 @@ intervals for seconds after the drift fit's break-out test has seen the drift (f
 campaign, docs/guidance.md section 13). So the predictive rule holds a change detector's call only while this
 watch says the moorings hold.
 
-The judgement: a line is *slack* when its load stays below :data:`SLACK_SHARE` of its MBL for :data:`SLACK_TIME`
-(a load cell cannot tell a parted line from a slack one); the moorings are *lost* when more than
-:data:`LOST_SHARE` of the lines (a third: 6 of 16) are slack at once. Latched for the rest of the run, as the
-departure test is. Measured on the shipped berth (``lng150k.toml``, 16 lines) from its moored-ship records alone,
-the watch's own judgement, every stored seed (100-1099, each run's drawn Hs): at most 2 lines slack at once at
-Hs 1.0-1.5 m, at most 4 at Hs 1.5-2.0 m (the breast lines of one end), so the watch never fires below Hs 2.0 m;
-6 or more in 167 of the 1000 runs at Hs 2.0-2.5 m (more than half in 20); in the break-out (every line parts at
-400 s, 1000 seeds) all 16 were slack, the moorings lost by 401.9 s on the record's 10 Hz (the 402 s reading at
-1 Hz); when half the lines part (the partial break-out, 8 of 16) they are lost at the same reading. Until
-2026-12-06 the share was a half: half the lines parting was not seen, and in a 25 m/s squall the prediction held
-the break-out test's call for up to 24 s (docs/guidance.md section 13, ``partial_breakout_squall_tracked``).
+The judgement: a line is *slack* when its load stays below :data:`SLACK_SHARE` of its MBL for :data:`SLACK_TIME` (a
+load cell cannot tell a parted line from a slack one); the moorings are *lost* when more than :data:`LOST_SHARE` of
+the lines (a third: 6 of 16) are slack at once. Latched for the rest of the run, as the departure test is. Measured
+on the shipped berth (``lng150k.toml``, 16 lines) from its moored-ship records alone, the watch's own judgement,
+every stored run (seeds 100-1099 a band, 100-755 at Hs 0.5-1.0 m, each with its drawn Hs;
+:mod:`loadarm.studies.watch_basis`): no line slack at Hs 0.5-1.0 m, at most 2 lines slack at once at Hs 1.0-1.5 m, at
+most 4 at Hs 1.5-2.0 m (the breast lines of one end), so the watch never fires below Hs 2.0 m; 6 or more in 167 of
+the 1000 runs at Hs 2.0-2.5 m (more than half in 20); in the break-out (every line parts at 400 s, 1000 seeds) all 16
+were slack, the moorings lost by 401.9 s on the record's 10 Hz (the 402 s reading at 1 Hz); when half the lines part
+(the partial break-out, 8 of 16) they are lost at the same reading. Until 2026-12-06 the share was a half: half the
+lines parting was not seen, and in a 25 m/s squall the prediction held the break-out test's call for up to 24 s
+(docs/guidance.md section 13, ``partial_breakout_squall_tracked``).
 
 The watch is a witness only while it is fresh: a reading it cannot use (not finite, not one number per line),
 no reading for :data:`STALE_TIME`, or the same values for that long (a frozen feed: live load cells are never
@@ -47,7 +48,7 @@ SLACK_SHARE = 0.01
 #: of a 1 Hz monitoring: one or two low readings are a snatch or a dropped sample).
 SLACK_TIME = 2.0
 #: The moorings are lost when more than this share of the lines are slack at once (6 of the shipped berth's 16:
-#: the waves slacken the breast lines of one end, at most 4 of 16 below Hs 2.0 m over 2000 stored runs; half the
+#: the waves slacken the breast lines of one end, at most 4 of 16 below Hs 2.0 m over 2656 stored runs; half the
 #: lines parting, 8; a break-out, every line). Lower, the prediction stands down on a wave's slack lines more
 #: often (only ever toward the rule without it: never a later stage); higher, a partial break-out goes unseen.
 LOST_SHARE = 1.0 / 3.0

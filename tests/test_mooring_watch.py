@@ -233,6 +233,9 @@ def test_the_basis_refuses_what_is_not_a_single_arm_s_runs_file(tmp_path):
         with pytest.raises(ConfigError, match=str(bad)):
             watch_basis(bad)
     assert main([str(bad), "--out", str(tmp_path / "o.json")]) == 2 and not (tmp_path / "o.json").exists()
+    theirs = tmp_path / "theirs.json"                         # a file loadarm did not write: never changed
+    theirs.write_text('{"mine": 1}\n')
+    assert main([str(bad), "--out", str(theirs)]) == 2 and theirs.read_text() == '{"mine": 1}\n'
 
 
 @pytest.mark.slow  # 10-20 s: 12 runs of the ship's records

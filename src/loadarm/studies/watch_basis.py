@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -21,8 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from loadarm.errors import ConfigError
-from loadarm.files import atomic_write
+from loadarm import __version__
+from loadarm.errors import ConfigError, OutputError
+from loadarm.files import SIGNATURE, atomic_write, guard_outputs
 from loadarm.guidance.moorings import LOST_SHARE, SLACK_TIME, MooringWatch
 from loadarm.results import Metric, Result
 from loadarm.ship.flange import flange_motion
@@ -176,8 +178,15 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     ap = argparse.ArgumentParser(prog="python -m loadarm.studies.watch_basis", description=__doc__.split("\n")[0])
     ap.add_argument("runs", nargs="+", type=Path, help="campaign runs files (docs/campaigns/*_runs.jsonl)")
-    ap.add_argument("--out", type=Path, required=True, help="the JSON to write (atomically)")
+    ap.add_argument("--out", type=Path, required=True, help="the JSON to write (atomically; never a file loadarm "
+                                                            "did not write, unless --force)")
+    ap.add_argument("--force", action="store_true", help="replace an existing --out loadarm did not write")
     args = ap.parse_args(argv)
+    try:
+        guard_outputs({"--out": args.out}, args.runs, force=args.force)
+    except OutputError as exc:
+        print(exc, file=sys.stderr)
+        return 2
     got = {}
     for f in args.runs:
         try:
@@ -189,8 +198,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"\r{f.name}: {v['runs']} runs, at most {v['most_slack']} of {v['lines']} lines slack at once, "
               f"lost in {v['lost_runs']}", file=sys.stderr)
         got[f.name] = b.to_dict()
-    atomic_write(args.out, json.dumps({"lost_share": LOST_SHARE, "slack_time_s": SLACK_TIME, "files": got},
-                                      indent=1) + "\n")
+    doc = {"generator": f"{SIGNATURE} {__version__}", "lost_share": LOST_SHARE, "slack_time_s": SLACK_TIME,
+           "files": got}
+    text = re.sub(r"\[\s*([^\[\]{}]*?)\s*\]", lambda m: "[" + " ".join(m.group(1).split()) + "]",
+                  json.dumps(doc, indent=2))                  # each innermost list on one line: a run a line
+    atomic_write(args.out, text + "\n")
     return 0
 
 

@@ -217,25 +217,50 @@ def test_the_basis_watch_is_the_guidance_s_watch_over_the_readings():
     for _ in range(20):
         table = np.where(rng.random((40, 16)) < rng.uniform(0.05, 0.6), 0.0, 0.05)      # one reading a second
         motion = SimpleNamespace(line_loads=lambda t, period=1.0: tuple(table[int(math.floor(t + 1e-9))]))
-        most, lost = watch_over_record(motion, 0.0, 40.0)
-        times = np.arange(0.0, 40.0, 0.2)
+        most, lost = watch_over_record(motion, 0.0, 39.8)               # both ends included
+        times = np.arange(0.0, 39.9, 0.2)
         assert lost == pytest.approx(_lost_at_by_count(times, [table[int(math.floor(t + 1e-9))] for t in times]))
         assert (lost is not None) == (most > LOST_SHARE * 16)
 
 
-def test_the_basis_refuses_what_is_not_a_single_arm_s_runs_file(tmp_path):
-    from loadarm.errors import ConfigError
-    from loadarm.studies.watch_basis import main, watch_basis
+def test_the_basis_refuses_what_is_not_a_single_arm_s_runs_file_in_one_line(tmp_path):
+    """Found by review: a header that was not an object raised AttributeError, one without a scenario KeyError,
+    and a runs file of other inputs (a changed berth) gave a silently wrong basis. Each is now one line naming the
+    file, the line and what is wrong; the file is never changed."""
+    import json
+    import shutil
+    from pathlib import Path
 
+    from loadarm.errors import ConfigError
+    from loadarm.studies.watch_basis import _read_runs, main, watch_basis
+
+    root = Path(__file__).resolve().parents[1]
+    scen = root / "examples" / "scenarios"
+    good = (root / "docs" / "campaigns" / "partial_breakout_tracked_third_runs.jsonl").read_text().splitlines()
+    head = json.loads(good[0])
     bad = tmp_path / "x_runs.jsonl"
-    for text in ("", "{}\n", '{"kind": "campaign runs", "bank": "b.toml"}\n', "not json\n"):
+    cases = {"": "line 1: not the header", "[]\n": "line 1: not the header", "1\n": "line 1: not the header",
+             '{"generator": "loadarm", "kind": "campaign runs"}\n': "line 1: scenario = None",
+             json.dumps({**head, "bank": "b.toml"}) + "\n": "line 1: scenario = .*bank = 'b.toml'",
+             json.dumps({**head, "scenario": "nope.toml"}) + "\n": "line 1: scenario = 'nope.toml': no such file",
+             json.dumps({**head, "inputs_sha256": "0" * 64}) + "\n": "line 1: inputs_sha256 = 0000000000000000.*: "
+                                                                     "run on other inputs",
+             good[0] + "\nnot json\n" + good[1] + "\n": "line 2: not a run",
+             good[0] + '\n{"run": {"seed": 1.5, "draws": {}}}\n': "line 2: seed = 1.5",
+             good[0] + '\n{"run": {"seed": 1, "draws": {"ship.history": 9}}}\n': "line 2: draws key 'ship.history'"}
+    for text, why in cases.items():
         bad.write_text(text)
-        with pytest.raises(ConfigError, match=str(bad)):
-            watch_basis(bad)
-    assert main([str(bad), "--out", str(tmp_path / "o.json")]) == 2 and not (tmp_path / "o.json").exists()
+        with pytest.raises(ConfigError, match=f"^{bad}: {why}"):
+            watch_basis(bad, scen)
+        assert bad.read_text() == text                         # never changed
+    bad.write_text(good[0] + "\n" + good[1] + "\n" + good[2][:30])     # a torn last line: skipped, as the campaign
+    assert [s for s, _ in _read_runs(bad, scen)[1]] == [json.loads(good[1])["run"]["seed"]]
+    assert main([str(tmp_path / "none.jsonl"), "--out", str(tmp_path / "o.json")]) == 2
+    assert not (tmp_path / "o.json").exists()
     theirs = tmp_path / "theirs.json"                         # a file loadarm did not write: never changed
     theirs.write_text('{"mine": 1}\n')
-    assert main([str(bad), "--out", str(theirs)]) == 2 and theirs.read_text() == '{"mine": 1}\n'
+    shutil.copy(root / "docs" / "campaigns" / "partial_breakout_tracked_third_runs.jsonl", tmp_path / "p_runs.jsonl")
+    assert main([str(tmp_path / "p_runs.jsonl"), "--out", str(theirs)]) == 2 and theirs.read_text() == '{"mine": 1}\n'
 
 
 @pytest.mark.slow  # 10-20 s: 12 runs of the ship's records

@@ -301,11 +301,11 @@ def test_seed_533_run_past_its_end_on_the_same_sea_releases_before_the_face(monk
     from loadarm.sim import limits
     from loadarm.sim.loop import run_scenario
     from loadarm.ship.model import moored_ship
-    from loadarm.studies.campaign import _Draw
+    from loadarm.studies.campaign import ScenarioDraws
 
     rows = (ROOT / "docs" / "campaigns" / "hs15_tracked_hs2.0-2.5_runs.jsonl").read_text().splitlines()[1:]
     stored = next(r["run"] for r in map(json.loads, rows) if r["run"]["seed"] == 533)
-    sc, model = _Draw(str(SCEN / "hs15_tracked.toml")).build(533, stored["draws"])
+    sc, model = ScenarioDraws(str(SCEN / "hs15_tracked.toml")).build(533, stored["draws"])
     more = 250.0
     monkeypatch.setattr(flange, "MOORED_LOOKAHEAD", flange.MOORED_LOOKAHEAD - more)
     monkeypatch.setattr(limits, "LIMIT_LOOKAHEAD", flange.MOORED_LOOKAHEAD - more - 10.0)

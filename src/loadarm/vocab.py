@@ -478,8 +478,8 @@ MEASURED_ROUTES: tuple[str, ...] = (ROUTE_MEASURED, ROUTE_STEP, ROUTE_BREAKOUT)
 CHANGE_ROUTES: tuple[str, ...] = (ROUTE_STEP, ROUTE_BREAKOUT)
 
 #: The berth's mooring load monitoring as the guidance reads it (:mod:`loadarm.guidance.moorings`), by state:
-#: none linked, the moorings holding, silent (read before, no fresh reading now: no witness), or lost (most lines
-#: slack: the prediction stood down).
+#: none linked, the moorings holding, silent (read before, no fresh reading now: no witness), or lost (more than
+#: a third of the lines slack: the prediction stood down).
 MOORINGS_TEXT: dict[str, str] = {"none": "no mooring load monitoring", "holding": "moorings holding",
                                  "silent": "mooring load monitoring silent",
                                  "lost": "MOORINGS LOST: lines slack"}

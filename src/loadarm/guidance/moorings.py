@@ -15,7 +15,7 @@ the lines (a third: 6 of 16) are slack at once. Latched for the rest of the run,
 on the shipped berth (``lng150k.toml``, 16 lines) from its moored-ship records alone, the watch's own judgement,
 every stored run (seeds 100-1099 a band, 100-755 at Hs 0.5-1.0 m, each with its drawn Hs;
 :mod:`loadarm.studies.watch_basis`): no line slack at Hs 0.5-1.0 m, at most 2 lines slack at once at Hs 1.0-1.5 m, at
-most 4 at Hs 1.5-2.0 m (the breast lines of one end), so the watch never fires below Hs 2.0 m; 6 or more in 167 of
+most 4 at Hs 1.5-2.0 m, so the watch never fires below Hs 2.0 m; 6 or more in 167 of
 the 1000 runs at Hs 2.0-2.5 m (more than half in 20); in the break-out (every line parts at 400 s, 1000 seeds) all 16
 were slack, the moorings lost by 401.9 s on the record's 10 Hz (the 402 s reading at 1 Hz); when half the lines part
 (the partial break-out, 8 of 16) they are lost at the same reading. Until 2026-12-06 the share was a half: half the
@@ -25,8 +25,10 @@ lines parting was not seen, and in a 25 m/s squall the prediction held the break
 The watch is a witness only while it is fresh: a reading it cannot use (not finite, not one number per line),
 no reading for :data:`STALE_TIME`, or the same values for that long (a frozen feed: live load cells are never
 that still) make it *silent*, and a silent watch holds nothing. It never raises in the guidance cycle.
-What it does not see: lines that part one by one while a third or fewer are slack, and brakes rendering (the
-lines stay loaded while the ship moves); there the hold rests on the track's departure test, as before it.
+What it does not see: a third of the lines or fewer parting at once (the four breast lines alone: 4 of 16; the
+waves already slacken 4 below Hs 2.0 m and 5 at 2.0-2.5 m, so a count cannot go lower), lines parting one by one
+while a third or fewer are slack, and brakes rendering (the lines stay loaded while the ship moves); there the hold
+rests on the track's departure test, as before it (docs/guidance.md section 13 measures the breast lines).
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ SLACK_SHARE = 0.01
 #: of a 1 Hz monitoring: one or two low readings are a snatch or a dropped sample).
 SLACK_TIME = 2.0
 #: The moorings are lost when more than this share of the lines are slack at once (6 of the shipped berth's 16:
-#: the waves slacken the breast lines of one end, at most 4 of 16 below Hs 2.0 m over 2656 stored runs; half the
+#: the waves slacken at most 4 of 16 below Hs 2.0 m over 2656 stored runs (the basis does not record which); half the
 #: lines parting, 8; a break-out, every line). Lower, the prediction stands down on a wave's slack lines more
 #: often (toward the rule without it: never later than that rule, but the prediction's own warnings go with it:
 #: at Hs 2.0-2.5 m, 3 of the 167 runs it touched had ESD-1 later than at a half, none reaching a face); higher,

@@ -51,6 +51,7 @@ __all__ = [
     "MAX_SEEDS",
     "CampaignResult",
     "CampaignRun",
+    "ScenarioDraws",
     "Vary",
     "check_campaign",
     "parse_vary",
@@ -238,8 +239,15 @@ def _bounds(sc, model) -> tuple[float, float]:
     return float(sc.scenario.duration), float(stage_leads(model.sequence)[Severity.ESD1])
 
 
-class _Draw:
-    """The scenario file and its installation, read once; :meth:`build` applies one run's seed and draws."""
+class ScenarioDraws:
+    """The scenario file and its installation, read once; :meth:`build` applies one run's seed and draws (the
+    campaign's route, also :mod:`loadarm.studies.watch_basis`'s).
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario file.
+    """
 
     def __init__(self, scenario: str):
 
@@ -254,7 +262,18 @@ class _Draw:
         self.inst_raw = paper_installation().model_dump() if inst_file is None else read_toml(path.parent / inst_file)
 
     def check_keys(self, draws: dict) -> None:
-        """Every varied key names an existing numeric parameter."""
+        """Every varied key names an existing numeric parameter.
+
+        Parameters
+        ----------
+        draws : dict
+            Dotted key to value.
+
+        Raises
+        ------
+        ConfigError
+            A key that names no numeric parameter.
+        """
 
         inst_full = parse_config(self.inst_raw, source=self.inst_source).model_dump()
         for key in draws:
@@ -265,7 +284,19 @@ class _Draw:
 
     def scenario_of(self, seed: int | None, draws: dict):
         """The scenario of one run (its seed and the draws of scenario keys; its berth resolved), not checked
-        against the installation: what the ship's records depend on."""
+        against the installation: what the ship's records depend on.
+
+        Parameters
+        ----------
+        seed : int or None
+            The run's seed (None: the file's).
+        draws : dict
+            Dotted key to value (``installation.`` keys are not the scenario's: skipped).
+
+        Returns
+        -------
+        loadarm.params.scenario.Scenario
+        """
 
         sc_data = copy.deepcopy(self.raw)
         for key, value in draws.items():
@@ -276,7 +307,19 @@ class _Draw:
         return resolve_berth(parse_scenario(sc_data, source=self.scenario), self.scenario)
 
     def build(self, seed: int | None, draws: dict):
-        """The scenario and the compiled installation of one run (validated and cross-checked)."""
+        """The scenario and the compiled installation of one run (validated and cross-checked).
+
+        Parameters
+        ----------
+        seed : int or None
+            The run's seed (None: the file's).
+        draws : dict
+            Dotted key to value.
+
+        Returns
+        -------
+        (loadarm.params.scenario.Scenario, loadarm.arm.model.ArmModel)
+        """
 
         inst_data = copy.deepcopy(self.inst_raw)
         for key, value in draws.items():
@@ -291,7 +334,7 @@ class _Draw:
 def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -> list[CampaignRun]:
     """Worker: run a batch of (seed, draws) of one scenario file."""
 
-    draw = _Draw(scenario)
+    draw = ScenarioDraws(scenario)
     results = []
     ships: dict = {}                      # the moored ship compiled once per berth file in a batch
     for seed, draws in jobs:
@@ -502,7 +545,7 @@ def _with_bounds(scenario: str, runs: list[CampaignRun]) -> list[CampaignRun]:
     (built once per distinct draw of the keys that change them: the duration and the installation)."""
     if all(r.end_s is not None for r in runs):
         return runs
-    draw, memo, out = _Draw(scenario), {}, []
+    draw, memo, out = ScenarioDraws(scenario), {}, []
     for r in runs:
         if r.end_s is None:
             key = tuple(sorted((k, v) for k, v in r.draws.items()
@@ -583,7 +626,7 @@ def _validate(scenario: str, job: tuple[int, dict], plant: str | None) -> None:
     """Refuse bad input before forking: the keys, then the scenario with the first draw (no run)."""
     if plant not in (None, "hydraulic", "kinematic"):
         raise ConfigError(f"plant must be 'hydraulic' or 'kinematic', got {plant!r}")
-    draw = _Draw(scenario)
+    draw = ScenarioDraws(scenario)
     draw.check_keys(job[1])
     draw.build(job[0], job[1])
 

@@ -27,7 +27,7 @@ from pathlib import Path
 from loadarm.errors import ConfigError
 from loadarm.files import SIGNATURE
 
-__all__ = ["RUNS_KIND", "RUNS_FILE_BATCH", "code_digest", "RunsFile", "Tally"]
+__all__ = ["RUNS_KIND", "RUNS_FILE_BATCH", "code_digest", "inputs_digest", "RunsFile", "Tally"]
 
 #: The header's ``kind``.
 RUNS_KIND = "campaign runs"
@@ -51,9 +51,23 @@ def code_digest() -> str:
     return h.hexdigest()
 
 
-def _inputs_digest(scenario: str, also: Sequence[str | Path] = ()) -> str:
-    """The scenario file's contents and those of the files it names (installation, berth), resolved as the
-    scenario resolves them, and of the files ``also`` names (a bank and its installations)."""
+def inputs_digest(scenario: str, also: Sequence[str | Path] = ()) -> str:
+    """The digest of a campaign's inputs: the scenario file's contents and those of the files it names
+    (installation, berth), resolved as the scenario resolves them, and of the files ``also`` names (a bank and
+    its installations).
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario file.
+    also : sequence of str or Path
+        Further input files.
+
+    Returns
+    -------
+    str
+        SHA-256, hex.
+    """
     import tomllib
 
     path = Path(scenario)
@@ -100,7 +114,7 @@ class RunsFile:
                  bank: str | Path | None = None, also: Sequence[str | Path] = ()):
         self.path = Path(path)
         self.header = {"generator": SIGNATURE, "kind": RUNS_KIND, "scenario": Path(scenario).name,
-                       "inputs_sha256": _inputs_digest(scenario, ([bank] if bank else []) + list(also)),
+                       "inputs_sha256": inputs_digest(scenario, ([bank] if bank else []) + list(also)),
                        "plant": plant, "vary": [[k, float(lo), float(hi)] for k, lo, hi in vary]}
         if bank is not None:                        # a single arm's header has no such key (files before it)
             self.header["bank"] = Path(bank).name

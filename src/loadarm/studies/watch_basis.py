@@ -30,12 +30,14 @@ from loadarm.results import Metric, Result
 from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import LINE_LOAD_PERIOD
-from loadarm.studies.campaign import _Draw
+from loadarm.studies.campaign import ScenarioDraws
+from loadarm.studies.runs_file import inputs_digest
 from loadarm.studies.plots import watch_basis_figure
 
 __all__ = ["WatchRun", "WatchBasis", "watch_over_record", "watch_basis", "main"]
 
-#: The step the watch is updated at, s (the guidance cycle's; the readings change once a second).
+#: The step the watch is updated at, s (a tenth of the 2 s slack time; the readings change once a second,
+#: so updating at every 20 ms cycle finds the same times).
 STEP = 0.2
 
 
@@ -58,7 +60,7 @@ def watch_over_record(motion, start: float, end: float, step: float = STEP) -> t
     motion : loadarm.ship.flange.MooredFlangeMotion
         The run's flange motion (its ``line_loads(t, period)``: what the monitoring reports).
     start, end : float
-        Run times, s.
+        Run times, s (both included, as the run's cycles are).
     step : float
         The update step, s.
 
@@ -68,7 +70,7 @@ def watch_over_record(motion, start: float, end: float, step: float = STEP) -> t
         The most lines slack at once, and when the watch found the moorings lost (None: never).
     """
     watch, most = MooringWatch(), 0
-    for t in np.arange(start, end, step):
+    for t in np.arange(start, end + step / 2, step):                  # the end's cycle included
         now = float(t)
         watch.update(now, motion.line_loads(now, LINE_LOAD_PERIOD))
         if watch.low_since is not None:
@@ -111,17 +113,50 @@ class WatchBasis(Result):
         return watch_basis_figure(self)
 
 
-def _read_runs(path: Path) -> tuple[dict, list[tuple[int, dict]]]:
-    """A runs file's header and its runs' (seed, draws), by seed (a later line for a seed wins, as the campaign
-    reads it)."""
-    lines = path.read_text(encoding="utf-8").splitlines()
+def _refuse(path: Path, n: int, what: str) -> ConfigError:
+    return ConfigError(f"{path}: line {n}: {what}")
+
+
+def _read_runs(path: Path, scenarios: Path) -> tuple[dict, list[tuple[int, dict]]]:
+    """A runs file's header (checked: a single arm's campaign of the scenario as it ships today) and its runs'
+    (seed, draws), by seed (a later line for a seed wins, as the campaign reads it; a torn last line, which the
+    campaign cuts, is skipped). Never changes the file."""
     try:
-        head = json.loads(lines[0])
-        runs = {int(r["run"]["seed"]): dict(r["run"]["draws"]) for r in map(json.loads, filter(None, lines[1:]))}
-    except (IndexError, KeyError, TypeError, ValueError) as exc:
-        raise ConfigError(f"{path}: not a campaign runs file ({exc})") from None
-    if head.get("kind") != "campaign runs" or head.get("bank"):
-        raise ConfigError(f"{path}: not a single arm's campaign runs file (kind {head.get('kind')!r})")
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read it ({exc})") from None
+    lines = text.splitlines()
+    try:
+        head = json.loads(lines[0]) if lines else None
+    except ValueError:
+        head = None
+    if not isinstance(head, dict) or head.get("generator") != SIGNATURE or head.get("kind") != "campaign runs":
+        raise _refuse(path, 1, "not the header of a loadarm campaign runs file")
+    if head.get("bank") or not isinstance(head.get("scenario"), str) or not isinstance(head.get("inputs_sha256"), str):
+        raise _refuse(path, 1, f"scenario = {head.get('scenario')!r}, bank = {head.get('bank')!r}: a single arm's "
+                               "campaign of one scenario expected")
+    scenario = scenarios / head["scenario"]
+    if not scenario.is_file():
+        raise _refuse(path, 1, f"scenario = {head['scenario']!r}: no such file in {scenarios}")
+    if inputs_digest(str(scenario)) != head["inputs_sha256"]:
+        raise _refuse(path, 1, f"inputs_sha256 = {head['inputs_sha256'][:16]}...: {scenario} and the files it "
+                               f"names now digest to {inputs_digest(str(scenario))[:16]}...: run on other inputs")
+    runs = {}
+    for n, line in enumerate(lines[1:], start=2):
+        try:
+            run = json.loads(line)["run"] if line else None
+            seed, draws = run["seed"], run["draws"]
+        except (ValueError, KeyError, TypeError):
+            if n == len(lines) and not text.endswith("\n"):
+                continue                                    # a torn last line: the campaign cuts it
+            raise _refuse(path, n, "not a run: {\"run\": {\"seed\": ..., \"draws\": {...}}} expected") from None
+        if isinstance(seed, bool) or not isinstance(seed, int) or not isinstance(draws, dict):
+            raise _refuse(path, n, f"seed = {seed!r}, draws = {draws!r}: an integer and an object expected")
+        for key in draws:
+            if str(key).startswith("ship."):
+                raise _refuse(path, n, f"draws key {key!r}: the basis compiles the moored ship once; a varied "
+                                       "ship is not supported")
+        runs[seed] = dict(draws)
     return head, sorted(runs.items())
 
 
@@ -144,17 +179,18 @@ def watch_basis(runs_file: str | Path, scenarios: str | Path = "examples/scenari
     """
 
     path = Path(runs_file)
-    head, jobs = _read_runs(path)
-    draw = _Draw(str(Path(scenarios) / head["scenario"]))
+    head, jobs = _read_runs(path, Path(scenarios))
+    draw = ScenarioDraws(str(Path(scenarios) / head["scenario"]))
     ship, out, lines = None, [], 0
     for i, (seed, draws) in enumerate(jobs):
         sc = draw.scenario_of(seed, draws)
         if sc.ship.model != "moored":
             raise ConfigError(f"{path}: scenario {head['scenario']} has no moored ship: no lines to watch")
-        ship = ship or moored_ship(sc)
+        if ship is None:
+            ship = moored_ship(sc)
         motion = flange_motion(sc, ship)
         lines = int(np.size(motion.motion.mbl))
-        most, lost = watch_over_record(motion, 0.0, sc.scenario.duration)
+        most, lost = watch_over_record(motion, 0.0, sc.scenario.duration)      # every cycle, the last's too
         out.append(WatchRun(seed, draws, most, lost))
         if progress is not None:
             progress(i + 1, len(jobs))

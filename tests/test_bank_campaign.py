@@ -245,6 +245,7 @@ def test_the_clearance_while_retracting_is_the_vectorised_route_s(bank):
     assert np.all(np.isfinite(gaps)) and gaps.min() > bank.file.clearance.min_clearance
 
 
+@pytest.mark.slow  # 1.5-2.5 s (make test's two-minute budget, 2026-12-06; CI runs it)
 def test_a_bank_campaign_in_parts_is_the_campaign_at_once_and_its_runs_file_is_the_bank_s(tmp_path, monkeypatch):
     """With --runs the bank's campaign keeps its runs (batches of at most RUNS_FILE_BATCH), runs only the seeds the
     file lacks, and reports over the whole range; a single arm's runs file, or another bank's, is refused in one

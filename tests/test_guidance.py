@@ -193,6 +193,7 @@ def test_emergency_stop_from_any_mode(model):
         assert cmd.mode == Mode.ESTOP and cmd.rates == (0.0, 0.0, 0.0)
 
 
+@pytest.mark.slow  # 1.5-2.5 s (make test's two-minute budget, 2026-12-06; CI runs it)
 @settings(max_examples=examples(200))
 @given(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1))
 def test_commands_never_cross_a_joint_or_stroke_limit(u0, u1, u2, w0, w1, w2):
@@ -450,6 +451,7 @@ def test_a_long_swell_is_taken_for_steps_and_break_outs_the_limit_quoted_in_the_
                               f"{bo[30.0]:.0f} at Tp 30 s, where the closed loop raised ESD-1 in {alarmed} of 3 seeds")
 
 
+@pytest.mark.slow  # 1.5-2.5 s (make test's two-minute budget, 2026-12-06; CI runs it)
 @pytest.mark.parametrize("rate", [2.0, 4.0, 7.0])
 def test_the_drift_monitor_forecasts_at_any_guidance_rate(rate):
     """Found: at a guidance rate of 5 Hz or less every cycle kept a fit sample, so the forecast (made in a cycle
@@ -624,6 +626,7 @@ def test_scenario_validation(tmp_path):
         load_scenario(bad)
 
 
+@pytest.mark.slow  # 1.5-2.5 s (make test's two-minute budget, 2026-12-06; CI runs it)
 def test_same_controller_runs_in_real_time():
     import time as _time
 

@@ -56,6 +56,7 @@ def test_a_block_coefficient_outside_the_family_is_refused():
         hull_mesh(278.0, 43.4, 30.0, 26.0, 0.74)
 
 
+@pytest.mark.slow  # 1.5-2.5 s (make test's two-minute budget, 2026-12-06; CI runs it)
 def test_capytaine_agrees_on_the_displaced_volume_and_waterplane():
     """Second route through the BEM solver's own mesh tools (skipped where capytaine is not installed)."""
     cpt = pytest.importorskip("capytaine")

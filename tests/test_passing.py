@@ -250,6 +250,7 @@ def _scenario(ships):
     return p, run, calm, t, f
 
 
+@pytest.mark.slow  # 1.5-2.5 s (make test's two-minute budget, 2026-12-06; CI runs it)
 def test_the_example_passing_scenario_moves_the_ship_and_loads_the_lines(ships):
     _p, run, calm, t, f = _scenario(ships)
     rel = run.pose - run.mean_pose

@@ -41,6 +41,7 @@ def _feed(fp: pr.FlangePredictor, p: np.ndarray, t0: float = 0.0, dt: float = 0.
         fp.push(t0 + i * dt, p[i])
 
 
+@pytest.mark.slow  # 1.5-2.5 s (make test's two-minute budget, 2026-12-06; CI runs it)
 def test_the_predictor_claims_only_after_its_fit_and_calibration():
     """No forecast before MIN_FIT s of track and MIN_ERRORS realised errors at the first horizon; then the
     whole claim (120 s) once every horizon has its errors; in a stationary sway the departure test stays quiet."""
@@ -60,6 +61,7 @@ def test_the_predictor_claims_only_after_its_fit_and_calibration():
     assert np.all(np.isnan(fp.forecast.lo[int(fp.forecast.claimed):]))
 
 
+@pytest.mark.slow  # 1.5-2.5 s (make test's two-minute budget, 2026-12-06; CI runs it)
 def test_a_drift_the_model_has_not_seen_is_found_and_stands_the_prediction_down():
     """A drift at 0.02 m/s^2 (a break-out) added to a calibrated sway: the departure test finds it within 25 s
     (2 blocks at 3 half-widths); from then the prediction is not trusted for the rest of the connection."""

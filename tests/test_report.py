@@ -211,6 +211,7 @@ def _render_minimal():
                 seq=NS(esd_time=1.0, ers_valve_time=1.0, erc_release_time=1.0, margin=1.0))
 
 
+@pytest.mark.slow  # 1.5-2.5 s (make test's two-minute budget, 2026-12-06; CI runs it)
 def test_the_report_plans_each_timing_law_once(monkeypatch, tmp_path):
     """Found: build_report planned seven times. Now one plan per law serves every section."""
     import loadarm.present.report as rep

@@ -106,7 +106,6 @@ class WatchBasis(Result):
         d["runs_file"] = self.runs_file
         d["lost_seeds"] = [r.seed for r in self.runs if r.lost_at is not None]
         d["per_run"] = [[r.seed, r.most_slack, r.lost_at] for r in self.runs]      # seed, most slack, lost at
-
         return d
 
     def _figure(self):

@@ -212,15 +212,13 @@ def _kalman_workload(state={"x": np.zeros(4), "P": np.eye(4)}):
     state["P"] = (np.eye(4) - K @ H) @ P
 
 
-def test_guidance_controller_cycle_p99(results):
-    """One guidance cycle (estimate + decide + command) against a fixed workload timed in the same run, one
-    workload between every two cycles (the run's pacing hook, outside the cycle's own timing): found, with the
-    workload timed after the run the median ratio was 1.1x one run and 2.4x the next, this machine's speed
-    drifting between the two halves."""
+def _run_with_workload_between_cycles(scenario: str, **kw):
+    """A scenario's run, the fixed workload timed once between every two cycles (the run's pacing hook, outside
+    the cycle's own timing): the run and the workload's times, us."""
     from loadarm.params.scenario import load_scenario
     from loadarm.sim.loop import run_scenario
 
-    sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15.toml")
+    sc, model = load_scenario(ROOT / "examples" / "scenarios" / scenario)
     times = []
 
     def workload_between_cycles(_now):
@@ -228,8 +226,15 @@ def test_guidance_controller_cycle_p99(results):
         _kalman_workload()
         times.append((time.perf_counter() - t0) * 1e6)
 
-    r = run_scenario(sc, model, pace=workload_between_cycles)
-    ref = np.array(times)
+    return run_scenario(sc, model, pace=workload_between_cycles, **kw), np.array(times)
+
+
+def test_guidance_controller_cycle_p99(results):
+    """One guidance cycle (estimate + decide + command) against a fixed workload timed in the same run, one
+    workload between every two cycles (the run's pacing hook, outside the cycle's own timing): found, with the
+    workload timed after the run the median ratio was 1.1x one run and 2.4x the next, this machine's speed
+    drifting between the two halves."""
+    r, ref = _run_with_workload_between_cycles("hs15.toml")
     assert ref.size == r.cycle_us.size
     med, p99 = float(np.median(r.cycle_us)), float(np.percentile(r.cycle_us, 99))
     rmed, rp99 = float(np.median(ref)), float(np.percentile(ref, 99))
@@ -589,20 +594,11 @@ def test_the_whole_guidance_cycle_on_a_tracked_ship(results):
     cycles that close a one-second block carry the prediction, so its p99 is theirs: goal p99 <= half the
     guidance cycle's period (as the predictor's own goal above); the median and p99 against the fixed Kalman
     workload timed between the cycles are reported, and the worst cycle printed."""
-    from loadarm.params.scenario import Guidance, load_scenario
-    from loadarm.sim.loop import run_scenario
+    from loadarm.params.scenario import Guidance
 
-    sc, model = load_scenario(ROOT / "examples" / "scenarios" / "hs15_tracked.toml")
-    times = []
-
-    def workload_between_cycles(_now):
-        t0 = time.perf_counter()
-        _kalman_workload()
-        times.append((time.perf_counter() - t0) * 1e6)
-
-    r = run_scenario(sc, model, plant="kinematic", pace=workload_between_cycles)
+    r, ref = _run_with_workload_between_cycles("hs15_tracked.toml", plant="kinematic")
     assert r.first_code("info.moorings_lost") is None          # the watch read the lines, and they held
-    cyc, ref = r.cycle_us / 1e3, np.array(times) / 1e3
+    cyc, ref = r.cycle_us / 1e3, ref / 1e3
     period = 1e3 / Guidance().rate
     p99 = float(np.percentile(cyc, 99))
     results["tracked guidance cycle median [ms]"] = float(np.median(cyc))

@@ -420,3 +420,50 @@ def test_bank_page_s_manifold_record_numbers_are_the_figure_s():
     i, j = np.unravel_index(int(np.argmax(u)), u.shape)
     cited("docs/bank.md", f"the worst is {rec.names[i]}'s {LOAD_LABELS[j]}, {rec.worst[i, j] / 1e3:.2f} kN "
                           f"({u[i, j]:.2f} of the allowable), at {rec.worst_time[i, j]:.0f} s")
+
+
+def test_guidance_section_13_watch_numbers_are_the_stored_basis_and_runs():
+    """The mooring watch's numbers in docs/guidance.md section 13 (the watch at a third, 2026-12-06) recomputed
+    from the stored basis (``mooring_watch_basis.json``) and runs files: the most lines slack at once per band;
+    the Hs 2.0-2.5 m runs the watch touches, against the file with the watch at a half; the five-lines case's
+    later runs' leads. Found by the final review: these were written from one-off scripts and held by nothing."""
+    import json
+
+    camp = ROOT / "docs" / "campaigns"
+    files = json.loads((camp / "mooring_watch_basis.json").read_text())["files"]
+    most = {band: [r[1] for r in files[f"hs15_tracked_hs{band}_runs.jsonl"]["per_run"]]
+            for band in ("0.5-1.0", "1.0-1.5", "1.5-2.0", "2.0-2.5")}
+    seeds = [r[0] for r in files["hs15_tracked_hs0.5-1.0_runs.jsonl"]["per_run"]]
+    assert max(most["0.5-1.0"]) == 0
+    cited("docs/guidance.md", f"ever slack ({len(seeds)} runs, seeds {min(seeds)}-{max(seeds)}), at Hs 1.0-1.5 m at "
+                              f"most {max(most['1.0-1.5'])} of the 16 at once, at Hs 1.5-2.0 m at most "
+                              f"{max(most['1.5-2.0'])} (1000 runs each)")
+    hi = most["2.0-2.5"]
+    cited("docs/guidance.md", f"at Hs 2.0-2.5 m 5 at once in {hi.count(5)} runs, 6 or more in "
+                              f"{sum(m >= 6 for m in hi)} of 1000 (more than half in {sum(m > 8 for m in hi)}:")
+
+    def runs(name):
+        return {r["run"]["seed"]: r for r in map(json.loads, (camp / name).read_text().splitlines()[1:])}
+
+    half, third = runs("hs15_tracked_hs2.0-2.5_runs.jsonl"), runs("hs15_tracked_hs2.0-2.5_third_runs.jsonl")
+    old_codes = {r["code"] for r in half.values()}
+    earlier, later, gained = [], [], 0
+    for seed, r in third.items():
+        if r["code"] in old_codes:
+            continue
+        a, b = half[seed]["run"]["alarm1_s"], r["run"]["alarm1_s"]
+        gained += a is None and b is not None
+        if a is not None and b is not None and b != a:
+            (later if b > a else earlier).append((seed, abs(b - a)))
+    cited("docs/guidance.md", f"ESD-1 came earlier than at a half in {len(earlier)} (up to "
+                              f"{max(d for _, d in earlier):.1f} s), {gained} runs gained a false ESD-1, and "
+                              f"{len(later)} (seeds {', '.join(str(s) for s, _ in sorted(later)[:-1])} and "
+                              f"{sorted(later)[-1][0]}) had theirs later, by {min(d for _, d in later):.1f}-"
+                              f"{max(d for _, d in later):.1f} s")
+    by_rule = json.loads((camp / "hs15_tracked_hs2.0-2.5_third.json").read_text())["result"]["false_alarms_by_rule"]
+    cited("docs/guidance.md", f"(floor {by_rule['floor']}, measured {by_rule['measured']}, prediction "
+                              f"{by_rule['prediction']}, position {by_rule['position']})")
+    five = runs("five_lines_squall_tracked_runs.jsonl")
+    stored = json.loads((camp / "five_lines_squall_tracked.json").read_text())["result"]
+    leads = [five[s]["run"]["limit_s"] - five[s]["run"]["alarm1_s"] for s in stored["later_seeds"]]
+    cited("docs/guidance.md", f"still {min(leads):.0f}-{max(leads):.0f} s before its face")

@@ -31,7 +31,7 @@ from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import LINE_LOAD_PERIOD
 from loadarm.studies.campaign import ScenarioDraws
-from loadarm.studies.runs_file import inputs_digest
+from loadarm.studies.runs_file import RUNS_KIND, inputs_digest
 from loadarm.studies.plots import watch_basis_figure
 
 __all__ = ["WatchRun", "WatchBasis", "watch_over_record", "watch_basis", "main"]
@@ -129,7 +129,7 @@ def _read_runs(path: Path, scenarios: Path) -> tuple[dict, list[tuple[int, dict]
         head = json.loads(lines[0]) if lines else None
     except ValueError:
         head = None
-    if not isinstance(head, dict) or head.get("generator") != SIGNATURE or head.get("kind") != "campaign runs":
+    if not isinstance(head, dict) or head.get("generator") != SIGNATURE or head.get("kind") != RUNS_KIND:
         raise _refuse(path, 1, "not the header of a loadarm campaign runs file")
     if head.get("bank") or not isinstance(head.get("scenario"), str) or not isinstance(head.get("inputs_sha256"), str):
         raise _refuse(path, 1, f"scenario = {head.get('scenario')!r}, bank = {head.get('bank')!r}: a single arm's "

@@ -201,8 +201,44 @@ def test_hardware_in_the_loop_the_drift_off_across_two_processes_runs_the_same_m
         assert service.finished.wait(sc.scenario.duration / 4 + 60)
         assert service.error is None
         got = loop.result().summary()["mode_sequence"]
-        assert got == want, (got, want)
+        holds = [got[i - 1] for i in range(1, len(got)) if got[i] == "HOLD"]
+        print(f"HIL drift-off: {got}; HOLD entered {len(holds)} time(s), from {holds}")
+        assert _without_stale_holds(got) == want, (got, want)
+        assert len(holds) <= MAX_HIL_HOLDS and set(holds) <= {"APPROACH", "STANDOFF"}, got
         assert ", ".join(want) in Path("docs/plant-integration.md").read_text().replace("\n", " ")
+
+
+#: A loaded machine (CI: the realtime tests after 33 min of the suite on two cores) can deliver a reading late
+#: enough that the estimate goes stale while the arm approaches: the controller then holds (zero rates) until it is
+#: fresh and resumes, the safe response (found: CI of 2026-12-06, APPROACH, HOLD, APPROACH). At most this many
+#: such holds, and only before the coupling: the connected part of the sequence must be exact.
+MAX_HIL_HOLDS = 3
+
+
+def _without_stale_holds(modes: list[str]) -> list[str]:
+    """The mode sequence with each ``X, HOLD, X`` collapsed to ``X`` (HOLD is entered only by the fresh-estimate
+    rule, :meth:`loadarm.guidance.rules.Rules.rule_fresh_estimate`); a HOLD that leads elsewhere is kept."""
+    out: list[str] = []
+    i = 0
+    while i < len(modes):
+        if modes[i] == "HOLD" and out and i + 1 < len(modes) and modes[i + 1] == out[-1]:
+            i += 2
+            continue
+        out.append(modes[i])
+        i += 1
+    return out
+
+
+def test_the_hil_comparison_collapses_only_a_hold_that_returns_to_the_mode_before_it():
+    """The HIL test's tolerance for a late reading: the CI failure's sequence collapses to the one-process one;
+    a HOLD that goes elsewhere, or a HOLD at the start, is kept (and fails the comparison)."""
+    ci = ["STORED", "APPROACH", "HOLD", "APPROACH", "STANDOFF", "CONNECTED", "ALARM1", "RELEASE", "RETURN"]
+    assert _without_stale_holds(ci) == ["STORED", "APPROACH", "STANDOFF", "CONNECTED", "ALARM1", "RELEASE",
+                                        "RETURN"]
+    assert _without_stale_holds(["STORED", "APPROACH", "HOLD", "STORED"]) == ["STORED", "APPROACH", "HOLD",
+                                                                              "STORED"]
+    assert _without_stale_holds(["HOLD", "STORED"]) == ["HOLD", "STORED"]
+    assert _without_stale_holds(["A", "HOLD", "A", "HOLD", "A", "B"]) == ["A", "B"]
 
 
 @pytest.mark.slow

@@ -22,8 +22,12 @@ $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 
+# Installing compiles the numba kernels into the cache too (`loadarm warmup`: cold on 2 cores about 37 s, measured
+# 2026-12-07), as on a controller after an install; `make test` runs it again (2 s when warm, or after an edit the
+# kernels that changed).
 $(STAMP): pyproject.toml $(LOCK) | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -c $(LOCK) -e '.[test]'
+	$(BIN)/loadarm warmup
 	touch $(STAMP)
 
 $(BSTAMP): pyproject.toml $(LOCK) $(STAMP)
@@ -34,12 +38,14 @@ demo: $(STAMP)
 	$(BIN)/loadarm demo --out out
 
 # The suite spreads over every core (pytest-xdist); idle workers steal queued tests (measured on 2 cores:
-# 110 s against 123 s a file to a worker, 197 s against 216 s of CPU): make test stays within two minutes.
-# `loadarm warmup` compiles the numba kernels into the cache once, its families side by side, before the suite (cold
-# on 2 cores: 24 s, where each worker compiling them again cost 55 s of the run; warm: 2 s).
+# 110 s against 123 s a file to a worker, 197 s against 216 s of CPU): make test stays within two minutes
+# (2026-12-07: pytest 95 s, with the properties on 100 examples: the quick profile, tests/conftest.py).
+# `loadarm warmup` compiles the numba kernels into the cache once, its families side by side, before the suite
+# (cold on 2 cores: 37 s, where each worker compiling them again cost 55 s of the run; warm: 2 s).
 test: $(STAMP)
 	$(BIN)/loadarm warmup
-	$(BIN)/python -m pytest -q -n auto --dist worksteal $(PYTEST_MARK)
+	HYPOTHESIS_PROFILE=$${HYPOTHESIS_PROFILE:-$(if $(SLOW),ci,quick)} \
+	    $(BIN)/python -m pytest -q -n auto --dist worksteal $(PYTEST_MARK)
 	$(if $(SLOW),$(REALTIME))
 
 test-all: $(STAMP)

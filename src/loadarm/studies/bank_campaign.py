@@ -74,7 +74,7 @@ from loadarm.studies.kernel import breakout_time, floor_table, ray_distances
 from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile, Tally
 
 __all__ = ["BankRun", "BankCampaignResult", "bank_run", "run_bank_campaign", "check_bank_campaign",
-           "bank_sequence", "arm_record", "single_arm_run", "retraction_times", "couplers", "BANK_PERIOD"]
+           "bank_sequence", "sequence_table", "arm_record", "single_arm_run", "retraction_times", "couplers", "BANK_PERIOD"]
 
 #: The monitor's sampling period, s (its 5 Hz forecast).
 BANK_PERIOD = 0.2
@@ -214,7 +214,7 @@ class BankRun:
         return [(f if f == f else math.inf) - r for f, r in zip(self.face_s, self.free_s, strict=True) if r == r]
 
 
-def _sequence_table(models) -> np.ndarray:
+def sequence_table(models) -> np.ndarray:
     """The sequence's figures per arm, as :func:`bank_sequence` reads them."""
     return np.array([[m.sequence.ers_valve_time, m.sequence.erc_release_time, m.sequence.margin,
                       esd_lead(m.sequence), valve_worst_time(m.sequence),
@@ -405,7 +405,7 @@ def bank_run(bank: Bank, motion, reference, tables: list, seed: int, duration: f
                     for i, (m, p) in enumerate(zip(bank.models, per, strict=True))])
     ttl = np.minimum(own, _bank_face_times(monitor, centre[:n_run], angles[:n_run], horizon, every))
     level = np.ascontiguousarray(np.stack([p[1][:n_run] for p in per]))
-    seq = _sequence_table(bank.models)
+    seq = sequence_table(bank.models)
     idx = [np.full(len(bank.names), -1, dtype=np.int64) for _ in range(3)]
     _, i_esd, i_req, first = bank_sequence(level, np.ascontiguousarray(ttl), seq, *idx)
     past = np.stack([p[3] for p in per])                                     # (arms, n) whole record
@@ -442,7 +442,7 @@ def single_arm_run(model, table, motion, duration: float) -> dict:
     ttl = np.minimum(ttl, np.concatenate([measured_times(model, p[:n_run], ttl[:n_run], horizon),
                                           np.full(t.size - n_run, np.inf)]))
     idx = [np.full(1, -1, dtype=np.int64) for _ in range(3)]
-    _, i_esd, _, _ = bank_sequence(level[None, :n_run].copy(), ttl[None, :n_run].copy(), _sequence_table([model]),
+    _, i_esd, _, _ = bank_sequence(level[None, :n_run].copy(), ttl[None, :n_run].copy(), sequence_table([model]),
                                    *idx)
     opened = _when(t, int(idx[2][0]))
     free = opened + model.sequence.erc_release_time

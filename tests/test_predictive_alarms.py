@@ -178,7 +178,7 @@ def test_no_prediction_beyond_the_claim_and_no_crossing_from_it():
 
 def test_the_rules_are_declared_once():
     """Every alarm event's rule code is declared in vocab.ALARM_RULES (the words the journal shows)."""
-    assert set(ALARM_RULES) == {"position", "floor", "measured", "prediction", "operator", "fault"}
+    assert set(ALARM_RULES) == {"position", "floor", "measured", "prediction", "hold_limit", "operator", "fault"}
 
 
 @pytest.mark.slow                 # 7 s: make test keeps to its 2-minute budget; CI runs it

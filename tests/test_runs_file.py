@@ -130,7 +130,7 @@ def test_with_a_runs_file_each_batch_is_small_so_a_kill_loses_little(tmp_path, m
                                          release_margin_s=None, limit_face="") for s, d in jobs]
         raise KeyboardInterrupt                      # the kill, after the first batch
 
-    monkeypatch.setattr(campaign, "_run_batch", counted)
+    monkeypatch.setattr(campaign, "run_batch", counted)
     runs = tmp_path / "runs.jsonl"
     with pytest.raises(KeyboardInterrupt):
         run_campaign(_short(tmp_path), 100, workers=1, runs_file=runs)
@@ -138,7 +138,7 @@ def test_with_a_runs_file_each_batch_is_small_so_a_kill_loses_little(tmp_path, m
     assert sizes == [campaign.RUNS_FILE_BATCH, campaign.RUNS_FILE_BATCH]
     assert [k["run"]["seed"] for k in kept] == list(range(campaign.RUNS_FILE_BATCH))
     sizes.clear()
-    monkeypatch.setattr(campaign, "_run_batch", lambda sc, pl, jobs: sizes.append(len(jobs)) or [])
+    monkeypatch.setattr(campaign, "run_batch", lambda sc, pl, jobs: sizes.append(len(jobs)) or [])
     run_campaign(_short(tmp_path, "other.toml"), 100, workers=1)       # no runs file: about four a worker
     assert sizes == [25, 25, 25, 25]
 

@@ -433,6 +433,7 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("fault.events_lost", "alarm", "events lost"),
     EventCode("info.event_log_restored", "info", "event log restored"),
     EventCode("info.measured_esd1", "info", "measured drift calls for ESD-1"),
+    EventCode("info.measured_esd1_end", "info", "measured drift's call for ESD-1 ends"),
     EventCode("info.moorings_lost", "info",
               "moorings lost: more than a third of the lines slack, the prediction stands down"),
     EventCode("info.moorings_silent", "info", "mooring load monitoring silent: no change detector's call is held"),
@@ -462,6 +463,7 @@ ALARM_RULES: dict[str, str] = {
     "floor": "design-drift floor",
     "measured": "measured drift",
     "prediction": "prediction",
+    "hold_limit": "measured drift, held to the hold limit",
     "operator": "operator's request",
     "fault": "equipment fault",
 }

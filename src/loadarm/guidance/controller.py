@@ -57,7 +57,7 @@ from loadarm.guidance.modes import (
 )
 from loadarm.guidance.monitor import EnvelopeMonitor
 from loadarm.guidance.moorings import LOST_SHARE, MooringWatch
-from loadarm.guidance.predict import FlangePredictor
+from loadarm.guidance.predict import HOLD_LIMIT, FlangePredictor
 from loadarm.guidance.rules import SafetyRules
 from loadarm.guidance.voting import AXES, reset_votes, vote
 from loadarm.params.scenario import GuidanceSettings, check_drift_window
@@ -105,6 +105,7 @@ class GuidanceController(SafetyRules):
         self.monitor = EnvelopeMonitor(model, g.drift_window, period=per_sample / g.rate)
         self.predictor = None if g.prediction == "off" else FlangePredictor(g.prediction)
         self.moorings = MooringWatch()
+        self.hold_limit = HOLD_LIMIT            # how long the prediction may hold a call for ESD-1, s
         self.v_max = model.approach.max_speed
         self.a_max = model.approach.max_accel
         sx, sz = model.approach.stored

@@ -207,7 +207,9 @@ class SafetyRules:
         called for it (``measured_since``), how a campaign compares both rules on the same runs."""
         s = self.state
         if today < Severity.ESD1:
-            if s.esd_since is None:
+            if s.esd_since is None and s.shadow_esd1_at is not None:
+                self._event("info", f"{event_label('info.measured_esd1_end')} after {now - s.shadow_esd1_at:.1f} s",
+                            code="info.measured_esd1_end", since=s.shadow_esd1_at)
                 s.shadow_esd1_at = None
             return
         if s.shadow_esd1_at is not None:
@@ -250,8 +252,11 @@ class SafetyRules:
             best = (pred, max(t_p, 0.0), ROUTE_PREDICTION, s.predicted_face, "prediction")
         else:
             best = (floor, f.design, ROUTE_DESIGN, f.face, "floor")
-        if today >= Severity.ESD1 and self._change_seen(f, now) and measured[0] > best[0]:
-            return measured
+        if today >= Severity.ESD1 and measured[0] > best[0]:
+            if self._change_seen(f, now):
+                return measured
+            if s.shadow_esd1_at is not None and now - s.shadow_esd1_at >= self.hold_limit - 1e-9:
+                return (*measured[:4], "hold_limit")
         return best if best[0] > Severity.NORMAL else (Severity.NORMAL, math.inf, "", "", "")
 
     def _change_seen(self, f, now: float) -> bool:

@@ -116,6 +116,31 @@ class RunResult(Result):
             return float(esd[4]["measured_since"])
         return next((t for t in calls if t >= esd[0]), None)
 
+    def held_calls(self) -> list[list[float]]:
+        """The calls for ESD-1 of the rule without the prediction made before the run's ESD-1 (or in a run
+        without one): the prediction held them. Each as ``[onset, end]``, s: the end is when the call ended
+        (``info.measured_esd1_end``), the ESD-1 when it still stood then, or the run's end. What a hold limit
+        ``H`` would have changed follows from them alone: ESD-1 at the first ``onset + H`` before its ``end``
+        (:func:`loadarm.studies.campaign.capped_alarm1`).
+
+        Returns
+        -------
+        list of [float, float]
+        """
+        esd = self.first_code("stage.esd1")
+        stop = esd if esd is not None else float(self.signals["t"][-1])
+        calls, onset = [], None
+        for t, _, _, _, d in self.events:
+            code = d.get("code") if d else None
+            if code == "info.measured_esd1" and t < stop:
+                onset = t
+            elif code == "info.measured_esd1_end" and onset is not None:
+                calls.append([round(onset, 6), round(t, 6)])
+                onset = None
+        if onset is not None:
+            calls.append([round(onset, 6), round(stop, 6)])
+        return calls
+
     def first_code(self, code: str) -> float | None:
         """Time of the first event with an event code (:data:`loadarm.vocab.EVENT_TABLE`), s (None if none).
 
@@ -266,6 +291,7 @@ class RunResult(Result):
             "alarm1_s": self.first_code("stage.esd1"),
             "alarm1_measured_s": self.measured_alarm1(),
             "alarm1_measured_first_s": self.first_code("info.measured_esd1"),
+            "held_calls": self.held_calls(),
             "alarm1_rule": next((d.get("rule", "") for _, _, _, _, d in self.events
                                  if d and d.get("code") == "stage.esd1"), ""),
             "alarm2_s": self.first_code("stage.second"),

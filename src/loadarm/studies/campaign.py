@@ -48,6 +48,8 @@ from loadarm.vocab import ALARM_RULES, Severity
 
 __all__ = [
     "CAMPAIGN_METRICS",
+    "capped_alarm1",
+    "run_batch",
     "MAX_SEEDS",
     "CampaignResult",
     "CampaignRun",
@@ -152,6 +154,9 @@ class CampaignRun:
     esd1_lead_s : float or None
         The time ESD-1 needs before a face, s (the installation's whole sequence and margin, the ERS valves at
         their timeout: :func:`loadarm.guidance.monitor.stage_leads`), which no rule may call later than.
+    held_calls : list of [float, float] or None
+        The rule without the prediction's calls for ESD-1 that the prediction held, ``[onset, end]`` each, s
+        (:meth:`loadarm.sim.result.RunResult.held_calls`); None: stored before they were kept.
     """
 
     seed: int
@@ -172,6 +177,7 @@ class CampaignRun:
     alarm1_measured_first_s: float | None = None
     end_s: float | None = None
     esd1_lead_s: float | None = None
+    held_calls: list | None = None
 
     @property
     def false_alarm_measured(self) -> bool:
@@ -231,7 +237,39 @@ def _judge(seed: int, draws: dict, v: dict, bounds: tuple[float, float] | None =
         alarm1_s=alarm1, release_complete_s=done, limit_s=limit, release_margin_s=v["release_margin_s"],
         limit_face=v["limit_face"], connected_s=v["connected_s"], alarm1_measured_s=v.get("alarm1_measured_s"),
         alarm1_rule=v.get("alarm1_rule", ""), alarm1_measured_first_s=v.get("alarm1_measured_first_s"),
-        end_s=None if bounds is None else bounds[0], esd1_lead_s=None if bounds is None else bounds[1])
+        end_s=None if bounds is None else bounds[0], esd1_lead_s=None if bounds is None else bounds[1],
+        held_calls=v.get("held_calls"))
+
+
+def capped_alarm1(run: CampaignRun, limit: float) -> float | None:
+    """The run's ESD-1 had the prediction held no call for ESD-1 longer than ``limit`` (the hold limit,
+    :data:`loadarm.guidance.predict.HOLD_LIMIT`): the earlier of its ESD-1 and the first held call's onset plus
+    the limit, where that call still stood then (within a guidance cycle of the controller's own: it checks the
+    limit once a cycle). Everything before that instant is the run as stored, so this is exact for a run stored
+    without a limit, or with a longer one.
+
+    Parameters
+    ----------
+    run : CampaignRun
+        With :attr:`CampaignRun.held_calls`.
+    limit : float
+        The hold limit, s (``inf``: none).
+
+    Returns
+    -------
+    float or None
+        ESD-1, s (None: none in the run).
+
+    Raises
+    ------
+    ValueError
+        A run stored before the held calls were kept (it cannot say).
+    """
+    if run.held_calls is None:
+        raise ValueError(f"seed {run.seed}: stored before the held calls were kept; run it again")
+    fired = [onset + limit for onset, end in run.held_calls if onset + limit < end]
+    times = [t for t in (run.alarm1_s, *fired) if t is not None]
+    return min(times) if times else None
 
 
 def _bounds(sc, model) -> tuple[float, float]:
@@ -331,8 +369,22 @@ class ScenarioDraws:
         return sc, model
 
 
-def _run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -> list[CampaignRun]:
-    """Worker: run a batch of (seed, draws) of one scenario file."""
+def run_batch(scenario: str, plant: str | None, jobs: list[tuple[int, dict]]) -> list[CampaignRun]:
+    """Worker: run a batch of (seed, draws) of one scenario file (also :mod:`loadarm.studies.hold_limit`'s).
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario file.
+    plant : str or None
+        The arm plant (None: the scenario's).
+    jobs : list of (int, dict)
+        Seed and draws of each run.
+
+    Returns
+    -------
+    list of CampaignRun
+    """
 
     draw = ScenarioDraws(scenario)
     results = []
@@ -527,15 +579,15 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
 
         path = str(Path(scenario).resolve())
         with connect_scheduler(scheduler) as client:
-            futures = [client.submit(_run_batch, path, plant, chunk, retries=2, pure=False) for chunk in chunks]
+            futures = [client.submit(run_batch, path, plant, chunk, retries=2, pure=False) for chunk in chunks]
             for fut in dask_completed(futures):
                 report(fut.result())
     elif workers == 1:
         for chunk in chunks:
-            report(_run_batch(scenario, plant, chunk))
+            report(run_batch(scenario, plant, chunk))
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            _bounded_map(pool, lambda chunk: pool.submit(_run_batch, scenario, plant, chunk), chunks, 2 * workers,
+            _bounded_map(pool, lambda chunk: pool.submit(run_batch, scenario, plant, chunk), chunks, 2 * workers,
                          report)
     return CampaignResult(scenario, tuple(vary), tuple(sorted(done, key=lambda r: r.seed)), codes=dict(codes))
 

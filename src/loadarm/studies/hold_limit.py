@@ -21,7 +21,6 @@ Run as ``python -m loadarm.studies.hold_limit STORED_runs.jsonl --out RERUN_runs
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -29,35 +28,9 @@ from pathlib import Path
 
 from loadarm.errors import ConfigError
 from loadarm.studies.campaign import CampaignRun, run_batch, capped_alarm1
-from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile
+from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile, read_stored
 
 __all__ = ["candidates", "rerun_candidates", "limit_effect"]
-
-
-def _stored(path: Path) -> tuple[dict, dict[int, dict]]:
-    """The header and the runs (by seed, the last line of a seed kept) of a runs file; a torn last line skipped.
-    The file is only read."""
-    header, runs = None, {}
-    with open(path, encoding="utf-8") as fh:
-        for i, line in enumerate(fh, 1):
-            try:
-                doc = json.loads(line)
-            except ValueError:
-                if line.endswith("\n"):
-                    raise ConfigError(f"{path}: line {i}: not JSON", source=str(path)) from None
-                break                                       # torn by a kill: the campaign drops it too
-            if header is None:
-                header = doc
-                if not isinstance(doc, dict) or "scenario" not in doc:
-                    raise ConfigError(f"{path}: line 1: not a campaign's runs file header", source=str(path))
-                continue
-            run = doc.get("run") if isinstance(doc, dict) else None
-            if not isinstance(run, dict) or not isinstance(run.get("seed"), int):
-                raise ConfigError(f"{path}: line {i}: not a run", source=str(path))
-            runs[run["seed"]] = run
-    if header is None:
-        raise ConfigError(f"{path}: empty", source=str(path))
-    return header, runs
 
 
 def candidates(runs: dict[int, dict]) -> list[int]:
@@ -106,28 +79,16 @@ def rerun_candidates(stored: str | Path, out: str | Path, *, scenarios: str | Pa
     list of CampaignRun
         The reruns, stored and new.
     """
-    stored = Path(stored)
-    header, runs = _stored(stored)
-    if header.get("bank") or not isinstance(header.get("scenario"), str):
-        raise ConfigError(f"{stored}: line 1: scenario = {header.get('scenario')!r}, bank = {header.get('bank')!r}: "
-                          "a single arm's campaign of one scenario expected", source=str(stored))
-    scenario = str(Path(scenarios) / header["scenario"])
-    if not Path(scenario).is_file():
-        raise ConfigError(f"{stored}: line 1: scenario = {header['scenario']!r}: no such file in {scenarios}",
-                          source=str(stored))
-    vary = [tuple(v) for v in header.get("vary", [])]
-    store = RunsFile(out, scenario, header.get("plant"), vary)
-    if store.header["inputs_sha256"] != header.get("inputs_sha256"):
-        raise ConfigError(f"{stored}: line 1: inputs_sha256 = {str(header.get('inputs_sha256'))[:16]}...: {scenario} "
-                          f"and the files it names now digest to {store.header['inputs_sha256'][:16]}...: run on "
-                          "other inputs", source=str(stored))
+    header, scenario, lines = read_stored(stored, scenarios)
+    runs = {seed: run for seed, (_, run) in lines.items()}
+    store = RunsFile(out, str(scenario), header.get("plant"), [tuple(v) for v in header.get("vary", [])])
     seeds = candidates(runs)[:limit]
     have = store.seeds()
     jobs = [(s, runs[s]["draws"]) for s in seeds if s not in have]
     chunks = [jobs[k:k + RUNS_FILE_BATCH] for k in range(0, len(jobs), RUNS_FILE_BATCH)]
     done = len(seeds) - len(jobs)
     if workers <= 1:
-        parts = (run_batch(scenario, header.get("plant"), c) for c in chunks)
+        parts = (run_batch(str(scenario), header.get("plant"), c) for c in chunks)
         for part in parts:
             store.append(part)
             done += len(part)
@@ -135,7 +96,7 @@ def rerun_candidates(stored: str | Path, out: str | Path, *, scenarios: str | Pa
                 progress(done, len(seeds))
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            for part in pool.map(run_batch, [scenario] * len(chunks), [header.get("plant")] * len(chunks), chunks):
+            for part in pool.map(run_batch, [str(scenario)] * len(chunks), [header.get("plant")] * len(chunks), chunks):
                 store.append(part)
                 done += len(part)
                 if progress:
@@ -165,11 +126,10 @@ def limit_effect(stored: dict[int, dict], reruns: Sequence[CampaignRun], limit: 
     earlier, added, later = [], [], {}
     for r in reruns:
         at = capped_alarm1(r, limit)
-        if r.alarm1_s is None or (at is not None and at < r.alarm1_s - 1e-9):
-            if at is not None:
-                earlier.append(r.seed)
-                if r.alarm1_s is None and r.limit_s is None:
-                    added.append(r.seed)
+        if at is not None and (r.alarm1_s is None or at < r.alarm1_s - 1e-9):
+            earlier.append(r.seed)
+            if r.alarm1_s is None and r.limit_s is None:
+                added.append(r.seed)
         m = r.alarm1_measured_s
         if r.limit_s is not None and m is not None:
             when = at if at is not None else r.limit_s

@@ -27,7 +27,7 @@ from pathlib import Path
 from loadarm.errors import ConfigError
 from loadarm.files import SIGNATURE
 
-__all__ = ["RUNS_KIND", "RUNS_FILE_BATCH", "code_digest", "inputs_digest", "RunsFile", "Tally"]
+__all__ = ["RUNS_KIND", "RUNS_FILE_BATCH", "code_digest", "inputs_digest", "read_stored", "RunsFile", "Tally"]
 
 #: The header's ``kind``.
 RUNS_KIND = "campaign runs"
@@ -236,3 +236,74 @@ class Tally:
             self.codes[self.store.code] += len(part)
         if self.progress is not None:
             self.progress(len(self.runs), self.total)
+
+
+def _refuse(path: Path, n: int, what: str) -> ConfigError:
+    return ConfigError(f"{path}: line {n}: {what}", source=str(path))
+
+
+def _check_header(path: Path, lines: list[str], scenarios: Path) -> tuple[dict, Path]:
+    try:
+        head = json.loads(lines[0]) if lines else None
+    except ValueError:
+        head = None
+    if not isinstance(head, dict) or head.get("generator") != SIGNATURE or head.get("kind") != RUNS_KIND:
+        raise _refuse(path, 1, "not the header of a loadarm campaign runs file")
+    if head.get("bank") or not isinstance(head.get("scenario"), str) or not isinstance(head.get("inputs_sha256"), str):
+        raise _refuse(path, 1, f"scenario = {head.get('scenario')!r}, bank = {head.get('bank')!r}: a single arm's "
+                               "campaign of one scenario expected")
+    scenario = scenarios / head["scenario"]
+    if not scenario.is_file():
+        raise _refuse(path, 1, f"scenario = {head['scenario']!r}: no such file in {scenarios}")
+    if inputs_digest(str(scenario)) != head["inputs_sha256"]:
+        raise _refuse(path, 1, f"inputs_sha256 = {head['inputs_sha256'][:16]}...: {scenario} and the files it "
+                               f"names now digest to {inputs_digest(str(scenario))[:16]}...: run on other inputs")
+    return head, scenario
+
+
+def read_stored(path: str | Path, scenarios: str | Path = "examples/scenarios") -> tuple[dict, Path, dict]:
+    """A single arm's campaign runs file, read for a study and checked: its header is loadarm's, of one scenario
+    (not a bank's) that is in ``scenarios`` and digests today as it did (the same inputs); every line a run with
+    an integer seed and an object of draws. A later line for a seed wins, as the campaign reads it; a torn last
+    line (the campaign cuts it before its next append) is skipped. The file is only read.
+
+    Parameters
+    ----------
+    path : str or Path
+        The runs file.
+    scenarios : str or Path
+        The folder its scenario is in.
+
+    Returns
+    -------
+    header : dict
+    scenario : Path
+        The scenario file.
+    runs : dict of int to (int, dict)
+        By seed: the line number and the stored run.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the line and what is wrong.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read it ({exc})", source=str(path)) from None
+    lines = text.splitlines()
+    head, scenario = _check_header(path, lines, Path(scenarios))
+    runs = {}
+    for n, line in enumerate(lines[1:], start=2):
+        try:
+            run = json.loads(line)["run"] if line else None
+            seed, draws = run["seed"], run["draws"]
+        except (ValueError, KeyError, TypeError):
+            if n == len(lines) and not text.endswith("\n"):
+                continue                                    # a torn last line: the campaign cuts it
+            raise _refuse(path, n, "not a run: {\"run\": {\"seed\": ..., \"draws\": {...}}} expected") from None
+        if isinstance(seed, bool) or not isinstance(seed, int) or not isinstance(draws, dict):
+            raise _refuse(path, n, f"seed = {seed!r}, draws = {draws!r}: an integer and an object expected")
+        runs[seed] = (n, run)
+    return head, scenario, runs

@@ -31,7 +31,7 @@ from loadarm.ship.flange import flange_motion
 from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import LINE_LOAD_PERIOD
 from loadarm.studies.campaign import ScenarioDraws
-from loadarm.studies.runs_file import RUNS_KIND, inputs_digest
+from loadarm.studies.runs_file import read_stored
 from loadarm.studies.plots import watch_basis_figure
 
 __all__ = ["WatchRun", "WatchBasis", "watch_over_record", "watch_basis", "main"]
@@ -112,51 +112,18 @@ class WatchBasis(Result):
         return watch_basis_figure(self)
 
 
-def _refuse(path: Path, n: int, what: str) -> ConfigError:
-    return ConfigError(f"{path}: line {n}: {what}")
-
-
 def _read_runs(path: Path, scenarios: Path) -> tuple[dict, list[tuple[int, dict]]]:
-    """A runs file's header (checked: a single arm's campaign of the scenario as it ships today) and its runs'
-    (seed, draws), by seed (a later line for a seed wins, as the campaign reads it; a torn last line, which the
-    campaign cuts, is skipped). Never changes the file."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read it ({exc})") from None
-    lines = text.splitlines()
-    try:
-        head = json.loads(lines[0]) if lines else None
-    except ValueError:
-        head = None
-    if not isinstance(head, dict) or head.get("generator") != SIGNATURE or head.get("kind") != RUNS_KIND:
-        raise _refuse(path, 1, "not the header of a loadarm campaign runs file")
-    if head.get("bank") or not isinstance(head.get("scenario"), str) or not isinstance(head.get("inputs_sha256"), str):
-        raise _refuse(path, 1, f"scenario = {head.get('scenario')!r}, bank = {head.get('bank')!r}: a single arm's "
-                               "campaign of one scenario expected")
-    scenario = scenarios / head["scenario"]
-    if not scenario.is_file():
-        raise _refuse(path, 1, f"scenario = {head['scenario']!r}: no such file in {scenarios}")
-    if inputs_digest(str(scenario)) != head["inputs_sha256"]:
-        raise _refuse(path, 1, f"inputs_sha256 = {head['inputs_sha256'][:16]}...: {scenario} and the files it "
-                               f"names now digest to {inputs_digest(str(scenario))[:16]}...: run on other inputs")
-    runs = {}
-    for n, line in enumerate(lines[1:], start=2):
-        try:
-            run = json.loads(line)["run"] if line else None
-            seed, draws = run["seed"], run["draws"]
-        except (ValueError, KeyError, TypeError):
-            if n == len(lines) and not text.endswith("\n"):
-                continue                                    # a torn last line: the campaign cuts it
-            raise _refuse(path, n, "not a run: {\"run\": {\"seed\": ..., \"draws\": {...}}} expected") from None
-        if isinstance(seed, bool) or not isinstance(seed, int) or not isinstance(draws, dict):
-            raise _refuse(path, n, f"seed = {seed!r}, draws = {draws!r}: an integer and an object expected")
-        for key in draws:
+    """A runs file read and checked (:func:`loadarm.studies.runs_file.read_stored`), and its runs' (seed, draws)
+    by seed; a varied ship refused (the basis compiles the moored ship once)."""
+    head, _, runs = read_stored(path, scenarios)
+    out = []
+    for seed, (n, run) in sorted(runs.items()):
+        for key in run["draws"]:
             if str(key).startswith("ship."):
-                raise _refuse(path, n, f"draws key {key!r}: the basis compiles the moored ship once; a varied "
-                                       "ship is not supported")
-        runs[seed] = dict(draws)
-    return head, sorted(runs.items())
+                raise ConfigError(f"{path}: line {n}: draws key {key!r}: the basis compiles the moored ship once; a "
+                                  "varied ship is not supported")
+        out.append((seed, dict(run["draws"])))
+    return head, out
 
 
 def watch_basis(runs_file: str | Path, scenarios: str | Path = "examples/scenarios",

@@ -15,7 +15,8 @@ the same header as the stored file's). :func:`limit_effect` then counts, for eac
 makes earlier, the false ESD-1 it adds, and how much later than the rule without the prediction ESD-1 can still
 come.
 
-Run as ``python -m loadarm.studies.hold_limit STORED_runs.jsonl --out RERUN_runs.jsonl [--seeds N] [--workers W]``.
+Run as ``python -m loadarm.studies.hold_limit STORED_runs.jsonl --out RERUN_runs.jsonl [--scenarios DIR] [--seeds N]
+[--workers W]``.
 """
 
 from __future__ import annotations
@@ -144,13 +145,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m loadarm.studies.hold_limit", description=__doc__.split("\n")[0])
     ap.add_argument("stored")
     ap.add_argument("--out", required=True)
+    ap.add_argument("--scenarios", default="examples/scenarios", help="the folder of the stored file's scenario")
     ap.add_argument("--seeds", type=int, default=None, help="only the first N candidates")
     ap.add_argument("--workers", type=int, default=1)
     a = ap.parse_args(argv)
     try:
         if Path(a.out).resolve() == Path(a.stored).resolve():
             raise ConfigError(f"{a.out}: --out is the stored file: the reruns go to a file of their own")
-        runs = rerun_candidates(a.stored, a.out, limit=a.seeds, workers=max(1, a.workers),
+        runs = rerun_candidates(a.stored, a.out, scenarios=a.scenarios, limit=a.seeds, workers=max(1, a.workers),
                                 progress=lambda d, n: print(f"{d}/{n}", file=sys.stderr, flush=True))
     except (ConfigError, OSError) as e:
         print(f"error: {e}", file=sys.stderr)

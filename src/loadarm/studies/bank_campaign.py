@@ -215,7 +215,19 @@ class BankRun:
 
 
 def sequence_table(models) -> np.ndarray:
-    """The sequence's figures per arm, as :func:`bank_sequence` reads them."""
+    """The sequence's figures per arm, as :func:`bank_sequence` reads them.
+
+    Parameters
+    ----------
+    models : sequence of ArmModel
+        The arms' compiled installations.
+
+    Returns
+    -------
+    ndarray, shape (arms, 7)
+        Per arm: the ERS valves' time, the coupler's release time, the margin, ESD-1's lead, the valves' worst
+        time, whether the valves close at ERS-2 (1.0) or ESD-1 (0.0), and the bank's period, s.
+    """
     return np.array([[m.sequence.ers_valve_time, m.sequence.erc_release_time, m.sequence.margin,
                       esd_lead(m.sequence), valve_worst_time(m.sequence),
                       1.0 if m.sequence.ers_valves_close_at == "ers2" else 0.0, BANK_PERIOD] for m in models])

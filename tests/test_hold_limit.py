@@ -1,0 +1,134 @@
+"""The hold limit (issue 30): how long a trusted prediction may hold the rule without it's call for ESD-1, what a
+limit changes in a stored run (``capped_alarm1``), and the study that reruns a campaign's candidates."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from loadarm.studies.campaign import CampaignRun, capped_alarm1
+from loadarm.studies.hold_limit import candidates, limit_effect
+
+ROOT = Path(__file__).resolve().parents[1]
+SCEN = ROOT / "examples" / "scenarios"
+
+
+def _run(seed=1, alarm1=None, limit=None, measured=None, held=(), first=None):
+    return CampaignRun(seed=seed, draws={}, overstretched=False, overstretched_before_isolation=False,
+                       opened_on_live_product=False, false_alarm=alarm1 is not None and limit is None,
+                       missed_alarm=False, alarm1_s=alarm1, release_complete_s=None, limit_s=limit,
+                       release_margin_s=None, limit_face="", alarm1_measured_s=measured,
+                       alarm1_measured_first_s=first, held_calls=None if held is None else [list(c) for c in held])
+
+
+def test_a_limit_raises_esd1_where_a_held_call_still_stands_that_long():
+    """A call held 30 s raises ESD-1 at its onset plus a 10 s limit; one held 5 s does not; one still standing at
+    the run's ESD-1 raises it sooner only if the limit comes first; without held calls nothing changes."""
+    assert capped_alarm1(_run(alarm1=None, held=[(100.0, 105.0)]), 10.0) is None
+    assert capped_alarm1(_run(alarm1=None, held=[(100.0, 105.0), (200.0, 230.0)]), 10.0) == 210.0
+    assert capped_alarm1(_run(alarm1=300.0, held=[(100.0, 130.0)]), 10.0) == 110.0
+    assert capped_alarm1(_run(alarm1=108.0, held=[(100.0, 108.0)]), 10.0) == 108.0     # ESD-1 came first
+    assert capped_alarm1(_run(alarm1=108.0, held=[(100.0, 108.0)]), 5.0) == 105.0
+    assert capped_alarm1(_run(alarm1=50.0, held=[]), 1.0) == 50.0
+    assert capped_alarm1(_run(alarm1=None, held=[(100.0, 130.0)]), math.inf) is None
+    with pytest.raises(ValueError, match="^seed 7: stored before the held calls were kept"):
+        capped_alarm1(_run(seed=7, alarm1=None, held=None), 10.0)
+
+
+_calls = st.lists(st.tuples(st.floats(0.0, 500.0), st.floats(0.0, 200.0)), max_size=5).map(
+    lambda xs: [(a, a + d) for a, d in sorted(xs)])
+
+
+@given(_calls, st.one_of(st.none(), st.floats(0.0, 800.0)), st.floats(0.0, 300.0), st.floats(0.0, 300.0))
+def test_a_limit_never_makes_esd1_later_and_a_shorter_one_never_later_than_a_longer(calls, alarm1, h1, h2):
+    """Over any held calls, ESD-1 and limits: the limit's ESD-1 is never later than the run's own, and a shorter
+    limit's never later than a longer one's (None: no ESD-1, the latest of all)."""
+    run = _run(alarm1=alarm1, held=calls)
+    key = lambda t: math.inf if t is None else t  # noqa: E731
+    lo, hi = sorted((h1, h2))
+    assert key(capped_alarm1(run, lo)) <= key(capped_alarm1(run, hi)) <= key(alarm1)
+    assert capped_alarm1(run, math.inf) == alarm1
+
+
+def test_the_candidates_are_the_runs_with_a_call_before_their_esd1():
+    """Only a run whose rule without the prediction called before the run's ESD-1 (or in a run without one) can a
+    limit change; a call at the ESD-1 itself or none is no candidate."""
+    runs = {1: {"alarm1_measured_first_s": None, "alarm1_s": None},
+            2: {"alarm1_measured_first_s": 100.0, "alarm1_s": None},
+            3: {"alarm1_measured_first_s": 100.0, "alarm1_s": 100.0},
+            4: {"alarm1_measured_first_s": 100.0, "alarm1_s": 130.0},
+            5: {"alarm1_measured_first_s": 140.0, "alarm1_s": 130.0}}
+    assert candidates(runs) == [2, 4]
+
+
+def test_the_effect_counts_earlier_runs_added_false_esd1_and_what_is_still_later():
+    """Three reruns under a 10 s limit: a wave's call held 30 s in a run with no face becomes a false ESD-1; a
+    failure's call held 25 s brings ESD-1 forward from 25 s to 10 s later than the rule without the prediction;
+    a call held 5 s changes nothing."""
+    reruns = [_run(seed=1, alarm1=None, limit=None, held=[(100.0, 130.0)], measured=100.0, first=100.0),
+              _run(seed=2, alarm1=425.0, limit=600.0, held=[(400.0, 425.0)], measured=400.0, first=400.0),
+              _run(seed=3, alarm1=None, limit=None, held=[(100.0, 105.0)], measured=100.0, first=100.0)]
+    stored = {r.seed: {"alarm1_measured_first_s": r.alarm1_measured_first_s, "alarm1_s": r.alarm1_s}
+              for r in reruns}
+    got = limit_effect(stored, reruns, 10.0)
+    assert got["earlier"] == [1, 2] and got["added_false"] == [1] and got["later"] == {2: 10.0}
+    assert limit_effect(stored, reruns, math.inf)["later"] == {2: 25.0}
+
+
+def test_the_study_refuses_in_one_line_and_changes_no_file(tmp_path):
+    """``python -m loadarm.studies.hold_limit``: its output the stored file itself, or a stored file of other
+    inputs: exit 2, one line naming the file; neither file changed."""
+    good = (ROOT / "docs" / "campaigns" / "breast_lines_squall_tracked_runs.jsonl").read_text()
+    stored = tmp_path / "s_runs.jsonl"
+    stored.write_text(good)
+    cmd = [sys.executable, "-m", "loadarm.studies.hold_limit", str(stored), "--scenarios", str(SCEN), "--out"]
+    r = subprocess.run(cmd + [str(stored)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0, r.stderr
+    assert "--out is the stored file" in r.stderr and stored.read_text() == good
+    head = json.loads(good.splitlines()[0])
+    other = tmp_path / "o_runs.jsonl"
+    other.write_text(json.dumps({**head, "inputs_sha256": "0" * 64}) + "\n")
+    r = subprocess.run([*cmd[:3], str(other), "--scenarios", str(SCEN), "--out", str(tmp_path / "x_runs.jsonl")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stderr.strip().count("\n") == 0, r.stderr
+    assert f"{other}: line 1: inputs_sha256 = 0000000000000000" in r.stderr
+    assert not (tmp_path / "x_runs.jsonl").exists()
+
+
+@pytest.mark.slow  # 60-120 s: two tracked runs of 560 s (make test's budget; CI runs it)
+def test_the_controller_s_limit_is_the_held_calls_derivation():
+    """Hs 1.5 m, seed 0 (the break-out test's wave call at 208 s, held by the trusted prediction, no ESD-1 in the
+    run): the run keeps that call's onset and end; with the controller's limit set shorter than the call, ESD-1
+    comes at the onset plus the limit (within a cycle: the controller checks once a cycle), by the rule
+    hold_limit, and the stage event says since when the rule without the prediction had called."""
+    from loadarm.params.scenario import load_scenario
+    from loadarm.sim.loop import ClosedLoop
+
+    sc, model = load_scenario(SCEN / "hs15_tracked.toml")
+    sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"seed": 0})})
+
+    def run(limit):
+        loop = ClosedLoop(sc, model, plant="kinematic")
+        loop.ctrl.hold_limit = limit
+        for k in range(loop.n):
+            loop.cycle(k)
+        return loop.result()
+
+    free = run(math.inf)
+    calls = free.held_calls()
+    assert free.first_code("stage.esd1") is None and calls and calls[0][1] - calls[0][0] > 4.0, calls
+    onset, end = calls[0]
+    limit = round(0.5 * (end - onset), 1)
+    capped = run(limit)
+    esd1 = capped.first_data("stage.esd1")
+    assert capped.first_code("stage.esd1") == pytest.approx(onset + limit, abs=0.021)
+    assert esd1["rule"] == "hold_limit" and esd1["measured_since"] == pytest.approx(onset)
+    stored = _run(alarm1=None, held=calls)
+    assert capped_alarm1(stored, limit) == pytest.approx(capped.first_code("stage.esd1"), abs=0.021)

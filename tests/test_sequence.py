@@ -9,7 +9,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from loadarm.arm.sequence import esd_lead, lead_values, release_lead, stage_of, valve_worst_time
+from loadarm.arm.sequence import esd_lead, hold_limit, lead_values, release_lead, stage_of, valve_worst_time
 from loadarm.guidance.monitor import stage_leads
 from loadarm.studies.kernel import _scan
 from loadarm.vocab import Severity
@@ -131,3 +131,25 @@ def test_the_kernel_and_the_closed_loop_agree_on_the_stage_its_time_and_its_face
         assert k.esd1_face == esd["face"] != ""
     elif not stage:
         assert k.esd1_face == "" and r.first_data("stage.esd1") is None
+
+
+@given(st.floats(0.0, 120.0), st.floats(0.0, 60.0), st.floats(0.0, 60.0), st.floats(0.0, 30.0), st.floats(0.0, 30.0))
+def test_the_hold_limit_is_the_esd_shutdown_s_time_beyond_the_valves(esd, valve, timeout, release, margin):
+    """The hold limit (ESD-1's lead less the release's) is, by hand, the time the ESD-1 shutdown needs beyond the
+    ERS valves' worst time, never negative; with it the release's lead and the limit make ESD-1's lead (a held call
+    that was right leaves the release its lead). The paper's sequence: 30 s shutdown, valves 10 + 5 s: 15 s."""
+    from types import SimpleNamespace
+
+    seq = SimpleNamespace(esd_time=esd, ers_valve_time=valve, ers_valve_timeout=timeout, erc_release_time=release,
+                          margin=margin)
+    h = hold_limit(seq)
+    assert h >= 0.0
+    assert h == pytest.approx(max(0.0, esd - (valve + timeout)), abs=1e-9)
+    assert release_lead(seq) + h == pytest.approx(esd_lead(seq), abs=1e-9)
+
+
+def test_the_paper_s_hold_limit_is_15_s():
+    from loadarm.params.compiler import compile_model
+    from loadarm.params.config import paper_installation
+
+    assert hold_limit(compile_model(paper_installation()).sequence) == 15.0

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["valve_worst_time", "esd_lead", "release_lead", "lead_values", "stage_of"]
+__all__ = ["valve_worst_time", "esd_lead", "release_lead", "hold_limit", "lead_values", "stage_of"]
 
 
 def valve_worst_time(seq) -> float:
@@ -66,6 +66,27 @@ def release_lead(seq) -> float:
         ``ers_valve_time + ers_valve_timeout + erc_release_time + margin``.
     """
     return valve_worst_time(seq) + seq.erc_release_time + seq.margin
+
+
+def hold_limit(seq) -> float:
+    """The longest a trusted prediction may hold a call for ESD-1 of the rule without it, s: ESD-1's lead less the
+    release's. A call held that long that was right (the face where it forecast, at most ESD-1's lead away) still
+    leaves the release its whole lead: the ERS valves at their timeout, the coupler and the margin; what it may no
+    longer leave is the ESD-1 shutdown's own time (the pumps and ESD valves, ``esd_time``). Where the valves'
+    worst time is as long as that, nothing may be held (0).
+
+    Parameters
+    ----------
+    seq : record
+        The installation's ``[sequence]``.
+
+    Returns
+    -------
+    float
+        ``esd_lead(seq) - release_lead(seq)`` (``max(esd_time, ers_valve_time + ers_valve_timeout) - ers_valve_time
+        - ers_valve_timeout``), >= 0.
+    """
+    return esd_lead(seq) - release_lead(seq)
 
 
 def lead_values(valves_left: float, release_left: float, margin: float, lead_esd1: float,

@@ -43,6 +43,7 @@ import numpy as np
 from loadarm.arm.alarms import AlarmState, AlarmThresholds
 from loadarm.arm.geometry import Arm
 from loadarm.arm.kinematics import ROUNDOFF_M
+from loadarm.arm.sequence import hold_limit
 from loadarm.arm.slew import forward3d, inverse3d, jacobian3d, reach_mask3d
 from loadarm.guidance.drift import FIT_PERIOD
 from loadarm.guidance.estimator import Estimate
@@ -57,7 +58,7 @@ from loadarm.guidance.modes import (
 )
 from loadarm.guidance.monitor import EnvelopeMonitor
 from loadarm.guidance.moorings import LOST_SHARE, MooringWatch
-from loadarm.guidance.predict import HOLD_LIMIT, FlangePredictor
+from loadarm.guidance.predict import FlangePredictor
 from loadarm.guidance.rules import SafetyRules
 from loadarm.guidance.voting import AXES, reset_votes, vote
 from loadarm.params.scenario import GuidanceSettings, check_drift_window
@@ -105,7 +106,7 @@ class GuidanceController(SafetyRules):
         self.monitor = EnvelopeMonitor(model, g.drift_window, period=per_sample / g.rate)
         self.predictor = None if g.prediction == "off" else FlangePredictor(g.prediction)
         self.moorings = MooringWatch()
-        self.hold_limit = HOLD_LIMIT            # how long the prediction may hold a call for ESD-1, s
+        self.hold_limit = hold_limit(self.seq)  # how long the prediction may hold a call for ESD-1, s
         self.v_max = model.approach.max_speed
         self.a_max = model.approach.max_accel
         sx, sz = model.approach.stored

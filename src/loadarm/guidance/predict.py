@@ -38,7 +38,7 @@ from loadarm._numba import njit
 __all__ = ["PREDICT_PERIOD", "FIT_WINDOW", "ORDER", "HORIZON", "LEVEL", "MIN_ERRORS", "MEMORY", "ArModel",
            "fit_ar", "ar_forecast", "psi_variance", "Forecast", "Calibrator",
            "block_means", "claimed_steps", "interval", "CLAIMS", "FlangePredictor", "REFIT", "MIN_FIT",
-           "SAMPLE_PERIOD", "MAX_GAP", "GATE_HORIZONS", "GATE_FACTOR", "GATE_PERSIST", "THRESHOLD", "HOLD_LIMIT"]
+           "SAMPLE_PERIOD", "MAX_GAP", "GATE_HORIZONS", "GATE_FACTOR", "GATE_PERSIST", "THRESHOLD"]
 
 #: Sampling period of the predicted track, s (the mean of each second's positions).
 PREDICT_PERIOD = 1.0
@@ -85,11 +85,6 @@ MAX_GAP = 10.0
 #: The declared probability threshold of the predictive alarms: a stage is raised when the calibrated one-sided
 #: bound at this level (the 95 % interval's edge: 2.5 % per side) reaches a face within the stage's lead.
 THRESHOLD = (1.0 - LEVEL) / 2.0
-#: The longest a trusted prediction may hold the rule without it's call for ESD-1, s: a call still standing after
-#: this long raises ESD-1 (rule ``hold_limit``), whatever the witnesses say. It bounds how much later than that
-#: rule ESD-1 can come in every case, those the witnesses cannot see included (a third of the lines or fewer
-#: parting; a wave's call just before a failure). Range: above zero; ``inf`` turns the limit off.
-HOLD_LIMIT = math.inf
 
 
 @dataclass(frozen=True, slots=True)

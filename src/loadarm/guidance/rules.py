@@ -235,7 +235,11 @@ class SafetyRules:
         track still inside the intervals (up to 12.3 s: at the break-out test's call a break-out's prediction
         errors are no larger than the waves'), so the track alone cannot be the witness; holding no change
         detector's call at all loses the hold of the waves' false calls (hs15_tracked seed 0: the break-out test
-        calls at 208 s with the track within its intervals).
+        calls at 208 s with the track within its intervals). No call is held longer than the hold limit
+        (:func:`loadarm.arm.sequence.hold_limit`, ESD-1's lead less the release's: 15 s for the paper's sequence):
+        one standing that long is raised, rule ``hold_limit`` (found: a wave's call just before a failure and a
+        third of the lines or fewer parting, which neither witness sees, held ESD-1 up to 11 s; Hs 2.0-2.5 m seed
+        533's break-out calls, 10.8-19.0 s each, held until no ESD-1 came in the run).
         """
         s, f, ld = self.state, self.state.forecast, self.state.leads
         legs = (ld[Severity.RELEASE], ld[Severity.SECOND], ld[Severity.ESD1], ld.get(Severity.PRE_ALARM, -math.inf))

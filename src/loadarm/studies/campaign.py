@@ -243,7 +243,7 @@ def _judge(seed: int, draws: dict, v: dict, bounds: tuple[float, float] | None =
 
 def capped_alarm1(run: CampaignRun, limit: float) -> float | None:
     """The run's ESD-1 had the prediction held no call for ESD-1 longer than ``limit`` (the hold limit,
-    :data:`loadarm.guidance.predict.HOLD_LIMIT`): the earlier of its ESD-1 and the first held call's onset plus
+    :func:`loadarm.arm.sequence.hold_limit`): the earlier of its ESD-1 and the first held call's onset plus
     the limit, where that call still stood then (within a guidance cycle of the controller's own: it checks the
     limit once a cycle). Everything before that instant is the run as stored, so this is exact for a run stored
     without a limit, or with a longer one.

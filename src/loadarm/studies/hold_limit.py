@@ -1,10 +1,11 @@
-"""The hold limit's basis: how long the prediction held the rule without it's calls for ESD-1, over stored runs.
+"""The hold limit's basis: how long the prediction held the rule without the prediction's calls for ESD-1, over stored runs.
 
-A trusted prediction holds the rule without it's call for ESD-1 (the measured drift, its change detectors and the
+A trusted prediction holds the rule without the prediction's call for ESD-1 (the measured drift, its change detectors and the
 floor) unless a witness says the ship changed (:meth:`loadarm.guidance.rules.SafetyRules._forecast_stage`). That
 is how the waves' false calls are held, and also how ESD-1 came later than that rule in the cases the witnesses
 cannot see (a wave's call just before a failure; a third of the lines or fewer parting). A hold limit ``H`` bounds
-it: a call standing ``H`` seconds raises ESD-1 (:data:`loadarm.guidance.predict.HOLD_LIMIT`).
+it: a call standing ``H`` seconds raises ESD-1 (:func:`loadarm.arm.sequence.hold_limit`: ESD-1's lead less the
+release's, 15 s for the paper's sequence).
 
 What a limit changes in a run follows from the run as stored without one, given its held calls
 (:meth:`loadarm.sim.result.RunResult.held_calls`): ESD-1 at the first onset plus ``H`` of a call still standing

@@ -134,3 +134,31 @@ def test_the_controller_s_limit_is_the_held_calls_derivation():
     assert esd1["rule"] == "hold_limit" and esd1["measured_since"] == pytest.approx(onset)
     stored = _run(alarm1=None, held=calls)
     assert capped_alarm1(stored, limit) == pytest.approx(capped.first_code("stage.esd1"), abs=0.021)
+
+
+def test_the_basis_of_a_stored_pair_is_its_reruns_and_refuses_one_that_disagrees(tmp_path):
+    """The breast lines in a squall (20 runs, 11 with a call held before their ESD-1, all run again): the basis
+    re-derives from the two files (23 held calls, 10.4 s median, 31.8 s longest; at the installation's 15 s limit 3
+    runs' ESD-1 earlier, no false ESD-1 added: all 20 had one); a rerun whose ESD-1 differs from the stored run's is
+    refused in one line naming the file and the line, and neither file changes."""
+    from loadarm.errors import ConfigError
+    from loadarm.studies.hold_limit import hold_limit_basis
+
+    stored = ROOT / "docs" / "campaigns" / "breast_lines_squall_tracked_runs.jsonl"
+    rerun = ROOT / "docs" / "campaigns" / "breast_lines_squall_tracked_held_runs.jsonl"
+    b = hold_limit_basis(stored, rerun, scenarios=SCEN)
+    v = b._values()
+    assert (v["runs"], v["candidates"], v["rerun"], v["calls"]) == (20, 11, 11, 23)
+    assert v["call_median_s"] == pytest.approx(10.4) and v["call_max_s"] == pytest.approx(31.8)
+    assert (v["limit_s"], v["earlier"], v["added_false"], v["later"]) == (15.0, 3, 0, 0)
+    assert b.at(5.0)["earlier"] and len(b.at(5.0)["earlier"]) >= len(b.at(15.0)["earlier"])
+    assert "held call, longest" in str(b.summary()) and b.plot() is not None
+    lines = rerun.read_text().splitlines()
+    doc = json.loads(lines[1])
+    doc["run"]["alarm1_s"] = 1.0
+    bad = tmp_path / "bad_runs.jsonl"
+    bad.write_text("\n".join([lines[0], json.dumps(doc)] + lines[2:]) + "\n")
+    before = bad.read_text()
+    with pytest.raises(ConfigError, match=f"^{bad}: line 2: seed {doc['run']['seed']} is not the stored run again"):
+        hold_limit_basis(stored, bad, scenarios=SCEN)
+    assert bad.read_text() == before

@@ -23,16 +23,30 @@ Run as ``python -m loadarm.studies.hold_limit STORED_runs.jsonl --out RERUN_runs
 from __future__ import annotations
 
 import argparse
+import json
+import math
+import re
 import sys
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
-from loadarm.errors import ConfigError
+import numpy as np
+
+from loadarm import __version__
+from loadarm.arm.sequence import hold_limit
+from loadarm.errors import ConfigError, OutputError
+from loadarm.files import SIGNATURE, atomic_write, guard_outputs
+from loadarm.results import Metric, Result
 from loadarm.studies.campaign import CampaignRun, run_batch, capped_alarm1
+from loadarm.studies.plots import hold_limit_figure
 from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile, read_stored
 
-__all__ = ["candidates", "rerun_candidates", "limit_effect"]
+__all__ = ["candidates", "rerun_candidates", "limit_effect", "HoldLimitBasis", "hold_limit_basis", "LIMITS"]
+
+#: The limits the basis tabulates, s (the installation's own is added).
+LIMITS = (5.0, 10.0, 15.0, 20.0, 30.0, 45.0, 60.0, 120.0)
 
 
 def candidates(runs: dict[int, dict]) -> list[int]:
@@ -141,22 +155,170 @@ def limit_effect(stored: dict[int, dict], reruns: Sequence[CampaignRun], limit: 
             "added_false": added, "later": later}
 
 
+@dataclass(frozen=True)
+class HoldLimitBasis(Result):
+    """A stored campaign's held calls (its candidates run again) and what each hold limit changes in it."""
+
+    stored_file: str
+    rerun_file: str
+    scenario: str
+    runs: int
+    limit_s: float
+    reruns: tuple[CampaignRun, ...]
+    effects: tuple[dict, ...]
+    n_candidates: int
+
+    METRICS = (
+        Metric("scenario", "scenario"),
+        Metric("runs", "runs stored", "", "d"),
+        Metric("candidates", "runs with a call held before their ESD-1", "", "d"),
+        Metric("rerun", "of them run again (their held calls kept)", "", "d"),
+        Metric("calls", "held calls", "", "d"),
+        Metric("call_median_s", "held call, median", "s", ".1f", none="-"),
+        Metric("call_max_s", "held call, longest", "s", ".1f", none="-"),
+        Metric("limit_s", "the installation's hold limit", "s", ".1f"),
+        Metric("earlier", "ESD-1 earlier with it", "", "d"),
+        Metric("added_false", "false ESD-1 it adds", "", "d"),
+        Metric("later", "ESD-1 still later than the rule without the prediction", "", "d"),
+        Metric("later_max_s", "by at most", "s", ".1f", none="-"),
+    )
+
+    def durations(self) -> np.ndarray:
+        """Every held call's length, s."""
+        return np.array([b - a for r in self.reruns for a, b in r.held_calls], dtype=float)
+
+    def at(self, limit: float) -> dict:
+        """The effect of one tabulated limit (:func:`limit_effect`)."""
+        return next(e for e in self.effects if e["limit_s"] == limit)
+
+    def _values(self) -> dict:
+        d, e = self.durations(), self.at(self.limit_s)
+        return {"scenario": self.scenario, "runs": self.runs, "candidates": self.n_candidates,
+                "rerun": len(self.reruns), "calls": int(d.size),
+                "call_median_s": float(np.median(d)) if d.size else None,
+                "call_max_s": float(d.max()) if d.size else None, "limit_s": self.limit_s,
+                "earlier": len(e["earlier"]), "added_false": len(e["added_false"]), "later": len(e["later"]),
+                "later_max_s": max(e["later"].values(), default=None)}
+
+    def to_dict(self) -> dict:
+        d = dict(self._values())
+        d.update(stored_file=self.stored_file, rerun_file=self.rerun_file,
+                 effects=[{**e, "later": {str(k): v for k, v in e["later"].items()}} for e in self.effects],
+                 held_calls=[[r.seed, r.held_calls] for r in self.reruns])
+        return d
+
+    def _figure(self):
+        return hold_limit_figure(self)
+
+
+def hold_limit_basis(stored: str | Path, rerun: str | Path, *, scenarios: str | Path = "examples/scenarios",
+                     limits: Sequence[float] = LIMITS) -> HoldLimitBasis:
+    """A stored campaign and its candidates' reruns (:func:`rerun_candidates`): the held calls and each limit's
+    effect, the installation's own limit among them. Both files are only read; the reruns must be the stored
+    file's campaign (the same header) and agree with it on every run they hold (the same ESD-1, the same call of
+    the rule without the prediction, the same face: the code that kept the held calls changed no decision).
+
+    Parameters
+    ----------
+    stored, rerun : str or Path
+        The campaign's runs file and its reruns' runs file.
+    scenarios : str or Path
+        The folder of their scenario.
+    limits : sequence of float
+        The limits to tabulate, s.
+
+    Returns
+    -------
+    HoldLimitBasis
+
+    Raises
+    ------
+    ConfigError
+        Either file refused (:func:`loadarm.studies.runs_file.read_stored`), another campaign's reruns, or a rerun
+        that disagrees with the stored run.
+    """
+    head, scenario, lines = read_stored(stored, scenarios)
+    head_r, _, lines_r = read_stored(rerun, scenarios)
+    if (head_r["scenario"], head_r.get("plant"), head_r.get("vary")) != (head["scenario"], head.get("plant"),
+                                                                         head.get("vary")):
+        raise ConfigError(f"{rerun}: line 1: not {stored}'s campaign (scenario, plant or draws differ)",
+                          source=str(rerun))
+    runs = {seed: run for seed, (_, run) in lines.items()}
+    reruns = []
+    for seed, (n, run) in sorted(lines_r.items()):
+        old = runs.get(seed)
+        keys = ("alarm1_s", "alarm1_measured_s", "alarm1_measured_first_s", "limit_s")
+        if old is None or any(old.get(k) != run.get(k) for k in keys) or run.get("held_calls") is None:
+            raise ConfigError(f"{rerun}: line {n}: seed {seed} is not the stored run again ({', '.join(keys)} and "
+                              "held_calls expected as stored)", source=str(rerun))
+        reruns.append(CampaignRun(**run))
+    from loadarm.studies.campaign import ScenarioDraws
+
+    _, model = ScenarioDraws(str(scenario)).build(None, {})
+    own = hold_limit(model.sequence)
+    grid = sorted(set(float(x) for x in limits) | {own})
+    return HoldLimitBasis(str(stored), str(rerun), head["scenario"], len(runs), own, tuple(reruns),
+                          tuple(limit_effect(runs, reruns, h) for h in grid), len(candidates(runs)))
+
+
+def _basis_main(pairs: Sequence[str], out: Path, force: bool, scenarios: str) -> int:
+    if len(pairs) % 2:
+        print("error: --basis takes pairs: STORED_runs.jsonl RERUN_runs.jsonl ...", file=sys.stderr)
+        return 2
+    files = [Path(p) for p in pairs]
+    try:
+        guard_outputs({"--json": out}, files, force=force)
+        got = {}
+        for stored, rerun in zip(files[::2], files[1::2]):
+            b = hold_limit_basis(stored, rerun, scenarios=scenarios)
+            print(b.summary())
+            got[stored.name] = b.to_dict()
+    except (ConfigError, OutputError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    doc = {"generator": f"{SIGNATURE} {__version__}", "files": got}
+    text = re.sub(r"\[\s*([^\[\]{}]*?)\s*\]", lambda m: "[" + " ".join(m.group(1).split()) + "]",
+                  json.dumps(doc, indent=2, allow_nan=False))
+    atomic_write(out, text + "\n")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Command line: rerun a stored campaign's candidates (see the module docstring)."""
+    """Command line (see the module docstring): rerun a stored campaign's candidates, or with ``--basis`` tabulate
+    pairs of stored and rerun files into a JSON.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments (default: the command line's).
+
+    Returns
+    -------
+    int
+        0, or 2 with one line when a file or an argument is refused.
+    """
     ap = argparse.ArgumentParser(prog="python -m loadarm.studies.hold_limit", description=__doc__.split("\n")[0])
-    ap.add_argument("stored")
-    ap.add_argument("--out", required=True)
+    ap.add_argument("stored", nargs="+", help="a stored campaign's runs file (with --basis: pairs of it and its "
+                                              "reruns' file)")
+    ap.add_argument("--out", help="the reruns' runs file (created or resumed)")
+    ap.add_argument("--basis", metavar="JSON", help="tabulate the pairs into this JSON (atomically)")
+    ap.add_argument("--force", action="store_true", help="with --basis, replace a JSON loadarm did not write")
     ap.add_argument("--scenarios", default="examples/scenarios", help="the folder of the stored file's scenario")
     ap.add_argument("--seeds", type=int, default=None, help="only the first N candidates")
     ap.add_argument("--workers", type=int, default=1)
     a = ap.parse_args(argv)
+    if a.basis:
+        return _basis_main(a.stored, Path(a.basis), a.force, a.scenarios)
+    if a.out is None or len(a.stored) != 1:
+        print("error: one stored runs file and --out (or --basis JSON with pairs)", file=sys.stderr)
+        return 2
     try:
-        if Path(a.out).resolve() == Path(a.stored).resolve():
+        if Path(a.out).resolve() == Path(a.stored[0]).resolve():
             raise ConfigError(f"{a.out}: --out is the stored file: the reruns go to a file of their own")
-        runs = rerun_candidates(a.stored, a.out, scenarios=a.scenarios, limit=a.seeds, workers=max(1, a.workers),
+        runs = rerun_candidates(a.stored[0], a.out, scenarios=a.scenarios, limit=a.seeds, workers=max(1, a.workers),
                                 progress=lambda d, n: print(f"{d}/{n}", file=sys.stderr, flush=True))
-    except (ConfigError, OSError) as e:
-        print(f"error: {e}", file=sys.stderr)
+    except (ConfigError, OSError) as exc:
+        print(f"error: {exc}", file=sys.stderr)
         return 2
     print(f"{len(runs)} runs in {a.out}")
     return 0

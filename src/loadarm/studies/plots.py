@@ -14,7 +14,7 @@ from loadarm.studies.metocean import WEATHER
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 
-__all__ = ["manifold_study_figure", "operability_figure", "weather_figure", "prediction_figure", "forecast_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
+__all__ = ["hold_limit_figure", "manifold_study_figure", "operability_figure", "weather_figure", "prediction_figure", "forecast_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
            "seastate_hs_exceedance", "seastate_tp_exceedance"]
 
 
@@ -368,4 +368,30 @@ def watch_basis_figure(result) -> Figure:
                label=f"lost: more than {LOST_SHARE:.3g} of {result.lines} lines")
     ax.set(xlabel="most lines slack at once in the run", ylabel="runs", title=f"{result.scenario}: {len(most)} runs")
     ax.legend(loc="upper right", fontsize=8)
+    return fig
+
+
+def hold_limit_figure(result) -> Figure:
+    """The held calls' lengths (the share of calls held at least that long) and, per limit, the false ESD-1 it
+    adds and how much later ESD-1 can still come (:class:`loadarm.studies.hold_limit.HoldLimitBasis`)."""
+    from matplotlib.figure import Figure
+
+    d = np.sort(result.durations())
+    fig = Figure(figsize=(9.0, 3.6))
+    ax, bx = fig.subplots(1, 2)
+    if d.size:
+        ax.step(d, 1.0 - np.arange(d.size) / d.size, where="post", color="0.3")
+        ax.set_xscale("log")
+    ax.axvline(result.limit_s, color="tab:red", lw=1.2, label=f"hold limit {result.limit_s:g} s")
+    ax.set(xlabel="held call [s]", ylabel="share of calls held at least that long",
+           title=f"{result.scenario}: {d.size} calls in {len(result.reruns)} runs")
+    ax.legend(loc="upper right", fontsize=8)
+    lim = [e["limit_s"] for e in result.effects]
+    bx.plot(lim, [len(e["added_false"]) for e in result.effects], "o-", color="0.3", label="false ESD-1 added")
+    bx.plot(lim, [max(e["later"].values(), default=0.0) for e in result.effects], "s--", color="0.6",
+            label="ESD-1 later by at most [s]")
+    bx.axvline(result.limit_s, color="tab:red", lw=1.2)
+    bx.set(xlabel="hold limit [s]", title="what a limit changes (the runs run again)")
+    bx.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
     return fig

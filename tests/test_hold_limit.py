@@ -80,6 +80,10 @@ def test_the_effect_counts_earlier_runs_added_false_esd1_and_what_is_still_later
     got = limit_effect(stored, reruns, 10.0)
     assert got["earlier"] == [1, 2] and got["added_false"] == [1] and got["later"] == {2: 10.0}
     assert limit_effect(stored, reruns, math.inf)["later"] == {2: 25.0}
+    # ESD-1 brought forward by a later call than the stored run's in progress: counted from that call's onset
+    late = [_run(seed=4, alarm1=470.0, limit=600.0, held=[(300.0, 305.0), (440.0, 470.0)], measured=300.0,
+                 first=300.0)]
+    assert limit_effect({4: {"alarm1_measured_first_s": 300.0, "alarm1_s": 470.0}}, late, 10.0)["later"] == {4: 10.0}
 
 
 def test_the_study_refuses_in_one_line_and_changes_no_file(tmp_path):

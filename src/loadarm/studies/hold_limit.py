@@ -137,16 +137,18 @@ def limit_effect(stored: dict[int, dict], reruns: Sequence[CampaignRun], limit: 
     -------
     dict
         ``earlier`` (seeds), ``added_false`` (seeds: ESD-1 now, none before, no face), ``later`` (seed to how much
-        ESD-1 comes after the rule without the prediction's, s, where it still does), ``candidates``, ``rerun``.
+        ESD-1 comes after the rule without the prediction's call in progress at it, as the campaign counts, s, in
+        runs that reach a face: at most the limit), ``candidates``, ``rerun``.
     """
     earlier, added, later = [], [], {}
     for r in reruns:
-        at = capped_alarm1(r, limit)
+        at, m = capped_alarm1(r, limit), r.alarm1_measured_s
         if at is not None and (r.alarm1_s is None or at < r.alarm1_s - 1e-9):
             earlier.append(r.seed)
+            # the rule without the prediction's call in progress at that ESD-1 is the one held to the limit
+            m = next(on for on, end in r.held_calls if on + limit < end and on + limit == at)
             if r.alarm1_s is None and r.limit_s is None:
                 added.append(r.seed)
-        m = r.alarm1_measured_s
         if r.limit_s is not None and m is not None:
             when = at if at is not None else r.limit_s
             if when > m + 1e-9:

@@ -166,3 +166,19 @@ def test_the_basis_of_a_stored_pair_is_its_reruns_and_refuses_one_that_disagrees
     with pytest.raises(ConfigError, match=f"^{bad}: line 2: seed {doc['run']['seed']} is not the stored run again"):
         hold_limit_basis(stored, bad, scenarios=SCEN)
     assert bad.read_text() == before
+
+
+def test_keep_others_starts_the_whole_campaign_with_the_runs_no_limit_can_change(tmp_path):
+    """``--keep-others`` (no candidate run here: ``--seeds 0``): a new file with the stored header and the 9 runs
+    of the breast lines' 20 that had no call held before their ESD-1, each line as stored; the stored file
+    unchanged; run again, it keeps the file as it is (the lines are not written twice)."""
+    from loadarm.studies.hold_limit import main
+
+    stored = ROOT / "docs" / "campaigns" / "breast_lines_squall_tracked_runs.jsonl"
+    before = stored.read_bytes()
+    out = tmp_path / "whole_runs.jsonl"
+    args = [str(stored), "--out", str(out), "--seeds", "0", "--keep-others", "--scenarios", str(SCEN)]
+    assert main(args) == 0
+    got, lines = out.read_text().splitlines(), stored.read_text().splitlines()
+    assert got[0] == lines[0] and len(got) == 10 and set(got[1:]) <= set(lines[1:])
+    assert main(args) == 0 and out.read_text().splitlines() == got and stored.read_bytes() == before

@@ -71,7 +71,8 @@ def candidates(runs: dict[int, dict]) -> list[int]:
 
 
 def rerun_candidates(stored: str | Path, out: str | Path, *, scenarios: str | Path = "examples/scenarios",
-                     limit: int | None = None, workers: int = 1, progress=None) -> list[CampaignRun]:
+                     limit: int | None = None, workers: int = 1, progress=None,
+                     keep_others: bool = False) -> list[CampaignRun]:
     """Run the candidates of a stored campaign again (the code that keeps the held calls) into a runs file of
     their own, with the stored file's header; the seeds ``out`` already holds are not run again.
 
@@ -89,6 +90,10 @@ def rerun_candidates(stored: str | Path, out: str | Path, *, scenarios: str | Pa
         Processes.
     progress : callable, optional
         ``progress(done, total)`` after each batch.
+    keep_others : bool
+        Start a new ``out`` with the stored file's header and every run that is no candidate, line for line (a
+        limit cannot change them): the reruns then complete it into the whole campaign under the code that runs
+        them (``loadarm campaign --runs out`` gives its result, running nothing).
 
     Returns
     -------
@@ -97,8 +102,13 @@ def rerun_candidates(stored: str | Path, out: str | Path, *, scenarios: str | Pa
     """
     header, scenario, lines = read_stored(stored, scenarios)
     runs = {seed: run for seed, (_, run) in lines.items()}
-    store = RunsFile(out, str(scenario), header.get("plant"), [tuple(v) for v in header.get("vary", [])])
     seeds = candidates(runs)[:limit]
+    if keep_others and not Path(out).exists():
+        raw = Path(stored).read_text(encoding="utf-8").splitlines()
+        cand = set(candidates(runs))
+        kept = [raw[n - 1] for seed, (n, _) in sorted(lines.items()) if seed not in cand]
+        atomic_write(Path(out), "\n".join([raw[0], *kept]) + "\n")
+    store = RunsFile(out, str(scenario), header.get("plant"), [tuple(v) for v in header.get("vary", [])])
     have = store.seeds()
     jobs = [(s, runs[s]["draws"]) for s in seeds if s not in have]
     chunks = [jobs[k:k + RUNS_FILE_BATCH] for k in range(0, len(jobs), RUNS_FILE_BATCH)]
@@ -307,6 +317,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--force", action="store_true", help="with --basis, replace a JSON loadarm did not write")
     ap.add_argument("--scenarios", default="examples/scenarios", help="the folder of the stored file's scenario")
     ap.add_argument("--seeds", type=int, default=None, help="only the first N candidates")
+    ap.add_argument("--keep-others", action="store_true", help="a new --out starts with every run that is no "
+                                                              "candidate, as stored (the whole campaign)")
     ap.add_argument("--workers", type=int, default=1)
     a = ap.parse_args(argv)
     if a.basis:
@@ -318,7 +330,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if Path(a.out).resolve() == Path(a.stored[0]).resolve():
             raise ConfigError(f"{a.out}: --out is the stored file: the reruns go to a file of their own")
         runs = rerun_candidates(a.stored[0], a.out, scenarios=a.scenarios, limit=a.seeds, workers=max(1, a.workers),
-                                progress=lambda d, n: print(f"{d}/{n}", file=sys.stderr, flush=True))
+                                progress=lambda d, n: print(f"{d}/{n}", file=sys.stderr, flush=True),
+                                keep_others=a.keep_others)
     except (ConfigError, OSError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -33,13 +33,14 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from scipy.stats import binomtest
 
 from loadarm import __version__
 from loadarm.arm.sequence import hold_limit
 from loadarm.errors import ConfigError, OutputError
 from loadarm.files import SIGNATURE, atomic_write, guard_outputs
 from loadarm.results import Metric, Result
-from loadarm.studies.campaign import CampaignRun, run_batch, capped_alarm1
+from loadarm.studies.campaign import CampaignRun, ScenarioDraws, capped_alarm1, run_batch
 from loadarm.studies.plots import hold_limit_figure
 from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile, read_stored
 
@@ -191,6 +192,8 @@ class HoldLimitBasis(Result):
         Metric("limit_s", "the installation's hold limit", "s", ".1f"),
         Metric("earlier", "ESD-1 earlier with it", "", "d"),
         Metric("added_false", "false ESD-1 it adds", "", "d"),
+        Metric("added_false_all_lo", "over every candidate, 95 % interval from", "", ".0f"),
+        Metric("added_false_all_hi", "to", "", ".0f"),
         Metric("later", "ESD-1 still later than the rule without the prediction", "", "d"),
         Metric("later_max_s", "by at most", "s", ".1f", none="-"),
     )
@@ -203,9 +206,20 @@ class HoldLimitBasis(Result):
         """The effect of one tabulated limit (:func:`limit_effect`)."""
         return next(e for e in self.effects if e["limit_s"] == limit)
 
+    def added_false_all(self) -> tuple[float, float]:
+        """The false ESD-1 the installation's limit adds over every candidate: exact when every candidate was run
+        again, else the sample's share scaled to them, its 95 % Wilson interval (the reruns are the first
+        candidates in seed order, and seeds draw the sea independently)."""
+        k, n = len(self.at(self.limit_s)["added_false"]), len(self.reruns)
+        if n == self.n_candidates:
+            return float(k), float(k)
+        ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+        return ci.low * self.n_candidates, ci.high * self.n_candidates
+
     def _values(self) -> dict:
         d, e = self.durations(), self.at(self.limit_s)
-        return {"scenario": self.scenario, "runs": self.runs, "candidates": self.n_candidates,
+        lo, hi = self.added_false_all()
+        return {"added_false_all_lo": lo, "added_false_all_hi": hi,"scenario": self.scenario, "runs": self.runs, "candidates": self.n_candidates,
                 "rerun": len(self.reruns), "calls": int(d.size),
                 "call_median_s": float(np.median(d)) if d.size else None,
                 "call_max_s": float(d.max()) if d.size else None, "limit_s": self.limit_s,
@@ -264,8 +278,6 @@ def hold_limit_basis(stored: str | Path, rerun: str | Path, *, scenarios: str | 
             raise ConfigError(f"{rerun}: line {n}: seed {seed} is not the stored run again ({', '.join(keys)} and "
                               "held_calls expected as stored)", source=str(rerun))
         reruns.append(CampaignRun(**run))
-    from loadarm.studies.campaign import ScenarioDraws
-
     _, model = ScenarioDraws(str(scenario)).build(None, {})
     own = hold_limit(model.sequence)
     grid = sorted(set(float(x) for x in limits) | {own})

@@ -373,7 +373,16 @@ def watch_basis_figure(result) -> Figure:
 
 def hold_limit_figure(result) -> Figure:
     """The held calls' lengths (the share of calls held at least that long) and, per limit, the false ESD-1 it
-    adds and how much later ESD-1 can still come (:class:`loadarm.studies.hold_limit.HoldLimitBasis`)."""
+    adds and how much later ESD-1 can still come.
+
+    Parameters
+    ----------
+    result : loadarm.studies.hold_limit.HoldLimitBasis
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     from matplotlib.figure import Figure
 
     d = np.sort(result.durations())

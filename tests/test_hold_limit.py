@@ -182,3 +182,22 @@ def test_keep_others_starts_the_whole_campaign_with_the_runs_no_limit_can_change
     got, lines = out.read_text().splitlines(), stored.read_text().splitlines()
     assert got[0] == lines[0] and len(got) == 10 and set(got[1:]) <= set(lines[1:])
     assert main(args) == 0 and out.read_text().splitlines() == got and stored.read_bytes() == before
+
+
+def test_a_call_that_drops_out_and_returns_starts_again_and_an_off_delay_joins_it():
+    """Found by review: the controller's limit counts from the onset of the call in progress, and a call that
+    drops below ESD-1 for a forecast and returns starts again, so against the rule's first call (where it latches)
+    ESD-1 is not bounded by the limit (carried-on seed 533: first call 413.82 s, ESD-1 489.42 s, 75.6 s later).
+    The derivation says so (``later_than_first``); with calls apart by less than an off-delay joined, two 10 s calls
+    1 s apart reach a 15 s limit."""
+    from loadarm.studies.campaign import merged_calls
+
+    calls = [(100.0, 110.0), (111.0, 121.0), (200.0, 205.0)]
+    assert merged_calls([list(c) for c in calls], 5.0) == [[100.0, 121.0], [200.0, 205.0]]
+    assert merged_calls([list(c) for c in calls], 0.0) == [list(c) for c in calls]
+    run = _run(alarm1=None, limit=700.0, held=calls, measured=100.0, first=100.0)
+    assert capped_alarm1(run, 15.0) is None and capped_alarm1(run, 15.0, off_delay=5.0) == 115.0
+    e = limit_effect({1: {"alarm1_measured_first_s": 100.0, "alarm1_s": None}}, [run], 15.0)
+    assert e["later"] == {1: 600.0} and e["later_than_first"] == {1: 600.0}
+    e5 = limit_effect({1: {"alarm1_measured_first_s": 100.0, "alarm1_s": None}}, [run], 15.0, off_delay=5.0)
+    assert e5["later"] == {1: 15.0} and e5["later_than_first"] == {1: 15.0}

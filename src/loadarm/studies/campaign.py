@@ -49,6 +49,7 @@ from loadarm.vocab import ALARM_RULES, Severity
 __all__ = [
     "CAMPAIGN_METRICS",
     "capped_alarm1",
+    "merged_calls",
     "run_batch",
     "MAX_SEEDS",
     "CampaignResult",
@@ -241,7 +242,31 @@ def _judge(seed: int, draws: dict, v: dict, bounds: tuple[float, float] | None =
         held_calls=v.get("held_calls"))
 
 
-def capped_alarm1(run: CampaignRun, limit: float) -> float | None:
+def merged_calls(calls, off_delay: float) -> list[list[float]]:
+    """Held calls with every gap shorter than ``off_delay`` closed: a call that drops out for less than that and
+    comes back counted as one (what a hold limit with an off-delay on the call's end would see).
+
+    Parameters
+    ----------
+    calls : list of [float, float]
+        ``[onset, end]`` in time order, s.
+    off_delay : float
+        s (0: as the controller counts today, every return a new call).
+
+    Returns
+    -------
+    list of [float, float]
+    """
+    out: list[list[float]] = []
+    for onset, end in calls:
+        if out and onset - out[-1][1] < off_delay:
+            out[-1][1] = max(out[-1][1], end)
+        else:
+            out.append([onset, end])
+    return out
+
+
+def capped_alarm1(run: CampaignRun, limit: float, off_delay: float = 0.0) -> float | None:
     """The run's ESD-1 had the prediction held no call for ESD-1 longer than ``limit`` (the hold limit,
     :func:`loadarm.arm.sequence.hold_limit`): the earlier of its ESD-1 and the first held call's onset plus
     the limit, where that call still stood then (within a guidance cycle of the controller's own: it checks the
@@ -254,6 +279,8 @@ def capped_alarm1(run: CampaignRun, limit: float) -> float | None:
         With :attr:`CampaignRun.held_calls`.
     limit : float
         The hold limit, s (``inf``: none).
+    off_delay : float
+        Calls apart by less than this counted as one (:func:`merged_calls`), s; 0: the controller's count.
 
     Returns
     -------
@@ -267,7 +294,7 @@ def capped_alarm1(run: CampaignRun, limit: float) -> float | None:
     """
     if run.held_calls is None:
         raise ValueError(f"seed {run.seed}: stored before the held calls were kept; run it again")
-    fired = [onset + limit for onset, end in run.held_calls if onset + limit < end]
+    fired = [onset + limit for onset, end in merged_calls(run.held_calls, off_delay) if onset + limit < end]
     times = [t for t in (run.alarm1_s, *fired) if t is not None]
     return min(times) if times else None
 

@@ -39,8 +39,9 @@ from loadarm import __version__
 from loadarm.arm.sequence import hold_limit
 from loadarm.errors import ConfigError, OutputError
 from loadarm.files import SIGNATURE, atomic_write, guard_outputs
+from loadarm.guidance.modes import ALARM_OFF_DELAY
 from loadarm.results import Metric, Result
-from loadarm.studies.campaign import CampaignRun, ScenarioDraws, capped_alarm1, run_batch
+from loadarm.studies.campaign import CampaignRun, ScenarioDraws, capped_alarm1, merged_calls, run_batch
 from loadarm.studies.plots import hold_limit_figure
 from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile, read_stored
 
@@ -131,7 +132,8 @@ def rerun_candidates(stored: str | Path, out: str | Path, *, scenarios: str | Pa
     return [CampaignRun(**fields) for fields, _ in store.runs(seeds)]
 
 
-def limit_effect(stored: dict[int, dict], reruns: Sequence[CampaignRun], limit: float) -> dict:
+def limit_effect(stored: dict[int, dict], reruns: Sequence[CampaignRun], limit: float,
+                 off_delay: float = 0.0) -> dict:
     """What a hold limit changes in a campaign: the runs whose ESD-1 it makes earlier, the false ESD-1 it adds
     and how much later than the rule without the prediction ESD-1 still comes.
 
@@ -143,29 +145,36 @@ def limit_effect(stored: dict[int, dict], reruns: Sequence[CampaignRun], limit: 
         Its candidates run again (with their held calls).
     limit : float
         The hold limit, s.
+    off_delay : float
+        Calls apart by less than this counted as one, s (0: the controller's count).
 
     Returns
     -------
     dict
         ``earlier`` (seeds), ``added_false`` (seeds: ESD-1 now, none before, no face), ``later`` (seed to how much
         ESD-1 comes after the rule without the prediction's call in progress at it, as the campaign counts, s, in
-        runs that reach a face: at most the limit), ``candidates``, ``rerun``.
+        runs that reach a face: at most the limit), ``later_than_first`` (the same against that rule's first call,
+        where it would have latched ESD-1: not bounded by the limit, since a call that drops out and comes back
+        starts again), ``limit_s``, ``off_delay_s``, ``candidates``, ``rerun``.
     """
-    earlier, added, later = [], [], {}
+    earlier, added, later, later_first = [], [], {}, {}
     for r in reruns:
-        at, m = capped_alarm1(r, limit), r.alarm1_measured_s
+        at, m = capped_alarm1(r, limit, off_delay), r.alarm1_measured_s
         if at is not None and (r.alarm1_s is None or at < r.alarm1_s - 1e-9):
             earlier.append(r.seed)
             # the rule without the prediction's call in progress at that ESD-1 is the one held to the limit
-            m = next(on for on, end in r.held_calls if on + limit < end and on + limit == at)
+            m = next(on for on, end in merged_calls(r.held_calls, off_delay) if on + limit < end and on + limit == at)
             if r.alarm1_s is None and r.limit_s is None:
                 added.append(r.seed)
         if r.limit_s is not None and m is not None:
             when = at if at is not None else r.limit_s
             if when > m + 1e-9:
                 later[r.seed] = round(when - m, 2)
-    return {"limit_s": limit, "candidates": len(candidates(stored)), "rerun": len(reruns), "earlier": earlier,
-            "added_false": added, "later": later}
+            first = r.alarm1_measured_first_s
+            if first is not None and when > first + 1e-9:
+                later_first[r.seed] = round(when - first, 2)
+    return {"limit_s": limit, "off_delay_s": off_delay, "candidates": len(candidates(stored)), "rerun": len(reruns),
+            "earlier": earlier, "added_false": added, "later": later, "later_than_first": later_first}
 
 
 @dataclass(frozen=True)
@@ -180,6 +189,7 @@ class HoldLimitBasis(Result):
     reruns: tuple[CampaignRun, ...]
     effects: tuple[dict, ...]
     n_candidates: int
+    debounced: dict
 
     METRICS = (
         Metric("scenario", "scenario"),
@@ -196,6 +206,10 @@ class HoldLimitBasis(Result):
         Metric("added_false_all_hi", "to", "", ".0f"),
         Metric("later", "ESD-1 still later than the rule without the prediction", "", "d"),
         Metric("later_max_s", "by at most", "s", ".1f", none="-"),
+        Metric("later_first_max_s", "later than that rule's first call, at most", "s", ".1f", none="-"),
+        Metric("debounced_added_false", f"false ESD-1 added with calls apart by under {ALARM_OFF_DELAY:g} s counted as one",
+               "", "d"),
+        Metric("debounced_later_first_max_s", "then later than the first call, at most", "s", ".1f", none="-"),
     )
 
     def durations(self) -> np.ndarray:
@@ -224,17 +238,24 @@ class HoldLimitBasis(Result):
                 "call_median_s": float(np.median(d)) if d.size else None,
                 "call_max_s": float(d.max()) if d.size else None, "limit_s": self.limit_s,
                 "earlier": len(e["earlier"]), "added_false": len(e["added_false"]), "later": len(e["later"]),
-                "later_max_s": max(e["later"].values(), default=None)}
+                "later_max_s": max(e["later"].values(), default=None),
+                "later_first_max_s": max(e["later_than_first"].values(), default=None),
+                "debounced_added_false": len(self.debounced["added_false"]),
+                "debounced_later_first_max_s": max(self.debounced["later_than_first"].values(), default=None)}
 
     def to_dict(self) -> dict:
         d = dict(self._values())
         d.update(stored_file=self.stored_file, rerun_file=self.rerun_file,
-                 effects=[{**e, "later": {str(k): v for k, v in e["later"].items()}} for e in self.effects],
+                 effects=[_jsonable(e) for e in self.effects], debounced=_jsonable(self.debounced),
                  held_calls=[[r.seed, r.held_calls] for r in self.reruns])
         return d
 
     def _figure(self):
         return hold_limit_figure(self)
+
+
+def _jsonable(effect: dict) -> dict:
+    return {**effect, **{k: {str(s): v for s, v in effect[k].items()} for k in ("later", "later_than_first")}}
 
 
 def hold_limit_basis(stored: str | Path, rerun: str | Path, *, scenarios: str | Path = "examples/scenarios",
@@ -273,7 +294,7 @@ def hold_limit_basis(stored: str | Path, rerun: str | Path, *, scenarios: str | 
     reruns = []
     for seed, (n, run) in sorted(lines_r.items()):
         old = runs.get(seed)
-        keys = ("alarm1_s", "alarm1_measured_s", "alarm1_measured_first_s", "limit_s")
+        keys = ("alarm1_s", "alarm1_measured_s", "alarm1_measured_first_s", "limit_s", "limit_face")
         if old is None or any(old.get(k) != run.get(k) for k in keys) or run.get("held_calls") is None:
             raise ConfigError(f"{rerun}: line {n}: seed {seed} is not the stored run again ({', '.join(keys)} and "
                               "held_calls expected as stored)", source=str(rerun))
@@ -282,7 +303,8 @@ def hold_limit_basis(stored: str | Path, rerun: str | Path, *, scenarios: str | 
     own = hold_limit(model.sequence)
     grid = sorted(set(float(x) for x in limits) | {own})
     return HoldLimitBasis(str(stored), str(rerun), head["scenario"], len(runs), own, tuple(reruns),
-                          tuple(limit_effect(runs, reruns, h) for h in grid), len(candidates(runs)))
+                          tuple(limit_effect(runs, reruns, h) for h in grid), len(candidates(runs)),
+                          limit_effect(runs, reruns, own, ALARM_OFF_DELAY))
 
 
 def _basis_main(pairs: Sequence[str], out: Path, force: bool, scenarios: str) -> int:

@@ -257,7 +257,7 @@ class SafetyRules:
         else:
             best = (floor, f.design, ROUTE_DESIGN, f.face, "floor")
         if today >= Severity.ESD1 and measured[0] > best[0]:
-            if self._change_seen(f, now):
+            if self._change_seen(f, now) or self.hold_limit <= 0.0:      # nothing may be held: as without it
                 return measured
             if s.shadow_esd1_at is not None and now - s.shadow_esd1_at >= self.hold_limit - 1e-9:
                 return (*measured[:4], "hold_limit")

@@ -33,6 +33,7 @@ from loadarm.present.report import ReportData, build_report, figure_builders
 from loadarm.ship.model import compile_ship
 from loadarm.ship.motion import simulate
 from loadarm.studies.forecast import run_forecast
+from loadarm.studies.hold_limit import hold_limit_basis
 from loadarm.studies.metocean import synthetic_metocean
 from loadarm.studies.prediction import calibrate_predictors
 from loadarm.studies.plots import weather_figure
@@ -47,7 +48,7 @@ DOC_FIGURES = ("sizing.png", "envelope.png", "alpha_beta.png", "angles_paper.png
                "voltages.png", "verification.png", "loads.png", "residual_torque.png", "deviation_by_timing.png",
                "simulation_smooth.png", "timeline_driftoff.png", "check.png", "rao.png", "alarm_design.png",
                "operability.png", "weather.png", "bank_clearance.png", "bank_swivels.png", "bank_release.png",
-               "bank_manifold_loads.png", "bank_manifold_record.png")
+               "bank_manifold_loads.png", "bank_manifold_record.png", "hold_limit.png")
 
 #: Figures of studies that take minutes (the predictors over their hold-out records, a forecast ensemble): drawn by
 #: ``make docs`` and by the slow tests that run the same studies and compare (:func:`study_figures`), not by
@@ -121,6 +122,17 @@ def _bank_manifold_record(_data):
                                  wind=berth_wind(berth.environment)).plot()
 
 
+#: The stored campaign the hold limit's figure shows (docs/campaigns, from the repository's root): its runs file and
+#: its candidates' reruns.
+HOLD_LIMIT_CASE = ("hs15_tracked_hs1.5-2.0_runs.jsonl", "hs15_tracked_hs1.5-2.0_held_runs.jsonl")
+
+
+def _hold_limit(_data):
+    camp = Path("docs") / "campaigns"
+    return hold_limit_basis(camp / HOLD_LIMIT_CASE[0], camp / HOLD_LIMIT_CASE[1],
+                            scenarios=packaged_example("scenarios")).plot()
+
+
 def study_figures(dest: str | Path, names=STUDY_FIGURES, *, prediction=None, forecast=None) -> dict[str, Path]:
     """Draw :data:`STUDY_FIGURES` into ``dest``: the flange predictors' calibration on their hold-out records,
     and the connect windows of the shipped forecast ensemble.
@@ -182,7 +194,7 @@ def render_doc_figures(dest: str | Path, names=DOC_FIGURES) -> dict[str, Path]:
     builders = {**figure_builders(data), "weather.png": (_weather, ""), "bank_clearance.png": (_bank_clearance, ""),
                 "bank_swivels.png": (_bank_swivels, ""), "bank_release.png": (_bank_release, ""),
                 "bank_manifold_loads.png": (_bank_manifold_loads, ""),
-                "bank_manifold_record.png": (_bank_manifold_record, "")}
+                "bank_manifold_record.png": (_bank_manifold_record, ""), "hold_limit.png": (_hold_limit, "")}
     out = {}
     for name in names:
         out[name] = save(builders[name][0](data), Path(dest) / name)

@@ -467,3 +467,56 @@ def test_guidance_section_13_watch_numbers_are_the_stored_basis_and_runs():
     stored = json.loads((camp / "five_lines_squall_tracked.json").read_text())["result"]
     leads = [five[s]["run"]["limit_s"] - five[s]["run"]["alarm1_s"] for s in stored["later_seeds"]]
     cited("docs/guidance.md", f"still {min(leads):.0f}-{max(leads):.0f} s before its face")
+
+
+#: The hold limit's basis rows of docs/guidance.md section 13: the stored runs file and the case's words.
+HOLD_LIMIT_CASES = (
+    ("hs15_tracked_hs1.0-1.5_runs.jsonl", "`hs15_tracked.toml`, Hs 1.0-1.5 m"),
+    ("hs15_tracked_hs1.5-2.0_runs.jsonl", "`hs15_tracked.toml`, Hs 1.5-2.0 m"),
+    ("hs15_tracked_hs2.0-2.5_third_runs.jsonl", "`hs15_tracked.toml`, Hs 2.0-2.5 m, the watch at a third"),
+    ("breakout_tracked_moorings_runs.jsonl", "`breakout_tracked.toml`, with the second witness"),
+    ("partial_breakout_squall_tracked_third_runs.jsonl", "`partial_breakout_squall_tracked.toml`, the watch at a third"),
+    ("five_lines_squall_tracked_runs.jsonl", "`five_lines_squall_tracked.toml`"),
+    ("breast_lines_squall_tracked_runs.jsonl", "`breast_lines_squall_tracked.toml`"),
+)
+
+
+def hold_limit_row(label: str, v: dict) -> str:
+    """A row of section 13's hold-limit table from the basis JSON's entry for one stored file."""
+    calls = "- / -" if v["calls"] == 0 else f"{v['call_median_s']:.1f} / {v['call_max_s']:.1f}"
+    added = str(v["added_false"])
+    if v["rerun"] < v["candidates"]:
+        added += (f" (over all {v['candidates']}: {v['added_false_all_lo']:.0f}-{v['added_false_all_hi']:.0f}, "
+                  "95 %)")
+    later = "0" if not v["later"] else f"{v['later']} (by at most {v['later_max_s']:.1f} s)"
+    return (f"| {label} | {v['runs']} | {v['candidates']} | {v['rerun']} | {v['calls']} | {calls} | {v['earlier']} "
+            f"| {added} | {later} |")
+
+
+def test_guidance_section_13_hold_limit_table_is_the_stored_basis():
+    """The hold limit's table in docs/guidance.md section 13, row for row from ``hold_limit_basis.json`` (made by
+    ``python -m loadarm.studies.hold_limit --basis``; a slow test re-derives the JSON from the runs files)."""
+    import json
+
+    files = json.loads((ROOT / "docs" / "campaigns" / "hold_limit_basis.json").read_text())["files"]
+    assert set(files) == {name for name, _ in HOLD_LIMIT_CASES}
+    for name, label in HOLD_LIMIT_CASES:
+        assert files[name]["limit_s"] == 15.0
+        cited("docs/guidance.md", hold_limit_row(label, files[name]))
+
+
+@pytest.mark.slow  # 20-60 s: seven stored campaigns and their reruns read and judged
+def test_the_hold_limit_basis_is_its_runs_files_again():
+    """Every entry of ``hold_limit_basis.json`` is :func:`loadarm.studies.hold_limit.hold_limit_basis` of its two
+    runs files today (the same numbers, the same seeds per limit)."""
+    import json
+
+    from loadarm.studies.hold_limit import hold_limit_basis
+
+    camp = ROOT / "docs" / "campaigns"
+    files = json.loads((camp / "hold_limit_basis.json").read_text())["files"]
+    for name, entry in files.items():
+        again = hold_limit_basis(camp / name, camp / entry["rerun_file"].rsplit("/", 1)[-1],
+                                 scenarios=ROOT / "examples" / "scenarios").to_dict()
+        for key in ("runs", "candidates", "rerun", "calls", "earlier", "added_false", "later", "effects"):
+            assert again[key] == entry[key], (name, key)

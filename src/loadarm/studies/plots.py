@@ -393,7 +393,8 @@ def hold_limit_figure(result) -> Figure:
         ax.set_xscale("log")
     ax.axvline(result.limit_s, color="tab:red", lw=1.2, label=f"hold limit {result.limit_s:g} s")
     ax.set(xlabel="held call [s]", ylabel="share of calls held at least that long",
-           title=f"{result.scenario}: {d.size} calls in {len(result.reruns)} runs")
+           title=f"{result.stored_file.rsplit('/', 1)[-1].removesuffix('_runs.jsonl')}: {d.size} calls in "
+                 f"{len(result.reruns)} runs")
     ax.legend(loc="upper right", fontsize=8)
     lim = [e["limit_s"] for e in result.effects]
     bx.plot(lim, [len(e["added_false"]) for e in result.effects], "o-", color="0.3", label="false ESD-1 added")

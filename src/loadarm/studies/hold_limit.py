@@ -17,7 +17,10 @@ makes earlier, the false ESD-1 it adds, and how much later than the rule without
 come.
 
 Run as ``python -m loadarm.studies.hold_limit STORED_runs.jsonl --out RERUN_runs.jsonl [--scenarios DIR] [--seeds N]
-[--workers W]``.
+[--workers W] [--keep-others]``, and ``python -m loadarm.studies.hold_limit STORED HELD [STORED HELD ...] --basis
+FILE.json``. The basis needs its reruns made with the limit off (the stored ``*_held_runs.jsonl`` were, at
+``ef67a00``): run with the limit on, a rerun the limit changed disagrees with its stored run and the basis refuses
+it. With the limit on, ``--keep-others`` gives the campaign under the limit instead (only its candidates change).
 """
 
 from __future__ import annotations

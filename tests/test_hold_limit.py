@@ -86,6 +86,7 @@ def test_the_effect_counts_earlier_runs_added_false_esd1_and_what_is_still_later
     assert limit_effect({4: {"alarm1_measured_first_s": 300.0, "alarm1_s": 470.0}}, late, 10.0)["later"] == {4: 10.0}
 
 
+@pytest.mark.slow  # 3-4 s: two processes (make test's budget; CI runs it)
 def test_the_study_refuses_in_one_line_and_changes_no_file(tmp_path):
     """``python -m loadarm.studies.hold_limit``: its output the stored file itself, or a stored file of other
     inputs: exit 2, one line naming the file; neither file changed."""

@@ -15,6 +15,7 @@ can run again), never a file it cannot recognise as its own.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import re
 import stat
@@ -26,7 +27,7 @@ from typing import IO, Any
 
 from loadarm.errors import ConfigError, OutputError
 
-__all__ = ["MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "PDF_TITLE_MARK", "read_input", "check_depth", "atomic_path",
+__all__ = ["compact_json", "MAX_INPUT_BYTES", "MAX_DEPTH", "SIGNATURE", "HTML_MARK", "JSON_MARK", "PDF_TITLE_MARK", "read_input", "check_depth", "atomic_path",
            "atomic_write", "atomic_open", "written_by_loadarm", "guard_outputs", "read_toml", "printable",
            "check_input", "read_binary"]
 
@@ -295,6 +296,25 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+def compact_json(doc: Any, *, allow_nan: bool = True) -> str:
+    """``doc`` as indented JSON with each innermost list on one line (a stored run's numbers a line), ending in a
+    newline: the studies' basis files.
+
+    Parameters
+    ----------
+    doc : object
+        JSON-serialisable.
+    allow_nan : bool
+        As :func:`json.dumps`'s.
+
+    Returns
+    -------
+    str
+    """
+    text = json.dumps(doc, indent=2, allow_nan=allow_nan)
+    return re.sub(r"\[\s*([^\[\]{}]*?)\s*\]", lambda m: "[" + " ".join(m.group(1).split()) + "]", text) + "\n"
 
 
 def atomic_write(path: str | Path, data: str | bytes, *, private: bool = False) -> Path:

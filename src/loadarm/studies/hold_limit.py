@@ -26,9 +26,6 @@ it. With the limit on, ``--keep-others`` gives the campaign under the limit inst
 from __future__ import annotations
 
 import argparse
-import json
-import math
-import re
 import sys
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -41,7 +38,7 @@ from scipy.stats import binomtest
 from loadarm import __version__
 from loadarm.arm.sequence import hold_limit
 from loadarm.errors import ConfigError, OutputError
-from loadarm.files import SIGNATURE, atomic_write, guard_outputs
+from loadarm.files import SIGNATURE, atomic_write, compact_json, guard_outputs
 from loadarm.guidance.modes import ALARM_OFF_DELAY
 from loadarm.results import Metric, Result
 from loadarm.studies.campaign import CampaignRun, ScenarioDraws, capped_alarm1, merged_calls, run_batch
@@ -326,9 +323,7 @@ def _basis_main(pairs: Sequence[str], out: Path, force: bool, scenarios: str) ->
         print(f"error: {exc}", file=sys.stderr)
         return 2
     doc = {"generator": f"{SIGNATURE} {__version__}", "files": got}
-    text = re.sub(r"\[\s*([^\[\]{}]*?)\s*\]", lambda m: "[" + " ".join(m.group(1).split()) + "]",
-                  json.dumps(doc, indent=2, allow_nan=False))
-    atomic_write(out, text + "\n")
+    atomic_write(out, compact_json(doc, allow_nan=False))
     return 0
 
 

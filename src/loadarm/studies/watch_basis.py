@@ -13,8 +13,6 @@ Run it as ``python -m loadarm.studies.watch_basis RUNS.jsonl [...] --out FILE.js
 from __future__ import annotations
 
 import argparse
-import json
-import re
 import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -24,7 +22,7 @@ import numpy as np
 
 from loadarm import __version__
 from loadarm.errors import ConfigError, OutputError
-from loadarm.files import SIGNATURE, atomic_write, guard_outputs
+from loadarm.files import SIGNATURE, atomic_write, compact_json, guard_outputs
 from loadarm.guidance.moorings import LOST_SHARE, SLACK_TIME, MooringWatch
 from loadarm.results import Metric, Result
 from loadarm.ship.flange import flange_motion
@@ -202,9 +200,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         got[f.name] = b.to_dict()
     doc = {"generator": f"{SIGNATURE} {__version__}", "lost_share": LOST_SHARE, "slack_time_s": SLACK_TIME,
            "files": got}
-    text = re.sub(r"\[\s*([^\[\]{}]*?)\s*\]", lambda m: "[" + " ".join(m.group(1).split()) + "]",
-                  json.dumps(doc, indent=2))                  # each innermost list on one line: a run a line
-    atomic_write(args.out, text + "\n")
+    atomic_write(args.out, compact_json(doc))                  # each innermost list on one line: a run a line
     return 0
 
 

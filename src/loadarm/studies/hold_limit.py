@@ -29,6 +29,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -115,20 +116,14 @@ def rerun_candidates(stored: str | Path, out: str | Path, *, scenarios: str | Pa
     jobs = [(s, runs[s]["draws"]) for s in seeds if s not in have]
     chunks = [jobs[k:k + RUNS_FILE_BATCH] for k in range(0, len(jobs), RUNS_FILE_BATCH)]
     done = len(seeds) - len(jobs)
-    if workers <= 1:
-        parts = (run_batch(str(scenario), header.get("plant"), c) for c in chunks)
-        for part in parts:
+    args = ([str(scenario)] * len(chunks), [header.get("plant")] * len(chunks), chunks)
+    with ExitStack() as stack:
+        pool = stack.enter_context(ProcessPoolExecutor(max_workers=workers)) if workers > 1 else None
+        for part in (map if pool is None else pool.map)(run_batch, *args):
             store.append(part)
             done += len(part)
             if progress:
                 progress(done, len(seeds))
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            for part in pool.map(run_batch, [str(scenario)] * len(chunks), [header.get("plant")] * len(chunks), chunks):
-                store.append(part)
-                done += len(part)
-                if progress:
-                    progress(done, len(seeds))
     return [CampaignRun(**fields) for fields, _ in store.runs(seeds)]
 
 

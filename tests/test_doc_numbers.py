@@ -520,3 +520,32 @@ def test_the_hold_limit_basis_is_its_runs_files_again():
                                  scenarios=ROOT / "examples" / "scenarios").to_dict()
         for key in ("runs", "candidates", "rerun", "calls", "earlier", "added_false", "later", "effects"):
             assert again[key] == entry[key], (name, key)
+
+
+def test_guidance_section_13_hold_limit_prose_is_the_stored_basis():
+    """The numbers of the prose beside the hold limit's table, recomputed from ``hold_limit_basis.json`` and the
+    stored runs files: the Hs 1.5-2.0 m false ESD-1 with the limit and against the rule without the prediction,
+    the squall's brought-forward calls, the lateness against the first call and the off-delay's cost."""
+    import json
+    import math
+
+    from loadarm.studies.campaign import CampaignRun, capped_alarm1
+
+    camp = ROOT / "docs" / "campaigns"
+    files = json.loads((camp / "hold_limit_basis.json").read_text())["files"]
+    band = files["hs15_tracked_hs1.5-2.0_runs.jsonl"]
+    stored = json.loads((camp / "hs15_tracked_hs1.5-2.0.json").read_text())["result"]
+    lo, hi = stored["false_alarms"] + band["added_false_all_lo"], stored["false_alarms"] + band["added_false_all_hi"]
+    cited("docs/guidance.md", f"stored row, about {round(lo, -1):.0f}-{round(hi, -1):.0f} of 1000 against "
+                              f"{stored['false_alarms_measured']} without the prediction, still at least "
+                              f"{math.floor(10 * stored['false_alarms_measured'] / hi) / 10:.1f} times fewer")
+    reruns = [CampaignRun(**json.loads(x)["run"]) for x in
+              (camp / "partial_breakout_squall_tracked_third_held_runs.jsonl").read_text().splitlines()[1:]]
+    onsets = sorted(capped_alarm1(r, 15.0) - 15.0 for r in reruns
+                    if capped_alarm1(r, 15.0) is not None and (r.alarm1_s is None or capped_alarm1(r, 15.0) < r.alarm1_s))
+    cited("docs/guidance.md", f"at {onsets[0]:.0f}-{onsets[-1]:.0f} s")
+    first = max(v["later_first_max_s"] or 0.0 for v in files.values())
+    cited("docs/guidance.md", f"(up to {first:.0f} s)")
+    deb = {k: v["debounced_added_false"] - v["added_false"] for k, v in files.items()}
+    assert deb.pop("hs15_tracked_hs1.5-2.0_runs.jsonl") == 1 and deb.pop("hs15_tracked_hs2.0-2.5_third_runs.jsonl") == 1
+    assert set(deb.values()) == {0}

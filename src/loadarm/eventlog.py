@@ -36,7 +36,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from loadarm.errors import EventLogError
-from loadarm.vocab import event_label
+from loadarm.vocab import UNLIMITED_CODES, event_label
 
 __all__ = ["Event", "EventLog", "EventLogError", "LogWriter", "LogStatus", "check_samples", "KINDS", "RateLimiter", "RATE_LIMITED_KINDS", "APPLICATION_ID",
            "SCHEMA_VERSION"]
@@ -752,7 +752,7 @@ class RateLimiter:
         self.window = window
         self._open: dict = {}            # key -> [time let through, suppressed count]
 
-    def admit(self, t: float, kind: str, reason: str) -> tuple[bool, int]:
+    def admit(self, t: float, kind: str, reason: str, code: str = "") -> tuple[bool, int]:
         """Whether to write this event, and how many alike events were suppressed before it.
 
         Parameters
@@ -761,6 +761,8 @@ class RateLimiter:
             Event time, s.
         kind, reason : str
             The event.
+        code : str
+            Its event code, if any: :data:`loadarm.vocab.UNLIMITED_CODES` are never limited.
 
         Returns
         -------
@@ -769,7 +771,7 @@ class RateLimiter:
         suppressed : int
             Alike events counted since the last one written (to say so in this one).
         """
-        if kind not in RATE_LIMITED_KINDS:
+        if kind not in RATE_LIMITED_KINDS or code in UNLIMITED_CODES:
             return True, 0
         key = (kind, _NUMBER.sub("#", reason))
         if len(self._open) > self.MAX_KEYS:                 # alike runs long over: forgotten (bounded memory)

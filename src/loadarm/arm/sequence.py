@@ -70,10 +70,12 @@ def release_lead(seq) -> float:
 
 def hold_limit(seq) -> float:
     """The longest a trusted prediction may hold a call for ESD-1 of the rule without it, s: ESD-1's lead less the
-    release's. A call held that long that was right (the face where it forecast, at most ESD-1's lead away) still
-    leaves the release its whole lead: the ERS valves at their timeout, the coupler and the margin; what it may no
-    longer leave is the ESD-1 shutdown's own time (the pumps and ESD valves, ``esd_time``). Where the valves'
-    worst time is as long as that, nothing may be held (0).
+    release's. That is how long a call forecasting the face ESD-1's whole lead away may stand and still leave the
+    release its whole lead (the ERS valves at their timeout, the coupler and the margin) if it was right; a call
+    forecasting the face sooner may stand only until its forecast leaves the release that lead (the controller
+    keeps both, :meth:`loadarm.guidance.rules.SafetyRules._shadow`). What a hold may cost is the ESD-1
+    shutdown's own time (the pumps and ESD valves, ``esd_time``). Where the valves' worst time is as long as that,
+    nothing may be held (0).
 
     Parameters
     ----------

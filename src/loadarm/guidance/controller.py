@@ -107,6 +107,7 @@ class GuidanceController(SafetyRules):
         self.predictor = None if g.prediction == "off" else FlangePredictor(g.prediction)
         self.moorings = MooringWatch()
         self.hold_limit = hold_limit(self.seq)  # how long the prediction may hold a call for ESD-1, s
+        self.hold_budget = True   # each call's own forecasts bound its hold too (False: a study's view without)
         self.v_max = model.approach.max_speed
         self.a_max = model.approach.max_accel
         sx, sz = model.approach.stored
@@ -420,6 +421,7 @@ class GuidanceController(SafetyRules):
             self.monitor.reset()
             s.forecast, s.next_forecast, s.raised, s.level = None, -math.inf, Severity.NORMAL, Severity.NORMAL
             s.shadow_esd1_at, s.rule = None, ""
+            s.hold_since, s.hold_until, s.shadow_end_at = None, math.inf, -math.inf
             return np.zeros(3)
         return self._move_towards(now, q, target, np.array(est.velocity), cyc.dt)
 

@@ -296,6 +296,14 @@ class GuidanceState:
         Since when the rule without the prediction (the measured routes and the floor) has called for ESD-1
         without a break (None: it does not; after ESD-1, its first call's time): what a campaign compares the
         predictive alarms with.
+    hold_since : float or None
+        The onset of the held call in progress, calls apart by less than :data:`ALARM_OFF_DELAY` counted as one
+        (None: none stands).
+    hold_until : float
+        When the held call in progress must raise ESD-1: its onset plus the hold limit, or sooner where a forecast
+        of the call leaves the release less than its whole lead by then (:meth:`loadarm.guidance.rules.SafetyRules._shadow`).
+    shadow_end_at : float
+        When the last call of the rule without the prediction ended, s (``-inf``: none yet).
     rule : str
         The rule behind the connected-mode level (:data:`loadarm.vocab.ALARM_RULES`).
     events : list
@@ -333,6 +341,9 @@ class GuidanceState:
     predicted: tuple = ()
     predicted_face: str = ""
     shadow_esd1_at: float | None = None
+    hold_since: float | None = None
+    hold_until: float = math.inf
+    shadow_end_at: float = -math.inf
     rule: str = ""
     moorings: str = "none"
     events: list = field(default_factory=list)

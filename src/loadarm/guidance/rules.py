@@ -204,21 +204,35 @@ class SafetyRules:
         """Follow the rule without the prediction (the measured routes and the floor): each onset of its call for
         ESD-1 is an event (``info.measured_esd1``, held or not), and the onset of the call in progress is kept
         until the call ends (before ESD-1) or the connection does: the ESD-1 event says since when that rule had
-        called for it (``measured_since``), how a campaign compares both rules on the same runs."""
+        called for it (``measured_since``), how a campaign compares both rules on the same runs.
+
+        It also keeps the hold's deadline (``hold_until``): a call starting within :data:`ALARM_OFF_DELAY` of the
+        last one's end continues its hold (a flickering call is one call, so the limit bounds it, found: the
+        basis's calls apart by under 5 s); a new one may be held for the hold limit from its onset, and every
+        forecast of the call shortens that to when it would leave the release no more than its whole lead
+        (``time - release lead`` from the forecast): a call that forecasts the face 18 s away when the release
+        needs 20 s is not held at all (found: the limit alone let Hs 2.0-2.5 m seed 533's calls of "face in
+        18-35 s" stand 15 s).
+        """
         s = self.state
         if today < Severity.ESD1:
             if s.esd_since is None and s.shadow_esd1_at is not None:
                 self._event("info", f"{event_label('info.measured_esd1_end')} after {now - s.shadow_esd1_at:.1f} s",
                             code="info.measured_esd1_end", since=s.shadow_esd1_at)
-                s.shadow_esd1_at = None
+                s.shadow_esd1_at, s.shadow_end_at = None, now
             return
-        if s.shadow_esd1_at is not None:
-            return
-        s.shadow_esd1_at = now
-        hold = s.trusted is not None and not self._change_seen(f, now)
-        held = " (held: the prediction is trusted and does not)" if hold else ""
-        self._event("info", f"{event_label('info.measured_esd1')}: {f.route}: {f.face} face in {f.time:.1f} s"
-                            f"{held}", code="info.measured_esd1", held=bool(held))
+        onset = s.shadow_esd1_at is None
+        if onset:
+            s.shadow_esd1_at = now
+            if s.hold_since is None or now - s.shadow_end_at >= ALARM_OFF_DELAY:
+                s.hold_since, s.hold_until = now, now + self.hold_limit
+        if self.hold_budget:
+            s.hold_until = min(s.hold_until, now + f.time - s.leads[Severity.RELEASE])
+        if onset:
+            hold = s.trusted is not None and not self._change_seen(f, now) and now < s.hold_until - 1e-9
+            held = " (held: the prediction is trusted and does not)" if hold else ""
+            self._event("info", f"{event_label('info.measured_esd1')}: {f.route}: {f.face} face in {f.time:.1f} s"
+                                f"{held}", code="info.measured_esd1", held=bool(held))
 
     def _forecast_stage(self, now: float) -> tuple[Severity, float, str, str, str]:
         """The stage the forecasts call for: ``(stage, time to the face, route in words, face, rule)``.
@@ -236,10 +250,13 @@ class SafetyRules:
         errors are no larger than the waves'), so the track alone cannot be the witness; holding no change
         detector's call at all loses the hold of the waves' false calls (hs15_tracked seed 0: the break-out test
         calls at 208 s with the track within its intervals). No call is held longer than the hold limit
-        (:func:`loadarm.arm.sequence.hold_limit`, ESD-1's lead less the release's: 15 s for the paper's sequence):
-        one standing that long is raised, rule ``hold_limit`` (found: a wave's call just before a failure and a
-        third of the lines or fewer parting, which neither witness sees, held ESD-1 up to 11 s; Hs 2.0-2.5 m seed
-        533's break-out calls, 10.8-19.0 s each, held until no ESD-1 came in the run).
+        (:func:`loadarm.arm.sequence.hold_limit`, ESD-1's lead less the release's: 15 s for the paper's sequence),
+        nor past the instant its own forecasts leave the release no more than its whole lead, calls apart by less
+        than the alarms' off-delay being one (:meth:`_shadow`): then it is raised, rule ``hold_limit`` (found: a
+        wave's call just before a failure and a third of the lines or fewer parting, which neither witness sees,
+        held ESD-1 up to 11 s; Hs 2.0-2.5 m seed 533's break-out calls, 10.8-19.0 s each, held until no ESD-1
+        came in the run). So a call the prediction wrongly held still leaves the release its lead by the call's
+        own forecast: the coupler free before the face; what a hold may cost is the ESD-1 shutdown's own time.
         """
         s, f, ld = self.state, self.state.forecast, self.state.leads
         legs = (ld[Severity.RELEASE], ld[Severity.SECOND], ld[Severity.ESD1], ld.get(Severity.PRE_ALARM, -math.inf))
@@ -259,8 +276,8 @@ class SafetyRules:
         if today >= Severity.ESD1 and measured[0] > best[0]:
             if self._change_seen(f, now) or self.hold_limit <= 0.0:      # nothing may be held: as without it
                 return measured
-            if s.shadow_esd1_at is not None and now - s.shadow_esd1_at >= self.hold_limit - 1e-9:
-                return (*measured[:4], "hold_limit")
+            if now >= s.hold_until - 1e-9:     # the hold spent: "measured" if it had none (its forecast too short)
+                return (*measured[:4], "hold_limit" if now > s.hold_since + 1e-9 else "measured")
         return best if best[0] > Severity.NORMAL else (Severity.NORMAL, math.inf, "", "", "")
 
     def _change_seen(self, f, now: float) -> bool:

@@ -401,7 +401,7 @@ class BankService:
             Its ``code`` (:data:`loadarm.vocab.EVENTS`) among them.
         """
         with self._note_lock:                  # the journal's order is the log's, whichever thread notes
-            write, suppressed = self._limiter.admit(self._t, kind, reason)
+            write, suppressed = self._limiter.admit(self._t, kind, reason, data.get("code", ""))
             if not write:
                 return
             if suppressed:

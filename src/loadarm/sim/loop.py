@@ -308,7 +308,7 @@ class ClosedLoop:
 
     def emit(self, t, mode, kind, reason, data) -> None:
         """Record an event (rate-limited alike events) and append it to the log."""
-        write, suppressed = self._limiter.admit(t, kind, reason)
+        write, suppressed = self._limiter.admit(t, kind, reason, data.get("code", "") if data else "")
         if not write:
             return
         if suppressed:

@@ -284,6 +284,7 @@ def _row(v: dict) -> str:
     ("breakout_tracked_seeds100-1099", "| `breakout_tracked.toml`, before the second witness (`5268393`) "),
     ("breakout_tracked_moorings", "| `breakout_tracked.toml` (every line parts at 400 s, Hs 1.0 m), with the second "
                                   "witness "),
+    ("hs15_tracked_hs0.5-1.0", "| `hs15_tracked.toml`, Hs 0.5-1.0 m (the berth's design sea 1.0 m) "),
     ("hs15_tracked_hs1.0-1.5", "| `hs15_tracked.toml`, Hs 1.0-1.5 m "),
     ("hs15_tracked_hs1.5-2.0", "| `hs15_tracked.toml`, Hs 1.5-2.0 m "),
     ("hs15_tracked_hs2.0-2.5_third", "| `hs15_tracked.toml`, Hs 2.0-2.5 m, the watch at a third "),
@@ -319,7 +320,7 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
         cited("docs/guidance.md", f"`{rec['regenerated']['commit']}`")
 
 
-@pytest.mark.parametrize("stored", ["hs15_tracked_hs1.0-1.5", "hs15_tracked_hs1.5-2.0", "hs15_tracked_hs2.0-2.5",
+@pytest.mark.parametrize("stored", ["hs15_tracked_hs0.5-1.0", "hs15_tracked_hs1.0-1.5", "hs15_tracked_hs1.5-2.0", "hs15_tracked_hs2.0-2.5",
                                     "hs15_tracked_hs2.0-2.5_third",
                                     "breakout_tracked_moorings", "partial_breakout_tracked_third",
                                     "partial_breakout_squall_tracked_third", "five_lines_squall_tracked",

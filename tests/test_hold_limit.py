@@ -196,11 +196,11 @@ def test_keep_others_starts_the_whole_campaign_with_the_runs_no_limit_can_change
 
 
 def test_a_call_that_drops_out_and_returns_starts_again_and_an_off_delay_joins_it():
-    """Found by review: the controller's limit counts from the onset of the call in progress, and a call that
-    drops below ESD-1 for a forecast and returns starts again, so against the rule's first call (where it latches)
-    ESD-1 is not bounded by the limit (carried-on seed 533: first call 413.82 s, ESD-1 489.42 s, 75.6 s later).
-    The derivation says so (``later_than_first``); with calls apart by less than an off-delay joined, two 10 s calls
-    1 s apart reach a 15 s limit."""
+    """Found by review: the controller's limit counted from the onset of the call in progress, and a call that
+    dropped below ESD-1 for a forecast and returned started again, so against the rule's first call (where it
+    latches) ESD-1 is not bounded by the limit (carried-on seed 533, before each call's budget: first call 413.82
+    s, ESD-1 489.42 s, 75.6 s later). The derivation says so (``later_than_first``); with calls apart by less than
+    an off-delay joined (as the controller now does), two 10 s calls 1 s apart reach a 15 s limit."""
     from loadarm.studies.campaign import merged_calls
 
     calls = [(100.0, 110.0), (111.0, 121.0), (200.0, 205.0)]

@@ -280,7 +280,10 @@ def capped_alarm1(run: CampaignRun, limit: float, off_delay: float = 0.0) -> flo
     limit : float
         The hold limit, s (``inf``: none).
     off_delay : float
-        Calls apart by less than this counted as one (:func:`merged_calls`), s; 0: the controller's count.
+        Calls apart by less than this counted as one (:func:`merged_calls`), s; the controller's is
+        :data:`loadarm.guidance.modes.ALARM_OFF_DELAY` (from 2026-12-08; 0: its count before). Where the limit
+        passes in a gap of a joined call, ESD-1 comes when the call returns, as in the controller (it cannot know
+        the call will).
 
     Returns
     -------
@@ -294,7 +297,11 @@ def capped_alarm1(run: CampaignRun, limit: float, off_delay: float = 0.0) -> flo
     """
     if run.held_calls is None:
         raise ValueError(f"seed {run.seed}: stored before the held calls were kept; run it again")
-    fired = [onset + limit for onset, end in merged_calls(run.held_calls, off_delay) if onset + limit < end]
+    fired = []
+    for onset, end in merged_calls(run.held_calls, off_delay):
+        due = onset + limit
+        if due < end:       # the joined call outlasts the limit: raised then, or when it returns from a gap
+            fired.append(next(max(due, a) for a, b in run.held_calls if onset <= a and due < b))
     times = [t for t in (run.alarm1_s, *fired) if t is not None]
     return min(times) if times else None
 

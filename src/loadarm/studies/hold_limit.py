@@ -158,7 +158,7 @@ def limit_effect(stored: dict[int, dict], reruns: Sequence[CampaignRun], limit: 
         if at is not None and (r.alarm1_s is None or at < r.alarm1_s - 1e-9):
             earlier.append(r.seed)
             # the rule without the prediction's call in progress at that ESD-1 is the one held to the limit
-            m = next(on for on, end in merged_calls(r.held_calls, off_delay) if on + limit < end and on + limit == at)
+            m = next(on for on, end in merged_calls(r.held_calls, off_delay) if on <= at < end)
             if r.alarm1_s is None and r.limit_s is None:
                 added.append(r.seed)
         if r.limit_s is not None and m is not None:

@@ -1233,3 +1233,17 @@ def test_warming_up_the_plant_changes_nothing_of_the_run():
         runs.append(loop.result().signals)
     assert runs[0].keys() == runs[1].keys()
     assert all(np.array_equal(runs[0][s], runs[1][s], equal_nan=True) for s in runs[0])
+
+
+def test_an_esd1_reset_forgets_the_call_and_its_hold(model):
+    """Found by review: the rule without the prediction's call and its hold outlived an ESD-1 reset, so the next
+    cycle ended a "call" holding the whole ESD-1 episode, and a call just after the reset joined that group with
+    its hold spent (ESD-1 again at once, by hold_limit). The reset forgets them, as a new connection does."""
+    import math
+
+    c = _attached_ctrl(model, Mode.ALARM1)
+    s = c.state
+    s.esd_since, s.raised, s.shadow_esd1_at, s.hold_since, s.hold_until = 10.0, Severity.ESD1, 5.0, 5.0, 20.0
+    c._reset_esd(30.0)
+    assert s.mode == Mode.CONNECTED and s.esd_since is None
+    assert (s.shadow_esd1_at, s.hold_since, s.hold_until, s.shadow_end_at) == (None, None, math.inf, -math.inf)

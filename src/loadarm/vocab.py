@@ -450,7 +450,9 @@ EVENT_TABLE: tuple[EventCode, ...] = (
 #: Info events each of which a study reads, so an event log's rate limiter never counts them away
 #: (:class:`loadarm.eventlog.RateLimiter`): the calls for ESD-1 of the rule without the prediction, whose onsets and
 #: ends :meth:`loadarm.sim.result.RunResult.held_calls` pairs (found: with alike ends within 10 s counted away, a
-#: call's end went missing and the next onset swallowed it: Hs 2.0-2.5 m seed 533's call at 426.62 s).
+#: call's end went missing and the next onset swallowed it: Hs 2.0-2.5 m seed 533's call at 426.62 s). They cannot
+#: flood: a call starts or ends only at a new forecast (the drift fit's 0.2 s), only before ESD-1, and a joined
+#: call stands at most the hold limit (15 s) before ESD-1 latches; so at most 5 a second, about 4 sustained.
 UNLIMITED_CODES: frozenset[str] = frozenset({"info.measured_esd1", "info.measured_esd1_end"})
 #: Code to its record.
 EVENTS: dict[str, EventCode] = {e.code: e for e in EVENT_TABLE}

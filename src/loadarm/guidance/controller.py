@@ -420,8 +420,8 @@ class GuidanceController(SafetyRules):
             self._event("command", "actuators released: the arm follows the ship")
             self.monitor.reset()
             s.forecast, s.next_forecast, s.raised, s.level = None, -math.inf, Severity.NORMAL, Severity.NORMAL
-            s.shadow_esd1_at, s.rule = None, ""
-            s.hold_since, s.hold_until, s.shadow_end_at = None, math.inf, -math.inf
+            s.rule = ""
+            s.clear_calls()
             return np.zeros(3)
         return self._move_towards(now, q, target, np.array(est.velocity), cyc.dt)
 
@@ -456,6 +456,7 @@ class GuidanceController(SafetyRules):
         s.esd_since = s.valves_cmd_since = s.valves_closed_at = None
         s.valve_fault = False
         s.raised = Severity.NORMAL
+        s.clear_calls()
         self._event("command", "ESD-1 reset: ERS valves reopen; the transfer may restart")
         self._go(now, Mode.CONNECTED, "operator reset after the alarm cleared")
 

@@ -348,5 +348,11 @@ class GuidanceState:
     moorings: str = "none"
     events: list = field(default_factory=list)
 
+    def clear_calls(self) -> None:
+        """Forget the rule without the prediction's call and the hold (at a connection, and at an ESD-1 reset:
+        found by review, a call from before the reset otherwise ended with the whole ESD-1 episode in it, and a
+        call just after the reset joined that group with its hold spent, raising ESD-1 at once)."""
+        self.shadow_esd1_at, self.hold_since, self.hold_until, self.shadow_end_at = None, None, math.inf, -math.inf
+
 
 MODES = tuple(m.value for m in Mode)

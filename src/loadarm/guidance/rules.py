@@ -224,7 +224,7 @@ class SafetyRules:
         onset = s.shadow_esd1_at is None
         if onset:
             s.shadow_esd1_at = now
-            if s.hold_since is None or now - s.shadow_end_at >= ALARM_OFF_DELAY:
+            if s.hold_since is None or now - s.shadow_end_at >= ALARM_OFF_DELAY - 1e-9:
                 s.hold_since, s.hold_until = now, now + self.hold_limit
         if self.hold_budget:
             s.hold_until = min(s.hold_until, now + f.time - s.leads[Severity.RELEASE])
@@ -274,7 +274,7 @@ class SafetyRules:
         else:
             best = (floor, f.design, ROUTE_DESIGN, f.face, "floor")
         if today >= Severity.ESD1 and measured[0] > best[0]:
-            if self._change_seen(f, now) or self.hold_limit <= 0.0:      # nothing may be held: as without it
+            if self._change_seen(f, now) or not self.hold_limit > 0.0:   # nothing may be held (NaN neither)
                 return measured
             if now >= s.hold_until - 1e-9:     # the hold spent: "measured" if it had none (its forecast too short)
                 return (*measured[:4], "hold_limit" if now > s.hold_since + 1e-9 else "measured")
@@ -311,7 +311,8 @@ class SafetyRules:
                 by = f" [{ALARM_RULES[rule]}]" if rule else ""
                 self._event("alarm", f"{event_label(code)}: {why}{by}", code=code, severity=int(stage),
                             severity_label=stage.label, face=face, rule=rule,
-                            **({"measured_since": s.shadow_esd1_at} if stage == Severity.ESD1 else {}),
+                            **({"measured_since": s.shadow_esd1_at, "hold_since": s.hold_since}
+                               if stage == Severity.ESD1 else {}),
                             beta_deg=math.degrees(q[2]), slew_deg=math.degrees(q[0]))
         s.raised = level
         if level >= Severity.ESD1:

@@ -259,7 +259,7 @@ def merged_calls(calls, off_delay: float) -> list[list[float]]:
     """
     out: list[list[float]] = []
     for onset, end in calls:
-        if out and onset - out[-1][1] < off_delay:
+        if out and onset - out[-1][1] < off_delay - 1e-9:     # the controller's test, its tolerance too
             out[-1][1] = max(out[-1][1], end)
         else:
             out.append([onset, end])

@@ -81,7 +81,7 @@ def test_stored_runs_without_their_end_get_it_from_the_scenario():
     """Runs kept before the runs file held their end and ESD-1's lead get them from the scenario (its duration and
     the installation's sequence), the same as a run made now."""
     from loadarm.guidance.monitor import stage_leads
-    from loadarm.studies.campaign import _with_bounds
+    from loadarm.studies.campaign import with_bounds
     from loadarm.vocab import Severity
 
     scen = str(ROOT / "examples" / "scenarios" / "hs15_tracked.toml")
@@ -91,7 +91,7 @@ def test_stored_runs_without_their_end_get_it_from_the_scenario():
                                                   release_margin_s=None, limit_face="", duration_s=600.0,
                                                   connected_s=0.0, failures=[]))
     assert old.end_s is None
-    (new,) = _with_bounds(scen, [old])
+    (new,) = with_bounds(scen, [old])
     assert new.end_s == sc.scenario.duration and new.esd1_lead_s == stage_leads(model.sequence)[Severity.ESD1] > 0
     assert dataclasses.replace(new, end_s=None, esd1_lead_s=None) == old
 

@@ -328,3 +328,43 @@ def test_no_call_is_held_past_the_instant_its_own_forecast_leaves_the_release_it
         k, at_onset = first
         assert got == pytest.approx(times[k], abs=1e-9)
         assert rule == ("measured" if at_onset else "hold_limit")
+
+
+@pytest.mark.slow  # 3-7 s: the scenario's bounds for runs stored before them, and a figure (make test's budget)
+def test_a_rule_change_is_compared_run_by_run_and_another_campaign_refused(tmp_path):
+    """The breast lines in a squall (20 runs) against a copy with three runs changed: seed 100's ESD-1 100 s earlier,
+    seed 101's 5 s later, seed 103's ESD-1 gone with its release (a false release removed): the comparison says
+    so; a file of other seeds is refused in one line (exit 2) and no JSON is written; neither input is changed."""
+    from loadarm.studies.hold_limit import main, rule_change
+
+    src = (ROOT / "docs" / "campaigns" / "breast_lines_squall_tracked_runs.jsonl").read_text()
+    lines = src.splitlines()
+    before, after = tmp_path / "b_runs.jsonl", tmp_path / "a_runs.jsonl"
+    before.write_text(src)
+    out = [lines[0]]
+    for line in lines[1:]:
+        d = json.loads(line)
+        r = d["run"]
+        if r["seed"] == 100:
+            r["alarm1_s"] -= 100.0
+        elif r["seed"] == 101:
+            r["alarm1_s"] += 5.0
+        elif r["seed"] == 103:
+            r.update(alarm1_s=None, release_complete_s=None, false_alarm=False, alarm1_rule="")
+        out.append(json.dumps(d))
+    after.write_text("\n".join(out) + "\n")
+    got = rule_change(before, after, scenarios=SCEN)
+    v = got._values()
+    assert (v["changed"], v["earlier"], v["later"], v["removed"], v["added"]) == (3, 1, 1, 1, 0)
+    assert v["earlier_max_s"] == pytest.approx(100.0) and v["later_max_s"] == pytest.approx(5.0)
+    assert (v["false_before"], v["false_after"]) == (20, 19)
+    assert (v["false_releases_before"], v["false_releases_after"]) == (1, 0) and v["failures_after"] == 0
+    assert got.plot() is not None
+    res = tmp_path / "cmp.json"
+    assert main([str(before), str(after), "--scenarios", str(SCEN), "--compare", str(res)]) == 0
+    assert json.loads(res.read_text())["earlier"] == 1
+    other = tmp_path / "o_runs.jsonl"
+    other.write_text("\n".join(out[:-1]) + "\n")                  # one seed fewer
+    bad = tmp_path / "bad.json"
+    assert main([str(before), str(other), "--scenarios", str(SCEN), "--compare", str(bad)]) == 2
+    assert not bad.exists() and before.read_text() == src

@@ -51,6 +51,7 @@ __all__ = [
     "capped_alarm1",
     "merged_calls",
     "run_batch",
+    "with_bounds",
     "MAX_SEEDS",
     "CampaignResult",
     "CampaignRun",
@@ -595,7 +596,7 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     store = None if runs_file is None else RunsFile(runs_file, scenario, plant, [(v.key, v.lo, v.hi) for v in vary])
     wanted = range(first_seed, first_seed + seeds)
     stored = [] if store is None else store.runs(wanted)
-    done: list[CampaignRun] = _with_bounds(scenario, [CampaignRun(**fields) for fields, _ in stored])
+    done: list[CampaignRun] = with_bounds(scenario, [CampaignRun(**fields) for fields, _ in stored])
     codes = Counter(code for _, code in stored)
     held = {r.seed for r in done}
     pending = seeds - len(held)
@@ -626,9 +627,21 @@ def run_campaign(scenario: str | Path, seeds: int, *, vary: Sequence[Vary] = (),
     return CampaignResult(scenario, tuple(vary), tuple(sorted(done, key=lambda r: r.seed)), codes=dict(codes))
 
 
-def _with_bounds(scenario: str, runs: list[CampaignRun]) -> list[CampaignRun]:
+def with_bounds(scenario: str, runs: list[CampaignRun]) -> list[CampaignRun]:
     """Runs stored before the runs kept their end and ESD-1's lead, given them from their scenario and draws
-    (built once per distinct draw of the keys that change them: the duration and the installation)."""
+    (built once per distinct draw of the keys that change them: the duration and the installation).
+
+    Parameters
+    ----------
+    scenario : str
+        The scenario file the runs were run from.
+    runs : list of CampaignRun
+
+    Returns
+    -------
+    list of CampaignRun
+        The same runs, each with ``end_s`` and ``esd1_lead_s``.
+    """
     if all(r.end_s is not None for r in runs):
         return runs
     draw, memo, out = ScenarioDraws(scenario), {}, []

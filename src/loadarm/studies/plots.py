@@ -3,6 +3,7 @@ distributions, the flange predictors' error and calibration. matplotlib is impor
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -14,7 +15,7 @@ from loadarm.studies.metocean import WEATHER
 if TYPE_CHECKING:  # the model is only ever received, never built, here
     from matplotlib.figure import Figure
 
-__all__ = ["hold_limit_figure", "manifold_study_figure", "operability_figure", "weather_figure", "prediction_figure", "forecast_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
+__all__ = ["hold_limit_figure", "rule_change_figure", "manifold_study_figure", "operability_figure", "weather_figure", "prediction_figure", "forecast_figure", "johannessen_wind_exceedance", "SEASTATE_MODELS",
            "seastate_hs_exceedance", "seastate_tp_exceedance"]
 
 
@@ -403,5 +404,41 @@ def hold_limit_figure(result) -> Figure:
     bx.axvline(result.limit_s, color="tab:red", lw=1.2)
     bx.set(xlabel="hold limit [s]", title="what a limit changes (the runs run again)")
     bx.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def rule_change_figure(result) -> Figure:
+    """Each run whose ESD-1 a rule change moved: ESD-1 before against after (the diagonal: unchanged), the runs that
+    reach a face apart from those that do not; a run without ESD-1 on one side is drawn at that axis's end.
+
+    Parameters
+    ----------
+    result : loadarm.studies.hold_limit.RuleChange
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(5.4, 4.6))
+    ax = fig.subplots()
+    rows = np.array([[math.nan if a is None else a, math.nan if b is None else b, 0.0 if f is None else 1.0]
+                     for _, a, b, f in result.shifts], dtype=float).reshape(-1, 3)
+    top = float(np.nanmax(rows[:, :2])) * 1.05 if rows.size and np.isfinite(rows[:, :2]).any() else 1.0
+    shown = np.where(np.isnan(rows[:, :2]), top, rows[:, :2]) if rows.size else rows[:, :2]
+    for face, marker, colour, label in ((1.0, "s", "tab:red", "reaches a face"), (0.0, "o", "0.45", "reaches none")):
+        sel = rows[:, 2] == face if rows.size else np.zeros(0, bool)
+        if sel.any():
+            ax.scatter(shown[sel, 0], shown[sel, 1], marker=marker, s=18, color=colour, label=label)
+    ax.plot([0.0, top], [0.0, top], color="0.7", lw=1.0)
+    ax.set(xlim=(0.0, top * 1.02), ylim=(0.0, top * 1.02), xlabel="ESD-1 before [s] (none: at the end)",
+           ylabel="ESD-1 after [s] (none: at the end)")
+    v = result._values()
+    ax.set_title(f"{v['scenario']}: {v['changed']} of {v['runs']} runs changed\n{v['earlier']} earlier, "
+                 f"{v['added']} added, {v['later']} later, {v['removed']} removed", fontsize=9)
+    if rows.size:
+        ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
     return fig

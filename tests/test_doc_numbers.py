@@ -270,6 +270,17 @@ def test_operability_page_report_sample(tmp_path):
                                  f"with ESD-1")
 
 
+#: Section 13's rows under the hold rule (the stored campaign's candidates run again at its commit, the others kept).
+HOLD_RULE_ROWS = [
+    ("hs15_tracked_hs0.5-1.0_limit", "| `hs15_tracked.toml`, Hs 0.5-1.0 m, with the hold rule (`bf557db`) "),
+    ("breakout_tracked_moorings_limit", "| `breakout_tracked.toml`, with the hold rule (`bf557db`) "),
+    ("partial_breakout_tracked_third_limit", "| `partial_breakout_tracked.toml`, with the hold rule (`bf557db`) "),
+    ("partial_breakout_squall_tracked_third_limit", "| `partial_breakout_squall_tracked.toml`, with the hold rule "
+                                                    "(`bf557db`) "),
+    ("breast_lines_squall_tracked_limit", "| `breast_lines_squall_tracked.toml`, with the hold rule (`bf557db`) "),
+]
+
+
 def _row(v: dict) -> str:
     """A campaign's row of docs/guidance.md section 13's table, from runs on (as the page writes it)."""
     def pair(a, b, fmt):
@@ -297,6 +308,7 @@ def _row(v: dict) -> str:
                                   "in a 25 m/s squall: 5 of 16, not seen) "),
     ("breast_lines_squall_tracked", "| `breast_lines_squall_tracked.toml` (the 4 breast lines part at 400 s in a 25 m/s "
                                     "squall: 4 of 16, not seen) "),
+    *HOLD_RULE_ROWS,
 ])
 def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
     """The campaign rows of docs/guidance.md section 13 measured with runs files (before and with the mooring load
@@ -324,7 +336,7 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
                                     "hs15_tracked_hs2.0-2.5_third",
                                     "breakout_tracked_moorings", "partial_breakout_tracked_third",
                                     "partial_breakout_squall_tracked_third", "five_lines_squall_tracked",
-                                    "breast_lines_squall_tracked"])
+                                    "breast_lines_squall_tracked", *(name for name, _ in HOLD_RULE_ROWS)])
 def test_each_stored_result_is_its_runs_file_s_and_its_false_releases_are_the_page_s(stored, tmp_path, monkeypatch,
                                                                                       capsys):
     """Each stored section 13 result is what its runs file gives through the campaign's own route today (its
@@ -550,3 +562,30 @@ def test_guidance_section_13_hold_limit_prose_is_the_stored_basis():
     deb = {k: v["debounced_added_false"] - v["added_false"] for k, v in files.items()}
     assert deb.pop("hs15_tracked_hs1.5-2.0_runs.jsonl") == 1 and deb.pop("hs15_tracked_hs2.0-2.5_third_runs.jsonl") == 1
     assert set(deb.values()) == {0}
+
+
+def test_guidance_section_13_hold_rule_changes_are_the_runs_files():
+    """The run-by-run changes under the hold rule in docs/guidance.md section 13, from each stored campaign and its
+    rerun under the rule (:func:`loadarm.studies.hold_limit.rule_change`, both files read, nothing run)."""
+    from loadarm.studies.hold_limit import rule_change
+
+    camp = ROOT / "docs" / "campaigns"
+
+    def change(name):
+        return rule_change(camp / f"{name}_runs.jsonl", camp / f"{name}_limit_runs.jsonl",
+                           scenarios=ROOT / "examples" / "scenarios")._values()
+
+    for name in ("breakout_tracked_moorings", "partial_breakout_tracked_third", "hs15_tracked_hs0.5-1.0"):
+        assert change(name)["changed"] == 0, name
+    cited("docs/guidance.md", "break-out's 1000, the partial break-out's 100 and Hs 0.5-1.0 m's 1000 no run changed")
+    sq = change("partial_breakout_squall_tracked_third")
+    assert sq["changed"] == sq["earlier"] and sq["later"] == sq["added"] == sq["removed"] == 0
+    assert sq["false_after"] == sq["false_before"] and sq["failures_after"] == 0
+    cited("docs/guidance.md", f"a squall: {sq['changed']} of {sq['runs']} changed, each ESD-1 earlier than before, "
+                              f"by up to {sq['earlier_max_s']:.1f} s")
+    cited("docs/guidance.md", f"added, the same {sq['releases_after']} releases")
+    br = change("breast_lines_squall_tracked")
+    assert br["later"] == br["added"] == br["removed"] == 0 and br["failures_after"] == 0
+    cited("docs/guidance.md", f"The breast lines: {br['earlier']} of {br['runs']} earlier, by up to "
+                              f"{br['earlier_max_s']:.1f} s, and the one false release gone "
+                              f"({br['false_releases_before']} to {br['false_releases_after']})")

@@ -278,6 +278,7 @@ HOLD_RULE_ROWS = [
     ("partial_breakout_squall_tracked_third_limit", "| `partial_breakout_squall_tracked.toml`, with the hold rule "
                                                     "(`bf557db`) "),
     ("breast_lines_squall_tracked_limit", "| `breast_lines_squall_tracked.toml`, with the hold rule (`bf557db`) "),
+    ("five_lines_squall_tracked_limit", "| `five_lines_squall_tracked.toml`, with the hold rule (`bf557db`) "),
 ]
 
 
@@ -584,6 +585,11 @@ def test_guidance_section_13_hold_rule_changes_are_the_runs_files():
     cited("docs/guidance.md", f"a squall: {sq['changed']} of {sq['runs']} changed, each ESD-1 earlier than before, "
                               f"by up to {sq['earlier_max_s']:.1f} s")
     cited("docs/guidance.md", f"added, the same {sq['releases_after']} releases")
+    five = change("five_lines_squall_tracked")
+    assert five["later"] == five["added"] == five["removed"] == 0 and five["failures_after"] == 0
+    cited("docs/guidance.md", f"{five['earlier']} ESD-1 earlier than before (by up to {five['earlier_max_s']:.1f} s), "
+                              f"none later, no false ESD-1 added (releases {five['releases_after']}, false "
+                              f"{five['false_releases_after']})")
     br = change("breast_lines_squall_tracked")
     assert br["later"] == br["added"] == br["removed"] == 0 and br["failures_after"] == 0
     cited("docs/guidance.md", f"The breast lines: {br['earlier']} of {br['runs']} earlier, by up to "

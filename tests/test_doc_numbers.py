@@ -568,6 +568,8 @@ def test_guidance_section_13_hold_limit_prose_is_the_stored_basis():
 def test_guidance_section_13_hold_rule_changes_are_the_runs_files():
     """The run-by-run changes under the hold rule in docs/guidance.md section 13, from each stored campaign and its
     rerun under the rule (:func:`loadarm.studies.hold_limit.rule_change`, both files read, nothing run)."""
+    import json
+
     from loadarm.studies.hold_limit import rule_change
 
     camp = ROOT / "docs" / "campaigns"
@@ -590,6 +592,10 @@ def test_guidance_section_13_hold_rule_changes_are_the_runs_files():
     cited("docs/guidance.md", f"{five['earlier']} ESD-1 earlier than before (by up to {five['earlier_max_s']:.1f} s), "
                               f"none later, no false ESD-1 added (releases {five['releases_after']}, false "
                               f"{five['false_releases_after']})")
+    gained = [json.loads((camp / f"{n}_limit.json").read_text())["result"]["lead_gained_min_s"]
+              for n in ("partial_breakout_squall_tracked_third", "five_lines_squall_tracked")]
+    cited("docs/guidance.md", f"before in {sq['earlier']} and {five['earlier']} runs and later in none, and still up "
+                              f"to {-gained[0]:.1f} and {-gained[1]:.1f} s after the call in progress")
     br = change("breast_lines_squall_tracked")
     assert br["later"] == br["added"] == br["removed"] == 0 and br["failures_after"] == 0
     cited("docs/guidance.md", f"The breast lines: {br['earlier']} of {br['runs']} earlier, by up to "

@@ -708,21 +708,27 @@ def test_twenty_clients_at_10_hz_do_not_make_the_guidance_cycle_late(tmp_path):
 
 
 def test_the_prediction_and_the_alarm_rule_are_served(served):
-    """Issue 30 item 5: OPC UA serves the prediction's horizon and its time to limit with its interval, and the
-    rule behind the alarm stage. The served drift-off has no track before the run: no prediction (horizon 0,
-    times -1), no stage (rule empty); the values of a prediction are the sample's (unit)."""
-    from loadarm.opcua.server import _prediction_values
+    """Issue 30 item 5: OPC UA serves the prediction's horizon and its time to limit with its interval, the rule
+    behind the alarm stage, and a call for ESD-1 the prediction holds (how long, how much longer at most). The
+    served drift-off has no track before the run: no prediction (horizon 0, times -1), no stage (rule empty), no
+    call held (-1); the values of a prediction and of a held call are the snapshot's (unit)."""
+    from types import SimpleNamespace
+
+    from loadarm.opcua.server import _held_values, _prediction_values
 
     async def main():
         c = await _client(served, "victor", "pw-victor")()
         async with c:
             ns, guidance, var = await _nodes(c)
             names = ["PredictionHorizon_s", "PredictedTimeToLimit_s", "PredictedTimeToLimitMean_s", "AlarmRule",
-                     "Moorings"]
+                     "Moorings", "HeldCall_s", "HoldLeft_s"]
             return dict(zip(names, await c.read_values([var(n) for n in names])))
 
     v = asyncio.run(main())
     assert v == {"PredictionHorizon_s": 0.0, "PredictedTimeToLimit_s": -1.0, "PredictedTimeToLimitMean_s": -1.0,
-                 "AlarmRule": "", "Moorings": "none"}, v                  # the drift-off's ship has no lines
+                 "AlarmRule": "", "Moorings": "none", "HeldCall_s": -1.0, "HoldLeft_s": -1.0}, v   # no lines, no call
     assert _prediction_values({"claimed": 120.0, "ttl": [42.0, None]}) == {
         "PredictedTimeToLimit_s": 42.0, "PredictedTimeToLimitMean_s": -1.0, "PredictionHorizon_s": 120.0}
+    snap = SimpleNamespace(connected=True, held=(208.04, 210.64), t=209.54)
+    assert _held_values(snap) == pytest.approx({"HeldCall_s": 1.5, "HoldLeft_s": 1.1})
+    assert _held_values(SimpleNamespace(connected=False, held=(208.04, 210.64), t=209.54))["HeldCall_s"] == -1.0

@@ -176,6 +176,21 @@ def test_no_prediction_beyond_the_claim_and_no_crossing_from_it():
     assert predicted_crossing(model, f, np.zeros(3), f.time, 120.0) == (math.inf, "")
 
 
+def test_a_held_call_is_said_on_the_screen_and_its_absence_is_silent():
+    """ISA-18.2's suppressed by design is shown, never hidden: the screen's time-to-limit detail says how long
+    the prediction has held a call for ESD-1 and how much longer it may at most; nothing when none is held or
+    not connected."""
+    from types import SimpleNamespace
+
+    from loadarm.hmi.state import held_state
+
+    got = held_state(SimpleNamespace(connected=True, held=(100.0, 112.0), t=105.0))
+    assert got == {"text": "ESD-1 CALL HELD by the prediction 5.0 s (at most 7.0 s more)", "for_s": 5.0,
+                   "left_s": 7.0}
+    assert held_state(SimpleNamespace(connected=True, held=(), t=105.0))["text"] == ""
+    assert held_state(SimpleNamespace(connected=False, held=(100.0, 112.0), t=105.0))["left_s"] is None
+
+
 def test_the_rules_are_declared_once():
     """Every alarm event's rule code is declared in vocab.ALARM_RULES (the words the journal shows)."""
     assert set(ALARM_RULES) == {"position", "floor", "measured", "prediction", "hold_limit", "operator", "fault"}
@@ -215,9 +230,10 @@ def test_on_a_tracked_ship_the_prediction_holds_the_measured_false_alarm_up_to_t
     sc, model = load_scenario(SCEN / "hs15_tracked.toml")
     sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"seed": 0})})
     loop = ClosedLoop(sc, model, plant="kinematic")
-    for k in range(loop.n):
-        loop.cycle(k)
+    cmds = [loop.cycle(k) for k in range(loop.n)]
     res = loop.result()
+    during, after = cmds[round(209.0 / loop.dt)].held, cmds[round(212.0 / loop.dt)].held
+    assert during[0] == pytest.approx(208.04) and 208.04 < during[1] <= 208.04 + 15.0 and after == ()
     held = [e for e in res.events if e[4].get("code") == "info.measured_esd1"]
     assert held and held[0][4]["held"] is True
     assert res.first_code("info.measured_esd1_end") == pytest.approx(210.64)

@@ -169,6 +169,10 @@ class Command:
     moorings : str
         The mooring load monitoring's state (:data:`loadarm.vocab.MOORINGS_TEXT`: ``none``, ``holding``,
         ``lost``).
+    held : tuple of float
+        ``(since, until)``, s: the rule without the prediction calls for ESD-1 and the trusted prediction holds
+        the call (ISA-18.2's suppressed by design: the operator is told), since its joined onset and at most
+        until its hold runs out (:meth:`loadarm.guidance.rules.SafetyRules.held_call`); ``()``: no call held.
     """
 
     mode: Mode
@@ -190,6 +194,7 @@ class Command:
     rule: str = ""
     trusted: bool = False
     moorings: str = "none"
+    held: tuple = ()
 
 
 @dataclass(frozen=True, slots=True)

@@ -280,6 +280,19 @@ class SafetyRules:
                 return (*measured[:4], "hold_limit" if now > s.hold_since + 1e-9 else "measured")
         return best if best[0] > Severity.NORMAL else (Severity.NORMAL, math.inf, "", "", "")
 
+    def held_call(self) -> tuple:
+        """The call for ESD-1 the trusted prediction holds now: ``(since, until)``, its joined onset and when its
+        hold runs out at the latest, s; ``()`` when none is held (none standing, or ESD-1 already raised).
+
+        Returns
+        -------
+        tuple of float
+        """
+        s = self.state
+        if s.shadow_esd1_at is None or s.esd_since is not None or s.raised >= Severity.ESD1 or s.hold_since is None:
+            return ()
+        return (s.hold_since, s.hold_until)
+
     def _change_seen(self, f, now: float) -> bool:
         """Whether the forecast's route is a change detector's and a witness says the ship changed: the track
         has left the prediction's intervals on its latest block (two tests agree), or the mooring load

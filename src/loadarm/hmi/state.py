@@ -266,7 +266,8 @@ def forecast_state(snap, model) -> dict:
            "horizon": _num(snap.horizon), "drift": drift, "design_speed": model.design_drift.speed,
            "basis": _basis(snap.route, drift, model.design_drift.speed) if snap.connected else "",
            "rule": snap.rule, "rule_words": ALARM_RULES.get(snap.rule, ""),
-           "prediction": prediction_state(snap.prediction, snap.connected, snap.moorings)}
+           "prediction": prediction_state(snap.prediction, snap.connected, snap.moorings),
+           "held": held_state(snap)}
     if not snap.connected:
         return {**out, "state": "off", "text": "not connected"}
     if not (snap.plant_ok and snap.estimate_healthy and math.isfinite(snap.horizon)):
@@ -275,6 +276,27 @@ def forecast_state(snap, model) -> dict:
     if math.isfinite(snap.time_to_limit):
         return {**out, "state": "time", "text": f"{snap.time_to_limit:.1f} s"}
     return {**out, "state": "beyond", "text": f"> {snap.horizon:.0f} s"}
+
+
+def held_state(snap) -> dict:
+    """What the screen says of a call for ESD-1 the prediction holds (ISA-18.2's suppressed by design: shown,
+    never hidden): ``text`` ("" when none is held), ``for_s`` (held so far) and ``left_s`` (at most this much
+    longer), s, None when none.
+
+    Parameters
+    ----------
+    snap : loadarm.sim.snapshot.Snapshot
+
+    Returns
+    -------
+    dict
+    """
+    if not (snap.connected and snap.held):
+        return {"text": "", "for_s": None, "left_s": None}
+    since, until = snap.held
+    held, left = max(snap.t - since, 0.0), max(until - snap.t, 0.0)
+    return {"text": f"ESD-1 CALL HELD by the prediction {held:.1f} s (at most {left:.1f} s more)",
+            "for_s": held, "left_s": left}
 
 
 def prediction_state(p: dict | None, connected: bool, moorings: str = "none") -> dict:

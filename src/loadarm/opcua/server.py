@@ -203,6 +203,10 @@ VARIABLES = (
      "the flange prediction's time to the nearest face by its mean track (-1: none within its horizon)"),
     ("PredictionHorizon_s", ("SEC", "s", "second"), (0.0, 3600.0),
      "how far ahead the flange prediction is claimed (0: no prediction)"),
+    ("HeldCall_s", ("SEC", "s", "second"), (0.0, 3600.0),
+     "how long the prediction has held the measured drift's call for ESD-1 (-1: no call held)"),
+    ("HoldLeft_s", ("SEC", "s", "second"), (0.0, 3600.0),
+     "how much longer that call may be held at most (-1: no call held)"),
     ("CycleTime_us", ("B98", "us", "microsecond"), (0.0, 1e6), "guidance cycle computing time"),
     ("Cylinder1Length_m", ("MTR", "m", "metre"), (0.0, 10.0), "cylinder 1 pin-to-pin length"),
     ("Cylinder2Length_m", ("MTR", "m", "metre"), (0.0, 10.0), "cylinder 2 pin-to-pin length"),
@@ -588,7 +592,7 @@ class OpcUaServer(SnapshotServer):
                   "CouplerZ_m": snap.coupler[2], "FlangeX_m": snap.flange_estimate[0],
                   "FlangeY_m": snap.flange_estimate[1], "FlangeZ_m": snap.flange_estimate[2],
                   "DistanceToFlange_m": snap.distance, "TimeToLimit_s": num(snap.time_to_limit),
-                  **_prediction_values(snap.prediction),
+                  **_prediction_values(snap.prediction), **_held_values(snap),
                   "CycleTime_us": snap.cycle_us, "Cylinder1Length_m": snap.cylinders[0],
                   "Cylinder2Length_m": snap.cylinders[1],
                   **{f"Margin_{f}_deg": math.degrees(v) for f, v in snap.margins.items()}}
@@ -630,6 +634,14 @@ def _prediction_values(p: dict | None) -> dict:
     return {"PredictedTimeToLimit_s": -1.0 if bound is None else float(bound),
             "PredictedTimeToLimitMean_s": -1.0 if mean is None else float(mean),
             "PredictionHorizon_s": float(p["claimed"])}
+
+
+def _held_values(snap) -> dict:
+    """The held call's variables from a snapshot (:attr:`loadarm.sim.snapshot.Snapshot.held`): -1 when none."""
+    if not (snap.connected and snap.held):
+        return {"HeldCall_s": -1.0, "HoldLeft_s": -1.0}
+    since, until = snap.held
+    return {"HeldCall_s": max(snap.t - since, 0.0), "HoldLeft_s": max(until - snap.t, 0.0)}
 
 
 def _method_request(action: str, user: str, values, jog_speed: float) -> Request:

@@ -79,7 +79,7 @@ def state_sample(cmd, q, estimate, distance: float, ers_valves_closed: bool, ala
             "horizon": _finite_or_none(cmd.horizon), "route": str(cmd.route),
             "drift": [_finite_or_none(v) for v in cmd.drift] or None,
             "prediction": prediction_sample(cmd.prediction, cmd.predicted, cmd.trusted), "rule": str(cmd.rule),
-            "moorings": str(cmd.moorings)}
+            "moorings": str(cmd.moorings), "held": [float(v) for v in cmd.held] or None}
 
 
 #: Seconds between the predicted track's points kept in a sample (and drawn on the screen).
@@ -161,7 +161,8 @@ def snapshot(model, seq: int, t: float, mode: str, sample: dict, **live) -> "Sna
                     horizon=_nan_if_none(sample.get("horizon")), route=str(sample.get("route", "")),
                     drift=tuple(_nan_if_none(v) for v in (sample.get("drift") or ())),
                     prediction=sample.get("prediction"), rule=str(sample.get("rule", "")),
-                    moorings=str(sample.get("moorings", "none")), **live)
+                    moorings=str(sample.get("moorings", "none")),
+                    held=tuple(float(v) for v in (sample.get("held") or ())), **live)
 
 
 @dataclass(frozen=True)
@@ -224,6 +225,9 @@ class Snapshot:
         The rule behind the connected-mode level (:data:`loadarm.vocab.ALARM_RULES`; ``""``: none).
     moorings : str
         The mooring load monitoring's state (:data:`loadarm.vocab.MOORINGS_TEXT`).
+    held : tuple of float
+        ``(since, until)`` of the call for ESD-1 the prediction holds, s (:attr:`loadarm.guidance.modes.Command.held`;
+        ``()``: none, or a log without it).
     """
 
     seq: int
@@ -258,6 +262,7 @@ class Snapshot:
     prediction: dict | None = None
     rule: str = ""
     moorings: str = "none"
+    held: tuple = ()
 
 
 def trend_point(snap: Snapshot) -> dict:

@@ -266,7 +266,13 @@ function drawPrimary(f) {
     moorings.id = "moorings";
     moorings.textContent = pr.moorings;
     moorings.className = pr.moorings_abnormal ? "flag abnormal" : "flag";
-    detail.replaceChildren(`${face}${fc.basis}\n${pr.text}`, ...(pr.moorings ? ["; ", moorings] : []), rule);
+    // a call for ESD-1 the prediction holds (ISA-18.2: suppressed by design, so shown), marked abnormal
+    const held = document.createElement("span");
+    held.id = "held";
+    held.textContent = fc.held.text;
+    held.className = "flag abnormal";
+    detail.replaceChildren(`${face}${fc.basis}\n${pr.text}`, ...(pr.moorings ? ["; ", moorings] : []),
+                           ...(fc.held.text ? ["\n", held] : []), rule);
   }
   detail.title = detail.textContent;
   tile("esd", f.esd ? "ACTIVE" : "not active", f.esd ? "abnormal" : "dim");

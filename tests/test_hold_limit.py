@@ -368,3 +368,23 @@ def test_a_rule_change_is_compared_run_by_run_and_another_campaign_refused(tmp_p
     bad = tmp_path / "bad.json"
     assert main([str(before), str(other), "--scenarios", str(SCEN), "--compare", str(bad)]) == 2
     assert not bad.exists() and before.read_text() == src
+
+
+def test_the_held_call_is_reported_while_held_and_through_the_off_delay_gap():
+    """What the screen and OPC UA are told (``held_call``): a call held from 10 s ("face in 30 s": budget 10 s) is
+    reported with its onset and its hold's end; when it drops out it is still reported for the 5 s off-delay (the
+    hold runs on: found by review, the line vanished while it did), then no more; nothing before the call."""
+    from loadarm.guidance.monitor import LimitForecast
+    from loadarm.vocab import ROUTE_BREAKOUT
+
+    r = _Rules()
+    seen = {}
+    for k in range(0, 1000):
+        now = 5.0 + k * DT
+        t = 30.0 if 10.0 - 1e-9 <= now < 13.0 else math.inf
+        r.state.forecast = LimitForecast(t, "beta_max" if math.isfinite(t) else "", ROUTE_BREAKOUT, measured=t,
+                                         design=math.inf)
+        stage, *_ = r._forecast_stage(now)
+        seen[round(now, 2)] = r.held_call(now)
+    assert seen[9.98] == () and seen[10.0] == pytest.approx((10.0, 20.0)) and seen[12.98] == pytest.approx((10.0, 20.0))
+    assert seen[17.96] == pytest.approx((10.0, 20.0)) and seen[18.0] == () and seen[24.0] == ()

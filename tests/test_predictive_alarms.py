@@ -185,8 +185,8 @@ def test_a_held_call_is_said_on_the_screen_and_its_absence_is_silent():
     from loadarm.hmi.state import held_state
 
     got = held_state(SimpleNamespace(connected=True, held=(100.0, 112.0), t=105.0))
-    assert got == {"text": "ESD-1 CALL HELD by the prediction 5.0 s (at most 7.0 s more)", "for_s": 5.0,
-                   "left_s": 7.0}
+    assert got == {"text": "MEASURED DRIFT CALLS ESD-1, held by the prediction for 5 s: ESD-1 in at most 7 s if "
+                           "the call stands", "for_s": 5.0, "left_s": 7.0}
     page = " ".join((ROOT / "docs" / "hmi.md").read_text(encoding="utf-8").split())
     assert f'"{got["text"]}"' in page                    # docs/hmi.md quotes the screen's words
     assert held_state(SimpleNamespace(connected=True, held=(), t=105.0))["text"] == ""

@@ -309,6 +309,8 @@ class GuidanceState:
         of the call leaves the release less than its whole lead by then (:meth:`loadarm.guidance.rules.SafetyRules._shadow`).
     shadow_end_at : float
         When the last call of the rule without the prediction ended, s (``-inf``: none yet).
+    holding : bool
+        This cycle the trusted prediction held that rule's call (the decision itself, what the screen says).
     rule : str
         The rule behind the connected-mode level (:data:`loadarm.vocab.ALARM_RULES`).
     events : list
@@ -349,6 +351,7 @@ class GuidanceState:
     hold_since: float | None = None
     hold_until: float = math.inf
     shadow_end_at: float = -math.inf
+    holding: bool = False
     rule: str = ""
     moorings: str = "none"
     events: list = field(default_factory=list)
@@ -358,6 +361,7 @@ class GuidanceState:
         found by review, a call from before the reset otherwise ended with the whole ESD-1 episode in it, and a
         call just after the reset joined that group with its hold spent, raising ESD-1 at once)."""
         self.shadow_esd1_at, self.hold_since, self.hold_until, self.shadow_end_at = None, None, math.inf, -math.inf
+        self.holding = False
 
 
 MODES = tuple(m.value for m in Mode)

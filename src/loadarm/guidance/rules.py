@@ -259,6 +259,7 @@ class SafetyRules:
         own forecast: the coupler free before the face; what a hold may cost is the ESD-1 shutdown's own time.
         """
         s, f, ld = self.state, self.state.forecast, self.state.leads
+        s.holding = False
         legs = (ld[Severity.RELEASE], ld[Severity.SECOND], ld[Severity.ESD1], ld.get(Severity.PRE_ALARM, -math.inf))
         today = Severity(stage_of(f.time, f.measured, *legs)) if math.isfinite(f.time) else Severity.NORMAL
         self._shadow(now, today, f)
@@ -278,20 +279,29 @@ class SafetyRules:
                 return measured
             if now >= s.hold_until - 1e-9:     # the hold spent: "measured" if it had none (its forecast too short)
                 return (*measured[:4], "hold_limit" if now > s.hold_since + 1e-9 else "measured")
+            s.holding = True
         return best if best[0] > Severity.NORMAL else (Severity.NORMAL, math.inf, "", "", "")
 
-    def held_call(self) -> tuple:
+    def held_call(self, now: float) -> tuple:
         """The call for ESD-1 the trusted prediction holds now: ``(since, until)``, its joined onset and when its
-        hold runs out at the latest, s; ``()`` when none is held (none standing, or ESD-1 already raised).
+        hold runs out at the latest, s; ``()`` when none is held. Held: this cycle's decision held it, or the
+        call dropped out less than the off-delay ago (found by review: the line vanished in that gap while the
+        hold ran on, and a call returning after its budget raised ESD-1 with no line before it).
+
+        Parameters
+        ----------
+        now : float
+            s.
 
         Returns
         -------
         tuple of float
         """
         s = self.state
-        if s.shadow_esd1_at is None or s.esd_since is not None or s.raised >= Severity.ESD1 or s.hold_since is None:
+        if s.esd_since is not None or s.raised >= Severity.ESD1 or s.hold_since is None:
             return ()
-        return (s.hold_since, s.hold_until)
+        gap = s.shadow_esd1_at is None and now - s.shadow_end_at < ALARM_OFF_DELAY - 1e-9
+        return (s.hold_since, s.hold_until) if s.holding or gap else ()
 
     def _change_seen(self, f, now: float) -> bool:
         """Whether the forecast's route is a change detector's and a witness says the ship changed: the track

@@ -295,8 +295,8 @@ def held_state(snap) -> dict:
         return {"text": "", "for_s": None, "left_s": None}
     since, until = snap.held
     held, left = max(snap.t - since, 0.0), max(until - snap.t, 0.0)
-    return {"text": f"ESD-1 CALL HELD by the prediction {held:.1f} s (at most {left:.1f} s more)",
-            "for_s": held, "left_s": left}
+    return {"text": f"MEASURED DRIFT CALLS ESD-1, held by the prediction for {held:.0f} s: ESD-1 in at most "
+                    f"{left:.0f} s if the call stands", "for_s": held, "left_s": left}
 
 
 def prediction_state(p: dict | None, connected: bool, moorings: str = "none") -> dict:

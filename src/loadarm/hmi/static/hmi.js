@@ -269,10 +269,10 @@ function drawPrimary(f) {
     // a call for ESD-1 the prediction holds (ISA-18.2: suppressed by design, so shown), marked abnormal
     const held = document.createElement("span");
     held.id = "held";
-    held.textContent = fc.held.text;
+    held.textContent = fc.held?.text ?? "";
     held.className = "flag abnormal";
     detail.replaceChildren(`${face}${fc.basis}\n${pr.text}`, ...(pr.moorings ? ["; ", moorings] : []),
-                           ...(fc.held.text ? ["\n", held] : []), rule);
+                           ...(held.textContent ? ["\n", held] : []), rule);
   }
   detail.title = detail.textContent;
   tile("esd", f.esd ? "ACTIVE" : "not active", f.esd ? "abnormal" : "dim");

@@ -856,6 +856,19 @@ def test_the_journal_names_no_face_by_its_code_even_from_an_event_without_codes(
     assert not [f for f in FACES if f in text]
 
 
+def test_the_journal_says_when_the_prediction_held_a_call():
+    """Found by review: the journal's line of a measured drift's call for ESD-1 dropped its ``held`` flag, so the
+    operator could not tell a call the prediction held from one it raised ESD-1 on."""
+    from loadarm.hmi.state import journal_entry
+
+    def text(held):
+        return journal_entry(208.0, None, "CONNECTED", "info", "x", {"code": "info.measured_esd1", "held": held},
+                             0.0)["text"]
+
+    assert text(True) == "measured drift calls for ESD-1 (held by the prediction)"
+    assert text(False) == "measured drift calls for ESD-1"
+
+
 def test_the_trend_log_keeps_ten_minutes_at_the_log_s_sample_times(model):
     """Issue 29 items 5, 6: a point at the first snapshot at or after each whole second (the event log's
     sample rule, so the replay's trends are the live ones), the last 600 s of them."""

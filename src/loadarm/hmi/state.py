@@ -391,7 +391,8 @@ def _journal_text(kind: str, data: dict, reason: str) -> str:
         return f"{data.get('user', '?')}: {data['action']}" + (f" {tag}" if tag else "")
     if code in EVENTS:
         face = FACE_WORDS.get(data.get("face", ""), "")
-        return event_label(code) + (f": {face}" if face else "")
+        held = " (held by the prediction)" if code == "info.measured_esd1" and data.get("held") else ""
+        return event_label(code) + (f": {face}" if face else "") + held
     return in_words(reason)
 
 

@@ -273,6 +273,7 @@ def test_operability_page_report_sample(tmp_path):
 #: Section 13's rows under the hold rule (the stored campaign's candidates run again at its commit, the others kept).
 HOLD_RULE_ROWS = [
     ("hs15_tracked_hs0.5-1.0_limit", "| `hs15_tracked.toml`, Hs 0.5-1.0 m, with the hold rule (`bf557db`) "),
+    ("hs15_tracked_hs1.0-1.5_limit", "| `hs15_tracked.toml`, Hs 1.0-1.5 m, with the hold rule (`bf557db`) "),
     ("breakout_tracked_moorings_limit", "| `breakout_tracked.toml`, with the hold rule (`bf557db`) "),
     ("partial_breakout_tracked_third_limit", "| `partial_breakout_tracked.toml`, with the hold rule (`bf557db`) "),
     ("partial_breakout_squall_tracked_third_limit", "| `partial_breakout_squall_tracked.toml`, with the hold rule "
@@ -365,8 +366,9 @@ def test_each_stored_result_is_its_runs_file_s_and_its_false_releases_are_the_pa
     if now["releases"] and "hs15" in stored and (ROOT / "docs" / "campaigns" / f"{stored}_third.json").exists():
         cited("docs/guidance.md", f"({now['releases']} and {now['false_releases']} with the watch at a half)")
     elif now["releases"] and "hs15" in stored:
-        cited("docs/guidance.md", f"Hs {stored.split('hs')[-1].removesuffix('_third')} m: {now['releases']} "
-                                  f"releases, {now['false_releases']} false")
+        band = stored.split("hs")[-1].removesuffix("_limit").removesuffix("_third")
+        rule = " with the hold rule" if stored.endswith("_limit") else ""
+        cited("docs/guidance.md", f"Hs {band} m{rule}: {now['releases']} releases, {now['false_releases']} false")
     elif now["false_releases"]:                         # a release in a run reaching no face, named on the page
         cited("docs/guidance.md", f"(releases {now['releases']}, false {now['false_releases']}")
     else:
@@ -596,6 +598,16 @@ def test_guidance_section_13_hold_rule_changes_are_the_runs_files():
               for n in ("partial_breakout_squall_tracked_third", "five_lines_squall_tracked")]
     cited("docs/guidance.md", f"before in {sq['earlier']} and {five['earlier']} runs and later in none, and still up "
                               f"to {-gained[0]:.1f} and {-gained[1]:.1f} s after the call in progress")
+    band = change("hs15_tracked_hs1.0-1.5")
+    assert band["changed"] == band["added"] == band["false_after"] - band["false_before"]    # each reaching no face
+    assert band["failures_after"] == 0
+    stats = json.loads((camp / "hs15_tracked_hs1.0-1.5_limit.json").read_text())["result"]
+    assert stats["false_alarms"] == band["false_after"] and stats["false_alarms_by_rule"]["hold_limit"] == 54
+    cited("docs/guidance.md", f"At Hs 1.0-1.5 m {band['changed']} of {band['runs']} changed, each an ESD-1 where none "
+                              f"came before, in a run reaching no face: false ESD-1 from {band['false_before']} to "
+                              f"{band['false_after']} ({stats['false_alarms_measured']} without the prediction: "
+                              f"{stats['false_alarms_measured'] / band['false_after']:.1f} times fewer, where it was "
+                              f"{stats['false_alarms_measured'] / band['false_before']:.1f})")
     br = change("breast_lines_squall_tracked")
     assert br["later"] == br["added"] == br["removed"] == 0 and br["failures_after"] == 0
     cited("docs/guidance.md", f"The breast lines: {br['earlier']} of {br['runs']} earlier, by up to "

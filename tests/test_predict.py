@@ -165,6 +165,15 @@ def test_the_hold_out_calibration_holds_and_the_docs_quote_it(tmp_path):
     lo, hi = s["online_coverage_range"]
     assert f"{100 * lo:.1f}-{100 * hi:.1f} %" in page
     assert f"{s['online_skill_30s']:.2f} of the climatology's" in page
+    on = r.routes["online AR"]
+    n = int(on.claimed())
+    below, above = on.below[:n, :2], on.above[:n, :2]                 # each side's tail, x and y
+    assert f"in {100 * above[:, 0].mean():.1f} % of its claimed forecasts" in page
+    assert f"at most {100 * above[:, 0].max():.1f} %) and its lower edge in {100 * below[:, 0].mean():.1f} %" in page
+    assert (f"{100 * above[:, 1].mean():.1f} % and {100 * below[:, 1].mean():.1f} % (at most "
+            f"{100 * below[:, 1].max():.1f} %)") in page
+    assert s["online_tail_max"] == pytest.approx(max(below.max(), above.max()))
+    assert s["online_tail_max"] <= 1.0 - pr.LEVEL + 0.01                    # at most the two-sided 5 %, or near
     from loadarm.present.docsgen import compare_figures, study_figures
 
     bad = compare_figures(ROOT / "docs" / "img", study_figures(tmp_path, ("prediction.png",), prediction=r))

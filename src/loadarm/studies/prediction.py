@@ -12,6 +12,7 @@ whether its interval covered the truth are counted (only where the interval is c
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -94,6 +95,8 @@ class _Tally:
     steps: int
     issued: np.ndarray = field(init=False)
     covered: np.ndarray = field(init=False)
+    below: np.ndarray = field(init=False)
+    above: np.ndarray = field(init=False)
     sq: np.ndarray = field(init=False)
     clim: np.ndarray = field(init=False)
     n: int = 0
@@ -101,12 +104,15 @@ class _Tally:
 
     def __post_init__(self):
         self.issued, self.covered = np.zeros((self.steps, 3)), np.zeros((self.steps, 3))
+        self.below, self.above = np.zeros((self.steps, 3)), np.zeros((self.steps, 3))
         self.sq, self.clim = np.zeros((self.steps, 3)), np.zeros((self.steps, 3))
 
     def add(self, mean, lo, hi, truth, clim_mean) -> None:
         ok = np.isfinite(lo)
         self.issued += ok
         self.covered += ok & (truth >= lo) & (truth <= hi)
+        self.below += ok & (truth < lo)
+        self.above += ok & (truth > hi)
         self.sq += (truth - mean) ** 2
         self.clim += (truth - clim_mean) ** 2
         self.n += 1
@@ -158,6 +164,9 @@ class RouteCalibration:
     rmse, climatology : ndarray (k, 3)
         Root-mean-square error of the mean, and of the record's recent mean as the forecast (what no predictor
         gives), m.
+    below, above : ndarray (k, 3)
+        Fraction of the claimed intervals the truth fell below, and above: each side's tail, what the predictive
+        alarms' one-sided reading of the interval assumes is 2.5 % (:data:`loadarm.guidance.predict.THRESHOLD`).
     forecasts : int
     cost : float
         Seconds per forecast (refits included), this machine.
@@ -170,6 +179,16 @@ class RouteCalibration:
     climatology: np.ndarray
     forecasts: int
     cost: float
+    below: np.ndarray | None = None
+    above: np.ndarray | None = None
+
+    def tail_max(self, band=COVERAGE_BAND) -> float:
+        """The largest one-sided tail on x and y over the horizons claimed (:meth:`claimed`), a fraction (nan when
+        the tails were not counted or nothing is claimed)."""
+        n = int(round(self.claimed(band) / PREDICT_PERIOD))
+        if self.below is None or self.above is None or n == 0:
+            return math.nan
+        return float(max(np.max(self.below[:n, :2]), np.max(self.above[:n, :2])))
 
     def claimed(self, band=COVERAGE_BAND) -> float:
         """The longest horizon up to which every horizon's coverage is inside ``band`` on x and y (s)."""
@@ -184,6 +203,8 @@ PREDICTION_METRICS = (
     Metric("model_claimed_s", "model AR: horizon with 93-97 % coverage (x, y)", "s", ".0f"),
     Metric("online_coverage_range", "online AR: coverage, 1-120 s (x, y, z)", fmt=".3f", sep=" - "),
     Metric("model_coverage_range", "model AR: coverage, 1-120 s (x, y, z)", fmt=".3f", sep=" - "),
+    Metric("online_tail_max", "online AR: largest one-sided tail over its claim (x, y)", fmt=".4f"),
+    Metric("model_tail_max", "model AR: largest one-sided tail over its claim (x, y)", fmt=".4f"),
     Metric("online_skill_30s", "online AR: error at 30 s / climatology (x)", fmt=".2f"),
     Metric("model_skill_30s", "model AR: error at 30 s / climatology (x)", fmt=".2f"),
     Metric("online_cost_ms", "online AR: cost per forecast", "ms", ".2f"),
@@ -217,6 +238,7 @@ class PredictionCalibration(Result):
             r = self.routes[route]
             v[f"{key}_claimed_s"] = r.claimed()
             v[f"{key}_coverage_range"] = [float(np.min(r.coverage)), float(np.max(r.coverage))]
+            v[f"{key}_tail_max"] = r.tail_max(self.band)
             v[f"{key}_skill_30s"] = float(r.rmse[29, 0] / r.climatology[29, 0])
             v[f"{key}_cost_ms"] = 1e3 * r.cost
         return v
@@ -226,7 +248,9 @@ class PredictionCalibration(Result):
         d["horizon_s"] = (np.arange(1, next(iter(self.routes.values())).coverage.shape[0] + 1)
                           * PREDICT_PERIOD).tolist()
         d["routes"] = {name: {"coverage": r.coverage.tolist(), "issued": r.issued.tolist(), "rmse_m": r.rmse.tolist(),
-                              "climatology_m": r.climatology.tolist(), "forecasts": r.forecasts}
+                              "climatology_m": r.climatology.tolist(), "forecasts": r.forecasts,
+                              **({"below": r.below.tolist(), "above": r.above.tolist()} if r.below is not None
+                                 else {})}
                        for name, r in self.routes.items()}
         d["cases"] = [c.name for c in self.cases]
         d["seeds"] = list(self.seeds)
@@ -281,6 +305,7 @@ def calibrate_predictors(ship, base_env, *, cases=HOLD_OUT, seeds=(10, 11), dura
     for name, t in tallies.items():
         with np.errstate(invalid="ignore", divide="ignore"):
             routes[name] = RouteCalibration(name, t.covered / t.issued, t.issued, np.sqrt(t.sq / t.n),
-                                            np.sqrt(t.clim / t.n), t.n, t.seconds / max(t.n, 1))
+                                            np.sqrt(t.clim / t.n), t.n, t.seconds / max(t.n, 1),
+                                            t.below / t.issued, t.above / t.issued)
     return PredictionCalibration(tuple(cases), tuple(seeds), routes)
 

@@ -234,8 +234,9 @@ def test_on_a_tracked_ship_the_prediction_holds_the_measured_false_alarm_up_to_t
     loop = ClosedLoop(sc, model, plant="kinematic")
     cmds = [loop.cycle(k) for k in range(loop.n)]
     res = loop.result()
-    during, after = cmds[round(209.0 / loop.dt)].held, cmds[round(212.0 / loop.dt)].held
-    assert during[0] == pytest.approx(208.04) and 208.04 < during[1] <= 208.04 + 15.0 and after == ()
+    during, gap, after = (cmds[round(t / loop.dt)].held for t in (209.0, 212.0, 216.0))
+    assert during[0] == pytest.approx(208.04) and 208.04 < during[1] <= 208.04 + 15.0
+    assert gap == during and after == ()            # told through the off-delay gap; none once ESD-1 is raised
     held = [e for e in res.events if e[4].get("code") == "info.measured_esd1"]
     assert held and held[0][4]["held"] is True
     assert res.first_code("info.measured_esd1_end") == pytest.approx(210.64)

@@ -325,9 +325,9 @@ PRIMARY = ("#modes span.current", "#tile-ttl", "#tile-esd", "#tile-ers", "#tile-
            "#alarm-panel", "tr.alarm")
 
 
-def _replay_screen(state, db, scenario):
-    """A scenario run (kinematic plant) logged to ``db``, and ``serve --replay``'s screen on it, started: the
-    server and the run's result."""
+def _replay_screen(state, db, scenario, seed=None):
+    """A scenario run (kinematic plant; ``seed``: the scenario's own when None) logged to ``db``, and ``serve
+    --replay``'s screen on it, started: the server and the run's result."""
     from loadarm.eventlog import EventLog
     from loadarm.hmi.app import HmiServer, create_app
     from loadarm.hmi.replay import ReplayService
@@ -335,6 +335,8 @@ def _replay_screen(state, db, scenario):
     from loadarm.sim.loop import run_scenario
 
     sc, model = load_scenario(scenario)
+    if seed is not None:
+        sc = sc.model_copy(update={"scenario": sc.scenario.model_copy(update={"seed": seed})})
     with EventLog(db, run="r") as log:
         res = run_scenario(sc, model, log=log, plant="kinematic")
     with EventLog.open_existing(db) as log:
@@ -686,6 +688,41 @@ def breakout_replay(state, tmp_path_factory):
     lost = res.first_code("info.moorings_lost")
     yield {"url": server.url, "connect": res.first("mode", "-> CONNECTED"), "lost": lost}
     server.stop()
+
+
+@pytest.fixture(scope="module")
+def held_replay(state, tmp_path_factory):
+    """Hs 1.5 m on a tracked ship, seed 0 (the break-out test's wave call at 208.04 s held by the prediction,
+    docs/guidance.md section 13) logged, and a replay screen on it."""
+    server, res = _replay_screen(state, tmp_path_factory.mktemp("replay30h") / "events.db",
+                                 "examples/scenarios/hs15_tracked.toml", seed=0)
+    yield {"url": server.url, "calls": res.held_calls(), "esd1": res.first_code("stage.esd1")}
+    server.stop()
+
+
+@pytest.mark.slow
+def test_a_held_call_is_said_on_the_screen_marked_abnormal(browser, held_replay, tmp_path):
+    """ISA-18.2's suppressed by design is shown: while the prediction holds the measured drift's call for ESD-1
+    (seed 0 at 208.04 s), the time to limit's detail says so, marked abnormal (ISA-101: the inverted style, no
+    alarm colour); before the call nothing is said; once ESD-1 is raised the line is gone."""
+    ctx, page = _sized(browser, *SIZES[0])
+    try:
+        onset = held_replay["calls"][0][0]
+        log_in(page, held_replay["url"], "alice", "pw-alice")
+        _seek(page, math.floor(onset) - 5)
+        assert page.query_selector("#held") is None
+        _seek(page, math.ceil(onset) + 1)
+        assert page.inner_text("#held").startswith("MEASURED DRIFT CALLS ESD-1, held by the prediction for ")
+        assert page.evaluate("document.getElementById('held').className") == "flag abnormal"
+        colour = page.evaluate("getComputedStyle(document.getElementById('held')).backgroundColor")
+        assert colour == "rgb(48, 48, 48)", colour
+        page.screenshot(path=str(tmp_path / "held.png"))
+        assert page.evaluate(_OVERLAPS) == []
+        _seek(page, math.ceil(held_replay["esd1"]) + 2)
+        assert page.query_selector("#held") is None
+        assert page.errors == []
+    finally:
+        ctx.close()
 
 
 @pytest.mark.slow

@@ -334,7 +334,8 @@ def test_no_call_is_held_past_the_instant_its_own_forecast_leaves_the_release_it
 def test_a_rule_change_is_compared_run_by_run_and_another_campaign_refused(tmp_path):
     """The breast lines in a squall (20 runs) against a copy with three runs changed: seed 100's ESD-1 100 s earlier,
     seed 101's 5 s later, seed 103's ESD-1 gone with its release (a false release removed): the comparison says
-    so; a file of other seeds is refused in one line (exit 2) and no JSON is written; neither input is changed."""
+    so; a file lacking a candidate is a sample so far (its estimate over every candidate); one lacking another
+    run is refused in one line (exit 2) and no JSON is written; neither input is changed."""
     from loadarm.studies.hold_limit import main, rule_change
 
     src = (ROOT / "docs" / "campaigns" / "breast_lines_squall_tracked_runs.jsonl").read_text()
@@ -363,8 +364,16 @@ def test_a_rule_change_is_compared_run_by_run_and_another_campaign_refused(tmp_p
     res = tmp_path / "cmp.json"
     assert main([str(before), str(after), "--scenarios", str(SCEN), "--compare", str(res)]) == 0
     assert json.loads(res.read_text())["earlier"] == 1
+    runs = {json.loads(x)["run"]["seed"]: json.loads(x)["run"] for x in lines[1:]}
+    cand = candidates(runs)
+    keep = [x for x in out[1:] if json.loads(x)["run"]["seed"] != cand[-1]]
+    partial = tmp_path / "p_runs.jsonl"                            # a candidate not yet run: a sample so far
+    partial.write_text("\n".join([out[0], *keep]) + "\n")
+    p = rule_change(before, partial, scenarios=SCEN)._values()
+    assert (p["candidates"], p["rerun"]) == (len(cand), len(cand) - 1) and p["added_false_all_lo"] == 0.0
     other = tmp_path / "o_runs.jsonl"
-    other.write_text("\n".join(out[:-1]) + "\n")                  # one seed fewer
+    lost = next(s for s in runs if s not in cand)
+    other.write_text("\n".join([out[0], *(x for x in out[1:] if json.loads(x)["run"]["seed"] != lost)]) + "\n")
     bad = tmp_path / "bad.json"
     assert main([str(before), str(other), "--scenarios", str(SCEN), "--compare", str(bad)]) == 2
     assert not bad.exists() and before.read_text() == src

@@ -321,7 +321,14 @@ class RuleChange(Result):
     shifts : tuple of (int, float or None, float or None, float or None)
         ``(seed, ESD-1 before, ESD-1 after, face)`` for each run whose ESD-1 changed, s (None: none).
     before, after : dict
-        Each file's campaign statistics (:class:`loadarm.studies.campaign.CampaignResult`).
+        Each file's campaign statistics (:class:`loadarm.studies.campaign.CampaignResult`); the after file still
+        being run, its missing candidates counted as before ("so far").
+    candidates : int
+        The before file's candidates (:func:`candidates`).
+    rerun : int
+        How many of them the after file holds (all when complete; a partial one holds the first in seed order).
+    added_in_sample : int
+        False ESD-1 added among those.
     """
 
     before_file: str
@@ -330,6 +337,9 @@ class RuleChange(Result):
     shifts: tuple
     before: dict
     after: dict
+    candidates: int = 0
+    rerun: int = 0
+    added_in_sample: int = 0
 
     METRICS = (
         Metric("scenario", "scenario"),
@@ -350,7 +360,20 @@ class RuleChange(Result):
         Metric("failures_after", "overstretch, coupler opened on live product or missed alarm, after", "", "d"),
         Metric("short_before", "ESD-1 short of its lead before the face, before", "", "d"),
         Metric("short_after", "ESD-1 short of its lead before the face, after", "", "d"),
+        Metric("candidates", "candidates (the runs the rule can change)", "", "d"),
+        Metric("rerun", "of them in the after file", "", "d"),
+        Metric("added_false_all_lo", "false ESD-1 added over every candidate, 95 % interval from", "", ".0f"),
+        Metric("added_false_all_hi", "to", "", ".0f"),
     )
+
+    def added_false_all(self) -> tuple[float, float]:
+        """The false ESD-1 the rule adds over every candidate: exact when the after file is complete, else the
+        sample's share scaled to them, its 95 % Wilson interval (the sample is the first candidates in seed
+        order, and seeds draw the sea independently)."""
+        if self.rerun == self.candidates:
+            return float(self.added_in_sample), float(self.added_in_sample)
+        ci = binomtest(self.added_in_sample, self.rerun).proportion_ci(confidence_level=0.95, method="wilson")
+        return ci.low * self.candidates, ci.high * self.candidates
 
     def _values(self) -> dict:
         both = [(s, a, b) for s, a, b, _ in self.shifts if a is not None and b is not None]
@@ -366,7 +389,10 @@ class RuleChange(Result):
                 "releases_before": b["releases"], "releases_after": a["releases"],
                 "false_releases_before": b["false_releases"], "false_releases_after": a["false_releases"],
                 "failures_after": len(a["failed_seeds"]),
-                "short_before": b["alarm1_short"], "short_after": a["alarm1_short"]}
+                "short_before": b["alarm1_short"], "short_after": a["alarm1_short"],
+                "candidates": self.candidates, "rerun": self.rerun,
+                "added_false_all_lo": self.added_false_all()[0] if self.rerun else None,
+                "added_false_all_hi": self.added_false_all()[1] if self.rerun else None}
 
     def to_dict(self) -> dict:
         return {**self._values(), "before_file": self.before_file, "after_file": self.after_file,
@@ -377,7 +403,9 @@ class RuleChange(Result):
 
 
 def rule_change(before: str | Path, after: str | Path, *, scenarios: str | Path = "examples/scenarios") -> RuleChange:
-    """Compare a stored campaign with the same campaign under a changed rule, run by run (both files only read).
+    """Compare a stored campaign with the same campaign under a changed rule, run by run (both files only read); the
+    after file may still be being run (:func:`rerun_candidates` with ``keep_others``): its missing seeds must be
+    candidates, counted as before, and the false ESD-1 added is then estimated over every candidate.
 
     Parameters
     ----------
@@ -398,14 +426,20 @@ def rule_change(before: str | Path, after: str | Path, *, scenarios: str | Path 
     head, scenario, lines = read_stored(before, scenarios)
     head_a, _, lines_a = read_stored(after, scenarios)
     same = ("scenario", "plant", "vary")
-    if [head.get(k) for k in same] != [head_a.get(k) for k in same] or set(lines) != set(lines_a):
+    cand = candidates({seed: run for seed, (_, run) in lines.items()})
+    missing = set(lines) - set(lines_a)
+    if [head.get(k) for k in same] != [head_a.get(k) for k in same] or set(lines_a) - set(lines) \
+            or not missing <= set(cand):
         raise ConfigError(f"{after}: not {before}'s campaign (scenario, plant, draws or seeds differ)",
                           source=str(after))
-    runs = [with_bounds(str(scenario), [CampaignRun(**r) for _, (_, r) in sorted(x.items())]) for x in (lines, lines_a)]
+    both = {**lines, **lines_a}                              # the after file's runs, the missing ones as before
+    runs = [with_bounds(str(scenario), [CampaignRun(**r) for _, (_, r) in sorted(x.items())]) for x in (lines, both)]
     stats = [CampaignResult(str(scenario), (), tuple(r))._values() for r in runs]
     shifts = tuple((x.seed, x.alarm1_s, y.alarm1_s, y.limit_s) for x, y in zip(*runs, strict=True)
                    if x.alarm1_s != y.alarm1_s)
-    return RuleChange(str(before), str(after), head["scenario"], shifts, *stats)
+    done = [s for s in cand if s in lines_a]
+    added = sum(runs[1][i].false_alarm and not runs[0][i].false_alarm for i, r in enumerate(runs[0]) if r.seed in done)
+    return RuleChange(str(before), str(after), head["scenario"], shifts, *stats, len(cand), len(done), added)
 
 
 def _basis_main(pairs: Sequence[str], out: Path, force: bool, scenarios: str) -> int:

@@ -615,3 +615,28 @@ def test_guidance_section_13_hold_rule_changes_are_the_runs_files():
     cited("docs/guidance.md", f"The breast lines: {br['earlier']} of {br['runs']} earlier, by up to "
                               f"{br['earlier_max_s']:.1f} s, and the one false release gone "
                               f"({br['false_releases_before']} to {br['false_releases_after']})")
+
+
+def test_guidance_section_13_hs_1_5_to_2_0_under_the_hold_rule_is_its_sample_so_far():
+    """The Hs 1.5-2.0 m band under the hold rule in docs/guidance.md section 13: its runs file still being run (the
+    first candidates in seed order), the false ESD-1 added estimated over every candidate
+    (:func:`loadarm.studies.hold_limit.rule_change`, both files read, nothing run)."""
+    from loadarm.studies.hold_limit import rule_change
+
+    camp = ROOT / "docs" / "campaigns"
+    v = rule_change(camp / "hs15_tracked_hs1.5-2.0_runs.jsonl", camp / "hs15_tracked_hs1.5-2.0_limit_runs.jsonl",
+                    scenarios=ROOT / "examples" / "scenarios")._values()
+    lo, hi = v["added_false_all_lo"], v["added_false_all_hi"]
+    import json
+
+    before = v["false_before"]
+    without = json.loads((camp / "hs15_tracked_hs1.5-2.0.json").read_text())["result"]["false_alarms_measured"]
+    assert v["failures_after"] == 0 and v["later"] == 0
+    assert v["added"] == v["false_after"] - before                # every ESD-1 added is a false one
+    cited("docs/guidance.md", f"At Hs 1.5-2.0 m {v['rerun']} of the {v['candidates']} candidates were run again "
+                              f"so far: {v['added']} ESD-1 added, every one false")
+    cited("docs/guidance.md", f"over all {v['candidates']}: {lo:.0f}-{hi:.0f} (95 %), so about "
+                              f"{before + lo:.0f}-{before + hi:.0f} of 1000 against {without} without the prediction: "
+                              f"{without / (before + hi):.1f}-{without / (before + lo):.1f} times fewer")
+    cited("docs/guidance.md", f"releases so far {v['releases_before']} to {v['releases_after']} "
+                              f"(false {v['false_releases_before']} to {v['false_releases_after']})")

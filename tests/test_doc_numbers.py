@@ -638,5 +638,7 @@ def test_guidance_section_13_hs_1_5_to_2_0_under_the_hold_rule_is_its_sample_so_
     cited("docs/guidance.md", f"over all {v['candidates']}: {lo:.0f}-{hi:.0f} (95 %), so about "
                               f"{before + lo:.0f}-{before + hi:.0f} of 1000 against {without} without the prediction: "
                               f"{without / (before + hi):.1f}-{without / (before + lo):.1f} times fewer")
+    cited("README.md", f"at Hs 1.5-2.0 m {before} of {without} before them, about {before + lo:.0f}-{before + hi:.0f} "
+                       "with them, from a sample")
     cited("docs/guidance.md", f"releases so far {v['releases_before']} to {v['releases_after']} "
                               f"(false {v['false_releases_before']} to {v['false_releases_after']})")

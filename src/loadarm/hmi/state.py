@@ -16,6 +16,7 @@ from loadarm.arm.alarms import AlarmState
 from loadarm.guidance.monitor import stage_leads
 from loadarm.params.berth import RHO_SEA, BerthSection, ShipSection
 from loadarm.ship.hull import hull_mesh
+from loadarm.sim.snapshot import held_times
 from loadarm.vocab import (ALARM_RULES, CONDITION_TEXT, EVENTS, FACE_WORDS, FACES, MEASURED_ROUTES, MOORINGS_TEXT,
                            PRIORITIES, Severity, event_label, priority)
 
@@ -291,10 +292,10 @@ def held_state(snap) -> dict:
     -------
     dict
     """
-    if not (snap.connected and snap.held):
+    times = held_times(snap)
+    if times is None:
         return {"text": "", "for_s": None, "left_s": None}
-    since, until = snap.held
-    held, left = max(snap.t - since, 0.0), max(until - snap.t, 0.0)
+    held, left = times
     return {"text": f"MEASURED DRIFT CALLS ESD-1, held by the prediction for {held:.0f} s: ESD-1 in at most "
                     f"{left:.0f} s if the call stands", "for_s": held, "left_s": left}
 

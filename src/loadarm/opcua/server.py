@@ -35,6 +35,7 @@ from loadarm.arm.alarms import AlarmState
 from loadarm.guidance.modes import ERS_CONFIRM_WINDOW, Mode
 from loadarm.opcua.security import LoginLimiter, Role, StateDir, User, is_user_name, thumbprint
 from loadarm.opcua.service import JOG_HOLD, Request, parse_jog
+from loadarm.sim.snapshot import held_times
 from loadarm.vocab import (ANNUNCIATED, CONDITION_SEVERITY, FACE_LABELS, Severity, action_role, condition_severity,
                            condition_text)
 from loadarm.vocab import METHODS as _METHODS
@@ -638,10 +639,8 @@ def _prediction_values(p: dict | None) -> dict:
 
 def _held_values(snap) -> dict:
     """The held call's variables from a snapshot (:attr:`loadarm.sim.snapshot.Snapshot.held`): -1 when none."""
-    if not (snap.connected and snap.held):
-        return {"HeldCall_s": -1.0, "HoldLeft_s": -1.0}
-    since, until = snap.held
-    return {"HeldCall_s": max(snap.t - since, 0.0), "HoldLeft_s": max(until - snap.t, 0.0)}
+    held, left = held_times(snap) or (-1.0, -1.0)
+    return {"HeldCall_s": held, "HoldLeft_s": left}
 
 
 def _method_request(action: str, user: str, values, jog_speed: float) -> Request:

@@ -23,7 +23,7 @@ from loadarm.arm.slew import forward3d
 from loadarm.vocab import ANNUNCIATED
 
 __all__ = ["MODE_TAIL", "TREND_WINDOW", "TREND_EVERY", "Snapshot", "TrendLog", "state_sample", "snapshot",
-           "trend_point"]
+           "trend_point", "held_times"]
 
 #: Mode changes carried on each snapshot (:attr:`Snapshot.modes`): more than a sequence's modes from the
 #: connection to the return, so a screen a few frames behind still shows each one.
@@ -263,6 +263,24 @@ class Snapshot:
     rule: str = ""
     moorings: str = "none"
     held: tuple = ()
+
+
+def held_times(snap: Snapshot) -> tuple[float, float] | None:
+    """How long the prediction has held a call for ESD-1 and how much longer it may at most, s, at the snapshot
+    (None: connected with no call held, or not connected): what the screen and OPC UA say of :attr:`Snapshot.held`.
+
+    Parameters
+    ----------
+    snap : Snapshot
+
+    Returns
+    -------
+    tuple of float or None
+    """
+    if not (snap.connected and snap.held):
+        return None
+    since, until = snap.held
+    return max(snap.t - since, 0.0), max(until - snap.t, 0.0)
 
 
 def trend_point(snap: Snapshot) -> dict:

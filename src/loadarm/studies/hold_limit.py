@@ -55,6 +55,16 @@ __all__ = ["candidates", "rerun_candidates", "limit_effect", "HoldLimitBasis", "
 LIMITS = (5.0, 10.0, 15.0, 20.0, 30.0, 45.0, 60.0, 120.0)
 
 
+def _scaled_share(k: int, n: int, total: int) -> tuple[float, float]:
+    """``k`` of a sample of ``n`` scaled to ``total``: exact when the sample is all of them, else its 95 % Wilson
+    interval scaled (the samples here are the first candidates in seed order, and seeds draw the sea
+    independently)."""
+    if n == total:
+        return float(k), float(k)
+    ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+    return ci.low * total, ci.high * total
+
+
 def candidates(runs: dict[int, dict]) -> list[int]:
     """The seeds whose rule without the prediction called for ESD-1 before the run's ESD-1 (or in a run without
     one): only these can a hold limit change.
@@ -222,11 +232,7 @@ class HoldLimitBasis(Result):
         """The false ESD-1 the installation's limit adds over every candidate: exact when every candidate was run
         again, else the sample's share scaled to them, its 95 % Wilson interval (the reruns are the first
         candidates in seed order, and seeds draw the sea independently)."""
-        k, n = len(self.at(self.limit_s)["added_false"]), len(self.reruns)
-        if n == self.n_candidates:
-            return float(k), float(k)
-        ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
-        return ci.low * self.n_candidates, ci.high * self.n_candidates
+        return _scaled_share(len(self.at(self.limit_s)["added_false"]), len(self.reruns), self.n_candidates)
 
     def _values(self) -> dict:
         d, e = self.durations(), self.at(self.limit_s)
@@ -370,16 +376,14 @@ class RuleChange(Result):
         """The false ESD-1 the rule adds over every candidate: exact when the after file is complete, else the
         sample's share scaled to them, its 95 % Wilson interval (the sample is the first candidates in seed
         order, and seeds draw the sea independently)."""
-        if self.rerun == self.candidates:
-            return float(self.added_in_sample), float(self.added_in_sample)
-        ci = binomtest(self.added_in_sample, self.rerun).proportion_ci(confidence_level=0.95, method="wilson")
-        return ci.low * self.candidates, ci.high * self.candidates
+        return _scaled_share(self.added_in_sample, self.rerun, self.candidates)
 
     def _values(self) -> dict:
         both = [(s, a, b) for s, a, b, _ in self.shifts if a is not None and b is not None]
         early = [a - b for _, a, b in both if b < a]
         late = [b - a for _, a, b in both if b > a]
         b, a = self.before, self.after
+        lo, hi = self.added_false_all() if self.rerun else (None, None)
         return {"scenario": self.scenario, "runs": a["runs"], "changed": len(self.shifts),
                 "earlier": len(early), "earlier_max_s": max(early, default=None),
                 "added": sum(x is None and y is not None for _, x, y, _ in self.shifts),
@@ -391,8 +395,7 @@ class RuleChange(Result):
                 "failures_after": len(a["failed_seeds"]),
                 "short_before": b["alarm1_short"], "short_after": a["alarm1_short"],
                 "candidates": self.candidates, "rerun": self.rerun,
-                "added_false_all_lo": self.added_false_all()[0] if self.rerun else None,
-                "added_false_all_hi": self.added_false_all()[1] if self.rerun else None}
+                "added_false_all_lo": lo, "added_false_all_hi": hi}
 
     def to_dict(self) -> dict:
         return {**self._values(), "before_file": self.before_file, "after_file": self.after_file,
@@ -437,8 +440,8 @@ def rule_change(before: str | Path, after: str | Path, *, scenarios: str | Path 
     stats = [CampaignResult(str(scenario), (), tuple(r))._values() for r in runs]
     shifts = tuple((x.seed, x.alarm1_s, y.alarm1_s, y.limit_s) for x, y in zip(*runs, strict=True)
                    if x.alarm1_s != y.alarm1_s)
-    done = [s for s in cand if s in lines_a]
-    added = sum(runs[1][i].false_alarm and not runs[0][i].false_alarm for i, r in enumerate(runs[0]) if r.seed in done)
+    done = set(cand) - missing
+    added = sum(y.false_alarm and not x.false_alarm for x, y in zip(*runs, strict=True) if x.seed in done)
     return RuleChange(str(before), str(after), head["scenario"], shifts, *stats, len(cand), len(done), added)
 
 

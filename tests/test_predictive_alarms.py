@@ -110,7 +110,7 @@ def test_the_calibrator_s_ring_realises_the_same_errors_as_a_list(steps, made, s
         for m, (mean, sd) in forecasts.items():
             j = index - m - 1
             if 0 <= j < steps and m < index:
-                expected[j].append(np.abs(values[index] - mean[j]) / sd[j])
+                expected[j].append((values[index] - mean[j]) / sd[j])
         if index in forecasts:
             cal.remember(index, *forecasts[index])
     for j in range(steps):

@@ -472,11 +472,10 @@ def predicted_crossing(model, forecast, within, now: float, lead: float) -> tupl
     """The predictive alarms' time to a face: the first horizon, within ``lead`` of now, at which the box of the
     calibrated interval (widened by the motion within a block) reaches a face.
 
-    The interval's edges are the declared threshold's one-sided bounds (:data:`loadarm.guidance.predict.THRESHOLD`):
-    a box corner past a face at a horizon means a probability of being past it then of at least about that
-    much (per axis, marginal), so the probability of reaching the face by then is at least as large; the
-    calibration is two-sided (the absolute error), so on the face's side the tail is the threshold for errors
-    symmetric about the mean and at most twice it otherwise (docs/guidance.md section 13). A block
+    The interval's edges are the declared threshold's one-sided bounds (:data:`loadarm.guidance.predict.THRESHOLD`),
+    each edge calibrated on its own side's errors: a box corner past a face at a horizon means a probability of
+    being past it then of at least about that much (per axis, marginal), so the probability of reaching the face
+    by then is at least as large (docs/guidance.md section 13). A block
     mean of horizon ``h`` covers ``(t + h - 1, t + h]`` after the forecast's time ``t``: its crossing is dated at
     the block's start (early, never late).
 

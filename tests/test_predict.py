@@ -232,7 +232,9 @@ def test_the_hold_out_calibration_holds_and_the_docs_quote_it(tmp_path):
     assert f"in {100 * above[:, 0].mean():.1f} % of its claimed forecasts" in page
     assert f"at most {100 * above[:, 0].max():.1f} %) and its lower edge in {100 * below[:, 0].mean():.1f} %" in page
     assert (f"{100 * above[:, 1].mean():.1f} % and {100 * below[:, 1].mean():.1f} % (at most "
-            f"{100 * below[:, 1].max():.1f} %)") in page
+            f"{100 * max(above[:, 1].max(), below[:, 1].max()):.1f} %)") in page
+    assert f"error to its half-width at 5, 10 or 20 s was {s['online_gate_ratio']:.2f}" in page
+    assert 2.0 < s["online_gate_ratio"] < 5.0
     assert s["online_tail_max"] == pytest.approx(max(below.max(), above.max()))
     assert s["online_tail_max"] <= 1.0 - pr.LEVEL + 0.01                    # at most the two-sided 5 %, or near
     from loadarm.present.docsgen import compare_figures, study_figures
@@ -240,62 +242,3 @@ def test_the_hold_out_calibration_holds_and_the_docs_quote_it(tmp_path):
     bad = compare_figures(ROOT / "docs" / "img", study_figures(tmp_path, ("prediction.png",), prediction=r))
     assert not bad, "stale figure (run `make docs`): " + "; ".join(bad)
 
-
-def test_the_adaptive_step_moves_each_edge_s_level_by_its_own_miss():
-    """One forecast whose truth falls above its upper edge: the upper level rises by gain (1 - a), the lower falls
-    by gain a (a = 2.5 %), on that horizon only; a forecast made without an interval steers nothing; the level
-    never goes below 0.5."""
-    cal = pr.Calibrator(2, memory=10, min_errors=1, gain=0.01)
-    q = np.ones((2, 3, 2))
-    cal.remember(0, np.zeros((2, 3)), np.ones((2, 3)), q)
-    cal.observe(1, np.array([2.0, 0.5, -2.0]))                # horizon 1: above on x, inside on y, below on z
-    b = cal.beta
-    assert b[0, 0, 1] == pytest.approx(0.975 + 0.01 * 0.975) and b[0, 0, 0] == pytest.approx(0.975 - 0.01 * 0.025)
-    assert b[0, 1, 0] == b[0, 1, 1] == pytest.approx(0.975 - 0.01 * 0.025)
-    assert b[0, 2, 0] == pytest.approx(0.975 + 0.01 * 0.975) and b[0, 2, 1] == pytest.approx(0.975 - 0.01 * 0.025)
-    assert np.all(b[1] == 0.975)                                     # horizon 2 not yet realised
-    cal.remember(1, np.zeros((2, 3)), np.ones((2, 3)))               # no interval: nothing to steer by
-    before = cal.beta.copy()
-    cal.observe(2, np.array([5.0, 5.0, 5.0]))                        # realises horizon 2 of 0, horizon 1 of 1
-    assert np.all(cal.beta[0] == before[0]) and np.all(cal.beta[1, :, 1] > before[1, :, 1])
-    low = pr.Calibrator(1, memory=10, min_errors=1, gain=0.9)
-    for t in range(30):
-        low.observe(t, np.zeros(3))
-        low.remember(t, np.zeros((1, 3)), np.ones((1, 3)), np.ones((1, 3, 2)))
-    assert np.all(low.beta >= 0.5)
-    with pytest.raises(ValueError, match="gain"):
-        pr.Calibrator(2, gain=1.0)
-
-
-def _miss_rates(gain, steps=12000, seed=4):
-    """Each side's share of misses of a one-horizon calibration whose errors wander (an AR(1) offset the mean
-    does not follow, as the slow drift's errors come in long runs of one sign)."""
-    cal = pr.Calibrator(1, memory=300, min_errors=100, gain=gain)
-    rng = np.random.default_rng(seed)
-    above = below = n = 0
-    prev, offset = None, np.zeros(3)
-    for t in range(steps):
-        offset = 0.98 * offset + rng.normal(size=3) * 0.2
-        x = offset + rng.normal(size=3)
-        cal.observe(t, x)
-        if prev is not None:
-            above += int(np.sum(x > prev[0, :, 1]))
-            below += int(np.sum(x < -prev[0, :, 0]))
-            n += 3
-        q = cal.quantiles()
-        prev = q if pr.claimed_steps(q) else None
-        cal.remember(t, np.zeros((1, 3)), np.ones((1, 3)), q)
-    return above / n, below / n, n
-
-
-@pytest.mark.slow  # two 12 000-step calibrations in Python: about 5 s
-def test_the_adaptive_step_brings_each_tail_to_its_share_where_the_window_alone_does_not():
-    """Errors in long runs of one sign are not exchangeable: the sliding window's quantile alone lets about 3 %
-    past each edge; with the adaptive step each side's share is 2.5 % within 0.25 % (36 000 forecasts; the
-    bound of Gibbs & Candes, (1 + gain) / (gain T) per axis, is 8 % at this length, so this is the measured
-    behaviour, not the bound)."""
-    plain = _miss_rates(0.0)
-    steered = _miss_rates(0.001)
-    assert plain[2] > 35000 and steered[2] > 35000
-    assert min(plain[:2]) > 0.029                                      # the finding: the window under-covers
-    assert steered[0] == pytest.approx(0.025, abs=0.0025) and steered[1] == pytest.approx(0.025, abs=0.0025)

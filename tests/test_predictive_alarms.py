@@ -265,6 +265,8 @@ def test_a_break_out_s_call_is_not_held_once_the_track_leaves_the_intervals():
     assert calls and calls[0][4]["held"] is False
     assert res.first_code("stage.esd1") == calls[0][0] == esd1["measured_since"]
     assert esd1["rule"] == "measured"
+    departed = [e for e in res.events if e[4].get("code") == "info.prediction_departed"]
+    assert len(departed) == 1 and 400.0 < departed[0][4]["departed_at"] <= departed[0][0] < 430.0   # said once
 
 
 @pytest.mark.slow

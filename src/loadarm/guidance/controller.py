@@ -58,7 +58,7 @@ from loadarm.guidance.modes import (
 )
 from loadarm.guidance.monitor import EnvelopeMonitor
 from loadarm.guidance.moorings import LOST_SHARE, MooringWatch
-from loadarm.guidance.predict import FlangePredictor
+from loadarm.guidance.predict import GATE_FACTOR, GATE_PERSIST, FlangePredictor
 from loadarm.guidance.rules import SafetyRules
 from loadarm.guidance.voting import AXES, reset_votes, vote
 from loadarm.params.scenario import GuidanceSettings, check_drift_window
@@ -275,6 +275,10 @@ class GuidanceController(SafetyRules):
             pr.push(cyc.now, np.array([float(v) for v in forward3d(self.arm, *cyc.q)]))
         elif cyc.est.healthy:
             pr.push(cyc.now, np.asarray(cyc.est.position, dtype=float))
+        if pr.departed_at is not None and pr.departed_at != self.state.departed_said:
+            self.state.departed_said = pr.departed_at
+            self._event("info", event_label("info.prediction_departed"), code="info.prediction_departed",
+                        departed_at=pr.departed_at, factor=GATE_FACTOR, blocks=GATE_PERSIST)
 
     def _voted(self, now: float, q, est: Estimate, fb: PlantFeedback, acts: frozenset) -> tuple:
         """The joint angles to use: the encoders voted against the second channel (:mod:`.voting`), the

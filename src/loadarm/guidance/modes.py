@@ -313,6 +313,10 @@ class GuidanceState:
         This cycle the trusted prediction held that rule's call (the decision itself, what the screen says).
     rule : str
         The rule behind the connected-mode level (:data:`loadarm.vocab.ALARM_RULES`).
+    moorings : str
+        The mooring load monitoring's state (:meth:`loadarm.guidance.moorings.MooringWatch.state`).
+    departed_said : float or None
+        The predictor's departure the event log was told of (its time; None: none).
     events : list
         Events of the current cycle.
     """
@@ -354,6 +358,7 @@ class GuidanceState:
     holding: bool = False
     rule: str = ""
     moorings: str = "none"
+    departed_said: float | None = None
     events: list = field(default_factory=list)
 
     def clear_calls(self) -> None:

@@ -17,14 +17,12 @@ waves' part for a fraction of theirs. Both routes here predict the flange's posi
 The mean and the model's standard deviation per horizon come from the AR recursion and its psi-weights
 (Box & Jenkins). Neither is trusted as it is: the interval is calibrated online (:class:`Calibrator`) by the
 split-conformal quantile (Vovk et al. 2005) over a sliding window: at each horizon and axis each edge is its own
-one-sided quantile of the predictor's own recent signed normalised errors, realised as time passes, and the
-quantile's level is steered by adaptive conformal inference (Gibbs & Candes 2021): after every realised error
-it moves up on a miss and down otherwise, so the long-run share of the truth beyond each edge tends to the
-declared 2.5 % (:data:`THRESHOLD`) whatever the errors' dependence. Found: a calibration of the absolute error
-put 4.2 % of the truth above the upper edge off the berth and 1.8 % below the lower; each edge its own fixed
-97.5 % quantile, 3.5 % and 2.5 %: the slow drift's errors come in long runs of one sign, which a sliding window
-of exchangeable-looking errors under-counts (docs/guidance.md section 13). The guarantee is
-approximate: the errors of successive forecasts overlap and the sea changes, so they are not exchangeable; the
+one-sided 97.5 % quantile of the predictor's own recent signed normalised errors, realised as time passes, so
+each side's tail is the declared 2.5 % (:data:`THRESHOLD`) where the errors lean to one side (found: a
+calibration of the absolute error put 4.2 % of the truth above the upper edge off the berth and 1.8 % below the
+lower on the hold-out records; each edge its own quantile, 3.5 % and 2.5 % there, 2.4 % and 2.5 % on the tuning
+records; adaptive conformal inference on each edge's level made the tuning records' tails wider, not closer:
+docs/guidance.md section 12). The guarantee is approximate: the errors of successive forecasts overlap and the sea changes, so they are not exchangeable; the
 coverage is per axis and per horizon (marginal), not of the joint position nor of a first passage, and is
 measured on hold-out records rather than assumed. A horizon is *claimed* once enough of its errors are realised
 and no further than the route's hold-out claim (:data:`CLAIMS`); beyond it the forecast says no prediction
@@ -44,7 +42,7 @@ from loadarm._numba import njit
 __all__ = ["PREDICT_PERIOD", "FIT_WINDOW", "ORDER", "HORIZON", "LEVEL", "MIN_ERRORS", "MEMORY", "ArModel",
            "fit_ar", "ar_forecast", "psi_variance", "Forecast", "Calibrator",
            "block_means", "claimed_steps", "interval", "gate_half", "CLAIMS", "FlangePredictor", "REFIT", "MIN_FIT",
-           "SAMPLE_PERIOD", "MAX_GAP", "GAIN", "GATE_HORIZONS", "GATE_FACTOR", "GATE_PERSIST", "THRESHOLD"]
+           "SAMPLE_PERIOD", "MAX_GAP", "GATE_HORIZONS", "GATE_FACTOR", "GATE_PERSIST", "THRESHOLD"]
 
 #: Sampling period of the predicted track, s (the mean of each second's positions).
 PREDICT_PERIOD = 1.0
@@ -59,12 +57,6 @@ LEVEL = 0.95
 #: The longest horizon each route claims, s: where its 95 % interval covered 93-97 % of the hold-out records at
 #: every horizon on x and y (:mod:`loadarm.studies.prediction`; a slow test recomputes them).
 CLAIMS = {"online AR": 120.0, "model AR": 13.0}
-#: The adaptive conformal step (Gibbs & Candes 2021): after each realised error of a horizon, axis and edge its
-#: quantile level moves up by ``GAIN (1 - a)`` on a miss and down by ``GAIN a`` otherwise (``a``: the side's
-#: declared tail, 2.5 %), per forecast made a second apart. Their bound on the long-run share of misses after
-#: ``T`` forecasts is ``a +- (1 + GAIN) / (GAIN T)``. Chosen on the tuning records (:data:`loadarm.studies.
-#: prediction.TUNING`, ``python -m loadarm.studies.prediction --tune``), never the hold-out.
-GAIN = 0.0
 #: Forecasts a horizon needs realised before its interval is claimed (5 minutes at one a second).
 MIN_ERRORS = 300
 #: Forecasts the calibration keeps per horizon (the sliding window: 50 minutes at one a second; chosen on the
@@ -310,15 +302,11 @@ class Forecast:
 class Calibrator:
     """The online calibration of one predictor's intervals (mutable state: one per predictor and run).
 
-    Every forecast is kept, with the multipliers its interval used, until its horizons are realised; each
-    realised error, signed and divided by the model's standard deviation, joins that horizon's and axis's sliding
-    window of the last ``memory`` forecasts. Each edge's multiplier is the window's conformal quantile of its own
-    side (the upper edge's of the errors, the lower edge's of their negatives) at a level that starts at
-    ``1 - (1 - level) / 2`` and is steered by adaptive conformal inference: each realised error moves it by
-    ``gain (miss - a)``, ``a = (1 - level) / 2``, ``miss`` 1 when the truth fell beyond that edge as the forecast
-    gave it (Gibbs & Candes 2021; a level at or past ``n / (n + 1)`` of ``n`` errors is an infinite edge: no
-    prediction at that horizon until misses stop; the level is kept at 0.5 or more, each edge on its side of the
-    median).
+    Every forecast is kept until its horizons are realised; each realised error, signed and divided by the
+    model's standard deviation, joins that horizon's and axis's sliding window of the last ``memory`` forecasts;
+    each edge's multiplier is the window's conformal quantile of its own side (the upper edge's of the errors,
+    the lower edge's of their negatives, each at ``1 - (1 - level) / 2``), so an error that leans to one side
+    widens that side only.
 
     Parameters
     ----------
@@ -328,28 +316,20 @@ class Calibrator:
         Two-sided: ``(1 - level) / 2`` of the truth beyond each edge.
     memory, min_errors : int
         Forecasts kept per horizon; forecasts realised before a horizon is calibrated.
-    gain : float
-        The adaptive step per realised error (0: the plain split-conformal quantile).
     """
 
-    def __init__(self, steps: int, *, level: float = LEVEL, memory: int = MEMORY, min_errors: int = MIN_ERRORS,
-                 gain: float = GAIN):
+    def __init__(self, steps: int, *, level: float = LEVEL, memory: int = MEMORY, min_errors: int = MIN_ERRORS):
         if not 0.5 < level < 1.0:
             raise ValueError(f"level = {level} outside (0.5, 1)")
         if not 0 < min_errors <= memory:
             raise ValueError(f"min_errors = {min_errors} outside (0, memory = {memory}]")
-        if not 0.0 <= gain < 1.0:
-            raise ValueError(f"gain = {gain} outside [0, 1)")
-        self.steps, self.level, self.min_errors, self.memory, self.gain = steps, level, min_errors, memory, gain
-        self.tail = (1.0 - level) / 2.0
+        self.steps, self.level, self.min_errors, self.memory = steps, level, min_errors, memory
         self.z = np.full((steps, 3, memory), np.inf)       # signed normalised errors, a ring per horizon and axis
         self.count = np.zeros(steps, dtype=np.int64)
-        self.beta = np.full((steps, 3, 2), 1.0 - self.tail)  # each edge's quantile level (lower, upper)
         # the forecasts not yet realised, a ring of ``steps`` by the index of the block each was made after
         self._made = np.full(steps, np.iinfo(np.int64).min // 2, dtype=np.int64)
         self._mean = np.zeros((steps, steps, 3))
         self._sd = np.ones((steps, steps, 3))
-        self._used = np.full((steps, steps, 3, 2), np.nan)  # the multipliers each forecast's interval used
         self._js = np.arange(steps)
         self._cache: np.ndarray | None = None              # refreshed(): the multipliers as last computed
         self._next = 0
@@ -373,8 +353,7 @@ class Calibrator:
         return valid, self._mean[slots, self._js], self._sd[slots, self._js]
 
     def observe(self, index: int, value: np.ndarray) -> None:
-        """A new block mean, the ``index``-th of the track: realise the errors of the forecasts it answers, and
-        steer each edge's level by whether the truth fell beyond it.
+        """A new block mean, the ``index``-th of the track: realise the errors of the forecasts it answers.
 
         Parameters
         ----------
@@ -390,16 +369,10 @@ class Calibrator:
         with np.errstate(divide="ignore", invalid="ignore"):
             z = err / sd
         still = np.where(err == 0.0, 0.0, np.copysign(np.inf, err))      # a still axis: exact, or never covered
-        z = np.where(sd > 0, z, still)
-        self.z[j, :, self.count[j] % self.memory] = z
+        self.z[j, :, self.count[j] % self.memory] = np.where(sd > 0, z, still)
         self.count[j] += 1
-        if self.gain:
-            used = self._used[(index - 1 - j) % self.steps, j]                # (j, 3, 2)
-            miss = np.stack((-z > used[..., 0], z > used[..., 1]), axis=-1)
-            step = np.where(np.isnan(used), 0.0, self.gain * (miss - self.tail))
-            self.beta[j] = np.maximum(self.beta[j] + step, 0.5)
 
-    def remember(self, index: int, mean: np.ndarray, sd: np.ndarray, q: np.ndarray | None = None) -> None:
+    def remember(self, index: int, mean: np.ndarray, sd: np.ndarray) -> None:
         """Keep a forecast made after block ``index`` until its horizons are realised (the ring keeps the last
         ``steps``: a forecast older than that has no horizon left).
 
@@ -407,14 +380,11 @@ class Calibrator:
         ----------
         index : int
         mean, sd : ndarray (steps, 3)
-        q : ndarray (steps, 3, 2), optional
-            The multipliers its interval used (:meth:`quantiles`; ``nan`` or None: none, nothing to steer by).
         """
         slot = index % self.steps
         self._made[slot] = index
         self._mean[slot] = mean[: self.steps]
         self._sd[slot] = sd[: self.steps]
-        self._used[slot] = np.nan if q is None else q[: self.steps]
 
     def refreshed(self, rows: int) -> np.ndarray:
         """The calibrated multipliers with ``rows`` horizons recomputed, in turn (the rest as last computed): the
@@ -440,10 +410,10 @@ class Calibrator:
 
     def quantiles(self, rows=None) -> np.ndarray:
         """The calibrated multipliers per horizon, axis and edge (``nan`` where fewer than ``min_errors``
-        forecasts are realised). Of ``n`` realised signed normalised errors ``z``, with ``k = ceil(b (n + 1))``
-        for the edge's level ``b`` (split conformal, one side each): the upper edge's multiplier is the ``k``-th
-        smallest ``z``, the lower edge's the ``k``-th smallest ``-z`` (``inf`` when ``k > n``), and the interval
-        ``[mean - lower sd, mean + upper sd]``.
+        forecasts are realised). Of ``n`` realised signed normalised errors ``z``, with
+        ``k = ceil(a (n + 1))`` and ``a = 1 - (1 - level) / 2`` (split conformal, one side each; the extreme
+        while ``n`` is small): the upper edge's multiplier is the ``k``-th smallest ``z``, the lower edge's the
+        ``k``-th smallest ``-z``, and the interval ``[mean - lower sd, mean + upper sd]``.
 
         Parameters
         ----------
@@ -459,15 +429,13 @@ class Calibrator:
         q = np.full((rows.size, 3, 2), np.nan)
         count = self.count[rows]
         n = np.minimum(count, self.memory)
-        for size in np.unique(n[count >= self.min_errors]):         # one sort per window length (mostly one)
+        side = 1.0 - (1.0 - self.level) / 2.0
+        for size in np.unique(n[count >= self.min_errors]):         # one partition per window length (mostly one)
             sel = np.flatnonzero((n == size) & (count >= self.min_errors))
-            srt = np.sort(self.z[rows[sel], :, :size], axis=2)
-            k = np.ceil(self.beta[rows[sel]] * (size + 1)).astype(np.int64) - 1      # (s, 3, 2), 0-based
-            beyond = k >= size
-            k = np.clip(k, 0, size - 1)
-            lower = -np.take_along_axis(srt, size - 1 - k[..., :1], axis=2)[..., 0]
-            upper = np.take_along_axis(srt, k[..., 1:], axis=2)[..., 0]
-            q[sel] = np.where(beyond, np.inf, np.stack((lower, upper), axis=-1))
+            k = min(int(math.ceil(side * (size + 1))), size) - 1
+            part = np.partition(self.z[rows[sel], :, :size], (size - 1 - k, k), axis=2)
+            q[sel, :, 0] = -part[:, :, size - 1 - k]
+            q[sel, :, 1] = part[:, :, k]
         return q
 
 
@@ -638,8 +606,8 @@ class FlangePredictor:
             self.model, self.fitted_at = fit_ar(history, route=self.route), self.index
             self._psi2 = psi_variance(self.model.phi, self.steps)       # once per refit, not per block
         m, sd = ar_forecast(self.model, history, self.steps, psi2=self._psi2)
+        self.cal.remember(self.index, m, sd)
         q = self.cal.refreshed(12)
-        self.cal.remember(self.index, m, sd, q)
         claimed = claimed_steps(q, self.route)
         lo, hi = interval(m, sd, q, claimed)
         self._q = q
@@ -653,7 +621,7 @@ class FlangePredictor:
         q = self._q
         valid, mean, sd = self.cal.outstanding(self.index)
         j = np.array(GATE_HORIZONS) - 1
-        j = j[valid[j] & np.all(np.isfinite(q[j, :2]), axis=1)]
+        j = j[valid[j] & np.all(np.isfinite(q[j, :2]), axis=(1, 2))]
         out = bool(np.any(np.abs(value[:2] - mean[j, :2]) > GATE_FACTOR * gate_half(q[j, :2], sd[j, :2])))
         self.outside = self.outside + 1 if out else 0
         if self.outside >= GATE_PERSIST:

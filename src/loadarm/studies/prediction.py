@@ -19,14 +19,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from loadarm.guidance.predict import (FIT_WINDOW, GAIN, GATE_HORIZONS, HORIZON, LEVEL, MEMORY, MIN_ERRORS, ORDER,
+from loadarm.guidance.predict import (FIT_WINDOW, GATE_HORIZONS, HORIZON, LEVEL, MEMORY, MIN_ERRORS, ORDER,
                                       PREDICT_PERIOD, ArModel, Calibrator, ar_forecast, block_means, claimed_steps,
                                       fit_ar, interval)
 from loadarm.results import Metric, Result
 from loadarm.studies.plots import prediction_figure
 from loadarm.ship.motion import DT, flange_positions
 
-__all__ = ["PredictionCase", "HOLD_OUT", "TUNING", "tune_gain", "ROUTES", "RouteCalibration", "PredictionCalibration",
+__all__ = ["PredictionCase", "HOLD_OUT", "ROUTES", "RouteCalibration", "PredictionCalibration",
            "calibrate_predictors", "run_route", "COVERAGE_BAND"]
 
 #: Seconds between two forecasts in the study (the guidance issues one every second; every fifth keeps the
@@ -129,7 +129,7 @@ class _Tally:
 
 
 def run_route(track: np.ndarray, route: str, tally: _Tally, *, model: ArModel | None = None,
-              every: int = EVERY, gate: bool = False, gain: float = GAIN) -> None:
+              every: int = EVERY, gate: bool = False) -> None:
     """Run one route online over a record, counting into ``tally``.
 
     Parameters
@@ -143,12 +143,9 @@ def run_route(track: np.ndarray, route: str, tally: _Tally, *, model: ArModel | 
     every : int
     gate : bool
         Count the departure test's ratios (a record of the sea alone: no drift the model has not seen).
-    gain : float
-        The adaptive conformal step per second (:data:`loadarm.guidance.predict.GAIN`).
     """
     steps, window = tally.steps, int(FIT_WINDOW / PREDICT_PERIOD)
-    # the same minutes as live: the window, the first errors and the adaptive step's pace
-    cal = Calibrator(steps, memory=MEMORY // every, min_errors=MIN_ERRORS // every, gain=min(gain * every, 0.5))
+    cal = Calibrator(steps, memory=MEMORY // every, min_errors=MIN_ERRORS // every)   # the same minutes as live
     for t in range(ORDER, track.shape[0] - steps):
         cal.observe(t, track[t])
         if t < window or (t - window) % every:
@@ -162,7 +159,7 @@ def run_route(track: np.ndarray, route: str, tally: _Tally, *, model: ArModel | 
         lo, hi = interval(mean, sd, q, claimed_steps(q))
         tally.seconds += time.perf_counter() - t0
         tally.add(mean, lo, hi, track[t + 1: t + 1 + steps], history.mean(axis=0), gate)
-        cal.remember(t, mean, sd, q)
+        cal.remember(t, mean, sd)
 
 
 @dataclass(frozen=True)
@@ -333,86 +330,3 @@ def calibrate_predictors(ship, base_env, *, cases=HOLD_OUT, seeds=(10, 11), dura
     return PredictionCalibration(tuple(cases), tuple(seeds), routes)
 
 
-
-#: The tuning states (never the hold-out's heights, periods, directions or seeds): the predictors' constants,
-#: and the adaptive conformal step (:data:`loadarm.guidance.predict.GAIN`), are chosen on these, seeds 0-3.
-TUNING = (PredictionCase("Hs 0.6 m, 7.5 s", 0.6, 7.5, 0.0),
-          PredictionCase("Hs 1.0 m, 10 s", 1.0, 10.0, 30.0),
-          PredictionCase("Hs 1.5 m, 11 s", 1.5, 11.0, 10.0),
-          PredictionCase("Hs 2.0 m, 9 s", 2.0, 9.0, 35.0),
-          PredictionCase("Hs 2.5 m, 11.5 s", 2.5, 11.5, 15.0),
-          PredictionCase("swell 1.0 m, 15 s", 1.0, 15.0, 20.0))
-
-
-def tune_gain(ship, base_env, gains, *, cases=TUNING, seeds=(0, 1, 2, 3), duration: float = 7200.0,
-              every: int = EVERY, progress: Callable[[int, int], None] | None = None) -> dict:
-    """The online AR's calibration on the tuning records for each adaptive conformal step.
-
-    Parameters
-    ----------
-    ship : ShipModel
-    base_env : Environment
-    gains : sequence of float
-        Steps per second (:data:`loadarm.guidance.predict.GAIN`).
-    cases, seeds, duration, every, progress
-        As :func:`calibrate_predictors`.
-
-    Returns
-    -------
-    dict of float to RouteCalibration
-    """
-    steps = int(HORIZON / PREDICT_PERIOD)
-    tallies = {g: _Tally(steps) for g in gains}
-    done, total = 0, len(cases) * len(seeds)
-    for case in cases:
-        env = _state_env(base_env, case)
-        for seed in seeds:
-            track = _track(ship, env, case, seed, duration)
-            for g in gains:
-                run_route(track, "online AR", tallies[g], every=every, gain=g, gate=not case.drift)
-            done += 1
-            if progress is not None:
-                progress(done, total)
-    out = {}
-    for g, t in tallies.items():
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out[g] = RouteCalibration("online AR", t.covered / t.issued, t.issued, np.sqrt(t.sq / t.n),
-                                      np.sqrt(t.clim / t.n), t.n, t.seconds / max(t.n, 1), t.below / t.issued,
-                                      t.above / t.issued, t.gate_ratio)
-    return out
-
-
-def _tune_main(argv=None) -> int:
-    """``python -m loadarm.studies.prediction --tune [GAIN ...]``: the tuning records' tails per step."""
-    import argparse
-    from pathlib import Path
-
-    from loadarm.params.berth import load_berth
-    from loadarm.ship.model import compile_ship
-
-    ap = argparse.ArgumentParser(prog="python -m loadarm.studies.prediction")
-    ap.add_argument("--tune", nargs="*", type=float, required=True, metavar="GAIN",
-                    help="adaptive conformal steps per second to compare (default 0 0.0005 0.001 0.002 0.005)")
-    ap.add_argument("--berth", type=Path, default=Path(__file__).resolve().parents[3] / "examples" / "berths"
-                    / "lng150k.toml")
-    ap.add_argument("--seeds", type=int, default=4, help="seeds 0..N-1 of each tuning state (default 4)")
-    a = ap.parse_args(argv)
-    gains = a.tune or [0.0, 0.0005, 0.001, 0.002, 0.005]
-    if any(not 0.0 <= g < 1.0 for g in gains):
-        ap.error(f"--tune: each step in [0, 1), got {gains}")
-    bf = load_berth(a.berth)
-    res = tune_gain(compile_ship(bf), bf.environment, gains, seeds=tuple(range(a.seeds)),
-                    progress=lambda d, n: print(f"record {d} of {n}", flush=True))
-    print("gain     coverage x,y (min-max)   x above/below (mean, max) %    y above/below (mean, max) %   gate")
-    for g, r in res.items():
-        n = int(r.claimed((0.0, 1.0)))
-        a_, b_ = 100 * r.above[:n, :2], 100 * r.below[:n, :2]
-        print(f"{g:<8g} {r.coverage[:n, :2].min():.3f}-{r.coverage[:n, :2].max():.3f}           "
-              f"{a_[:, 0].mean():.2f} {a_[:, 0].max():.2f} / {b_[:, 0].mean():.2f} {b_[:, 0].max():.2f}       "
-              f"{a_[:, 1].mean():.2f} {a_[:, 1].max():.2f} / {b_[:, 1].mean():.2f} {b_[:, 1].max():.2f}      "
-              f"{r.gate_ratio:.2f}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(_tune_main())

@@ -430,10 +430,11 @@ class Calibrator:
         count = self.count[rows]
         n = np.minimum(count, self.memory)
         side = 1.0 - (1.0 - self.level) / 2.0
-        for size in np.unique(n[count >= self.min_errors]):         # one partition per window length (mostly one)
+        for size in np.unique(n[count >= self.min_errors]):         # one sort per window length (mostly one)
             sel = np.flatnonzero((n == size) & (count >= self.min_errors))
             k = min(int(math.ceil(side * (size + 1))), size) - 1
-            part = np.partition(self.z[rows[sel], :, :size], (size - 1 - k, k), axis=2)
+            # a full sort: NumPy's vectorised sort takes half the time of a partition at two ranks here (measured)
+            part = np.sort(self.z[rows[sel], :, :size], axis=2)
             q[sel, :, 0] = -part[:, :, size - 1 - k]
             q[sel, :, 1] = part[:, :, k]
         return q

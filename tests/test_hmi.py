@@ -924,6 +924,12 @@ def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model)
     assert x0 < mean[4, 0] < x1 and y0 < mean[4, 1] < y1
     assert prediction_state(None, True)["state"] == "none"
     assert prediction_state({**p, "trusted": False}, True)["text"].startswith("prediction (not used): ")
+    gone = prediction_state({**p, "trusted": False, "unused": "departed"}, True)
+    assert gone["why"] == "the track left its intervals" and gone["why_abnormal"] is True
+    short = prediction_state({**p, "trusted": False, "unused": "short"}, True)
+    assert short["why"] == "claimed short of ESD-1's lead" and short["why_abnormal"] is False
+    assert prediction_state({**p, "trusted": True, "unused": ""}, True)["why"] == ""
+    assert prediction_state({**p, "trusted": False, "unused": "departed"}, False)["why"] == ""   # not connected
     no_face = prediction_state({**p, "ttl": [None, None]}, True)
     assert no_face["text"] == "prediction: no face within 60 s" and no_face["moorings"] == "no mooring load monitoring"
     lost = prediction_state({**p, "trusted": False}, True, "lost")

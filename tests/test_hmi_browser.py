@@ -743,6 +743,10 @@ def test_the_moorings_lost_are_marked_abnormal_on_the_screen(browser, breakout_r
         colour = page.evaluate("getComputedStyle(document.getElementById('moorings')).backgroundColor")
         assert colour == "rgb(48, 48, 48)", colour             # --arm, the abnormal tile's: no alarm colour
         assert "MOORINGS LOST" in page.evaluate("document.getElementById('ttl-detail').title")
+        why = page.inner_text("#unused")                     # the prediction's reason, after ESD-1 or the moorings
+        assert why in ("ESD-1 raised: every route acts", "the moorings are lost"), why
+        assert page.evaluate("document.getElementById('unused').className") == (
+            "flag abnormal" if why == "the moorings are lost" else "flag")
         page.screenshot(path=str(tmp_path / "moorings-lost.png"))
         assert page.evaluate(_OVERLAPS) == []
         assert page.errors == []

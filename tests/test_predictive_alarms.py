@@ -193,6 +193,30 @@ def test_a_held_call_is_said_on_the_screen_and_its_absence_is_silent():
     assert held_state(SimpleNamespace(connected=False, held=(100.0, 112.0), t=105.0))["left_s"] is None
 
 
+def test_why_a_claimed_prediction_is_not_used_is_said_in_the_rules_order():
+    """The reason a claimed prediction does not stand in for the measured routes (the screen's and OPC UA's
+    PredictionUnused): none while trusted or with no forecast; then not connected, ESD-1 raised, the moorings
+    lost, the track departed, and otherwise a claim short of ESD-1's lead, each a declared code."""
+    from types import SimpleNamespace
+
+    from loadarm.guidance.rules import SafetyRules
+    from loadarm.vocab import PREDICTION_UNUSED
+
+    def why(trusted=None, forecast=True, attached=True, esd=None, lost=None, departed=None):
+        ns = SimpleNamespace(state=SimpleNamespace(trusted=trusted, esd_since=esd),
+                             predictor=SimpleNamespace(forecast=object() if forecast else None, departed_at=departed),
+                             moorings=SimpleNamespace(lost_at=lost), attached=lambda: attached)
+        return SafetyRules.prediction_unused(ns)
+
+    assert why(trusted=object()) == "" and why(forecast=False) == ""
+    assert why(attached=False, esd=1.0, departed=2.0) == "detached"
+    assert why(esd=1.0, lost=2.0, departed=2.0) == "esd1"
+    assert why(lost=2.0, departed=2.0) == "moorings"
+    assert why(departed=2.0) == "departed"
+    assert why() == "short"
+    assert {why(attached=False), why(esd=1.0), why(lost=1.0), why(departed=1.0), why()} == set(PREDICTION_UNUSED)
+
+
 def test_the_rules_are_declared_once():
     """Every alarm event's rule code is declared in vocab.ALARM_RULES (the words the journal shows)."""
     assert set(ALARM_RULES) == {"position", "floor", "measured", "prediction", "hold_limit", "operator", "fault"}
@@ -235,6 +259,7 @@ def test_on_a_tracked_ship_the_prediction_holds_the_measured_false_alarm_up_to_t
     cmds = [loop.cycle(k) for k in range(loop.n)]
     res = loop.result()
     during, gap, after = (cmds[round(t / loop.dt)].held for t in (209.0, 212.0, 216.0))
+    assert cmds[round(209.0 / loop.dt)].unused == "" and cmds[round(216.0 / loop.dt)].unused == "esd1"
     assert during[0] == pytest.approx(208.04) and 208.04 < during[1] <= 208.04 + 15.0
     assert gap == during and after == ()            # told through the off-delay gap; none once ESD-1 is raised
     held = [e for e in res.events if e[4].get("code") == "info.measured_esd1"]

@@ -56,7 +56,7 @@ __all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "F
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
            "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES",
            "ROUTE_DESIGN", "ROUTE_MEASURED", "ROUTE_STEP", "ROUTE_BREAKOUT", "ROUTE_PREDICTION", "MEASURED_ROUTES",
-           "CHANGE_ROUTES", "MOORINGS_TEXT", "UNLIMITED_CODES"]
+           "CHANGE_ROUTES", "MOORINGS_TEXT", "UNLIMITED_CODES", "PREDICTION_UNUSED", "PREDICTION_UNUSED_ABNORMAL"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -493,6 +493,15 @@ CHANGE_ROUTES: tuple[str, ...] = (ROUTE_STEP, ROUTE_BREAKOUT)
 #: The berth's mooring load monitoring as the guidance reads it (:mod:`loadarm.guidance.moorings`), by state:
 #: none linked, the moorings holding, silent (read before, no fresh reading now: no witness), or lost (more than
 #: a third of the lines slack: the prediction stood down).
+#: Why a claimed prediction does not stand in for the measured routes, by code (``""``: it does, or there is
+#: none), in the order the rules ask (:meth:`loadarm.guidance.rules.SafetyRules.prediction_unused`).
+PREDICTION_UNUSED: dict[str, str] = {"detached": "not connected",
+                                     "esd1": "ESD-1 raised: every route acts",
+                                     "moorings": "the moorings are lost",
+                                     "departed": "the track left its intervals",
+                                     "short": "claimed short of ESD-1's lead"}
+#: Those of :data:`PREDICTION_UNUSED` a screen marks abnormal (the ship is not the one the prediction learned).
+PREDICTION_UNUSED_ABNORMAL: frozenset[str] = frozenset({"moorings", "departed"})
 MOORINGS_TEXT: dict[str, str] = {"none": "no mooring load monitoring", "holding": "moorings holding",
                                  "silent": "mooring load monitoring silent",
                                  "lost": "MOORINGS LOST: lines slack"}

@@ -319,7 +319,8 @@ class GuidanceController(SafetyRules):
                        tuple(s.events), faces, horizon, f.route if f is not None else "",
                        self._forecast_drift(f), None if self.predictor is None else self.predictor.forecast,
                        self._predicted(now) if attached else (), s.rule if attached else "",
-                       attached and s.trusted is not None, s.moorings, self.held_call(now) if attached else ())
+                       attached and s.trusted is not None, s.moorings, self.held_call(now) if attached else (),
+                       self.prediction_unused())
 
     def _predicted(self, now: float) -> tuple:
         """The prediction's times to the nearest face now, ``(bound, mean)`` s, or ``()``."""

@@ -166,6 +166,8 @@ class Command:
     trusted : bool
         The prediction stands in for the measured routes (claimed past the ESD-1 lead, the track within its
         intervals, ESD-1 not raised).
+    unused : str
+        Why a claimed prediction does not (:data:`loadarm.vocab.PREDICTION_UNUSED`; ``""``: it does, or none).
     moorings : str
         The mooring load monitoring's state (:data:`loadarm.vocab.MOORINGS_TEXT`: ``none``, ``holding``,
         ``lost``).
@@ -195,6 +197,7 @@ class Command:
     trusted: bool = False
     moorings: str = "none"
     held: tuple = ()
+    unused: str = ""
 
 
 @dataclass(frozen=True, slots=True)

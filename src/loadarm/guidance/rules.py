@@ -282,6 +282,20 @@ class SafetyRules:
             s.holding = True
         return best if best[0] > Severity.NORMAL else (Severity.NORMAL, math.inf, "", "", "")
 
+    def prediction_unused(self) -> str:
+        """Why the claimed prediction does not stand in for the measured routes at the last time-to-limit
+        forecast (:data:`loadarm.vocab.PREDICTION_UNUSED`), ``""`` when it does or there is none."""
+        s, pr = self.state, self.predictor
+        if pr is None or pr.forecast is None or s.trusted is not None:
+            return ""
+        if not self.attached():
+            return "detached"
+        if s.esd_since is not None:
+            return "esd1"
+        if self.moorings.lost_at is not None:
+            return "moorings"
+        return "departed" if pr.departed_at is not None else "short"
+
     def held_call(self, now: float) -> tuple:
         """The call for ESD-1 the trusted prediction holds now: ``(since, until)``, its joined onset and when its
         hold runs out at the latest, s; ``()`` when none is held. Held: this cycle's decision held it, or the

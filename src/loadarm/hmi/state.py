@@ -18,7 +18,7 @@ from loadarm.params.berth import RHO_SEA, BerthSection, ShipSection
 from loadarm.ship.hull import hull_mesh
 from loadarm.sim.snapshot import held_times
 from loadarm.vocab import (ALARM_RULES, CONDITION_TEXT, EVENTS, FACE_WORDS, FACES, MEASURED_ROUTES, MOORINGS_TEXT,
-                           PRIORITIES, Severity, event_label, priority)
+                           PREDICTION_UNUSED, PREDICTION_UNUSED_ABNORMAL, PRIORITIES, Severity, event_label, priority)
 
 __all__ = ["PRIORITIES", "SHELVE_MAX", "JOURNAL_KINDS", "AlarmBook", "AlarmEntry", "clock_text", "drift_words",
            "forecast_state", "prediction_state", "geometry", "frame", "in_words", "journal_entry", "priority",
@@ -303,7 +303,9 @@ def held_state(snap) -> dict:
 def prediction_state(p: dict | None, connected: bool, moorings: str = "none") -> dict:
     """What the screen says and draws of the flange prediction: ``state`` ``"trusted"`` (it stands in for the
     measured drift), ``"shown"`` (claimed, not trusted: the track left its intervals, or ESD-1 is raised),
-    ``"none"`` (no prediction: the track is too short or not yet calibrated); ``text``; the time to limit with
+    ``"none"`` (no prediction: the track is too short or not yet calibrated); ``text``; while connected and not
+    used, ``why`` in words (:data:`loadarm.vocab.PREDICTION_UNUSED`; ``""`` otherwise) and ``why_abnormal``
+    (the track left its intervals or the moorings are lost: the screen marks it); the time to limit with
     its interval (``bound``: the calibrated bound's, what the alarms use; ``mean``: the mean track's; s, None:
     no face within the claim); the top view's ``track`` (x, y of the mean, m) and ``band`` (x0, y0, x1, y1 of the
     interval at each kept horizon, m).
@@ -326,7 +328,7 @@ def prediction_state(p: dict | None, connected: bool, moorings: str = "none") ->
              "moorings_abnormal": connected and moorings in ("lost", "silent")}
     if p is None:
         return {"state": "none", "text": "no prediction (track too short or calibrating)", "track": [], "band": [],
-                "bound": None, "mean": None, "claimed": 0.0, **watch}
+                "bound": None, "mean": None, "claimed": 0.0, "why": "", "why_abnormal": False, **watch}
     bound, mean = p["ttl"]
     claimed = float(p["claimed"])
     if bound is None:
@@ -337,7 +339,9 @@ def prediction_state(p: dict | None, connected: bool, moorings: str = "none") ->
         when = f"face in {bound:.0f} s at the earliest, {mean:.0f} s on the mean track"   # not an interval
     trusted = bool(p.get("trusted")) and connected
     text = f"prediction{'' if trusted else ' (not used)'}: {when}"
+    unused = str(p.get("unused", "")) if connected and not trusted else ""
     return {**watch, "state": "trusted" if trusted else "shown", "text": text, "bound": bound, "mean": mean,
+            "why": PREDICTION_UNUSED.get(unused, unused), "why_abnormal": unused in PREDICTION_UNUSED_ABNORMAL,
             "claimed": claimed, "track": [[m[0], m[1]] for m in p["mean"]],
             "band": [[lo[0], lo[1], hi[0], hi[1]] for lo, hi in zip(p["lo"], p["hi"])]}
 

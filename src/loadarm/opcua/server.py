@@ -217,7 +217,7 @@ VARIABLES = (
 STATES = (("EstimateHealthy", bool), ("Connected", bool), ("ESDActive", bool), ("ReleaseRequested", bool),
           ("CouplerOpen", bool), ("ERSValvesClosed", bool), ("AlarmStage", int), ("AlarmStageText", str),
           ("Mode", str), ("Cycle", int), ("LateCycles", int), ("PlantLinkOK", bool), ("AlarmRule", str),
-          ("Moorings", str))
+          ("Moorings", str), ("PredictionUnused", str))
 #: Methods: browse name, request action, input arguments, what it does (the one action table,
 #: :data:`loadarm.vocab.ACTION_TABLE`, with the service's jog hold and the controller's ERS window filled in).
 METHODS = tuple((name, action, args, what.format(jog_hold=JOG_HOLD, ers_window=ERS_CONFIRM_WINDOW))
@@ -614,6 +614,7 @@ class OpcUaServer(SnapshotServer):
         await nodes["Mode"].write_value(snap.mode)
         await nodes["AlarmRule"].write_value(snap.rule)
         await nodes["Moorings"].write_value(snap.moorings)
+        await nodes["PredictionUnused"].write_value(str((snap.prediction or {}).get("unused", "")))
         for key, state in (("GuidanceMode", snap.mode), ("MachineryOperationMode",
                                                        OPERATION_MODE.get(snap.mode, "Processing")),
                            ("MachineryItemState", ITEM_STATE.get(snap.mode, "Executing"))):

@@ -78,7 +78,8 @@ def state_sample(cmd, q, estimate, distance: float, ers_valves_closed: bool, ala
             "time_to_faces": {f: float(t) for f, t in cmd.time_to_faces},
             "horizon": _finite_or_none(cmd.horizon), "route": str(cmd.route),
             "drift": [_finite_or_none(v) for v in cmd.drift] or None,
-            "prediction": prediction_sample(cmd.prediction, cmd.predicted, cmd.trusted), "rule": str(cmd.rule),
+            "prediction": prediction_sample(cmd.prediction, cmd.predicted, cmd.trusted, cmd.unused),
+            "rule": str(cmd.rule),
             "moorings": str(cmd.moorings), "held": [float(v) for v in cmd.held] or None}
 
 
@@ -86,11 +87,12 @@ def state_sample(cmd, q, estimate, distance: float, ers_valves_closed: bool, ala
 PREDICTION_EVERY = 5
 
 
-def prediction_sample(forecast, predicted, trusted: bool = False) -> dict | None:
+def prediction_sample(forecast, predicted, trusted: bool = False, unused: str = "") -> dict | None:
     """The prediction as a sample keeps it, JSON-ready: ``claimed`` (s), ``t`` (when it was made, s), ``h`` (the
     horizons kept, every :data:`PREDICTION_EVERY` s up to the claim), ``mean``, ``lo``, ``hi`` (m, per kept
     horizon, x y z), ``ttl`` (the time to the nearest face by the calibrated bound and by the mean, s; None:
-    none within the claim), ``trusted`` (it stands in for the measured routes). None: no prediction.
+    none within the claim), ``trusted`` (it stands in for the measured routes), ``unused`` (why not:
+    :data:`loadarm.vocab.PREDICTION_UNUSED`, ``""``). None: no prediction.
 
     Parameters
     ----------
@@ -99,6 +101,7 @@ def prediction_sample(forecast, predicted, trusted: bool = False) -> dict | None
     predicted : tuple of float
         ``(bound, mean)`` s, or ``()``.
     trusted : bool
+    unused : str
 
     Returns
     -------
@@ -115,7 +118,7 @@ def prediction_sample(forecast, predicted, trusted: bool = False) -> dict | None
     ttl = [_finite_or_none(v) for v in predicted] if predicted else [None, None]
     return {"claimed": float(forecast.claimed), "t": float(forecast.time),
             "h": [float(v) for v in forecast.horizon[keep]], "mean": rows(forecast.mean), "lo": rows(forecast.lo),
-            "hi": rows(forecast.hi), "ttl": ttl, "trusted": bool(trusted)}
+            "hi": rows(forecast.hi), "ttl": ttl, "trusted": bool(trusted), "unused": str(unused)}
 
 
 def snapshot(model, seq: int, t: float, mode: str, sample: dict, **live) -> "Snapshot":

@@ -266,12 +266,18 @@ function drawPrimary(f) {
     moorings.id = "moorings";
     moorings.textContent = pr.moorings;
     moorings.className = pr.moorings_abnormal ? "flag abnormal" : "flag";
+    // why a claimed prediction is not used, marked when the ship is not the one it learned
+    const why = document.createElement("span");
+    why.id = "unused";
+    why.textContent = pr.why ?? "";
+    why.className = pr.why_abnormal ? "flag abnormal" : "flag";
     // a call for ESD-1 the prediction holds (ISA-18.2: suppressed by design, so shown), marked abnormal
     const held = document.createElement("span");
     held.id = "held";
     held.textContent = fc.held?.text ?? "";
     held.className = "flag abnormal";
-    detail.replaceChildren(`${face}${fc.basis}\n${pr.text}`, ...(pr.moorings ? ["; ", moorings] : []),
+    detail.replaceChildren(`${face}${fc.basis}\n${pr.text}`, ...(why.textContent ? ["; ", why] : []),
+                           ...(pr.moorings ? ["; ", moorings] : []),
                            ...(held.textContent ? ["\n", held] : []), rule);
   }
   detail.title = detail.textContent;

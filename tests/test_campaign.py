@@ -50,6 +50,23 @@ def test_judge_counts_each_failure_on_its_own():
     assert live.overstretched and live.overstretched_before_isolation and live.missed_alarm
 
 
+def test_a_departure_is_counted_only_in_runs_that_kept_it():
+    """A run's departure (the prediction standing down: info.prediction_departed) is kept with its verdict; a run
+    stored before departures were kept says so (departure_kept false) rather than counting as none."""
+    from loadarm.studies.campaign import CampaignResult
+
+    base = dict(limit_s=None, release_complete_s=None, alarm1_s=None, release_margin_s=None, limit_face="",
+                connected_s=80.0, failures=[])
+    gone = _judge(1, {}, {**base, "departed_s": 412.0})
+    stayed = _judge(2, {}, {**base, "departed_s": None})
+    old = _judge(3, {}, base)
+    assert (gone.departed_s, gone.departure_kept) == (412.0, True)
+    assert (stayed.departed_s, stayed.departure_kept) == (None, True)
+    assert (old.departed_s, old.departure_kept) == (None, False)
+    v = CampaignResult("x.toml", (), (gone, stayed, old)).summary()
+    assert (v["departures"], v["departures_kept"], v["departed_seeds"]) == (1, 2, [1])
+
+
 def test_esd1_short_of_its_lead_and_undecided_where_the_face_is_past_the_run():
     """Issue 30 (Hs 2.0-2.5 m seed 533): the rule without the prediction called ESD-1 at 413.8 s, the rule with it
     did not within the 600 s run, and the face was at 725.2 s on the flange's trajectory after it. That run is

@@ -292,6 +292,7 @@ class RunResult(Result):
             "alarm1_measured_s": self.measured_alarm1(),
             "alarm1_measured_first_s": self.first_code("info.measured_esd1"),
             "held_calls": self.held_calls(),
+            "departed_s": self.first_code("info.prediction_departed"),
             "alarm1_rule": next((d.get("rule", "") for _, _, _, _, d in self.events
                                  if d and d.get("code") == "stage.esd1"), ""),
             "alarm2_s": self.first_code("stage.second"),

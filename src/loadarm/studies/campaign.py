@@ -159,6 +159,11 @@ class CampaignRun:
     held_calls : list of [float, float] or None
         The rule without the prediction's calls for ESD-1 that the prediction held, ``[onset, end]`` each, s
         (:meth:`loadarm.sim.result.RunResult.held_calls`); None: stored before they were kept.
+    departed_s : float or None
+        When the prediction's departure test found the track outside its intervals and the prediction stood down
+        (``info.prediction_departed``), s; None: it did not (or, ``departure_kept`` false, not recorded).
+    departure_kept : bool
+        The run recorded its departure (false for runs stored before departures were kept).
     """
 
     seed: int
@@ -180,6 +185,8 @@ class CampaignRun:
     end_s: float | None = None
     esd1_lead_s: float | None = None
     held_calls: list | None = None
+    departed_s: float | None = None
+    departure_kept: bool = False
 
     @property
     def false_alarm_measured(self) -> bool:
@@ -240,7 +247,7 @@ def _judge(seed: int, draws: dict, v: dict, bounds: tuple[float, float] | None =
         limit_face=v["limit_face"], connected_s=v["connected_s"], alarm1_measured_s=v.get("alarm1_measured_s"),
         alarm1_rule=v.get("alarm1_rule", ""), alarm1_measured_first_s=v.get("alarm1_measured_first_s"),
         end_s=None if bounds is None else bounds[0], esd1_lead_s=None if bounds is None else bounds[1],
-        held_calls=v.get("held_calls"))
+        held_calls=v.get("held_calls"), departed_s=v.get("departed_s"), departure_kept="departed_s" in v)
 
 
 def merged_calls(calls, off_delay: float) -> list[list[float]]:
@@ -455,6 +462,7 @@ CAMPAIGN_METRICS = (
            "", "d"),
     Metric("lead_gained_min_s", "ESD-1 lead gained on that rule, min", "s", ".1f", none="-"),
     Metric("lead_gained_median_s", "ESD-1 lead gained on that rule, median", "s", ".1f", none="-"),
+    Metric("departures", "the prediction stood down: the track left its intervals (runs that kept it)", "", "d"),
     Metric("missed_alarms", "missed alarms (face reached before the release completed)", "", "d"),
     Metric("releases", "releases", "", "d"),
     Metric("false_releases", "releases without reaching a face (false: the coupler opened for nothing)", "", "d"),
@@ -516,6 +524,9 @@ class CampaignResult(Result):
             "alarm1_short": sum(r.short_of_lead(r.alarm1_s) is True for r in runs),
             "alarm1_undecided": sum(r.alarm1_undecided for r in runs),
             "lead_gained_min_s": q(gained, 0), "lead_gained_median_s": q(gained, 50),
+            "departures": sum(r.departed_s is not None for r in runs),
+            "departures_kept": sum(r.departure_kept for r in runs),
+            "departed_seeds": [r.seed for r in runs if r.departed_s is not None],
             "missed_alarms": sum(r.missed_alarm for r in runs),
             "releases": sum(r.release_complete_s is not None for r in runs),
             "false_releases": sum(r.release_complete_s is not None and r.limit_s is None for r in runs),

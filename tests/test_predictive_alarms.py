@@ -206,7 +206,7 @@ def test_why_a_claimed_prediction_is_not_used_is_said_in_the_rules_order():
         ns = SimpleNamespace(state=SimpleNamespace(trusted=trusted, esd_since=esd),
                              predictor=SimpleNamespace(forecast=object() if forecast else None, departed_at=departed),
                              moorings=SimpleNamespace(lost_at=lost), attached=lambda: attached)
-        return SafetyRules.prediction_unused(ns)
+        return SafetyRules._unused_why(ns)
 
     assert why(trusted=object()) == "" and why(forecast=False) == ""
     assert why(attached=False, esd=1.0, departed=2.0) == "detached"
@@ -215,6 +215,15 @@ def test_why_a_claimed_prediction_is_not_used_is_said_in_the_rules_order():
     assert why(departed=2.0) == "departed"
     assert why() == "short"
     assert {why(attached=False), why(esd=1.0), why(lost=1.0), why(departed=1.0), why()} == set(PREDICTION_UNUSED)
+    # what is said now: the reason decided with the trust, or "detached" once disconnected (found by review: a
+    # prediction trusted at a controlled disconnection read as used while detached)
+    now = SimpleNamespace(state=SimpleNamespace(unused=""), predictor=SimpleNamespace(forecast=object()),
+                          attached=lambda: False)
+    assert SafetyRules.prediction_unused(now) == "detached"
+    now.attached = lambda: True
+    assert SafetyRules.prediction_unused(now) == ""
+    now.predictor.forecast = None
+    assert SafetyRules.prediction_unused(now) == ""
 
 
 def test_the_rules_are_declared_once():

@@ -490,9 +490,6 @@ MEASURED_ROUTES: tuple[str, ...] = (ROUTE_MEASURED, ROUTE_STEP, ROUTE_BREAKOUT)
 #: regime before the change) once the track has left the prediction's intervals (``guidance.rules``).
 CHANGE_ROUTES: tuple[str, ...] = (ROUTE_STEP, ROUTE_BREAKOUT)
 
-#: The berth's mooring load monitoring as the guidance reads it (:mod:`loadarm.guidance.moorings`), by state:
-#: none linked, the moorings holding, silent (read before, no fresh reading now: no witness), or lost (more than
-#: a third of the lines slack: the prediction stood down).
 #: Why a claimed prediction does not stand in for the measured routes, by code (``""``: it does, or there is
 #: none), in the order the rules ask (:meth:`loadarm.guidance.rules.SafetyRules.prediction_unused`).
 PREDICTION_UNUSED: dict[str, str] = {"detached": "not connected",
@@ -502,6 +499,9 @@ PREDICTION_UNUSED: dict[str, str] = {"detached": "not connected",
                                      "short": "claimed short of ESD-1's lead"}
 #: Those of :data:`PREDICTION_UNUSED` a screen marks abnormal (the ship is not the one the prediction learned).
 PREDICTION_UNUSED_ABNORMAL: frozenset[str] = frozenset({"moorings", "departed"})
+#: The berth's mooring load monitoring as the guidance reads it (:mod:`loadarm.guidance.moorings`), by state:
+#: none linked, the moorings holding, silent (read before, no fresh reading now: no witness), or lost (more than
+#: a third of the lines slack: the prediction stood down).
 MOORINGS_TEXT: dict[str, str] = {"none": "no mooring load monitoring", "holding": "moorings holding",
                                  "silent": "mooring load monitoring silent",
                                  "lost": "MOORINGS LOST: lines slack"}

@@ -320,6 +320,9 @@ class GuidanceState:
         The mooring load monitoring's state (:meth:`loadarm.guidance.moorings.MooringWatch.state`).
     departed_said : float or None
         The predictor's departure the event log was told of (its time; None: none).
+    unused : str
+        Why the claimed prediction was not trusted at the last time-to-limit forecast
+        (:data:`loadarm.vocab.PREDICTION_UNUSED`; ``""``: it was, or none).
     events : list
         Events of the current cycle.
     """
@@ -362,6 +365,7 @@ class GuidanceState:
     rule: str = ""
     moorings: str = "none"
     departed_said: float | None = None
+    unused: str = ""
     events: list = field(default_factory=list)
 
     def clear_calls(self) -> None:

@@ -176,6 +176,7 @@ class SafetyRules:
             # the prediction stands in for the measured routes before ESD-1 only (after it, every route acts)
             s.trusted = None if (self.predictor is None or alarmed or self.moorings.lost_at is not None) \
                 else self.predictor.trusted(s.leads[Severity.ESD1])
+            s.unused = self._unused_why()
             s.forecast = mon.time_to_limit(p, max(s.leads.values()), alarmed=alarmed, now=now,
                                            design_too=s.trusted is not None)
             s.next_forecast = now + mon.fit.period
@@ -283,8 +284,15 @@ class SafetyRules:
         return best if best[0] > Severity.NORMAL else (Severity.NORMAL, math.inf, "", "", "")
 
     def prediction_unused(self) -> str:
-        """Why the claimed prediction does not stand in for the measured routes at the last time-to-limit
-        forecast (:data:`loadarm.vocab.PREDICTION_UNUSED`), ``""`` when it does or there is none."""
+        """Why the claimed prediction does not stand in for the measured routes now
+        (:data:`loadarm.vocab.PREDICTION_UNUSED`), ``""`` when it does or there is none: ``detached`` while not
+        connected, else the reason decided with the trust at the last time-to-limit forecast."""
+        if self.predictor is None or self.predictor.forecast is None:
+            return ""
+        return "detached" if not self.attached() else self.state.unused
+
+    def _unused_why(self) -> str:
+        """The reason, decided with :attr:`GuidanceState.trusted`, in the order the rules ask."""
         s, pr = self.state, self.predictor
         if pr is None or pr.forecast is None or s.trusted is not None:
             return ""

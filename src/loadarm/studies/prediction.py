@@ -21,7 +21,7 @@ import numpy as np
 
 from loadarm.guidance.predict import (FIT_WINDOW, GATE_HORIZONS, HORIZON, LEVEL, MEMORY, MIN_ERRORS, ORDER,
                                       PREDICT_PERIOD, ArModel, Calibrator, ar_forecast, block_means, claimed_steps,
-                                      fit_ar, interval)
+                                      fit_ar, gate_ratio, interval)
 from loadarm.results import Metric, Result
 from loadarm.studies.plots import prediction_figure
 from loadarm.ship.motion import DT, flange_positions
@@ -92,7 +92,7 @@ def _state_env(base, case: PredictionCase):
 class _Tally:
     """Per horizon and axis: forecasts issued with a claimed interval, covered, squared errors; the climatology's
     squared errors (the record's own mean as the forecast), the forecasts' cost, and the departure test's
-    largest ratio of an error to its half-width (:func:`loadarm.guidance.predict.gate_half`) at
+    largest ratio of an error to its side's edge (:func:`loadarm.guidance.predict.gate_ratio`) at
     :data:`~loadarm.guidance.predict.GATE_HORIZONS` on x and y, over the records of the sea alone."""
 
     steps: int
@@ -115,9 +115,7 @@ class _Tally:
         ok = np.isfinite(lo)
         j = np.array(GATE_HORIZONS) - 1
         if gate and np.all(ok[j, :2]):
-            half = np.maximum(mean[j, :2] - lo[j, :2], hi[j, :2] - mean[j, :2])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = np.abs(truth[j, :2] - mean[j, :2]) / half
+            ratio = gate_ratio(truth[j, :2] - mean[j, :2], mean[j, :2] - lo[j, :2], hi[j, :2] - mean[j, :2])
             self.gate_ratio = max(self.gate_ratio, float(np.max(ratio)))
         self.issued += ok
         self.covered += ok & (truth >= lo) & (truth <= hi)
@@ -180,7 +178,7 @@ class RouteCalibration:
         Fraction of the claimed intervals the truth fell below, and above: each side's tail, what the predictive
         alarms' one-sided reading of the interval assumes is 2.5 % (:data:`loadarm.guidance.predict.THRESHOLD`).
     gate_ratio : float
-        The departure test's largest ratio of an error to its half-width, at its horizons on x and y, over the
+        The departure test's largest ratio of an error to its side's edge, at its horizons on x and y, over the
         records without a drift (what :data:`loadarm.guidance.predict.GATE_FACTOR` must exceed).
     forecasts : int
     cost : float

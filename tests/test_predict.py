@@ -207,7 +207,7 @@ def test_the_hold_out_calibration_holds_and_the_docs_quote_it(tmp_path):
     assert f"at most {100 * above[:, 0].max():.1f} %) and its lower edge in {100 * below[:, 0].mean():.1f} %" in page
     assert (f"{100 * above[:, 1].mean():.1f} % and {100 * below[:, 1].mean():.1f} % (at most "
             f"{100 * max(above[:, 1].max(), below[:, 1].max()):.1f} %)") in page
-    assert f"error to its half-width at 5, 10 or 20 s was {s['online_gate_ratio']:.2f}" in page
+    assert f"of an error to its side's edge at 5, 10 or 20 s was {s['online_gate_ratio']:.2f}" in page
     assert 2.0 < s["online_gate_ratio"] < 5.0
     assert s["online_tail_max"] == pytest.approx(max(below.max(), above.max()))
     assert s["online_tail_max"] <= 1.0 - pr.LEVEL + 0.01                    # at most the two-sided 5 %, or near

@@ -642,3 +642,40 @@ def test_guidance_section_13_hs_1_5_to_2_0_under_the_hold_rule_is_its_sample_so_
                        "with them, from a sample")
     cited("docs/guidance.md", f"releases so far {v['releases_before']} to {v['releases_after']} "
                               f"(false {v['false_releases_before']} to {v['false_releases_after']})")
+
+
+def test_guidance_section_13_hs_1_5_to_2_0_run_afresh_is_its_sample_so_far():
+    """The Hs 1.5-2.0 m band run afresh under the current rule (the hold rule, each interval edge calibrated apart,
+    the departure test on each side's edge) in docs/guidance.md section 13 and README: its runs file still being
+    run, every number of the sample read from it (nothing run), the per-1000 ranges by scipy's Wilson interval,
+    and the same seeds' verdicts of the band's stored runs file (before the hold rule, the absolute error's
+    calibration)."""
+    from scipy.stats import binomtest
+
+    from loadarm.studies.campaign import CampaignResult, CampaignRun
+    from loadarm.studies.runs_file import read_stored
+
+    camp = ROOT / "docs" / "campaigns"
+    _, scenario, lines = read_stored(camp / "hs15_tracked_hs1.5-2.0_onesided_runs.jsonl", ROOT / "examples" / "scenarios")
+    runs = [CampaignRun(**r) for _, (_, r) in sorted(lines.items())]
+    v = CampaignResult(str(scenario), (), tuple(runs)).summary()
+    n = v["runs"]
+    assert sorted(lines) == list(range(100, 100 + n))                  # the first seeds, none missing
+    assert v["overstretches"] == v["opened_on_live_product"] == v["missed_alarms"] == v["alarm1_later"] == 0
+    assert v["departures_kept"] == n
+    _, _, old = read_stored(camp / "hs15_tracked_hs1.5-2.0_runs.jsonl", ROOT / "examples" / "scenarios")
+    before = sum(CampaignRun(**old[s][1]).false_alarm for s in lines)
+
+    def per_1000(k):
+        ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+        return f"{1000 * ci.low:.0f}-{1000 * ci.high:.0f}"
+
+    f, fm = v["false_alarms"], v["false_alarms_measured"]
+    cited("docs/guidance.md", f"Hs 1.5-2.0 m, the first {n} of 1000 seeds ({min(lines)}-{max(lines)}) so far: false "
+                              f"ESD-1 in {f} runs with the prediction and {fm} without it on the same runs "
+                              f"({fm / f:.2f} times fewer); per 1000, {per_1000(f)} against {per_1000(fm)} (95 %, "
+                              f"Wilson); the same seeds before the hold rule and the one-sided calibration: {before}")
+    cited("docs/guidance.md", f"releases {v['releases']} ({v['false_releases']} false); the prediction stood down "
+                              f"(a departure) in {v['departures']} runs")
+    cited("README.md", f"run afresh under the current rule, the first {n} seeds at Hs 1.5-2.0 m: {f} false ESD-1 "
+                       f"with the prediction, {fm} without")

@@ -562,7 +562,8 @@ class FlangePredictor:
         t : float
             Time, s.
         p : sequence of float
-            Flange position, m (installation frame).
+            Flange position, m (installation frame); one not finite is dropped, as a missing sample (found by
+            review: a NaN block mean would count against one edge of the calibration only).
 
         Returns
         -------
@@ -571,9 +572,11 @@ class FlangePredictor:
         """
         if t < self.next_sample:
             return False
+        p = np.asarray(p, dtype=float)
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            return False                   # not a position: a missing sample (bridged, or a gap), never a block
         self.next_sample = (math.floor(t / SAMPLE_PERIOD + 1e-9) + 1) * SAMPLE_PERIOD
         b = int(math.floor(t / PREDICT_PERIOD + 1e-9))
-        p = np.asarray(p, dtype=float)
         closed = False
         if b != self.block:
             closed = self._bridge(b, p) if self.samples else False

@@ -663,6 +663,7 @@ def test_guidance_section_13_hs_1_5_to_2_0_run_afresh_is_its_sample_so_far():
     assert sorted(lines) == list(range(100, 100 + n))                  # the first seeds, none missing
     assert v["overstretches"] == v["opened_on_live_product"] == v["missed_alarms"] == v["alarm1_later"] == 0
     assert v["departures_kept"] == n
+    assert all(r.limit_s is None for r in runs if r.departed_s is not None)     # "each on the sea alone"
     _, _, old = read_stored(camp / "hs15_tracked_hs1.5-2.0_runs.jsonl", ROOT / "examples" / "scenarios")
     before = sum(CampaignRun(**old[s][1]).false_alarm for s in lines)
 

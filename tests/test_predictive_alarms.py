@@ -167,6 +167,25 @@ def test_the_predicted_crossing_is_never_later_than_the_box_s_first_crossing(spe
         assert t >= first - 1.0 - 1e-9
 
 
+@settings(max_examples=examples(20), deadline=None)
+@given(speed=st.floats(0.02, 0.3), a=st.floats(-0.5, 0.5), b=st.floats(0.0, 0.6),
+       direction=st.floats(-3.1, 3.1))
+def test_the_bound_is_never_later_than_the_mean_track_even_with_an_edge_inside_the_mean(speed, a, b, direction):
+    """An interval that need not hold its mean (both edges on one side: a calibration window whose errors nearly
+    all share a sign), ``[mean + a, mean + a + b]`` on each axis: the calibrated bound's time to a face is never
+    later than the mean track's (found by review: the box of the edges alone could put it later)."""
+    from loadarm.guidance.monitor import prediction_times
+
+    model = _model()
+    h = np.arange(1, 121, dtype=float)
+    d = np.array([math.cos(direction), math.sin(direction), 0.0])
+    mean = np.array([13.0, 1.0, 0.5]) + speed * h[:, None] * d
+    lo, hi = mean + a, mean + a + b
+    f = pr.Forecast(h, mean, lo, hi, 120.0, 100.0, "online AR")
+    bound, at_mean, _ = prediction_times(model, f, np.zeros(3), 100.0, 120.0)
+    assert bound <= at_mean
+
+
 def test_no_prediction_beyond_the_claim_and_no_crossing_from_it():
     """A box past a face only beyond the claimed horizon gives no crossing (no prediction there, not a number)."""
     model = _model()

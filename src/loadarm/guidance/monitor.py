@@ -505,8 +505,12 @@ def predicted_crossing(model, forecast, within, now: float, lead: float) -> tupl
                           & (start <= lead))
     if keep.size == 0:
         return math.inf, ""
-    centre = 0.5 * (forecast.lo[keep] + forecast.hi[keep])
-    half = 0.5 * (forecast.hi[keep] - forecast.lo[keep]) + np.asarray(within)
+    # the box holds the mean too: an edge calibrated inside the mean (more than 97.5 % of a window's errors of one
+    # sign) must not put the bound past the mean track's crossing (found by review)
+    lo = np.minimum(forecast.lo[keep], forecast.mean[keep])
+    hi = np.maximum(forecast.hi[keep], forecast.mean[keep])
+    centre = 0.5 * (lo + hi)
+    half = 0.5 * (hi - lo) + np.asarray(within)
     pts = centre[:, None, :] + half[:, None, :] * CORNERS[None]
     m = face_margins(model, pts[..., 0], pts[..., 1], pts[..., 2])
     outside, face = first_face(m)

@@ -78,6 +78,29 @@ def test_a_drift_the_model_has_not_seen_is_found_and_stands_the_prediction_down(
     assert fp.trusted(35.0) is None
 
 
+@pytest.mark.slow  # 2-3 s: the sway of the test above, twice
+def test_before_the_connection_a_departure_starts_the_calibration_again():
+    """Not connected (the berth monitoring's track before the arm connects: ``latch`` off), the same drift is
+    found at the same block, but it does not latch: the calibration begins again (no forecast until its errors
+    are in), the AR keeps learning the track, and once the drift has stopped the prediction is claimed and
+    trusted again (found: Hs 1.5-2.0 m seeds 163 and 177 departed 15-20 minutes before the connection, on the sea
+    alone, and lost the prediction for the whole run). Connected (``latch`` on, the default), it latches."""
+    n0 = int(2400 / 0.2)
+    p = _sway(n0 + 500 + 6000, seed=2)
+    t = np.arange(500) * 0.2
+    p[n0:n0 + 500, 0] += 0.5 * 0.02 * t ** 2
+    p[n0 + 500:, 0] += 0.5 * 0.02 * t[-1] ** 2                   # then still: the ship at its new place
+    latched, free = pr.FlangePredictor(), pr.FlangePredictor()
+    free.latch = False
+    _feed(latched, p[:n0 + 500])
+    _feed(free, p[:n0 + 500])
+    assert latched.departed_at is not None and not latched.recalibrated
+    assert free.departed_at is None and free.recalibrated == [latched.departed_at]
+    assert free.trusted(35.0) is None and free.cal.count.max() < pr.MIN_ERRORS    # calibrating afresh
+    _feed(free, p[n0 + 500:], t0=(n0 + 500) * 0.2)                      # 20 minutes more of the sway
+    assert free.departed_at is None and free.trusted(35.0) is not None
+
+
 def test_a_short_gap_is_bridged_and_a_long_one_starts_again():
     """A gap of 5 s in the positions keeps the track (its blocks filled by a straight line); one of 15 s
     (beyond MAX_GAP) starts it again."""

@@ -256,6 +256,7 @@ class GuidanceController(SafetyRules):
             Positions, m.
         """
         if self.predictor is not None:
+            self.predictor.latch = False                  # not connected: a departure restarts the calibration
             for ti, pi in zip(t, p):
                 self.predictor.push(float(ti), pi)
 
@@ -271,10 +272,15 @@ class GuidanceController(SafetyRules):
             self._event("info", event_label(code), code=code, slack_share=LOST_SHARE, fault=self.moorings.fault)
         if pr is None or cyc.now < pr.next_sample:
             return
+        pr.latch = self.attached()
         if self.attached():
             pr.push(cyc.now, np.array([float(v) for v in forward3d(self.arm, *cyc.q)]))
         elif cyc.est.healthy:
             pr.push(cyc.now, np.asarray(cyc.est.position, dtype=float))
+        for at in [a for a in pr.recalibrated if a > self.state.recalibrated_said]:
+            self.state.recalibrated_said = at
+            self._event("info", event_label("info.prediction_recalibrated"), code="info.prediction_recalibrated",
+                        departed_at=at, factor=GATE_FACTOR, blocks=GATE_PERSIST)
         if pr.departed_at is not None and pr.departed_at != self.state.departed_said:
             self.state.departed_said = pr.departed_at
             self._event("info", event_label("info.prediction_departed"), code="info.prediction_departed",

@@ -320,6 +320,8 @@ class GuidanceState:
         The mooring load monitoring's state (:meth:`loadarm.guidance.moorings.MooringWatch.state`).
     departed_said : float or None
         The predictor's departure the event log was told of (its time; None: none).
+    recalibrated_said : float
+        The last departure before the connection (the calibration began again) the event log was told of, s.
     unused : str
         Why the claimed prediction was not trusted at the last time-to-limit forecast
         (:data:`loadarm.vocab.PREDICTION_UNUSED`; ``""``: it was, or none).
@@ -365,6 +367,7 @@ class GuidanceState:
     rule: str = ""
     moorings: str = "none"
     departed_said: float | None = None
+    recalibrated_said: float = -math.inf
     unused: str = ""
     events: list = field(default_factory=list)
 

@@ -678,5 +678,42 @@ def test_guidance_section_13_hs_1_5_to_2_0_run_afresh_is_its_sample_so_far():
                               f"Wilson); the same seeds before the hold rule and the one-sided calibration: {before}")
     cited("docs/guidance.md", f"releases {v['releases']} ({v['false_releases']} false); the prediction stood down "
                               f"(a departure) in {v['departures']} runs")
-    cited("README.md", f"run afresh, the first {n} seeds at Hs 1.5-2.0 m: {f} false ESD-1 with the prediction, "
-                       f"{fm} without")
+    cited("README.md", f"run afresh under the rule of `710d08c` (since changed), the first {n} seeds at Hs 1.5-2.0 "
+                       f"m: {f} false ESD-1 with the prediction, {fm} without")
+
+
+def test_guidance_section_13_hs_1_5_to_2_0_under_the_current_rule_is_its_sample_so_far():
+    """The Hs 1.5-2.0 m band run afresh from 7544d42 (a departure before the connection starts the calibration
+    again) in docs/guidance.md section 13 and README: its runs file still being run, every number read from it
+    (nothing run), the per-1000 ranges by scipy's Wilson interval."""
+    from scipy.stats import binomtest
+
+    from loadarm.studies.campaign import CampaignResult, CampaignRun
+    from loadarm.studies.runs_file import read_stored
+
+    camp = ROOT / "docs" / "campaigns"
+    _, scenario, lines = read_stored(camp / "hs15_tracked_hs1.5-2.0_recal_runs.jsonl", ROOT / "examples" / "scenarios")
+    runs = [CampaignRun(**r) for _, (_, r) in sorted(lines.items())]
+    v = CampaignResult(str(scenario), (), tuple(runs)).summary()
+    n = v["runs"]
+    assert sorted(lines) == list(range(100, 100 + n))                  # the first seeds, none missing
+    assert v["overstretches"] == v["opened_on_live_product"] == v["missed_alarms"] == v["alarm1_later"] == 0
+    assert v["departures_kept"] == n
+    assert all(r.limit_s is None for r in runs if r.departed_s is not None)     # "each on the sea alone"
+
+    def per_1000(k):
+        ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+        return f"{1000 * ci.low:.0f}-{1000 * ci.high:.0f}"
+
+    f, fm = v["false_alarms"], v["false_alarms_measured"]
+    cited("docs/guidance.md", f"under the current rule (from `7544d42`), the first {n} seeds ({min(lines)}-"
+                              f"{max(lines)}) so far: false ESD-1 in {f} runs with the prediction and {fm} without "
+                              f"it ({fm / f:.2f} times fewer); per 1000, {per_1000(f)} against {per_1000(fm)}")
+    cited("docs/guidance.md", f"{v['releases']} releases ({v['false_releases']} false), {v['departures']} "
+                              f"departures while connected")
+    _, _, prev = read_stored(camp / "hs15_tracked_hs1.5-2.0_onesided_runs.jsonl", ROOT / "examples" / "scenarios")
+    both = sorted(set(prev) & set(lines))
+    was = sum(CampaignRun(**prev[s][1]).false_alarm for s in both)
+    now = sum(CampaignRun(**lines[s][1]).false_alarm for s in both)
+    cited("docs/guidance.md", f"on the {len(both)} seeds both ran, false ESD-1 {was} under `710d08c` and {now} now")
+    cited("README.md", f"under the current rule the first {n} seeds: {f} with the prediction, {fm} without")

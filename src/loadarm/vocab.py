@@ -439,7 +439,7 @@ EVENT_TABLE: tuple[EventCode, ...] = (
     EventCode("info.prediction_departed", "info",
               "the track left the prediction's intervals: the prediction stands down"),
     EventCode("info.prediction_recalibrated", "info",
-              "before the connection the track left the prediction's intervals: its calibration begins again"),
+              "not connected, the track left the prediction's intervals: its calibration begins again"),
     EventCode("info.moorings_silent", "info", "mooring load monitoring silent: no change detector's call is held"),
     EventCode("interlock.valves_confirmed", "interlock", "ERS valves confirmed closed"),
     EventCode("command.coupler_opening", "command", "ERS-2: coupler opening"),
@@ -457,8 +457,8 @@ EVENT_TABLE: tuple[EventCode, ...] = (
 #: call's end went missing and the next onset swallowed it: Hs 2.0-2.5 m seed 533's call at 426.62 s). They cannot
 #: flood: a call starts or ends only at a new forecast (the drift fit's 0.2 s), only before ESD-1, and a joined
 #: call stands at most the hold limit (15 s) before ESD-1 latches; so at most 5 a second, about 4 sustained. And
-#: the predictor's departures, which a campaign counts: once per track while connected, and before the connection
-#: at most one per calibration (5 minutes of errors at least).
+#: the predictor's departures: once per track while connected (a campaign counts these), and while not connected
+#: at most one per calibration (5 minutes of errors at least; not counted by a campaign).
 UNLIMITED_CODES: frozenset[str] = frozenset({"info.measured_esd1", "info.measured_esd1_end",
                                              "info.prediction_departed", "info.prediction_recalibrated"})
 #: Code to its record.

@@ -11,7 +11,8 @@ watch says the moorings hold.
 
 The judgement: a line is *slack* when its load stays below :data:`SLACK_SHARE` of its MBL for :data:`SLACK_TIME` (a
 load cell cannot tell a parted line from a slack one); the moorings are *lost* when more than :data:`LOST_SHARE` of
-the lines (a third: 6 of 16) are slack at once. Latched for the rest of the run, as the departure test is. Measured
+the lines (a third: 6 of 16) are slack at once. Latched for the rest of the run (a departure while connected is,
+for the connection). Measured
 on the shipped berth (``lng150k.toml``, 16 lines) from its moored-ship records alone, the watch's own judgement,
 every stored run (seeds 100-1099 a band, 100-819 at Hs 0.5-1.0 m, each with its drawn Hs;
 :mod:`loadarm.studies.watch_basis`): no line slack at Hs 0.5-1.0 m, at most 2 lines slack at once at Hs 1.0-1.5 m, at

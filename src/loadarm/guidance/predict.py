@@ -83,7 +83,8 @@ GATE_HORIZONS = (5, 10, 20)
 #: prediction down (never less safe; campaigns count them).
 GATE_FACTOR = 3.0
 #: Consecutive blocks that must count before the track is taken to have left the model (a drift or break-out
-#: the autoregression has not seen): the predictive rule then stands down for the rest of the connection.
+#: the autoregression has not seen): connected, the predictive rule then stands down for the rest of the
+#: connection; not connected (:attr:`FlangePredictor.latch` off), the calibration starts again.
 GATE_PERSIST = 2
 #: The longest gap in the positions the live predictor bridges (its block means filled in by a straight line), s:
 #: a sensor's dropout or the seconds between the berth monitoring's record and the guidance's own track. A

@@ -711,6 +711,11 @@ def test_guidance_section_13_hs_1_5_to_2_0_under_the_current_rule_is_its_sample_
                               f"it ({fm / f:.2f} times fewer); per 1000, {per_1000(f)} against {per_1000(fm)}")
     cited("docs/guidance.md", f"{v['releases']} releases ({v['false_releases']} false), {v['departures']} "
                               f"departures while connected")
+    by = v["false_alarms_by_rule"]
+    assert sum(by.values()) == f
+    cited("docs/guidance.md", f"Of the {f}, {by['hold_limit']} were raised by the hold rule")
+    cited("docs/guidance.md", f"{by['measured']} by the measured rule at once")
+    cited("docs/guidance.md", f"{by['floor']} by the floor. No overstretch")
     _, _, prev = read_stored(camp / "hs15_tracked_hs1.5-2.0_onesided_runs.jsonl", ROOT / "examples" / "scenarios")
     both = sorted(set(prev) & set(lines))
     was = sum(CampaignRun(**prev[s][1]).false_alarm for s in both)

@@ -644,19 +644,17 @@ def test_guidance_section_13_hs_1_5_to_2_0_under_the_hold_rule_is_its_sample_so_
                               f"(false {v['false_releases_before']} to {v['false_releases_after']})")
 
 
-def test_guidance_section_13_hs_1_5_to_2_0_run_afresh_is_its_sample_so_far():
-    """The Hs 1.5-2.0 m band run afresh under the current rule (the hold rule, each interval edge calibrated apart,
-    the departure test on each side's edge) in docs/guidance.md section 13 and README: its runs file still being
-    run, every number of the sample read from it (nothing run), the per-1000 ranges by scipy's Wilson interval,
-    and the same seeds' verdicts of the band's stored runs file (before the hold rule, the absolute error's
-    calibration)."""
+def _sample_so_far(name: str):
+    """A runs file of docs/campaigns still being run, read (nothing run) and checked: its first seeds with none
+    missing, no overstretch, none opened on live product, missed or later, every run keeping its departure and
+    each departure on the sea alone. Returns its lines by seed, the result's summary and a per-1000 range of a
+    count (scipy's 95 % Wilson interval)."""
     from scipy.stats import binomtest
 
     from loadarm.studies.campaign import CampaignResult, CampaignRun
     from loadarm.studies.runs_file import read_stored
 
-    camp = ROOT / "docs" / "campaigns"
-    _, scenario, lines = read_stored(camp / "hs15_tracked_hs1.5-2.0_onesided_runs.jsonl", ROOT / "examples" / "scenarios")
+    _, scenario, lines = read_stored(ROOT / "docs" / "campaigns" / name, ROOT / "examples" / "scenarios")
     runs = [CampaignRun(**r) for _, (_, r) in sorted(lines.items())]
     v = CampaignResult(str(scenario), (), tuple(runs)).summary()
     n = v["runs"]
@@ -664,12 +662,28 @@ def test_guidance_section_13_hs_1_5_to_2_0_run_afresh_is_its_sample_so_far():
     assert v["overstretches"] == v["opened_on_live_product"] == v["missed_alarms"] == v["alarm1_later"] == 0
     assert v["departures_kept"] == n
     assert all(r.limit_s is None for r in runs if r.departed_s is not None)     # "each on the sea alone"
-    _, _, old = read_stored(camp / "hs15_tracked_hs1.5-2.0_runs.jsonl", ROOT / "examples" / "scenarios")
-    before = sum(CampaignRun(**old[s][1]).false_alarm for s in lines)
 
     def per_1000(k):
         ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
         return f"{1000 * ci.low:.0f}-{1000 * ci.high:.0f}"
+
+    return lines, v, per_1000
+
+
+def test_guidance_section_13_hs_1_5_to_2_0_run_afresh_is_its_sample_so_far():
+    """The Hs 1.5-2.0 m band run afresh under the current rule (the hold rule, each interval edge calibrated apart,
+    the departure test on each side's edge) in docs/guidance.md section 13 and README: its runs file still being
+    run, every number of the sample read from it (nothing run), the per-1000 ranges by scipy's Wilson interval,
+    and the same seeds' verdicts of the band's stored runs file (before the hold rule, the absolute error's
+    calibration)."""
+    from loadarm.studies.campaign import CampaignRun
+    from loadarm.studies.runs_file import read_stored
+
+    camp = ROOT / "docs" / "campaigns"
+    lines, v, per_1000 = _sample_so_far("hs15_tracked_hs1.5-2.0_onesided_runs.jsonl")
+    n = v["runs"]
+    _, _, old = read_stored(camp / "hs15_tracked_hs1.5-2.0_runs.jsonl", ROOT / "examples" / "scenarios")
+    before = sum(CampaignRun(**old[s][1]).false_alarm for s in lines)
 
     f, fm = v["false_alarms"], v["false_alarms_measured"]
     cited("docs/guidance.md", f"Hs 1.5-2.0 m, the first {n} seeds ({min(lines)}-{max(lines)}): false "
@@ -686,24 +700,12 @@ def test_guidance_section_13_hs_1_5_to_2_0_under_the_current_rule_is_its_sample_
     """The Hs 1.5-2.0 m band run afresh from 7544d42 (a departure before the connection starts the calibration
     again) in docs/guidance.md section 13 and README: its runs file still being run, every number read from it
     (nothing run), the per-1000 ranges by scipy's Wilson interval."""
-    from scipy.stats import binomtest
-
-    from loadarm.studies.campaign import CampaignResult, CampaignRun
+    from loadarm.studies.campaign import CampaignRun
     from loadarm.studies.runs_file import read_stored
 
     camp = ROOT / "docs" / "campaigns"
-    _, scenario, lines = read_stored(camp / "hs15_tracked_hs1.5-2.0_recal_runs.jsonl", ROOT / "examples" / "scenarios")
-    runs = [CampaignRun(**r) for _, (_, r) in sorted(lines.items())]
-    v = CampaignResult(str(scenario), (), tuple(runs)).summary()
+    lines, v, per_1000 = _sample_so_far("hs15_tracked_hs1.5-2.0_recal_runs.jsonl")
     n = v["runs"]
-    assert sorted(lines) == list(range(100, 100 + n))                  # the first seeds, none missing
-    assert v["overstretches"] == v["opened_on_live_product"] == v["missed_alarms"] == v["alarm1_later"] == 0
-    assert v["departures_kept"] == n
-    assert all(r.limit_s is None for r in runs if r.departed_s is not None)     # "each on the sea alone"
-
-    def per_1000(k):
-        ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
-        return f"{1000 * ci.low:.0f}-{1000 * ci.high:.0f}"
 
     f, fm = v["false_alarms"], v["false_alarms_measured"]
     cited("docs/guidance.md", f"under the current rule (from `7544d42`), the first {n} seeds ({min(lines)}-"

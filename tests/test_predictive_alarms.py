@@ -84,7 +84,8 @@ def test_before_the_connection_a_departure_starts_the_calibration_again():
     found at the same block, but it does not latch: the calibration begins again (no forecast until its errors
     are in), the AR keeps learning the track, and once the drift has stopped the prediction is claimed and
     trusted again (found: Hs 1.5-2.0 m seeds 163 and 177 departed 15-20 minutes before the connection, on the sea
-    alone, and lost the prediction for the whole run). Connected (``latch`` on, the default), it latches."""
+    alone, and lost the prediction for the whole run). Connected (``latch`` on, the default), it latches; and when
+    the connection ends (``latch`` off) the latched departure starts the calibration again."""
     n0 = int(2400 / 0.2)
     p = _sway(n0 + 500 + 6000, seed=2)
     t = np.arange(500) * 0.2
@@ -99,6 +100,17 @@ def test_before_the_connection_a_departure_starts_the_calibration_again():
     assert free.trusted(35.0) is None and free.cal.count.max() < pr.MIN_ERRORS    # calibrating afresh
     _feed(free, p[n0 + 500:], t0=(n0 + 500) * 0.2)                      # 20 minutes more of the sway
     assert free.departed_at is None and free.trusted(35.0) is not None
+    # the connection ends (latch off): the latched departure's calibration starts again, and the same track
+    # brings the prediction back (found: it stood down until the track restarted, so a next connection to the
+    # same ship found it still standing down)
+    departed = latched.departed_at
+    latched.latch = False
+    assert latched.departed_at is None and latched.recalibrated == [departed]
+    assert latched.trusted(35.0) is None and latched.cal.count.max() < pr.MIN_ERRORS
+    _feed(latched, p[n0 + 500:], t0=(n0 + 500) * 0.2)
+    assert latched.departed_at is None and latched.trusted(35.0) is not None
+    latched.latch = True                                               # connected again: nothing to restart
+    assert latched.recalibrated == [departed] and latched.trusted(35.0) is not None
 
 
 def test_a_short_gap_is_bridged_and_a_long_one_starts_again():

@@ -530,10 +530,25 @@ class FlangePredictor:
         self.route = route
         self.steps = int(round(HORIZON / PREDICT_PERIOD))
         self.per_block = int(round(PREDICT_PERIOD / SAMPLE_PERIOD))
-        #: A departure latches (the prediction stands down until :meth:`reset`): the controller's choice while
-        #: connected; before the connection (the berth monitoring's track) it starts the calibration again.
-        self.latch = True
+        self._latch = True
         self.reset()
+
+    @property
+    def latch(self) -> bool:
+        """Whether a departure latches: the controller's choice while connected (the prediction stands down for
+        the rest of the connection); not connected (the berth monitoring's track, the approach, after a
+        disconnection) a departure starts the calibration again. Set off with a departure latched (the
+        connection has ended), that departure's calibration starts again too (found: a departure while connected
+        stood after the disconnection until the track restarted, so a next connection to the same ship found the
+        prediction still standing down)."""
+        return self._latch
+
+    @latch.setter
+    def latch(self, on: bool) -> None:
+        self._latch = bool(on)
+        if not self._latch and self.departed_at is not None:
+            self._recalibrate(self.departed_at)
+            self.departed_at = None
 
     def reset(self) -> None:
         """Forget the track, the model, the calibration and the departure (a new ship, or a gap)."""
@@ -644,13 +659,18 @@ class FlangePredictor:
         self.outside = self.outside + 1 if out else 0
         if self.outside < GATE_PERSIST:
             return
-        if self.latch:
+        if self._latch:
             self.departed_at = t_end
             return
         # not connected: the model keeps learning the track; the calibration starts again, so the prediction is
         # claimed (and trusted) only once its errors since are in (found: Hs 1.5-2.0 m seeds 163 and 177 departed
         # in the 35 minutes of track before the connection, on the sea alone, and lost the prediction for the run)
-        self.recalibrated.append(t_end)
+        self._recalibrate(t_end)
+
+    def _recalibrate(self, departed_at: float) -> None:
+        """Start the calibration again after the departure found at ``departed_at`` (kept in
+        :attr:`recalibrated`); the track and the AR stay."""
+        self.recalibrated.append(departed_at)
         self.cal = Calibrator(self.steps)
         self.forecast, self._q, self.outside = None, None, 0
 

@@ -289,7 +289,7 @@ def capped_alarm1(run: CampaignRun, limit: float, off_delay: float = 0.0) -> flo
         The hold limit, s (``inf``: none).
     off_delay : float
         Calls apart by less than this counted as one (:func:`merged_calls`), s; the controller's is
-        :data:`loadarm.guidance.modes.ALARM_OFF_DELAY` (from 2026-12-08; 0: its count before). Where the limit
+        :data:`loadarm.guidance.modes.ALARM_OFF_DELAY` (from 2026-12-07; 0: its count before). Where the limit
         passes in a gap of a joined call, ESD-1 comes when the call returns, as in the controller (it cannot know
         the call will).
 

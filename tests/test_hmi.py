@@ -939,3 +939,22 @@ def test_the_prediction_reaches_the_screen_with_its_interval_and_its_rule(model)
     off = prediction_state(p, False, "lost")                # not connected: nothing to say of the moorings
     assert off["text"] == "prediction (not used): face in 42 s at the earliest, 65 s on the mean track" and off["moorings"] == ""
     assert off["moorings_abnormal"] is False
+
+
+def test_the_screen_s_band_holds_the_mean_track_as_the_rule_s_box_does():
+    """An edge calibrated inside the mean (nearly all of a window's errors of one sign: a negative multiplier)
+    would draw the band to one side of its track; the sample's band holds the mean, as the rule's box does
+    (``monitor.predicted_crossing``), and keeps the other edge and the beyond-the-claim NaN as they are (found by
+    review)."""
+    from loadarm.guidance.predict import Forecast
+    from loadarm.sim.snapshot import prediction_sample
+
+    h = np.arange(1, 121, dtype=float)
+    mean = np.array([13.0, 1.0, 0.5]) + 0.01 * h[:, None] * np.array([1.0, 0.0, 0.0])
+    lo, hi = mean + 0.05, mean + 0.3                       # the lower edge above the mean on every axis
+    lo[60:], hi[60:] = np.nan, np.nan
+    p = prediction_sample(Forecast(h, mean, lo, hi, 60.0, 99.0, "online AR"), (42.0, 65.0), True)
+    got_lo, got_hi, got_mean = (np.array(p[k]) for k in ("lo", "hi", "mean"))
+    assert np.all(got_lo <= got_mean) and np.all(got_mean <= got_hi)
+    assert np.allclose(got_lo, got_mean) and np.allclose(got_hi, hi[4:60:5].round(4))
+    assert np.all(np.isfinite(got_lo)) and len(got_lo) == 12

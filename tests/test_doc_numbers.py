@@ -300,6 +300,7 @@ def _row(v: dict) -> str:
     ("hs15_tracked_hs0.5-1.0", "| `hs15_tracked.toml`, Hs 0.5-1.0 m (the berth's design sea 1.0 m) "),
     ("hs15_tracked_hs1.0-1.5", "| `hs15_tracked.toml`, Hs 1.0-1.5 m "),
     ("hs15_tracked_hs1.5-2.0", "| `hs15_tracked.toml`, Hs 1.5-2.0 m "),
+    ("hs15_tracked_hs1.5-2.0_recal", "| `hs15_tracked.toml`, Hs 1.5-2.0 m, under the current rule (`7544d42`) "),
     ("hs15_tracked_hs2.0-2.5_third", "| `hs15_tracked.toml`, Hs 2.0-2.5 m, the watch at a third "),
     ("hs15_tracked_hs2.0-2.5", "| `hs15_tracked.toml`, Hs 2.0-2.5 m, the watch at a half (`8f5d57a`) "),
     ("partial_breakout_tracked_third", "| `partial_breakout_tracked.toml` (8 of 16 lines part at 400 s, Hs 1.0 m) "),
@@ -335,6 +336,7 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
 
 
 @pytest.mark.parametrize("stored", ["hs15_tracked_hs0.5-1.0", "hs15_tracked_hs1.0-1.5", "hs15_tracked_hs1.5-2.0", "hs15_tracked_hs2.0-2.5",
+                                    "hs15_tracked_hs1.5-2.0_recal",
                                     "hs15_tracked_hs2.0-2.5_third",
                                     "breakout_tracked_moorings", "partial_breakout_tracked_third",
                                     "partial_breakout_squall_tracked_third", "five_lines_squall_tracked",
@@ -366,8 +368,8 @@ def test_each_stored_result_is_its_runs_file_s_and_its_false_releases_are_the_pa
     if now["releases"] and "hs15" in stored and (ROOT / "docs" / "campaigns" / f"{stored}_third.json").exists():
         cited("docs/guidance.md", f"({now['releases']} and {now['false_releases']} with the watch at a half)")
     elif now["releases"] and "hs15" in stored:
-        band = stored.split("hs")[-1].removesuffix("_limit").removesuffix("_third")
-        rule = " with the hold rule" if stored.endswith("_limit") else ""
+        band = stored.split("hs")[-1].removesuffix("_limit").removesuffix("_third").removesuffix("_recal")
+        rule = {"_limit": " with the hold rule", "_recal": " under the current rule"}.get(stored[-6:], "")
         cited("docs/guidance.md", f"Hs {band} m{rule}: {now['releases']} releases, {now['false_releases']} false")
     elif now["false_releases"]:                         # a release in a run reaching no face, named on the page
         cited("docs/guidance.md", f"(releases {now['releases']}, false {now['false_releases']}")
@@ -638,8 +640,7 @@ def test_guidance_section_13_hs_1_5_to_2_0_under_the_hold_rule_is_its_sample_so_
     cited("docs/guidance.md", f"over all {v['candidates']}: {lo:.0f}-{hi:.0f} (95 %), so about "
                               f"{before + lo:.0f}-{before + hi:.0f} of 1000 against {without} without the prediction: "
                               f"{without / (before + hi):.1f}-{without / (before + lo):.1f} times fewer")
-    cited("README.md", f"at Hs 1.5-2.0 m {before} of {without} before them, about {before + lo:.0f}-{before + hi:.0f} "
-                       "with them, from a sample")
+    cited("README.md", f"at Hs 1.5-2.0 m {before} of {without} before them, and")
     cited("docs/guidance.md", f"releases so far {v['releases_before']} to {v['releases_after']} "
                               f"(false {v['false_releases_before']} to {v['false_releases_after']})")
 
@@ -692,25 +693,34 @@ def test_guidance_section_13_hs_1_5_to_2_0_run_afresh_is_its_sample_so_far():
                               f"Wilson); the same seeds before the hold rule and the one-sided calibration: {before}")
     cited("docs/guidance.md", f"releases {v['releases']} ({v['false_releases']} false); the prediction stood down "
                               f"(a departure) in {v['departures']} runs")
-    cited("README.md", f"run afresh under the rule of `710d08c` (since changed), the first {n} seeds at Hs 1.5-2.0 "
-                       f"m: {f} false ESD-1 with the prediction, {fm} without")
 
 
-def test_guidance_section_13_hs_1_5_to_2_0_under_the_current_rule_is_its_sample_so_far():
-    """The Hs 1.5-2.0 m band run afresh from 7544d42 (a departure before the connection starts the calibration
-    again) in docs/guidance.md section 13 and README: its runs file still being run, every number read from it
-    (nothing run), the per-1000 ranges by scipy's Wilson interval."""
+def test_guidance_section_13_hs_1_5_to_2_0_under_the_current_rule_is_its_runs_file_s():
+    """The Hs 1.5-2.0 m band run afresh from 7544d42 (complete: 1000 seeds) in docs/guidance.md section 13 and
+    README: every number read from its runs file and its stored result (nothing run), the per-1000 ranges by
+    scipy's Wilson interval, the breakdown by the drawn Hs, the rate reading, and the hold rule's estimate of it
+    from its sample of candidates."""
+    import json
+    import math
+
+    import numpy as np
+
     from loadarm.studies.campaign import CampaignRun
+    from loadarm.studies.hold_limit import rule_change
     from loadarm.studies.runs_file import read_stored
 
     camp = ROOT / "docs" / "campaigns"
     lines, v, per_1000 = _sample_so_far("hs15_tracked_hs1.5-2.0_recal_runs.jsonl")
     n = v["runs"]
+    assert n == 1000 and v["alarm1_short"] == v["alarm1_short_measured"] == 0
+    stored = json.loads((camp / "hs15_tracked_hs1.5-2.0_recal.json").read_text())["result"]
+    assert {k: stored[k] for k in ("false_alarms", "false_alarms_measured", "releases", "departures")} == \
+        {k: v[k] for k in ("false_alarms", "false_alarms_measured", "releases", "departures")}
 
     f, fm = v["false_alarms"], v["false_alarms_measured"]
-    cited("docs/guidance.md", f"under the current rule (from `7544d42`), the first {n} seeds ({min(lines)}-"
-                              f"{max(lines)}) so far: false ESD-1 in {f} runs with the prediction and {fm} without "
-                              f"it ({fm / f:.2f} times fewer); per 1000, {per_1000(f)} against {per_1000(fm)}")
+    cited("docs/guidance.md", f"under the current rule (from `7544d42`), {n} seeds ({min(lines)}-{max(lines)}): false "
+                              f"ESD-1 in {f} runs with the prediction and {fm} without it ({fm / f:.2f} times fewer); "
+                              f"per 1000, {per_1000(f)} against {per_1000(fm)}")
     cited("docs/guidance.md", f"{v['releases']} releases ({v['false_releases']} false), {v['departures']} "
                               f"departures while connected")
     by = v["false_alarms_by_rule"]
@@ -723,4 +733,24 @@ def test_guidance_section_13_hs_1_5_to_2_0_under_the_current_rule_is_its_sample_
     was = sum(CampaignRun(**prev[s][1]).false_alarm for s in both)
     now = sum(CampaignRun(**lines[s][1]).false_alarm for s in both)
     cited("docs/guidance.md", f"on the {len(both)} seeds both ran, false ESD-1 {was} under `710d08c` and {now} now")
-    cited("README.md", f"under the current rule the first {n} seeds: {f} with the prediction, {fm} without")
+    # by the drawn Hs, 0.1 m steps (the last step closed: uniform draws never reach 2.0 exactly)
+    runs = [CampaignRun(**r) for _, (_, r) in sorted(lines.items())]
+    hs = np.array([r.draws["environment.hs"] for r in runs])
+    step = np.minimum(np.floor((hs - 1.5) / 0.1 + 1e-9), 4).astype(int)
+    parts = []
+    for k in range(5):
+        with_ = sum(r.false_alarm for r, j in zip(runs, step) if j == k)
+        without = sum(r.false_alarm_measured for r, j in zip(runs, step) if j == k)
+        ratio = f" times fewer" if k == 0 else ""
+        parts.append(f"{1.5 + 0.1 * k:.1f}-{1.6 + 0.1 * k:.1f} m {with_} / {without} ({without / with_:.2f}{ratio})")
+    cited("docs/guidance.md", "(with / without the prediction): " + ", ".join(parts))
+    rate = [-math.log(1 - k / n) for k in (fm, f)]
+    cited("docs/guidance.md", f"1.5-2.0 m under the safe hold rule**: {fm / f:.2f} times fewer by the share of runs "
+                              f"({rate[0] / rate[1]:.2f} times by the rate per run")
+    cited("docs/guidance.md", f"at Hs 1.5-2.0 m from {rate[0]:.3f} to {rate[1]:.3f} ({rate[0] / rate[1]:.1f} times)")
+    est = rule_change(camp / "hs15_tracked_hs1.5-2.0_runs.jsonl", camp / "hs15_tracked_hs1.5-2.0_limit_runs.jsonl",
+                      scenarios=ROOT / "examples" / "scenarios")._values()
+    lo, hi = est["false_before"] + est["added_false_all_lo"], est["false_before"] + est["added_false_all_hi"]
+    assert lo <= f <= hi                                  # the estimate from the sample of candidates held
+    cited("docs/guidance.md", f"inside the hold rule's estimate from its sample ({lo:.0f}-{hi:.0f} of 1000)")
+    cited("README.md", f"run afresh under the current rule, {f} of {fm} with them: {fm / f:.2f} times fewer")

@@ -754,3 +754,48 @@ def test_guidance_section_13_hs_1_5_to_2_0_under_the_current_rule_is_its_runs_fi
     assert lo <= f <= hi                                  # the estimate from the sample of candidates held
     cited("docs/guidance.md", f"inside the hold rule's estimate from its sample ({lo:.0f}-{hi:.0f} of 1000)")
     cited("README.md", f"run afresh under the current rule, {f} of {fm} with them: {fm / f:.2f} times fewer")
+
+
+def test_guidance_section_13_faster_ers_valves_sample_is_its_runs_file_s():
+    """Section 13's faster ERS valves at Hs 1.5-2.0 m: every number read from the sample's runs file and its
+    stored result (nothing run), the valves drawn as said, the rule without the prediction the same run for run
+    as with the installation's valves (its lead is ESD-1's, which the valves do not set), and each of its false
+    ESD-1 false with the installation's valves too."""
+    import json
+
+    from loadarm.studies.campaign import CampaignRun
+    from loadarm.studies.runs_file import read_stored
+
+    camp = ROOT / "docs" / "campaigns"
+    lines, v, per_1000 = _sample_so_far("hs15_tracked_hs1.5-2.0_fast_valves_runs.jsonl")
+    n = v["runs"]
+    assert n == 200 and v["alarm1_short"] == v["alarm1_short_measured"] == 0
+    stored = json.loads((camp / "hs15_tracked_hs1.5-2.0_fast_valves.json").read_text())
+    assert stored["command"].endswith(f"--seeds {n} --first-seed 100 --plant kinematic --vary environment.hs=1.5:2.0 "
+                                      "--vary installation.sequence.ers_valve_time=5:5 --vary "
+                                      "installation.sequence.ers_valve_timeout=2.5:2.5 --runs "
+                                      "docs/campaigns/hs15_tracked_hs1.5-2.0_fast_valves_runs.jsonl --json")
+    assert {k: stored["result"][k] for k in ("false_alarms", "false_alarms_measured", "releases")} == \
+        {k: v[k] for k in ("false_alarms", "false_alarms_measured", "releases")}
+    _, _, cur = read_stored(camp / "hs15_tracked_hs1.5-2.0_recal_runs.jsonl", ROOT / "examples" / "scenarios")
+    fast = {s: CampaignRun(**r) for s, (_, r) in lines.items()}
+    slow = {s: CampaignRun(**cur[s][1]) for s in fast}
+    for s, r in fast.items():
+        assert r.draws == {**slow[s].draws, "installation.sequence.ers_valve_time": 5.0,
+                           "installation.sequence.ers_valve_timeout": 2.5}
+        assert (r.alarm1_measured_first_s, r.false_alarm_measured) == \
+            (slow[s].alarm1_measured_first_s, slow[s].false_alarm_measured)
+        assert slow[s].false_alarm or not r.false_alarm
+    f, fm = v["false_alarms"], v["false_alarms_measured"]
+    f_slow = sum(r.false_alarm for r in slow.values())
+    rel_slow = sum(r.release_complete_s is not None for r in slow.values())
+    assert rel_slow == sum(r.release_complete_s is not None and r.limit_s is None for r in slow.values())
+    cited("docs/guidance.md", f"seeds {min(lines)}-{max(lines)} with the same draws of Hs")
+    cited("docs/guidance.md", f"false in {fm} of the {n}; with the prediction **{f} false ESD-1 ({fm / f:.2f} times "
+                              f"fewer; per 1000, {per_1000(f)} against {per_1000(fm)})**, against {f_slow} with the "
+                              f"installation's valves on the same seeds ({fm / f_slow:.2f} times)")
+    cited("docs/guidance.md", f"Releases {v['releases']}, against {rel_slow} (all false) with the installation's valves")
+    by = v["false_alarms_by_rule"]
+    cited("docs/guidance.md", f"Of the {f}, {by['hold_limit']} by the hold rule, {by['measured']} by the measured rule "
+                              f"at once, {by['floor']} by the floor")
+    cited("README.md", f"confirmed closed within 7.5 s instead of 15 s, {f} of {fm} on a {n}-seed sample")

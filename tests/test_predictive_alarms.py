@@ -355,6 +355,12 @@ def test_a_break_out_s_call_is_not_held_once_the_track_leaves_the_intervals():
     assert esd1["rule"] == "measured"
     departed = [e for e in res.events if e[4].get("code") == "info.prediction_departed"]
     assert len(departed) == 1 and 400.0 < departed[0][4]["departed_at"] <= departed[0][0] < 430.0   # said once
+    # the connection ends with the release: the departure is cleared, said once in words of its own (found by
+    # review: said as "not connected, the track left ..." with a time from the connection, it misled)
+    reset = [e for e in res.events if e[4].get("code") == "info.prediction_reset"]
+    assert len(reset) == 1 and reset[0][4]["departed_at"] == departed[0][4]["departed_at"]
+    assert reset[0][0] >= res.first_code("command.release_complete")
+    assert not [e for e in res.events if e[4].get("code") == "info.prediction_recalibrated"]
 
 
 @pytest.mark.slow

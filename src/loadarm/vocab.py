@@ -440,6 +440,9 @@ EVENT_TABLE: tuple[EventCode, ...] = (
               "the track left the prediction's intervals: the prediction stands down"),
     EventCode("info.prediction_recalibrated", "info",
               "not connected, the track left the prediction's intervals: its calibration begins again"),
+    EventCode("info.prediction_reset", "info",
+              "connection ended: the departure found while connected is cleared, the prediction's calibration "
+              "begins again"),
     EventCode("info.moorings_silent", "info", "mooring load monitoring silent: no change detector's call is held"),
     EventCode("interlock.valves_confirmed", "interlock", "ERS valves confirmed closed"),
     EventCode("command.coupler_opening", "command", "ERS-2: coupler opening"),
@@ -457,10 +460,12 @@ EVENT_TABLE: tuple[EventCode, ...] = (
 #: call's end went missing and the next onset swallowed it: Hs 2.0-2.5 m seed 533's call at 426.62 s). They cannot
 #: flood: a call starts or ends only at a new forecast (the drift fit's 0.2 s), only before ESD-1, and a joined
 #: call stands at most the hold limit (15 s) before ESD-1 latches; so at most 5 a second, about 4 sustained. And
-#: the predictor's departures: once per track while connected (a campaign counts these), and while not connected
-#: at most one per calibration (5 minutes of errors at least; not counted by a campaign).
+#: the predictor's departures: once per connection while connected (a campaign counts these), cleared once when
+#: the connection ends, and while not connected at most one per calibration (5 minutes of errors at least; not
+#: counted by a campaign).
 UNLIMITED_CODES: frozenset[str] = frozenset({"info.measured_esd1", "info.measured_esd1_end",
-                                             "info.prediction_departed", "info.prediction_recalibrated"})
+                                             "info.prediction_departed", "info.prediction_recalibrated",
+                                             "info.prediction_reset"})
 #: Code to its record.
 EVENTS: dict[str, EventCode] = {e.code: e for e in EVENT_TABLE}
 #: The code of each connected-mode alarm stage's event.

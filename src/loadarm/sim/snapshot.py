@@ -90,7 +90,8 @@ PREDICTION_EVERY = 5
 def prediction_sample(forecast, predicted, trusted: bool = False, unused: str = "") -> dict | None:
     """The prediction as a sample keeps it, JSON-ready: ``claimed`` (s), ``t`` (when it was made, s), ``h`` (the
     horizons kept, every :data:`PREDICTION_EVERY` s up to the claim), ``mean``, ``lo``, ``hi`` (m, per kept
-    horizon, x y z; the band holds the mean, as the rule's box does), ``ttl`` (the time to the nearest face by the calibrated bound and by the mean, s; None:
+    horizon, x y z; the band holds the mean, as the rule's box does, not widened as that box is by the motion
+    within a second), ``ttl`` (the time to the nearest face by the calibrated bound and by the mean, s; None:
     none within the claim), ``trusted`` (it stands in for the measured routes), ``unused`` (why not:
     :data:`loadarm.vocab.PREDICTION_UNUSED`, ``""``). None: no prediction.
 
@@ -116,8 +117,8 @@ def prediction_sample(forecast, predicted, trusted: bool = False, unused: str = 
         return [[round(float(v), 4) for v in r] for r in a[keep]]
 
     ttl = [_finite_or_none(v) for v in predicted] if predicted else [None, None]
-    # the band the rule uses: holding the mean too (an edge can be calibrated inside the mean when nearly all of a
-    # window's errors share a sign; found by review: the screen's band could then lie to one side of its track)
+    # the band holds the mean, as the rule's box does (an edge can be calibrated inside the mean when nearly all of
+    # a window's errors share a sign; found by review: the screen's band could then lie to one side of its track)
     lo, hi = np.minimum(forecast.lo, forecast.mean), np.maximum(forecast.hi, forecast.mean)
     return {"claimed": float(forecast.claimed), "t": float(forecast.time),
             "h": [float(v) for v in forecast.horizon[keep]], "mean": rows(forecast.mean), "lo": rows(lo),

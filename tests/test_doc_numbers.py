@@ -301,6 +301,8 @@ def _row(v: dict) -> str:
     ("hs15_tracked_hs1.0-1.5", "| `hs15_tracked.toml`, Hs 1.0-1.5 m "),
     ("hs15_tracked_hs1.5-2.0", "| `hs15_tracked.toml`, Hs 1.5-2.0 m "),
     ("hs15_tracked_hs1.5-2.0_recal", "| `hs15_tracked.toml`, Hs 1.5-2.0 m, under the current rule (`7544d42`) "),
+    ("driftoff_tracked", "| `driftoff_tracked.toml` (drift 0.15 m/s at 200 s, Hs 0.5 m), under the current rule "
+                         "(`7544d42`) "),
     ("hs15_tracked_hs2.0-2.5_third", "| `hs15_tracked.toml`, Hs 2.0-2.5 m, the watch at a third "),
     ("hs15_tracked_hs2.0-2.5", "| `hs15_tracked.toml`, Hs 2.0-2.5 m, the watch at a half (`8f5d57a`) "),
     ("partial_breakout_tracked_third", "| `partial_breakout_tracked.toml` (8 of 16 lines part at 400 s, Hs 1.0 m) "),
@@ -336,7 +338,7 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
 
 
 @pytest.mark.parametrize("stored", ["hs15_tracked_hs0.5-1.0", "hs15_tracked_hs1.0-1.5", "hs15_tracked_hs1.5-2.0", "hs15_tracked_hs2.0-2.5",
-                                    "hs15_tracked_hs1.5-2.0_recal",
+                                    "hs15_tracked_hs1.5-2.0_recal", "driftoff_tracked",
                                     "hs15_tracked_hs2.0-2.5_third",
                                     "breakout_tracked_moorings", "partial_breakout_tracked_third",
                                     "partial_breakout_squall_tracked_third", "five_lines_squall_tracked",
@@ -816,3 +818,22 @@ def test_guidance_section_13_faster_ers_valves_sample_is_its_runs_file_s():
                               f"hold limit {hold_limit(quick):g} s and each call's budget "
                               f"{release_lead(seq) - release_lead(quick):g} s longer; ESD-1's lead unchanged at "
                               f"{esd_lead(seq):g} s")
+
+
+def test_guidance_section_13_drift_off_over_1000_seeds_is_its_runs_file_s():
+    """Section 13's drift-off bullet: each number read from its runs file (nothing run): ESD-1 with and without
+    the prediction at the same instant, the departure found after the drift began and before ESD-1, the runs short
+    of ESD-1's lead and how short."""
+    from loadarm.studies.campaign import CampaignRun
+    from loadarm.studies.runs_file import read_stored
+
+    _, _, lines = read_stored(ROOT / "docs" / "campaigns" / "driftoff_tracked_runs.jsonl", ROOT / "examples" / "scenarios")
+    runs = [CampaignRun(**r) for _, (_, r) in sorted(lines.items())]
+    assert len(runs) == 1000 and all(r.alarm1_s == r.alarm1_measured_s and r.alarm1_rule == "measured" for r in runs)
+    after = [r.departed_s - 200.0 for r in runs]                 # the drift starts at 200 s
+    before = sum(r.departed_s < r.alarm1_s for r in runs)
+    short = [r.limit_s - r.alarm1_s for r in runs if r.short_of_lead(r.alarm1_s)]
+    cited("docs/guidance.md", f"the departure test found the drift {min(after):.0f}-{max(after):.0f} s after it "
+                              f"began (before ESD-1 in {before} of the {len(runs)})")
+    cited("docs/guidance.md", f"short of its 35 s lead in {len(short)} runs under both rules alike "
+                              f"({min(short):.1f}-{max(short):.1f} s before the face)")

@@ -743,7 +743,7 @@ def test_guidance_section_13_hs_1_5_to_2_0_under_the_current_rule_is_its_runs_fi
     for k in range(5):
         with_ = sum(r.false_alarm for r, j in zip(runs, step) if j == k)
         without = sum(r.false_alarm_measured for r, j in zip(runs, step) if j == k)
-        ratio = f" times fewer" if k == 0 else ""
+        ratio = " times fewer" if k == 0 else ""
         parts.append(f"{1.5 + 0.1 * k:.1f}-{1.6 + 0.1 * k:.1f} m {with_} / {without} ({without / with_:.2f}{ratio})")
     cited("docs/guidance.md", "(with / without the prediction): " + ", ".join(parts))
     rate = [-math.log(1 - k / n) for k in (fm, f)]
@@ -797,6 +797,11 @@ def test_guidance_section_13_faster_ers_valves_sample_is_its_runs_file_s():
                               f"fewer; per 1000, {per_1000(f)} against {per_1000(fm)})**, against {f_slow} with the "
                               f"installation's valves on the same seeds ({fm / f_slow:.2f} times)")
     cited("docs/guidance.md", f"Releases {v['releases']}, against {rel_slow} (all false) with the installation's valves")
+    from scipy.stats import binomtest                   # the ratio: one over the share of the fm still false
+
+    ci = binomtest(f, fm).proportion_ci(confidence_level=0.95, method="wilson")
+    cited("docs/guidance.md", f"one over the share of the {fm} still false: 95 % {1 / ci.high:.2f}-{1 / ci.low:.2f} "
+                              f"(Wilson, {f} of {fm})")
     by = v["false_alarms_by_rule"]
     cited("docs/guidance.md", f"Of the {f}, {by['hold_limit']} by the hold rule, {by['measured']} by the measured rule "
                               f"at once, {by['floor']} by the floor")
@@ -833,6 +838,9 @@ def test_guidance_section_13_drift_off_over_1000_seeds_is_its_runs_file_s():
     after = [r.departed_s - 200.0 for r in runs]                 # the drift starts at 200 s
     before = sum(r.departed_s < r.alarm1_s for r in runs)
     short = [r.limit_s - r.alarm1_s for r in runs if r.short_of_lead(r.alarm1_s)]
+    margin = sorted(r.release_margin_s for r in runs)
+    cited("docs/guidance.md", f"the coupler free {margin[0]:.2f} s before the face at the least (median "
+                              f"{(margin[499] + margin[500]) / 2:.2f} s)")
     cited("docs/guidance.md", f"the departure test found the drift {min(after):.0f}-{max(after):.0f} s after it "
                               f"began (before ESD-1 in {before} of the {len(runs)})")
     cited("docs/guidance.md", f"short of its 35 s lead in {len(short)} runs under both rules alike "

@@ -313,6 +313,8 @@ def _row(v: dict) -> str:
                                   "in a 25 m/s squall: 5 of 16, not seen) "),
     ("breast_lines_squall_tracked", "| `breast_lines_squall_tracked.toml` (the 4 breast lines part at 400 s in a 25 m/s "
                                     "squall: 4 of 16, not seen) "),
+    ("partial_breakout_squall_tracked_fast_valves", "| `partial_breakout_squall_tracked.toml`, the faster ERS valves (5 "
+                                                    "s and a 2.5 s timeout), under the current rule (`4d50bfc`) "),
     *HOLD_RULE_ROWS,
 ])
 def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
@@ -342,7 +344,8 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
                                     "hs15_tracked_hs2.0-2.5_third",
                                     "breakout_tracked_moorings", "partial_breakout_tracked_third",
                                     "partial_breakout_squall_tracked_third", "five_lines_squall_tracked",
-                                    "breast_lines_squall_tracked", *(name for name, _ in HOLD_RULE_ROWS)])
+                                    "breast_lines_squall_tracked", "partial_breakout_squall_tracked_fast_valves",
+                                    *(name for name, _ in HOLD_RULE_ROWS)])
 def test_each_stored_result_is_its_runs_file_s_and_its_false_releases_are_the_page_s(stored, tmp_path, monkeypatch,
                                                                                       capsys):
     """Each stored section 13 result is what its runs file gives through the campaign's own route today (its
@@ -828,6 +831,90 @@ def test_guidance_section_13_faster_ers_valves_sample_is_its_runs_file_s():
                               f"{band['false_alarms_measured'] / band['false_alarms']:.2f})")
     cited("docs/guidance.md", f"as little as the release's lead before the face ({release_lead(quick):g} s here, "
                               f"against {release_lead(seq):g} s")
+
+
+def _runs_by_seed(name: str) -> dict:
+    """A stored runs file of docs/campaigns read into its runs by seed (nothing run)."""
+    from loadarm.studies.campaign import CampaignRun
+    from loadarm.studies.runs_file import read_stored
+
+    _, _, lines = read_stored(ROOT / "docs" / "campaigns" / name, ROOT / "examples" / "scenarios")
+    return {s: CampaignRun(**r) for s, (_, r) in lines.items()}
+
+
+def test_guidance_section_13_faster_valves_in_the_squall_are_its_runs_file_s():
+    """Section 13's partial break-out in a squall with the faster ERS valves: each number read from its runs file
+    and the installation's valves' runs under the hold rule (nothing run): the later runs and where their ESD-1
+    came, the runs that differ and how, the short runs the same, every coupler free before its face."""
+    from loadarm.arm.sequence import esd_lead, hold_limit
+    from loadarm.params.scenario import load_scenario
+
+    fast = _runs_by_seed("partial_breakout_squall_tracked_fast_valves_runs.jsonl")
+    slow = _runs_by_seed("partial_breakout_squall_tracked_third_limit_runs.jsonl")
+    assert sorted(fast) == sorted(slow) == list(range(100, 200))
+    assert all(r.limit_s is not None for r in fast.values())                     # "every run reached a face"
+    assert all(r.release_margin_s is None or r.release_margin_s > 0 for r in fast.values())
+    assert not any(r.overstretched or r.opened_on_live_product for r in fast.values())
+    cited("README.md", f"on {len(fast)} partial break-outs in a squall with them, none overstretched and every "
+                       "coupler free before its face")
+    short = sorted(s for s, r in fast.items() if r.short_of_lead(r.alarm1_s))
+    assert short == sorted(s for s, r in fast.items() if r.short_of_lead(r.alarm1_measured_s)) == \
+        sorted(s for s, r in slow.items() if r.short_of_lead(r.alarm1_s))
+    cited("docs/guidance.md", "the same five as with the installation's valves (seeds " +
+          ", ".join(map(str, short[:-1])) + f" and {short[-1]})")
+    assert all(r.limit_s - r.alarm1_s >= r.esd1_lead_s for s, r in fast.items() if s not in short)
+    _, model = load_scenario(ROOT / "examples" / "scenarios" / "partial_breakout_squall_tracked.toml")
+    import dataclasses
+    quick = dataclasses.replace(model.sequence, ers_valve_time=5.0, ers_valve_timeout=2.5)
+    assert {r.esd1_lead_s for r in fast.values()} == {esd_lead(quick)}
+    later = {s: r for s, r in fast.items() if r.lead_gained_s is not None and r.lead_gained_s < 0}
+    longest = max(b - a for r in fast.values() for a, b in r.held_calls)
+    assert longest <= hold_limit(quick) + 1e-9
+    cited("docs/guidance.md", f"ESD-1 later than the call in progress in {len(later)} runs, by up to "
+                              f"{-min(r.lead_gained_s for r in later.values()):.1f} s (a call held {longest:.2f} s, "
+                              f"within the longer limit of {hold_limit(quick):g} s)")
+    waves = {s: r for s, r in later.items() if r.alarm1_s < 400.0}       # the lines part at 400 s
+    rest = sorted(set(later) - set(waves))
+    assert all(r.alarm1_rule == "hold_limit" for r in waves.values())
+    named = [f"{s} ({-r.lead_gained_s:.1f} s)" for s, r in sorted(waves.items())]
+    cited("docs/guidance.md", "seeds " + ", ".join(named[:-1]) + f" and {named[-1]}, each on a wave's call")
+    a1 = [r.alarm1_s for r in waves.values()]
+    before = [r.limit_s - r.alarm1_s for r in waves.values()]
+    cited("docs/guidance.md", f"(ESD-1 at {min(a1):.0f}-{max(a1):.0f} s, {min(before):.0f}-{max(before):.0f} s before "
+                              "the face)")
+    (s153,) = rest
+    r = fast[s153]
+    cited("docs/guidance.md", f"and {s153} ({-r.lead_gained_s:.1f} s) at the watch's {r.alarm1_s:.0f} s, "
+                              f"{r.limit_s - r.alarm1_s:.1f} s before the face")
+    differ = sorted(s for s in fast if (fast[s].alarm1_s, fast[s].release_complete_s) !=
+                    (slow[s].alarm1_s, slow[s].release_complete_s))
+    shift = {s: fast[s].alarm1_s - slow[s].alarm1_s for s in differ}
+    by_limit = [s for s in differ if abs(shift[s] - 7.5) < 1e-6]
+    small = [s for s in differ if 0 < shift[s] < 7.5 - 1e-6]
+    big = [s for s in differ if shift[s] > 7.5 + 1e-6]
+    earlier = [s for s in differ if shift[s] < 0]
+    released = [s for s in differ if shift[s] == 0]
+    assert len(differ) == len(by_limit) + len(small) + len(big) + len(earlier) + len(released)
+    assert hold_limit(quick) - hold_limit(model.sequence) == 7.5
+    cited("docs/guidance.md", f"{len(differ)} of the 100 differ: ESD-1 later by the limit's 7.5 s in {len(by_limit)} "
+                              f"and by {shift[small[0]]:.1f} s in {len(small)}")
+    cited("docs/guidance.md", f"later by {min(shift[s] for s in big):.1f}-{max(shift[s] for s in big):.1f} s in "
+                              f"{len(big)} (seeds " + ", ".join(map(str, big[:-1])) + f" and {big[-1]}:")
+    gap = [fast[s].limit_s - fast[s].alarm1_s for s in big]
+    cited("docs/guidance.md", f"ESD-1 came with the failure instead, {min(gap):.1f}-{max(gap):.1f} s before the face")
+    assert all(fast[s].alarm1_s > 400.0 or fast[s].alarm1_rule == "hold_limit" for s in big)
+    cited("docs/guidance.md", f"earlier in {len(earlier)} (seed {earlier[0]}, by {-shift[earlier[0]]:.1f} s)")
+    late = [fast[s].release_complete_s - slow[s].release_complete_s for s in released]
+    cited("docs/guidance.md", f"the release later by {min(late):.1f}-{max(late):.1f} s in {len(released)} (seeds " +
+          ", ".join(map(str, released[:-1])) + f" and {released[-1]}:")
+    m_fast = sorted(fast[s].release_margin_s for s in released)
+    m_slow = sorted(slow[s].release_margin_s for s in released)
+    cited("docs/guidance.md", f"their margins {m_fast[0]:.2f}-{m_fast[-1]:.2f} s instead of "
+                              f"{m_slow[0]:.2f}-{m_slow[-1]:.2f} s")
+    import numpy as np
+    cited("docs/guidance.md", f"(median {np.median([r.release_margin_s for r in fast.values() if r.release_margin_s]):.2f}"
+                              f" s, against {np.median([r.release_margin_s for r in slow.values() if r.release_margin_s]):.2f}"
+                              " s with the installation's valves under the hold rule)")
 
 
 def test_guidance_section_13_drift_off_over_1000_seeds_is_its_runs_file_s():

@@ -105,12 +105,12 @@ def test_before_the_connection_a_departure_starts_the_calibration_again():
     # same ship found it still standing down)
     departed = latched.departed_at
     latched.latch = False
-    assert latched.departed_at is None and latched.recalibrated == [departed]
+    assert latched.departed_at is None and latched.cleared == [departed] and not latched.recalibrated
     assert latched.trusted(35.0) is None and latched.cal.count.max() < pr.MIN_ERRORS
     _feed(latched, p[n0 + 500:], t0=(n0 + 500) * 0.2)
     assert latched.departed_at is None and latched.trusted(35.0) is not None
     latched.latch = True                                               # connected again: nothing to restart
-    assert latched.recalibrated == [departed] and latched.trusted(35.0) is not None
+    assert latched.cleared == [departed] and latched.trusted(35.0) is not None
 
 
 def test_a_short_gap_is_bridged_and_a_long_one_starts_again():

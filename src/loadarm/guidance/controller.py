@@ -272,12 +272,10 @@ class GuidanceController(SafetyRules):
             self._event("info", event_label(code), code=code, slack_share=LOST_SHARE, fault=self.moorings.fault)
         if pr is None or cyc.now < pr.next_sample:
             return
-        latched = pr.departed_at
+        cleared = len(pr.cleared)
         pr.latch = self.attached()                        # off: a departure latched while connected is cleared
-        if latched is not None and pr.departed_at is None:
-            self.state.recalibrated_said = max(self.state.recalibrated_said, latched)   # said here, not below
-            self._event("info", event_label("info.prediction_reset"), code="info.prediction_reset",
-                        departed_at=latched)
+        for at in pr.cleared[cleared:]:
+            self._event("info", event_label("info.prediction_reset"), code="info.prediction_reset", departed_at=at)
         if self.attached():
             pr.push(cyc.now, np.array([float(v) for v in forward3d(self.arm, *cyc.q)]))
         elif cyc.est.healthy:

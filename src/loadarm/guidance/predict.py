@@ -547,7 +547,8 @@ class FlangePredictor:
     def latch(self, on: bool) -> None:
         self._latch = bool(on)
         if not self._latch and self.departed_at is not None:
-            self._recalibrate(self.departed_at)
+            self.cleared.append(self.departed_at)
+            self._restart_calibration()
             self.departed_at = None
 
     def reset(self) -> None:
@@ -564,6 +565,8 @@ class FlangePredictor:
         self.forecast: Forecast | None = None
         self.departed_at: float | None = None
         self.recalibrated: list[float] = []               # departures found unlatched: the calibration began again
+        self.cleared: list[float] = []                    # latched departures cleared by the latch set off (the
+        #                                                   connection's end): the calibration began again too
         self.outside = 0
         self._q: np.ndarray | None = None                 # the calibrated multipliers of the last forecast
         self._psi2: np.ndarray | None = None              # the model's cumulative squared psi-weights
@@ -668,9 +671,14 @@ class FlangePredictor:
         self._recalibrate(t_end)
 
     def _recalibrate(self, departed_at: float) -> None:
-        """Start the calibration again after the departure found at ``departed_at`` (kept in
+        """Start the calibration again after the departure found unlatched at ``departed_at`` (kept in
         :attr:`recalibrated`); the track and the AR stay."""
         self.recalibrated.append(departed_at)
+        self._restart_calibration()
+
+    def _restart_calibration(self) -> None:
+        """Forget the calibration and the forecast (the track and the AR stay): the prediction is claimed again
+        only on errors realised from now."""
         self.cal = Calibrator(self.steps)
         self.forecast, self._q, self.outside = None, None, 0
 

@@ -94,6 +94,31 @@ def test_esd1_short_of_its_lead_and_undecided_where_the_face_is_past_the_run():
     assert v["alarm1_later"] == 4 and v["later_seeds"] == [533, 534, 535, 536]
 
 
+def test_later_and_short_against_today_s_rule_latching_on_its_first_call():
+    """The partial break-out in a squall, seed 128 (2026-12-07, found by review): the rule without the prediction
+    first called ESD-1 at 187.96 s (a wave's call, held), and again at 422.56 s once the lines had parted; with
+    the prediction ESD-1 came at 422.56 s, 30.0 s before the face at 452.54 s. Against that rule's call in
+    progress it is neither later nor short; against today's rule, which latches ESD-1 on its first call, it is
+    234.6 s later and short of its 35 s lead where today's was not."""
+    from loadarm.studies.campaign import CampaignResult
+
+    base = dict(coupler_opening_s=None, valves_confirmed_s=None, limit_s=452.54, release_complete_s=435.58,
+                alarm1_s=422.56, overstretched_s=None, release_margin_s=16.96, limit_face="beta_max",
+                duration_s=560.0, connected_s=380.0, failures=[], alarm1_measured_s=422.56,
+                alarm1_measured_first_s=187.96)
+    held = _judge(128, {}, base, (560.0, 35.0))
+    assert held.lead_gained_s == 0.0 and held.lead_gained_first_s == pytest.approx(187.96 - 422.56)
+    plain = _judge(129, {}, {**base, "alarm1_s": 187.96, "alarm1_measured_s": 187.96}, (560.0, 35.0))
+    assert plain.lead_gained_first_s == 0.0
+    none = _judge(130, {}, {**base, "limit_s": None, "release_complete_s": None}, (560.0, 35.0))
+    assert none.lead_gained_first_s is None                                  # no face: nothing to be later for
+    v = CampaignResult("s.toml", (), (held, plain, none))._values()
+    assert (v["alarm1_later"], v["alarm1_later_first"], v["later_first_seeds"]) == (0, 1, [128])
+    assert v["lead_gained_first_min_s"] == pytest.approx(187.96 - 422.56)
+    assert v["lead_gained_first_median_s"] == pytest.approx((187.96 - 422.56) / 2)
+    assert (v["alarm1_short_measured"], v["alarm1_short_first"], v["alarm1_short"]) == (1, 0, 1)
+
+
 def test_stored_runs_without_their_end_get_it_from_the_scenario():
     """Runs kept before the runs file held their end and ESD-1's lead get them from the scenario (its duration and
     the installation's sequence), the same as a run made now."""

@@ -230,6 +230,17 @@ class CampaignRun:
             return None
         return self.alarm1_measured_s - (self.alarm1_s if self.alarm1_s is not None else self.limit_s)
 
+    @property
+    def lead_gained_first_s(self) -> float | None:
+        """As :attr:`lead_gained_s`, against the rule without the prediction latching ESD-1 on its first call
+        (:attr:`alarm1_measured_first_s`), as that rule does: today's rule. :attr:`lead_gained_s` compares with
+        its call in progress at ESD-1, which a held wave's call before a failure makes look nearer than it is
+        (found by review, 2026-12-07: in the squall's partial break-outs the prediction's ESD-1 came minutes
+        after a wave's call that today's rule would have latched on)."""
+        if self.limit_s is None or self.alarm1_measured_first_s is None:
+            return None
+        return self.alarm1_measured_first_s - (self.alarm1_s if self.alarm1_s is not None else self.limit_s)
+
 
 def _judge(seed: int, draws: dict, v: dict, bounds: tuple[float, float] | None = None) -> CampaignRun:
     """The verdict from a run's summary values (its failures are the run's own, :meth:`RunResult.failures`) and
@@ -462,6 +473,10 @@ CAMPAIGN_METRICS = (
            "", "d"),
     Metric("lead_gained_min_s", "ESD-1 lead gained on that rule, min", "s", ".1f", none="-"),
     Metric("lead_gained_median_s", "ESD-1 lead gained on that rule, median", "s", ".1f", none="-"),
+    Metric("alarm1_later_first", "ESD-1 later than that rule latching on its first call (today's rule)", "", "d"),
+    Metric("lead_gained_first_min_s", "ESD-1 lead gained on today's rule, min", "s", ".1f", none="-"),
+    Metric("lead_gained_first_median_s", "ESD-1 lead gained on today's rule, median", "s", ".1f", none="-"),
+    Metric("alarm1_short_first", "ESD-1 short of its lead before the face, today's rule", "", "d"),
     Metric("departures", "the prediction stood down: the track left its intervals (runs that kept it)", "", "d"),
     Metric("missed_alarms", "missed alarms (face reached before the release completed)", "", "d"),
     Metric("releases", "releases", "", "d"),
@@ -503,6 +518,7 @@ class CampaignResult(Result):
         margins = np.array([r.release_margin_s for r in runs if r.release_margin_s is not None])
         leads = np.array([r.limit_s - r.alarm1_s for r in runs if r.limit_s is not None and r.alarm1_s is not None])
         gained = np.array([r.lead_gained_s for r in runs if r.lead_gained_s is not None])
+        first = np.array([r.lead_gained_first_s for r in runs if r.lead_gained_first_s is not None])
 
         def q(a, p):
             return float(np.percentile(a, p)) if a.size else None
@@ -524,6 +540,9 @@ class CampaignResult(Result):
             "alarm1_short": sum(r.short_of_lead(r.alarm1_s) is True for r in runs),
             "alarm1_undecided": sum(r.alarm1_undecided for r in runs),
             "lead_gained_min_s": q(gained, 0), "lead_gained_median_s": q(gained, 50),
+            "alarm1_later_first": int(np.sum(first < 0)), "lead_gained_first_min_s": q(first, 0),
+            "lead_gained_first_median_s": q(first, 50),
+            "alarm1_short_first": sum(r.short_of_lead(r.alarm1_measured_first_s) is True for r in runs),
             "departures": sum(r.departed_s is not None for r in runs),
             "departures_kept": sum(r.departure_kept for r in runs),
             "departed_seeds": [r.seed for r in runs if r.departed_s is not None],
@@ -536,6 +555,8 @@ class CampaignResult(Result):
             "failed_seeds": [r.seed for r in runs if r.overstretched or r.opened_on_live_product or r.missed_alarm],
             "false_alarm_seeds": [r.seed for r in runs if r.false_alarm],
             "later_seeds": [r.seed for r in runs if r.lead_gained_s is not None and r.lead_gained_s < 0],
+            "later_first_seeds": [r.seed for r in runs
+                                  if r.lead_gained_first_s is not None and r.lead_gained_first_s < 0],
             "short_seeds": [r.seed for r in runs if r.short_of_lead(r.alarm1_s) is True],
             "undecided_seeds": [r.seed for r in runs if r.alarm1_undecided],
             "false_alarms_by_rule": {rule: n for rule in ALARM_RULES

@@ -37,6 +37,7 @@ from loadarm import __version__
 from loadarm.arm.alarms import AlarmState, next_alarm_state
 from loadarm.eventlog import RateLimiter
 from loadarm.guidance.bank import BankForecast, BankMonitor
+from loadarm.guidance.modes import ALARM_OFF_DELAY
 from loadarm.guidance.manifold_alarm import ManifoldLoadAlarm, ManifoldLoadStatus
 from loadarm.guidance.monitor import stage_leads
 from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, acknowledge_method, conditions, unece_unit_id
@@ -343,8 +344,10 @@ class BankService:
         #: The bank's time of the state being computed (or the last), s: the time its events are logged at, and
         #: its most severe arm stage then.
         self._t, self._stage = 0.0, Severity.NORMAL
-        #: The bank's event-log alarm: its ISA-18.2 state and when it rose.
+        #: The bank's event-log alarm: its ISA-18.2 state and when it rose; and the last state's time the log
+        #: was unavailable (the alarm clears only :data:`ALARM_OFF_DELAY` s after, as the single arm's).
         self._log_alarm: tuple[AlarmState, float] = (AlarmState.NORMAL, math.nan)
+        self._log_bad_at = -math.inf
         #: Alike events of the rate-limited kinds (refused logins and commands) let through once per window, as
         #: the single arm's (:class:`loadarm.eventlog.RateLimiter`): a thousand wrong passwords are one line.
         self._limiter = RateLimiter()
@@ -538,9 +541,14 @@ class BankService:
         return dataclasses.replace(snap, alarms=self._alarm_list(loads), conditions=conds, suppressed=suppressed)
 
     def _log_state(self, t: float, acknowledge: bool, asked: frozenset) -> AlarmState:
-        """The bank's event-log alarm's ISA-18.2 state at time ``t`` (active while the log is unavailable)."""
+        """The bank's event-log alarm's ISA-18.2 state at time ``t``: active while the log is unavailable and for
+        :data:`ALARM_OFF_DELAY` s after (ISA-18.2's off-delay, as the single arm's alarms: found by review, a log
+        failing and returning by turns made the bank's alarm chatter where the arm's did not)."""
+        if not self._log_ok:
+            self._log_bad_at = t
         old, since = self._log_alarm
-        new = next_alarm_state(old, not self._log_ok, acknowledge or (BANK_INDEX, "EVENT_LOG_FAULT") in asked)
+        active = t - self._log_bad_at < ALARM_OFF_DELAY
+        new = next_alarm_state(old, active, acknowledge or (BANK_INDEX, "EVENT_LOG_FAULT") in asked)
         if new == AlarmState.UNACKED and old not in (AlarmState.UNACKED, AlarmState.ACKED):
             since = t
         self._log_alarm = (new, since)

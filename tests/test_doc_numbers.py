@@ -315,6 +315,10 @@ def _row(v: dict) -> str:
                                     "squall: 4 of 16, not seen) "),
     ("partial_breakout_squall_tracked_fast_valves", "| `partial_breakout_squall_tracked.toml`, the faster ERS valves (5 "
                                                     "s and a 2.5 s timeout), under the current rule (`4d50bfc`) "),
+    ("five_lines_squall_tracked_fast_valves", "| `five_lines_squall_tracked.toml`, the faster ERS valves (5 s and a "
+                                              "2.5 s timeout), under the current rule (`4d50bfc`) "),
+    ("breast_lines_squall_tracked_fast_valves", "| `breast_lines_squall_tracked.toml`, the faster ERS valves (5 s and "
+                                                "a 2.5 s timeout), under the current rule (`4d50bfc`) "),
     *HOLD_RULE_ROWS,
 ])
 def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
@@ -345,6 +349,7 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
                                     "breakout_tracked_moorings", "partial_breakout_tracked_third",
                                     "partial_breakout_squall_tracked_third", "five_lines_squall_tracked",
                                     "breast_lines_squall_tracked", "partial_breakout_squall_tracked_fast_valves",
+                                    "five_lines_squall_tracked_fast_valves", "breast_lines_squall_tracked_fast_valves",
                                     *(name for name, _ in HOLD_RULE_ROWS)])
 def test_each_stored_result_is_its_runs_file_s_and_its_false_releases_are_the_page_s(stored, tmp_path, monkeypatch,
                                                                                       capsys):
@@ -846,7 +851,10 @@ GLANCE = [  # (stored result, case, rule): the latest rule each case was run und
     ("partial_breakout_squall_tracked_fast_valves", "partial break-out in a squall, faster ERS valves",
      "current (`7544d42`)"),
     ("five_lines_squall_tracked_limit", "five lines part in a squall (not seen)", "hold rule (`bf557db`)"),
+    ("five_lines_squall_tracked_fast_valves", "five lines part in a squall, faster ERS valves", "current (`7544d42`)"),
     ("breast_lines_squall_tracked_limit", "the breast lines part in a squall (not seen)", "hold rule (`bf557db`)"),
+    ("breast_lines_squall_tracked_fast_valves", "the breast lines part in a squall, faster ERS valves",
+     "current (`7544d42`)"),
 ]
 
 
@@ -1063,6 +1071,58 @@ def test_guidance_section_13_faster_valves_in_the_squall_are_its_runs_file_s():
     cited("docs/guidance.md", f"(median {np.median([r.release_margin_s for r in fast.values() if r.release_margin_s]):.2f}"
                               f" s, against {np.median([r.release_margin_s for r in slow.values() if r.release_margin_s]):.2f}"
                               " s with the installation's valves under the hold rule)")
+
+
+def test_guidance_section_13_faster_valves_where_the_watch_cannot_see_are_their_runs_files():
+    """Section 13's five and breast lines in the squall with the faster ERS valves: each number read from the runs
+    files (nothing run): the runs reaching a face, the failure's own calls held and what ended them (never the
+    limit), ESD-1's least lead, and the comparison with the installation's valves under the hold rule."""
+    from loadarm.arm.sequence import hold_limit, release_lead
+    from loadarm.params.scenario import load_scenario
+
+    fast = _runs_by_seed("five_lines_squall_tracked_fast_valves_runs.jsonl")
+    slow = _runs_by_seed("five_lines_squall_tracked_limit_runs.jsonl")
+    breast = _runs_by_seed("breast_lines_squall_tracked_fast_valves_runs.jsonl")
+    assert sorted(fast) == sorted(slow) == list(range(100, 200)) and sorted(breast) == list(range(100, 120))
+    _, model = load_scenario(ROOT / "examples" / "scenarios" / "five_lines_squall_tracked.toml")
+    import dataclasses
+    quick = dataclasses.replace(model.sequence, ers_valve_time=5.0, ers_valve_timeout=2.5)
+    faced = sorted(s for s, r in fast.items() if r.limit_s is not None)
+    assert not any(r.overstretched or r.opened_on_live_product or r.missed_alarm for r in fast.values())
+    assert not any(r.short_of_lead(r.alarm1_s) for r in fast.values())
+    least = min(fast[s].limit_s - fast[s].alarm1_s for s in faced)
+    cited("README.md", f"where it cannot see, with five lines parting, ESD-1 still at least {least:.1f} s before the "
+                       f"face in each of {len(fast)} runs")
+    cited("docs/guidance.md", f"{len(faced)} runs reached a face; no overstretch, no coupler opened on live product, "
+                              f"none missed, none short: ESD-1 at least {least:.1f} s before the face in each")
+    true = [(s, b - a) for s in faced for a, b in fast[s].held_calls if a > 400.0]      # the lines part at 400 s
+    assert all(h < hold_limit(quick) - 5.0 for _, h in true)            # "well inside": never the limit's call
+    assert not any(fast[s].alarm1_rule == "hold_limit" and fast[s].alarm1_s > 400.0 for s in faced)
+    cited("docs/guidance.md", f"held {min(h for _, h in true):.1f}-{max(h for _, h in true):.1f} s ({len(true)} calls "
+                              f"in {len({s for s, _ in true})} runs), each ended by the departure test or the floor "
+                              f"well inside the longer limit of {hold_limit(quick):g} s")
+    later = {s: r for s, r in fast.items() if r.lead_gained_s is not None and r.lead_gained_s < 0}
+    first = {s: r for s, r in fast.items() if r.lead_gained_first_s is not None and r.lead_gained_first_s < 0}
+    was = min(r.lead_gained_s for r in slow.values() if r.lead_gained_s is not None)
+    cited("docs/guidance.md", f"ESD-1 later than the call in progress in {len(later)}, by up to "
+                              f"{-min(r.lead_gained_s for r in later.values()):.1f} s ({-was:.1f} s with the "
+                              f"installation's valves), later than today's rule in {len(first)}, by up to "
+                              f"{-min(r.lead_gained_first_s for r in first.values()):.1f} s")
+    shift = {s: fast[s].alarm1_s - slow[s].alarm1_s for s in faced}
+    assert min(shift.values()) >= 0.0
+    worst = max(shift, key=shift.get)
+    cited("docs/guidance.md", f"Of the {len(faced)}, ESD-1 came later than with the installation's valves under the "
+                              f"hold rule in {sum(d > 0 for d in shift.values())}, by up to {shift[worst]:.1f} s (seed "
+                              f"{worst}, {fast[worst].limit_s - fast[worst].alarm1_s:.1f} s before its face), at the "
+                              f"same instant in {sum(d == 0 for d in shift.values())}")
+    margins = [r.release_margin_s for r in fast.values() if r.release_margin_s is not None]
+    assert min(margins) == min(r.release_margin_s for r in slow.values() if r.release_margin_s is not None)
+    cited("docs/guidance.md", f"the least margin {min(margins):.2f} s, as before")
+    assert all(r.limit_s is None and r.alarm1_s is not None and r.false_alarm_measured for r in breast.values())
+    assert not any(r.release_complete_s is not None for r in breast.values())
+    cited("docs/guidance.md", f"no face reached in the {len(breast)}; ESD-1 in all {len(breast)} with the prediction "
+                              "as without; no release")
+    cited("docs/guidance.md", f"as little as the release's {release_lead(quick):g} s before the face (above)")
 
 
 def test_guidance_section_13_drift_off_over_1000_seeds_is_its_runs_file_s():

@@ -1125,6 +1125,39 @@ def test_guidance_section_13_faster_valves_where_the_watch_cannot_see_are_their_
     cited("docs/guidance.md", f"as little as the release's {release_lead(quick):g} s before the face (above)")
 
 
+def test_guidance_section_13_faster_valves_in_the_break_out_so_far_is_its_runs_file_s():
+    """Section 13's break-out with the faster ERS valves, its runs file still being run: its first seeds none
+    missing, every number read from it and the installation's valves' runs under the hold rule (nothing run)."""
+    from loadarm.studies.campaign import CampaignResult, with_bounds
+
+    scenario = str(ROOT / "examples" / "scenarios" / "breakout_tracked.toml")
+    fast = _runs_by_seed("breakout_tracked_fast_valves_runs.jsonl")
+    slow = _runs_by_seed("breakout_tracked_moorings_limit_runs.jsonl")
+    n = len(fast)
+    assert sorted(fast) == list(range(100, 100 + n))
+    seeds = sorted(fast)
+    v = CampaignResult(scenario, (), tuple(with_bounds(scenario, [fast[s] for s in seeds]))).summary()
+    w = CampaignResult(scenario, (), tuple(with_bounds(scenario, [slow[s] for s in seeds]))).summary()
+    assert v["overstretches"] == v["opened_on_live_product"] == v["missed_alarms"] == v["false_alarms"] == 0
+    cited("docs/guidance.md", f"The faster valves in the break-out: {n} of the 1000 so far** (every line parts at "
+                              f"400 s, Hs 1.0 m; seeds {seeds[0]}-{seeds[-1]}")
+    differ = [s for s in seeds if (fast[s].alarm1_s, fast[s].alarm1_rule) != (slow[s].alarm1_s, slow[s].alarm1_rule)]
+    assert all(fast[s].release_complete_s == slow[s].release_complete_s for s in seeds)    # "at the same instant"
+    assert all(slow[s].alarm1_rule == "measured" and slow[s].alarm1_s < 400.0 < fast[s].alarm1_s for s in differ)
+    cited("docs/guidance.md", f"every run as with the installation's valves under the hold rule but {len(differ)} (seeds "
+                              f"{differ[0]} and {differ[1]}: a wave's call at {slow[differ[0]].alarm1_s:.1f} and "
+                              f"{slow[differ[1]].alarm1_s:.1f} s")
+    cited("docs/guidance.md", f"ESD-1 came with the break-out, {fast[differ[0]].limit_s - fast[differ[0]].alarm1_s:.1f} "
+                              f"and {fast[differ[1]].limit_s - fast[differ[1]].alarm1_s:.1f} s before the face")
+    assert (v["margin_min_s"], v["margin_median_s"]) == (w["margin_min_s"], w["margin_median_s"])
+    cited("docs/guidance.md", f"the least release margin {v['margin_min_s']:.2f} s (median {v['margin_median_s']:.2f} "
+                              "s), as with the installation's valves on these seeds")
+    cited("docs/guidance.md", f"short of ESD-1's lead in {v['alarm1_short']} with the prediction and "
+                              f"{v['alarm1_short_first']} by today's rule; later than today's rule in "
+                              f"{v['alarm1_later_first']} ({w['alarm1_later_first']} with the installation's valves), "
+                              f"by up to {-v['lead_gained_first_min_s']:.1f} s")
+
+
 def test_guidance_section_13_drift_off_over_1000_seeds_is_its_runs_file_s():
     """Section 13's drift-off bullet: each number read from its runs file (nothing run): ESD-1 with and without
     the prediction at the same instant, the departure found after the drift began and before ESD-1, the runs short

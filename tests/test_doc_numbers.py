@@ -319,6 +319,7 @@ def _row(v: dict) -> str:
                                               "2.5 s timeout), under the current rule (`4d50bfc`) "),
     ("breast_lines_squall_tracked_fast_valves", "| `breast_lines_squall_tracked.toml`, the faster ERS valves (5 s and "
                                                 "a 2.5 s timeout), under the current rule (`4d50bfc`) "),
+    ("breast_lines_squall_tracked_recal", "| `breast_lines_squall_tracked.toml`, under the current rule (`4d50bfc`) "),
     *HOLD_RULE_ROWS,
 ])
 def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
@@ -350,6 +351,7 @@ def test_guidance_section_13_rows_are_the_stored_campaigns(stored, case):
                                     "partial_breakout_squall_tracked_third", "five_lines_squall_tracked",
                                     "breast_lines_squall_tracked", "partial_breakout_squall_tracked_fast_valves",
                                     "five_lines_squall_tracked_fast_valves", "breast_lines_squall_tracked_fast_valves",
+                                    "breast_lines_squall_tracked_recal",
                                     *(name for name, _ in HOLD_RULE_ROWS)])
 def test_each_stored_result_is_its_runs_file_s_and_its_false_releases_are_the_page_s(stored, tmp_path, monkeypatch,
                                                                                       capsys):
@@ -852,7 +854,7 @@ GLANCE = [  # (stored result, case, rule): the latest rule each case was run und
      "current (`7544d42`)"),
     ("five_lines_squall_tracked_limit", "five lines part in a squall (not seen)", "hold rule (`bf557db`)"),
     ("five_lines_squall_tracked_fast_valves", "five lines part in a squall, faster ERS valves", "current (`7544d42`)"),
-    ("breast_lines_squall_tracked_limit", "the breast lines part in a squall (not seen)", "hold rule (`bf557db`)"),
+    ("breast_lines_squall_tracked_recal", "the breast lines part in a squall (not seen)", "current (`7544d42`)"),
     ("breast_lines_squall_tracked_fast_valves", "the breast lines part in a squall, faster ERS valves",
      "current (`7544d42`)"),
 ]

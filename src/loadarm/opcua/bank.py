@@ -348,6 +348,8 @@ class BankService:
         #: was unavailable (the alarm clears only :data:`ALARM_OFF_DELAY` s after, as the single arm's).
         self._log_alarm: tuple[AlarmState, float] = (AlarmState.NORMAL, math.nan)
         self._log_bad_at = -math.inf
+        #: Whether that alarm's condition is active (the log unavailable, or within the off-delay since).
+        self._log_active = False
         #: Alike events of the rate-limited kinds (refused logins and commands) let through once per window, as
         #: the single arm's (:class:`loadarm.eventlog.RateLimiter`): a thousand wrong passwords are one line.
         self._limiter = RateLimiter()
@@ -446,10 +448,8 @@ class BankService:
             return
         self._log_ok = status.ok
         kind, reason, data = status.change_note("the bank")
-        if status.ok:                          # the alarm's clear (never rate-limited), then what was written
-            self.note("alarm", f"{event_label('fault.event_log')} cleared: the bank", {
-                "code": "fault.event_log", "arm": BANK_NAME, "tag": "EVENT_LOG_FAULT", "active": False})
-            self.note(kind, reason, data)
+        if status.ok or self._log_active:      # what was written; or unavailable again within the off-delay
+            self.note(kind, reason, data)      # (the alarm still active: not raised again; found by review)
         else:
             self.note(kind, reason, {**data, "arm": BANK_NAME, "tag": "EVENT_LOG_FAULT", "active": True})
 
@@ -548,6 +548,10 @@ class BankService:
             self._log_bad_at = t
         old, since = self._log_alarm
         active = t - self._log_bad_at < ALARM_OFF_DELAY
+        if self._log_active and not active:    # the alarm's clear, once the off-delay has passed (never limited)
+            self.note("alarm", f"{event_label('fault.event_log')} cleared: the bank", {
+                "code": "fault.event_log", "arm": BANK_NAME, "tag": "EVENT_LOG_FAULT", "active": False})
+        self._log_active = active
         new = next_alarm_state(old, active, acknowledge or (BANK_INDEX, "EVENT_LOG_FAULT") in asked)
         if new == AlarmState.UNACKED and old not in (AlarmState.UNACKED, AlarmState.ACKED):
             since = t
@@ -602,6 +606,7 @@ class BankService:
             self._forecast = None
             self.loads = ManifoldLoadAlarm(self.world.bank)
             self._stage_alarms.clear()
+            self._log_bad_at = -math.inf       # its off-delay too (found by review: a healthy log re-raised it)
         self._observed = state.t
         if self.monitor.observe(state.t, state.manifold, state.ship_angles):
             self.monitor.refit()

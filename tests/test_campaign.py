@@ -112,11 +112,21 @@ def test_later_and_short_against_today_s_rule_latching_on_its_first_call():
     assert plain.lead_gained_first_s == 0.0
     none = _judge(130, {}, {**base, "limit_s": None, "release_complete_s": None}, (560.0, 35.0))
     assert none.lead_gained_first_s is None                                  # no face: nothing to be later for
-    v = CampaignResult("s.toml", (), (held, plain, none))._values()
+    # no call of the measured routes: ESD-1 by the floor, which today's rule has too, at the same instant (found
+    # by review: counted as no ESD-1 at all, the run was short by today's rule)
+    floor = _judge(131, {}, {**base, "alarm1_rule": "floor", "alarm1_measured_s": None,
+                             "alarm1_measured_first_s": None}, (560.0, 35.0))
+    assert floor.alarm1_today_s == 422.56 and floor.lead_gained_first_s == 0.0
+    early = _judge(132, {}, {**base, "alarm1_s": 150.0, "alarm1_rule": "floor"}, (560.0, 35.0))
+    assert early.alarm1_today_s == 150.0 and early.lead_gained_first_s == 0.0     # the floor before the first call
+    alone = _judge(133, {}, {**base, "alarm1_rule": "prediction", "alarm1_measured_s": None,
+                             "alarm1_measured_first_s": None}, (560.0, 35.0))
+    assert alone.alarm1_today_s is None and alone.lead_gained_first_s is None     # today's ESD-1 unknown
+    v = CampaignResult("s.toml", (), (held, plain, none, floor))._values()
     assert (v["alarm1_later"], v["alarm1_later_first"], v["later_first_seeds"]) == (0, 1, [128])
     assert v["lead_gained_first_min_s"] == pytest.approx(187.96 - 422.56)
-    assert v["lead_gained_first_median_s"] == pytest.approx((187.96 - 422.56) / 2)
-    assert (v["alarm1_short_measured"], v["alarm1_short_first"], v["alarm1_short"]) == (1, 0, 1)
+    assert v["lead_gained_first_median_s"] == 0.0                       # over 128, 129 and 131
+    assert (v["alarm1_short_measured"], v["alarm1_short_first"], v["alarm1_short"]) == (2, 1, 2)
 
 
 def test_stored_runs_without_their_end_get_it_from_the_scenario():

@@ -231,15 +231,29 @@ class CampaignRun:
         return self.alarm1_measured_s - (self.alarm1_s if self.alarm1_s is not None else self.limit_s)
 
     @property
+    def alarm1_today_s(self) -> float | None:
+        """ESD-1 by today's rule, the rule without the prediction, which latches: its first call
+        (:attr:`alarm1_measured_first_s`), or the ESD-1 of a rule both share (the position alarms, the floor, the
+        operator, a fault: :data:`SHARED_RULES`) when that came first. None: neither came in the run (or only the
+        prediction raised ESD-1 and that rule never called: when it would have, the run cannot say)."""
+        shared = self.alarm1_s if self.alarm1_rule in SHARED_RULES else None
+        times = [a for a in (self.alarm1_measured_first_s, shared) if a is not None]
+        return min(times) if times else None
+
+    @property
     def lead_gained_first_s(self) -> float | None:
-        """As :attr:`lead_gained_s`, against the rule without the prediction latching ESD-1 on its first call
-        (:attr:`alarm1_measured_first_s`), as that rule does: today's rule. :attr:`lead_gained_s` compares with
-        its call in progress at ESD-1, which a held wave's call before a failure makes look nearer than it is
-        (found by review, 2026-12-07: in the squall's partial break-outs the prediction's ESD-1 came minutes
-        after a wave's call that today's rule would have latched on)."""
-        if self.limit_s is None or self.alarm1_measured_first_s is None:
+        """As :attr:`lead_gained_s`, against today's rule (:attr:`alarm1_today_s`). :attr:`lead_gained_s`
+        compares with the rule's call in progress at ESD-1, which a held wave's call before a failure makes look
+        nearer than it is (found by review, 2026-12-07: in the squall's partial break-outs the prediction's ESD-1
+        came minutes after a wave's call that today's rule would have latched on)."""
+        today = self.alarm1_today_s
+        if self.limit_s is None or today is None:
             return None
-        return self.alarm1_measured_first_s - (self.alarm1_s if self.alarm1_s is not None else self.limit_s)
+        return today - (self.alarm1_s if self.alarm1_s is not None else self.limit_s)
+
+
+#: The rules that raise ESD-1 alike with and without the prediction (today's rule has them too).
+SHARED_RULES = frozenset({"position", "floor", "operator", "fault"})
 
 
 def _judge(seed: int, draws: dict, v: dict, bounds: tuple[float, float] | None = None) -> CampaignRun:
@@ -542,7 +556,7 @@ class CampaignResult(Result):
             "lead_gained_min_s": q(gained, 0), "lead_gained_median_s": q(gained, 50),
             "alarm1_later_first": int(np.sum(first < 0)), "lead_gained_first_min_s": q(first, 0),
             "lead_gained_first_median_s": q(first, 50),
-            "alarm1_short_first": sum(r.short_of_lead(r.alarm1_measured_first_s) is True for r in runs),
+            "alarm1_short_first": sum(r.short_of_lead(r.alarm1_today_s) is True for r in runs),
             "departures": sum(r.departed_s is not None for r in runs),
             "departures_kept": sum(r.departure_kept for r in runs),
             "departed_seeds": [r.seed for r in runs if r.departed_s is not None],

@@ -1252,6 +1252,46 @@ def test_guidance_section_13_faster_valves_in_the_break_out_so_far_is_its_runs_f
                               f"by up to {-v['lead_gained_first_min_s']:.1f} s")
 
 
+def _hs_2_0_to_2_5_so_far() -> str:
+    """Section 13's sentence on Hs 2.0-2.5 m run afresh under the current rule, from its runs file still being
+    run (nothing run): its first seeds none missing, the counts with and without the prediction, their 95 % Wilson
+    ranges per 1000, by rule, and the same seeds before the hold rule."""
+    from scipy.stats import binomtest
+
+    from loadarm.studies.campaign import CampaignResult, with_bounds
+
+    scenario = str(ROOT / "examples" / "scenarios" / "hs15_tracked.toml")
+    now = _runs_by_seed("hs15_tracked_hs2.0-2.5_recal_runs.jsonl")
+    was = _runs_by_seed("hs15_tracked_hs2.0-2.5_third_runs.jsonl")
+    n = len(now)
+    seeds = sorted(now)
+    assert seeds == list(range(100, 100 + n))
+    assert all(now[s].draws == was[s].draws for s in seeds)              # the same sea, seed for seed
+    v = CampaignResult(scenario, (), tuple(with_bounds(scenario, [now[s] for s in seeds]))).summary()
+    assert v["overstretches"] == v["opened_on_live_product"] == v["missed_alarms"] == 0
+
+    def per_1000(k):
+        ci = binomtest(k, n).proportion_ci(confidence_level=0.95, method="wilson")
+        return f"{1000 * ci.low:.0f}-{1000 * ci.high:.0f}"
+    f, fm = v["false_alarms"], v["false_alarms_measured"]
+    by = v["false_alarms_by_rule"]
+    assert sum(by.values()) == f
+    rules = ", ".join(f"{k} {by[k]}" for k in sorted(by, key=by.get, reverse=True))
+    before = sum(was[s].false_alarm for s in seeds)
+    faced = sum(now[s].limit_s is not None for s in seeds)
+    return (f"the first {n} seeds ({seeds[0]}-{seeds[-1]}): false ESD-1 in {f} runs with the prediction and {fm} "
+            f"without it ({fm / f:.2f} times fewer; per 1000, {per_1000(f)} against {per_1000(fm)}, 95 %, Wilson); "
+            f"by rule {rules}; on the same seeds before the hold rule (the watch at a third) {before}. No "
+            f"overstretch, no coupler opened on live product, none missed; {faced} runs reach a face; "
+            f"{v['releases']} releases ({v['false_releases']} false), {v['departures']} "
+            f"departure{'s' if v['departures'] != 1 else ''} while connected")
+
+
+def test_guidance_section_13_hs_2_0_to_2_5_under_the_current_rule_so_far_is_its_runs_file_s():
+    """Section 13's Hs 2.0-2.5 m under the current rule so far: the sentence from its runs file (nothing run)."""
+    cited("docs/guidance.md", _hs_2_0_to_2_5_so_far())
+
+
 def test_guidance_section_13_drift_off_over_1000_seeds_is_its_runs_file_s():
     """Section 13's drift-off bullet: each number read from its runs file (nothing run): ESD-1 with and without
     the prediction at the same instant, the departure found after the drift began and before ESD-1, the runs short

@@ -945,7 +945,8 @@ def test_guidance_section_13_at_a_glance_is_the_stored_results():
     cited("docs/guidance.md", f"at Hs 1.0-1.5 m under the hold rule, {fewer('hs15_tracked_hs1.0-1.5_limit'):.2f} "
                               "times fewer")
     by3 = third["false_alarms_by_rule"]                                 # the same counts where repeated
-    cited("docs/guidance.md", f"{third['false_alarms_measured']} to {third['false_alarms']} (floor {by3['floor']}, measured {by3['measured']}")
+    cited("docs/guidance.md", f"{third['false_alarms_measured']} to {third['false_alarms']} (floor {by3['floor']}, "
+                              f"measured {by3['measured']}")
     cited("docs/guidance.md", f"there the floor alone raised {by3['floor']} of {third['runs']})")
     def runs_of(name):
         return _runs_by_seed(json.loads((camp / f"{name}.json").read_text())["runs_file"].split("/")[-1])

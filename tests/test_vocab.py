@@ -179,3 +179,12 @@ def test_importing_the_figures_chooses_no_backend():
             "fig.savefig(b, format='png'); assert b.getvalue()[:4] == b'\\x89PNG'; print(matplotlib.get_backend())")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and out.stdout.strip() == "svg", out.stderr
+
+
+def test_the_shared_alarm_rules_are_alarm_rules_the_prediction_does_not_act_in():
+    """The rules a campaign counts as today's too (``SHARED_ALARM_RULES``) are declared rules, and none of those
+    the prediction changes (its own, the measured routes it holds and their hold limit)."""
+    from loadarm.vocab import ALARM_RULES, SHARED_ALARM_RULES
+
+    assert SHARED_ALARM_RULES <= ALARM_RULES.keys()
+    assert not SHARED_ALARM_RULES & {"prediction", "measured", "hold_limit"}

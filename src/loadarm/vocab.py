@@ -54,7 +54,7 @@ __all__ = ["Severity", "UNREACHABLE", "severity_label", "Face", "FACE_TABLE", "F
            "SWIVEL_FACE_TABLE", "CLASH_FACE", "BANK_FACE_TABLE", "BANK_FACE_WORDS", "Condition", "CONDITIONS", "ANNUNCIATED",
            "CONDITION_SEVERITY", "CONDITION_TEXT", "BANK_CONDITIONS", "condition_text", "condition_severity", "RESET_BLOCKING", "PRIORITIES", "priority", "Role", "Action", "ACTION_TABLE",
            "ACTIONS", "COMMANDS", "METHODS", "TAGGED_ACTIONS", "action_role", "EventCode", "EVENT_TABLE",
-           "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES",
+           "EVENTS", "STAGE_EVENT", "event_label", "alarm_label", "ALARM_RULES", "SHARED_ALARM_RULES",
            "ROUTE_DESIGN", "ROUTE_MEASURED", "ROUTE_STEP", "ROUTE_BREAKOUT", "ROUTE_PREDICTION", "MEASURED_ROUTES",
            "CHANGE_ROUTES", "MOORINGS_TEXT", "UNLIMITED_CODES", "PREDICTION_UNUSED", "PREDICTION_UNUSED_ABNORMAL"]
 
@@ -486,6 +486,10 @@ ALARM_RULES: dict[str, str] = {
     "operator": "operator's request",
     "fault": "equipment fault",
 }
+
+#: The rules that raise ESD-1 alike with and without the prediction: today's rule (the rule without it) has them
+#: too, so a campaign counts an ESD-1 of theirs as today's (``CampaignRun.alarm1_today_s``, issue 30).
+SHARED_ALARM_RULES: frozenset[str] = frozenset({"position", "floor", "operator", "fault"})
 
 #: The routes of the time-to-limit forecast, in the words its events and the screen show: the design-drift floor,
 #: the drift fitted on the track, the fit's two change detectors (a step in the velocity, a break-out's growing

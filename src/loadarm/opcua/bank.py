@@ -37,8 +37,8 @@ from loadarm import __version__
 from loadarm.arm.alarms import AlarmState, next_alarm_state
 from loadarm.eventlog import RateLimiter
 from loadarm.guidance.bank import BankForecast, BankMonitor
-from loadarm.guidance.modes import ALARM_OFF_DELAY
 from loadarm.guidance.manifold_alarm import ManifoldLoadAlarm, ManifoldLoadStatus
+from loadarm.guidance.modes import ALARM_OFF_DELAY
 from loadarm.guidance.monitor import stage_leads
 from loadarm.opcua.server import APP_URI, PUBLISH_RATE, SnapshotServer, acknowledge_method, conditions, unece_unit_id
 from loadarm.opcua.service import LATE_TAIL

@@ -44,7 +44,7 @@ from loadarm.ship.model import moored_ship
 from loadarm.sim.loop import run_scenario
 from loadarm.studies.cluster import connect_scheduler, plan_workers
 from loadarm.studies.runs_file import RUNS_FILE_BATCH, RunsFile, Tally
-from loadarm.vocab import ALARM_RULES, Severity
+from loadarm.vocab import ALARM_RULES, SHARED_ALARM_RULES, Severity
 
 __all__ = [
     "CAMPAIGN_METRICS",
@@ -234,9 +234,9 @@ class CampaignRun:
     def alarm1_today_s(self) -> float | None:
         """ESD-1 by today's rule, the rule without the prediction, which latches: its first call
         (:attr:`alarm1_measured_first_s`), or the ESD-1 of a rule both share (the position alarms, the floor, the
-        operator, a fault: :data:`SHARED_RULES`) when that came first. None: neither came in the run (or only the
+        operator, a fault: :data:`loadarm.vocab.SHARED_ALARM_RULES`) when that came first. None: neither came in the run (or only the
         prediction raised ESD-1 and that rule never called: when it would have, the run cannot say)."""
-        shared = self.alarm1_s if self.alarm1_rule in SHARED_RULES else None
+        shared = self.alarm1_s if self.alarm1_rule in SHARED_ALARM_RULES else None
         times = [a for a in (self.alarm1_measured_first_s, shared) if a is not None]
         return min(times) if times else None
 
@@ -250,10 +250,6 @@ class CampaignRun:
         if self.limit_s is None or today is None:
             return None
         return today - (self.alarm1_s if self.alarm1_s is not None else self.limit_s)
-
-
-#: The rules that raise ESD-1 alike with and without the prediction (today's rule has them too).
-SHARED_RULES = frozenset({"position", "floor", "operator", "fault"})
 
 
 def _judge(seed: int, draws: dict, v: dict, bounds: tuple[float, float] | None = None) -> CampaignRun:

@@ -1195,6 +1195,11 @@ def test_guidance_section_13_faster_valves_where_the_watch_cannot_see_are_their_
                               f"installation's valves under the same rule, {-was:.1f} s under the hold rule), later "
                               f"than today's rule in {len(first)}, by up to "
                               f"{-min(r.lead_gained_first_s for r in first.values()):.1f} s")
+    wave_first = [s for s in first if first[s].alarm1_measured_first_s < 400.0]
+    own_first = sorted(set(first) - set(wave_first))
+    cited("docs/guidance.md", f"({len(wave_first)} on a wave's call before the failure; {len(own_first)} on the "
+                              f"failure's own call, held {min(-first[s].lead_gained_first_s for s in own_first):.1f}-"
+                              f"{max(-first[s].lead_gained_first_s for s in own_first):.1f} s)")
     shift = {s: fast[s].alarm1_s - cur[s].alarm1_s for s in faced}
     assert min(shift.values()) >= 0.0
     worst = max(shift, key=shift.get)

@@ -984,6 +984,12 @@ def test_guidance_section_13_at_a_glance_is_the_stored_results():
                               f"still free {r.release_margin_s:.2f} s before the face, "
                               f"{quick[128].release_margin_s:.2f} s with the faster valves)")
 
+    import typing
+
+    from loadarm.params.scenario import Guidance
+    assert "off" in typing.get_args(Guidance.model_fields["prediction"].annotation)      # the switch the page names
+    cited("docs/guidance.md", 'sets `[guidance] prediction = "off"` in its scenario (the measured routes alone')
+
     def bound(n):                                                       # 0 of n: the one-sided 95 % bound
         return 100 * (1 - 0.05 ** (1 / n))
     assert {r["runs"] for r in v.values()} <= {1000, 200, 100, 20}

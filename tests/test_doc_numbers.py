@@ -1299,10 +1299,13 @@ def _hs_2_0_to_2_5_so_far() -> str:
     rules = ", ".join(f"{k} {by[k]}" for k in sorted(by, key=by.get, reverse=True))
     before = sum(was[s].false_alarm for s in seeds)
     faced = sum(now[s].limit_s is not None for s in seeds)
+    later = "" if not v["alarm1_later_first"] else f", by up to {-v['lead_gained_first_min_s']:.1f} s"
     return (f"the first {n} seeds ({seeds[0]}-{seeds[-1]}): false ESD-1 in {f} runs with the prediction and {fm} "
             f"without it ({fm / f:.2f} times fewer; per 1000, {per_1000(f)} against {per_1000(fm)}, 95 %, Wilson); "
             f"by rule {rules}; on the same seeds before the hold rule (the watch at a third) {before}. No "
-            f"overstretch, no coupler opened on live product, none missed; {faced} runs reach a face; "
+            f"overstretch, no coupler opened on live product, none missed; {faced} runs reach a face, ESD-1 short "
+            f"of its lead in {v['alarm1_short']} ({v['alarm1_short_first']} by today's rule), later than today's "
+            f"rule in {v['alarm1_later_first']}{later}; "
             f"{v['releases']} releases ({v['false_releases']} false), {v['departures']} "
             f"departure{'s' if v['departures'] != 1 else ''} while connected")
 

@@ -680,26 +680,35 @@ def test_the_bank_s_events_go_to_its_event_log_at_the_bank_s_time_with_their_cod
         "data_state": "x", "data_kind": "y", "data_reason": "z", "data_t": "not a time"}
 
 
-def test_a_bank_whose_event_log_fails_goes_on_and_says_so(world, tmp_path):
-    """A log that cannot be written (here: every write fails) never stops the bank: its states go on, the journal
-    says the log is unavailable once, with the events kept in memory; when it returns they are written in order."""
-    from loadarm.arm.alarms import AlarmState
+def _failing_log_service(world, tmp_path):
+    """A bank service on an event log whose writes fail while its ``broken`` is set (as EventLog says a full disk:
+    sqlite's error, wrapped): ``(clock, db, log, service)``, the log writer's clock a one-item list to set."""
     from loadarm.errors import EventLogError
     from loadarm.eventlog import EventLog, LogWriter
-    from loadarm.opcua.bank import BANK_INDEX, BANK_NAME, BankService
+    from loadarm.opcua.bank import BankService
 
     class Failing(EventLog):
         broken = True
 
         def append_many(self, rows):
-            if self.broken:                      # as EventLog says a full disk (sqlite's error, wrapped)
+            if self.broken:
                 raise EventLogError("database or disk is full")
             super().append_many(rows)
 
     clock = [0.0]
     db = Failing(tmp_path / "bank.db", run="bank-test")
     log = LogWriter(db, stall=0.5, clock=lambda: clock[0], retry=(0.01, 0.02))
-    service = BankService(world, log=log)
+    return clock, db, log, BankService(world, log=log)
+
+
+def test_a_bank_whose_event_log_fails_goes_on_and_says_so(world, tmp_path):
+    """A log that cannot be written (here: every write fails) never stops the bank: its states go on, the journal
+    says the log is unavailable once, with the events kept in memory; when it returns they are written in order."""
+    from loadarm.arm.alarms import AlarmState
+    from loadarm.eventlog import EventLog
+    from loadarm.opcua.bank import BANK_INDEX, BANK_NAME
+
+    clock, db, log, service = _failing_log_service(world, tmp_path)
     service.note("security", "a refused login", {"code": "security.login_refused"})
     deadline = time.monotonic() + 10.0
     while not log.status().error and time.monotonic() < deadline:      # the write has failed (not merely stalled)
@@ -783,23 +792,10 @@ def test_a_bank_log_failing_again_within_the_off_delay_is_one_alarm(world, tmp_p
     clears once, the off-delay after the log last returned (found by review: the bank cleared and raised it at
     each return and failure)."""
     from loadarm.arm.alarms import AlarmState
-    from loadarm.errors import EventLogError
-    from loadarm.eventlog import EventLog, LogWriter
     from loadarm.guidance.modes import ALARM_OFF_DELAY
-    from loadarm.opcua.bank import BANK_INDEX, WORLD_RATE, BankService
+    from loadarm.opcua.bank import BANK_INDEX, WORLD_RATE
 
-    class Failing(EventLog):
-        broken = True
-
-        def append_many(self, rows):
-            if self.broken:
-                raise EventLogError("database or disk is full")
-            super().append_many(rows)
-
-    clock = [0.0]
-    db = Failing(tmp_path / "bank.db", run="bank-test")
-    log = LogWriter(db, stall=0.5, clock=lambda: clock[0], retry=(0.01, 0.02))
-    service = BankService(world, log=log)
+    _, db, log, service = _failing_log_service(world, tmp_path)
     key = (BANK_INDEX, "EVENT_LOG_FAULT")
 
     def until(test):

@@ -948,6 +948,10 @@ def test_guidance_section_13_at_a_glance_is_the_stored_results():
                               f"hold rule), and there the floor the issue keeps raised "
                               f"{third['false_alarms_by_rule']['floor']} of the {third['false_alarms_measured']} by "
                               f"itself, so no rule above the floor can halve them ({half} at most)")
+    now25 = v["hs15_tracked_hs2.0-2.5_recal"]
+    cited("README.md", f"At Hs 2.0-2.5 m, beyond the berth's design sea, {now25['false_alarms']} of "
+                       f"{now25['false_alarms_measured']}: the floor the rule keeps raises more than half of them by "
+                       "itself, so no rule above it can halve them.")
     cited("docs/guidance.md", f"at Hs 1.0-1.5 m under the hold rule, {fewer('hs15_tracked_hs1.0-1.5_limit'):.2f} "
                               "times fewer")
     by3 = third["false_alarms_by_rule"]                                 # the same counts where repeated

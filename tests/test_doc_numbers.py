@@ -945,13 +945,27 @@ def test_guidance_section_13_at_a_glance_is_the_stored_results():
     assert v["hs15_tracked_hs2.0-2.5_recal"]["false_alarms_measured"] == third["false_alarms_measured"]  # same seas
     cited("docs/guidance.md", f"at Hs 2.0-2.5 m {fewer('hs15_tracked_hs2.0-2.5_recal'):.2f} times fewer under the "
                               f"current rule ({third['false_alarms_measured'] / third['false_alarms']:.2f} before the "
-                              f"hold rule), and there the floor the issue keeps raised "
-                              f"{third['false_alarms_by_rule']['floor']} of the {third['false_alarms_measured']} by "
-                              f"itself, so no rule above the floor can halve them ({half} at most)")
+                              f"hold rule), and there the design-drift floor")
+    # the floor's runs before the hold rule: the same seas, each still false now, none with ESD-1 later now
+    was25 = _runs_by_seed("hs15_tracked_hs2.0-2.5_third_runs.jsonl")
+    now25_runs = _runs_by_seed("hs15_tracked_hs2.0-2.5_recal_runs.jsonl")
+    by_floor = [s for s, r in was25.items() if r.false_alarm and r.alarm1_rule == "floor"]
+    assert len(by_floor) == third["false_alarms_by_rule"]["floor"]
+    assert all(was25[s].false_alarm_measured and now25_runs[s].false_alarm
+               and now25_runs[s].alarm1_s <= was25[s].alarm1_s + 1e-9 for s in by_floor)
+    cited("docs/guidance.md", f"raised {len(by_floor)} of the {third['false_alarms_measured']} by itself before the "
+                              "hold rule, each of them still false and none with ESD-1 later under the current rule")
+    cited("docs/guidance.md", f"so in that band no rule that keeps it can halve them ({half} at most)")
     now25 = v["hs15_tracked_hs2.0-2.5_recal"]
     cited("README.md", f"At Hs 2.0-2.5 m, beyond the berth's design sea, {now25['false_alarms']} of "
-                       f"{now25['false_alarms_measured']}: the floor the rule keeps raises more than half of them by "
-                       "itself, so no rule above it can halve them.")
+                       f"{now25['false_alarms_measured']}: in at least {len(by_floor)} of these runs the design-drift "
+                       "floor alone calls ESD-1 (more than half; under the current rule another route sometimes gets "
+                       "there first), so no rule that keeps that floor can halve them in this band.")
+    late25 = [r for r in now25_runs.values() if r.lead_gained_first_s is not None and r.lead_gained_first_s < 0]
+    assert len(late25) == now25["alarm1_later_first"] == 1 and late25[0].limit_s > late25[0].end_s
+    cited("docs/guidance.md", f"and at Hs 2.0-2.5 m in 1 of the 1000 (seed {late25[0].seed}, by "
+                              f"{-late25[0].lead_gained_first_s:.1f} s, ESD-1 still "
+                              f"{late25[0].limit_s - late25[0].alarm1_s:.1f} s before its face past the run's end)")
     cited("docs/guidance.md", f"at Hs 1.0-1.5 m under the hold rule, {fewer('hs15_tracked_hs1.0-1.5_limit'):.2f} "
                               "times fewer")
     by3 = third["false_alarms_by_rule"]                                 # the same counts where repeated
@@ -961,24 +975,46 @@ def test_guidance_section_13_at_a_glance_is_the_stored_results():
     # what would meet it: the faster valves' budget and the unchanged ESD-1 lead, the floor's share, the spent holds
     import dataclasses
 
-    from loadarm.arm.sequence import esd_lead, release_lead
+    from loadarm.arm.sequence import esd_lead, hold_limit, release_lead
+    from loadarm.design.surge import surge_check
     from loadarm.params.scenario import load_scenario
 
-    seq = load_scenario(ROOT / "examples" / "scenarios" / "hs15_tracked.toml")[1].sequence
+    model = load_scenario(ROOT / "examples" / "scenarios" / "hs15_tracked.toml")[1]
+    seq = model.sequence
     quick = dataclasses.replace(seq, ers_valve_time=5.0, ers_valve_timeout=2.5)
     assert esd_lead(quick) == esd_lead(seq) and fewer("hs15_tracked_hs1.5-2.0_fast_valves") >= 2.0 > 1 / ci.high
+    assert seq.ers_valves_close_at == "esd1"                            # closed at ESD-1, the pumps running
     cited("docs/guidance.md", f"the release's lead {release_lead(quick):g} s instead of {release_lead(seq):g} s, so each "
                               f"held call's budget {release_lead(seq) - release_lead(quick):g} s longer. On the "
-                              f"{fast['runs']}-seed sample at Hs 1.5-2.0 m that halved the false ESD-1 "
-                              f"({fewer('hs15_tracked_hs1.5-2.0_fast_valves'):.2f} times fewer, though its 95 % range "
-                              f"reaches down to {1 / ci.high:.2f}). ESD-1's lead stays {esd_lead(seq):g} s (the ESD-1 "
-                              f"shutdown's {seq.esd_time:g} s sets it)")
+                              f"{fast['runs']}-seed sample at Hs 1.5-2.0 m "
+                              f"{fewer('hs15_tracked_hs1.5-2.0_fast_valves'):.2f} times fewer, though its 95 % range "
+                              f"reaches down to {1 / ci.high:.2f}.")
+    fast_surge, own_surge = surge_check(model.transfer, quick.ers_valve_time), surge_check(model.transfer,
+                                                                                            seq.ers_valve_time)
+    assert not fast_surge.ok and fast_surge.column_separation and own_surge.ok
+    cited("docs/guidance.md", f"closed in {quick.ers_valve_time:g} s at ESD-1 with the pumps running, the line model's "
+                              f"peak is {fast_surge.peak_pressure / 1e5:.2f} bar g against the "
+                              f"{fast_surge.design_pressure / 1e5:g} bar g design ({fast_surge.min_pressure / 1e5:.2f} "
+                              "bar g at the lowest, below the vapour pressure: the column separates")
+    cited("docs/guidance.md", f"where the installation's {seq.ers_valve_time:g} s gives "
+                              f"{own_surge.peak_pressure / 1e5:.2f} bar g")
+    cited("docs/guidance.md", f"leaves ESD-1 only {release_lead(quick):g} s before the face, the ESD-1 shutdown "
+                              f"({seq.esd_time:g} s) unfinished")
+    cited("docs/guidance.md", f"ESD-1's lead stays {esd_lead(seq):g} s with any ERS valves whose worst confirmed time is "
+                              f"within that shutdown's {seq.esd_time:g} s (the larger of the two, plus the coupler's "
+                              f"{seq.erc_release_time:g} s and the {seq.margin:g} s margin)")
     cited("docs/guidance.md", f"raised ESD-1 by itself in at least {by3['floor']} of the runs that reach no face, more "
                               f"than half of today's {third['false_alarms_measured']}")
     recal = v["hs15_tracked_hs1.5-2.0_recal"]
     cited("docs/guidance.md", f"At Hs 1.5-2.0 m {recal['false_alarms_by_rule']['hold_limit']} of the "
-                              f"{recal['false_alarms']} false ESD-1 came when a held call's hold was spent (rule "
+                              f"{recal['false_alarms']} false ESD-1 came when a held call's budget ran out (rule "
                               "`hold_limit`)")
+    # the budget implies the limit: a call begins on a forecast within ESD-1's lead, its budget that less the release's
+    assert hold_limit(seq) == esd_lead(seq) - release_lead(seq)
+    cited("docs/guidance.md", f"at t + T - {release_lead(seq):g} s) then left the release exactly its "
+                              f"{release_lead(seq):g} s lead (the {hold_limit(seq):g} s limit never ends a hold first: "
+                              f"a call begins only on a forecast within ESD-1's {esd_lead(seq):g} s lead)")
+    cited("docs/guidance.md", f"more than {seq.margin:g} s on (the margin), with the ERS valves at their worst")
     def runs_of(name):
         return _runs_by_seed(json.loads((camp / f"{name}.json").read_text())["runs_file"].split("/")[-1])
     cases = (("breakout_tracked_moorings_limit", "the 1000 break-outs"),
@@ -1336,7 +1372,8 @@ def _hs_2_0_to_2_5_current() -> str:
     rules = ", ".join(f"{k} {by[k]}" for k in sorted(by, key=by.get, reverse=True))
     before = sum(was[s].false_alarm for s in seeds)
     faced = sum(now[s].limit_s is not None for s in seeds)
-    later = "" if not v["alarm1_later_first"] else f", by up to {-v['lead_gained_first_min_s']:.1f} s"
+    later = "" if not v["alarm1_later_first"] else \
+        f", by {'up to ' if v['alarm1_later_first'] > 1 else ''}{-v['lead_gained_first_min_s']:.1f} s"
     return (f"seeds {seeds[0]}-{seeds[-1]}: false ESD-1 in {f} runs with the prediction and {fm} "
             f"without it ({fm / f:.2f} times fewer; per 1000, {per_1000(f)} against {per_1000(fm)}, 95 %, Wilson); "
             f"by rule {rules}; on the same seeds before the hold rule (the watch at a third) {before}. No "

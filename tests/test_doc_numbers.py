@@ -996,6 +996,9 @@ def test_guidance_section_13_at_a_glance_is_the_stored_results():
                               f"peak is {fast_surge.peak_pressure / 1e5:.2f} bar g against the "
                               f"{fast_surge.design_pressure / 1e5:g} bar g design ({fast_surge.min_pressure / 1e5:.2f} "
                               "bar g at the lowest, below the vapour pressure: the column separates")
+    cited("README.md", f"Those faster valves fail this line's surge check (closed in {quick.ers_valve_time:g} s at "
+                       f"ESD-1, the peak is {fast_surge.peak_pressure / 1e5:.2f} bar g against its "
+                       f"{fast_surge.design_pressure / 1e5:g} bar g design).")
     cited("docs/guidance.md", f"where the installation's {seq.ers_valve_time:g} s gives "
                               f"{own_surge.peak_pressure / 1e5:.2f} bar g")
     cited("docs/guidance.md", f"leaves ESD-1 only {release_lead(quick):g} s before the face, the ESD-1 shutdown "
